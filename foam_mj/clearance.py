@@ -1,0 +1,106 @@
+"""Workspace clearance d(q): the minimum signed distance between the robot's and the obstacles' collision geoms.
+
+Computed with MuJoCo's own distance queries, never with a C-obstacle map:
+
+* one configuration: ``mj_kinematics`` then ``mj_geomDistance`` over every robot/obstacle pair;
+* many configurations: the same pairs as ``<distance>`` (geomdist) sensors added to a copy of the model
+  with :class:`mujoco.MjSpec`, evaluated by ``mujoco.rollout`` for the whole batch in one call
+  (``../shared/notes/library-facts.md``: about 4 us per configuration instead of about 10).
+
+Both return ``min(signed distance, distmax)``: negative under penetration, capped at ``distmax``
+(MuJoCo's semantics: a separated pair farther than ``distmax`` reads ``distmax``).
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+from mujoco import rollout as mj_rollout
+
+from foam_mj.model import RobotModel
+
+#: Batches at least this large are split over two threads (measured crossover on a 2-core machine).
+THREADED_BATCH = 256
+
+
+class Clearance:
+    """d(q) for one configuration or a batch. ``distmax`` (metres) caps the distance returned."""
+
+    def __init__(self, robot: RobotModel, distmax: float = 1.0) -> None:
+        if not distmax > 0:
+            raise ValueError(f"`distmax` must be > 0, got {distmax}")
+        self.robot = robot
+        self.distmax = float(distmax)
+        self._m = robot.model
+        self._d = mujoco.MjData(self._m)
+        self._pairs = [(int(g), int(o)) for g, o in robot.pairs]
+        self._batch_model = self._sensor_model()
+        self._batch_data = [mujoco.MjData(self._batch_model) for _ in range(2)]
+        self._nstate = mujoco.mj_stateSize(self._batch_model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        self._runner_single = mj_rollout.Rollout(nthread=0)
+        self._runner_threads = None
+        self.calls = 0  # configurations evaluated, for statistics
+
+    def _sensor_model(self) -> mujoco.MjModel:
+        spec = mujoco.MjSpec.from_file(str(self.robot.path))
+        for g, o in self._pairs:
+            s = spec.add_sensor()
+            s.type = mujoco.mjtSensor.mjSENS_GEOMDIST
+            s.objtype = mujoco.mjtObj.mjOBJ_GEOM
+            s.objname = self.robot.geom_name(g)
+            s.reftype = mujoco.mjtObj.mjOBJ_GEOM
+            s.refname = self.robot.geom_name(o)
+            s.cutoff = self.distmax
+        m = spec.compile()
+        # Only positions and sensors matter: skip contacts, constraints, gravity and actuation.
+        off = mujoco.mjtDisableBit
+        m.opt.disableflags |= int(off.mjDSBL_CONTACT | off.mjDSBL_CONSTRAINT | off.mjDSBL_GRAVITY | off.mjDSBL_ACTUATION)
+        return m
+
+    def __call__(self, q: np.ndarray) -> float:
+        """d(q) for one configuration (shape (n,)); q is not validated here (see RobotModel.validate)."""
+        d = self._d
+        d.qpos[:] = self.robot.config.to_qpos(q)
+        mujoco.mj_kinematics(self._m, d)
+        self.calls += 1
+        m, dm, gd = self._m, self.distmax, mujoco.mj_geomDistance
+        return min([gd(m, d, g, o, dm, None) for g, o in self._pairs])
+
+    def pairwise(self, q: np.ndarray) -> dict[tuple[str, str], float]:
+        """Distance of every robot/obstacle pair at q, keyed by geom names (for reports and debugging)."""
+        d = self._d
+        d.qpos[:] = self.robot.config.to_qpos(q)
+        mujoco.mj_kinematics(self._m, d)
+        name = self.robot.geom_name
+        return {(name(g), name(o)): mujoco.mj_geomDistance(self._m, d, g, o, self.distmax, None) for g, o in self._pairs}
+
+    def batch(self, Q: np.ndarray) -> np.ndarray:
+        """d(q) for every row of Q (shape (N, n)), in one rollout call."""
+        Q = np.asarray(Q, dtype=float)
+        n = len(Q)
+        if n == 0:
+            return np.empty(0)
+        self.calls += n
+        m = self._batch_model
+        state = np.zeros((n, self._nstate))
+        state[:, 1 : 1 + m.nq] = self.robot.config.to_qpos(Q)
+        if n >= THREADED_BATCH:
+            if self._runner_threads is None:
+                self._runner_threads = mj_rollout.Rollout(nthread=2)
+            _, sensordata = self._runner_threads.rollout(m, self._batch_data, state, nstep=1, skip_checks=False)
+        else:
+            _, sensordata = self._runner_single.rollout(m, self._batch_data[0], state, nstep=1)
+        return sensordata[:, 0, :].min(axis=1)
+
+    def close(self) -> None:
+        """Release the rollout thread pools."""
+        for r in (self._runner_single, self._runner_threads):
+            if r is not None:
+                r.close()
+        self._runner_threads = None
+
+    def __del__(self) -> None:  # pragma: no cover - best effort
+        try:
+            self.close()
+        except Exception:
+            pass

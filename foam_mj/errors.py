@@ -1,0 +1,34 @@
+"""The exceptions foam-mj raises. Every error a user can cause derives from :class:`FoamError`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class FoamError(Exception):
+    """Base class of every foam-mj error."""
+
+
+class ModelError(FoamError, ValueError):
+    """An MJCF file is missing, malformed, or does not describe a robot foam-mj can plan for."""
+
+
+class ConfigurationError(FoamError, ValueError):
+    """A configuration q has the wrong shape, is not finite, or lies outside the bounds."""
+
+
+class ScenarioError(FoamError, ValueError):
+    """A scenario file or a scenario field is missing or invalid."""
+
+
+class PlanningFailed(FoamError):
+    """The foam could not reach the goal within its budget.
+
+    ``stats`` holds the foam's statistics and ``foam`` the foam itself (when available), so the
+    caller can still look at what was explored.
+    """
+
+    def __init__(self, message: str, stats: Any = None, foam: Any = None) -> None:
+        super().__init__(message)
+        self.stats = stats
+        self.foam = foam

@@ -1,0 +1,358 @@
+"""Probabilistic Foam propagation (paper 000 section 3.1; paper 003 section 2.1).
+
+The root bubble is centred at q_init with the certified radius. Parents are taken first-in-first-out.
+A parent of radius r gets
+
+    N = K floor(r / r_min)^(n-1)                                               (paper 000 Eq. 2)
+
+candidate centres drawn uniformly on its surface (the (n-1)-sphere). A candidate is dropped when it
+lies outside the configuration bounds, when it lies inside an existing bubble (other than its parent,
+on whose surface it sits), or when its certified radius is below r_min. Each surviving child joins
+the foam with its parent recorded and is queued. Propagation stops when a bubble contains q_goal and
+fails (:class:`PlanningFailed`) when the queue empties or a budget (bubble count, wall time) runs out.
+
+Implementation notes
+--------------------
+* The candidates of one parent are sized in one batch (``Clearance.batch``: MuJoCo distance sensors
+  evaluated by ``mujoco.rollout``). Candidates of one parent are then accepted in their drawn order,
+  each checked against the siblings accepted before it, so the result is the same as drawing and
+  testing them one by one.
+* "Inside an existing bubble" is strict (``|c - c_i| < r_i``, paper 003 Eq. 1's open ball).
+  Coverage is tested with :class:`CoverageIndex`: a k-d tree on lifted points plus a brute-force
+  buffer of recent bubbles, so no Python loop runs over the bubbles.
+* Deterministic for a given seed: all randomness comes from one ``numpy.random.Generator``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.errors import ConfigurationError, PlanningFailed
+from foam_mj.rosary import MEMBERSHIP_TOL, Rosary
+
+
+@dataclass(frozen=True)
+class FoamParams:
+    """Planner parameters. Defaults are paper 000's (K = 10, r_min = 0.07)."""
+
+    K: int = 10
+    r_min: float = 0.07
+    delta: float = 0.005  # safety margin, metres of workspace clearance kept inside every bubble
+    max_bubbles: int = 200_000
+    time_limit: float = 60.0  # seconds of wall time
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.K, (int, np.integer)) and self.K >= 1):
+            raise ValueError(f"`K` must be an integer >= 1, got {self.K!r}")
+        if not (np.isfinite(self.r_min) and self.r_min > 0):
+            raise ValueError(f"`r_min` must be > 0, got {self.r_min!r}")
+        if not (np.isfinite(self.delta) and self.delta >= 0):
+            raise ValueError(f"`delta` must be >= 0 (metres), got {self.delta!r}")
+        if not (isinstance(self.max_bubbles, (int, np.integer)) and self.max_bubbles >= 1):
+            raise ValueError(f"`max_bubbles` must be an integer >= 1, got {self.max_bubbles!r}")
+        if not (self.time_limit > 0):
+            raise ValueError(f"`time_limit` must be > 0 seconds, got {self.time_limit!r}")
+
+
+@dataclass
+class FoamStats:
+    """What the propagation did."""
+
+    bubbles: int = 0
+    parents_expanded: int = 0
+    candidates: int = 0
+    dropped_out_of_bounds: int = 0
+    dropped_covered: int = 0
+    dropped_small: int = 0
+    clearance_calls: int = 0
+    elapsed: float = 0.0
+    outcome: str = "running"  # "reached", "queue empty", "bubble budget", "time budget"
+
+    @property
+    def bubbles_per_second(self) -> float:
+        return self.bubbles / self.elapsed if self.elapsed > 0 else float("nan")
+
+    def as_dict(self) -> dict:
+        d = asdict(self)
+        d["bubbles_per_second"] = self.bubbles_per_second
+        return d
+
+
+@dataclass
+class Foam:
+    """The bubbles grown so far: centres (N, n), radii (N,), parent index (-1 for the root)."""
+
+    centers: np.ndarray
+    radii: np.ndarray
+    parents: np.ndarray
+    q_init: np.ndarray
+    q_goal: np.ndarray
+    goal_bubble: int | None = None
+
+    @property
+    def size(self) -> int:
+        return len(self.radii)
+
+    def depth(self, i: int) -> int:
+        n = 0
+        while self.parents[i] >= 0:
+            i = int(self.parents[i])
+            n += 1
+        return n
+
+    def chain(self, i: int) -> np.ndarray:
+        """Bubble indices from the root to bubble i, following parents (paper 003 Def. 2.5, reversed)."""
+        out = [i]
+        while self.parents[out[-1]] >= 0:
+            out.append(int(self.parents[out[-1]]))
+        return np.array(out[::-1])
+
+    def rosary(self) -> Rosary:
+        """The rosary from the root to the goal bubble."""
+        if self.goal_bubble is None:
+            raise ValueError("the foam did not reach the goal: it has no rosary")
+        ids = self.chain(self.goal_bubble)
+        return Rosary(self.centers[ids], self.radii[ids], self.q_init, self.q_goal, ids)
+
+
+@dataclass
+class PlanResult:
+    foam: Foam
+    rosary: Rosary
+    stats: FoamStats
+
+
+class CoverageIndex:
+    """Which query points lie strictly inside some stored ball, without a Python loop over the balls.
+
+    Each ball (c, r) is lifted to the point (c, sqrt(R^2 - r^2)) in n+1 dimensions, R >= every radius;
+    a query point p lifts to (p, 0). Then |lift(p) - lift(c)|^2 = |p - c|^2 + R^2 - r^2, which is
+    below R^2 exactly when |p - c| < r: containment becomes a nearest-neighbour query in a k-d tree.
+    Balls added since the last rebuild are tested by brute force; the tree is rebuilt when that
+    buffer outgrows a fraction of the tree (amortised O(log N) per ball).
+    """
+
+    def __init__(self, dim: int, capacity: int = 4096) -> None:
+        self._c = np.empty((capacity, dim))
+        self._r = np.empty(capacity)
+        self.n = 0
+        self._tree: cKDTree | None = None
+        self._n_tree = 0
+        self._R = 0.0
+
+    def add(self, center: np.ndarray, radius: float) -> None:
+        if self.n == len(self._r):
+            self._c = np.concatenate([self._c, np.empty_like(self._c)])
+            self._r = np.concatenate([self._r, np.empty_like(self._r)])
+        self._c[self.n] = center
+        self._r[self.n] = radius
+        self.n += 1
+
+
+    def _rebuild(self) -> None:
+        c, r = self._c[: self.n], self._r[: self.n]
+        self._R = float(r.max())
+        lifted = np.hstack([c, np.sqrt(np.maximum(self._R**2 - r**2, 0.0))[:, None]])
+        self._tree = cKDTree(lifted)
+        self._n_tree = self.n
+
+    def covered(self, points: np.ndarray, exclude: np.ndarray) -> np.ndarray:
+        """For each point (m, n): is it strictly inside a stored ball other than ``exclude[i]``?"""
+        m = len(points)
+        out = np.zeros(m, dtype=bool)
+        if m == 0 or self.n == 0:
+            return out
+        if self.n - self._n_tree > max(REBUILD_MIN, self._n_tree // REBUILD_FRACTION):
+            self._rebuild()
+        if self._n_tree:
+            lifted = np.hstack([points, np.zeros((m, 1))])
+            dist, idx = self._tree.query(lifted, k=2)
+            # The nearest may be the excluded parent (its surface points sit at lifted distance ~R).
+            own = idx[:, 0] == exclude
+            first = np.where(own, dist[:, 1], dist[:, 0])
+            first_idx = np.where(own, idx[:, 1], idx[:, 0])
+            hit = np.flatnonzero((first < self._R) & (first_idx < self._n_tree))
+            if hit.size:
+                # Exact confirmation of the lifted test (guards against rounding near the boundary).
+                j = first_idx[hit]
+                d2 = np.sum((points[hit] - self._c[j]) ** 2, axis=1)
+                out[hit] = d2 < self._r[j] ** 2
+        if self.n > self._n_tree:
+            c = self._c[self._n_tree : self.n]
+            r = self._r[self._n_tree : self.n]
+            d2 = np.sum((points[:, None, :] - c[None, :, :]) ** 2, axis=2)
+            inside = d2 < r[None, :] ** 2
+            own = exclude - self._n_tree
+            rows = np.flatnonzero((own >= 0) & (own < len(r)))
+            inside[rows, own[rows]] = False
+            out |= inside.any(axis=1)
+        return out
+
+
+#: The coverage tree is rebuilt (at query time) once more than max(REBUILD_MIN, N / REBUILD_FRACTION)
+#: bubbles wait in the brute-force buffer.
+REBUILD_MIN = 64
+REBUILD_FRACTION = 16
+
+#: Candidates drawn per batch of parents (one clearance call); bounds memory and latency only.
+MAX_BATCH_CANDIDATES = 2048
+
+
+def _unit_sphere(rng: np.random.Generator, count: int, dim: int) -> np.ndarray:
+    u = rng.standard_normal((count, dim))
+    return u / np.linalg.norm(u, axis=1, keepdims=True)
+
+
+def plan(
+    oracle: BubbleOracle,
+    q_init,
+    q_goal,
+    params: FoamParams = FoamParams(),
+    seed: int | np.random.Generator = 0,
+    progress: Callable[[FoamStats], None] | None = None,
+) -> PlanResult:
+    """Grow the foam from q_init until a bubble holds q_goal; return the foam, rosary and statistics.
+
+    Raises :class:`ConfigurationError` when q_init or q_goal is malformed, out of bounds, or too close
+    to an obstacle, and :class:`PlanningFailed` (carrying ``stats`` and ``foam``) when the goal is not
+    reached within the budget or the foam can grow no further.
+    """
+    robot = oracle.robot
+    q_init = robot.validate(q_init, "q_init")
+    q_goal = robot.validate(q_goal, "q_goal")
+    if oracle.delta != params.delta:
+        raise ValueError(f"the oracle's margin delta={oracle.delta} differs from params.delta={params.delta}")
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    n = robot.dim
+    lo, hi = robot.lower, robot.upper
+    r_min = params.r_min
+    t0 = time.perf_counter()
+    stats = FoamStats()
+    calls0 = oracle.clearance.calls
+
+    goal_clear = oracle.clearance(q_goal)
+    if goal_clear <= params.delta:
+        raise ConfigurationError(
+            f"q_goal {q_goal.tolist()} is too close to an obstacle: clearance {goal_clear:.4f} m <= margin {params.delta} m"
+        )
+    clear0 = oracle.clearance(q_init)
+    r0 = float(oracle.radius_from_clearance(clear0, q_init))
+    if r0 < r_min:
+        raise ConfigurationError(
+            f"q_init {q_init.tolist()} admits a root bubble of radius {r0:.4f} < r_min = {r_min} "
+            f"(clearance {clear0:.4f} m, margin {params.delta} m): move it away from obstacles and bounds or lower r_min"
+        )
+
+    cap = 4096
+    centers = np.empty((cap, n))
+    radii = np.empty(cap)
+    parents = np.empty(cap, dtype=np.int64)
+    index = CoverageIndex(n)
+    count = 0
+
+    def add(c: np.ndarray, r: float, parent: int) -> int:
+        nonlocal centers, radii, parents, count
+        if count == len(radii):
+            centers = np.concatenate([centers, np.empty_like(centers)])
+            radii = np.concatenate([radii, np.empty_like(radii)])
+            parents = np.concatenate([parents, np.empty_like(parents)])
+        centers[count], radii[count], parents[count] = c, r, parent
+        index.add(c, r)
+        count += 1
+        return count - 1
+
+    def foam_now(goal: int | None = None) -> Foam:
+        return Foam(centers[:count].copy(), radii[:count].copy(), parents[:count].copy(), q_init, q_goal, goal)
+
+    def finish(outcome: str) -> None:
+        stats.bubbles = count
+        stats.elapsed = time.perf_counter() - t0
+        stats.clearance_calls = oracle.clearance.calls - calls0
+        stats.outcome = outcome
+
+    add(q_init, r0, -1)
+    goal = 0 if np.sum((q_goal - q_init) ** 2) <= (r0 + MEMBERSHIP_TOL) ** 2 else None
+    head = 0
+    next_report = time.perf_counter() + 0.5
+    while goal is None:
+        if head >= count:
+            finish("queue empty")
+            break
+        if count >= params.max_bubbles:
+            finish("bubble budget")
+            break
+        now = time.perf_counter()
+        if now - t0 > params.time_limit:
+            finish("time budget")
+            break
+        if progress is not None and now >= next_report:
+            stats.bubbles, stats.elapsed = count, now - t0
+            progress(stats)
+            next_report = now + 0.5
+        # A batch of queued parents, taken in FIFO order. Their candidates are drawn in parent order from
+        # the one generator and accepted in that order below, exactly as one-by-one processing would.
+        counts_all = (params.K * np.floor(radii[head:count] / r_min) ** (n - 1)).astype(np.int64)
+        stop = head + int(np.searchsorted(np.cumsum(counts_all), MAX_BATCH_CANDIDATES, side="right"))
+        stop = min(max(stop, head + 1), count)
+        batch = np.arange(head, stop)
+        head = stop
+        counts = counts_all[: len(batch)]
+        stats.parents_expanded += len(batch)
+        total = int(counts.sum())
+        if total == 0:
+            continue
+        parent_of = np.repeat(batch, counts)
+        cand = centers[parent_of] + radii[parent_of, None] * _unit_sphere(rng, total, n)
+        stats.candidates += total
+        keep = np.all((cand >= lo) & (cand <= hi), axis=1)
+        stats.dropped_out_of_bounds += int(total - keep.sum())
+        cov = index.covered(cand[keep], parent_of[keep])
+        stats.dropped_covered += int(cov.sum())
+        keep[np.flatnonzero(keep)[cov]] = False
+        cand, parent_of = cand[keep], parent_of[keep]
+        if len(cand) == 0:
+            continue
+        r = oracle.radius_from_clearance(oracle.clearance.batch(cand), cand)
+        big = r >= r_min
+        stats.dropped_small += int((~big).sum())
+        cand, parent_of, r = cand[big], parent_of[big], r[big]
+        if len(cand) == 0:
+            continue
+        # Candidates of this batch covered by a bubble accepted earlier in the same batch are dropped.
+        d2 = np.sum((cand[:, None, :] - cand[None, :, :]) ** 2, axis=2)
+        inside = d2 < r[None, :] ** 2  # inside[i, j]: candidate i lies in candidate j's bubble
+        reach = np.sum((cand - q_goal) ** 2, axis=1) <= (r + MEMBERSHIP_TOL) ** 2
+        rows, cols = np.nonzero(np.tril(inside, -1))  # pairs (i, j), j < i, sorted by i
+        acc = [True] * len(cand)
+        for i, j in zip(rows.tolist(), cols.tolist()):  # every j < i is settled before row i is read
+            if acc[j]:
+                acc[i] = False
+        accepted = np.array(acc, dtype=bool)
+        stats.dropped_covered += int((~accepted).sum())
+        # Stop at the first accepted bubble that holds the goal, and at the bubble budget.
+        order = np.flatnonzero(accepted)[: params.max_bubbles - count]
+        hits = np.flatnonzero(reach[order])
+        if hits.size:
+            order = order[: hits[0] + 1]
+        accepted[:] = False
+        accepted[order] = True
+        for i in np.flatnonzero(accepted):
+            j = add(cand[i], float(r[i]), int(parent_of[i]))
+            if reach[i]:
+                goal = j
+    if goal is None:
+        foam = foam_now()
+        raise PlanningFailed(
+            f"the foam did not reach q_goal ({stats.outcome}) after {stats.bubbles} bubbles in {stats.elapsed:.2f} s",
+            stats=stats,
+            foam=foam,
+        )
+    finish("reached")
+    foam = foam_now(goal)
+    return PlanResult(foam, foam.rosary(), stats)

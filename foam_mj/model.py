@@ -1,0 +1,265 @@
+"""The robot model: an MJCF scene, its configuration map q <-> qpos, and which geoms are robot and obstacle.
+
+Configuration map
+-----------------
+The MJCF declares the planner's configuration coordinates in a ``<custom>`` text field
+``foam_mj:configuration`` (joint names, in order). A coordinate is the joint's own value
+(radians for hinges, metres for slides) unless a numeric field ``foam_mj:normalize:<joint>`` gives a
+span S, in which case the joint's range [lo, hi] maps linearly onto [0, S]:
+
+    q_i = S (qpos_j - lo) / (hi - lo)        qpos_j = lo + (hi - lo) q_i / S.
+
+For the Ortholeg, q = [theta_h, theta_k, theta_q] with theta_q the hip displacement normalized to
+[0, pi/2] (paper 003, section 5.1). Joints that are not configuration coordinates stay at their
+``qpos0``. The bounds of q come from the joint ranges (every configuration joint must be limited).
+
+Robot and obstacle geoms
+------------------------
+A collision geom (``contype`` or ``conaffinity`` non-zero) is a *robot* geom when its body is moved by
+some joint (the body or one of its ancestors has a joint), and an *obstacle* geom otherwise. The
+clearance pairs are every robot/obstacle pair that MuJoCo's contype/conaffinity filter lets collide.
+This is the same rule the independent checker ``shared/tools/verify_result.py`` uses.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from foam_mj.errors import ConfigurationError, ModelError
+
+CONFIGURATION_FIELD = "foam_mj:configuration"
+NORMALIZE_PREFIX = "foam_mj:normalize:"
+
+_SUPPORTED_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+def load_mjcf(path: str | Path) -> mujoco.MjModel:
+    """Compile an MJCF file, turning MuJoCo's errors into a :class:`ModelError` naming the file."""
+    p = Path(path)
+    if not p.is_file():
+        raise ModelError(f"MJCF file not found: {p}")
+    try:
+        return mujoco.MjModel.from_xml_path(str(p))
+    except ValueError as exc:  # MuJoCo reports XML and compile errors as ValueError
+        raise ModelError(f"could not load MJCF file {p}: {exc}") from None
+
+
+def _custom_text(m: mujoco.MjModel, name: str) -> str | None:
+    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TEXT, name)
+    if i < 0:
+        return None
+    adr, size = int(m.text_adr[i]), int(m.text_size[i])
+    return bytes(m.text_data[adr : adr + size]).rstrip(b"\x00").decode()
+
+
+def _custom_numeric(m: mujoco.MjModel, name: str) -> np.ndarray | None:
+    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_NUMERIC, name)
+    if i < 0:
+        return None
+    adr, size = int(m.numeric_adr[i]), int(m.numeric_size[i])
+    return np.array(m.numeric_data[adr : adr + size])
+
+
+def body_is_moving(m: mujoco.MjModel, body: int) -> bool:
+    """True when some joint moves ``body`` (the body or one of its ancestors has a joint)."""
+    while body != 0:
+        if m.body_jntnum[body] > 0:
+            return True
+        body = int(m.body_parentid[body])
+    return False
+
+
+@dataclass(frozen=True)
+class ConfigurationMap:
+    """Affine map between the planner's q (n,) and MuJoCo's qpos (nq,): qpos[index] = offset + scale * q."""
+
+    joint_names: tuple[str, ...]
+    joint_ids: np.ndarray  # (n,) joint ids
+    qpos_index: np.ndarray  # (n,) qpos addresses
+    scale: np.ndarray  # (n,) qpos units per q unit
+    offset: np.ndarray  # (n,)
+    lower: np.ndarray  # (n,) bounds of q
+    upper: np.ndarray  # (n,)
+    qpos0: np.ndarray  # (nq,) values of the joints that are not coordinates
+
+    @property
+    def dim(self) -> int:
+        return len(self.joint_names)
+
+    def to_qpos(self, q: np.ndarray) -> np.ndarray:
+        """qpos rows for configurations q of shape (n,) or (N, n)."""
+        q = np.asarray(q, dtype=float)
+        out = np.broadcast_to(self.qpos0, q.shape[:-1] + self.qpos0.shape).copy()
+        out[..., self.qpos_index] = self.offset + self.scale * q
+        return out
+
+    def to_q(self, qpos: np.ndarray) -> np.ndarray:
+        """Configurations for qpos rows of shape (nq,) or (N, nq)."""
+        qpos = np.asarray(qpos, dtype=float)
+        return (qpos[..., self.qpos_index] - self.offset) / self.scale
+
+
+@dataclass
+class RobotModel:
+    """A compiled MJCF scene with its configuration map and its robot/obstacle geom pairs."""
+
+    path: Path
+    model: mujoco.MjModel
+    config: ConfigurationMap
+    robot_geoms: np.ndarray  # geom ids
+    obstacle_geoms: np.ndarray  # geom ids
+    pairs: np.ndarray  # (P, 2) geom ids (robot, obstacle)
+    _data: mujoco.MjData = field(repr=False, default=None)  # type: ignore[assignment]
+
+    @classmethod
+    def from_xml(cls, path: str | Path) -> "RobotModel":
+        """Load an MJCF scene and read its configuration declaration (see the module docstring)."""
+        p = Path(path).resolve()
+        m = load_mjcf(p)
+        config = _configuration_map(m, p)
+        robot, obstacles = [], []
+        for g in range(m.ngeom):
+            if not (m.geom_contype[g] or m.geom_conaffinity[g]):
+                continue
+            (robot if body_is_moving(m, int(m.geom_bodyid[g])) else obstacles).append(g)
+        if not robot:
+            raise ModelError(f"{p}: no collision geom is attached to a moving body (the robot)")
+        if not obstacles:
+            raise ModelError(f"{p}: no collision geom is attached to a static body (the obstacles)")
+        pairs = [
+            (g, o)
+            for g in robot
+            for o in obstacles
+            if (m.geom_contype[g] & m.geom_conaffinity[o]) or (m.geom_contype[o] & m.geom_conaffinity[g])
+        ]
+        if not pairs:
+            raise ModelError(f"{p}: contype/conaffinity let no robot geom collide with any obstacle geom")
+        nonzero = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or str(g) for g in robot + obstacles if m.geom_margin[g] != 0]
+        if nonzero:
+            raise ModelError(
+                f"{p}: collision geoms {nonzero} have a non-zero margin; mj_geomDistance subtracts margins, "
+                "so clearances would be wrong. Set margin=\"0\" on collision geoms."
+            )
+        return cls(p, m, config, np.array(robot), np.array(obstacles), np.array(pairs, dtype=int), mujoco.MjData(m))
+
+    # -- configuration helpers -------------------------------------------------------------------------
+    @property
+    def dim(self) -> int:
+        return self.config.dim
+
+    @property
+    def lower(self) -> np.ndarray:
+        return self.config.lower
+
+    @property
+    def upper(self) -> np.ndarray:
+        return self.config.upper
+
+    def geom_name(self, g: int) -> str:
+        return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"geom{g}"
+
+    def validate(self, q, name: str = "q", *, check_bounds: bool = True) -> np.ndarray:
+        """Return q as a float array of shape (n,), or raise ConfigurationError saying what is wrong."""
+        try:
+            arr = np.asarray(q, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigurationError(f"{name} must be a sequence of {self.dim} numbers, got {q!r}") from None
+        if arr.shape != (self.dim,):
+            raise ConfigurationError(
+                f"{name} must have shape ({self.dim},) ({', '.join(self.config.joint_names)}), got shape {arr.shape}"
+            )
+        if not np.all(np.isfinite(arr)):
+            raise ConfigurationError(f"{name} must be finite, got {arr.tolist()}")
+        if check_bounds:
+            bad = np.flatnonzero((arr < self.lower) | (arr > self.upper))
+            if bad.size:
+                i = int(bad[0])
+                raise ConfigurationError(
+                    f"{name}[{i}] ({self.config.joint_names[i]}) = {arr[i]:.6g} is outside its bounds "
+                    f"[{self.lower[i]:.6g}, {self.upper[i]:.6g}]"
+                )
+        return arr
+
+    def validate_batch(self, Q, name: str = "Q") -> np.ndarray:
+        """Return Q as a float array of shape (N, n), or raise ConfigurationError."""
+        arr = np.asarray(Q, dtype=float)
+        if arr.ndim != 2 or arr.shape[1] != self.dim:
+            raise ConfigurationError(f"{name} must have shape (N, {self.dim}), got shape {arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise ConfigurationError(f"{name} must be finite")
+        return arr
+
+    def set_configuration(self, q: np.ndarray, data: mujoco.MjData | None = None) -> mujoco.MjData:
+        """Set qpos from q and run forward kinematics (``mj_kinematics``); returns the MjData used."""
+        d = self._data if data is None else data
+        d.qpos[:] = self.config.to_qpos(q)
+        mujoco.mj_kinematics(self.model, d)
+        return d
+
+    def in_collision(self, q: np.ndarray, data: mujoco.MjData | None = None) -> bool:
+        """MuJoCo's own contact detection (``mj_collision``): True when any robot geom touches an obstacle.
+
+        This is independent of the clearance code and is what tests use to check bubbles.
+        """
+        d = self.set_configuration(q, data)
+        mujoco.mj_collision(self.model, d)
+        robot = set(self.robot_geoms.tolist())
+        obstacles = set(self.obstacle_geoms.tolist())
+        for c in d.contact[: d.ncon]:
+            a, b = int(c.geom[0]), int(c.geom[1])
+            if c.dist <= 0 and ((a in robot and b in obstacles) or (b in robot and a in obstacles)):
+                return True
+        return False
+
+
+def _configuration_map(m: mujoco.MjModel, path: Path) -> ConfigurationMap:
+    text = _custom_text(m, CONFIGURATION_FIELD)
+    if text is None:
+        # No declaration: every hinge and slide joint, in model order, unnormalized.
+        names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt) if int(m.jnt_type[j]) in _SUPPORTED_JOINTS]
+        if len(names) != m.njnt:
+            raise ModelError(f"{path}: without a '{CONFIGURATION_FIELD}' custom text, every joint must be a hinge or slide")
+        if any(n is None for n in names):
+            raise ModelError(f"{path}: every joint must be named")
+    else:
+        names = text.split()
+    if not names:
+        raise ModelError(f"{path}: the configuration declares no joints")
+    ids, adr, scale, offset, lo, hi = [], [], [], [], [], []
+    for name in names:
+        j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if j < 0:
+            known = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, k) for k in range(m.njnt)]
+            raise ModelError(f"{path}: configuration joint '{name}' is not in the model (joints: {known})")
+        if int(m.jnt_type[j]) not in _SUPPORTED_JOINTS:
+            raise ModelError(f"{path}: configuration joint '{name}' must be a hinge or a slide")
+        if not m.jnt_limited[j]:
+            raise ModelError(f"{path}: configuration joint '{name}' needs a range (the bounds of q come from it)")
+        jlo, jhi = (float(v) for v in m.jnt_range[j])
+        span = _custom_numeric(m, NORMALIZE_PREFIX + name)
+        if span is None:
+            s, o = 1.0, 0.0
+        else:
+            if span.size != 1 or not span[0] > 0:
+                raise ModelError(f"{path}: '{NORMALIZE_PREFIX + name}' must be one positive number")
+            s, o = (jhi - jlo) / float(span[0]), jlo
+        ids.append(j)
+        adr.append(int(m.jnt_qposadr[j]))
+        scale.append(s)
+        offset.append(o)
+        lo.append((jlo - o) / s)
+        hi.append((jhi - o) / s)
+    return ConfigurationMap(
+        tuple(names),
+        np.array(ids),
+        np.array(adr),
+        np.array(scale),
+        np.array(offset),
+        np.array(lo),
+        np.array(hi),
+        np.array(m.qpos0),
+    )

@@ -1,0 +1,117 @@
+"""Path metrics: length, the turning angles of paper 000 Eq. 4, the objective f of Eq. 5, TC (paper 003
+Eq. 6) and SV (Eq. 7), and the dense clearance check along a path.
+
+Every function takes points of shape (..., m, n) (m points of dimension n) and works on whole
+populations at once (leading dimensions are batch dimensions).
+
+Angles. Paper 000 Eq. 4 defines theta_i as the opening angle at an interior vertex (pi for a straight
+line) and Eq. 5 averages pi - theta_i; paper 003 Eq. 7 squares the supplementary angle pi - theta_i.
+Both are taken over every interior vertex of [q_init, q'_1, ..., q'_(k-1), q_goal], i.e. k - 1 angles.
+Paper 000 writes the mean as a sum over i = 1..k-2 divided by k - 2, but its own sigma holds k - 1
+waypoints, so with the endpoints there are k - 1 angles; we average over all of them (the choice
+does not change the minimiser's character and makes f well defined for any k >= 2). A vertex with a
+zero-length adjacent segment counts as straight (turn 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+_EPS = 1e-12
+
+
+def segment_lengths(points: np.ndarray) -> np.ndarray:
+    """(..., m, n) -> (..., m-1)."""
+    return np.linalg.norm(np.diff(points, axis=-2), axis=-1)
+
+
+def path_length(points: np.ndarray) -> np.ndarray:
+    """sigma_length: the sum of segment lengths. (..., m, n) -> (...)."""
+    return segment_lengths(points).sum(axis=-1)
+
+
+def turning_angles(points: np.ndarray) -> np.ndarray:
+    """Supplementary angles pi - theta_i at the interior vertices (0 for a straight line), paper 000 Eq. 4
+    and paper 003 Eq. 7. (..., m, n) -> (..., m-2)."""
+    seg = np.diff(points, axis=-2)
+    a, b = seg[..., :-1, :], seg[..., 1:, :]
+    na = np.linalg.norm(a, axis=-1)
+    nb = np.linalg.norm(b, axis=-1)
+    dot = np.einsum("...i,...i->...", a, b)
+    denom = na * nb
+    cos = np.where(denom > _EPS, dot / np.where(denom > _EPS, denom, 1.0), 1.0)
+    # Eq. 4's theta_i is the angle between (q'_i - q'_(i+1)) and (q'_(i+2) - q'_(i+1)), i.e. between -a and b;
+    # pi - theta_i is then the angle between a and b.
+    return np.arccos(np.clip(cos, -1.0, 1.0))
+
+
+def angle_term(points: np.ndarray) -> np.ndarray:
+    """Mean of (pi - theta_i) over the interior vertices: the first term of paper 000 Eq. 5."""
+    t = turning_angles(points)
+    return t.mean(axis=-1) if t.shape[-1] else np.zeros(t.shape[:-1])
+
+
+def objective(points: np.ndarray) -> np.ndarray:
+    """f(sigma) of paper 000 Eq. 5: mean (pi - theta_i) + sigma_length. (..., m, n) -> (...)."""
+    return angle_term(points) + path_length(points)
+
+
+def objective_terms(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two terms of Eq. 5: (angle term, length)."""
+    return angle_term(points), path_length(points)
+
+
+def tc(points: np.ndarray) -> np.ndarray:
+    """TC of paper 003 Eq. 6: |q_goal - q_init| / path length (1 for a straight line)."""
+    de = np.linalg.norm(points[..., -1, :] - points[..., 0, :], axis=-1)
+    return de / np.maximum(path_length(points), _EPS)
+
+
+def sv(points: np.ndarray) -> np.ndarray:
+    """SV of paper 003 Eq. 7: mean squared supplementary angle over the interior vertices (0 = straight)."""
+    t = turning_angles(points)
+    return (t**2).mean(axis=-1) if t.shape[-1] else np.zeros(t.shape[:-1])
+
+
+@dataclass(frozen=True)
+class PathMetrics:
+    """The papers' measures of one path."""
+
+    length: float
+    angle_term: float
+    f: float
+    tc: float
+    sv: float
+    n_points: int
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def metrics(points: np.ndarray) -> PathMetrics:
+    """All metrics of one path (m, n)."""
+    p = np.asarray(points, dtype=float)
+    if p.ndim != 2 or len(p) < 2:
+        raise ValueError(f"a path needs shape (m >= 2, n), got {p.shape}")
+    a, length = float(angle_term(p)), float(path_length(p))
+    return PathMetrics(length, a, a + length, float(tc(p)), float(sv(p)), len(p))
+
+
+def densify(points: np.ndarray, step: float = 1e-3) -> np.ndarray:
+    """Points along the polyline with at most ``step`` between neighbours (max-norm in q), ends included."""
+    p = np.asarray(points, dtype=float)
+    if not step > 0:
+        raise ValueError(f"`step` must be > 0, got {step}")
+    out = [p[:1]]
+    for a, b in zip(p[:-1], p[1:]):
+        n = max(1, int(np.ceil(np.max(np.abs(b - a)) / step)))
+        s = np.arange(1, n + 1)[:, None] / n
+        out.append(a + (b - a) * s)
+    return np.concatenate(out)
+
+
+def min_clearance_along(clearance, points: np.ndarray, step: float = 1e-3) -> float:
+    """The smallest MuJoCo clearance over the polyline sampled every ``step`` (max-norm) in q."""
+    return float(np.min(clearance.batch(densify(points, step))))
