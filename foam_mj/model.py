@@ -4,13 +4,14 @@ Configuration map
 -----------------
 The MJCF declares the planner's configuration coordinates in a ``<custom>`` text field
 ``foam_mj:configuration`` (joint names, in order). A coordinate is the joint's own value
-(radians for hinges, metres for slides) unless a numeric field ``foam_mj:normalize:<joint>`` gives a
-span S, in which case the joint's range [lo, hi] maps linearly onto [0, S]:
+(radians for hinges, metres for slides) unless a numeric field ``foam_mj:normalize:<joint>`` holds
+"a b S", in which case qpos values a..b map linearly onto [0, S] (one number S alone means the joint's
+range [lo, hi]):
 
-    q_i = S (qpos_j - lo) / (hi - lo)        qpos_j = lo + (hi - lo) q_i / S.
+    q_i = S (qpos_j - a) / (b - a)        qpos_j = a + (b - a) q_i / S.
 
-For the Ortholeg, q = [theta_h, theta_k, theta_q] with theta_q the hip displacement normalized to
-[0, pi/2] (paper 003, section 5.1). Joints that are not configuration coordinates stay at their
+For the Ortholeg, q = [theta_h, theta_k, theta_q] with theta_q the hip displacement normalized so that
+the swing's 0.7 m of travel is [0, pi/2] (paper 003, section 5.1). Joints that are not configuration coordinates stay at their
 ``qpos0``. The bounds of q come from the joint ranges (every configuration joint must be limited).
 
 Robot and obstacle geoms
@@ -207,13 +208,20 @@ class RobotModel:
         """
         d = self.set_configuration(q, data)
         mujoco.mj_collision(self.model, d)
-        robot = set(self.robot_geoms.tolist())
-        obstacles = set(self.obstacle_geoms.tolist())
-        for c in d.contact[: d.ncon]:
-            a, b = int(c.geom[0]), int(c.geom[1])
-            if c.dist <= 0 and ((a in robot and b in obstacles) or (b in robot and a in obstacles)):
-                return True
-        return False
+        g = d.contact.geom[: d.ncon]
+        if len(g) == 0:
+            return False
+        hit = np.asarray(d.contact.dist[: d.ncon]) <= 0
+        leg, obs = self._is_robot, self._is_obstacle
+        return bool(np.any(hit & ((leg[g[:, 0]] & obs[g[:, 1]]) | (leg[g[:, 1]] & obs[g[:, 0]]))))
+
+    @property
+    def _is_robot(self) -> np.ndarray:
+        return np.isin(np.arange(self.model.ngeom), self.robot_geoms)
+
+    @property
+    def _is_obstacle(self) -> np.ndarray:
+        return np.isin(np.arange(self.model.ngeom), self.obstacle_geoms)
 
 
 def _configuration_map(m: mujoco.MjModel, path: Path) -> ConfigurationMap:
@@ -240,13 +248,19 @@ def _configuration_map(m: mujoco.MjModel, path: Path) -> ConfigurationMap:
         if not m.jnt_limited[j]:
             raise ModelError(f"{path}: configuration joint '{name}' needs a range (the bounds of q come from it)")
         jlo, jhi = (float(v) for v in m.jnt_range[j])
-        span = _custom_numeric(m, NORMALIZE_PREFIX + name)
-        if span is None:
+        norm = _custom_numeric(m, NORMALIZE_PREFIX + name)
+        if norm is None:
             s, o = 1.0, 0.0
         else:
-            if span.size != 1 or not span[0] > 0:
-                raise ModelError(f"{path}: '{NORMALIZE_PREFIX + name}' must be one positive number")
-            s, o = (jhi - jlo) / float(span[0]), jlo
+            if norm.size == 1:
+                a, b, span = jlo, jhi, float(norm[0])
+            elif norm.size == 3:
+                a, b, span = (float(v) for v in norm)
+            else:
+                raise ModelError(f"{path}: '{NORMALIZE_PREFIX + name}' must hold 1 number (span) or 3 (qpos_lo qpos_hi span)")
+            if not (span > 0 and b > a):
+                raise ModelError(f"{path}: '{NORMALIZE_PREFIX + name}' needs span > 0 and qpos_hi > qpos_lo")
+            s, o = (b - a) / span, a
         ids.append(j)
         adr.append(int(m.jnt_qposadr[j]))
         scale.append(s)

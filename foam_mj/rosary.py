@@ -102,12 +102,16 @@ class Rosary:
         return bool(np.all(self.in_hatches(waypoints, tol)))
 
     def portals(self) -> list[Portal]:
-        """The portal of every hatch."""
+        """The portal of every hatch. When one ball lies inside the other the spheres do not meet and the
+        portal degenerates to radius 0 (the hatch is then the smaller ball itself)."""
         out = []
         for c1, r1, c2, r2 in zip(*self.hatch_balls()):
             v = c2 - c1
             d = float(np.linalg.norm(v))
             u = v / d
+            if abs(r1 - r2) >= d:  # nested balls: no sphere intersection; use the smaller ball's centre
+                out.append(Portal((c1 if r1 < r2 else c2).copy(), 0.0, u))
+                continue
             t = (d * d + r1 * r1 - r2 * r2) / (2 * d)
             out.append(Portal(c1 + t * u, float(np.sqrt(max(r1 * r1 - t * t, 0.0))), u))
         return out

@@ -1,0 +1,92 @@
+"""Shared fixtures: the built-in scenes, loaded once per session, and an independent collision check."""
+
+from __future__ import annotations
+
+from importlib.resources import files
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.model import RobotModel
+
+MODELS = Path(str(files("foam_mj") / "models"))
+SCENES = ("obstacle", "step_up", "step_down")
+
+
+@pytest.fixture(scope="session")
+def robots() -> dict[str, RobotModel]:
+    return {name: RobotModel.from_xml(MODELS / f"{name}.xml") for name in SCENES}
+
+
+@pytest.fixture(scope="session")
+def obstacle_robot(robots) -> RobotModel:
+    return robots["obstacle"]
+
+
+@pytest.fixture(scope="session")
+def oracles(robots) -> dict[str, BubbleOracle]:
+    return {name: BubbleOracle(r, delta=0.005) for name, r in robots.items()}
+
+
+class MujocoChecker:
+    """Collision and distance straight from MuJoCo, sharing no code with foam_mj's clearance.
+
+    Robot geoms are those on bodies moved by a joint, obstacles those on static bodies, as in
+    shared/tools/verify_result.py.
+    """
+
+    def __init__(self, robot: RobotModel) -> None:
+        self.m = robot.model
+        self.d = mujoco.MjData(self.m)
+        self.to_qpos = robot.config.to_qpos
+        m = self.m
+
+        def moving(b: int) -> bool:
+            while b != 0:
+                if m.body_jntnum[b] > 0:
+                    return True
+                b = m.body_parentid[b]
+            return False
+
+        colliding = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+        self.leg = {g for g in colliding if moving(int(m.geom_bodyid[g]))}
+        self.obs = {g for g in colliding if not moving(int(m.geom_bodyid[g]))}
+        self._leg = np.isin(np.arange(m.ngeom), list(self.leg))
+        self._obs = np.isin(np.arange(m.ngeom), list(self.obs))
+
+    def collides(self, q: np.ndarray) -> bool:
+        """mj_collision at q: any contact between a leg geom and an obstacle geom."""
+        return self._collides_qpos(self.to_qpos(q))
+
+    def _collides_qpos(self, qpos: np.ndarray) -> bool:
+        self.d.qpos[:] = qpos
+        mujoco.mj_kinematics(self.m, self.d)
+        mujoco.mj_collision(self.m, self.d)
+        g = self.d.contact.geom[: self.d.ncon]
+        if len(g) == 0:
+            return False
+        return bool(np.any((self._leg[g[:, 0]] & self._obs[g[:, 1]]) | (self._leg[g[:, 1]] & self._obs[g[:, 0]])))
+
+    def distance(self, q: np.ndarray) -> float:
+        """min mj_geomDistance over every leg/obstacle pair at q."""
+        self.d.qpos[:] = self.to_qpos(q)
+        mujoco.mj_kinematics(self.m, self.d)
+        return min(mujoco.mj_geomDistance(self.m, self.d, g, o, 10.0, None) for g in self.leg for o in self.obs)
+
+    def first_collision_along(self, points: np.ndarray, step: float = 1e-3) -> np.ndarray | None:
+        """The first configuration in collision along the polyline sampled every ``step`` (max-norm), or None."""
+        for a, b in zip(points[:-1], points[1:]):
+            n = max(1, int(np.ceil(np.max(np.abs(b - a)) / step)))
+            qs = a + (b - a) * np.linspace(0.0, 1.0, n + 1)[:, None]
+            for q, qpos in zip(qs, self.to_qpos(qs)):
+                if self._collides_qpos(qpos):
+                    return q
+        return None
+
+
+@pytest.fixture(scope="session")
+def checkers(robots) -> dict[str, MujocoChecker]:
+    return {name: MujocoChecker(r) for name, r in robots.items()}

@@ -1,0 +1,166 @@
+"""Tests for foam_mj.foam: propagation (paper 000 section 3.1), the rosary, budgets and failure."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.errors import ConfigurationError, PlanningFailed
+from foam_mj.foam import CoverageIndex, FoamParams, plan
+from foam_mj.model import RobotModel
+from foam_mj.scenarios import load_scenario
+
+from conftest import MODELS, MujocoChecker
+
+OBSTACLE = load_scenario("obstacle")
+THESIS = load_scenario("obstacle_thesis")
+
+
+@pytest.fixture(scope="module")
+def oracle():
+    return OBSTACLE.oracle()
+
+
+@pytest.fixture(scope="module")
+def twenty_plans(oracle):
+    return [plan(oracle, OBSTACLE.q_init, OBSTACLE.q_goal, OBSTACLE.params, seed=s) for s in range(20)]
+
+
+def test_obstacle_plans_for_twenty_seeds_with_a_sound_rosary(twenty_plans):
+    for res in twenty_plans:
+        ros, foam = res.rosary, res.foam
+        assert res.stats.outcome == "reached"
+        assert ros.check_structure() == []
+        # Each child's centre lies on its parent's surface.
+        d = np.linalg.norm(np.diff(ros.centers, axis=0), axis=1)
+        np.testing.assert_allclose(d, ros.radii[:-1], rtol=1e-12)
+        # Consecutive bubbles overlap; first holds q_init (it is centred there), last holds q_goal.
+        assert np.all(d < ros.radii[:-1] + ros.radii[1:])
+        np.testing.assert_array_equal(ros.centers[0], OBSTACLE.q_init)
+        assert np.linalg.norm(ros.centers[-1] - OBSTACLE.q_goal) <= ros.radii[-1]
+        # The rosary follows parents in the foam.
+        assert np.all(foam.parents[ros.bubble_ids[1:]] == ros.bubble_ids[:-1])
+        assert ros.all_in_hatches(ros.center_waypoints())
+
+
+def test_centre_paths_are_collision_free_under_a_dense_mujoco_check(twenty_plans, obstacle_robot):
+    check = MujocoChecker(obstacle_robot)
+    for res in twenty_plans:
+        path = res.rosary.path(res.rosary.center_waypoints())
+        assert check.first_collision_along(path, step=1e-3) is None
+
+
+def test_same_seed_same_foam_and_different_seeds_differ(oracle, twenty_plans):
+    again = plan(oracle, OBSTACLE.q_init, OBSTACLE.q_goal, OBSTACLE.params, seed=3)
+    np.testing.assert_array_equal(again.foam.centers, twenty_plans[3].foam.centers)
+    np.testing.assert_array_equal(again.foam.parents, twenty_plans[3].foam.parents)
+    assert twenty_plans[0].foam.size != twenty_plans[1].foam.size or not np.array_equal(
+        twenty_plans[0].foam.centers[:50], twenty_plans[1].foam.centers[:50]
+    )
+    gen = plan(oracle, OBSTACLE.q_init, OBSTACLE.q_goal, OBSTACLE.params, seed=np.random.default_rng(3))
+    np.testing.assert_array_equal(gen.foam.centers, again.foam.centers)
+
+
+def test_child_counts_follow_eq_2(oracle):
+    """N = K floor(r / r_min)^(n-1): the candidates drawn equal the sum over expanded parents."""
+    res = plan(oracle, OBSTACLE.q_init, OBSTACLE.q_goal, OBSTACLE.params, seed=0)
+    p = OBSTACLE.params
+    expanded = res.foam.radii[: res.stats.parents_expanded]
+    assert res.stats.candidates == int(np.sum(p.K * np.floor(expanded / p.r_min) ** 2))
+    accounted = (
+        res.stats.dropped_out_of_bounds + res.stats.dropped_covered + res.stats.dropped_small + res.stats.bubbles - 1
+    )
+    assert accounted <= res.stats.candidates
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**31 - 1), thesis=st.booleans())
+def test_every_bubble_is_certified_and_none_grew_inside_an_older_one(seed, thesis):
+    scen = THESIS if thesis else OBSTACLE
+    oracle = scen.oracle()
+    foam = plan(oracle, scen.q_init, scen.q_goal, scen.params, seed=seed).foam
+    fresh = BubbleOracle(RobotModel.from_xml(scen.scene), delta=scen.params.delta)
+    certified = fresh.radii(foam.centers)
+    assert np.all(foam.radii <= certified + 1e-12)
+    assert np.all(foam.radii >= scen.params.r_min)
+    assert np.all((foam.centers >= scen.robot.lower) & (foam.centers <= scen.robot.upper))
+    # No centre lies strictly inside a bubble that existed before it (its parent's surface is allowed).
+    d2 = np.sum((foam.centers[:, None, :] - foam.centers[None, :, :]) ** 2, axis=2)
+    inside = d2 < foam.radii[None, :] ** 2 * (1 - 1e-9)
+    older = np.tril(np.ones_like(inside), -1)
+    assert not np.any(inside & older)
+
+
+def _tall_wall_scene(tmp_path, height: float = 1.5):
+    """A wall taller than the hip between the start's toe (x = 0.24) and the goal's thigh (x > 0.57)."""
+    scene = tmp_path / "tall_wall.xml"
+    scene.write_text(
+        f'<mujoco><include file="{MODELS / "ortholeg.xml"}"/><worldbody>'
+        '<geom name="floor" type="plane" size="3 3 0.1"/>'
+        f'<geom name="wall" type="box" pos="0.46 0 {height / 2}" size="0.04 0.25 {height / 2}"/>'
+        "</worldbody></mujoco>"
+    )
+    return scene
+
+
+def test_an_unreachable_goal_fails_within_budget_with_statistics(tmp_path):
+    robot = RobotModel.from_xml(_tall_wall_scene(tmp_path))
+    oracle = BubbleOracle(robot, delta=0.005)
+    params = FoamParams(K=10, r_min=0.07, max_bubbles=50_000, time_limit=30.0)
+    with pytest.raises(PlanningFailed) as err:
+        plan(oracle, OBSTACLE.q_init, OBSTACLE.q_goal, params, seed=0)
+    stats, foam = err.value.stats, err.value.foam
+    assert stats.outcome in ("queue empty", "bubble budget", "time budget")
+    assert stats.bubbles == foam.size > 1
+    assert stats.elapsed < 30.0 + 5.0
+
+
+def test_the_bubble_budget_stops_the_foam(oracle):
+    params = FoamParams(K=10, r_min=0.07, max_bubbles=100)
+    with pytest.raises(PlanningFailed) as err:
+        plan(oracle, OBSTACLE.q_init, OBSTACLE.q_goal, params, seed=0)
+    assert err.value.stats.outcome == "bubble budget"
+    assert err.value.foam.size == 100
+
+
+def test_the_time_budget_stops_the_foam(oracle):
+    params = FoamParams(K=10, r_min=0.07, time_limit=1e-4)
+    with pytest.raises(PlanningFailed) as err:
+        plan(oracle, OBSTACLE.q_init, OBSTACLE.q_goal, params, seed=0)
+    assert err.value.stats.outcome == "time budget"
+
+
+def test_a_start_without_room_for_a_root_bubble_is_refused(oracle):
+    with pytest.raises(ConfigurationError, match="root bubble of radius"):
+        plan(oracle, [0.2, 0.3, -0.2], OBSTACLE.q_goal, OBSTACLE.params, seed=0)
+
+
+def test_a_goal_in_collision_is_refused(oracle):
+    with pytest.raises(ConfigurationError, match="q_goal"):
+        plan(oracle, OBSTACLE.q_init, [0.0, 0.0, 0.5 / 0.7 * np.pi / 2], OBSTACLE.params, seed=0)
+
+
+@pytest.mark.parametrize("field, value", [("K", 0), ("K", 2.5), ("r_min", 0.0), ("delta", -1.0), ("max_bubbles", 0), ("time_limit", 0)])
+def test_bad_planner_parameters_name_the_field(field, value):
+    with pytest.raises(ValueError, match=field):
+        FoamParams(**{field: value})
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n_balls=st.integers(1, 700))
+def test_coverage_index_agrees_with_brute_force(seed, n_balls):
+    rng = np.random.default_rng(seed)
+    idx = CoverageIndex(3, capacity=8)
+    centers = rng.uniform(0, 1, (n_balls, 3))
+    radii = rng.uniform(0.01, 0.2, n_balls)
+    for c, r in zip(centers, radii):
+        idx.add(c, r)
+    pts = rng.uniform(0, 1, (300, 3))
+    exclude = rng.integers(-1, n_balls, 300)
+    inside = np.sum((pts[:, None] - centers[None]) ** 2, axis=2) < radii[None] ** 2
+    rows = np.flatnonzero(exclude >= 0)
+    inside[rows, exclude[rows]] = False
+    np.testing.assert_array_equal(idx.covered(pts, exclude), inside.any(axis=1))

@@ -1,0 +1,121 @@
+"""Tests for foam_mj.model and foam_mj.clearance: loading, the configuration map, validation, clearance."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from foam_mj.clearance import Clearance
+from foam_mj.errors import ConfigurationError, ModelError
+from foam_mj.model import RobotModel
+
+from conftest import MODELS
+
+# Leg dimensions from ortholeg.xml, used for hand calculations.
+HIP_HEIGHT, THIGH, SHANK, SOLE_BELOW_ANKLE = 1.06, 0.43, 0.43, 0.068
+TOE_AHEAD_OF_ANKLE = 0.083 + 0.133
+
+
+def test_configuration_is_declared_by_the_model(obstacle_robot):
+    cfg = obstacle_robot.config
+    assert cfg.joint_names == ("hip_flexion", "knee_flexion", "hip_displacement")
+    # theta_q = 0 .. pi/2 is the swing's 0.7 m of hip travel (paper 003, section 5.1); the slide's
+    # range, -0.1 .. 0.8 m, sets the bounds.
+    np.testing.assert_allclose(cfg.lower, [-0.5, 0.0, -0.1 / 0.7 * np.pi / 2])
+    np.testing.assert_allclose(cfg.upper, [1.6, 2.1, 0.8 / 0.7 * np.pi / 2])
+    q = np.array([0.3, 0.4, np.pi / 4])
+    qpos = cfg.to_qpos(q)
+    np.testing.assert_allclose(qpos, [0.35, 0.3, 0.4])  # qpos order: slide, hip, knee
+    np.testing.assert_allclose(cfg.to_q(qpos), q)
+
+
+def test_robot_and_obstacle_geoms_come_from_the_model(obstacle_robot):
+    names = {obstacle_robot.geom_name(g) for g in obstacle_robot.robot_geoms}
+    assert names == {"thigh_collision", "shank_collision", "foot_collision"}
+    assert {obstacle_robot.geom_name(g) for g in obstacle_robot.obstacle_geoms} == {"floor", "obstacle_box"}
+    assert len(obstacle_robot.pairs) == 6
+
+
+def test_hip_flexion_moves_the_foot_forward_and_knee_flexion_backward(obstacle_robot):
+    import mujoco
+
+    m = obstacle_robot.model
+    foot = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "foot")
+    x0 = obstacle_robot.set_configuration(np.array([0.0, 0.0, 0.0])).xpos[foot][0]
+    x_hip = obstacle_robot.set_configuration(np.array([0.3, 0.0, 0.0])).xpos[foot][0]
+    x_knee = obstacle_robot.set_configuration(np.array([0.0, 0.3, 0.0])).xpos[foot][0]
+    assert x_hip > x0 + 0.1 and x_knee < x0 - 0.05
+
+
+def test_clearance_matches_a_hand_computed_placement(obstacle_robot):
+    c = Clearance(obstacle_robot)
+    # Leg straight down, hip at x = 0: the sole is 1.06 - 0.43 - 0.43 - 0.068 = 0.132 m above the floor,
+    # and the toe (x = 0.216) is 0.184 m short of the box's near face (x = 0.4).
+    straight = np.array([0.0, 0.0, 0.0])
+    pairs = c.pairwise(straight)
+    sole = HIP_HEIGHT - THIGH - SHANK - SOLE_BELOW_ANKLE
+    assert pairs[("foot_collision", "floor")] == pytest.approx(sole, abs=1e-6)
+    assert pairs[("foot_collision", "obstacle_box")] == pytest.approx(0.4 - TOE_AHEAD_OF_ANKLE, abs=1e-6)
+    assert c(straight) == pytest.approx(sole, abs=1e-6)
+    # Hip moved 0.5 m forward: the straight leg's foot sinks 0.15 - 0.132 = 0.018 m into the box.
+    over_box = np.array([0.0, 0.0, 0.5 / 0.7 * np.pi / 2])
+    assert c(over_box) == pytest.approx(sole - 0.15, abs=1e-6)
+    assert obstacle_robot.in_collision(over_box) and not obstacle_robot.in_collision(straight)
+
+
+def test_batch_clearance_equals_single_clearance(obstacle_robot):
+    c = Clearance(obstacle_robot)
+    rng = np.random.default_rng(1)
+    Q = rng.uniform(obstacle_robot.lower, obstacle_robot.upper, size=(600, 3))  # crosses the threaded batch size
+    np.testing.assert_allclose(c.batch(Q), [c(q) for q in Q], atol=1e-12)
+    np.testing.assert_allclose(c.batch(Q[:7]), [c(q) for q in Q[:7]], atol=1e-12)
+    assert c.batch(np.empty((0, 3))).shape == (0,)
+
+
+@pytest.mark.parametrize(
+    "q, message",
+    [
+        ([0.1, 0.2], "shape (3,)"),
+        ([[0.1, 0.2, 0.3]], "shape (3,)"),
+        ([0.1, float("nan"), 0.3], "finite"),
+        ([0.1, 0.2, 2.0], "q[2] (hip_displacement) = 2 is outside its bounds"),
+        ([0.1, 0.2, -0.3], "hip_displacement"),
+        ([0.1, -0.1, 0.3], "knee_flexion"),
+        ("abc", "sequence of 3 numbers"),
+    ],
+)
+def test_bad_configurations_are_refused_with_the_reason(obstacle_robot, q, message):
+    with pytest.raises(ConfigurationError) as err:
+        obstacle_robot.validate(q)
+    assert message in str(err.value)
+    assert isinstance(err.value, ValueError)
+
+
+def test_missing_mjcf_names_the_file(tmp_path):
+    missing = tmp_path / "nope.xml"
+    with pytest.raises(ModelError, match="nope.xml"):
+        RobotModel.from_xml(missing)
+
+
+def test_malformed_mjcf_names_the_file(tmp_path):
+    bad = tmp_path / "broken.xml"
+    bad.write_text("<mujoco><worldbody><body></mujoco>")
+    with pytest.raises(ModelError, match="broken.xml"):
+        RobotModel.from_xml(bad)
+
+
+def test_a_scene_without_obstacles_is_refused(tmp_path):
+    scene = tmp_path / "empty.xml"
+    scene.write_text(f'<mujoco><include file="{MODELS / "ortholeg.xml"}"/></mujoco>')
+    with pytest.raises(ModelError, match="obstacles"):
+        RobotModel.from_xml(scene)
+
+
+def test_collision_geoms_with_a_margin_are_refused(tmp_path):
+    scene = tmp_path / "margin.xml"
+    scene.write_text(
+        f'<mujoco><include file="{MODELS / "ortholeg.xml"}"/>'
+        '<worldbody><geom name="floor" type="plane" size="1 1 0.1" margin="0.01"/></worldbody></mujoco>'
+    )
+    with pytest.raises(ModelError, match="margin"):
+        RobotModel.from_xml(scene)

@@ -1,0 +1,111 @@
+"""Tests for foam_mj.rosary (hatches, portals, sampling) and foam_mj.paths (metrics of paper 000 Eq. 4-5, paper 003 Eq. 6-7)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from foam_mj.paths import angle_term, densify, metrics, objective, path_length, sv, tc, turning_angles
+from foam_mj.rosary import Rosary
+
+
+def random_rosary(rng, k=8, n=3) -> Rosary:
+    """A chain of balls, each child centred on its parent's surface (as the foam builds them)."""
+    centers, radii = [rng.uniform(-1, 1, n)], [rng.uniform(0.05, 0.2)]
+    for _ in range(k - 1):
+        u = rng.standard_normal(n)
+        centers.append(centers[-1] + radii[-1] * u / np.linalg.norm(u))
+        radii.append(rng.uniform(0.05, 0.2))
+    c, r = np.array(centers), np.array(radii)
+    u = rng.standard_normal(n)
+    goal = c[-1] + 0.5 * r[-1] * u / np.linalg.norm(u)
+    return Rosary(c, r, c[0].copy(), goal)
+
+
+@settings(max_examples=50, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_hatch_samples_are_in_their_hatches_and_portals_lie_on_both_spheres(seed):
+    rng = np.random.default_rng(seed)
+    ros = random_rosary(rng)
+    pts = ros.sample_hatches(rng, size=200)
+    assert pts.shape == (200, ros.k - 1, 3)
+    assert np.all(ros.in_hatches(pts))
+    for i, p in enumerate(ros.portals()):
+        d = np.linalg.norm(ros.centers[i + 1] - ros.centers[i])
+        if abs(ros.radii[i] - ros.radii[i + 1]) >= d:  # one ball inside the other: the spheres do not meet
+            assert p.radius == 0.0
+            continue
+        # A point on the portal's rim is on both spheres.
+        v = np.cross(p.normal, rng.standard_normal(3))
+        rim = p.center + p.radius * v / np.linalg.norm(v)
+        assert np.linalg.norm(rim - ros.centers[i]) == pytest.approx(ros.radii[i], rel=1e-9)
+        assert np.linalg.norm(rim - ros.centers[i + 1]) == pytest.approx(ros.radii[i + 1], rel=1e-9)
+        assert ros.in_hatches(np.repeat(p.center[None], ros.k - 1, axis=0))[i]
+
+
+def test_hatch_sampling_is_uniform_over_the_lens():
+    """Two unit balls with centres 1 apart: the lens is symmetric about x = 0.5, mean at the midpoint."""
+    ros = Rosary(np.array([[0.0, 0, 0], [1.0, 0, 0]]), np.array([1.0, 1.0]), np.zeros(3), np.array([1.0, 0, 0]))
+    pts = ros.sample_hatches(np.random.default_rng(0), size=20000)[:, 0]
+    np.testing.assert_allclose(pts.mean(axis=0), [0.5, 0, 0], atol=0.01)
+    # The lens's volume share of the ball: 5/16 for unit balls at distance 1.
+    rng = np.random.default_rng(1)
+    u = rng.uniform(-1, 1, (200000, 3))
+    u = u[np.sum(u**2, axis=1) <= 1]
+    share = np.mean(np.sum((u - [1, 0, 0]) ** 2, axis=1) <= 1)
+    assert share == pytest.approx(5 / 16, abs=0.01)
+
+
+def test_metrics_of_a_right_angle_path():
+    p = np.array([[0.0, 0, 0], [1.0, 0, 0], [1.0, 1.0, 0]])
+    np.testing.assert_allclose(turning_angles(p), [np.pi / 2])
+    assert path_length(p) == pytest.approx(2.0)
+    assert objective(p) == pytest.approx(np.pi / 2 + 2.0)
+    assert tc(p) == pytest.approx(np.sqrt(2) / 2)
+    assert sv(p) == pytest.approx((np.pi / 2) ** 2)
+    m = metrics(p)
+    assert (m.length, m.angle_term, m.n_points) == (pytest.approx(2.0), pytest.approx(np.pi / 2), 3)
+
+
+def test_a_straight_path_scores_zero_angle_and_tc_one():
+    p = np.linspace([0, 0, 0], [1, 2, 3], 6)
+    assert angle_term(p) == pytest.approx(0.0, abs=1e-7)
+    assert tc(p) == pytest.approx(1.0)
+    assert sv(p) == pytest.approx(0.0, abs=1e-12)
+
+
+def _reference_f(points):
+    """Paper 000 Eq. 4-5 written plainly, one path at a time."""
+    total, count = 0.0, 0
+    for i in range(len(points) - 2):
+        a, b, c = points[i], points[i + 1], points[i + 2]
+        u, v = a - b, c - b
+        theta = np.arccos(np.clip(u @ v / (np.linalg.norm(u) * np.linalg.norm(v)), -1, 1))
+        total += np.pi - theta
+        count += 1
+    length = sum(np.linalg.norm(points[i + 1] - points[i]) for i in range(len(points) - 1))
+    return total / count + length
+
+
+@settings(max_examples=50, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), m=st.integers(3, 30), pop=st.integers(1, 20))
+def test_vectorized_objective_equals_the_plain_reference(seed, m, pop):
+    P = np.random.default_rng(seed).normal(size=(pop, m, 3))
+    np.testing.assert_allclose(objective(P), [_reference_f(p) for p in P], rtol=1e-10)
+
+
+def test_densify_keeps_the_step_and_the_vertices():
+    p = np.array([[0.0, 0, 0], [0.01, 0, 0], [0.01, 0.0235, 0]])
+    d = densify(p, step=1e-3)
+    assert np.max(np.abs(np.diff(d, axis=0))) <= 1e-3 + 1e-15
+    for v in p:
+        assert np.any(np.all(np.isclose(d, v), axis=1))
+
+
+def test_rosary_rejects_bad_shapes():
+    with pytest.raises(ValueError, match="radii"):
+        Rosary(np.zeros((3, 3)), np.ones(2), np.zeros(3), np.zeros(3))
+    with pytest.raises(ValueError, match="> 0"):
+        Rosary(np.zeros((2, 3)), np.array([1.0, -1.0]), np.zeros(3), np.zeros(3))

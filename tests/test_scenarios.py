@@ -1,0 +1,86 @@
+"""Tests for foam_mj.scenarios: the built-in scenarios and the validation of scenario files."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from foam_mj.errors import ScenarioError
+from foam_mj.foam import plan
+from foam_mj.scenarios import available_scenarios, load_scenario
+
+
+def test_the_built_in_scenarios():
+    assert {"obstacle", "obstacle_thesis", "step_up", "step_down"} <= set(available_scenarios())
+    s = load_scenario("obstacle")
+    np.testing.assert_allclose(s.q_init, [0.2, 0.3, 0.08])
+    np.testing.assert_allclose(s.q_goal, [0.45, 0.4536, 1.45])
+    assert (s.params.K, s.params.r_min) == (10, 0.07)
+    t = load_scenario("obstacle_thesis")
+    assert (t.params.K, t.params.r_min) == (6, 0.045)
+
+
+@pytest.mark.parametrize("name", ["obstacle", "obstacle_thesis", "step_up", "step_down"])
+def test_start_and_goal_are_valid_with_room_for_a_root_bubble(name):
+    s = load_scenario(name)
+    oracle = s.oracle()
+    assert oracle.radius(s.q_init) >= s.params.r_min
+    assert oracle.clearance(s.q_goal) > s.params.delta
+    res = plan(oracle, s.q_init, s.q_goal, s.params, seed=s.seed)
+    assert res.rosary.check_structure() == []
+
+
+def test_unknown_scenario_lists_the_known_ones():
+    with pytest.raises(ScenarioError, match="known scenarios: .*obstacle"):
+        load_scenario("moon_walk")
+
+
+GOOD = """
+scene = "{scene}"
+q_init = [0.2, 0.3, 0.08]
+q_goal = [0.45, 0.4536, 1.45]
+[planner]
+K = 10
+r_min = 0.07
+"""
+
+
+def _write(tmp_path, text, **kw):
+    from conftest import MODELS
+
+    p = tmp_path / "s.toml"
+    p.write_text(text.format(scene=str(MODELS / "obstacle.xml"), **kw))
+    return p
+
+
+def test_a_scenario_file_loads(tmp_path):
+    s = load_scenario(_write(tmp_path, GOOD))
+    assert s.name == "s" and s.params.K == 10
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda t: t.replace("K = 10", "K = 0"), "K"),
+        (lambda t: t.replace("K = 10", 'K = "ten"'), "'K' must be a number"),
+        (lambda t: t.replace("r_min = 0.07", "r_min = 0.07\nspeed = 3"), "unknown \\[planner\\] field"),
+        (lambda t: "colour = 1\n" + t, "unknown field"),
+        (lambda t: t.replace("q_init = [0.2, 0.3, 0.08]", ""), "missing field 'q_init'"),
+        (lambda t: t.replace("[0.2, 0.3, 0.08]", "[0.2, 0.3]"), "q_init.*shape"),
+        (lambda t: t.replace("[0.2, 0.3, 0.08]", '[0.2, "a", 0.08]'), "q_init' must be a list of numbers"),
+        (lambda t: t.replace("[0.45, 0.4536, 1.45]", "[0.45, 0.4536, 3.0]"), "q_goal.*outside its bounds"),
+        (lambda t: t.replace("[0.45, 0.4536, 1.45]", "[0.0, 0.0, 1.1219973762820265]"), "q_goal.*in collision: clearance -0.0180"),
+        (lambda t: t.replace("q_init =", "q_init = = "), "malformed TOML"),
+        (lambda t: t.replace('scene = "', 'scene = "/nowhere/'), "scene.*not found"),
+    ],
+)
+def test_bad_scenario_files_name_the_file_and_the_field(tmp_path, edit, message):
+    p = _write(tmp_path, edit(GOOD))
+    with pytest.raises(ScenarioError, match=message) as err:
+        load_scenario(p)
+    assert "s.toml" in str(err.value)
+
+
+def test_a_missing_scenario_file_is_named(tmp_path):
+    with pytest.raises(ScenarioError, match="not found"):
+        load_scenario(tmp_path / "none.toml")
