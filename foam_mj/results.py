@@ -10,13 +10,15 @@ Layout (format "foam-mj/result", version 1)::
       "configuration": {"joints": [...], "lower": [...], "upper": [...]},
       "q_init": [...], "q_goal": [...], "seed": 0,
       "planner": {"K": 10, "r_min": 0.07, ...},
-      "foam": {"stats": {...}},
-      "rosary": {"centers": [[...], ...], "radii": [...]},
+      "foam": {"stats": {...}, "centers": [[...], ...], "radii": [...], "parents": [...]},   # every bubble
+      "rosary": {"centers": [[...], ...], "radii": [...], "bubble_ids": [...]},
       "paths": {
         "centre": {"waypoints": [[q], ...],          # configuration-space polyline
                    "qpos": [[qpos], ...],             # joint trajectory rows (MuJoCo qpos)
                    "times": [...],                    # seconds, one per qpos row (when time-parametrized)
-                   "metrics": {"length": ..., "f": ..., "tc": ..., "sv": ..., ...}},
+                   "metrics": {"length": ..., "f": ..., "tc": ..., "sv": ..., ...},
+                   "convergence": {"best": [...], "mean": [...]}},   # smoothers that iterate
+
         ...
       }
     }
@@ -75,12 +77,25 @@ def result_dict(scenario, plan_result, paths: dict[str, Any], seed: int, extra: 
         "q_goal": np.asarray(scenario.q_goal).tolist(),
         "seed": int(seed),
         "planner": {k: getattr(scenario.params, k) for k in ("K", "r_min", "delta", "max_bubbles", "time_limit")},
-        "foam": {"stats": plan_result.stats.as_dict() if plan_result is not None else None},
+        "foam": None,
         "rosary": None,
         "paths": out_paths,
     }
-    if plan_result is not None and getattr(plan_result, "rosary", None) is not None:
-        doc["rosary"] = {"centers": plan_result.rosary.centers.tolist(), "radii": plan_result.rosary.radii.tolist()}
+    if plan_result is not None:
+        foam = plan_result.foam
+        doc["foam"] = {
+            "stats": plan_result.stats.as_dict(),
+            "centers": foam.centers.tolist(),
+            "radii": foam.radii.tolist(),
+            "parents": foam.parents.tolist(),
+        }
+        ros = getattr(plan_result, "rosary", None)
+        if ros is not None:
+            doc["rosary"] = {
+                "centers": ros.centers.tolist(),
+                "radii": ros.radii.tolist(),
+                "bubble_ids": None if ros.bubble_ids is None else np.asarray(ros.bubble_ids).tolist(),
+            }
     if extra:
         doc.update(extra)
     return doc

@@ -1,0 +1,81 @@
+"""Foam propagation over 20 seeds per scenario: median bubbles, rosary length, planning time, bubbles/s.
+
+    .venv/bin/python benchmarks/foam.py [--seeds 20] [--json out.json] [--scenarios obstacle step_up ...]
+
+The thesis (paper 003, section 5.2) reports 1,544 bubbles in 16.05 s and 1,795 in 13.2 s for its
+walker maps, about 100-140 bubbles/s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _common import progress, table, write_json  # noqa: E402
+
+from foam_mj.errors import PlanningFailed  # noqa: E402
+from foam_mj.foam import plan  # noqa: E402
+from foam_mj.paths import metrics  # noqa: E402
+from foam_mj.scenarios import available_scenarios, load_scenario  # noqa: E402
+
+DEFAULT = ["obstacle", "obstacle_thesis", "step_up", "step_down"]
+
+
+def run_scenario(name: str, seeds: int) -> dict:
+    scen = load_scenario(name)
+    oracle = scen.oracle()
+    plan(oracle, scen.q_init, scen.q_goal, scen.params, seed=0)  # warm-up
+    rec = {"bubbles": [], "rosary": [], "time": [], "rate": [], "tc": [], "sv": [], "failed": 0, "mujoco_share": []}
+    for s in range(seeds):
+        progress(s, seeds, f"{name:>18}")
+        calls0 = oracle.clearance.calls
+        t = time.perf_counter()
+        try:
+            res = plan(oracle, scen.q_init, scen.q_goal, scen.params, seed=s)
+        except PlanningFailed:
+            rec["failed"] += 1
+            continue
+        el = time.perf_counter() - t
+        m = metrics(res.rosary.path(res.rosary.center_waypoints()))
+        rec["bubbles"].append(res.stats.bubbles)
+        rec["rosary"].append(res.rosary.k)
+        rec["time"].append(el)
+        rec["rate"].append(res.stats.bubbles / el)
+        rec["tc"].append(m.tc)
+        rec["sv"].append(m.sv)
+        rec["clearance_calls"] = rec.get("clearance_calls", 0) + oracle.clearance.calls - calls0
+    progress(seeds, seeds, f"{name:>18}")
+    oracle.close()
+    return rec
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=20)
+    ap.add_argument("--scenarios", nargs="*", default=None, help=f"default: {' '.join(DEFAULT)} and any walker scenarios")
+    ap.add_argument("--json", help="write the figures as JSON")
+    args = ap.parse_args(argv)
+    names = args.scenarios or DEFAULT + [n for n in available_scenarios() if n.startswith("walker")]
+    out, rows = {}, []
+    for name in names:
+        rec = run_scenario(name, args.seeds)
+        med = {k: float(np.median(v)) for k, v in rec.items() if isinstance(v, list) and v}
+        out[name] = {"median": med, "failed": rec["failed"], "seeds": args.seeds, "raw": {k: v for k, v in rec.items() if isinstance(v, list)}}
+        rows.append(
+            [name, f"{med.get('bubbles', 0):,.0f}", f"{med.get('rosary', 0):.0f}", f"{med.get('time', 0) * 1000:.0f}",
+             f"{med.get('rate', 0):,.0f}", f"{med.get('tc', 0):.4f}", f"{med.get('sv', 0):.4f}", f"{rec['failed']}/{args.seeds}"]
+        )
+    print(f"\nmedians over {args.seeds} seeds")
+    print(table(["scenario", "bubbles", "rosary", "plan ms", "bubbles/s", "TC", "SV", "failed"], rows))
+    if args.json:
+        write_json(args.json, out)
+    return out
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,406 @@
+"""Rerun recordings (``.rrd`` files, no viewer) of a planning run: the scene and the replayed leg, the
+foam and paths in configuration space, and plots.
+
+Usage::
+
+    with Recording("run.rrd") as rec:
+        rec.log_scene(robot)
+        rec.log_foam(result.foam, result.rosary)
+        rec.log_path("centre", path)
+        rec.log_joint_trajectory("centre", trajectory)
+        rec.log_replay("centre", robot, replay_kinematic(robot, trajectory))
+        rec.log_convergence("hs", best, mean)
+    # closing writes the footer; open with `rerun run.rrd`
+
+Entity paths (names given to the ``log_*`` methods must match :data:`NAME_PATTERN`; model names are
+sanitized to it):
+
+==========================================  ==========================================================
+``world``                                   view coordinates (right-handed, z up), static
+``world/scene/<geom>``                      static geoms of the scene (floor, obstacles), world pose
+``world/leg/<name>/<body>``                 Transform3D of each leg body per frame (timelines
+                                            ``time`` in seconds and ``frame``)
+``world/leg/<name>/<body>/<geom>``          the body's geoms, static, with their pose in the body
+``world/contacts/<name>``                   leg/obstacle contacts of a dynamic replay (if any), per frame
+``cspace/axes``                             the configuration axes, labelled with the joint names
+``cspace/foam``                             every bubble of the foam (Ellipsoids3D, equal half-sizes)
+``cspace/rosary``                           the rosary's bubbles
+``cspace/q_init``, ``cspace/q_goal``        start and goal configurations
+``cspace/paths/<name>``                     a configuration path (LineStrips3D)
+``cspace/trajectories/<name>``              a trajectory's samples (LineStrips3D)
+``cspace/trajectories/<name>/now``          its current configuration per frame (Points3D)
+``plots/convergence/<name>/best|mean``      a smoother's objective per iteration (timeline ``iteration``)
+``plots/joints/<name>/<joint>``             joint positions in joint units (rad, m) over ``time``/``frame``
+``plots/clearance/<name>``                  a replay's clearance per frame (metres)
+``plots/tracking/<name>/<joint>``           a dynamic replay's tracking error (rad, m)
+==========================================  ==========================================================
+
+The default blueprint (stored in the file) shows the workspace, the configuration space and the plots
+side by side. Log time and log tick are disabled and recording properties are not sent, so the
+recording store is reproducible; the blueprint store carries random view ids.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+from rerun.chunk import RrdReader
+
+from foam_mj.foam import Foam
+from foam_mj.model import RobotModel, body_is_moving
+from foam_mj.replay import DynamicReplay, KinematicReplay
+from foam_mj.rosary import Rosary
+from foam_mj.trajectory import Trajectory
+
+#: Names given to the log_* methods become entity path parts: letters, digits, '_', '-', '.'.
+NAME_PATTERN = re.compile(r"^[A-Za-z0-9_.\-]+$")
+#: Half-extent (metres) drawn for an infinite MuJoCo plane (size 0).
+INFINITE_PLANE = 5.0
+
+_PLANE_RGBA = (0.55, 0.6, 0.65, 1.0)
+_FOAM_RGBA = (0.6, 0.6, 0.6, 0.25)
+_ROSARY_RGBA = (0.2, 0.5, 0.9, 0.35)
+_PATH_COLORS = ((0.9, 0.3, 0.2), (0.2, 0.7, 0.3), (0.6, 0.3, 0.8), (0.9, 0.6, 0.1), (0.1, 0.6, 0.8), (0.8, 0.2, 0.6))
+
+
+def default_blueprint() -> rrb.Blueprint:
+    """Workspace | configuration space | plots (joints, convergence, clearance, tracking), side by side."""
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial3DView(origin="world", name="Workspace"),
+            rrb.Spatial3DView(origin="cspace", name="Configuration space"),
+            rrb.Vertical(
+                rrb.TimeSeriesView(origin="plots/joints", name="Joint positions"),
+                rrb.TimeSeriesView(origin="plots/convergence", name="Smoother convergence"),
+                rrb.TimeSeriesView(origin="plots/clearance", name="Clearance"),
+                rrb.TimeSeriesView(origin="plots/tracking", name="Tracking error"),
+            ),
+            column_shares=[2, 2, 1],
+        ),
+        collapse_panels=False,
+    )
+
+
+def _name(value: Any, field: str = "name") -> str:
+    if not (isinstance(value, str) and NAME_PATTERN.match(value)):
+        raise ValueError(f"`{field}` must be a non-empty string of letters, digits, '_', '-' or '.', got {value!r}")
+    return value
+
+
+def _sanitize(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.\-]", "_", name) or "_"
+
+
+def _rgba(rgba) -> np.ndarray:
+    return (np.clip(np.asarray(rgba, dtype=float), 0.0, 1.0) * 255).round().astype(np.uint8)
+
+
+def _xyzw(wxyz: np.ndarray) -> np.ndarray:
+    """MuJoCo quaternions (w, x, y, z) -> Rerun's (x, y, z, w), any leading shape."""
+    q = np.asarray(wxyz, dtype=float)
+    return np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
+
+
+def _points3(points, field: str) -> np.ndarray:
+    """Configuration points (..., n) as 3-D points: n = 3 as is, n = 2 padded with 0."""
+    p = np.asarray(points, dtype=float)
+    if p.ndim < 1 or p.shape[-1] not in (2, 3):
+        raise ValueError(f"`{field}` must hold configurations of dimension 2 or 3 to draw, got shape {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError(f"`{field}` must be finite")
+    if p.shape[-1] == 2:
+        p = np.concatenate([p, np.zeros(p.shape[:-1] + (1,))], axis=-1)
+    return p
+
+
+def geom_archetype(m: mujoco.MjModel, g: int, rgba=None) -> Any | None:
+    """The Rerun shape of geom g in its own frame (None for types not drawn: height fields, SDFs)."""
+    t = int(m.geom_type[g])
+    size = m.geom_size[g]
+    color = [_rgba(m.geom_rgba[g] if rgba is None else rgba)]
+    T = mujoco.mjtGeom
+    if t == T.mjGEOM_PLANE:
+        hx, hy = (s if s > 0 else INFINITE_PLANE for s in size[:2])
+        return rr.Boxes3D(half_sizes=[[hx, hy, 0.0]], colors=[_rgba(_PLANE_RGBA)], fill_mode="solid")
+    if t == T.mjGEOM_BOX:
+        return rr.Boxes3D(half_sizes=[size[:3]], colors=color, fill_mode="solid")
+    if t == T.mjGEOM_SPHERE:
+        return rr.Ellipsoids3D(half_sizes=[[size[0]] * 3], colors=color, fill_mode="solid")
+    if t == T.mjGEOM_ELLIPSOID:
+        return rr.Ellipsoids3D(half_sizes=[size[:3]], colors=color, fill_mode="solid")
+    if t == T.mjGEOM_CAPSULE:  # MuJoCo's is centred on the origin; Rerun's runs from 0 to length along +z
+        return rr.Capsules3D(lengths=[2 * size[1]], radii=[size[0]], translations=[[0.0, 0.0, -size[1]]], colors=color)
+    if t == T.mjGEOM_CYLINDER:
+        return rr.Cylinders3D(lengths=[2 * size[1]], radii=[size[0]], colors=color, fill_mode="solid")
+    if t == T.mjGEOM_MESH:  # compiled mesh vertices are expressed in the geom's frame
+        mid = int(m.geom_dataid[g])
+        va, vn = int(m.mesh_vertadr[mid]), int(m.mesh_vertnum[mid])
+        fa, fn = int(m.mesh_faceadr[mid]), int(m.mesh_facenum[mid])
+        return rr.Mesh3D(
+            vertex_positions=m.mesh_vert[va : va + vn],
+            triangle_indices=m.mesh_face[fa : fa + fn],
+            albedo_factor=color[0],
+        )
+    return None
+
+
+def _geom_name(m: mujoco.MjModel, g: int) -> str:
+    return _sanitize(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}")
+
+
+def _body_name(m: mujoco.MjModel, b: int) -> str:
+    return _sanitize(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}")
+
+
+class Recording:
+    """A Rerun recording written to ``path`` (see the module docstring for entity paths). Use as a
+    context manager, or call :meth:`close` to write the file's footer."""
+
+    def __init__(self, path: str | Path, app_id: str = "foam-mj", recording_id: str | None = None) -> None:
+        p = Path(path)
+        if p.suffix != ".rrd":
+            raise ValueError(f"`path` must end in .rrd, got {str(p)!r}")
+        if not p.parent.is_dir():
+            raise ValueError(f"`path`'s folder does not exist: {p.parent}")
+        if not (isinstance(app_id, str) and app_id):
+            raise ValueError(f"`app_id` must be a non-empty string, got {app_id!r}")
+        self.path = p
+        self._rec = rr.RecordingStream(app_id, recording_id=recording_id or p.stem, send_properties=False)
+        self._rec.set_log_time_enabled(False)
+        self._rec.set_log_tick_enabled(False)
+        self._rec.save(p, default_blueprint=default_blueprint())
+        self._rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        self._rec.log("cspace", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        self._open = True
+        self._paths = 0
+
+    # -- lifecycle -------------------------------------------------------------------------------------
+    def close(self) -> None:
+        """Flush and write the footer (idempotent)."""
+        if self._open:
+            rr.disconnect(recording=self._rec)
+            self._open = False
+
+    def __enter__(self) -> "Recording":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _check_open(self) -> rr.RecordingStream:
+        if not self._open:
+            raise ValueError(f"the recording {self.path} is closed")
+        return self._rec
+
+    # -- workspace -------------------------------------------------------------------------------------
+    def log_scene(self, robot: RobotModel) -> None:
+        """The static geoms of the scene at world poses, and the configuration axes named by the joints."""
+        rec = self._check_open()
+        if not isinstance(robot, RobotModel):
+            raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}")
+        m = robot.model
+        d = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, d)
+        quat = np.empty(4)
+        for g in range(m.ngeom):
+            if body_is_moving(m, int(m.geom_bodyid[g])):
+                continue
+            shape = geom_archetype(m, g)
+            if shape is None:
+                continue
+            mujoco.mju_mat2Quat(quat, d.geom_xmat[g])
+            rec.log(
+                f"world/scene/{_geom_name(m, g)}",
+                rr.Transform3D(translation=d.geom_xpos[g], quaternion=rr.Quaternion(xyzw=_xyzw(quat))),
+                shape,
+                static=True,
+            )
+        n = robot.dim
+        if n in (2, 3):
+            span = float(np.max(robot.upper - robot.lower))
+            rec.log(
+                "cspace/axes",
+                rr.Arrows3D(vectors=np.eye(3)[:n] * span, labels=list(robot.config.joint_names), colors=[[200, 60, 60], [60, 200, 60], [60, 60, 200]][:n]),
+                static=True,
+            )
+
+    def log_replay(self, name: str, robot: RobotModel, replay: KinematicReplay | DynamicReplay) -> None:
+        """The leg's geoms (static, per body) and the body poses of every frame of ``replay``; its clearance,
+        and for a dynamic replay its tracking errors and contacts."""
+        rec = self._check_open()
+        name = _name(name)
+        if not isinstance(replay, (KinematicReplay, DynamicReplay)):
+            raise ValueError(f"`replay` must be a KinematicReplay or DynamicReplay, got {type(replay).__name__}")
+        m = robot.model
+        poses = replay.poses
+        T = replay.n_frames
+        index = [rr.TimeColumn("time", duration=replay.times), rr.TimeColumn("frame", sequence=np.arange(T))]
+        for k, b in enumerate(poses.body_ids):
+            body = f"world/leg/{name}/{_body_name(m, int(b))}"
+            for g in np.flatnonzero(m.geom_bodyid == b):
+                shape = geom_archetype(m, int(g))
+                if shape is None:
+                    continue
+                rec.log(
+                    f"{body}/{_geom_name(m, int(g))}",
+                    rr.Transform3D(translation=m.geom_pos[g], quaternion=rr.Quaternion(xyzw=_xyzw(m.geom_quat[g]))),
+                    shape,
+                    static=True,
+                )
+            rec.send_columns(
+                body,
+                indexes=index,
+                columns=rr.Transform3D.columns(translation=poses.xpos[:, k], quaternion=_xyzw(poses.xquat[:, k])),
+            )
+        self._scalars(f"plots/clearance/{name}", index, replay.clearance, "clearance (m)")
+        if isinstance(replay, DynamicReplay):
+            for j, joint in enumerate(replay.joint_names):
+                self._scalars(f"plots/tracking/{name}/{_sanitize(joint)}", index, replay.error[:, j], f"{joint} error")
+            if replay.contacts:
+                frames = np.array([c.frame for c in replay.contacts])
+                uniq, start = np.unique(frames, return_index=True)
+                counts = np.diff(np.append(start, len(frames)))
+                pos = np.array([c.position for c in replay.contacts])
+                rec.send_columns(
+                    f"world/contacts/{name}",
+                    indexes=[rr.TimeColumn("time", duration=replay.times[uniq]), rr.TimeColumn("frame", sequence=uniq)],
+                    columns=rr.Points3D.columns(positions=pos).partition(counts),
+                )
+
+    # -- configuration space ---------------------------------------------------------------------------
+    def log_foam(self, foam: Foam, rosary: Rosary | None = None) -> None:
+        """Every bubble of ``foam`` as a sphere; the rosary (default: the foam's own, if it reached the
+        goal) highlighted; q_init and q_goal."""
+        rec = self._check_open()
+        if not isinstance(foam, Foam):
+            raise ValueError(f"`foam` must be a Foam, got {type(foam).__name__}")
+        centers = _points3(foam.centers, "foam.centers")
+        radii = np.asarray(foam.radii, dtype=float)
+        if radii.shape != (len(centers),):
+            raise ValueError(f"`foam.radii` must have shape ({len(centers)},), got {radii.shape}")
+        rec.log(
+            "cspace/foam",
+            rr.Ellipsoids3D(centers=centers, half_sizes=np.repeat(radii[:, None], 3, axis=1), colors=[_rgba(_FOAM_RGBA)], fill_mode="majorwireframe"),
+            static=True,
+        )
+        if rosary is None and foam.goal_bubble is not None:
+            rosary = foam.rosary()
+        if rosary is not None:
+            rc = _points3(rosary.centers, "rosary.centers")
+            rec.log(
+                "cspace/rosary",
+                rr.Ellipsoids3D(centers=rc, half_sizes=np.repeat(rosary.radii[:, None], 3, axis=1), colors=[_rgba(_ROSARY_RGBA)], fill_mode="solid"),
+                static=True,
+            )
+        for key, q, color in (("q_init", foam.q_init, (0.1, 0.8, 0.1, 1.0)), ("q_goal", foam.q_goal, (0.9, 0.1, 0.1, 1.0))):
+            rec.log(f"cspace/{key}", rr.Points3D([_points3(q, f"foam.{key}")], radii=[0.02], colors=[_rgba(color)], labels=[key]), static=True)
+
+    def log_path(self, name: str, points) -> None:
+        """A configuration-space path (m, n) as a line strip at ``cspace/paths/<name>``."""
+        rec = self._check_open()
+        name = _name(name)
+        p = _points3(points, "points")
+        if p.ndim != 2 or len(p) < 2:
+            raise ValueError(f"`points` must have shape (m >= 2, n), got {np.shape(points)}")
+        color = _rgba(_PATH_COLORS[self._paths % len(_PATH_COLORS)])
+        self._paths += 1
+        rec.log(f"cspace/paths/{name}", rr.LineStrips3D([p], colors=[color], radii=[0.005], labels=[name]), static=True)
+
+    def log_joint_trajectory(self, name: str, trajectory: Trajectory) -> None:
+        """Joint positions over time (joint units) at ``plots/joints/<name>/<joint>``, and the samples in
+        configuration space with a marker following the ``time``/``frame`` timelines."""
+        rec = self._check_open()
+        name = _name(name)
+        if not isinstance(trajectory, Trajectory):
+            raise ValueError(f"`trajectory` must be a Trajectory, got {type(trajectory).__name__}")
+        T = len(trajectory)
+        index = [rr.TimeColumn("time", duration=trajectory.times), rr.TimeColumn("frame", sequence=np.arange(T))]
+        values = trajectory.joint_positions
+        for j, joint in enumerate(trajectory.joint_names):
+            self._scalars(f"plots/joints/{name}/{_sanitize(joint)}", index, values[:, j], joint)
+        if trajectory.q.shape[1] in (2, 3):
+            q3 = _points3(trajectory.q, "trajectory.q")
+            rec.log(f"cspace/trajectories/{name}", rr.LineStrips3D([q3], radii=[0.003], labels=[name]), static=True)
+            rec.send_columns(f"cspace/trajectories/{name}/now", indexes=index, columns=rr.Points3D.columns(positions=q3))
+            rec.log(f"cspace/trajectories/{name}/now", rr.Points3D.from_fields(radii=[0.025]), static=True)
+
+    # -- plots -----------------------------------------------------------------------------------------
+    def log_convergence(self, name: str, best, mean=None) -> None:
+        """A smoother's best (and mean) objective per iteration at ``plots/convergence/<name>/best|mean``."""
+        self._check_open()
+        name = _name(name)
+        curves = {"best": best} if mean is None else {"best": best, "mean": mean}
+        arrays = {}
+        for key, values in curves.items():
+            a = np.asarray(values, dtype=float)
+            if a.ndim != 1 or len(a) == 0 or not np.all(np.isfinite(a)):
+                raise ValueError(f"`{key}` must be a non-empty 1-D array of finite numbers, got shape {a.shape}")
+            arrays[key] = a
+        if mean is not None and len(arrays["mean"]) != len(arrays["best"]):
+            raise ValueError(f"`best` and `mean` must have the same length, got {len(arrays['best'])} and {len(arrays['mean'])}")
+        for key, a in arrays.items():
+            index = [rr.TimeColumn("iteration", sequence=np.arange(len(a)))]
+            self._scalars(f"plots/convergence/{name}/{key}", index, a, f"{name} {key}")
+
+    def _scalars(self, entity: str, index: list, values: np.ndarray, label: str) -> None:
+        rec = self._check_open()
+        rec.log(entity, rr.SeriesLines(names=[label]), static=True)
+        rec.send_columns(entity, indexes=index, columns=rr.Scalars.columns(scalars=np.asarray(values, dtype=float)))
+
+
+# -- reading back (tests, inspection) ----------------------------------------------------------------------
+def _store_chunks(path: str | Path, blueprint: bool = False):
+    reader = RrdReader(Path(path))
+    if blueprint:
+        stores = reader.blueprints()
+        if not stores:
+            return []
+        return list(reader.stream(store=stores[0]))
+    return list(reader.stream())
+
+
+def read_recording(path: str | Path, static: bool | None = None) -> dict[str, int]:
+    """Entity path (as logged, no leading '/') -> total rows over all chunks of the recording store of an
+    ``.rrd`` file: all rows (``static=None``), only static ones (True) or only temporal ones (False).
+    Internal entities (``__properties``) are left out. Raises on a file without its footer (not closed)."""
+    RrdReader(Path(path)).store()  # raises on a file without footer/manifest
+    rows: dict[str, int] = {}
+    for ch in _store_chunks(path):
+        entity = str(ch.entity_path).lstrip("/")
+        if entity.startswith("__") or (static is not None and bool(ch.is_static) != static):
+            continue
+        rows[entity] = rows.get(entity, 0) + int(ch.num_rows)
+    return rows
+
+
+def read_component(path: str | Path, entity: str, component: str) -> list:
+    """Every row's value of ``component`` (e.g. "Ellipsoids3D:centers") at ``entity``, in file order,
+    as Python lists (pyarrow ``to_pylist``); rows where the component is absent are skipped."""
+    out: list = []
+    for ch in _store_chunks(path):
+        if str(ch.entity_path).lstrip("/") != entity.lstrip("/"):
+            continue
+        batch = ch.to_record_batch()
+        if component in batch.schema.names:
+            out.extend(v for v in batch.column(component).to_pylist() if v is not None)
+    return out
+
+
+def read_blueprint(path: str | Path) -> list[dict[str, str | None]]:
+    """The views of the blueprint stored in an ``.rrd`` file: [{"class": "3D", "origin": "world", "name": ...}]."""
+    views: dict[str, dict[str, str | None]] = {}
+    for ch in _store_chunks(path, blueprint=True):
+        entity = str(ch.entity_path)
+        batch = ch.to_record_batch()
+        for column, key in (("ViewBlueprint:class_identifier", "class"), ("ViewBlueprint:space_origin", "origin"), ("ViewBlueprint:display_name", "name")):
+            if column in batch.schema.names:
+                for v in batch.column(column).to_pylist():
+                    if v:
+                        views.setdefault(entity, {"class": None, "origin": None, "name": None})[key] = v[0]
+    return list(views.values())

@@ -1,0 +1,238 @@
+"""Tests foam_mj.recording: .rrd files written with the Rerun SDK and read back with its RrdReader."""
+
+from __future__ import annotations
+
+from importlib.resources import files
+
+import mujoco
+import numpy as np
+import pytest
+import rerun as rr
+from scipy.spatial.transform import Rotation
+
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.foam import FoamParams, plan
+from foam_mj.model import RobotModel
+from foam_mj.recording import Recording, read_blueprint, read_component, read_recording
+from foam_mj.replay import replay_dynamic, replay_kinematic
+from foam_mj.rosary import Rosary
+from foam_mj.trajectory import make_trajectory
+
+Q_INIT = [0.2, 0.3, 0.08]
+Q_GOAL = [0.45, 0.4536, 1.45]
+LEG_BODIES = ("pelvis", "thigh", "shank", "foot")
+JOINTS = ("hip_flexion", "knee_flexion", "hip_displacement")
+
+# A scene with one geom of every drawable type (where each lies is in its pos), and a one-joint robot.
+SHAPES_XML = """
+<mujoco model="shapes">
+  <asset><mesh name="tetra" vertex="0 0 0  0.1 0 0  0 0.1 0  0 0 0.1"/></asset>
+  <worldbody>
+    <geom name="ground" type="plane" size="0 0 0.1"/>
+    <geom name="ball" type="sphere" size="0.05" pos="1 0 0.05"/>
+    <geom name="can" type="cylinder" size="0.05 0.1" pos="1.5 0 0.1"/>
+    <geom name="egg" type="ellipsoid" size="0.05 0.07 0.09" pos="2 0 0.1"/>
+    <geom name="rod" type="capsule" fromto="2.5 0 0.1 2.5 0.3 0.1" size="0.02"/>
+    <geom name="block" type="box" size="0.1 0.1 0.1" pos="3 0 0.1" euler="0 0 0.5"/>
+    <geom name="tetra" type="mesh" mesh="tetra" pos="3.5 0 0"/>
+    <body name="slider" pos="0 0 1">
+      <joint name="x" type="slide" axis="1 0 0" range="0 1"/>
+      <geom name="probe" type="sphere" size="0.05"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """One planning run recorded to a file: scene, foam, two paths and their trajectories, kinematic
+    replays of both, a dynamic replay of the centre path, and two convergence curves."""
+    robot = RobotModel.from_xml(files("foam_mj") / "models" / "obstacle.xml")
+    oracle = BubbleOracle(robot, delta=0.005)
+    try:
+        res = plan(oracle, Q_INIT, Q_GOAL, FoamParams(K=10, r_min=0.07, delta=0.005), seed=0)
+    finally:
+        oracle.close()
+    ros = res.rosary
+    paths = {"centre": ros.path(ros.center_waypoints()), "portal": ros.path(ros.portal_waypoints())}
+    trajectories = {k: make_trajectory(robot, p, ros) for k, p in paths.items()}
+    replays = {k: replay_kinematic(robot, t) for k, t in trajectories.items()}
+    replays["centre-dynamic"] = replay_dynamic(robot, trajectories["centre"])
+    curves = {"hs": (np.linspace(5.0, 3.0, 60), np.linspace(6.0, 3.5, 60)), "ga": (np.geomspace(5.0, 3.2, 25), np.geomspace(7.0, 3.4, 25))}
+    path = tmp_path_factory.mktemp("rec") / "run.rrd"
+    strict = rr.strict_mode()
+    rr.set_strict_mode(True)  # any rejected log call raises instead of warning
+    try:
+        with Recording(path) as rec:
+            rec.log_scene(robot)
+            rec.log_foam(res.foam, ros)
+            for name, p in paths.items():
+                rec.log_path(name, p)
+                rec.log_joint_trajectory(name, trajectories[name])
+            for name, r in replays.items():
+                rec.log_replay(name, robot, r)
+            for name, (best, mean) in curves.items():
+                rec.log_convergence(name, best, mean)
+    finally:
+        rr.set_strict_mode(strict)
+    return dict(robot=robot, res=res, paths=paths, trajectories=trajectories, replays=replays, curves=curves, path=path)
+
+
+def test_every_bubble_and_the_rosary_are_in_the_file(run):
+    foam, ros = run["res"].foam, run["res"].rosary
+    rows = read_recording(run["path"])
+    assert rows["cspace/foam"] == 1 and rows["cspace/rosary"] == 1
+    centers = np.array(read_component(run["path"], "cspace/foam", "Ellipsoids3D:centers")[0])
+    half = np.array(read_component(run["path"], "cspace/foam", "Ellipsoids3D:half_sizes")[0])
+    assert len(centers) == foam.size
+    assert np.allclose(centers, foam.centers, atol=1e-6)
+    assert np.allclose(half, np.repeat(foam.radii[:, None], 3, axis=1), atol=1e-6)  # spheres
+    rosary = np.array(read_component(run["path"], "cspace/rosary", "Ellipsoids3D:centers")[0])
+    assert len(rosary) == ros.k and np.allclose(rosary, ros.centers, atol=1e-6)
+    for key, q in (("q_init", Q_INIT), ("q_goal", Q_GOAL)):
+        assert np.allclose(read_component(run["path"], f"cspace/{key}", "Points3D:positions")[0], [q], atol=1e-6)
+    labels = read_component(run["path"], "cspace/axes", "Arrows3D:labels")[0]
+    assert labels == list(JOINTS)
+
+
+def test_every_path_and_trajectory_is_in_the_file(run):
+    rows = read_recording(run["path"], static=False)
+    for name, p in run["paths"].items():
+        strips = read_component(run["path"], f"cspace/paths/{name}", "LineStrips3D:strips")
+        assert len(strips) == 1 and np.allclose(strips[0][0], p, atol=1e-6)
+        tr = run["trajectories"][name]
+        for joint in JOINTS:
+            assert rows[f"plots/joints/{name}/{joint}"] == len(tr)
+        values = np.array(read_component(run["path"], f"plots/joints/{name}/hip_displacement", "Scalars:scalars")).ravel()
+        assert np.allclose(values, tr.joint_positions[:, JOINTS.index("hip_displacement")])
+        assert rows[f"cspace/trajectories/{name}/now"] == len(tr)
+
+
+def test_a_leg_pose_for_every_replayed_frame(run):
+    rows = read_recording(run["path"], static=False)
+    static = read_recording(run["path"], static=True)
+    for name, replay in run["replays"].items():
+        assert rows[f"plots/clearance/{name}"] == replay.n_frames
+        for k, body in enumerate(LEG_BODIES):
+            entity = f"world/leg/{name}/{body}"
+            assert rows[entity] == replay.n_frames
+            xyz = np.array(read_component(run["path"], entity, "Transform3D:translation")).reshape(-1, 3)
+            assert np.allclose(xyz, replay.poses.xpos[:, k], atol=1e-6)
+        assert static[f"world/leg/{name}/foot/foot_collision"] == 1
+        assert static[f"world/leg/{name}/thigh/thigh_visual"] == 1
+    for joint in JOINTS:
+        assert rows[f"plots/tracking/centre-dynamic/{joint}"] == run["replays"]["centre-dynamic"].n_frames
+    assert not any(e.startswith("world/contacts") for e in rows)  # the centre path touches nothing
+
+
+def test_recorded_poses_place_the_geoms_where_mujoco_does(run):
+    """Compose the file's body transform and the geom's static transform (Rerun's x, y, z, w
+    quaternions) and compare with MuJoCo's geom position and orientation."""
+    robot, replay = run["robot"], run["replays"]["centre"]
+    m = robot.model
+    d = mujoco.MjData(m)
+    t_body = np.array(read_component(run["path"], "world/leg/centre/shank", "Transform3D:translation")).reshape(-1, 3)
+    q_body = np.array(read_component(run["path"], "world/leg/centre/shank", "Transform3D:quaternion")).reshape(-1, 4)
+    t_geom = np.array(read_component(run["path"], "world/leg/centre/shank/shank_collision", "Transform3D:translation")).reshape(3)
+    q_geom = np.array(read_component(run["path"], "world/leg/centre/shank/shank_collision", "Transform3D:quaternion")).reshape(4)
+    g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "shank_collision")
+    for i in (0, replay.n_frames // 2, replay.n_frames - 1):
+        d.qpos[:] = replay.qpos[i]
+        mujoco.mj_forward(m, d)
+        rb = Rotation.from_quat(q_body[i])
+        assert np.allclose(t_body[i] + rb.apply(t_geom), d.geom_xpos[g], atol=1e-5)
+        assert np.allclose((rb * Rotation.from_quat(q_geom)).as_matrix(), d.geom_xmat[g].reshape(3, 3), atol=1e-5)
+
+
+def test_convergence_curves_and_scene(run):
+    rows = read_recording(run["path"], static=False)
+    for name, (best, mean) in run["curves"].items():
+        assert rows[f"plots/convergence/{name}/best"] == len(best)
+        assert rows[f"plots/convergence/{name}/mean"] == len(mean)
+        got = np.array(read_component(run["path"], f"plots/convergence/{name}/best", "Scalars:scalars")).ravel()
+        assert np.allclose(got, best)
+    static = read_recording(run["path"], static=True)
+    assert static["world/scene/floor"] == 1 and static["world/scene/obstacle_box"] == 1
+    box = read_component(run["path"], "world/scene/obstacle_box", "Boxes3D:half_sizes")[0]
+    assert np.allclose(box, [[0.1, 0.25, 0.075]], atol=1e-6)
+    assert np.allclose(read_component(run["path"], "world/scene/obstacle_box", "Transform3D:translation")[0], [0.5, 0, 0.075], atol=1e-6)
+
+
+def test_the_blueprint_is_stored(run):
+    views = {(v["class"], v["origin"]) for v in read_blueprint(run["path"])}
+    assert {("3D", "world"), ("3D", "cspace"), ("TimeSeries", "plots/joints"), ("TimeSeries", "plots/convergence")} <= views
+
+
+def test_every_geom_type_is_drawn(tmp_path):
+    (tmp_path / "shapes.xml").write_text(SHAPES_XML)
+    robot = RobotModel.from_xml(tmp_path / "shapes.xml")
+    path = tmp_path / "shapes.rrd"
+    with Recording(path) as rec:
+        rec.log_scene(robot)
+    static = read_recording(path, static=True)
+    expected = {
+        "ground": "Boxes3D:half_sizes",
+        "ball": "Ellipsoids3D:half_sizes",
+        "can": "Cylinders3D:lengths",
+        "egg": "Ellipsoids3D:half_sizes",
+        "rod": "Capsules3D:lengths",
+        "block": "Boxes3D:half_sizes",
+        "tetra": "Mesh3D:vertex_positions",
+    }
+    for geom, component in expected.items():
+        assert static[f"world/scene/{geom}"] == 1
+        assert read_component(path, f"world/scene/{geom}", component), geom
+    assert "world/scene/probe" not in static  # the robot's geom is not scenery
+    assert np.allclose(read_component(path, "world/scene/rod", "Capsules3D:lengths")[0], [0.3], atol=1e-6)
+    assert len(read_component(path, "world/scene/tetra", "Mesh3D:vertex_positions")[0]) == 4
+
+
+def test_contacts_are_recorded(tmp_path, run):
+    robot = run["robot"]
+    a, b = np.array(Q_INIT), np.array(Q_GOAL)
+    fake = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # not certified: hits the box
+    replay = replay_dynamic(robot, make_trajectory(robot, fake.path(np.empty((0, 3))), fake), feedforward="gravity")
+    assert replay.contacts
+    path = tmp_path / "contacts.rrd"
+    with Recording(path) as rec:
+        rec.log_replay("straight", robot, replay)
+    points = read_component(path, "world/contacts/straight", "Points3D:positions")
+    assert sum(len(p) for p in points) == len(replay.contacts)
+
+
+def test_bad_calls_raise_clear_errors(tmp_path, run):
+    with pytest.raises(ValueError, match="must end in .rrd"):
+        Recording(tmp_path / "x.txt")
+    with pytest.raises(ValueError, match="folder does not exist"):
+        Recording(tmp_path / "missing" / "x.rrd")
+    rec = Recording(tmp_path / "bad.rrd")
+    try:
+        with pytest.raises(ValueError, match="`name`"):
+            rec.log_path("centre path", run["paths"]["centre"])
+        with pytest.raises(ValueError, match="dimension 2 or 3"):
+            rec.log_path("p4", np.zeros((5, 4)))
+        with pytest.raises(ValueError, match="same length"):
+            rec.log_convergence("hs", [3.0, 2.0], [4.0])
+        with pytest.raises(ValueError, match="`best`"):
+            rec.log_convergence("hs", [])
+        with pytest.raises(ValueError, match="`foam` must be a Foam"):
+            rec.log_foam(run["res"].rosary)
+        with pytest.raises(ValueError, match="`replay` must be"):
+            rec.log_replay("x", run["robot"], run["trajectories"]["centre"])
+    finally:
+        rec.close()
+    with pytest.raises(ValueError, match="is closed"):
+        rec.log_path("late", run["paths"]["centre"])
+    assert read_recording(tmp_path / "bad.rrd") == {"world": 1, "cspace": 1}
+
+
+def test_an_unclosed_file_has_no_footer(tmp_path, run):
+    rec = Recording(tmp_path / "open.rrd")
+    rec.log_path("centre", run["paths"]["centre"])
+    try:
+        with pytest.raises(Exception), pytest.warns(rr.RerunWarning, match="no footer"):
+            read_recording(tmp_path / "open.rrd")
+    finally:
+        rec.close()
+    assert read_recording(tmp_path / "open.rrd")["cspace/paths/centre"] == 1

@@ -1,0 +1,147 @@
+"""Tests foam_mj.replay: kinematic and dynamic replay of joint trajectories on the MuJoCo leg."""
+
+from __future__ import annotations
+
+from importlib.resources import files
+
+import mujoco
+import numpy as np
+import pytest
+
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.foam import FoamParams, plan
+from foam_mj.model import RobotModel
+from foam_mj.replay import DynamicReplay, KinematicReplay, replay_dynamic, replay_kinematic, servo_controls
+from foam_mj.rosary import Rosary
+from foam_mj.trajectory import Trajectory, make_trajectory
+
+Q_INIT = [0.2, 0.3, 0.08]
+Q_GOAL = [0.45, 0.4536, 1.45]
+DELTA = 0.005
+#: The tracking figure stated in foam_mj/replay.py and models/ortholeg.xml: 0.5 mrad on the hinges,
+#: 0.5 mm on the hip slide (maximum over the obstacle centre path).
+MAX_ERROR = 0.5e-3
+
+
+@pytest.fixture(scope="module")
+def robot() -> RobotModel:
+    return RobotModel.from_xml(files("foam_mj") / "models" / "obstacle.xml")
+
+
+@pytest.fixture(scope="module")
+def rosary(robot) -> Rosary:
+    oracle = BubbleOracle(robot, delta=DELTA)
+    try:
+        return plan(oracle, Q_INIT, Q_GOAL, FoamParams(K=10, r_min=0.07, delta=DELTA), seed=0).rosary
+    finally:
+        oracle.close()
+
+
+@pytest.fixture(scope="module")
+def centre(robot, rosary) -> Trajectory:
+    return make_trajectory(robot, rosary.path(rosary.center_waypoints()), rosary)
+
+
+@pytest.fixture(scope="module")
+def kinematic(robot, centre) -> KinematicReplay:
+    return replay_kinematic(robot, centre)
+
+
+@pytest.fixture(scope="module")
+def dynamic(robot, centre) -> DynamicReplay:
+    return replay_dynamic(robot, centre)
+
+
+@pytest.fixture(scope="module")
+def through_the_box(robot) -> Trajectory:
+    """The straight line from start to goal, which sweeps the foot through the box: a one-bubble 'rosary'
+    that is not certified (its radius is made up) lets make_trajectory time it."""
+    a, b = np.array(Q_INIT), np.array(Q_GOAL)
+    fake = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)
+    return make_trajectory(robot, fake.path(np.empty((0, 3))), fake)
+
+
+def test_kinematic_replay_keeps_clearance_on_the_centre_path(robot, centre, kinematic):
+    assert kinematic.n_frames == len(centre)
+    assert kinematic.min_clearance > 0
+    assert kinematic.min_clearance >= DELTA - 1e-6  # the bubbles' margin
+    assert kinematic.poses.body_names == ("pelvis", "thigh", "shank", "foot")
+    assert kinematic.poses.xpos.shape == (len(centre), 4, 3) and kinematic.poses.xquat.shape == (len(centre), 4, 4)
+    # Poses agree with MuJoCo's forward kinematics, computed here, at a few frames.
+    m = robot.model
+    d = mujoco.MjData(m)
+    for i in (0, len(centre) // 3, len(centre) - 1):
+        d.qpos[:] = centre.qpos[i]
+        mujoco.mj_forward(m, d)
+        assert np.allclose(kinematic.poses.xpos[i], d.xpos[kinematic.poses.body_ids])
+        assert np.allclose(kinematic.poses.xquat[i], d.xquat[kinematic.poses.body_ids])
+    # And the clearance agrees with MuJoCo's own contact test: nothing touches.
+    assert not any(robot.in_collision(q) for q in robot.config.to_q(kinematic.qpos[::10]))
+
+
+def test_dynamic_replay_of_the_centre_path_touches_nothing(robot, dynamic):
+    assert dynamic.contacts == ()
+    assert dynamic.min_clearance > 0
+    # Independently: MuJoCo's contact test on every simulated configuration.
+    assert not any(robot.in_collision(q) for q in robot.config.to_q(dynamic.qpos))
+
+
+def test_dynamic_replay_tracks_within_the_stated_error(robot, centre, dynamic):
+    assert dynamic.joint_names == robot.config.joint_names
+    err = dynamic.qpos[:, robot.config.qpos_index] - centre.joint_positions
+    assert np.allclose(err, dynamic.error)
+    assert np.all(dynamic.max_error < MAX_ERROR), dynamic.max_error
+    assert np.all(dynamic.rms_error < MAX_ERROR / 2), dynamic.rms_error
+    assert np.allclose(dynamic.rms_error, np.sqrt(np.mean(err**2, axis=0)))
+    # The servos stay inside their force ranges (no saturation hides in the figures).
+    lo, hi = robot.model.actuator_forcerange.T
+    assert np.all(dynamic.actuator_force > lo) and np.all(dynamic.actuator_force < hi)
+    assert np.all(dynamic.saturated_frames == 0)
+    assert dynamic.warnings == ()  # no MuJoCo warning (bad qacc, full contact buffers, ...)
+
+
+def test_feedforward_matters_and_plain_servos_still_run(robot, centre, dynamic):
+    plain = replay_dynamic(robot, centre, feedforward="none")
+    assert np.all(plain.max_error > dynamic.max_error)
+    assert plain.feedforward == "none" and dynamic.feedforward == "inverse"
+    ctrl = servo_controls(robot, centre, feedforward="none")
+    # Without feed-forward, ctrl is the reference plus the velocity term kv qdot_ref / kp.
+    m = robot.model
+    kp, kv = m.actuator_gainprm[:, 0], -m.actuator_biasprm[:, 2]
+    joint = m.actuator_trnid[:, 0]
+    expected = centre.qpos[:, m.jnt_qposadr[joint]] + kv * centre.qvel[:, m.jnt_dofadr[joint]] / kp
+    assert np.allclose(ctrl, expected)
+
+
+def test_contacts_are_reported_with_names_time_and_depth(robot, through_the_box):
+    kin = replay_kinematic(robot, through_the_box)
+    assert kin.min_clearance < 0
+    dyn = replay_dynamic(robot, through_the_box, feedforward="gravity")
+    assert dyn.contacts
+    leg = {robot.geom_name(g) for g in robot.robot_geoms}
+    obstacles = {robot.geom_name(g) for g in robot.obstacle_geoms}
+    for c in dyn.contacts:
+        assert c.leg_geom in leg and c.obstacle_geom in obstacles
+        assert c.penetration >= 0
+        assert c.time == pytest.approx(dyn.times[c.frame])
+    assert "obstacle_box" in {c.obstacle_geom for c in dyn.contacts}
+    # Independently: MuJoCo reports a collision at the first contact frame.
+    assert robot.in_collision(robot.config.to_q(dyn.qpos[dyn.contacts[0].frame]))
+
+
+def test_bad_inputs_raise_clear_errors(robot, centre):
+    with pytest.raises(ValueError, match="`trajectory` must be a Trajectory"):
+        replay_kinematic(robot, centre.qpos)
+    with pytest.raises(ValueError, match="`robot` must be a RobotModel"):
+        replay_dynamic(None, centre)
+    with pytest.raises(ValueError, match="`feedforward` must be one of"):
+        replay_dynamic(robot, centre, feedforward="pid")
+    coarse = Trajectory(times=centre.times[::5], q=centre.q[::5], qpos=centre.qpos[::5], joint_names=centre.joint_names)
+    with pytest.raises(ValueError, match="`trajectory.times` must be spaced by the model's timestep"):
+        replay_dynamic(robot, coarse, feedforward="none")
+    renamed = Trajectory(times=centre.times, q=centre.q, qpos=centre.qpos, joint_names=("a", "b", "c"))
+    with pytest.raises(ValueError, match="`trajectory.joint_names`"):
+        replay_kinematic(robot, renamed)
+    bare = Trajectory(times=centre.times, q=centre.q, qpos=centre.qpos, joint_names=centre.joint_names)
+    with pytest.raises(ValueError, match="`trajectory.qvel` and `trajectory.qacc`"):
+        replay_dynamic(robot, bare)

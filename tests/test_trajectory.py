@@ -1,0 +1,265 @@
+"""Tests foam_mj.trajectory: the safe C2 curve through a rosary and its timing under joint limits."""
+
+from __future__ import annotations
+
+from importlib.resources import files
+
+import numpy as np
+import pytest
+
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.clearance import Clearance
+from foam_mj.foam import FoamParams, plan
+from foam_mj.model import RobotModel
+from foam_mj.rosary import Rosary
+from foam_mj.trajectory import JointLimits, Trajectory, make_trajectory, safe_curve
+
+Q_INIT = [0.2, 0.3, 0.08]
+Q_GOAL = [0.45, 0.4536, 1.45]
+DELTA = 0.005
+
+
+def _in_ball(points, centers, radii, tol=1e-9):
+    """Membership computed here, independently of foam_mj.rosary."""
+    return np.linalg.norm(np.asarray(points) - np.asarray(centers), axis=-1) <= np.asarray(radii) + tol
+
+
+def _pulled(rosary: Rosary, rounds: int = 150) -> np.ndarray:
+    """A short, smooth-ish path through the hatches (string pulling: each waypoint moves to its neighbours'
+    midpoint, projected back into its hatch by alternating projections), like a smoother's output."""
+    ca, ra, cb, rb = rosary.hatch_balls()
+    ra, rb = ra * (1 - 1e-6), rb * (1 - 1e-6)
+
+    def proj(z, c, r):
+        d = z - c
+        n = np.linalg.norm(d, axis=1, keepdims=True)
+        return np.where(n > r[:, None], c + d * (r[:, None] / np.maximum(n, 1e-300)), z)
+
+    w = rosary.portal_waypoints()
+    for _ in range(rounds):
+        p = rosary.path(w)
+        y = 0.5 * (p[:-2] + p[2:])
+        a = np.zeros_like(y)
+        b = np.zeros_like(y)
+        for _ in range(20):  # Dykstra: projection onto the intersection of the two balls
+            z = proj(y + a, ca, ra)
+            a = y + a - z
+            y = proj(z + b, cb, rb)
+            b = z + b - y
+        w = y
+    assert rosary.all_in_hatches(w)
+    return w
+
+
+@pytest.fixture(scope="module")
+def robot() -> RobotModel:
+    return RobotModel.from_xml(files("foam_mj") / "models" / "obstacle.xml")
+
+
+@pytest.fixture(scope="module")
+def rosary(robot) -> Rosary:
+    oracle = BubbleOracle(robot, delta=DELTA)
+    try:
+        return plan(oracle, Q_INIT, Q_GOAL, FoamParams(K=10, r_min=0.07, delta=DELTA), seed=0).rosary
+    finally:
+        oracle.close()
+
+
+@pytest.fixture(scope="module")
+def paths(rosary) -> dict[str, np.ndarray]:
+    return {
+        "centre": rosary.path(rosary.center_waypoints()),
+        "portal": rosary.path(rosary.portal_waypoints()),
+        "pulled": rosary.path(_pulled(rosary)),
+    }
+
+
+@pytest.fixture(scope="module")
+def trajectories(robot, rosary, paths) -> dict[str, Trajectory]:
+    return {name: make_trajectory(robot, p, rosary) for name, p in paths.items()}
+
+
+NAMES = ("centre", "portal", "pulled")
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_passes_through_every_waypoint(trajectories, paths, name):
+    tr, path = trajectories[name], paths[name]
+    q, _, _ = tr.evaluate(tr.waypoint_times)
+    assert np.allclose(q, path, atol=1e-9, rtol=0)
+    assert np.all(np.diff(tr.waypoint_times) > 0)
+    assert np.array_equal(tr.q[0], path[0]) and np.array_equal(tr.q[-1], path[-1])
+    # The samples themselves come within one step of every waypoint.
+    step = np.abs(np.diff(tr.q, axis=0)).max()
+    gaps = np.linalg.norm(path[:, None, :] - tr.q[None, :, :], axis=2).min(axis=1)
+    assert gaps.max() <= step * np.sqrt(3) + 1e-12
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_respects_velocity_and_acceleration_limits(robot, trajectories, name):
+    tr = trajectories[name]
+    vmax, amax = JointLimits().resolve(robot)
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    assert np.all(np.abs(tr.qvel[:, dof]) <= vmax * (1 + 1e-9))
+    assert np.all(np.abs(tr.qacc[:, dof]) <= amax * (1 + 1e-9))
+    # Independently, from the sampled positions alone (finite differences, O(dt) slack).
+    qpos = tr.joint_positions
+    v_fd = np.diff(qpos, axis=0) / tr.dt
+    a_fd = np.diff(qpos, n=2, axis=0) / tr.dt**2
+    assert np.all(np.abs(v_fd) <= vmax * 1.01)
+    assert np.all(np.abs(a_fd) <= amax * 1.02)
+    # Rest to rest; C2: the acceleration is continuous across the waypoints (where the curve's pieces
+    # meet) and changes by less than a quarter of the limit between samples.
+    assert np.all(tr.qvel[[0, -1]] == 0) and np.all(tr.qacc[[0, -1]] == 0)
+    t = tr.waypoint_times[1:-1]
+    _, _, left = tr.evaluate(t - 1e-7)
+    _, _, right = tr.evaluate(t + 1e-7)
+    scale = robot.config.scale
+    assert np.all(np.abs(right - left) * scale <= 1e-3 * amax)
+    assert np.all(np.abs(np.diff(tr.qacc[:, dof], axis=0)) <= 0.25 * amax)
+    # The limits are reached (the duration is not padded) and the swing lasts a sensible time.
+    use = np.maximum(np.abs(tr.qvel[:, dof]).max(0) / vmax, np.sqrt(np.abs(tr.qacc[:, dof]).max(0) / amax))
+    assert use.max() > 0.95
+    assert 0.5 < tr.duration < 5.0
+    assert np.allclose(np.diff(tr.times), robot.model.opt.timestep)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_every_sample_lies_in_the_bubble_of_its_segment(rosary, trajectories, name):
+    tr = trajectories[name]
+    # The segment of each sample from the waypoint times (not from the trajectory's own bookkeeping).
+    seg = np.clip(np.searchsorted(tr.waypoint_times, tr.times, side="right") - 1, 0, rosary.k - 1)
+    assert np.all(_in_ball(tr.q, rosary.centers[seg], rosary.radii[seg]))
+    assert np.all(_in_ball(tr.q, rosary.centers[tr.bubble], rosary.radii[tr.bubble]))
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_every_sample_is_collision_free_under_mujoco(robot, trajectories, name):
+    tr = trajectories[name]
+    assert not any(robot.in_collision(q) for q in tr.q)
+    clearance = Clearance(robot)
+    try:
+        # Inside a certified bubble every configuration keeps at least delta of clearance.
+        assert clearance.batch(tr.q).min() >= DELTA - 1e-6
+    finally:
+        clearance.close()
+
+
+def test_curve_control_points_certify_each_segment(trajectories, rosary):
+    curve = trajectories["centre"].curve
+    cp = curve.control_points
+    assert np.all(_in_ball(cp, rosary.centers[curve.bubble][:, None], rosary.radii[curve.bubble][:, None]))
+    u = np.linspace(0, curve.length, 20001)
+    q, _, _ = curve.evaluate(u)
+    j = curve.segment_of(u)
+    assert np.all(_in_ball(q, rosary.centers[curve.bubble[j]], rosary.radii[curve.bubble[j]]))
+
+
+def _random_rosary(rng: np.random.Generator, k: int, n: int = 3) -> Rosary:
+    """A chain of k balls, each centred on its parent's surface, like the foam's rosaries."""
+    r = rng.uniform(0.05, 0.3, k)
+    c = np.zeros((k, n))
+    for i in range(1, k):
+        u = rng.standard_normal(n)
+        c[i] = c[i - 1] + r[i - 1] * u / np.linalg.norm(u)
+    u = rng.standard_normal(n)
+    goal = c[-1] + 0.5 * r[-1] * u / np.linalg.norm(u)
+    return Rosary(c, r, c[0].copy(), goal)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_rosaries_stay_inside_densely(seed):
+    rng = np.random.default_rng(seed)
+    ros = _random_rosary(rng, k=int(rng.integers(2, 25)))
+    for waypoints in (ros.center_waypoints(), ros.sample_hatches(rng)):
+        curve = safe_curve(ros.path(waypoints), ros)
+        u = np.linspace(0, curve.length, 50001)
+        q, _, _ = curve.evaluate(u)
+        j = curve.segment_of(u)
+        assert np.all(_in_ball(q, ros.centers[curve.bubble[j]], ros.radii[curve.bubble[j]]))
+        assert np.allclose(curve.evaluate(curve.knots)[0], ros.path(waypoints)[curve.point_index], atol=1e-12)
+
+
+def test_repeated_waypoints_and_two_point_paths(robot, rosary):
+    # Waypoint i of the centre path is centre i+1; it also lies in hatch i+1 when r_(i+1) <= r_(i+2).
+    w = rosary.center_waypoints()
+    i = int(np.flatnonzero(rosary.radii[1:-1] <= rosary.radii[2:])[0])
+    w[i + 1] = w[i]  # two equal consecutive waypoints: a zero-length segment
+    assert rosary.all_in_hatches(w, 1e-12)
+    path = rosary.path(w)
+    tr = make_trajectory(robot, path, rosary)
+    assert tr.waypoint_times[i + 1] == tr.waypoint_times[i + 2]
+    assert np.allclose(tr.evaluate(tr.waypoint_times)[0], path, atol=1e-9)
+    one = Rosary(np.array([Q_INIT]), np.array([0.08]), np.array(Q_INIT), np.array(Q_INIT) + [0.05, 0.0, 0.0])
+    tr1 = make_trajectory(robot, one.path(np.empty((0, 3))), one)
+    assert np.allclose(tr1.q[:, 1:], np.array(Q_INIT)[1:])  # a straight line along the first joint
+
+
+def test_limits_set_the_duration(robot, rosary, paths, trajectories):
+    slow = JointLimits(hinge_velocity=2.5, hinge_acceleration=12.5, slide_velocity=0.75, slide_acceleration=2.5)
+    tr = make_trajectory(robot, paths["pulled"], rosary, slow)
+    assert tr.duration > trajectories["pulled"].duration
+    vmax, amax = slow.resolve(robot)
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    assert np.all(np.abs(tr.qvel[:, dof]) <= vmax * (1 + 1e-9)) and np.all(np.abs(tr.qacc[:, dof]) <= amax * (1 + 1e-9))
+    knee = JointLimits(per_joint={"knee_flexion": (1.0, 5.0)})
+    v, a = knee.resolve(robot)
+    assert v[robot.config.joint_names.index("knee_flexion")] == 1.0
+    tr2 = make_trajectory(robot, paths["pulled"], rosary, knee, dt=0.01)
+    assert np.allclose(np.diff(tr2.times), 0.01)
+    k = robot.config.joint_names.index("knee_flexion")
+    assert np.abs(tr2.qvel[:, robot.model.jnt_dofadr[robot.config.joint_ids[k]]]).max() <= 1.0 + 1e-9
+
+
+def test_bad_inputs_raise_clear_errors(robot, rosary, paths):
+    path = paths["centre"]
+    with pytest.raises(ValueError, match="`path` must have shape"):
+        make_trajectory(robot, path[:-1], rosary)
+    with pytest.raises(ValueError, match="`path` must be finite"):
+        make_trajectory(robot, np.where(np.arange(path.size).reshape(path.shape) == 4, np.nan, path), rosary)
+    bad = path.copy()
+    bad[5] += 1.0
+    with pytest.raises(ValueError, match=r"`path\[5\]` is not in hatch 4"):
+        make_trajectory(robot, bad, rosary)
+    bad = path.copy()
+    bad[0] += 1.0
+    with pytest.raises(ValueError, match=r"`path\[0\]`"):
+        make_trajectory(robot, bad, rosary)
+    with pytest.raises(ValueError, match="`rosary` must be a Rosary"):
+        make_trajectory(robot, path, None)
+    with pytest.raises(ValueError, match="`robot` must be a RobotModel"):
+        make_trajectory("robot", path, rosary)
+    with pytest.raises(ValueError, match="`dt`"):
+        make_trajectory(robot, path, rosary, dt=0.0)
+    with pytest.raises(ValueError, match="`limits` must be a JointLimits"):
+        make_trajectory(robot, path, rosary, limits={"hinge_velocity": 1})
+    with pytest.raises(ValueError, match="`hinge_velocity`"):
+        JointLimits(hinge_velocity=-1.0)
+    with pytest.raises(ValueError, match="`slide_acceleration`"):
+        JointLimits(slide_acceleration=float("inf"))
+    with pytest.raises(ValueError, match=r"`per_joint\['knee_flexion'\]`"):
+        JointLimits(per_joint={"knee_flexion": (1.0, 0.0)})
+    with pytest.raises(ValueError, match="unknown joints"):
+        make_trajectory(robot, path, rosary, JointLimits(per_joint={"ankle": (1.0, 1.0)}))
+    same = Rosary(np.array([Q_INIT]), np.array([0.08]), np.array(Q_INIT), np.array(Q_INIT))
+    with pytest.raises(ValueError, match="zero length"):
+        make_trajectory(robot, same.path(np.empty((0, 3))), same)
+
+
+def test_trajectory_dataclass_validates_its_fields():
+    t = np.arange(3) * 0.1
+    q = np.zeros((3, 2))
+    with pytest.raises(ValueError, match="`times`"):
+        Trajectory(times=t[::-1], q=q, qpos=q, joint_names=("a", "b"))
+    with pytest.raises(ValueError, match=r"`q` must have shape \(3, 2\)"):
+        Trajectory(times=t, q=q[:, :1], qpos=q, joint_names=("a", "b"))
+    with pytest.raises(ValueError, match="`qvel`"):
+        Trajectory(times=t, q=q, qpos=q, joint_names=("a", "b"), qvel=np.zeros((2, 2)))
+    with pytest.raises(ValueError, match="`qpos` must be finite"):
+        Trajectory(times=t, q=q, qpos=np.full((3, 2), np.nan), joint_names=("a", "b"))
+    with pytest.raises(ValueError, match="`qpos_index`"):
+        Trajectory(times=t, q=q, qpos=q, joint_names=("a", "b"), qpos_index=np.array([0, 5]))
+    tr = Trajectory(times=t, q=q, qpos=q, joint_names=["a", "b"])
+    assert tr.joint_names == ("a", "b") and tr.duration == pytest.approx(0.2)
+    with pytest.raises(ValueError, match="no `curve`"):
+        tr.evaluate(0.1)
