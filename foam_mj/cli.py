@@ -74,49 +74,131 @@ def _fmt_q(q) -> str:
     return "[" + ", ".join(f"{v:g}" for v in np.asarray(q)) + "]"
 
 
+def _summary_table(outcome) -> str:
+    """The per-path summary printed by ``plan`` and ``replay``."""
+    head = f"{'path':<27}{'length':>8}{'f':>8}{'TC':>8}{'SV':>8}{'min clear':>11}{'duration':>10}{'track err':>10}{'contacts':>9}{'time':>9}"
+    lines = [head, "-" * len(head)]
+    for po in outcome.paths.values():
+        m = po.metrics
+        clear = f"{po.kinematic.min_clearance * 1000:.1f} mm" if po.kinematic is not None else "-"
+        dur = f"{po.trajectory.duration:.2f} s" if po.trajectory is not None else "-"
+        err = f"{np.max(po.dynamic.max_error) * 1000:.2f}" if po.dynamic is not None else "-"
+        con = str(len(po.dynamic.contacts)) if po.dynamic is not None else "-"
+        lines.append(
+            f"{po.label:<27}{m.length:>8.4f}{m.f:>8.4f}{m.tc:>8.4f}{m.sv:>8.4f}{clear:>11}{dur:>10}{err:>10}{con:>9}"
+            f"{po.result.wall_time * 1000:>7.0f} ms"
+        )
+    lines.append(
+        "min clear: smallest MuJoCo clearance along the replayed trajectory; track err: largest servo tracking "
+        "error under gravity (mrad for hinges, mm for the hip slide); contacts: leg/obstacle contacts in that replay."
+    )
+    return "\n".join(lines)
+
+
+def _record(path: Path, outcome=None, *, scenario=None, foam=None) -> None:
+    from foam_mj.recording import Recording
+
+    scenario = outcome.scenario if outcome is not None else scenario
+    robot = scenario.robot
+    with Recording(path, recording_id=f"foam-mj-{scenario.name}") as rec:
+        rec.log_scene(robot)
+        if outcome is None:
+            rec.log_foam(foam)
+            return
+        rec.log_foam(outcome.plan.foam, outcome.plan.rosary)
+        for name, po in outcome.paths.items():
+            rec.log_path(name, po.result.path)
+            if po.trajectory is not None:
+                rec.log_joint_trajectory(name, po.trajectory)
+            replay = po.dynamic if po.dynamic is not None else po.kinematic
+            if replay is not None:
+                rec.log_replay(name, robot, replay)
+            if name in ("hs", "ga") or len(po.result.history_best) > 1:
+                rec.log_convergence(name, po.result.history_best, po.result.history_mean)
+
+
 def cmd_plan(args: argparse.Namespace) -> int:
-    from foam_mj.foam import plan
+    from foam_mj.pipeline import parse_smoothers, run
+    from foam_mj.results import write_outcome, write_failure
     from foam_mj.scenarios import load_scenario
 
     json_out = _check_writable(args.json, "--json")
+    names = parse_smoothers(args.smoother)
     scenario = load_scenario(args.scene)
+    rrd = None if args.no_rrd else _check_writable(args.rrd or f"foam-mj-{scenario.name}.rrd", "--rrd")
+    if rrd is not None and rrd.suffix != ".rrd":
+        raise FoamError(f"--rrd output {rrd} must end in .rrd")
     seed = scenario.seed if args.seed is None else args.seed
-    oracle = scenario.oracle()
     progress = Progress()
     t0 = time.perf_counter()
     try:
-        result = plan(
-            oracle,
-            scenario.q_init,
-            scenario.q_goal,
-            scenario.params,
-            seed=seed,
-            progress=lambda st: progress(f"planning: {st.bubbles} bubbles, {st.elapsed:.1f} s"),
-        )
+        outcome = run(scenario, seed, names, replay=not args.no_replay, dynamic=not args.no_replay, report=progress)
     except PlanningFailed as exc:
         progress.done()
         print(f"foam-mj: planning failed: {exc}", file=sys.stderr)
+        if exc.foam is not None:
+            if rrd is not None:
+                _record(rrd, scenario=scenario, foam=exc.foam)
+                print(f"wrote the foam so far to {rrd}", file=sys.stderr)
+            if json_out is not None:
+                write_failure(json_out, scenario, exc, seed)
+                print(f"wrote {json_out}", file=sys.stderr)
         return EXIT_PLANNING_FAILED
     finally:
         progress.done()
-    from foam_mj.paths import metrics, min_clearance_along
-
-    rosary = result.rosary
-    centre = rosary.path(rosary.center_waypoints())
-    m = metrics(centre)
-    clearance = min_clearance_along(oracle.clearance, centre)
-    st = result.stats
-    print(f"scenario {scenario.name} (seed {seed}): {st.bubbles} bubbles in {st.elapsed:.3f} s "
-          f"({st.bubbles_per_second:,.0f} bubbles/s), rosary of {rosary.k} bubbles")
-    print(f"{'path':<10}{'length':>9}{'f':>9}{'TC':>8}{'SV':>8}{'min clearance':>15}")
-    print(f"{'centre':<10}{m.length:>9.4f}{m.f:>9.4f}{m.tc:>8.4f}{m.sv:>8.4f}{clearance * 1000:>12.1f} mm")
+    st = outcome.plan.stats
+    print(
+        f"scenario {scenario.name} (seed {seed}): {st.bubbles:,} bubbles in {st.elapsed:.3f} s "
+        f"({st.bubbles_per_second:,.0f} bubbles/s), rosary of {outcome.plan.rosary.k} bubbles, margin {scenario.params.delta * 1000:g} mm"
+    )
+    print(_summary_table(outcome))
+    if rrd is not None:
+        progress("recording")
+        _record(rrd, outcome)
+        progress.done()
+        print(f"wrote {rrd} (view it with: foam-mj view {rrd})")
     if json_out is not None:
-        from foam_mj.results import write_result
-
-        write_result(json_out, scenario, result, {"centre": centre}, seed=seed)
+        write_outcome(json_out, outcome)
         print(f"wrote {json_out}")
     print(f"total {time.perf_counter() - t0:.2f} s")
     return EXIT_OK
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from foam_mj.results import outcome_from_result, read_result
+
+    rrd = _check_writable(args.rrd, "--rrd")
+    doc = read_result(args.result)
+    outcome = outcome_from_result(doc, args.result, dynamic=not args.kinematic_only)
+    print(f"replayed {len(outcome.paths)} path(s) of {args.result} on {doc['mjcf']}")
+    print(_summary_table(outcome))
+    if rrd is not None:
+        _record(rrd, outcome)
+        print(f"wrote {rrd}")
+    return EXIT_OK
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    import shutil
+    import subprocess
+
+    p = Path(args.recording)
+    if not p.is_file():
+        raise FoamError(f"recording not found: {p}")
+    if p.suffix != ".rrd":
+        raise FoamError(f"{p} is not a Rerun recording (.rrd)")
+    viewer = Path(sys.executable).with_name("rerun")
+    exe = str(viewer) if viewer.exists() else shutil.which("rerun")
+    if exe is None:
+        raise FoamError("the Rerun viewer ('rerun', shipped with rerun-sdk) was not found on PATH")
+    return subprocess.call([exe, str(p)])
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from foam_mj.benchmark import main as bench_main
+
+    rest = [a for a in args.bench_args if a != "--"] if args.bench_args[:1] == ["--"] else args.bench_args
+    return bench_main(rest)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -129,16 +211,44 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
     p = sub.add_parser("scenes", help="list the built-in scenarios", description="List the built-in scenarios: name, what it is, start and goal.")
     p.set_defaults(func=cmd_scenes)
-    p = sub.add_parser("plan", help="plan, smooth, replay and record", description="Plan a path with the Probabilistic Foam Method.")
+    p = sub.add_parser(
+        "plan",
+        help="plan, smooth, replay and record",
+        description="Plan a path with the Probabilistic Foam Method, smooth it, turn every path into a joint "
+        "trajectory, replay it on the simulated leg (kinematically and under gravity), print a summary and "
+        "write a Rerun recording.",
+        epilog="Exit codes: 0 success, 2 bad input, 3 planning failed (the foam so far is still written).",
+    )
     p.add_argument("--scene", default="obstacle", help="a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: obstacle)")
-    p.add_argument("--seed", type=int, default=None, help="random seed (default: the scenario's)")
+    p.add_argument("--smoother", default="all", help="none, hs, ga, gradient, adjust, convex or all, or a comma-separated list (default: all)")
+    p.add_argument("--seed", type=int, default=None, help="random seed of the planner and smoothers (default: the scenario's)")
+    p.add_argument("--rrd", metavar="OUT.rrd", help="where to write the Rerun recording (default: foam-mj-<scenario>.rrd)")
+    p.add_argument("--no-rrd", action="store_true", help="write no recording")
     p.add_argument("--json", metavar="OUT.json", help="write the result as JSON (readable by shared/tools/verify_result.py)")
+    p.add_argument("--no-replay", action="store_true", help="skip trajectories and replays (paths only)")
     p.set_defaults(func=cmd_plan)
+    p = sub.add_parser("replay", help="replay a saved result", description="Rebuild the joint trajectories of a `plan --json` result and replay them on the scene it names.")
+    p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
+    p.add_argument("--rrd", metavar="OUT.rrd", help="write a Rerun recording of the replay")
+    p.add_argument("--kinematic-only", action="store_true", help="skip the dynamic (servo) replay")
+    p.set_defaults(func=cmd_replay)
+    p = sub.add_parser("view", help="open a recording in the Rerun viewer", description="Open a .rrd recording in the Rerun viewer (shipped with rerun-sdk).")
+    p.add_argument("recording", help="a .rrd file")
+    p.set_defaults(func=cmd_view)
+    p = sub.add_parser("bench", help="run the smoothing benchmark", description="The smoothing benchmark (HS and GA runs, the thesis's methods, the convex reference); every argument is passed on to it (see `foam-mj bench --help`).", add_help=False)
+    p.add_argument("bench_args", nargs=argparse.REMAINDER, help="arguments for the benchmark, e.g. --quick")
+    p.set_defaults(func=cmd_bench)
+    from foam_mj.figures import add_figures_parser
+
+    add_figures_parser(sub)  # foam-mj figures RESULT.json DIR [--format png svg pdf] [--paths ...] [--dpi N]
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["bench"]:  # everything after `bench` belongs to the benchmark's own parser
+        argv = ["bench", "--", *argv[1:]] if len(argv) > 1 else argv
     args = parser.parse_args(argv)
     try:
         return args.func(args)

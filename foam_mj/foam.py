@@ -186,8 +186,7 @@ class CoverageIndex:
         if self.n > self._n_tree:
             c = self._c[self._n_tree : self.n]
             r = self._r[self._n_tree : self.n]
-            d2 = np.sum((points[:, None, :] - c[None, :, :]) ** 2, axis=2)
-            inside = d2 < r[None, :] ** 2
+            inside = _pairwise_sq_dist(points, c) < r[None, :] ** 2
             own = exclude - self._n_tree
             rows = np.flatnonzero((own >= 0) & (own < len(r)))
             inside[rows, own[rows]] = False
@@ -202,6 +201,12 @@ REBUILD_FRACTION = 16
 
 #: Candidates drawn per batch of parents (one clearance call); bounds memory and latency only.
 MAX_BATCH_CANDIDATES = 2048
+
+
+def _pairwise_sq_dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """|a_i - b_j|^2 for all pairs, through one matrix product (|a|^2 + |b|^2 - 2 a.b, clipped at 0)."""
+    d2 = np.einsum("ij,ij->i", a, a)[:, None] + np.einsum("ij,ij->i", b, b)[None, :] - 2.0 * (a @ b.T)
+    return np.maximum(d2, 0.0)
 
 
 def _unit_sphere(rng: np.random.Generator, count: int, dim: int) -> np.ndarray:
@@ -325,8 +330,7 @@ def plan(
         if len(cand) == 0:
             continue
         # Candidates of this batch covered by a bubble accepted earlier in the same batch are dropped.
-        d2 = np.sum((cand[:, None, :] - cand[None, :, :]) ** 2, axis=2)
-        inside = d2 < r[None, :] ** 2  # inside[i, j]: candidate i lies in candidate j's bubble
+        inside = _pairwise_sq_dist(cand, cand) < r[None, :] ** 2  # inside[i, j]: candidate i lies in candidate j's bubble
         reach = np.sum((cand - q_goal) ** 2, axis=1) <= (r + MEMBERSHIP_TOL) ** 2
         rows, cols = np.nonzero(np.tril(inside, -1))  # pairs (i, j), j < i, sorted by i
         acc = [True] * len(cand)

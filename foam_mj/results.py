@@ -1,27 +1,37 @@
-"""The JSON result of ``foam-mj plan --json``: enough to check it independently with MuJoCo alone.
+"""The JSON result of ``foam-mj plan --json``: enough to check it independently with MuJoCo alone
+(``shared/tools/verify_result.py`` reads "mjcf" and every path's "qpos") and to replay it later.
 
 Layout (format "foam-mj/result", version 1)::
 
     {
       "format": "foam-mj/result", "version": 1,
       "scenario": "obstacle", "scenario_file": "/abs/path/obstacle.toml",
-      "mjcf": "/abs/path/to/scene.xml",              # the compiled scene; verify_result.py reads this
-      "qpos_joints": ["hip_displacement", ...],       # names of the qpos entries, in qpos order
+      "mjcf": "/abs/path/to/scene.xml",               # the compiled scene
+      "qpos_joints": ["hip_displacement", ...],        # names of the qpos entries, in qpos order
       "configuration": {"joints": [...], "lower": [...], "upper": [...]},
       "q_init": [...], "q_goal": [...], "seed": 0,
-      "planner": {"K": 10, "r_min": 0.07, ...},
+      "planner": {"K": 10, "r_min": 0.07, "delta": 0.005, ...},
+      "outcome": "reached" | "queue empty" | "bubble budget" | "time budget",
       "foam": {"stats": {...}, "centers": [[...], ...], "radii": [...], "parents": [...]},   # every bubble
       "rosary": {"centers": [[...], ...], "radii": [...], "bubble_ids": [...]},
       "paths": {
-        "centre": {"waypoints": [[q], ...],          # configuration-space polyline
-                   "qpos": [[qpos], ...],             # joint trajectory rows (MuJoCo qpos)
-                   "times": [...],                    # seconds, one per qpos row (when time-parametrized)
-                   "metrics": {"length": ..., "f": ..., "tc": ..., "sv": ..., ...},
-                   "convergence": {"best": [...], "mean": [...]}},   # smoothers that iterate
-
-        ...
+        "<name>": {
+          "label": "centre (T)",
+          "waypoints": [[q], ...],                     # the configuration-space polyline [q_init, ..., q_goal]
+          "rosary": {"centers": ..., "radii": ...},     # the rosary whose hatches hold the waypoints
+          "qpos": [[qpos], ...],                        # the joint trajectory, rows of MuJoCo qpos
+          "times": [...],                               # seconds, one per qpos row
+          "metrics": {"length", "angle_term", "f", "tc", "sv", "n_points"},
+          "smoother": {"method", "iterations", "evaluations", "wall_time", "stop_reason", ...},
+          "convergence": {"best": [...], "mean": [...]},      # objective per iteration
+          "replay": {"min_clearance": ..., "duration": ..., "max_error": [...], "rms_error": [...],
+                     "contacts": N, "joints": [...]}
+        }, ...
       }
     }
+
+When ``plan`` has no time-parametrized trajectory (``--no-replay``), "qpos" holds the waypoints'
+qpos rows (a polyline in qpos, which is affine in q) and "times" is absent.
 """
 
 from __future__ import annotations
@@ -33,7 +43,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from foam_mj.paths import metrics
+from foam_mj.errors import FoamError
 
 FORMAT = "foam-mj/result"
 VERSION = 1
@@ -42,30 +52,22 @@ VERSION = 1
 def _qpos_names(m: mujoco.MjModel) -> list[str]:
     names = [""] * m.nq
     for j in range(m.njnt):
-        adr = int(m.jnt_qposadr[j])
-        names[adr] = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
+        names[int(m.jnt_qposadr[j])] = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
     return names
 
 
-def result_dict(scenario, plan_result, paths: dict[str, Any], seed: int, extra: dict | None = None) -> dict:
-    """Build the JSON document. ``paths`` maps a name to waypoints (m, n) or to a dict with at least
-    "waypoints" and optionally "qpos", "times" and "metrics"."""
+def _rosary_dict(ros) -> dict:
+    return {
+        "centers": ros.centers.tolist(),
+        "radii": ros.radii.tolist(),
+        "bubble_ids": None if ros.bubble_ids is None else np.asarray(ros.bubble_ids).tolist(),
+    }
+
+
+def _header(scenario, seed: int) -> dict:
     robot = scenario.robot
     cfg = robot.config
-    out_paths = {}
-    for name, p in paths.items():
-        entry = dict(p) if isinstance(p, dict) else {"waypoints": p}
-        w = np.asarray(entry["waypoints"], dtype=float)
-        entry["waypoints"] = w.tolist()
-        if "qpos" not in entry:
-            entry["qpos"] = cfg.to_qpos(w).tolist()
-        else:
-            entry["qpos"] = np.asarray(entry["qpos"], dtype=float).tolist()
-        if "times" in entry:
-            entry["times"] = np.asarray(entry["times"], dtype=float).tolist()
-        entry.setdefault("metrics", metrics(w).as_dict())
-        out_paths[name] = entry
-    doc = {
+    return {
         "format": FORMAT,
         "version": VERSION,
         "scenario": scenario.name,
@@ -77,40 +79,80 @@ def result_dict(scenario, plan_result, paths: dict[str, Any], seed: int, extra: 
         "q_goal": np.asarray(scenario.q_goal).tolist(),
         "seed": int(seed),
         "planner": {k: getattr(scenario.params, k) for k in ("K", "r_min", "delta", "max_bubbles", "time_limit")},
-        "foam": None,
-        "rosary": None,
-        "paths": out_paths,
     }
-    if plan_result is not None:
-        foam = plan_result.foam
-        doc["foam"] = {
-            "stats": plan_result.stats.as_dict(),
-            "centers": foam.centers.tolist(),
-            "radii": foam.radii.tolist(),
-            "parents": foam.parents.tolist(),
+
+
+def _foam_dict(foam, stats) -> dict:
+    return {
+        "stats": stats.as_dict(),
+        "centers": foam.centers.tolist(),
+        "radii": foam.radii.tolist(),
+        "parents": foam.parents.tolist(),
+    }
+
+
+def outcome_dict(outcome) -> dict:
+    """The JSON document of a :class:`foam_mj.pipeline.Outcome`."""
+    doc = _header(outcome.scenario, outcome.seed)
+    doc["outcome"] = outcome.plan.stats.outcome
+    doc["foam"] = _foam_dict(outcome.plan.foam, outcome.plan.stats)
+    doc["rosary"] = _rosary_dict(outcome.plan.rosary)
+    doc["timings"] = dict(outcome.timings)
+    cfg = outcome.scenario.robot.config
+    paths: dict[str, Any] = {}
+    for name, po in outcome.paths.items():
+        res = po.result
+        entry: dict[str, Any] = {
+            "label": po.label,
+            "waypoints": np.asarray(res.path).tolist(),
+            "rosary": _rosary_dict(res.rosary),
+            "metrics": po.metrics.as_dict(),
+            "smoother": {k: v for k, v in res.summary().items() if k not in ("f", "angle_term", "length", "tc", "sv")},
         }
-        ros = getattr(plan_result, "rosary", None)
-        if ros is not None:
-            doc["rosary"] = {
-                "centers": ros.centers.tolist(),
-                "radii": ros.radii.tolist(),
-                "bubble_ids": None if ros.bubble_ids is None else np.asarray(ros.bubble_ids).tolist(),
-            }
-    if extra:
-        doc.update(extra)
+        if po.trajectory is not None:
+            entry["qpos"] = po.trajectory.qpos.tolist()
+            entry["times"] = po.trajectory.times.tolist()
+        else:
+            entry["qpos"] = cfg.to_qpos(np.asarray(res.path)).tolist()
+        if len(res.history_best) > 1:
+            entry["convergence"] = {"best": np.asarray(res.history_best).tolist(), "mean": np.asarray(res.history_mean).tolist()}
+        if po.kinematic is not None:
+            rep: dict[str, Any] = {"min_clearance": po.kinematic.min_clearance, "duration": po.trajectory.duration}
+            if po.dynamic is not None:
+                rep.update(
+                    joints=list(po.dynamic.joint_names),
+                    max_error=po.dynamic.max_error.tolist(),
+                    rms_error=po.dynamic.rms_error.tolist(),
+                    contacts=len(po.dynamic.contacts),
+                    dynamic_min_clearance=po.dynamic.min_clearance,
+                )
+            entry["replay"] = rep
+        paths[name] = entry
+    doc["paths"] = paths
     return doc
 
 
-def write_result(path: str | Path, scenario, plan_result, paths: dict[str, Any], seed: int, extra: dict | None = None) -> Path:
+def write_outcome(path: str | Path, outcome) -> Path:
     p = Path(path)
-    p.write_text(json.dumps(result_dict(scenario, plan_result, paths, seed, extra), indent=1))
+    p.write_text(json.dumps(outcome_dict(outcome), indent=1))
+    return p
+
+
+def write_failure(path: str | Path, scenario, failure, seed: int) -> Path:
+    """What a failed plan has: the foam grown so far and its statistics, no paths."""
+    doc = _header(scenario, seed)
+    doc["outcome"] = failure.stats.outcome if failure.stats is not None else "failed"
+    doc["error"] = str(failure)
+    doc["foam"] = _foam_dict(failure.foam, failure.stats) if failure.foam is not None else None
+    doc["rosary"] = None
+    doc["paths"] = {}
+    p = Path(path)
+    p.write_text(json.dumps(doc, indent=1))
     return p
 
 
 def read_result(path: str | Path) -> dict:
     """Load and check a result file (format and the fields replay needs)."""
-    from foam_mj.errors import FoamError
-
     p = Path(path)
     try:
         doc = json.loads(p.read_text())
@@ -120,7 +162,70 @@ def read_result(path: str | Path) -> dict:
         raise FoamError(f"{p}: not a readable JSON result: {exc}") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise FoamError(f"{p}: not a foam-mj result (field 'format' should be '{FORMAT}')")
-    for key in ("mjcf", "paths"):
+    for key in ("mjcf", "paths", "q_init", "q_goal", "planner"):
         if key not in doc:
             raise FoamError(f"{p}: missing field '{key}'")
+    if not isinstance(doc["paths"], dict):
+        raise FoamError(f"{p}: field 'paths' must be an object")
+    for name, entry in doc["paths"].items():
+        for key in ("waypoints", "rosary"):
+            if not isinstance(entry, dict) or key not in entry:
+                raise FoamError(f"{p}: path '{name}' misses field '{key}'")
     return doc
+
+
+def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
+    """Rebuild trajectories from a result's waypoints and rosaries and replay them on its scene."""
+    from foam_mj.foam import Foam, FoamStats, PlanResult
+    from foam_mj.foam import FoamParams
+    from foam_mj.paths import metrics
+    from foam_mj.pipeline import Outcome, PathOutcome
+    from foam_mj.replay import replay_dynamic, replay_kinematic
+    from foam_mj.rosary import Rosary
+    from foam_mj.scenarios import Scenario
+    from foam_mj.smoothing import SmoothingResult
+    from foam_mj.trajectory import make_trajectory
+
+    try:
+        params = FoamParams(**doc["planner"])
+        scenario = Scenario(
+            doc.get("scenario", "result"), "", Path(doc["mjcf"]), np.asarray(doc["q_init"], float), np.asarray(doc["q_goal"], float), params, int(doc.get("seed", 0)), Path(source)
+        )
+        robot = scenario.robot
+        q_init, q_goal = scenario.q_init, scenario.q_goal
+        foam_doc = doc.get("foam") or {}
+        foam = Foam(
+            np.asarray(foam_doc.get("centers", [q_init]), float),
+            np.asarray(foam_doc.get("radii", [1.0]), float),
+            np.asarray(foam_doc.get("parents", [-1]), int),
+            q_init,
+            q_goal,
+        )
+        top = doc.get("rosary") or next(iter(doc["paths"].values()))["rosary"]
+        ros0 = Rosary(np.asarray(top["centers"], float), np.asarray(top["radii"], float), q_init, q_goal)
+        outcome = Outcome(scenario, scenario.seed, PlanResult(foam, ros0, FoamStats(bubbles=foam.size, outcome=doc.get("outcome", ""))))
+        for name, entry in doc["paths"].items():
+            rosary = Rosary(np.asarray(entry["rosary"]["centers"], float), np.asarray(entry["rosary"]["radii"], float), q_init, q_goal)
+            path = np.asarray(entry["waypoints"], float)
+            if path.ndim != 2 or path.shape[1] != robot.dim or len(path) != rosary.k + 1:
+                raise FoamError(f"{source}: path '{name}' has waypoints of shape {path.shape}, expected ({rosary.k + 1}, {robot.dim})")
+            if not rosary.all_in_hatches(path[1:-1], tol=1e-9):
+                raise FoamError(f"{source}: path '{name}' has waypoints outside its rosary's hatches: refusing to replay it")
+            conv = entry.get("convergence") or {}
+            res = SmoothingResult.build(
+                name, rosary, path[1:-1],
+                history_best=np.asarray(conv.get("best", [0.0]), float),
+                history_mean=np.asarray(conv["mean"], float) if "mean" in conv else None,
+                iterations=0, evaluations=0, wall_time=0.0, stop_reason="loaded",
+            )
+            po = PathOutcome(name, res, metrics(path))
+            po.trajectory = make_trajectory(robot, path, rosary)
+            po.kinematic = replay_kinematic(robot, po.trajectory)
+            if dynamic:
+                po.dynamic = replay_dynamic(robot, po.trajectory)
+            outcome.paths[name] = po
+        return outcome
+    except (KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, FoamError):
+            raise
+        raise FoamError(f"{source}: malformed result: {type(exc).__name__}: {exc}") from None

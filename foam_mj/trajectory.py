@@ -68,7 +68,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.ndimage import maximum_filter1d, uniform_filter1d
 
-from foam_mj.model import RobotModel
+from foam_mj.model import RobotModel, _custom_numeric
 from foam_mj.rosary import MEMBERSHIP_TOL, Rosary, in_ball
 
 #: Slack (configuration units) allowed when checking that a sample or control point lies in its bubble.
@@ -100,10 +100,16 @@ class TrajectoryError(RuntimeError):
 
 
 # -- limits ----------------------------------------------------------------------------------------------
+#: MJCF custom numeric holding a joint's "velocity acceleration" limits (joint units).
+LIMITS_PREFIX = "foam_mj:limits:"
+
+
 @dataclass(frozen=True)
 class JointLimits:
     """Velocity and acceleration limits in joint units: rad/s and rad/s^2 for hinges, m/s and m/s^2 for
-    slides. ``per_joint`` overrides them for named joints: ``{"knee_flexion": (4.0, 30.0)}``."""
+    slides. ``per_joint`` overrides them for named joints: ``{"knee_flexion": (4.0, 30.0)}``. Next come
+    the model's own limits, a custom numeric ``foam_mj:limits:<joint>`` = "velocity acceleration" in the
+    MJCF (the CloudWalker declares walking speeds there); the defaults below apply to the other joints."""
 
     hinge_velocity: float = 5.0
     hinge_acceleration: float = 50.0
@@ -132,8 +138,13 @@ class JointLimits:
             raise ValueError(f"`per_joint` names unknown joints {unknown}; configuration joints: {list(names)}")
         vel, acc = [], []
         for name, j in zip(names, robot.config.joint_ids):
+            declared = _custom_numeric(robot.model, LIMITS_PREFIX + name)
             if name in self.per_joint:
                 v, a = (float(x) for x in self.per_joint[name])
+            elif declared is not None:
+                if declared.size != 2 or not np.all(np.isfinite(declared) & (declared > 0)):
+                    raise ValueError(f"{robot.path}: '{LIMITS_PREFIX + name}' must hold 2 numbers > 0 (velocity acceleration)")
+                v, a = float(declared[0]), float(declared[1])
             elif int(robot.model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_SLIDE):
                 v, a = self.slide_velocity, self.slide_acceleration
             else:

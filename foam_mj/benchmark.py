@@ -1,0 +1,270 @@
+"""Benchmark of the path smoothers on the obstacle task (paper 000 Table 1, paper 003 section 5.1).
+
+On one fixed rosary (obstacle scene, q_init = [0.2 0.3 0.08], q_goal = [0.45 0.4536 1.45], K = 10,
+r_min = 0.07, planner seed 0) it runs HS and GA 50 times each with Table 1's stop criterion (no
+improvement of the population's mean f in 200 consecutive iterations, capped at 2 x 10^4), the
+thesis's paths T, T_CA, T_RA, T_RCA and the convex reference, and prints
+
+* Table 1's columns (time, f, iterations: mean, max, min, std) beside the paper's own figures;
+* per method: median time, time per iteration and speed-up over the paper's per-iteration time,
+  f, length, TC, SV (medians over runs), and the length gap to the convex optimum on the same rosary.
+
+The same goes to JSON (``--json PATH``). ``--quick`` does a few runs (for CI, well under a minute).
+The exit status is 1 if any returned path has a waypoint outside its hatch.
+
+    python benchmarks/smoothing.py [--runs 50] [--quick] [--json out/benchmarks/smoothing.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import time
+from dataclasses import replace
+from importlib.resources import files
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from foam_mj import paths
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.foam import FoamParams, plan
+from foam_mj.model import RobotModel
+from foam_mj.rosary import Rosary
+from foam_mj.smoothing import (
+    ConvexShortestPath,
+    GeneticAlgorithm,
+    GradientSmoothing,
+    HarmonySearch,
+    RosaryAdjustment,
+    SmoothingResult,
+    StopCriteria,
+    center_path_result,
+)
+
+Q_INIT = (0.2, 0.3, 0.08)
+Q_GOAL = (0.45, 0.4536, 1.45)
+FOAM = FoamParams(K=10, r_min=0.07, delta=0.005)
+PLANNER_SEED = 0
+DEFAULT_JSON = Path("out/benchmarks/smoothing.json")
+
+#: Paper 000 Table 1 (50 runs each; 1.8 GHz Core i7): (mean, max, min, std).
+PAPER_TABLE1 = {
+    "HS": {"time": (17.229, 23.432, 10.207, 4.0113), "f": (4.0198, 4.1505, 3.9115, 0.067772),
+           "iterations": (4206.3, 6385, 3034, 962.95)},
+    "GA": {"time": (27.112, 39.253, 16.7, 6.3739), "f": (3.9307, 3.985, 3.8576, 0.035699),
+           "iterations": (3718.6, 5510, 2287, 935.18)},
+}
+TABLE1_STOP = StopCriteria()  # stall 200 (Table 1), capped at 2 x 10^4 (paper 002's NI)
+
+
+class Progress:
+    """A plain-text progress bar on stderr (redrawn in place on a terminal, a line per 10% otherwise)."""
+
+    def __init__(self, total: int, width: int = 30) -> None:
+        self.total, self.done, self.width = max(total, 1), 0, width
+        self.tty = sys.stderr.isatty()
+        self._last_decile = -1
+        self.t0 = time.perf_counter()
+
+    def step(self, label: str) -> None:
+        self.done += 1
+        frac = self.done / self.total
+        bar = "#" * int(frac * self.width) + "." * (self.width - int(frac * self.width))
+        msg = f"[{bar}] {self.done}/{self.total} {time.perf_counter() - self.t0:6.1f}s {label}"
+        if self.tty:
+            sys.stderr.write("\r" + msg[:110].ljust(110))
+            if self.done == self.total:
+                sys.stderr.write("\n")
+        elif int(frac * 10) != self._last_decile or self.done == self.total:
+            self._last_decile = int(frac * 10)
+            sys.stderr.write(msg + "\n")
+        sys.stderr.flush()
+
+
+def stats(x) -> dict:
+    a = np.asarray(x, dtype=float)
+    return {"mean": float(a.mean()), "max": float(a.max()), "min": float(a.min()),
+            "std": float(a.std(ddof=1)) if a.size > 1 else 0.0, "median": float(np.median(a))}
+
+
+def obstacle_rosary() -> tuple[BubbleOracle, Rosary, float]:
+    robot = RobotModel.from_xml(files("foam_mj") / "models" / "obstacle.xml")
+    oracle = BubbleOracle(robot, delta=FOAM.delta)
+    res = plan(oracle, Q_INIT, Q_GOAL, FOAM, seed=PLANNER_SEED)
+    return oracle, res.rosary, res.stats.elapsed
+
+
+def run_benchmark(runs: int, quick: bool, progress: bool = True) -> dict:
+    oracle, rosary, plan_time = obstacle_rosary()
+    ga_stop = TABLE1_STOP
+    stochastic: dict[str, Callable[[int], SmoothingResult]] = {
+        "HS": lambda s: HarmonySearch(stop=TABLE1_STOP).smooth(rosary, seed=s),
+        "GA": lambda s: GeneticAlgorithm(stop=ga_stop).smooth(rosary, seed=s),
+    }
+    if not quick:
+        stochastic["GA (beta~U[0,1])"] = lambda s: GeneticAlgorithm(beta=None, stop=ga_stop).smooth(rosary, seed=s)
+    repeats = 1 if quick else 3  # deterministic methods: median time over repeats
+    deterministic = ["T", "T_CA", "T_RA", "T_RCA", "convex", "convex-smooth", "convex (adjusted rosary)"]
+    bar = Progress(runs * len(stochastic) + repeats * len(deterministic)) if progress else None
+
+    results: dict[str, list[SmoothingResult]] = {}
+    times: dict[str, list[float]] = {}
+    for name, fn in stochastic.items():
+        results[name] = []
+        for s in range(runs):
+            results[name].append(fn(s))
+            if bar:
+                bar.step(f"{name} run {s + 1}")
+        times[name] = [r.wall_time for r in results[name]]
+
+    adjustment = RosaryAdjustment(r_min=FOAM.r_min)
+    grad = GradientSmoothing()
+    adjusted = None
+    det_fns: dict[str, Callable[[], SmoothingResult]] = {
+        "T": lambda: center_path_result(rosary, "T"),
+        "T_CA": lambda: replace(grad.smooth(rosary), method="T_CA"),
+        "T_RA": lambda: adjustment.adjust(rosary, oracle).path,
+        "T_RCA": lambda: replace(grad.smooth(adjusted.rosary), method="T_RCA"),
+        "convex": lambda: ConvexShortestPath().smooth(rosary),
+        "convex-smooth": lambda: ConvexShortestPath(smoothness=10.0).smooth(rosary),
+        "convex (adjusted rosary)": lambda: ConvexShortestPath().smooth(adjusted.rosary),
+    }
+    for name in deterministic:
+        reps = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            r = det_fns[name]()
+            reps.append((r, time.perf_counter() - t0))
+            if name == "T_RA" and adjusted is None:
+                adjusted = r  # the first repetition's result: its rosary is the adjusted one reported
+            if bar:
+                bar.step(name)
+        results[name] = [reps[0][0]]
+        times[name] = [float(np.median([t for _, t in reps]))]
+
+    convex_len = {id(rosary): results["convex"][0].length,
+                  id(results["T_RA"][0].rosary): results["convex (adjusted rosary)"][0].length}
+
+    out: dict = {
+        "task": {"scene": "obstacle", "q_init": Q_INIT, "q_goal": Q_GOAL, "K": FOAM.K, "r_min": FOAM.r_min,
+                 "delta": FOAM.delta, "planner_seed": PLANNER_SEED, "bubbles_in_rosary": rosary.k,
+                 "planning_time": plan_time},
+        "stop_criterion": {"stall_iterations": TABLE1_STOP.stall_iterations,
+                           "max_iterations": TABLE1_STOP.max_iterations, "f_threshold": TABLE1_STOP.f_threshold},
+        "runs": runs,
+        "quick": quick,
+        "paper_table1": PAPER_TABLE1,
+        "environment": {"python": platform.python_version(), "numpy": np.__version__,
+                        "machine": platform.machine(), "processor": platform.processor() or platform.machine()},
+        "methods": {},
+        "hatch_violations": [],
+    }
+    for name, rs in results.items():
+        ok = [r.rosary.all_in_hatches(r.waypoints) for r in rs]
+        for i, good in enumerate(ok):
+            if not good:
+                out["hatch_violations"].append({"method": name, "run": i})
+        its = [r.iterations for r in rs]
+        tm = times[name]
+        per_it = [t / max(i, 1) for t, i in zip(tm, its)]
+        entry = {
+            "n": len(rs),
+            "time": stats(tm),
+            "f": stats([r.f for r in rs]),
+            "iterations": stats(its),
+            "evaluations": stats([r.evaluations for r in rs]),
+            "length": stats([r.length for r in rs]),
+            "angle_term": stats([r.angle_term for r in rs]),
+            "tc": stats([r.tc for r in rs]),
+            "sv": stats([r.sv for r in rs]),
+            "length_gap_to_convex": stats([r.length - convex_len[id(r.rosary)] for r in rs]),
+            "time_per_iteration": stats(per_it),
+            "stop_reasons": {k: int(v) for k, v in zip(*np.unique([r.stop_reason for r in rs], return_counts=True))},
+            "objective": rs[0].objective,
+            "all_in_hatches": bool(all(ok)),
+            "per_run": [r.summary() for r in rs],
+        }
+        paper_key = name.split(" ")[0]
+        if paper_key in PAPER_TABLE1 and name in ("HS", "GA"):
+            p = PAPER_TABLE1[paper_key]
+            paper_per_it = p["time"][0] / p["iterations"][0]
+            entry["speedup_per_iteration_vs_paper"] = paper_per_it / entry["time_per_iteration"]["median"]
+        out["methods"][name] = entry
+    out["centre_path"] = paths.metrics(rosary.path(rosary.center_waypoints())).as_dict()
+    return out
+
+
+def format_tables(res: dict) -> str:
+    lines = []
+    task = res["task"]
+    lines.append(
+        f"Obstacle rosary: {task['bubbles_in_rosary']} bubbles (K={task['K']}, r_min={task['r_min']}, "
+        f"planner seed {task['planner_seed']}); {res['runs']} runs per stochastic method; stop: no better "
+        f"population mean in {res['stop_criterion']['stall_iterations']} iterations, cap "
+        f"{res['stop_criterion']['max_iterations']}."
+    )
+    lines.append("")
+    lines.append("Table 1 (paper 000) columns: mean / max / min / std")
+    hdr = f"{'method':<26} {'time (s)':^36} {'f':^36} {'iterations':^36}"
+    lines.append(hdr)
+    lines.append("-" * len(hdr))
+
+    def four(t):
+        return " ".join(f"{v:8.5g}" if abs(v) < 1e5 else f"{v:8.3g}" for v in t)
+
+    for name, m in res["methods"].items():
+        row = [m[k] for k in ("time", "f", "iterations")]
+        lines.append(f"{name:<26} " + "  ".join(f"{four((s['mean'], s['max'], s['min'], s['std'])):<34}" for s in row))
+        if name in res["paper_table1"]:
+            p = res["paper_table1"][name]
+            cells = "  ".join(f"{four(p[k]):<34}" for k in ("time", "f", "iterations"))
+            lines.append(f"{'  paper 000 ' + name:<26} " + cells)
+    lines.append("")
+    lines.append("Paths (medians over runs); gap = length - convex optimum on the same rosary")
+    hdr2 = (f"{'method':<26} {'t_med (s)':>10} {'us/iter':>9} {'x paper':>8} {'f':>8} {'length':>8} "
+            f"{'TC':>7} {'SV':>8} {'gap':>9} {'gap %':>7}  stop")
+    lines.append(hdr2)
+    lines.append("-" * len(hdr2))
+    for name, m in res["methods"].items():
+        gap = m["length_gap_to_convex"]["median"]
+        conv = m["length"]["median"] - gap
+        speed = m.get("speedup_per_iteration_vs_paper")
+        per_it = f"{m['time_per_iteration']['median'] * 1e6:9.1f}" if m["iterations"]["median"] > 0 else f"{'-':>9}"
+        stops = ", ".join(f"{k}: {v}" for k, v in m["stop_reasons"].items())
+        lines.append(
+            f"{name:<26} {m['time']['median']:10.4f} {per_it} {('%7.0fx' % speed) if speed else '       -':>8} "
+            f"{m['f']['median']:8.4f} {m['length']['median']:8.4f} {m['tc']['median']:7.4f} {m['sv']['median']:8.4f} "
+            f"{gap:9.2e} {100 * gap / conv:6.2f}%  {stops}"
+        )
+    c = res["centre_path"]
+    lines.append("")
+    lines.append(f"Centre path T: f {c['f']:.4f}, length {c['length']:.4f}, TC {c['tc']:.4f}, SV {c['sv']:.4f}")
+    v = res["hatch_violations"]
+    lines.append("All waypoints in their hatches." if not v else f"HATCH VIOLATIONS: {v}")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=None, help="runs per stochastic method (default 50, --quick 3)")
+    ap.add_argument("--quick", action="store_true", help="a few runs, for CI")
+    ap.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"where to write the JSON (default {DEFAULT_JSON})")
+    ap.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    args = ap.parse_args(argv)
+    runs = args.runs if args.runs is not None else (3 if args.quick else 50)
+    if runs < 1:
+        ap.error(f"--runs must be >= 1, got {runs}")
+    res = run_benchmark(runs, args.quick, progress=not args.no_progress)
+    print(format_tables(res))
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(res, indent=1))
+    print(f"\nJSON written to {args.json}")
+    return 1 if res["hatch_violations"] else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,988 @@
+"""Publication figures from a ``foam-mj plan --json`` result (issue 9).
+
+:func:`write_figures` reads the JSON document (see :mod:`foam_mj.results` for its layout), loads its
+MJCF scene and writes, into one folder:
+
+``foam``         every bubble's centre in configuration space (3-D, sized and coloured by radius, the
+                 foam's tree drawn faintly), start and goal (paper 000 Fig. 7, paper 003 Fig. 8a);
+``rosary``       the rosary's bubbles (3-D wireframes and the three exact 2-D projections, where a ball
+                 projects onto a disc) with the paths it holds, each in its own colour (paper 000 Fig. 8,
+                 paper 003 Fig. 8b-d: T red, T_CA blue, T_RA magenta, T_RCA green; no rosary: ``paths``);
+``rosary_adjusted``  likewise for a path's own rosary when it differs from the planned one (the
+                 adjusted rosary of T_RA and T_RCA, paper 003 Fig. 8c; other rosaries: ``rosary_<path>``);
+``paths``        every path together without bubbles (paper 003 Fig. 8d), when the paths lie in
+                 different rosaries;
+``strobe``       robot poses at evenly spaced times along each path, one panel per path, drawn from the
+                 MJCF's own collision geoms projected onto the plane of motion (the sagittal x-z plane
+                 for the leg, paper 000 Fig. 9, paper 003 Figs. 9-10; top-down x-y for a planar mobile
+                 base, paper 003 Figs. 12f-13f), over the obstacles and the floor;
+``convergence``  best and population-mean f (paper 000 Eq. 5) per iteration of each metaheuristic (HS,
+                 GA, or any path whose "smoother" says its objective is "f"; paper 000 Figs. 10a and
+                 11a); only when such a path has ``convergence``;
+``joints``       joint positions and finite-difference velocities (``numpy.gradient`` over "times") in
+                 joint units, one row per configuration joint, one line per time-parametrized path;
+                 only when some path has ``times``;
+``map``          planar mobile bases only: top-down map with the walls, the foam's (x, y) footprint,
+                 the rosary and the paths (paper 003 Figs. 12-13).
+
+Geometry is MuJoCo's: every pose runs ``mj_kinematics`` and each geom is projected with its
+``geom_xpos``/``geom_xmat`` (:func:`strobe_geometry`): boxes become rectangles (the convex hull of
+their projected corners), capsules stadiums, spheres discs, cylinders/ellipsoids/meshes the hull of
+their projected surface points, and a plane a line (the floor, at its height).
+
+matplotlib is optional (``pip install 'foam-mj[figures]'``). It is imported only when a figure is
+drawn, and only through its object-oriented API (``matplotlib.figure.Figure``): pyplot is never
+imported, no window is ever opened and the global backend is left alone.
+
+Command line: ``foam-mj figures RESULT.json OUT_DIR [--format png svg pdf]`` (:func:`main`,
+:func:`add_figures_parser`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable, Sequence
+
+import mujoco
+import numpy as np
+
+from foam_mj.errors import FoamError
+from foam_mj.model import RobotModel
+
+__all__ = [
+    "FORMATS",
+    "Shape",
+    "convex_hull",
+    "add_figures_parser",
+    "cmd_figures",
+    "main",
+    "path_style",
+    "robot_kind",
+    "strobe_geometry",
+    "write_figures",
+]
+
+FORMATS = ("png", "svg", "pdf")
+MISSING_MATPLOTLIB = "figures need matplotlib: pip install 'foam-mj[figures]'"
+DPI = 150
+N_POSES = 8  # poses per strobe panel
+
+# -- names, colours and labels ------------------------------------------------------------------------
+# Paper 003 Fig. 8d: T red, T_CA blue, T_RA magenta, T_RCA green. The result file names them after the
+# method ("centre", "gradient", "adjusted", "adjusted_gradient"); the thesis's own names work too.
+_THESIS = {
+    "centre": (r"$\mathcal{T}$ (rosary centres)", (0.85, 0.0, 0.0)),
+    "gradient": (r"$\mathcal{T}_{CA}$ (gradient smoothing)", (0.0, 0.2, 0.95)),
+    "adjusted": (r"$\mathcal{T}_{RA}$ (adjusted rosary)", (0.85, 0.0, 0.85)),
+    "adjusted_gradient": (r"$\mathcal{T}_{RCA}$ (adjusted + smoothed)", (0.0, 0.6, 0.0)),
+}
+_ALIASES = {"T": "centre", "center": "centre", "T_CA": "gradient", "T_RA": "adjusted", "T_RCA": "adjusted_gradient"}
+_OTHERS = {
+    "hs": ("HS (harmony search)", (1.0, 0.55, 0.0)),
+    "ga": ("GA (genetic algorithm)", (0.0, 0.7, 0.8)),
+    "convex": ("convex (shortest through hatches)", (0.3, 0.3, 0.3)),
+}
+_FALLBACK_COLOURS = [(0.58, 0.4, 0.74), (0.55, 0.34, 0.29), (0.74, 0.74, 0.13), (0.5, 0.5, 0.5), (0.09, 0.75, 0.81)]
+_ORDER = ["centre", "gradient", "adjusted", "adjusted_gradient", "hs", "ga", "convex"]
+
+# Symbols of the papers' configuration coordinates (paper 003, section 5.1).
+_SYMBOLS = {"hip_flexion": r"\theta_h", "knee_flexion": r"\theta_k", "hip_displacement": r"\theta_q"}
+_START_STYLE = dict(marker="o", color="black", markersize=7, markeredgecolor="white", linestyle="none")
+_GOAL_STYLE = dict(marker="*", color="black", markersize=12, markeredgecolor="white", linestyle="none")
+_OBSTACLE_FACE = (0.80, 0.62, 0.25)
+_OBSTACLE_EDGE = (0.45, 0.32, 0.1)
+
+
+def path_style(name: str, index: int = 0) -> tuple[str, tuple[float, float, float]]:
+    """(legend label, RGB colour) of a path: the thesis's colours for T, T_CA, T_RA, T_RCA."""
+    key = _ALIASES.get(name, name)
+    if key in _THESIS:
+        return _THESIS[key]
+    if key in _OTHERS:
+        return _OTHERS[key]
+    return name.replace("_", " "), _FALLBACK_COLOURS[index % len(_FALLBACK_COLOURS)]
+
+
+def _order_paths(names: Iterable[str]) -> list[str]:
+    names = list(names)
+    rank = {n: i for i, n in enumerate(_ORDER)}
+    return sorted(names, key=lambda n: (rank.get(_ALIASES.get(n, n), len(rank)), names.index(n)))
+
+
+# -- matplotlib, imported on demand ---------------------------------------------------------------------
+def _matplotlib():
+    """The matplotlib modules used here, or FoamError when matplotlib is not installed."""
+    try:
+        import matplotlib
+        from matplotlib import collections, patches
+        from matplotlib.figure import Figure
+        from mpl_toolkits.mplot3d import art3d  # noqa: F401  (registers the "3d" projection)
+    except ImportError:
+        raise FoamError(MISSING_MATPLOTLIB) from None
+    return matplotlib, Figure, patches, collections, art3d
+
+
+_RC = {
+    "font.size": 9,
+    "axes.titlesize": 10,
+    "axes.labelsize": 9,
+    "legend.fontsize": 8,
+    "xtick.labelsize": 8,
+    "ytick.labelsize": 8,
+    "pdf.fonttype": 42,  # TrueType in PDFs (editable text, accepted by publishers)
+    "svg.hashsalt": "foam-mj",  # reproducible SVG ids
+    "savefig.dpi": DPI,
+    "figure.constrained_layout.h_pad": 0.07,  # inches of margin around the figure's content
+    "figure.constrained_layout.w_pad": 0.07,
+}
+
+
+# -- geometry -----------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Shape:
+    """One geom projected onto a plane: ``outline`` is a convex polygon (counter-clockwise, not closed)
+    in the plane's two coordinates (metres), or for a plane geom the two ends of a line.
+
+    ``kind`` is MuJoCo's geom type ("box", "capsule", "sphere", "cylinder", "ellipsoid", "mesh",
+    "plane"); ``role`` is "robot" or "obstacle" (:class:`~foam_mj.model.RobotModel`'s split); ``centre``
+    the projected ``geom_xpos``; for capsules ``ends`` holds the projected segment and ``radius`` the
+    capsule's radius.
+    """
+
+    name: str
+    geom: int
+    kind: str
+    role: str
+    outline: np.ndarray
+    centre: np.ndarray
+    rgba: tuple[float, float, float, float]
+    ends: np.ndarray | None = None
+    radius: float | None = None
+
+
+_PLANES = {"xz": (0, 2), "xy": (0, 1), "yz": (1, 2)}
+_GEOM_KIND = {
+    int(mujoco.mjtGeom.mjGEOM_PLANE): "plane",
+    int(mujoco.mjtGeom.mjGEOM_SPHERE): "sphere",
+    int(mujoco.mjtGeom.mjGEOM_CAPSULE): "capsule",
+    int(mujoco.mjtGeom.mjGEOM_ELLIPSOID): "ellipsoid",
+    int(mujoco.mjtGeom.mjGEOM_CYLINDER): "cylinder",
+    int(mujoco.mjtGeom.mjGEOM_BOX): "box",
+    int(mujoco.mjtGeom.mjGEOM_MESH): "mesh",
+}
+_ARC = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """Counter-clockwise convex hull of 2-D points (Andrew's monotone chain), without repeated or
+    collinear vertices."""
+    p = np.unique(np.round(np.asarray(points, dtype=float), 12), axis=0)
+    if len(p) <= 2:
+        return p
+    pts = sorted(map(tuple, p))
+
+    def half(seq):
+        out: list = []
+        for q in seq:
+            while len(out) >= 2 and (out[-1][0] - out[-2][0]) * (q[1] - out[-2][1]) - (out[-1][1] - out[-2][1]) * (q[0] - out[-2][0]) <= 1e-15:
+                out.pop()
+            out.append(q)
+        return out
+
+    lower, upper = half(pts), half(reversed(pts))
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _stadium(a: np.ndarray, b: np.ndarray, r: float, n: int = 24) -> np.ndarray:
+    """The outline of the points within r of segment ab (a capsule's projection): two half circles
+    joined by tangents, counter-clockwise; every vertex lies exactly r from the segment."""
+    d = b - a
+    if np.linalg.norm(d) < 1e-12:  # seen end-on: a disc
+        return a + r * np.column_stack([np.cos(_ARC), np.sin(_ARC)])
+    phi = np.arctan2(d[1], d[0])
+    t = np.linspace(-np.pi / 2, np.pi / 2, n + 1)
+    arc_b = b + r * np.column_stack([np.cos(phi + t), np.sin(phi + t)])
+    arc_a = a + r * np.column_stack([np.cos(phi + np.pi + t), np.sin(phi + np.pi + t)])
+    return np.vstack([arc_b, arc_a])
+
+
+def robot_kind(robot: RobotModel) -> str:
+    """"planar_base" for a mobile base moving in the floor plane (configuration joints that slide along
+    world x and y, or hinges about z and none about y: the walker), "sagittal" otherwise (a leg whose
+    hinges turn about y and which moves in the x-z plane)."""
+    m = robot.model
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    slides, hinges = [], []
+    for j in robot.config.joint_ids:
+        axis = np.abs(np.asarray(d.xaxis[j]))
+        if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_SLIDE):
+            slides.append(int(np.argmax(axis)) if axis.max() > 0.99 else -1)
+        else:
+            hinges.append(int(np.argmax(axis)) if axis.max() > 0.99 else -1)
+    if (0 in slides and 1 in slides) or (2 in hinges and 1 not in hinges):
+        return "planar_base"
+    return "sagittal"
+
+
+def _default_plane(robot: RobotModel) -> str:
+    return "xy" if robot_kind(robot) == "planar_base" else "xz"
+
+
+def _project_geom(m: mujoco.MjModel, d: mujoco.MjData, g: int, axes: tuple[int, int], role: str) -> Shape | None:
+    kind = _GEOM_KIND.get(int(m.geom_type[g]))
+    if kind is None:  # height fields, SDFs: not drawn
+        return None
+    pos = np.array(d.geom_xpos[g])
+    R = np.array(d.geom_xmat[g]).reshape(3, 3)  # columns: the geom's axes in the world frame
+    size = np.array(m.geom_size[g])
+    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}"
+    rgba = tuple(float(v) for v in m.geom_rgba[g])
+    i, k = axes
+    centre = pos[[i, k]]
+    ends = radius = None
+    if kind == "plane":
+        normal = R[:, 2]
+        if abs(normal[i]) < 1e-9 and abs(normal[k]) < 1e-9:
+            return None  # the plane of the drawing itself (the floor seen from above)
+        direction = np.array([normal[k], -normal[i]])
+        direction /= np.linalg.norm(direction)
+        half = float(size[0]) if size[0] > 0 else 50.0
+        outline = np.array([centre - half * direction, centre + half * direction])
+        return Shape(name, g, kind, role, outline, centre, rgba)
+    if kind == "box":
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+        pts3 = pos + (signs * size) @ R.T
+    elif kind in ("capsule", "sphere"):
+        r = float(size[0])
+        half = float(size[1]) if kind == "capsule" else 0.0
+        seg = np.array([pos - half * R[:, 2], pos + half * R[:, 2]])[:, [i, k]]
+        outline = _stadium(seg[0], seg[1], r)
+        if kind == "capsule":
+            ends, radius = seg, r
+        else:
+            radius = r
+        return Shape(name, g, kind, role, outline, centre, rgba, ends, radius)
+    elif kind == "cylinder":
+        r, half = float(size[0]), float(size[1])
+        rim = r * (np.outer(np.cos(_ARC), R[:, 0]) + np.outer(np.sin(_ARC), R[:, 1]))
+        pts3 = np.vstack([pos + half * R[:, 2] + rim, pos - half * R[:, 2] + rim])
+    elif kind == "ellipsoid":
+        u, v = np.meshgrid(_ARC, np.linspace(0.0, np.pi, 33))
+        unit = np.column_stack([(np.sin(v) * np.cos(u)).ravel(), (np.sin(v) * np.sin(u)).ravel(), np.cos(v).ravel()])
+        pts3 = pos + (unit * size) @ R.T
+    else:  # mesh: its vertices are in the geom's frame
+        mesh = int(m.geom_dataid[g])
+        adr, n = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
+        pts3 = pos + np.asarray(m.mesh_vert[adr : adr + n], dtype=float) @ R.T
+    return Shape(name, g, kind, role, convex_hull(pts3[:, [i, k]]), centre, rgba, ends, radius)
+
+
+def _shapes(robot: RobotModel, data: mujoco.MjData, qpos: np.ndarray, plane: str, which: str) -> list[Shape]:
+    if plane not in _PLANES:
+        raise FoamError(f"plane must be one of {sorted(_PLANES)}, got {plane!r}")
+    if which not in ("all", "robot", "obstacles"):
+        raise FoamError(f"which must be 'all', 'robot' or 'obstacles', got {which!r}")
+    m = robot.model
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(m, data)
+    geoms = []
+    if which in ("all", "robot"):
+        geoms += [(int(g), "robot") for g in robot.robot_geoms]
+    if which in ("all", "obstacles"):
+        geoms += [(int(g), "obstacle") for g in robot.obstacle_geoms]
+    out = []
+    for g, role in geoms:
+        s = _project_geom(m, data, g, _PLANES[plane], role)
+        if s is not None:
+            out.append(s)
+    return out
+
+
+def strobe_geometry(robot: RobotModel, q, plane: str | None = None, which: str = "all") -> list[Shape]:
+    """The robot's and the obstacles' collision geoms at configuration ``q`` (planner coordinates),
+    projected onto ``plane`` ("xz", "xy" or "yz"; default: "xz" for a leg, "xy" for a planar mobile
+    base), as :class:`Shape` s. ``which`` selects "all", "robot" or "obstacles" geoms.
+
+    Positions come from ``mj_kinematics`` (``geom_xpos``, ``geom_xmat``) on a private ``MjData``, so the
+    drawn outline of, for example, a box is exactly the convex hull of its eight corners projected."""
+    q = robot.validate(q, "q", check_bounds=False)
+    data = mujoco.MjData(robot.model)
+    return _shapes(robot, data, robot.config.to_qpos(q), plane or _default_plane(robot), which)
+
+
+def _bounds(shapes: Iterable[Shape]) -> np.ndarray | None:
+    pts = [s.outline for s in shapes if s.kind != "plane"]
+    if not pts:
+        return None
+    p = np.vstack(pts)
+    return np.array([p.min(axis=0), p.max(axis=0)])
+
+
+# -- reading the document -------------------------------------------------------------------------------
+@dataclass
+class _Path:
+    name: str
+    label: str
+    colour: tuple[float, float, float]
+    waypoints: np.ndarray | None  # (m, n) configuration coordinates
+    qpos: np.ndarray  # (T, nq)
+    times: np.ndarray | None
+    convergence: dict | None
+    metrics: dict
+    objective: str | None = None  # what "convergence" tracks ("f", "SV", "TC", "length"), when known
+    rosary: tuple[np.ndarray, np.ndarray] | None = None  # (centers, radii) of the rosary holding the path
+
+
+def _as_doc(doc) -> dict:
+    if isinstance(doc, (str, Path)):
+        from foam_mj.results import read_result
+
+        return read_result(doc)
+    if not isinstance(doc, dict):
+        raise FoamError(f"expected a result document (dict) or a path to one, got {type(doc).__name__}")
+    for key in ("mjcf", "paths", "q_init", "q_goal"):
+        if doc.get(key) is None:
+            raise FoamError(f"the result document has no field '{key}'")
+    return doc
+
+
+def _read_paths(doc: dict, robot: RobotModel, names: Sequence[str] | None) -> list[_Path]:
+    entries = doc.get("paths") or {}
+    if names is None:
+        names = _order_paths(entries)
+    else:
+        missing = [n for n in names if n not in entries]
+        if missing:
+            raise FoamError(f"no path named {missing} in the result (it has: {sorted(entries)})")
+    nq = robot.model.nq
+    out = []
+    for i, name in enumerate(names):
+        e = entries[name] or {}
+        w = np.asarray(e["waypoints"], dtype=float) if e.get("waypoints") is not None else None
+        if e.get("qpos") is not None:
+            qpos = np.asarray(e["qpos"], dtype=float)
+        elif w is not None:
+            qpos = robot.config.to_qpos(w)
+        else:
+            continue  # nothing to draw
+        if qpos.ndim != 2 or qpos.shape[1] != nq or len(qpos) < 1:
+            raise FoamError(f"path '{name}': qpos must have shape (T, {nq}) for this model, got {qpos.shape}")
+        if w is not None and (w.ndim != 2 or w.shape[1] != robot.dim):
+            raise FoamError(f"path '{name}': waypoints must have shape (m, {robot.dim}), got {w.shape}")
+        times = None
+        if e.get("times") is not None:
+            times = np.asarray(e["times"], dtype=float)
+            if times.shape != (len(qpos),):
+                raise FoamError(f"path '{name}': {len(times)} times for {len(qpos)} qpos rows")
+            if len(times) < 2 or not np.all(np.diff(times) > 0):
+                raise FoamError(f"path '{name}': times must increase")
+        conv = e.get("convergence")
+        if not (isinstance(conv, dict) and conv.get("best") is not None and len(conv["best"]) > 0):
+            conv = None
+        label, colour = path_style(name, i)
+        if name not in _ALIASES and _ALIASES.get(name, name) not in _THESIS and name not in _OTHERS and e.get("label"):
+            label = str(e["label"])
+        smoother = e.get("smoother") if isinstance(e.get("smoother"), dict) else {}
+        objective = smoother.get("objective") or (conv or {}).get("objective")
+        ros = _rosary_arrays(e.get("rosary"))
+        out.append(_Path(name, label, colour, w, qpos, times, conv, dict(e.get("metrics") or {}),
+                         None if objective is None else str(objective), ros))
+    return out
+
+
+def _rosary_arrays(ros) -> tuple[np.ndarray, np.ndarray] | None:
+    if not isinstance(ros, dict) or not ros.get("centers") or ros.get("radii") is None:
+        return None
+    c, r = np.asarray(ros["centers"], dtype=float), np.asarray(ros["radii"], dtype=float)
+    if c.ndim != 2 or r.shape != (len(c),):
+        raise FoamError(f"a rosary has {len(r)} radii for centers of shape {c.shape}")
+    return c, r
+
+
+def _same_rosary(a, b) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return a[0].shape == b[0].shape and np.allclose(a[0], b[0]) and np.allclose(a[1], b[1])
+
+
+def _rosary_groups(doc: dict, paths: list[_Path]) -> list[tuple[str, str, tuple | None, list[_Path]]]:
+    """(file stem, title, rosary, paths it holds): the planned rosary first, then each other rosary
+    (the adjusted one of T_RA and T_RCA), named after the first path that lies in it."""
+    main = _rosary_arrays(doc.get("rosary"))
+    groups: list[tuple[str, str, tuple | None, list[_Path]]] = [("rosary", "Rosary", main, []) if main is not None else ("paths", "Paths", None, [])]
+    for p in paths:
+        ros = p.rosary if p.rosary is not None else main
+        for g in groups:
+            if _same_rosary(g[2], ros):
+                g[3].append(p)
+                break
+        else:
+            if _ALIASES.get(p.name, p.name) in ("adjusted", "adjusted_gradient"):
+                stem, title = "rosary_adjusted", "Adjusted rosary"
+            else:
+                stem, title = f"rosary_{p.name}", f"Rosary of {p.label}"
+            if any(g[0] == stem for g in groups):
+                stem = f"rosary_{p.name}"
+            groups.append((stem, title, ros, [p]))
+    return [g for g in groups if g[2] is not None or g[3]]
+
+
+def _config_points(p: _Path, robot: RobotModel) -> np.ndarray:
+    """The path in configuration coordinates: its waypoints, or its qpos rows mapped back."""
+    return p.waypoints if p.waypoints is not None else robot.config.to_q(p.qpos)
+
+
+def _sample_qpos(p: _Path, robot: RobotModel, count: int) -> np.ndarray:
+    """``count`` qpos rows at evenly spaced times (by arc length in q when the path has no times)."""
+    if p.times is not None:
+        t = np.linspace(p.times[0], p.times[-1], count)
+        return np.column_stack([np.interp(t, p.times, p.qpos[:, c]) for c in range(p.qpos.shape[1])])
+    q = robot.config.to_q(p.qpos)
+    if len(q) == 1:
+        return np.repeat(p.qpos, count, axis=0)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
+    if s[-1] <= 0:
+        return np.repeat(p.qpos[:1], count, axis=0)
+    u = np.linspace(0.0, s[-1], count)
+    qs = np.column_stack([np.interp(u, s, q[:, c]) for c in range(q.shape[1])])
+    return robot.config.to_qpos(qs)
+
+
+def _coord_labels(robot: RobotModel) -> list[str]:
+    """Axis labels of the configuration coordinates, with units."""
+    m, cfg = robot.model, robot.config
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    labels = []
+    for name, j, s, o in zip(cfg.joint_names, cfg.joint_ids, cfg.scale, cfg.offset):
+        normalized = not (s == 1.0 and o == 0.0)
+        hinge = int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE)
+        if name in _SYMBOLS:
+            sym = f"${_SYMBOLS[name]}$"
+        else:
+            axis = np.abs(np.asarray(d.xaxis[j]))
+            if hinge:
+                sym = r"$\theta$" if axis.max() > 0.99 and np.argmax(axis) == 2 and robot_kind(robot) == "planar_base" else name.replace("_", " ")
+            else:
+                sym = "xyz"[int(np.argmax(axis))] if axis.max() > 0.99 and robot_kind(robot) == "planar_base" else name.replace("_", " ")
+        if normalized:  # the papers give the normalized hip displacement theta_q in rad
+            unit = "rad" if name in _SYMBOLS else "normalized"
+        else:
+            unit = "rad" if hinge else "m"
+        labels.append(f"{sym} [{unit}]")
+    return labels
+
+
+def _joint_labels(robot: RobotModel) -> list[tuple[str, str, str]]:
+    """(name, position unit, velocity unit) of each configuration joint, in joint units."""
+    m = robot.model
+    out = []
+    for name, j in zip(robot.config.joint_names, robot.config.joint_ids):
+        hinge = int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE)
+        nice = name.replace("_", " ")
+        if name in _SYMBOLS:
+            nice = f"{nice} (${_SYMBOLS[name]}$)" if hinge else nice
+        out.append((nice, "rad" if hinge else "m", "rad/s" if hinge else "m/s"))
+    return out
+
+
+# -- figures --------------------------------------------------------------------------------------------
+def _save(fig, out_dir: Path, stem: str, formats: Sequence[str], dpi: int) -> list[Path]:
+    written = []
+    for fmt in formats:
+        p = out_dir / f"{stem}.{fmt}"
+        meta = {"Creator": "foam-mj"} if fmt == "png" else {"Creator": "foam-mj", "Date": None}
+        fig.savefig(p, format=fmt, dpi=dpi, metadata=meta)  # constrained layout: nothing is cut off
+        written.append(p)
+    return written
+
+
+def _set_box_aspect_equal(ax, points: np.ndarray) -> None:
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    span = np.maximum(hi - lo, 1e-9)
+    pad = 0.04 * span.max()
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_zlim(lo[2] - pad, hi[2] + pad)
+    ax.set_box_aspect(tuple(span + 2 * pad))
+    from matplotlib.ticker import MaxNLocator
+
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(5))
+
+
+def _fig_foam(mpl, doc, labels) -> Any | None:
+    _, Figure, _, _, art3d = mpl
+    foam = doc.get("foam")
+    if not foam or not foam.get("centers"):
+        return None
+    c = np.asarray(foam["centers"], dtype=float)
+    r = np.asarray(foam["radii"], dtype=float)
+    q0, q1 = np.asarray(doc.get("q_init"), dtype=float), np.asarray(doc.get("q_goal"), dtype=float)
+    fig = Figure(figsize=(6.4, 5.4), layout="constrained")
+    if c.shape[1] != 3:
+        return _fig_foam_2d(mpl, fig, c, r, q0, q1, labels)
+    ax = fig.add_subplot(projection="3d")
+    parents = foam.get("parents")
+    if parents is not None:
+        par = np.asarray(parents, dtype=int)
+        ok = (par >= 0) & (par < len(c))
+        segs = np.stack([c[ok], c[par[ok]]], axis=1)
+        ax.add_collection3d(art3d.Line3DCollection(segs, colors=[(0.3, 0.3, 0.3, 0.18)], linewidths=0.4))
+    rmax = float(r.max()) if r.size else 1.0
+    sc = ax.scatter(c[:, 0], c[:, 1], c[:, 2], s=2 + 40 * (r / rmax) ** 2, c=r, cmap="viridis", alpha=0.75,
+                    linewidths=0, depthshade=False)
+    ax.plot(*q0, **_START_STYLE, label=r"$q_{init}$")
+    ax.plot(*q1, **_GOAL_STYLE, label=r"$q_{goal}$")
+    cb = fig.colorbar(sc, ax=ax, shrink=0.6, pad=0.08)
+    cb.set_label("bubble radius")
+    for setter, lab in zip((ax.set_xlabel, ax.set_ylabel, ax.set_zlabel), labels):
+        setter(lab)
+    _set_box_aspect_equal(ax, np.vstack([c, q0, q1]))
+    ax.view_init(elev=22, azim=-58)
+    st = foam.get("stats") or {}
+    extra = f" in {st['elapsed']:.2f} s" if isinstance(st.get("elapsed"), (int, float)) else ""
+    ax.set_title(f"Probabilistic foam: {len(c)} bubbles{extra}")
+    ax.legend(loc="upper left")
+    return fig
+
+
+def _fig_foam_2d(mpl, fig, c, r, q0, q1, labels):
+    """Configuration spaces that are not 3-D: the first two coordinates."""
+    _, _, patches, collections, _ = mpl
+    ax = fig.add_subplot()
+    circles = [patches.Circle(p[:2], rr) for p, rr in zip(c, r)]
+    ax.add_collection(collections.PatchCollection(circles, facecolor=(0.2, 0.5, 0.8, 0.08), edgecolor=(0.2, 0.4, 0.7, 0.4), linewidth=0.4))
+    ax.plot(*q0[:2], **_START_STYLE, label=r"$q_{init}$")
+    ax.plot(*q1[:2], **_GOAL_STYLE, label=r"$q_{goal}$")
+    ax.set_xlabel(labels[0])
+    if len(labels) > 1:
+        ax.set_ylabel(labels[1])
+    ax.autoscale_view()
+    ax.set_aspect("equal")
+    ax.set_title(f"Probabilistic foam: {len(c)} bubbles")
+    ax.legend()
+    return fig
+
+
+def _sphere_wires(centre: np.ndarray, radius: float) -> list[np.ndarray]:
+    t = np.linspace(0.0, 2 * np.pi, 37)
+    lines = []
+    for lon in np.linspace(0.0, np.pi, 4, endpoint=False):  # meridians
+        d = np.array([np.cos(lon), np.sin(lon), 0.0])
+        lines.append(centre + radius * (np.outer(np.cos(t), d) + np.outer(np.sin(t), [0.0, 0.0, 1.0])))
+    for lat in (-np.pi / 4, 0.0, np.pi / 4):  # parallels
+        rr, z = radius * np.cos(lat), radius * np.sin(lat)
+        lines.append(centre + np.column_stack([rr * np.cos(t), rr * np.sin(t), np.full_like(t, z)]))
+    return lines
+
+
+def _fig_rosary(mpl, doc, robot: RobotModel, paths: list[_Path], labels, rosary=None, title: str = "Rosary") -> Any | None:
+    """The rosary's bubbles (when given) and the paths: 3-D and the three 2-D projections."""
+    _, Figure, patches, collections, art3d = mpl
+    cr, rr = rosary if rosary is not None else (np.zeros((0, robot.dim)), np.zeros(0))
+    pts = [_config_points(p, robot) for p in paths]
+    if not len(cr) and not pts:
+        return None
+    q0, q1 = np.asarray(doc.get("q_init"), dtype=float), np.asarray(doc.get("q_goal"), dtype=float)
+    n = robot.dim
+    wire = (0.35, 0.35, 0.35, 0.35)
+    if n == 3:
+        fig = Figure(figsize=(10.0, 8.0), layout="constrained")
+        ax = fig.add_subplot(2, 2, 1, projection="3d")
+        lines = [ln for c, r in zip(cr, rr) for ln in _sphere_wires(c, r)]
+        if lines:
+            ax.add_collection3d(art3d.Line3DCollection(lines, colors=[wire], linewidths=0.5))
+        for p, w in zip(paths, pts):
+            ax.plot(w[:, 0], w[:, 1], w[:, 2], color=p.colour, linewidth=1.6, label=p.label)
+        ax.plot(*q0, **_START_STYLE)
+        ax.plot(*q1, **_GOAL_STYLE)
+        allp = np.vstack([q0, q1] + pts + [cr + rr[:, None], cr - rr[:, None]] if len(cr) else [q0, q1] + pts)
+        for setter, lab in zip((ax.set_xlabel, ax.set_ylabel, ax.set_zlabel), labels):
+            setter(lab)
+        _set_box_aspect_equal(ax, allp)
+        ax.view_init(elev=22, azim=-58)
+        ax.set_title(f"{title}: {len(cr)} bubbles" if len(cr) else title)
+        pairs, slots = [(0, 1), (0, 2), (1, 2)], [2, 3, 4]
+    else:
+        fig = Figure(figsize=(6.0, 5.0), layout="constrained")
+        pairs, slots = [(0, 1)] if n >= 2 else [], [1]
+    axes2 = []
+    for (a, b), slot in zip(pairs, slots):
+        ax2 = fig.add_subplot(2, 2, slot) if n == 3 else fig.add_subplot()
+        axes2.append(ax2)
+        if len(cr):
+            discs = [patches.Circle((c[a], c[b]), r) for c, r in zip(cr, rr)]
+            ax2.add_collection(collections.PatchCollection(discs, facecolor=(0.5, 0.5, 0.5, 0.10), edgecolor=wire, linewidth=0.6))
+        for p, w in zip(paths, pts):
+            ax2.plot(w[:, a], w[:, b], color=p.colour, linewidth=1.4, label=p.label)
+        ax2.plot(q0[a], q0[b], **_START_STYLE, label=r"$q_{init}$")
+        ax2.plot(q1[a], q1[b], **_GOAL_STYLE, label=r"$q_{goal}$")
+        ax2.set_xlabel(labels[a])
+        ax2.set_ylabel(labels[b])
+        ax2.autoscale_view()
+        ax2.set_aspect("equal", adjustable="box")
+        ax2.grid(True, linewidth=0.3, alpha=0.5)
+    if axes2:
+        handles, labs = axes2[0].get_legend_handles_labels()
+        if n == 3:
+            fig.legend(handles, labs, loc="outside lower center", ncol=min(3, len(labs)), frameon=False)
+        else:
+            axes2[0].legend()
+            axes2[0].set_title(f"{title}: {len(cr)} bubbles" if len(cr) else title)
+    return fig
+
+
+def _strobe_limits(plane: str, robot_boxes: list[np.ndarray], obstacle_box: np.ndarray | None, floor_levels: list[float]):
+    lo = np.min([b[0] for b in robot_boxes], axis=0)
+    hi = np.max([b[1] for b in robot_boxes], axis=0)
+    if plane == "xy" and obstacle_box is not None:  # a map: show all of it
+        lo, hi = np.minimum(lo, obstacle_box[0]), np.maximum(hi, obstacle_box[1])
+    elif obstacle_box is not None:  # a side view: the obstacles' tops and bottoms, where the robot is
+        lo[1], hi[1] = min(lo[1], obstacle_box[0][1]), max(hi[1], obstacle_box[1][1])
+    for z in floor_levels:
+        lo[1] = min(lo[1], z)
+    pad = 0.06 * float(np.max(hi - lo))
+    return lo - pad, hi + pad
+
+
+def _draw_obstacles(mpl, ax, shapes: list[Shape], lo=None, hi=None) -> None:
+    _, _, patches, _, _ = mpl
+    for s in shapes:
+        if s.kind == "plane":
+            a, b = s.outline
+            ax.plot([a[0], b[0]], [a[1], b[1]], color="black", linewidth=1.4, zorder=1, solid_capstyle="butt")
+            if lo is not None and abs(b[1] - a[1]) < 1e-12:  # hatch below a horizontal floor
+                ax.add_patch(patches.Rectangle((lo[0] - 1, a[1] - 1), hi[0] - lo[0] + 2, 1, facecolor="none",
+                                               edgecolor=(0.6, 0.6, 0.6), hatch="////", linewidth=0, zorder=0))
+        else:
+            ax.add_patch(patches.Polygon(s.outline, closed=True, facecolor=_OBSTACLE_FACE, edgecolor=_OBSTACLE_EDGE,
+                                         linewidth=0.8, zorder=2))
+
+
+def _fig_strobe(mpl, robot, paths: list[_Path], n_poses: int = N_POSES) -> Any | None:
+    _, Figure, patches, _, _ = mpl
+    if not paths:
+        return None
+    plane = _default_plane(robot)
+    data = mujoco.MjData(robot.model)
+    obstacles = _shapes(robot, data, robot.config.qpos0, plane, "obstacles")
+    floors = [float(s.outline[0][1]) for s in obstacles if s.kind == "plane" and abs(s.outline[1][1] - s.outline[0][1]) < 1e-12]
+    poses, traces, boxes = [], [], []
+    # The trace follows the robot geom farthest down the kinematic chain (the foot for the leg).
+    depth = lambda g: _body_depth(robot.model, int(robot.model.geom_bodyid[g]))  # noqa: E731
+    tip = max((int(g) for g in robot.robot_geoms), key=depth)
+    for p in paths:
+        rows = _sample_qpos(p, robot, n_poses)
+        shp = [_shapes(robot, data, row, plane, "robot") for row in rows]
+        poses.append(shp)
+        boxes += [b for b in (_bounds(s) for s in shp) if b is not None]
+        dense = _sample_qpos(p, robot, 200)
+        tr = []
+        for row in dense:
+            data.qpos[:] = row
+            mujoco.mj_kinematics(robot.model, data)
+            tr.append(np.array(data.geom_xpos[tip])[list(_PLANES[plane])])
+        traces.append(np.array(tr))
+    lo, hi = _strobe_limits(plane, boxes, _bounds(obstacles), floors)
+    ncol = min(len(paths), 4)
+    nrow = int(np.ceil(len(paths) / ncol))
+    w, h = hi - lo
+    panel_w = 3.6 if plane == "xz" else 4.2
+    timed = sum(p.times is not None for p in paths)
+    how = ("at evenly spaced times" if timed == len(paths) else "evenly spaced by arc length in q" if timed == 0
+           else "at evenly spaced times (untimed paths: by arc length in q)")
+    view = "sagittal plane" if plane == "xz" else "top view"
+    tip_body = int(robot.model.geom_bodyid[tip])
+    tipname = mujoco.mj_id2name(robot.model, mujoco.mjtObj.mjOBJ_BODY, tip_body) or "end body"
+    title = textwrap.fill(f"{n_poses} poses {how} ({view}); light = start, dark = goal; dashed: the {tipname} geom's centre",
+                          int(13 * panel_w * ncol))
+    # Room for the axes (equal aspect), the panel titles and axis labels, and the suptitle's lines.
+    height = max(2.0, panel_w * h / w) * nrow + 0.45 * nrow + 0.18 * (title.count("\n") + 1)
+    fig = Figure(figsize=(panel_w * ncol, height), layout="compressed")
+    axes = fig.subplots(nrow, ncol, squeeze=False, sharex=True, sharey=True)
+    for k, (p, shp, tr) in enumerate(zip(paths, poses, traces)):
+        ax = axes[k // ncol][k % ncol]
+        _draw_obstacles(mpl, ax, obstacles, lo, hi)
+        edge = tuple(np.array(p.colour) * 0.75)
+        for i, pose in enumerate(shp):
+            f = i / max(1, len(shp) - 1)  # 0 at the start, 1 at the goal
+            end = i in (0, len(shp) - 1)
+            for s in pose:
+                ax.add_patch(patches.Polygon(s.outline, closed=True, facecolor=(*p.colour, 0.05 + 0.25 * f),
+                                             edgecolor=(*edge, 0.35 + 0.65 * f), linewidth=1.2 if end else 0.7, zorder=3 + i))
+        ax.plot(tr[:, 0], tr[:, 1], color=p.colour, linewidth=1.0, linestyle="--", zorder=20)
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_aspect("equal")
+        dur = f", {p.times[-1] - p.times[0]:.2f} s" if p.times is not None else ""
+        ax.set_title(f"{p.label}{dur}", fontsize=9)
+        if k + ncol >= len(paths):  # nothing below this panel
+            ax.set_xlabel(f"{plane[0]} [m]")
+            ax.xaxis.set_tick_params(labelbottom=True)
+        if k % ncol == 0:
+            ax.set_ylabel(f"{plane[1]} [m]")
+        ax.grid(True, linewidth=0.3, alpha=0.4)
+    for k in range(len(paths), nrow * ncol):
+        axes[k // ncol][k % ncol].set_visible(False)
+    fig.suptitle(title, fontsize=9)
+    return fig
+
+
+def _body_depth(m: mujoco.MjModel, b: int) -> int:
+    n = 0
+    while b != 0:
+        b = int(m.body_parentid[b])
+        n += 1
+    return n
+
+
+def _is_metaheuristic(p: _Path) -> bool:
+    """A population method minimising f (paper 000 Eq. 5): HS, GA, or any path whose smoother says its
+    objective is "f". Gradient descent of SV and the rosary adjustment (TC) are not."""
+    if p.objective is not None:
+        return p.objective == "f"
+    return _ALIASES.get(p.name, p.name) not in _THESIS and p.name != "convex"
+
+
+def _fig_convergence(mpl, paths: list[_Path]) -> Any | None:
+    _, Figure, _, _, _ = mpl
+    conv = [p for p in paths if p.convergence is not None and _is_metaheuristic(p)]
+    if not conv:
+        return None
+    fig = Figure(figsize=(4.2 * len(conv), 3.2), layout="constrained")
+    axes = fig.subplots(1, len(conv), squeeze=False)[0]
+    for ax, p in zip(axes, conv):
+        best = np.asarray(p.convergence["best"], dtype=float)
+        it = np.arange(1, len(best) + 1)
+        ax.plot(it, best, color=p.colour, linewidth=1.4, label="best")
+        if p.convergence.get("mean") is not None and len(p.convergence["mean"]):
+            mean = np.asarray(p.convergence["mean"], dtype=float)
+            ax.plot(np.arange(1, len(mean) + 1), mean, color=p.colour, linewidth=1.0, linestyle="--", alpha=0.6, label="population mean")
+        ax.set_xlabel("iteration")
+        ax.set_ylabel("$f$ (paper 000, Eq. 5)")
+        ax.set_title(f"{p.label}: best {best[-1]:.4g}", fontsize=9)
+        ax.grid(True, linewidth=0.3, alpha=0.5)
+        ax.legend()
+    return fig
+
+
+def _fig_joints(mpl, robot: RobotModel, paths: list[_Path]) -> Any | None:
+    _, Figure, _, _, _ = mpl
+    timed = [p for p in paths if p.times is not None]
+    if not timed:
+        return None
+    cols = robot.config.qpos_index
+    names = _joint_labels(robot)
+    n = len(cols)
+    fig = Figure(figsize=(8.0, 1.9 * n + 0.8), layout="constrained")
+    axes = fig.subplots(n, 2, squeeze=False, sharex=True)
+    for p in timed:
+        t = p.times - p.times[0]
+        pos = p.qpos[:, cols]
+        vel = np.gradient(pos, p.times, axis=0) if len(t) > 2 else np.diff(pos, axis=0, prepend=pos[:1]) / max(t[-1], 1e-12)
+        for i in range(n):
+            axes[i][0].plot(t, pos[:, i], color=p.colour, linewidth=1.2, label=p.label)
+            axes[i][1].plot(t, vel[:, i], color=p.colour, linewidth=1.2, label=p.label)
+    for i, (nice, pu, vu) in enumerate(names):
+        axes[i][0].set_ylabel(f"{nice}\n[{pu}]")
+        axes[i][1].set_ylabel(f"velocity [{vu}]")
+        for ax in axes[i]:
+            ax.grid(True, linewidth=0.3, alpha=0.5)
+    axes[0][0].set_title("joint position")
+    axes[0][1].set_title("joint velocity (finite differences)")
+    axes[-1][0].set_xlabel("time [s]")
+    axes[-1][1].set_xlabel("time [s]")
+    handles, labs = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labs, loc="outside lower center", ncol=min(3, len(labs)), frameon=False)
+    return fig
+
+
+def _base_xy(robot: RobotModel) -> tuple[int, tuple[float, float]]:
+    """The body whose (x, y) is the mobile base's position, and the (x, y) scales of q -> world."""
+    m, cfg = robot.model, robot.config
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    body, sx, sy = 0, 1.0, 1.0
+    for j, s in zip(cfg.joint_ids, cfg.scale):
+        body = max(body, int(m.jnt_bodyid[j]), key=lambda b: _body_depth(m, b))
+        if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_SLIDE):
+            axis = np.abs(np.asarray(d.xaxis[j]))
+            if axis[0] > 0.99:
+                sx = abs(float(s))
+            elif axis[1] > 0.99:
+                sy = abs(float(s))
+    return body, (sx, sy)
+
+
+def _xy_of(robot: RobotModel, body: int, qpos_rows: np.ndarray) -> np.ndarray:
+    d = mujoco.MjData(robot.model)
+    out = np.empty((len(qpos_rows), 2))
+    for i, row in enumerate(qpos_rows):
+        d.qpos[:] = row
+        mujoco.mj_kinematics(robot.model, d)
+        out[i] = d.xpos[body][:2]
+    return out
+
+
+def _fig_map(mpl, doc, robot: RobotModel, paths: list[_Path]) -> Any | None:
+    """Planar mobile base: walls, the foam's (x, y) footprint, the rosary and the paths, from above."""
+    _, Figure, patches, collections, _ = mpl
+    body, (sx, sy) = _base_xy(robot)
+    cfg = robot.config
+    data = mujoco.MjData(robot.model)
+    walls = _shapes(robot, data, cfg.qpos0, "xy", "obstacles")
+    foam, ros = doc.get("foam"), doc.get("rosary")
+    q0, q1 = np.asarray(doc.get("q_init"), dtype=float), np.asarray(doc.get("q_goal"), dtype=float)
+    start, goal = _xy_of(robot, body, cfg.to_qpos(np.stack([q0, q1])))
+
+    def discs(key_doc, face, edge, lw):
+        if not key_doc or not key_doc.get("centers"):
+            return None, np.zeros((0, 2))
+        c = np.asarray(key_doc["centers"], dtype=float)
+        r = np.asarray(key_doc["radii"], dtype=float)
+        xy = _xy_of(robot, body, cfg.to_qpos(c))
+        ps = [patches.Ellipse(p, 2 * rr * sx, 2 * rr * sy) for p, rr in zip(xy, r)]
+        ext = np.vstack([xy - np.column_stack([r * sx, r * sy]), xy + np.column_stack([r * sx, r * sy])])
+        return collections.PatchCollection(ps, facecolor=face, edgecolor=edge, linewidth=lw), ext
+
+    panels = [("foam", f"foam footprint ({len(foam['radii'])} bubbles)" if foam and foam.get("radii") else None),
+              ("rosary", "rosary and paths")]
+    panels = [pn for pn in panels if pn[1] is not None]
+    wall_box = _bounds(walls)
+    fig = Figure(figsize=(5.2 * len(panels), 5.0), layout="constrained")
+    axes = fig.subplots(1, len(panels), squeeze=False, sharex=True, sharey=True)[0]
+    ext_all = [start[None], goal[None]] + ([wall_box] if wall_box is not None else [])
+    for ax, (what, title) in zip(axes, panels):
+        _draw_obstacles(mpl, ax, walls)
+        if what == "foam":
+            coll, ext = discs(foam, (0.2, 0.5, 0.8, 0.08), (0.2, 0.4, 0.7, 0.35), 0.3)
+        else:
+            coll, ext = discs(ros, (0.5, 0.5, 0.5, 0.15), (0.3, 0.3, 0.3, 0.7), 0.6)
+            for p in paths:
+                xy = _xy_of(robot, body, p.qpos if p.waypoints is None else cfg.to_qpos(p.waypoints))
+                ax.plot(xy[:, 0], xy[:, 1], color=p.colour, linewidth=1.5, label=p.label, zorder=5)
+        if coll is not None:
+            ax.add_collection(coll)
+        ext_all.append(ext)
+        ax.plot(*start, **_START_STYLE, label=r"$q_{init}$", zorder=6)
+        ax.plot(*goal, **_GOAL_STYLE, label=r"$q_{goal}$", zorder=6)
+        ax.set_title(title)
+        ax.set_xlabel("x [m]")
+        ax.grid(True, linewidth=0.3, alpha=0.4)
+    axes[0].set_ylabel("y [m]")
+    pts = np.vstack([e for e in ext_all if len(e)])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.03 * float(np.max(hi - lo))
+    for ax in axes:
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+        ax.set_aspect("equal")
+    handles, labs = axes[-1].get_legend_handles_labels()
+    fig.legend(handles, labs, loc="outside lower center", ncol=min(4, len(labs)), frameon=False)
+    return fig
+
+
+# -- the entry point ---------------------------------------------------------------------------------------
+def write_figures(doc, out_dir, formats: Sequence[str] = ("png",), paths: Sequence[str] | None = None,
+                  dpi: int = DPI) -> list[Path]:
+    """Write every figure the result supports into ``out_dir`` (created if missing) and return the
+    files written, in order: foam, rosary, strobe, convergence, joints, map (see the module docstring;
+    a figure whose data is absent is skipped). ``doc`` is the JSON result as a dict (or a path to it);
+    ``formats`` any of "png", "svg", "pdf"; ``paths`` the names of the paths to draw (default: all).
+
+    Raises :class:`~foam_mj.errors.FoamError` when matplotlib is missing, the document is malformed, a
+    format or path name is unknown, or the folder cannot be written."""
+    mpl = _matplotlib()
+    formats = tuple(formats) if not isinstance(formats, str) else (formats,)
+    bad = [f for f in formats if f not in FORMATS]
+    if bad or not formats:
+        raise FoamError(f"unknown figure format(s) {bad}: choose from {list(FORMATS)}")
+    doc = _as_doc(doc)
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise FoamError(f"figure folder {out} is a file")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise FoamError(f"cannot create figure folder {out}: {exc}") from None
+    robot = RobotModel.from_xml(doc["mjcf"])
+    sel = _read_paths(doc, robot, paths)
+    labels = _coord_labels(robot)
+    matplotlib = mpl[0]
+    written: list[Path] = []
+    groups = _rosary_groups(doc, sel)
+    with matplotlib.rc_context(_RC):
+        makers = [
+            ("foam", lambda: _fig_foam(mpl, doc, labels)),
+            *[(stem, lambda t=title, r=ros, ps=ps: _fig_rosary(mpl, doc, robot, ps, labels, r, t))
+              for stem, title, ros, ps in groups],
+            # Every path together (paper 003 Fig. 8d), when they lie in different rosaries.
+            ("paths", lambda: _fig_rosary(mpl, doc, robot, sel, labels, None, "Paths") if len(groups) > 1 and groups[0][0] == "rosary" and len(sel) > 1 else None),
+            ("strobe", lambda: _fig_strobe(mpl, robot, sel)),
+            ("convergence", lambda: _fig_convergence(mpl, sel)),
+            ("joints", lambda: _fig_joints(mpl, robot, sel)),
+        ]
+        if robot_kind(robot) == "planar_base":
+            makers.append(("map", lambda: _fig_map(mpl, doc, robot, sel)))
+        for stem, make in makers:
+            fig = make()
+            if fig is None:
+                continue
+            try:
+                written += _save(fig, out, stem, formats, dpi)
+            except OSError as exc:
+                raise FoamError(f"cannot write figure {stem} into {out}: {exc}") from None
+    return written
+
+
+# -- command line --------------------------------------------------------------------------------------------
+def add_figures_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``figures`` command to the CLI's subparsers; its ``func`` is :func:`cmd_figures`."""
+    p = subparsers.add_parser(
+        "figures",
+        help="draw publication figures from a plan's JSON result",
+        description="Draw the foam, rosary, leg-pose strobe, convergence, joint and (walker) map figures "
+        "from a result written by `foam-mj plan --json` (needs matplotlib: pip install 'foam-mj[figures]').",
+    )
+    p.add_argument("result", metavar="RESULT.json", help="a result written by `foam-mj plan --json`")
+    p.add_argument("out_dir", metavar="DIR", help="folder for the figures (created if missing)")
+    p.add_argument("--format", nargs="+", choices=FORMATS, default=["png"], dest="formats",
+                   help="one or more of png (default), svg, pdf")
+    p.add_argument("--paths", nargs="+", metavar="NAME", default=None, help="only these paths (default: all in the result)")
+    p.add_argument("--dpi", type=int, default=DPI, help=f"resolution of PNG files (default {DPI})")
+    p.set_defaults(func=cmd_figures)
+    return p
+
+
+def cmd_figures(args: argparse.Namespace) -> int:
+    """Run the ``figures`` command; raises FoamError for bad input (the CLI turns it into exit code 2)."""
+    from foam_mj.results import read_result
+
+    if args.dpi <= 0:
+        raise FoamError(f"--dpi must be positive, got {args.dpi}")
+    doc = read_result(args.result)
+    for p in write_figures(doc, args.out_dir, formats=args.formats, paths=args.paths, dpi=args.dpi):
+        print(f"wrote {p}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m foam_mj.figures RESULT.json DIR [--format ...]``: exit 0, or 2 with a one-line error."""
+    parser = argparse.ArgumentParser(prog="foam-mj")
+    add_figures_parser(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(["figures", *(sys.argv[1:] if argv is None else argv)])
+    try:
+        return args.func(args)
+    except FoamError as exc:
+        print(f"foam-mj: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,196 @@
+"""The whole job behind ``foam-mj plan``: plan the foam, smooth, time-parametrize, replay, record.
+
+Path names (used in the summary, the JSON result and the Rerun recording):
+
+==================  ==========================================================  ============
+name                what it is                                                  paper
+==================  ==========================================================  ============
+centre              the polyline through the rosary's centres                   T (003)
+gradient            the centre path smoothed by gradient descent of SV (Eq. 9)  T_CA (003)
+adjusted            centre path of the rosary adjusted by TC ascent (Eq. 8)     T_RA (003)
+adjusted_gradient   the adjusted path smoothed by Eq. 9                         T_RCA (003)
+hs                  Harmony Search on f (Eq. 5)                                 000, 5.1
+ga                  the genetic algorithm on f (Eq. 5)                          000, 5.2
+convex              the shortest path through the hatches (SOCP)                reference
+==================  ==========================================================  ============
+
+Every path keeps its waypoints in its rosary's hatches; the trajectory built on it is certified to
+stay inside the same bubbles (foam_mj.trajectory), and the kinematic replay measures its clearance
+with MuJoCo.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from foam_mj.errors import FoamError
+from foam_mj.foam import PlanResult, plan
+from foam_mj.paths import PathMetrics, metrics
+from foam_mj.replay import DynamicReplay, KinematicReplay, replay_dynamic, replay_kinematic
+from foam_mj.rosary import Rosary
+from foam_mj.scenarios import Scenario
+from foam_mj.smoothing import (
+    ConvexShortestPath,
+    GeneticAlgorithm,
+    GradientSmoothing,
+    HarmonySearch,
+    RosaryAdjustment,
+    SmoothingResult,
+)
+from foam_mj.smoothing.gradient import center_path_result
+from foam_mj.trajectory import JointLimits, Trajectory, make_trajectory
+
+#: Smoother names accepted by ``--smoother`` and what each adds to the centre path.
+SMOOTHERS: dict[str, tuple[str, ...]] = {
+    "none": (),
+    "hs": ("hs",),
+    "ga": ("ga",),
+    "gradient": ("gradient",),
+    "adjust": ("adjusted", "adjusted_gradient"),
+    "convex": ("convex",),
+}
+SMOOTHERS["all"] = tuple(p for k in ("gradient", "adjust", "hs", "ga", "convex") for p in SMOOTHERS[k])
+
+LABELS = {
+    "centre": "centre (T)",
+    "gradient": "gradient (T_CA)",
+    "adjusted": "adjusted (T_RA)",
+    "adjusted_gradient": "adjusted+gradient (T_RCA)",
+    "hs": "harmony search",
+    "ga": "genetic algorithm",
+    "convex": "convex shortest",
+}
+
+
+def parse_smoothers(spec: str) -> tuple[str, ...]:
+    """Path names for a ``--smoother`` value: one name of :data:`SMOOTHERS` or a comma-separated list."""
+    names: list[str] = []
+    for part in spec.split(","):
+        part = part.strip()
+        if part not in SMOOTHERS:
+            raise FoamError(f"unknown smoother '{part}'; choose from {', '.join(SMOOTHERS)} (or a comma-separated list)")
+        names += [p for p in SMOOTHERS[part] if p not in names]
+    return tuple(names)
+
+
+@dataclass
+class PathOutcome:
+    """One path: its smoothing result, trajectory and replays."""
+
+    name: str
+    result: SmoothingResult
+    metrics: PathMetrics
+    trajectory: Trajectory | None = None
+    kinematic: KinematicReplay | None = None
+    dynamic: DynamicReplay | None = None
+
+    @property
+    def label(self) -> str:
+        return LABELS.get(self.name, self.name)
+
+    @property
+    def rosary(self) -> Rosary:
+        return self.result.rosary
+
+
+@dataclass
+class Outcome:
+    """Everything ``foam-mj plan`` computed."""
+
+    scenario: Scenario
+    seed: int
+    plan: PlanResult
+    paths: dict[str, PathOutcome] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+Report = Callable[[str], None]
+
+
+def plan_scenario(scenario: Scenario, seed: int, report: Report | None = None) -> PlanResult:
+    """Grow the foam for a scenario (raises PlanningFailed with the foam when the goal is not reached)."""
+    oracle = scenario.oracle()
+    try:
+        return plan(
+            oracle,
+            scenario.q_init,
+            scenario.q_goal,
+            scenario.params,
+            seed=seed,
+            progress=None if report is None else (lambda st: report(f"planning: {st.bubbles:,} bubbles, {st.elapsed:.1f} s")),
+        )
+    finally:
+        oracle.close()
+
+
+def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], seed: int, report: Report | None = None) -> dict[str, SmoothingResult]:
+    """Run the smoothers that produce ``names`` (the centre path always comes first)."""
+    out: dict[str, SmoothingResult] = {"centre": center_path_result(rosary, "centre")}
+    say = report or (lambda _s: None)
+    if "gradient" in names:
+        say("smoothing: gradient (T_CA)")
+        out["gradient"] = GradientSmoothing().smooth(rosary)
+    if "adjusted" in names or "adjusted_gradient" in names:
+        say("smoothing: rosary adjustment (T_RA)")
+        oracle = scenario.oracle()
+        try:
+            adj = RosaryAdjustment(r_min=scenario.params.r_min).adjust(rosary, oracle)
+        finally:
+            oracle.close()
+        out["adjusted"] = adj.path
+        if "adjusted_gradient" in names:
+            say("smoothing: adjusted + gradient (T_RCA)")
+            out["adjusted_gradient"] = GradientSmoothing().smooth(adj.rosary)
+    if "hs" in names:
+        say("smoothing: harmony search")
+        out["hs"] = HarmonySearch().smooth(rosary, seed=seed)
+    if "ga" in names:
+        say("smoothing: genetic algorithm")
+        out["ga"] = GeneticAlgorithm().smooth(rosary, seed=seed)
+    if "convex" in names:
+        say("smoothing: convex shortest path")
+        out["convex"] = ConvexShortestPath().smooth(rosary)
+    for name, res in out.items():
+        if not res.rosary.all_in_hatches(res.waypoints):  # the smoothers guarantee it; a last guard
+            raise RuntimeError(f"path '{name}' has a waypoint outside its hatch")
+    return out
+
+
+def run(
+    scenario: Scenario,
+    seed: int | None = None,
+    smoothers: tuple[str, ...] = SMOOTHERS["all"],
+    *,
+    replay: bool = True,
+    dynamic: bool = True,
+    limits: JointLimits | None = None,
+    report: Report | None = None,
+) -> Outcome:
+    """Plan, smooth, build trajectories and replay them (kinematically, and dynamically when asked)."""
+    seed = scenario.seed if seed is None else seed
+    t0 = time.perf_counter()
+    result = plan_scenario(scenario, seed, report)
+    outcome = Outcome(scenario, seed, result)
+    outcome.timings["plan"] = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    smoothed = smooth_paths(scenario, result.rosary, smoothers, seed, report)
+    outcome.timings["smooth"] = time.perf_counter() - t1
+    robot = scenario.robot
+    t2 = time.perf_counter()
+    for name, res in smoothed.items():
+        po = PathOutcome(name, res, metrics(res.path))
+        if replay:
+            if report:
+                report(f"replaying: {LABELS.get(name, name)}")
+            po.trajectory = make_trajectory(robot, res.path, res.rosary, limits)
+            po.kinematic = replay_kinematic(robot, po.trajectory)
+            if dynamic:
+                po.dynamic = replay_dynamic(robot, po.trajectory)
+        outcome.paths[name] = po
+    outcome.timings["replay"] = time.perf_counter() - t2
+    outcome.timings["total"] = time.perf_counter() - t0
+    return outcome

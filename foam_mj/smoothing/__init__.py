@@ -1,0 +1,52 @@
+"""Path smoothers over a rosary's hatches (issue 4).
+
+One module per method, one interface (:class:`Smoother`: ``smooth(rosary, initial, seed)`` ->
+:class:`SmoothingResult`):
+
+* :class:`HarmonySearch` (paper 000 section 2.1, Eq. 1) and :class:`GeneticAlgorithm` (section 2.2,
+  Algorithm 1, Eq. 6) minimise f of paper 000 Eq. 5 with waypoint i in hatch b_i ∩ b_(i+1);
+* :class:`GradientSmoothing` (paper 003 Eq. 9) and :class:`RosaryAdjustment` (Eq. 8) give the thesis's
+  paths T, T_CA, T_RA, T_RCA (:func:`thesis_paths`);
+* :class:`ConvexShortestPath` is the convex reference (shortest path through the hatches, SOCP).
+"""
+
+from foam_mj.smoothing.adjust import AdjustmentResult, RosaryAdjustment, thesis_paths
+from foam_mj.smoothing.base import (
+    PAPER_F_THRESHOLD,
+    PAPER_MAX_ITERATIONS,
+    PAPER_STALL_ITERATIONS,
+    Hatches,
+    SmoothingResult,
+    Smoother,
+    StopCriteria,
+    coordinate_major_objective,
+    population_objective,
+)
+from foam_mj.smoothing.convex import ConvexShortestPath, ConvexSolveError, build_socp
+from foam_mj.smoothing.genetic import GeneticAlgorithm
+from foam_mj.smoothing.gradient import GradientSmoothing, center_path_result, sv_and_gradient, tc_and_gradient
+from foam_mj.smoothing.harmony import HarmonySearch
+
+__all__ = [
+    "PAPER_F_THRESHOLD",
+    "PAPER_MAX_ITERATIONS",
+    "PAPER_STALL_ITERATIONS",
+    "AdjustmentResult",
+    "ConvexShortestPath",
+    "ConvexSolveError",
+    "GeneticAlgorithm",
+    "GradientSmoothing",
+    "HarmonySearch",
+    "Hatches",
+    "RosaryAdjustment",
+    "SmoothingResult",
+    "Smoother",
+    "StopCriteria",
+    "build_socp",
+    "center_path_result",
+    "coordinate_major_objective",
+    "population_objective",
+    "sv_and_gradient",
+    "tc_and_gradient",
+    "thesis_paths",
+]

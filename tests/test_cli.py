@@ -1,0 +1,151 @@
+"""End-to-end tests of the foam-mj command line: plan, the JSON result, the recording, replay, errors."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from foam_mj.cli import main
+from foam_mj.recording import read_blueprint, read_component, read_recording
+from foam_mj.results import read_result
+
+from conftest import MODELS, MujocoChecker
+
+VERIFY = Path(__file__).resolve().parents[2] / "shared" / "tools" / "verify_result.py"
+
+
+@pytest.fixture(scope="module")
+def planned(tmp_path_factory):
+    out = tmp_path_factory.mktemp("plan")
+    rrd, js = out / "obstacle.rrd", out / "obstacle.json"
+    code = main(["plan", "--scene", "obstacle", "--seed", "0", "--rrd", str(rrd), "--json", str(js)])
+    assert code == 0
+    return {"rrd": rrd, "json": js, "doc": json.loads(js.read_text())}
+
+
+def test_plan_writes_a_json_result_with_every_path(planned):
+    doc = planned["doc"]
+    assert doc["format"] == "foam-mj/result" and doc["outcome"] == "reached"
+    assert set(doc["paths"]) == {"centre", "gradient", "adjusted", "adjusted_gradient", "hs", "ga", "convex"}
+    assert Path(doc["mjcf"]).is_file()
+    for name, p in doc["paths"].items():
+        assert len(p["qpos"]) == len(p["times"]) > 10
+        assert p["replay"]["contacts"] == 0, name
+        assert p["replay"]["min_clearance"] >= doc["planner"]["delta"] - 1e-9, name
+
+
+def test_every_recorded_path_is_collision_free_under_an_independent_check(planned, obstacle_robot):
+    """Dense check of every joint trajectory in the JSON with mj_collision (step 1e-3 in qpos)."""
+    doc = planned["doc"]
+    check = MujocoChecker(obstacle_robot)
+    for name, p in doc["paths"].items():
+        q = obstacle_robot.config.to_q(np.asarray(p["qpos"]))
+        assert check.first_collision_along(q, step=1e-3) is None, name
+
+
+@pytest.mark.skipif(not VERIFY.is_file(), reason="shared/tools/verify_result.py is not beside the checkout")
+def test_the_shared_verifier_accepts_the_result(planned):
+    run = subprocess.run([sys.executable, str(VERIFY), str(planned["json"])], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "collisions 0" in run.stdout.splitlines()[-1]
+
+
+def test_the_recording_holds_foam_rosary_paths_poses_and_curves(planned):
+    rrd, doc = planned["rrd"], planned["doc"]
+    rows = read_recording(rrd)
+    centers = read_component(rrd, "cspace/foam", "Ellipsoids3D:centers")[0]
+    assert len(centers) == doc["foam"]["stats"]["bubbles"] == len(doc["foam"]["radii"])
+    assert len(read_component(rrd, "cspace/rosary", "Ellipsoids3D:centers")[0]) == len(doc["rosary"]["radii"])
+    temporal = read_recording(rrd, static=False)
+    for name, p in doc["paths"].items():
+        assert f"cspace/paths/{name}" in rows
+        frames = len(p["times"])
+        assert temporal[f"world/leg/{name}/foot"] == frames, name  # a leg pose for every replayed frame
+    for name in ("hs", "ga"):
+        best = np.array(read_component(rrd, f"plots/convergence/{name}/best", "Scalars:scalars")).ravel()
+        assert len(best) == len(doc["paths"][name]["convergence"]["best"]) > 1
+    assert read_blueprint(rrd)
+
+
+def test_replay_of_a_saved_result(planned, tmp_path, capsys):
+    rrd = tmp_path / "replay.rrd"
+    assert main(["replay", str(planned["json"]), "--rrd", str(rrd), "--kinematic-only"]) == 0
+    out = capsys.readouterr().out
+    assert "replayed 7 path(s)" in out
+    assert read_recording(rrd, static=False)["world/leg/centre/foot"] == len(planned["doc"]["paths"]["centre"]["times"])
+
+
+def test_scenes_lists_every_scenario(capsys):
+    assert main(["scenes"]) == 0
+    out = capsys.readouterr().out
+    for name in ("obstacle", "obstacle_thesis", "step_up", "step_down"):
+        assert name in out
+    assert "[0.2, 0.3, 0.08]" in out
+
+
+def test_an_unknown_scene_lists_the_known_ones(capsys):
+    assert main(["plan", "--scene", "moon_walk", "--no-rrd"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown scenario 'moon_walk'" in err and "obstacle" in err and "Traceback" not in err
+
+
+def test_a_malformed_scenario_names_the_file_and_the_field(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(f'scene = "{MODELS / "obstacle.xml"}"\nq_init = [0.2, 0.3]\nq_goal = [0.45, 0.4536, 1.45]\n')
+    assert main(["plan", "--scene", str(bad), "--no-rrd"]) == 2
+    err = capsys.readouterr().err
+    assert "bad.toml" in err and "q_init" in err
+
+
+def test_an_unwritable_output_fails_before_planning(tmp_path, capsys):
+    assert main(["plan", "--json", str(tmp_path / "missing" / "out.json"), "--no-rrd"]) == 2
+    err = capsys.readouterr().err
+    assert "--json" in err and "does not exist" in err and "planning" not in err
+    assert main(["plan", "--rrd", str(tmp_path / "x.txt")]) == 2
+
+
+def test_a_planning_failure_exits_3_and_still_writes_the_foam(tmp_path, capsys):
+    scene = tmp_path / "wall.xml"
+    scene.write_text(
+        f'<mujoco><include file="{MODELS / "ortholeg.xml"}"/><worldbody><geom name="floor" type="plane" size="3 3 0.1"/>'
+        '<geom name="wall" type="box" pos="0.46 0 0.75" size="0.04 0.25 0.75"/></worldbody></mujoco>'
+    )
+    toml = tmp_path / "wall.toml"
+    toml.write_text(f'scene = "{scene}"\nq_init = [0.2, 0.3, 0.08]\nq_goal = [0.45, 0.4536, 1.45]\n[planner]\nmax_bubbles = 3000\n')
+    js, rrd = tmp_path / "fail.json", tmp_path / "fail.rrd"
+    assert main(["plan", "--scene", str(toml), "--json", str(js), "--rrd", str(rrd)]) == 3
+    doc = json.loads(js.read_text())
+    assert doc["paths"] == {} and doc["outcome"] in ("bubble budget", "queue empty")
+    assert len(doc["foam"]["radii"]) == doc["foam"]["stats"]["bubbles"] > 1
+    assert len(read_component(rrd, "cspace/foam", "Ellipsoids3D:centers")[0]) == len(doc["foam"]["radii"])
+    assert "planning failed" in capsys.readouterr().err
+
+
+def test_replay_refuses_a_tampered_result(planned, tmp_path, capsys):
+    doc = json.loads(planned["json"].read_text())
+    doc["paths"]["centre"]["waypoints"][3] = [1.5, 0.0, 0.5]
+    bad = tmp_path / "tampered.json"
+    bad.write_text(json.dumps(doc))
+    assert main(["replay", str(bad)]) == 2
+    assert "outside its rosary's hatches" in capsys.readouterr().err
+    bad.write_text("{not json")
+    assert main(["replay", str(bad)]) == 2
+
+
+def test_the_console_script_runs(tmp_path):
+    exe = Path(sys.executable).with_name("foam-mj")
+    run = subprocess.run([str(exe), "plan", "--smoother", "convex", "--no-rrd"], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert "convex shortest" in run.stdout
+    for cmd in (["--help"], ["plan", "--help"], ["replay", "--help"], ["view", "--help"], ["bench", "--help"], ["scenes", "--help"]):
+        assert subprocess.run([str(exe), *cmd], capture_output=True, timeout=60).returncode == 0
+
+
+def test_view_refuses_a_missing_file(capsys):
+    assert main(["view", "nowhere.rrd"]) == 2
+    assert "not found" in capsys.readouterr().err

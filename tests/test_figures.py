@@ -1,0 +1,304 @@
+"""Tests for foam_mj.figures: every figure from a real planned result (Agg, no window), the strobe's
+geometry against MuJoCo's own geom poses, graceful degradation, the CLI entry point, the walker's
+top-down map, and the message when matplotlib is missing."""
+
+from __future__ import annotations
+
+import copy
+import json
+import sys
+import xml.etree.ElementTree as ET
+from importlib.resources import files
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+pytest.importorskip("matplotlib")
+
+from foam_mj import cli, figures  # noqa: E402
+from foam_mj.errors import FoamError  # noqa: E402
+from foam_mj.figures import MISSING_MATPLOTLIB, robot_kind, strobe_geometry, write_figures  # noqa: E402
+from foam_mj.model import RobotModel  # noqa: E402
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+SCENARIOS = Path(str(files("foam_mj") / "scenarios"))
+
+
+# -- helpers -------------------------------------------------------------------------------------------------
+def check_png(path: Path, min_px: int = 300, max_px: int = 6000) -> tuple[int, int]:
+    """A real, non-blank PNG of sensible size: signature, IHDR size, pixel variance."""
+    from matplotlib.image import imread
+
+    raw = path.read_bytes()
+    assert raw[:8] == PNG_SIGNATURE, f"{path.name}: not a PNG"
+    assert raw[12:16] == b"IHDR"
+    width, height = int.from_bytes(raw[16:20], "big"), int.from_bytes(raw[20:24], "big")
+    assert min_px <= width <= max_px and min_px <= height <= max_px, f"{path.name}: {width} x {height} px"
+    img = imread(path)
+    assert img.shape[:2] == (height, width)
+    grey = img[..., :3].mean(axis=2)
+    assert grey.var() > 1e-3, f"{path.name} is blank"
+    assert (grey < 0.9).mean() > 0.01, f"{path.name} is almost all white"
+    # Nothing is cut off: the layout leaves a blank margin all round.
+    border = np.concatenate([grey[:2].ravel(), grey[-2:].ravel(), grey[:, :2].ravel(), grey[:, -2:].ravel()])
+    assert border.min() > 0.9, f"{path.name}: something touches the image's edge (clipped text or legend?)"
+    return width, height
+
+
+def smooth_trajectory(waypoints: np.ndarray, robot: RobotModel, duration: float) -> tuple[np.ndarray, np.ndarray]:
+    """Times and qpos rows at the model's timestep along the polyline, rest to rest (minimum jerk)."""
+    dt = float(robot.model.opt.timestep)
+    times = np.arange(int(round(duration / dt)) + 1) * dt
+    tau = times / times[-1]
+    s = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(waypoints, axis=0), axis=1))])
+    q = np.column_stack([np.interp(s * arc[-1], arc, waypoints[:, i]) for i in range(waypoints.shape[1])])
+    return times, robot.config.to_qpos(q)
+
+
+def plan_json(tmp: Path, scene: str) -> dict:
+    out = tmp / f"{scene}.json"
+    code = cli.main(["plan", "--scene", scene, "--json", str(out), "--smoother", "none", "--no-replay", "--no-rrd"])
+    assert code == 0, f"foam-mj plan --scene {scene} failed with exit code {code}"
+    return json.loads(out.read_text())
+
+
+# -- fixtures ------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def planned(tmp_path_factory) -> dict:
+    """A real result of `foam-mj plan --scene obstacle --json` (the centre path only, no times)."""
+    return plan_json(tmp_path_factory.mktemp("plan"), "obstacle")
+
+
+@pytest.fixture(scope="module")
+def robot(planned) -> RobotModel:
+    return RobotModel.from_xml(planned["mjcf"])
+
+
+@pytest.fixture(scope="module")
+def rich(planned, robot) -> dict:
+    """The planned result plus what the smoothers and trajectories add: a timed "gradient" path, an
+    "hs" path with a convergence history, and an "adjusted" path in a rosary of its own."""
+    doc = copy.deepcopy(planned)
+    centre = doc["paths"]["centre"]
+    w = np.asarray(centre["waypoints"])
+    ros = centre.get("rosary", doc["rosary"])
+    # A shortcut through every other waypoint stands in for a smoothed path (only its drawing matters).
+    short = np.vstack([w[:-1:2], w[-1:]])
+    times, qpos = smooth_trajectory(short, robot, 1.2)
+    doc["paths"]["gradient"] = {"waypoints": short.tolist(), "qpos": qpos.tolist(), "times": times.tolist(), "rosary": ros,
+                                "smoother": {"objective": "SV"}, "convergence": {"best": [0.8, 0.5, 0.1], "mean": [0.8, 0.5, 0.1]}}
+    it = np.arange(300)
+    best = 3.3 + 1.7 * np.exp(-it / 60)
+    hs_w = w + 0.01 * np.sin(np.arange(len(w)))[:, None]
+    hs_w[[0, -1]] = w[[0, -1]]
+    t_hs, q_hs = smooth_trajectory(hs_w, robot, 1.6)
+    doc["paths"]["hs"] = {"waypoints": hs_w.tolist(), "qpos": q_hs.tolist(), "times": t_hs.tolist(), "rosary": ros,
+                          "smoother": {"objective": "f"}, "convergence": {"best": best.tolist(), "mean": (best + 0.3 * np.exp(-it / 90)).tolist()}}
+    adj = {"centers": (np.asarray(ros["centers"]) * 0.98 + 0.01).tolist(), "radii": ros["radii"], "bubble_ids": None}
+    doc["paths"]["adjusted"] = {"waypoints": w.tolist(), "qpos": robot.config.to_qpos(w).tolist(), "rosary": adj}
+    return doc
+
+
+# -- every figure ----------------------------------------------------------------------------------------------
+def test_every_figure_of_the_obstacle_scene(rich, tmp_path):
+    had_pyplot = "matplotlib.pyplot" in sys.modules
+    written = write_figures(rich, tmp_path, dpi=100)
+    names = [p.name for p in written]
+    assert names == ["foam.png", "rosary.png", "rosary_adjusted.png", "paths.png", "strobe.png", "convergence.png", "joints.png"]
+    assert all(p.parent == tmp_path and p.is_file() for p in written)
+    sizes = {p.stem: check_png(p) for p in written}
+    w, h = sizes["strobe"]
+    assert w > h  # four panels side by side
+    # Only the object-oriented API: pyplot (and with it a GUI backend) is never imported.
+    assert had_pyplot or "matplotlib.pyplot" not in sys.modules
+
+
+def test_svg_and_pdf_on_request(rich, tmp_path):
+    doc = dict(rich, foam=None)  # the foam's vector output is slow to write; the CLI test writes foam.svg
+    written = write_figures(doc, tmp_path, formats=("svg", "pdf"), paths=["centre"], dpi=80)
+    assert sorted(p.name for p in written) == sorted(f"{s}.{f}" for s in ("rosary", "strobe") for f in ("svg", "pdf"))
+    for p in written:
+        raw = p.read_bytes()
+        assert len(raw) > 5000, p.name
+        if p.suffix == ".pdf":
+            assert raw.startswith(b"%PDF-") and raw.rstrip().endswith(b"%%EOF")
+        else:
+            root = ET.fromstring(raw)
+            assert root.tag.endswith("svg")
+
+
+def test_optional_parts_are_skipped(planned, tmp_path):
+    # The plain planned result: one untimed path without convergence -> no joints, no convergence figure.
+    names = [p.name for p in write_figures(planned, tmp_path / "plain", dpi=60)]
+    assert names == ["foam.png", "rosary.png", "strobe.png"]
+    # No foam and no rosary (a bare path): the paths and the strobe only.
+    bare = copy.deepcopy(planned)
+    bare["foam"] = None
+    bare["rosary"] = None
+    for entry in bare["paths"].values():
+        entry.pop("rosary", None)
+    names = [p.name for p in write_figures(bare, tmp_path / "bare", dpi=60)]
+    assert names == ["paths.png", "strobe.png"]
+    for p in (tmp_path / "bare").iterdir():
+        check_png(p, min_px=150)
+
+
+def test_bad_requests_are_foam_errors(planned, tmp_path):
+    with pytest.raises(FoamError, match="unknown figure format"):
+        write_figures(planned, tmp_path, formats=("bmp",))
+    with pytest.raises(FoamError, match="no path named"):
+        write_figures(planned, tmp_path, paths=["nope"])
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(FoamError, match="is a file"):
+        write_figures(planned, tmp_path / "file")
+    bad = copy.deepcopy(planned)
+    bad["paths"]["centre"]["times"] = [0.0, 1.0]
+    with pytest.raises(FoamError, match="times for"):
+        write_figures(bad, tmp_path / "bad")
+
+
+# -- the strobe's geometry is MuJoCo's ----------------------------------------------------------------------
+def mujoco_box_corners_xz(m: mujoco.MjModel, qpos: np.ndarray, geom: str) -> np.ndarray:
+    """The box's eight corners from a fresh MjData, projected onto x-z (four distinct points)."""
+    d = mujoco.MjData(m)
+    d.qpos[:] = qpos
+    mujoco.mj_kinematics(m, d)
+    g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, geom)
+    R = d.geom_xmat[g].reshape(3, 3)
+    size = m.geom_size[g]
+    corners = [d.geom_xpos[g] + R @ (np.array([sx, sy, sz]) * size) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    return np.unique(np.round(np.array(corners)[:, [0, 2]], 12), axis=0)
+
+
+def sort_rows(a: np.ndarray) -> np.ndarray:
+    return a[np.lexsort(a.T[::-1])]
+
+
+@pytest.mark.parametrize("which", ["q_init", "q_goal"])
+def test_strobe_draws_the_foot_where_mujoco_puts_it(planned, robot, which):
+    q = np.asarray(planned[which])
+    shapes = {s.name: s for s in strobe_geometry(robot, q)}
+    assert {"thigh_collision", "shank_collision", "foot_collision", "obstacle_box", "floor"} <= set(shapes)
+    foot = shapes["foot_collision"]
+    assert foot.kind == "box" and foot.role == "robot"
+    expected = mujoco_box_corners_xz(robot.model, robot.config.to_qpos(q), "foot_collision")
+    assert foot.outline.shape == (4, 2)  # a rectangle: the foot turns about y only
+    np.testing.assert_allclose(sort_rows(foot.outline), sort_rows(expected), atol=1e-9)
+    if which == "q_init":
+        # By hand (ortholeg.xml): hip 1.06 m up at x = 0.7 * 0.08 / (pi/2); the foot hangs above the floor.
+        assert 0.05 < foot.outline[:, 1].min() < 0.2
+        hip_x = 0.7 * 0.08 / (np.pi / 2)
+        thigh = shapes["thigh_collision"]
+        np.testing.assert_allclose(thigh.ends[np.argmax(thigh.ends[:, 1])], [hip_x, 1.06], atol=1e-9)
+    # Capsules are stadiums: every outline vertex is one radius from the projected segment.
+    for name in ("thigh_collision", "shank_collision"):
+        s = shapes[name]
+        a, b = s.ends
+        t = np.clip(((s.outline - a) @ (b - a)) / ((b - a) @ (b - a)), 0.0, 1.0)
+        dist = np.linalg.norm(s.outline - (a + t[:, None] * (b - a)), axis=1)
+        np.testing.assert_allclose(dist, s.radius, atol=1e-9)
+    # The obstacle: 0.2 m deep along x centred at x = 0.5, 0.15 m tall, on the floor (z = 0).
+    box = shapes["obstacle_box"]
+    np.testing.assert_allclose(box.outline.min(axis=0), [0.4, 0.0], atol=1e-12)
+    np.testing.assert_allclose(box.outline.max(axis=0), [0.6, 0.15], atol=1e-12)
+    floor = shapes["floor"]
+    assert floor.kind == "plane" and np.allclose(floor.outline[:, 1], 0.0)
+
+
+def test_strobe_geometry_options(planned, robot):
+    q = np.asarray(planned["q_init"])
+    assert {s.role for s in strobe_geometry(robot, q, which="robot")} == {"robot"}
+    assert {s.role for s in strobe_geometry(robot, q, which="obstacles")} == {"obstacle"}
+    top = {s.name: s for s in strobe_geometry(robot, q, plane="xy", which="obstacles")}
+    assert "floor" not in top  # the floor is the drawing's own plane seen from above
+    np.testing.assert_allclose(top["obstacle_box"].outline.min(axis=0), [0.4, -0.25], atol=1e-12)
+    with pytest.raises(FoamError, match="plane"):
+        strobe_geometry(robot, q, plane="ab")
+    assert robot_kind(robot) == "sagittal"
+
+
+# -- command line ----------------------------------------------------------------------------------------------
+def test_cli_entry_point(planned, tmp_path, capsys):
+    result = tmp_path / "r.json"
+    result.write_text(json.dumps(planned))
+    assert figures.main([str(result), str(tmp_path / "out"), "--format", "svg", "--dpi", "60"]) == 0
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["foam.svg", "rosary.svg", "strobe.svg"]
+    assert "wrote" in capsys.readouterr().out
+    assert figures.main([str(tmp_path / "missing.json"), str(tmp_path / "out")]) == 2
+    assert "result file not found" in capsys.readouterr().err
+
+
+def test_missing_matplotlib_says_how_to_install(planned, tmp_path, monkeypatch, capsys):
+    for name in [m for m in sys.modules if m == "matplotlib" or m.startswith(("matplotlib.", "mpl_toolkits"))]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # makes `import matplotlib` raise ImportError
+    with pytest.raises(FoamError) as err:
+        write_figures(planned, tmp_path)
+    assert str(err.value) == "figures need matplotlib: pip install 'foam-mj[figures]'" == MISSING_MATPLOTLIB
+    assert not any(tmp_path.iterdir())
+    result = tmp_path / "r.json"
+    result.write_text(json.dumps(planned))
+    assert figures.main([str(result), str(tmp_path / "out")]) == 2
+    assert "pip install 'foam-mj[figures]'" in capsys.readouterr().err
+
+
+# -- walker: the top-down map ----------------------------------------------------------------------------------
+WALKER_XML = """
+<mujoco model="synthetic walker">
+  <custom><text name="foam_mj:configuration" data="base_x base_y base_yaw"/></custom>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <geom name="wall_south" type="box" pos="2 -0.05 0.5" size="2 0.05 0.5"/>
+    <geom name="wall_north" type="box" pos="2 3.05 0.5" size="2 0.05 0.5"/>
+    <geom name="block" type="box" pos="2 1.0 0.5" size="0.2 1.0 0.5"/>
+    <geom name="slanted" type="box" pos="1.0 2.3 0.5" size="0.4 0.08 0.5" euler="0 0 0.6"/>
+    <body name="walker" pos="0 0 0.4">
+      <joint name="base_x" type="slide" axis="1 0 0" range="-1 5"/>
+      <joint name="base_y" type="slide" axis="0 1 0" range="-1 4"/>
+      <joint name="base_yaw" type="hinge" axis="0 0 1" range="-3.2 3.2"/>
+      <geom name="frame" type="box" size="0.3 0.25 0.3"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_synthetic_walker_gets_a_top_down_map(tmp_path):
+    """A planar mobile base (slides along x and y, hinge about z) in a small MJCF written here: the
+    strobe is drawn from above and the map shows walls, foam footprint, rosary and paths."""
+    xml = tmp_path / "walker.xml"
+    xml.write_text(WALKER_XML)
+    robot = RobotModel.from_xml(xml)
+    assert robot_kind(robot) == "planar_base"
+    way = np.array([[0.5, 0.5, 0.0], [1.2, 1.6, 0.4], [2.0, 2.5, 0.2], [3.6, 2.2, 1.0]])
+    rng = np.random.default_rng(0)
+    foam_c = np.column_stack([rng.uniform(0, 4, 200), rng.uniform(0, 3, 200), rng.uniform(-1, 1, 200)])
+    times, qpos = smooth_trajectory(way, robot, 3.0)
+    doc = {
+        "format": "foam-mj/result", "version": 1, "mjcf": str(xml), "q_init": way[0].tolist(), "q_goal": way[-1].tolist(),
+        "foam": {"centers": foam_c.tolist(), "radii": rng.uniform(0.1, 0.3, 200).tolist(), "parents": [-1] + list(range(199))},
+        "rosary": {"centers": way.tolist(), "radii": [0.6, 0.7, 0.7, 0.9]},
+        "paths": {"centre": {"waypoints": way.tolist()}, "gradient": {"waypoints": way.tolist(), "qpos": qpos.tolist(), "times": times.tolist()}},
+    }
+    written = write_figures(doc, tmp_path / "figs", dpi=60)
+    assert [p.name for p in written] == ["foam.png", "rosary.png", "strobe.png", "joints.png", "map.png"]
+    for p in written:
+        check_png(p, min_px=150)
+    walls = {s.name: s for s in strobe_geometry(robot, way[0])}
+    np.testing.assert_allclose(walls["block"].outline.min(axis=0), [1.8, 0.0], atol=1e-12)
+    np.testing.assert_allclose(walls["block"].outline.max(axis=0), [2.2, 2.0], atol=1e-12)
+    np.testing.assert_allclose(walls["frame"].centre, [0.5, 0.5], atol=1e-12)  # the base at q_init's (x, y)
+    assert len(walls["slanted"].outline) == 4  # a rotated rectangle
+
+
+@pytest.mark.skipif(not (SCENARIOS / "walker_corridor.toml").exists(), reason="the walker_corridor scenario is not there yet")
+def test_walker_corridor_figures(tmp_path):
+    doc = plan_json(tmp_path, "walker_corridor")
+    written = write_figures(doc, tmp_path / "figs", dpi=80)
+    names = [p.name for p in written]
+    assert "map.png" in names and "strobe.png" in names
+    for p in written:
+        check_png(p, min_px=150)

@@ -1,0 +1,321 @@
+"""Tests for foam_mj.smoothing on a real obstacle rosary: hatches, MuJoCo safety, gains, optimality, determinism."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from importlib.resources import files
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+from foam_mj import paths
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.foam import FoamParams, plan
+from foam_mj.model import RobotModel
+from foam_mj.rosary import Rosary
+from foam_mj.smoothing import (
+    ConvexShortestPath,
+    GeneticAlgorithm,
+    GradientSmoothing,
+    HarmonySearch,
+    Hatches,
+    RosaryAdjustment,
+    SmoothingResult,
+    StopCriteria,
+    center_path_result,
+)
+
+Q_INIT = [0.2, 0.3, 0.08]
+Q_GOAL = [0.45, 0.4536, 1.45]
+R_MIN = 0.07
+SEEDS = (0, 1, 2)
+
+# Small budgets: the benchmark does the long runs.
+HS = HarmonySearch(stop=StopCriteria(max_iterations=1500))
+GA = GeneticAlgorithm(stop=StopCriteria(max_iterations=300))
+GA_UNIFORM = GeneticAlgorithm(beta=None, stop=StopCriteria(max_iterations=300))
+GRAD = GradientSmoothing(stop=StopCriteria(max_iterations=1500, stall_iterations=100, stall_tol=1e-5))
+STOCHASTIC = {"HS": HS, "GA": GA, "GA-uniform-beta": GA_UNIFORM}
+
+
+@pytest.fixture(scope="session")
+def smoothing_setup():
+    robot = RobotModel.from_xml(files("foam_mj") / "models" / "obstacle.xml")
+    oracle = BubbleOracle(robot, delta=0.005)
+    res = plan(oracle, Q_INIT, Q_GOAL, FoamParams(K=10, r_min=R_MIN, delta=0.005), seed=0)
+    return robot, oracle, res.rosary
+
+
+@pytest.fixture(scope="session")
+def rosary(smoothing_setup):
+    return smoothing_setup[2]
+
+
+@pytest.fixture(scope="session")
+def adjusted(smoothing_setup):
+    _, oracle, rosary = smoothing_setup
+    return RosaryAdjustment(r_min=R_MIN).adjust(rosary, oracle)
+
+
+@pytest.fixture(scope="session")
+def stochastic_results(rosary) -> dict[tuple[str, int], SmoothingResult]:
+    return {(name, s): sm.smooth(rosary, seed=s) for name, sm in STOCHASTIC.items() for s in SEEDS}
+
+
+@pytest.fixture(scope="session")
+def all_results(rosary, adjusted, stochastic_results) -> dict[str, SmoothingResult]:
+    """One result per method (the stochastic ones for every seed), each with the rosary that holds it."""
+    out = {f"{name}/{s}": r for (name, s), r in stochastic_results.items()}
+    out["T_CA"] = GRAD.smooth(rosary)
+    out["T_RA"] = adjusted.path
+    out["T_RCA"] = GRAD.smooth(adjusted.rosary)
+    out["convex"] = ConvexShortestPath().smooth(rosary)
+    out["convex-smooth"] = ConvexShortestPath(smoothness=10.0).smooth(rosary)
+    return out
+
+
+def assert_collision_free(robot: RobotModel, oracle: BubbleOracle, path: np.ndarray) -> None:
+    """Dense MuJoCo check: clearance > 0 at every sample 1e-3 apart (max-norm), and mj_collision (independent
+    of the clearance code) finds no contact at any of them."""
+    dense = paths.densify(path, 1e-3)
+    clearance = oracle.clearance.batch(dense)
+    assert np.all(clearance > 0), f"clearance {clearance.min():.3g} m at sample {int(np.argmin(clearance))}"
+    # Every sample lies in a certified bubble, so the clearance keeps the margin delta too.
+    assert clearance.min() >= oracle.delta - 1e-9
+    assert not any(robot.in_collision(q) for q in dense)
+
+
+# -- hatches and safety -------------------------------------------------------------------------------
+def test_every_waypoint_in_its_hatch(all_results):
+    for name, r in all_results.items():
+        assert r.waypoints.shape == (r.rosary.n_hatches, r.rosary.dim), name
+        # A centre path (T_RA) has each waypoint on its parent's surface: the rosary's membership tolerance.
+        assert r.rosary.all_in_hatches(r.waypoints, tol=1e-12 if name == "T_RA" else 0.0), name
+        np.testing.assert_array_equal(r.path[0], r.rosary.q_init)
+        np.testing.assert_array_equal(r.path[-1], r.rosary.q_goal)
+
+
+def test_paths_are_collision_free_under_dense_mujoco_check(smoothing_setup, all_results):
+    robot, oracle, _ = smoothing_setup
+    for name, r in all_results.items():
+        assert_collision_free(robot, oracle, r.path)
+
+
+def test_convex_waypoints_strictly_inside(all_results):
+    for name in ("convex", "convex-smooth"):
+        r = all_results[name]
+        h = Hatches.of(r.rosary)
+        inset = r.info["inset"]
+        da = np.linalg.norm(r.waypoints - h.ca, axis=1) - h.ra
+        db = np.linalg.norm(r.waypoints - h.cb, axis=1) - h.rb
+        assert max(da.max(), db.max()) <= -inset / 2
+
+
+# -- improvement -------------------------------------------------------------------------------------
+def test_f_and_sv_improve_on_centre_path(rosary, all_results):
+    centre = center_path_result(rosary)
+    for name, r in all_results.items():
+        assert r.f < centre.f, name
+        assert r.sv < centre.sv, name
+    assert all_results["T_RA"].tc > centre.tc  # Eq. 8 is an ascent of TC
+
+
+def test_histories_are_consistent(stochastic_results):
+    for (name, _), r in stochastic_results.items():
+        assert len(r.history_best) == len(r.history_mean) == r.iterations
+        assert np.all(np.diff(r.history_best) <= 0), name  # HS memory and GA elitism keep the best
+        assert np.all(r.history_mean >= r.history_best - 1e-12)
+        assert r.history_best[-1] == pytest.approx(r.f, abs=1e-12)
+        assert r.evaluations > r.iterations and r.wall_time > 0
+
+
+# -- the convex reference ----------------------------------------------------------------------------
+def test_convex_length_is_a_lower_bound(rosary, adjusted, all_results):
+    best = {id(rosary): all_results["convex"].length,
+            id(adjusted.rosary): ConvexShortestPath().smooth(adjusted.rosary).length}
+    # Every other path in the same hatches is at least as long, up to the inset's slack (~2e-6 per hatch).
+    slack = 2e-6 * rosary.k + 1e-7
+    for name, r in all_results.items():
+        assert r.length >= best[id(r.rosary)] - slack, name
+
+
+def _kkt_residual(r: SmoothingResult, inset: float) -> float:
+    """Largest stationarity residual of the shortest-path problem at r's waypoints: the length gradient plus
+    a non-negative combination of the active ball constraints' gradients (found by NNLS; inactive balls get
+    no multiplier) must vanish. Waypoints that coincide (a zero-length segment, whose subgradient is any
+    vector of the unit ball) are checked as one point: summing their conditions cancels that subgradient."""
+    from scipy.optimize import nnls
+
+    h = Hatches.of(r.rosary)
+    p = r.path
+    seg = np.diff(p, axis=0)
+    lens = np.linalg.norm(seg, axis=1)
+    u = seg / np.maximum(lens, 1e-300)[:, None]
+    m = h.m
+    groups, cur = [], [0]
+    for i in range(1, m):
+        if lens[i] < 1e-6:  # segment from waypoint i-1 to waypoint i (path indices i, i+1)
+            cur.append(i)
+        else:
+            groups.append(cur)
+            cur = [i]
+    groups.append(cur)
+    worst = 0.0
+    for g in groups:
+        grad = u[g[0]] - u[g[-1] + 1]  # incoming segment of the first, outgoing of the last
+        cols = []
+        for i in g:
+            w = p[i + 1]
+            for c, rad in ((h.ca[i], h.ra[i] - inset), (h.cb[i], h.rb[i] - inset)):
+                if np.linalg.norm(w - c) >= rad - 1e-6:  # active
+                    cols.append((w - c) / np.linalg.norm(w - c))
+        res = nnls(np.array(cols).T, -grad)[1] if cols else float(np.linalg.norm(grad))
+        worst = max(worst, res)
+    return worst
+
+
+def test_convex_satisfies_kkt_and_matches_slsqp(rosary, all_results):
+    r = all_results["convex"]
+    inset = r.info["inset"]
+    assert _kkt_residual(r, inset) < 1e-4
+    # scipy SLSQP from several starts on the same (shrunk) problem reaches no shorter path.
+    h = Hatches.of(rosary)
+    m, n = h.m, rosary.dim
+
+    def length(x):
+        return float(paths.path_length(rosary.path(x.reshape(m, n))))
+
+    def length_grad(x):
+        p = rosary.path(x.reshape(m, n))
+        u = np.diff(p, axis=0)
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        return (u[:-1] - u[1:]).ravel()
+
+    def cons(x):
+        w = x.reshape(m, n)
+        return np.concatenate([(h.ra - inset) ** 2 - np.sum((w - h.ca) ** 2, 1),
+                               (h.rb - inset) ** 2 - np.sum((w - h.cb) ** 2, 1)])
+
+    rng = np.random.default_rng(0)
+    starts = [rosary.portal_waypoints(), rosary.sample_hatches(rng), rosary.sample_hatches(rng)]
+    for x0 in starts:
+        sol = minimize(length, h.project(x0, inset).ravel(), jac=length_grad, method="SLSQP",
+                       constraints=[{"type": "ineq", "fun": cons}], options={"maxiter": 500, "ftol": 1e-12})
+        assert sol.success, sol.message
+        assert np.all(cons(sol.x) >= -1e-9)
+        assert r.length <= sol.fun + 1e-7
+        assert sol.fun == pytest.approx(r.length, abs=1e-5)  # convex: every start reaches the optimum
+
+
+def test_smoothness_weight_trades_length_for_smoothness(all_results):
+    short, smooth = all_results["convex"], all_results["convex-smooth"]
+    assert smooth.length >= short.length - 1e-9
+    assert smooth.sv < short.sv
+
+
+# -- the rosary adjustment ---------------------------------------------------------------------------
+def test_adjusted_rosary_is_certified_and_a_valid_chain(smoothing_setup, adjusted):
+    _, oracle, rosary = smoothing_setup
+    a = adjusted.rosary
+    assert a.k == rosary.k
+    assert a.check_structure(tol=0.0) == []
+    np.testing.assert_array_equal(a.centers[0], rosary.q_init)
+    cert = oracle.radii(a.centers)  # re-certified here with MuJoCo, independently of the adjustment
+    assert np.all(a.radii <= cert + 1e-9)
+    assert np.all(a.radii >= R_MIN - 1e-12)
+    # Every child's centre on its parent's surface.
+    np.testing.assert_allclose(np.linalg.norm(np.diff(a.centers, axis=0), axis=1), a.radii[:-1], rtol=0, atol=1e-12)
+    assert np.linalg.norm(a.q_goal - a.centers[-1]) <= a.radii[-1]
+    assert adjusted.path.tc > paths.tc(rosary.path(rosary.center_waypoints()))
+    assert np.all(np.diff(adjusted.path.history_best) >= 0)
+
+
+def test_adjusted_bubbles_are_free_under_mujoco(smoothing_setup, adjusted):
+    """Sample each adjusted bubble (surface and interior): mj_collision finds no contact anywhere."""
+    robot, oracle, _ = smoothing_setup
+    a = adjusted.rosary
+    rng = np.random.default_rng(1)
+    u = rng.normal(size=(a.k, 60, a.dim))
+    u /= np.linalg.norm(u, axis=2, keepdims=True)
+    s = np.concatenate([np.ones((a.k, 30)), rng.random((a.k, 30)) ** (1 / a.dim)], axis=1)
+    pts = (a.centers[:, None] + u * (s * a.radii[:, None])[..., None]).reshape(-1, a.dim)
+    assert np.all(oracle.clearance.batch(pts) > 0)
+    assert not any(robot.in_collision(q) for q in pts)
+
+
+def test_adjustment_rejects_an_inconsistent_rosary(smoothing_setup, rosary):
+    _, oracle, _ = smoothing_setup
+    with pytest.raises(ValueError, match="constraints"):
+        RosaryAdjustment(r_min=10 * R_MIN).adjust(rosary, oracle)
+
+
+# -- determinism and stopping ------------------------------------------------------------------------
+@pytest.mark.parametrize("name", list(STOCHASTIC))
+def test_same_seed_same_result(rosary, stochastic_results, name):
+    again = STOCHASTIC[name].smooth(rosary, seed=SEEDS[1])
+    first = stochastic_results[(name, SEEDS[1])]
+    np.testing.assert_array_equal(again.waypoints, first.waypoints)
+    np.testing.assert_array_equal(again.history_mean, first.history_mean)
+    other = stochastic_results[(name, SEEDS[2])]
+    assert not np.array_equal(other.waypoints, first.waypoints)
+    gen = STOCHASTIC[name].smooth(rosary, seed=np.random.default_rng(SEEDS[1]))
+    np.testing.assert_array_equal(gen.waypoints, first.waypoints)
+
+
+def test_deterministic_methods_repeat(smoothing_setup, rosary, adjusted, all_results):
+    _, oracle, _ = smoothing_setup
+    np.testing.assert_array_equal(GRAD.smooth(rosary).waypoints, all_results["T_CA"].waypoints)
+    np.testing.assert_array_equal(ConvexShortestPath().smooth(rosary).waypoints, all_results["convex"].waypoints)
+    again = RosaryAdjustment(r_min=R_MIN, stop=StopCriteria(max_iterations=30)).adjust(rosary, oracle)
+    again2 = RosaryAdjustment(r_min=R_MIN, stop=StopCriteria(max_iterations=30)).adjust(rosary, oracle)
+    np.testing.assert_array_equal(again.rosary.centers, again2.rosary.centers)
+
+
+def test_harmony_search_speculative_blocks_equal_sequential_run(rosary):
+    """A run capped at 400 improvisations is exactly the first 400 of a longer run (the speculative block
+    sizes differ near the cap, the result may not)."""
+    short = HarmonySearch(stop=StopCriteria(max_iterations=400, stall_iterations=None)).smooth(rosary, seed=7)
+    long = HarmonySearch(stop=StopCriteria(max_iterations=900, stall_iterations=None)).smooth(rosary, seed=7)
+    np.testing.assert_array_equal(short.history_mean, long.history_mean[:400])
+    np.testing.assert_array_equal(short.history_best, long.history_best[:400])
+
+
+def test_stop_criteria(rosary):
+    centre_f = center_path_result(rosary).f
+    r = HarmonySearch(stop=StopCriteria(f_threshold=centre_f, max_iterations=5000)).smooth(rosary, seed=0)
+    assert r.stop_reason == "f threshold" and r.f < centre_f
+    r = GeneticAlgorithm(stop=StopCriteria(stall_iterations=5, max_iterations=5000)).smooth(rosary, seed=0)
+    assert r.stop_reason == "stall"
+    lowest = np.minimum.accumulate(r.history_mean)
+    assert np.all(lowest[-5:] == lowest[-6])  # no new lowest mean in the last 5 generations
+    r = HarmonySearch(stop=StopCriteria(max_iterations=123, stall_iterations=None)).smooth(rosary, seed=0)
+    assert r.stop_reason == "iteration cap" and r.iterations == 123 and r.evaluations == 50 + 123
+
+
+def test_initial_path_is_validated_and_used(rosary):
+    centre = rosary.center_waypoints()
+    with pytest.raises(ValueError, match="shape"):
+        HS.smooth(rosary, initial=centre[:-1])
+    bad = centre.copy()
+    bad[3] += 10.0
+    with pytest.raises(ValueError, match=r"outside their hatches"):
+        GA.smooth(rosary, initial=bad)
+    # Seeded with the convex optimum, GA's elitism never returns anything worse. (The optimum may have two
+    # coincident waypoints; the angles next to a ~1e-9 segment are ill-conditioned, hence the tolerance.)
+    opt = ConvexShortestPath().smooth(rosary)
+    r = replace(GA, stop=StopCriteria(max_iterations=5)).smooth(rosary, initial=opt.waypoints, seed=0)
+    assert r.f <= opt.f + 1e-9
+
+
+def test_single_bubble_rosary_needs_no_smoothing(smoothing_setup):
+    _, oracle, _ = smoothing_setup
+    q = np.array(Q_INIT)
+    r0 = oracle.radius(q)
+    one = Rosary(q[None], np.array([r0]), q, q + np.array([r0 / 2, 0, 0]))
+    for sm in (HS, GA, GRAD, ConvexShortestPath()):
+        r = sm.smooth(one, seed=0)
+        assert r.waypoints.shape == (0, 3) and r.stop_reason == "nothing to smooth"
+        np.testing.assert_array_equal(r.path, [one.q_init, one.q_goal])
+    a = RosaryAdjustment(r_min=R_MIN).adjust(one, oracle)
+    assert a.rosary is one

@@ -1,0 +1,193 @@
+"""Tests for foam_mj.smoothing's parts: the vectorized objective, SV/TC gradients, hatch projection, validation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from foam_mj import paths
+from foam_mj.rosary import Rosary
+from foam_mj.smoothing import (
+    ConvexShortestPath,
+    GeneticAlgorithm,
+    GradientSmoothing,
+    HarmonySearch,
+    Hatches,
+    RosaryAdjustment,
+    StopCriteria,
+    coordinate_major_objective,
+    population_objective,
+    sv_and_gradient,
+    tc_and_gradient,
+)
+
+SETTINGS = settings(max_examples=200, deadline=None)
+
+
+def reference_f(path: list[list[float]]) -> float:
+    """Paper 000 Eq. 4-5 for one path, written out plainly: mean (pi - theta_i) over the interior vertices
+    plus the length, theta_i the angle at q'_(i+1) between q'_i - q'_(i+1) and q'_(i+2) - q'_(i+1)."""
+    length = sum(math.dist(a, b) for a, b in zip(path[:-1], path[1:]))
+    terms = []
+    for i in range(len(path) - 2):
+        u = [x - y for x, y in zip(path[i], path[i + 1])]
+        v = [x - y for x, y in zip(path[i + 2], path[i + 1])]
+        nu, nv = math.hypot(*u), math.hypot(*v)
+        if nu * nv <= 1e-12:
+            theta = math.pi  # a zero-length segment: counted as straight
+        else:
+            c = sum(x * y for x, y in zip(u, v)) / (nu * nv)
+            theta = math.acos(max(-1.0, min(1.0, c)))
+        terms.append(math.pi - theta)
+    return (sum(terms) / len(terms) if terms else 0.0) + length
+
+
+def reference_sv(path: np.ndarray) -> float:
+    t = []
+    for i in range(1, len(path) - 1):
+        a, b = path[i] - path[i - 1], path[i + 1] - path[i]
+        c = np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b))
+        t.append(math.acos(max(-1.0, min(1.0, c))) ** 2)
+    return sum(t) / len(t)
+
+
+populations = st.integers(1, 6).flatmap(
+    lambda P: st.integers(3, 12).flatmap(
+        lambda L: st.integers(2, 4).flatmap(
+            lambda n: arrays(np.float64, (P, L, n), elements=st.floats(-3, 3, allow_nan=False, width=64))
+        )
+    )
+)
+
+
+@SETTINGS
+@given(populations, st.booleans())
+def test_vectorized_objective_equals_plain_reference(pop, repeat_point):
+    if repeat_point:  # a zero-length segment somewhere
+        pop = pop.copy()
+        pop[:, 1] = pop[:, 0]
+    want = np.array([reference_f(p.tolist()) for p in pop])
+    # arccos is ill-conditioned at a full reversal (cos = -1): a rounding of 1e-16 in the cosine moves
+    # the angle by up to ~1.5e-8, whichever way the cosine is computed.
+    tol = dict(rtol=1e-12, atol=1e-7)
+    np.testing.assert_allclose(population_objective(pop), want, **tol)
+    np.testing.assert_allclose(coordinate_major_objective(np.ascontiguousarray(pop.transpose(2, 0, 1))), want, **tol)
+    np.testing.assert_allclose(paths.objective(pop), want, **tol)
+
+
+@SETTINGS
+@given(arrays(np.float64, (7, 3), elements=st.floats(-2, 2, width=64)))
+def test_sv_gradient_matches_finite_differences(p):
+    seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    ang = paths.turning_angles(p)
+    # Finite differences need a smooth neighbourhood: segments not tiny, turns away from 0 and pi.
+    if seg.min() < 0.05 or ang.min() < 0.05 or ang.max() > math.pi - 0.05:
+        return
+    sv, g = sv_and_gradient(p)
+    assert sv == pytest.approx(reference_sv(p), rel=1e-12, abs=1e-12)
+    h = 1e-6
+    num = np.zeros_like(p)
+    for i in range(len(p)):
+        for j in range(p.shape[1]):
+            e = np.zeros_like(p)
+            e[i, j] = h
+            num[i, j] = (sv_and_gradient(p + e)[0] - sv_and_gradient(p - e)[0]) / (2 * h)
+    np.testing.assert_allclose(g, num, atol=1e-5 * max(1.0, np.abs(num).max()))
+
+
+def test_tc_gradient_matches_finite_differences():
+    rng = np.random.default_rng(0)
+    p = rng.normal(size=(9, 3))
+    tc, g = tc_and_gradient(p)
+    assert tc == pytest.approx(paths.tc(p))
+    h = 1e-6
+    for i in range(1, len(p) - 1):
+        for j in range(3):
+            e = np.zeros_like(p)
+            e[i, j] = h
+            num = (tc_and_gradient(p + e)[0] - tc_and_gradient(p - e)[0]) / (2 * h)
+            assert g[i, j] == pytest.approx(num, abs=1e-7)
+    assert np.all(g[[0, -1]] == 0)
+
+
+def test_sv_gradient_at_straight_vertex_is_finite():
+    p = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 1, 0]])
+    sv, g = sv_and_gradient(p)
+    assert np.all(np.isfinite(g)) and sv > 0
+
+
+two_balls = st.tuples(
+    st.floats(0.05, 1.0), st.floats(0.05, 1.0), st.floats(0.0, 1.0),
+    arrays(np.float64, (3,), elements=st.floats(-1, 1)), st.integers(0, 2**32 - 1),
+)
+
+
+@SETTINGS
+@given(two_balls)
+def test_projection_onto_lens_is_inside_and_nearest(args):
+    ra, rb, frac, direction, seed = args
+    if np.linalg.norm(direction) < 1e-3 or frac < 1e-3:
+        return
+    u = direction / np.linalg.norm(direction)
+    # Centre distance from nested (0) to a thin lens (0.8 (ra + rb): thinner lenses make the rejection
+    # sampling below slow).
+    d = frac * 0.8 * (ra + rb)
+    ca, cb = np.zeros(3), d * u
+    ros = Rosary(np.array([ca, cb]), np.array([ra, rb]), ca, cb)
+    h = Hatches.of(ros)
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=(40, 1, 3)) * 1.5
+    p = h.project(x)
+    assert np.all(h.inside(p, -1e-9))
+    inside_pts = ros.sample_hatches(rng, 400)[:, 0]
+    for xi, pi in zip(x[:, 0], p[:, 0]):
+        best_sample = np.min(np.linalg.norm(inside_pts - xi, axis=1))
+        assert np.linalg.norm(pi - xi) <= best_sample + 1e-9
+    # Points inside stay put.
+    np.testing.assert_array_equal(h.project(inside_pts[:, None]), inside_pts[:, None])
+    # The shrunk lens: strictly inside.
+    q = h.project(x, inset=1e-3)
+    assert np.all(h.inside(q, 1e-3 - 1e-9))
+
+
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda: HarmonySearch(HMCR=1.5), r"HMCR must be in \[0, 1\], got 1.5"),
+        (lambda: HarmonySearch(PAR=-0.1), r"PAR must be in \[0, 1\]"),
+        (lambda: HarmonySearch(BW=-1.0), r"BW must be >= 0"),
+        (lambda: HarmonySearch(HMS=0), r"HMS must be an integer >= 1"),
+        (lambda: HarmonySearch(HMS=2.5), r"HMS must be an integer"),
+        (lambda: GeneticAlgorithm(pop_size=1), r"pop_size must be an integer >= 2"),
+        (lambda: GeneticAlgorithm(cross_prob=2), r"cross_prob must be in \[0, 1\]"),
+        (lambda: GeneticAlgorithm(mut_prob=-1e-3), r"mut_prob must be in \[0, 1\]"),
+        (lambda: GeneticAlgorithm(beta=1.3), r"beta must be in \[0, 1\]"),
+        (lambda: GeneticAlgorithm(alpha_range=(1.1, 0.9)), r"alpha_range must be finite with a <= b"),
+        (lambda: GeneticAlgorithm(selection="tournament"), r"selection must be one of"),
+        (lambda: StopCriteria(max_iterations=None, stall_iterations=None), r"cannot both be None"),
+        (lambda: StopCriteria(max_iterations=0), r"max_iterations must be an integer >= 1"),
+        (lambda: StopCriteria(f_threshold=float("nan")), r"f_threshold must be a finite number"),
+        (lambda: StopCriteria(stall_tol=-1.0), r"stall_tol must be >= 0"),
+        (lambda: GradientSmoothing(eta=0.0), r"eta must be > 0"),
+        (lambda: RosaryAdjustment(r_min=-0.07), r"r_min must be > 0"),
+        (lambda: RosaryAdjustment(r_min=0.07, eta=float("inf")), r"eta must be > 0 and finite"),
+        (lambda: ConvexShortestPath(smoothness=-1.0), r"smoothness must be >= 0"),
+        (lambda: ConvexShortestPath(inset=0.0), r"inset must be > 0"),
+    ],
+)
+def test_bad_parameters_raise_value_error_naming_them(make, message):
+    with pytest.raises(ValueError, match=message):
+        make()
+
+
+def test_stop_criteria_order_and_reasons():
+    s = StopCriteria(f_threshold=1.0, max_iterations=10, stall_iterations=3)
+    assert s.reason(0, 2.0, 0) is None
+    assert s.reason(5, 0.5, 0) == "f threshold"
+    assert s.reason(5, 2.0, 3) == "stall"
+    assert s.reason(10, 2.0, 0) == "iteration cap"
