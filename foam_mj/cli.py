@@ -123,6 +123,16 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from foam_mj.scenarios import load_scenario
 
     json_out = _check_writable(args.json, "--json")
+    figures_dir = None
+    if args.figures is not None:
+        from foam_mj.figures import _matplotlib
+
+        _matplotlib()  # fails now, with the install hint, when matplotlib is missing
+        figures_dir = Path(args.figures)
+        if figures_dir.exists() and not figures_dir.is_dir():
+            raise FoamError(f"--figures {figures_dir} is a file, not a folder")
+        if not figures_dir.exists() and not figures_dir.parent.is_dir():
+            raise FoamError(f"--figures {figures_dir}: folder {figures_dir.parent} does not exist")
     names = parse_smoothers(args.smoother)
     scenario = load_scenario(args.scene)
     rrd = None if args.no_rrd else _check_writable(args.rrd or f"foam-mj-{scenario.name}.rrd", "--rrd")
@@ -160,6 +170,14 @@ def cmd_plan(args: argparse.Namespace) -> int:
     if json_out is not None:
         write_outcome(json_out, outcome)
         print(f"wrote {json_out}")
+    if figures_dir is not None:
+        from foam_mj.figures import write_figures
+        from foam_mj.results import outcome_dict
+
+        progress("drawing figures")
+        written = write_figures(outcome_dict(outcome), figures_dir, formats=tuple(args.figure_format))
+        progress.done()
+        print(f"wrote {len(written)} figures to {figures_dir}")
     print(f"total {time.perf_counter() - t0:.2f} s")
     return EXIT_OK
 
@@ -226,6 +244,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-rrd", action="store_true", help="write no recording")
     p.add_argument("--json", metavar="OUT.json", help="write the result as JSON (readable by shared/tools/verify_result.py)")
     p.add_argument("--no-replay", action="store_true", help="skip trajectories and replays (paths only)")
+    p.add_argument("--figures", metavar="DIR", help="also draw the paper-style figures into DIR (needs foam-mj[figures])")
+    p.add_argument("--figure-format", nargs="+", default=["png"], choices=["png", "svg", "pdf"], help="figure file formats (default: png)")
     p.set_defaults(func=cmd_plan)
     p = sub.add_parser("replay", help="replay a saved result", description="Rebuild the joint trajectories of a `plan --json` result and replay them on the scene it names.")
     p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")

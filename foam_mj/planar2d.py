@@ -180,7 +180,7 @@ def smoothness(points: np.ndarray, delta: float = 0.0, mode: str = "turning") ->
         phi = _angle(seg[..., :-1, :], seg[..., 1:, :])
     elif mode == "target":
         to = p[..., :-1, :] - p[..., -1:, :]
-        phi = _angle(to[..., :-2, :], to[..., 1:-1, :])
+        phi = _angle(to[..., :-1, :], to[..., 1:, :])
     else:
         raise ValueError(f"smoothness mode must be one of {SMOOTHNESS}, got {mode!r}")
     n_seg = np.count_nonzero(np.sum(seg * seg, axis=-1) > _EPS * _EPS, axis=-1)

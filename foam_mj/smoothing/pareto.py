@@ -358,7 +358,7 @@ class ParetoRun:
 
     ``X`` (F, D), ``objectives`` (F, M), ``violation`` (F,), sorted by the first objective.
     ``history`` maps names to per-iteration arrays (index 0 = the initial population):
-    ``archive_size``, ``best_<name>`` (lowest value of that objective in the archive), ``mean_<name>``
+    ``archive_size``, ``archive_feasible`` (1 once the archive holds feasible solutions), ``best_<name>`` (lowest value of that objective in the archive), ``mean_<name>``
     (swarm mean), ``best_sum`` (lowest sum of the objectives in the archive), ``feasible_share`` (of the
     swarm), and ``hypervolume`` (w.r.t. ``info["hv_reference"]``, the worst
     objective values of the initial swarm, for two objectives and a feasible archive; NaN otherwise).
@@ -386,8 +386,8 @@ class RunRecorder:
         self.names = tuple(names)
         feas = V0 <= 0
         self.hv_ref = (F0[feas] if feas.any() else F0).max(axis=0).astype(float)
-        self.rows: dict[str, list[float]] = {"archive_size": [], "feasible_share": [], "hypervolume": [],
-                                             "best_sum": []}
+        self.rows: dict[str, list[float]] = {"archive_size": [], "archive_feasible": [], "feasible_share": [],
+                                             "hypervolume": [], "best_sum": []}
         for nm in self.names:
             self.rows[f"best_{nm}"] = []
             self.rows[f"mean_{nm}"] = []
@@ -395,6 +395,7 @@ class RunRecorder:
     def record(self, archive: Archive, F: np.ndarray, V: np.ndarray) -> None:
         r = self.rows
         r["archive_size"].append(len(archive))
+        r["archive_feasible"].append(1.0 if archive.feasible else 0.0)
         r["feasible_share"].append(float(np.mean(V <= 0)))
         r["best_sum"].append(float(archive.F.sum(axis=1).min()))
         for j, nm in enumerate(self.names):
@@ -509,7 +510,7 @@ class ParetoResult:
     columns ``objective_names`` = ("length", "angle_term") (paths.path_length and paths.angle_term;
     their sum is paper 000 Eq. 5's f), sorted by length (so by decreasing angle term). ``knee`` indexes
     the member closest to the ideal point (:func:`knee_index`); ``extremes`` = (shortest, smoothest).
-    ``history`` per iteration (index 0 = initial swarm): archive_size, best_length, best_angle_term,
+    ``history`` per iteration (index 0 = initial swarm): archive_size, archive_feasible, best_length, best_angle_term,
     mean_length, mean_angle_term, feasible_share, hypervolume, best_f (lowest f = length + angle term
     in the archive), mean_f (swarm mean f). ``convex_length`` is filled in by :meth:`with_convex`.
     """
