@@ -332,14 +332,15 @@ class MGOASmoother(MGOA, ParetoSmoother):
     ``smooth(rosary, initial, seed)`` -> the :class:`SmoothingResult` of the front member named by
     ``select`` ("knee" by default; "min_f", "shortest", "smoothest"), the front in ``info["front"]``.
     Every position is projected onto its hatches (shrunk by ``inset``) after each move, so every path
-    evaluated and returned lies in the rosary's certified bubbles. Defaults: a swarm of 100 for 200
-    iterations and the "mean" social term (the paper's 500 x 100 with "sum" costs ~20x more on a
-    30-bubble rosary for a front no closer to the convex bound; see ``benchmarks/mgoa.py``).
+    evaluated and returned lies in the rosary's certified bubbles. Defaults (tuned on the obstacle
+    rosary, D = 84; ``benchmarks/mgoa.py``): a swarm of 50 for 500 iterations, Eq. 6's "sum" social
+    term with ``random_social`` on (deterministic Eq. 6 ends about twice as far from the convex
+    length bound), about 2 s; the paper's 500 x 100 costs about 25 s for a worse front.
     """
 
-    swarm_size: int = 100
-    iterations: int = 200
-    social: str = "mean"
+    swarm_size: int = 50
+    iterations: int = 500
+    random_social: bool = True
     select: str = "knee"
     inset: float = 1e-9
 

@@ -5,8 +5,11 @@ Every particle i moves with (Eq. 9, then Eq. 8)
     v_i <- w v_i + c1 r1 (P_best,i - x_i) + c2 r2 (G_best - x_i),     x_i <- x_i + v_i
 
 r1, r2 ~ U[0, 1] drawn per particle and coordinate. ``inertia`` is w, a constant or a pair (w_start,
-w_end) decreasing linearly over the iterations; ``c1``, ``c2`` are the individual and group learning
-rates. Defaults: Clerc and Kennedy's w = 0.7298, c1 = c2 = 1.49618 (paper 004 gives no values).
+w_end) decreasing linearly over the iterations (w_l = w_start + (w_end - w_start) l / L); ``c1``, ``c2``
+are the individual and group learning rates. Paper 004 gives no values; defaults: Shi and Eberhart's
+inertia decreasing from 0.9 to 0.4 with Clerc and Kennedy's c1 = c2 = 1.49618 (the constant
+w = 0.7298 of Clerc and Kennedy, ``inertia=CLERC_W``, ends about twice as far from the convex length
+bound on the obstacle rosary and slightly worse on the planar maps).
 
 Choices: velocities start at 0 and are clamped to ``v_max`` (ub - lb) per coordinate (None: no
 clamp); a new position is clipped to [lb, ub] and passed through the problem's ``repair`` (projection
@@ -57,7 +60,7 @@ class PSOParams:
 
     swarm_size: int = 500
     iterations: int = 100
-    inertia: float | tuple[float, float] = CLERC_W
+    inertia: float | tuple[float, float] = (0.9, 0.4)
     c1: float = CLERC_C
     c2: float = CLERC_C
     v_max: float | None = 0.2
@@ -204,10 +207,10 @@ class MOPSOSmoother(MOPSO, ParetoSmoother):
     """MOPSO over a rosary's hatches, objectives (length, angle term of paper 000 Eq. 5); the same
     interface as :class:`~foam_mj.smoothing.goa.MGOASmoother` (``front`` and ``smooth``). Positions are
     projected onto the hatches (shrunk by ``inset``) after each move. Defaults: a swarm of 100 for
-    200 iterations."""
+    500 iterations (about 1 s on the obstacle rosary)."""
 
     swarm_size: int = 100
-    iterations: int = 200
+    iterations: int = 500
     select: str = "knee"
     inset: float = 1e-9
 
