@@ -95,6 +95,24 @@ def _summary_table(outcome) -> str:
     return "\n".join(lines)
 
 
+def _print_fronts(outcome) -> None:
+    """For multi-objective smoothers: the front's extremes and knee, and the gap to the convex length."""
+    convex = outcome.paths.get("convex")
+    for name, po in outcome.paths.items():
+        front = po.result.info.get("front") if po.result.info else None
+        if front is None:
+            continue
+        F = np.asarray(front["objectives"], dtype=float)
+        knee = front.get("knee")
+        print(f"{po.label}: Pareto front of {len(F)} paths (length, angle term)")
+        rows = [("shortest", int(np.argmin(F[:, 0]))), ("smoothest", int(np.argmin(F[:, 1])))]
+        if knee is not None:
+            rows.append(("knee", int(knee)))
+        for label, i in rows:
+            gap = f", {100 * (F[i, 0] / convex.metrics.length - 1):+.2f}% vs convex length" if convex is not None else ""
+            print(f"  {label:<9} length {F[i, 0]:.4f}  angle term {F[i, 1]:.4f}{gap}")
+
+
 def _record(path: Path, outcome=None, *, scenario=None, foam=None) -> None:
     from foam_mj.recording import Recording
 
@@ -115,6 +133,9 @@ def _record(path: Path, outcome=None, *, scenario=None, foam=None) -> None:
                 rec.log_replay(name, robot, replay)
             if name in ("hs", "ga") or len(po.result.history_best) > 1:
                 rec.log_convergence(name, po.result.history_best, po.result.history_mean)
+            front = po.result.info.get("front") if po.result.info else None
+            if front is not None:
+                rec.log_pareto_front(name, front["objectives"], front["paths"], front.get("knee"), tuple(front.get("objective_names", ("length", "angle term"))))
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
@@ -162,6 +183,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         f"({st.bubbles_per_second:,.0f} bubbles/s), rosary of {outcome.plan.rosary.k} bubbles, margin {scenario.params.delta * 1000:g} mm"
     )
     print(_summary_table(outcome))
+    _print_fronts(outcome)
     if rrd is not None:
         progress("recording")
         _record(rrd, outcome)
@@ -238,7 +260,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Exit codes: 0 success, 2 bad input, 3 planning failed (the foam so far is still written).",
     )
     p.add_argument("--scene", default="obstacle", help="a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: obstacle)")
-    p.add_argument("--smoother", default="all", help="none, hs, ga, gradient, adjust, convex or all, or a comma-separated list (default: all)")
+    p.add_argument("--smoother", default="all", help="none, hs, ga, gradient, adjust, convex, mgoa, mopso or all, or a comma-separated list (default: all)")
     p.add_argument("--seed", type=int, default=None, help="random seed of the planner and smoothers (default: the scenario's)")
     p.add_argument("--rrd", metavar="OUT.rrd", help="where to write the Rerun recording (default: foam-mj-<scenario>.rrd)")
     p.add_argument("--no-rrd", action="store_true", help="write no recording")

@@ -12,7 +12,13 @@ adjusted_gradient   the adjusted path smoothed by Eq. 9                         
 hs                  Harmony Search on f (Eq. 5)                                 000, 5.1
 ga                  the genetic algorithm on f (Eq. 5)                          000, 5.2
 convex              the shortest path through the hatches (SOCP)                reference
+mgoa                knee of MGOA's Pareto front (length, angle term)            004
+mopso               knee of MOPSO's Pareto front (length, angle term)           004
 ==================  ==========================================================  ============
+
+For mgoa and mopso the whole front is in ``result.info["front"]`` (waypoints (F, k-1, n), paths
+(F, k+1, n), objectives (F, 2), objective_names, knee, extremes = (shortest, smoothest)) and the
+:class:`~foam_mj.smoothing.pareto.ParetoResult` in ``result.info["pareto"]``.
 
 Every path keeps its waypoints in its rosary's hatches; the trajectory built on it is certified to
 stay inside the same bubbles (foam_mj.trajectory), and the kinematic replay measures its clearance
@@ -38,6 +44,8 @@ from foam_mj.smoothing import (
     GeneticAlgorithm,
     GradientSmoothing,
     HarmonySearch,
+    MGOASmoother,
+    MOPSOSmoother,
     RosaryAdjustment,
     SmoothingResult,
 )
@@ -52,6 +60,8 @@ SMOOTHERS: dict[str, tuple[str, ...]] = {
     "gradient": ("gradient",),
     "adjust": ("adjusted", "adjusted_gradient"),
     "convex": ("convex",),
+    "mgoa": ("mgoa",),
+    "mopso": ("mopso",),
 }
 SMOOTHERS["all"] = tuple(p for k in ("gradient", "adjust", "hs", "ga", "convex") for p in SMOOTHERS[k])
 
@@ -63,6 +73,8 @@ LABELS = {
     "hs": "harmony search",
     "ga": "genetic algorithm",
     "convex": "convex shortest",
+    "mgoa": "MGOA (Pareto knee)",
+    "mopso": "MOPSO (Pareto knee)",
 }
 
 
@@ -154,6 +166,12 @@ def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], see
     if "convex" in names:
         say("smoothing: convex shortest path")
         out["convex"] = ConvexShortestPath().smooth(rosary)
+    if "mgoa" in names:
+        say("smoothing: multi-objective grasshopper optimisation (MGOA)")
+        out["mgoa"] = MGOASmoother().smooth(rosary, seed=seed)
+    if "mopso" in names:
+        say("smoothing: multi-objective particle swarm (MOPSO)")
+        out["mopso"] = MOPSOSmoother().smooth(rosary, seed=seed)
     for name, res in out.items():
         if not res.rosary.all_in_hatches(res.waypoints):  # the smoothers guarantee it; a last guard
             raise RuntimeError(f"path '{name}' has a waypoint outside its hatch")

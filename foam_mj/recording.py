@@ -76,6 +76,7 @@ def default_blueprint() -> rrb.Blueprint:
             rrb.Spatial3DView(origin="world", name="Workspace"),
             rrb.Spatial3DView(origin="cspace", name="Configuration space"),
             rrb.Vertical(
+                rrb.Spatial2DView(origin="pareto", name="Pareto fronts (length vs angle term)"),
                 rrb.TimeSeriesView(origin="plots/joints", name="Joint positions"),
                 rrb.TimeSeriesView(origin="plots/convergence", name="Smoother convergence"),
                 rrb.TimeSeriesView(origin="plots/clearance", name="Clearance"),
@@ -311,6 +312,21 @@ class Recording:
         color = _rgba(_PATH_COLORS[self._paths % len(_PATH_COLORS)])
         self._paths += 1
         rec.log(f"cspace/paths/{name}", rr.LineStrips3D([p], colors=[color], radii=[0.005], labels=[name]), static=True)
+
+    def log_pareto_front(self, name: str, objectives, paths, knee: int | None = None, objective_names=("length", "angle term")) -> None:
+        """A Pareto front: the scatter of its objective pairs at ``pareto/<name>`` (a 2-D view) and every
+        member's path as its own line strip at ``cspace/fronts/<name>/<i>`` (selectable one by one)."""
+        rec = self._check_open()
+        name = _name(name)
+        F = np.asarray(objectives, dtype=float)
+        P = np.asarray(paths, dtype=float)
+        if F.ndim != 2 or F.shape[1] != 2 or len(P) != len(F):
+            raise ValueError(f"`objectives` must be (F, 2) with one path per row, got {F.shape} and {P.shape}")
+        colors = [[230, 120, 30, 255] if i == knee else [90, 90, 200, 255] for i in range(len(F))]
+        labels = [f"{i}{' (knee)' if i == knee else ''}: {objective_names[0]} {a:.4f}, {objective_names[1]} {b:.4f}" for i, (a, b) in enumerate(F)]
+        rec.log(f"pareto/{name}", rr.Points2D(F, colors=colors, radii=[0.004], labels=labels), static=True)
+        for i, p in enumerate(P):
+            rec.log(f"cspace/fronts/{name}/{i}", rr.LineStrips3D([_points3(p, "paths")], colors=[colors[i]], radii=[0.002], labels=[labels[i]]), static=True)
 
     def log_joint_trajectory(self, name: str, trajectory: Trajectory) -> None:
         """Joint positions over time (joint units) at ``plots/joints/<name>/<joint>``, and the samples in

@@ -24,6 +24,7 @@ Layout (format "foam-mj/result", version 1)::
           "metrics": {"length", "angle_term", "f", "tc", "sv", "n_points"},
           "smoother": {"method", "iterations", "evaluations", "wall_time", "stop_reason", ...},
           "convergence": {"best": [...], "mean": [...]},      # objective per iteration
+          "pareto_front": {"objectives": [[length, angle term], ...], "knee": i, "paths": [...]},  # mgoa, mopso
           "replay": {"min_clearance": ..., "duration": ..., "max_error": [...], "rms_error": [...],
                      "contacts": N, "joints": [...]}
         }, ...
@@ -116,6 +117,14 @@ def outcome_dict(outcome) -> dict:
             entry["qpos"] = cfg.to_qpos(np.asarray(res.path)).tolist()
         if len(res.history_best) > 1:
             entry["convergence"] = {"best": np.asarray(res.history_best).tolist(), "mean": np.asarray(res.history_mean).tolist()}
+        front = res.info.get("front") if res.info else None
+        if front is not None:
+            entry["pareto_front"] = {
+                "objective_names": list(front.get("objective_names", ("length", "angle term"))),
+                "objectives": np.asarray(front["objectives"]).tolist(),
+                "knee": None if front.get("knee") is None else int(front["knee"]),
+                "paths": np.asarray(front["paths"]).tolist(),
+            }
         if po.kinematic is not None:
             rep: dict[str, Any] = {"min_clearance": po.kinematic.min_clearance, "duration": po.trajectory.duration}
             if po.dynamic is not None:

@@ -149,3 +149,19 @@ def test_the_console_script_runs(tmp_path):
 def test_view_refuses_a_missing_file(capsys):
     assert main(["view", "nowhere.rrd"]) == 2
     assert "not found" in capsys.readouterr().err
+
+
+def test_multi_objective_smoothers_record_their_pareto_front(tmp_path, capsys):
+    rrd, js = tmp_path / "front.rrd", tmp_path / "front.json"
+    assert main(["plan", "--smoother", "mopso,convex", "--no-replay", "--rrd", str(rrd), "--json", str(js)]) == 0
+    out = capsys.readouterr().out
+    assert "Pareto front of" in out and "knee" in out and "vs convex length" in out
+    front = json.loads(js.read_text())["paths"]["mopso"]["pareto_front"]
+    F = np.asarray(front["objectives"])
+    # No member dominates another.
+    for i in range(len(F)):
+        assert not np.any(np.all(F <= F[i], axis=1) & np.any(F < F[i], axis=1))
+    scatter = read_component(rrd, "pareto/mopso", "Points2D:positions")[0]
+    assert np.allclose(scatter, F)
+    rows = read_recording(rrd)
+    assert sum(1 for k in rows if k.startswith("cspace/fronts/mopso/")) == len(F)

@@ -7,7 +7,10 @@ One module per method, one interface (:class:`Smoother`: ``smooth(rosary, initia
   Algorithm 1, Eq. 6) minimise f of paper 000 Eq. 5 with waypoint i in hatch b_i ∩ b_(i+1);
 * :class:`GradientSmoothing` (paper 003 Eq. 9) and :class:`RosaryAdjustment` (Eq. 8) give the thesis's
   paths T, T_CA, T_RA, T_RCA (:func:`thesis_paths`);
-* :class:`ConvexShortestPath` is the convex reference (shortest path through the hatches, SOCP).
+* :class:`ConvexShortestPath` is the convex reference (shortest path through the hatches, SOCP);
+* :class:`MGOASmoother` and :class:`MOPSOSmoother` (paper 004, issue 7) return the Pareto front of
+  (length, angle term) (``front()`` -> :class:`ParetoResult`; ``smooth()`` -> the knee, the front in
+  ``info["front"]``).
 """
 
 from foam_mj.smoothing.adjust import AdjustmentResult, RosaryAdjustment, thesis_paths
@@ -24,28 +27,54 @@ from foam_mj.smoothing.base import (
 )
 from foam_mj.smoothing.convex import ConvexShortestPath, ConvexSolveError, build_socp
 from foam_mj.smoothing.genetic import GeneticAlgorithm
+from foam_mj.smoothing.goa import GOA, MGOA, MGOASmoother
 from foam_mj.smoothing.gradient import GradientSmoothing, center_path_result, sv_and_gradient, tc_and_gradient
 from foam_mj.smoothing.harmony import HarmonySearch
+from foam_mj.smoothing.pareto import (
+    Archive,
+    ParetoResult,
+    ParetoSmoother,
+    RosaryProblem,
+    error_ratio,
+    hypervolume_2d,
+    knee_index,
+    set_coverage,
+)
+from foam_mj.smoothing.pso import MOPSO, PSO, MOPSOSmoother
 
 __all__ = [
     "PAPER_F_THRESHOLD",
     "PAPER_MAX_ITERATIONS",
     "PAPER_STALL_ITERATIONS",
     "AdjustmentResult",
+    "Archive",
     "ConvexShortestPath",
     "ConvexSolveError",
+    "GOA",
     "GeneticAlgorithm",
     "GradientSmoothing",
     "HarmonySearch",
     "Hatches",
+    "MGOA",
+    "MGOASmoother",
+    "MOPSO",
+    "MOPSOSmoother",
+    "PSO",
+    "ParetoResult",
+    "ParetoSmoother",
     "RosaryAdjustment",
+    "RosaryProblem",
     "SmoothingResult",
     "Smoother",
     "StopCriteria",
     "build_socp",
     "center_path_result",
     "coordinate_major_objective",
+    "error_ratio",
+    "hypervolume_2d",
+    "knee_index",
     "population_objective",
+    "set_coverage",
     "sv_and_gradient",
     "tc_and_gradient",
     "thesis_paths",

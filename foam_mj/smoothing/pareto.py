@@ -25,6 +25,11 @@ extremes); :class:`ParetoSmoother` (base of ``MGOASmoother`` and ``MOPSOSmoother
 :class:`~foam_mj.smoothing.base.Smoother` interface: ``smooth()`` returns the knee's (or another selected
 member's) :class:`SmoothingResult` with the front in ``info["front"]``; ``front()`` returns the whole
 :class:`ParetoResult`.
+
+On the obstacle rosary the two objectives hardly conflict: the convex shortest path through the
+hatches (``ConvexShortestPath``) is also about as smooth as anything the swarms find, and it weakly
+dominates every member of their fronts (``benchmarks/mgoa.py``, part (b)). Passing its waypoints as
+``initial`` (one particle of the swarm) makes the front start there.
 """
 
 from __future__ import annotations
