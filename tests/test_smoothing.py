@@ -319,3 +319,147 @@ def test_single_bubble_rosary_needs_no_smoothing(smoothing_setup):
         np.testing.assert_array_equal(r.path, [one.q_init, one.q_goal])
     a = RosaryAdjustment(r_min=R_MIN).adjust(one, oracle)
     assert a.rosary is one
+
+
+# -- the fast implementations make the generic code's iterates -------------------------------------
+# GradientSmoothing, GeneticAlgorithm and RosaryAdjustment run specialised, preallocated code (see their
+# modules). The references below are the straightforward implementations of the same algorithms with the
+# generic functions; the runs must agree step for step (bit for bit on x86-64; the tolerances only allow
+# for a platform whose einsum adds a short axis in another order).
+from foam_mj.smoothing import coordinate_major_objective, sv_and_gradient  # noqa: E402
+from foam_mj.smoothing.base import MeanStall, as_generator  # noqa: E402
+from foam_mj.smoothing.genetic import CHUNK  # noqa: E402
+
+
+def reference_gradient_smoothing(sm: GradientSmoothing, rosary: Rosary):
+    h = Hatches.of(rosary)
+    w = h.project(rosary.center_waypoints(), sm.inset)
+    path = rosary.path(w)
+    sv, grad = sv_and_gradient(path)
+    best_w, best = w.copy(), float(sv)
+    stall = MeanStall(best, sm.stop.stall_tol)
+    hist, t, reason = [], 0, sm.stop.reason(0, best, 0)
+    while reason is None:
+        new = h.project(w - sm.eta * grad[1:-1], sm.inset)
+        step = float(np.max(np.abs(new - w)))
+        w = new
+        path[1:-1] = w
+        sv, grad = sv_and_gradient(path)
+        t += 1
+        if float(sv) < best:
+            best, best_w = float(sv), w.copy()
+        stall.update(float(sv))
+        hist.append(best)
+        reason = sm.stop.reason(t, best, stall.count)
+        if reason is None and step <= sm.tol:
+            reason = "converged"
+    return best_w, np.array(hist), t, reason
+
+
+def test_gradient_smoothing_makes_the_reference_iterates(rosary, adjusted, all_results):
+    for name, ros in (("T_CA", rosary), ("T_RCA", adjusted.rosary)):
+        w, hist, t, reason = reference_gradient_smoothing(GRAD, ros)
+        r = all_results[name]
+        assert (r.iterations, r.stop_reason) == (t, reason)
+        np.testing.assert_allclose(r.history_best, hist, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(r.waypoints, w, rtol=0, atol=1e-12)
+
+
+def reference_ga(ga: GeneticAlgorithm, rosary: Rosary, seed: int):
+    rng = as_generator(seed)
+    h = Hatches.of(rosary)
+    m, n, P = h.m, rosary.dim, ga.pop_size
+    pop = np.empty((n, P, m + 2))
+    pop[:, :, 0] = rosary.q_init[:, None]
+    pop[:, :, -1] = rosary.q_goal[:, None]
+    pop[:, :, 1:-1] = h.sample(rng, np.broadcast_to(np.arange(m), (P, m))).transpose(2, 0, 1)
+    fit = coordinate_major_objective(pop)
+    cum_rank = np.cumsum(1.0 / np.sqrt(np.arange(1, P + 1)))
+    cum_rank /= cum_rank[-1]
+    means, cpos = [], CHUNK
+    for _ in range(ga.stop.max_iterations):
+        if cpos >= CHUNK:
+            sel_u, no_cross, beta, mut_gen, mut_pos, mut_alpha = ga._draw(rng, P, m)
+            mut_bounds = np.searchsorted(mut_gen, np.arange(CHUNK + 1))
+            cpos = 0
+        if ga.selection == "rank":
+            ranks = np.minimum(np.searchsorted(cum_rank, sel_u[cpos], side="right"), P - 1)
+            parents = np.argsort(fit, kind="stable")[ranks]
+        else:
+            w = 1.0 / np.maximum(fit, 1e-300) if ga.selection == "inverse" else fit.max() - fit + 1e-12
+            cw = np.cumsum(w)
+            parents = np.minimum(np.searchsorted(cw, sel_u[cpos] * cw[-1], side="right"), P - 1)
+        a, b = parents[:P], parents[P:]
+        better = fit[a] <= fit[b]
+        x1 = pop[:, np.where(better, a, b)]
+        child = x1 + beta[cpos] * (x1 - pop[:, np.where(better, b, a)])
+        bi, bw = h.outside_cm(child[:, :, 1:-1]).nonzero()
+        child[:, bi, bw + 1] = x1[:, bi, bw + 1]
+        nc = no_cross[cpos]
+        child[:, nc] = pop[:, a[nc]]
+        lo, hi = mut_bounds[cpos], mut_bounds[cpos + 1]
+        ind, wp = np.divmod(mut_pos[lo:hi], m)
+        mutated = child[:, ind, wp + 1] * mut_alpha[lo:hi]
+        ok = ((np.sum((mutated.T - h.ca[wp]) ** 2, axis=1) <= h.ra[wp] ** 2)
+              & (np.sum((mutated.T - h.cb[wp]) ** 2, axis=1) <= h.rb[wp] ** 2))
+        child[:, ind[ok], wp[ok] + 1] = mutated[:, ok]
+        f = coordinate_major_objective(child)
+        if ga.elitism:
+            i_old, i_worst = int(fit.argmin()), int(f.argmax())
+            child[:, i_worst] = pop[:, i_old]
+            f[i_worst] = fit[i_old]
+        pop, fit = child, f
+        means.append(float(fit.sum()) / P)
+        cpos += 1
+    return pop[:, int(fit.argmin()), 1:-1].T, np.array(means)
+
+
+@pytest.mark.parametrize(
+    "options", [{}, {"beta": None}, {"selection": "rank"}, {"selection": "linear", "mut_prob": 0.01}]
+)
+def test_genetic_algorithm_makes_the_reference_generations(rosary, options):
+    ga = GeneticAlgorithm(stop=StopCriteria(max_iterations=300, stall_iterations=None), **options)
+    r = ga.smooth(rosary, seed=5)
+    w, means = reference_ga(ga, rosary, seed=5)
+    np.testing.assert_allclose(r.history_mean, means, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(r.waypoints, w, rtol=0, atol=1e-12)
+
+
+class ReferenceAdjustment(RosaryAdjustment):
+    """Eq. 8 with the plain constrained step: every trial position's radius fetched, every round."""
+
+    def _constrained_step(self, c, cert, step, q_goal, r_min, oracle, hint=None):
+        k = len(c)
+        scale = np.ones(k - 1)
+        for rnd in range(self.max_halvings + 1):
+            cand = c.copy()
+            cand[1:] += scale[:, None] * step
+            cand_cert = cert.copy()
+            cand_cert[1:] = oracle.radii(cand[1:])
+            bad = self._bad_centres(cand, cand_cert, q_goal, r_min)
+            if not bad.any():
+                return cand, cand_cert, True
+            if rnd < self.max_halvings:
+                scale[bad] /= 2
+        for _ in range(k):
+            bad = self._bad_centres(cand, cand_cert, q_goal, r_min) & (scale > 0)
+            if not bad.any():
+                break
+            scale[bad] = 0.0
+            back = np.flatnonzero(bad) + 1
+            cand[back], cand_cert[back] = c[back], cert[back]
+        moved = bool(np.any(scale > 0))
+        return (cand, cand_cert, True) if moved else (c, cert, False)
+
+
+def test_rosary_adjustment_makes_the_reference_steps(smoothing_setup, rosary):
+    _, oracle, _ = smoothing_setup
+    stop = StopCriteria(max_iterations=40, stall_iterations=None)
+    got = RosaryAdjustment(r_min=R_MIN, stop=stop).adjust(rosary, oracle)
+    want = ReferenceAdjustment(r_min=R_MIN, stop=stop).adjust(rosary, oracle)
+    np.testing.assert_array_equal(got.rosary.centers, want.rosary.centers)
+    np.testing.assert_array_equal(got.rosary.radii, want.rosary.radii)
+    np.testing.assert_array_equal(got.certified_radii, want.certified_radii)
+    np.testing.assert_array_equal(got.path.history_mean, want.path.history_mean)
+    assert got.path.iterations == want.path.iterations == 40
+    assert got.oracle_calls < want.oracle_calls  # radii fetched only when a decision needs them

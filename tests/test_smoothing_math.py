@@ -191,3 +191,124 @@ def test_stop_criteria_order_and_reasons():
     assert s.reason(5, 0.5, 0) == "f threshold"
     assert s.reason(5, 2.0, 3) == "stall"
     assert s.reason(10, 2.0, 0) == "iteration cap"
+
+
+# -- the specialised fast paths equal the generic code ----------------------------------------------
+# Gradient smoothing, the GA and the rosary adjustment run on preallocated, flat, fewer-call versions of
+# the functions above (see their modules). They do the same floating-point operations: on x86-64 the
+# results are bit-identical; the tolerances below only allow for a platform whose einsum adds a
+# short axis in another order.
+from foam_mj.smoothing.adjust import _tc_and_step  # noqa: E402
+from foam_mj.smoothing.genetic import _OutsideHatches, _PopulationObjective  # noqa: E402
+from foam_mj.smoothing.gradient import _LensProjection, _PathSV  # noqa: E402
+
+TIGHT = dict(rtol=1e-12, atol=1e-14)
+
+
+@st.composite
+def single_paths(draw):
+    """A path (L, n) with, at times, repeated points (zero-length segments), straight or reversed vertices."""
+    L, n = draw(st.integers(3, 12)), draw(st.integers(2, 4))
+    p = draw(arrays(np.float64, (L, n), elements=st.floats(-3, 3, allow_nan=False, width=64)))
+    p = p.copy()
+    kind = draw(st.sampled_from(["plain", "repeat", "straight", "reverse"]))
+    i = draw(st.integers(1, L - 2))
+    if kind == "repeat":
+        p[i] = p[i - 1]
+    elif kind == "straight":  # p[i] halfway between its neighbours: theta = 0 (up to rounding)
+        p[i] = 0.5 * (p[i - 1] + p[i + 1])
+    elif kind == "reverse":
+        p[i + 1] = p[i - 1]
+    return p
+
+
+@SETTINGS
+@given(single_paths())
+def test_path_sv_kernel_equals_sv_and_gradient(p):
+    L, n = p.shape
+    sv, g = sv_and_gradient(p)
+    kernel = _PathSV(L - 2, n)
+    for _ in range(2):  # the buffers are reused: a second call gives the same
+        sv2, g2 = kernel(np.ascontiguousarray(p.T))
+        assert sv2 == pytest.approx(float(sv), rel=1e-12, abs=1e-15)
+        scale = max(1.0, float(np.abs(g).max()))
+        np.testing.assert_allclose(g2[:, 1:-1].T, g[1:-1], rtol=1e-12, atol=1e-14 * scale)
+
+
+@st.composite
+def chains_and_trials(draw):
+    """Hatches of a random chain of balls (as a Rosary: nested, thin, even disjoint pairs) and trial paths
+    around them, some on a lens's axis."""
+    m, n = draw(st.integers(1, 6)), draw(st.integers(2, 4))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    centers = np.cumsum(rng.normal(size=(m + 1, n)) * 0.4, axis=0)
+    if draw(st.booleans()):  # centres on a line: the lens axes are the first coordinate axis
+        centers[:, 1:] = 0.0
+    radii = rng.uniform(0.05, 0.8, size=m + 1)
+    ros = Rosary(centers, radii, centers[0], centers[-1])
+    trials = centers[1:][None] + rng.normal(size=(6, m, n)) * rng.uniform(0.01, 1.0)
+    trials[0] = 0.5 * (centers[:-1] + centers[1:])  # often inside both balls
+    trials[1] = centers[:-1]  # on the axes (ball a's centre)
+    trials[2, :, 0] += 5.0  # far away
+    return ros, trials, draw(st.sampled_from([0.0, 1e-10, 1e-3]))
+
+
+@SETTINGS
+@given(chains_and_trials())
+def test_lens_projection_kernel_equals_hatches_project(args):
+    ros, trials, inset = args
+    h = Hatches.of(ros)
+    if np.any(h.ra <= inset) or np.any(h.rb <= inset):
+        return
+    proj = _LensProjection(h, inset, ros.q_init, ros.q_goal)
+    out = np.empty((ros.dim, ros.k + 1))
+    for w in trials:
+        x = np.ascontiguousarray(ros.path(w).T)
+        got = proj(x, out)
+        np.testing.assert_allclose(got[:, 1:-1].T, h.project(w, inset), **TIGHT)
+        np.testing.assert_array_equal(got[:, [0, -1]], x[:, [0, -1]])  # the ends stay put
+
+
+def test_lens_projection_kernel_is_exact_for_inside_points():
+    ros = Rosary(np.array([[0.0, 0, 0], [0.5, 0, 0], [0.5, 0.5, 0]]), np.array([0.6, 0.6, 0.6]),
+                 np.zeros(3), np.array([0.5, 0.5, 0]))
+    h = Hatches.of(ros)
+    w = ros.sample_hatches(np.random.default_rng(0))
+    x = np.ascontiguousarray(ros.path(w).T)
+    np.testing.assert_array_equal(_LensProjection(h, 0.0, ros.q_init, ros.q_goal)(x, np.empty_like(x)), x)
+
+
+@SETTINGS
+@given(populations, st.booleans())
+def test_population_objective_kernel_equals_coordinate_major_objective(pop, repeat_point):
+    if repeat_point:
+        pop = pop.copy()
+        pop[:, 1] = pop[:, 0]
+    X = np.ascontiguousarray(pop.transpose(2, 0, 1))
+    n, P, L = X.shape
+    kernel = _PopulationObjective(n, P, L)
+    want = coordinate_major_objective(X)
+    np.testing.assert_allclose(kernel(X), want, **TIGHT)
+    np.testing.assert_allclose(kernel(X), want, **TIGHT)  # buffers reused
+
+
+@SETTINGS
+@given(chains_and_trials(), st.integers(1, 5))
+def test_outside_hatches_kernel_equals_outside_cm(args, P):
+    ros, trials, _ = args
+    h = Hatches.of(ros)
+    X = np.ascontiguousarray(ros.path(trials[:P]).transpose(2, 0, 1))  # (n, P, L)
+    got = _OutsideHatches(h, P, ros.q_init, ros.q_goal)(X)
+    np.testing.assert_array_equal(got[:, 1:-1], h.outside_cm(X[:, :, 1:-1]))
+    assert not got[:, [0, -1]].any()
+
+
+def test_tc_step_equals_tc_and_gradient():
+    rng = np.random.default_rng(3)
+    for L in (3, 4, 9, 30):
+        p = rng.normal(size=(L, 3))
+        tc, g = tc_and_gradient(p)
+        tc2, step = _tc_and_step(p, 0.1)
+        assert tc2 == float(tc)
+        np.testing.assert_array_equal(step, 0.1 * g[1:-1])

@@ -11,8 +11,9 @@ kept only if every bubble stays certified and large enough:
 
     r_min <= r_i <= R(c_i)   for every bubble,   |q_goal - c_(k-1)| <= r_(k-1),
 
-with R the certified radius of :class:`~foam_mj.bubbles.BubbleOracle`, re-evaluated with MuJoCo at
-every moved centre (one batched ``oracle.radii`` call per trial). Because a radius is no larger than
+with R the certified radius of :class:`~foam_mj.bubbles.BubbleOracle`, evaluated with MuJoCo at the
+moved centres (batched ``oracle.radii`` calls; a trial position's radius is fetched only when a
+decision depends on it, see :meth:`RosaryAdjustment._constrained_step`). Because a radius is no larger than
 R at its centre, every adjusted bubble is free space with clearance >= delta, and the chain stays
 valid: consecutive bubbles overlap (each child centre lies on its parent's surface), q_init is the
 first centre and q_goal lies in the last bubble.
@@ -42,7 +43,7 @@ from foam_mj.smoothing.base import (
     _check_positive,
     trivial_result,
 )
-from foam_mj.smoothing.gradient import GradientSmoothing, center_path_result, tc_and_gradient
+from foam_mj.smoothing.gradient import _EPS, GradientSmoothing, center_path_result
 
 
 @dataclass(frozen=True)
@@ -97,16 +98,16 @@ class RosaryAdjustment:
             raise ValueError(f"the rosary given does not satisfy the adjustment's constraints: {why}")
 
         pts = np.vstack([c, q_goal])
-        tc, grad = tc_and_gradient(pts)
-        tc0 = best = float(tc)
+        tc, step = _tc_and_step(pts, self.eta)
+        tc0 = best = tc
         best_c, best_cert = c, cert
         hist: list[float] = []
         hist_now: list[float] = []
         stall = MeanStall(-tc0, self.stop.stall_tol)
-        t, reason = 0, self.stop.reason(0, -float(tc), 0)
+        t, reason = 0, self.stop.reason(0, -tc, 0)
+        hint: set[tuple[int, int]] = set()  # the trials the last step needed (halving level, centre)
         while reason is None:
-            step = self.eta * grad[1:-1]  # centres 1..k-1 (Eq. 8: ascent)
-            new_c, new_cert, moved = self._constrained_step(c, cert, step, q_goal, r_min, oracle)
+            new_c, new_cert, moved = self._constrained_step(c, cert, step, q_goal, r_min, oracle, hint)
             t += 1
             if not moved:
                 reason = "no feasible move"
@@ -115,12 +116,12 @@ class RosaryAdjustment:
                 break
             c, cert = new_c, new_cert
             pts[:-1] = c
-            tc, grad = tc_and_gradient(pts)
-            if float(tc) > best:
-                best, best_c, best_cert = float(tc), c, cert
+            tc, step = _tc_and_step(pts, self.eta)
+            if tc > best:
+                best, best_c, best_cert = tc, c, cert
             hist.append(best)
-            hist_now.append(float(tc))
-            stall.update(-float(tc))
+            hist_now.append(tc)
+            stall.update(-tc)
             reason = self.stop.reason(t, -best, stall.count)
 
         c, cert = best_c, best_cert
@@ -157,33 +158,132 @@ class RosaryAdjustment:
             return False, "the goal bubble is below r_min or does not hold q_goal"
         return True, ""
 
-    def _constrained_step(self, c, cert, step, q_goal, r_min, oracle):
+    def _constrained_step(self, c, cert, step, q_goal, r_min, oracle, hint=None):
         """Move centres 1..k-1 by ``step`` (k-1, n), halving the step of centres that break a constraint,
-        then leaving them in place; returns (centres, certified radii, whether any centre moved)."""
-        k = len(c)
-        scale = np.ones(k - 1)
-        for rnd in range(self.max_halvings + 1):
-            cand = c.copy()
-            cand[1:] += scale[:, None] * step
-            cand_cert = cert.copy()
-            moving = np.flatnonzero(scale > 0) + 1
-            cand_cert[moving] = oracle.radii(cand[moving])
-            bad = self._bad_centres(cand, cand_cert, q_goal, r_min) & (scale > 0)
-            if not bad.any():
-                return cand, cand_cert, True
-            if rnd < self.max_halvings:
-                scale[bad] /= 2
-        # Put offenders back until no constraint is broken (no oracle call: their old radii are known).
-        # This ends: with every centre back the chain is the previous, feasible one.
-        for _ in range(k):
-            bad = self._bad_centres(cand, cand_cert, q_goal, r_min) & (scale > 0)
-            if not bad.any():
+        then leaving them in place; returns (centres, certified radii, whether any centre moved).
+
+        Round r tries every centre i at its level h_i (position c_i + step_i / 2^h_i, level 0 first);
+        the centres taking part in a broken constraint (:meth:`_bad_centres`) go one level down, and
+        after ``max_halvings`` halvings back to where they were, until no constraint is broken.
+
+        The implementation tabulates the link lengths for every pair of levels once (numpy), decides
+        the rounds in plain Python, and fetches the certified radius of a trial position from MuJoCo
+        only when a decision depends on it: a centre is bad as soon as one of its constraints is known
+        to be broken (a link shorter than r_min needs no radius), good when all are known to hold, and
+        only when neither can be told are the unknown radii of its constraints fetched (merged, in one
+        batch, with ``hint``: the trials the previous step needed, updated in place; and, for a centre
+        being halved, its deeper levels). A step then usually takes one MuJoCo call, and the decisions,
+        hence the result, are those of fetching every trial's radius (the oracle is deterministic).
+        """
+        k, n = c.shape
+        m, H = k - 1, self.max_halvings
+        back, nl = H + 1, H + 2  # level "back": the centre stays where it was
+        # pos[h, i]: centre i at level h (the same floating-point operations as scaling the step by 1/2
+        # h times and adding it); centre 0 never moves.
+        pos = np.empty((nl, k, n))
+        pos[:, 0] = c[0]
+        np.add(c[1:], (0.5 ** np.arange(H + 1))[:, None, None] * step, out=pos[: H + 1, 1:])
+        pos[back, 1:] = c[1:]
+        # dist[j][h1 * nl + h2] = |pos[h2, j + 1] - pos[h1, j]| (as np.linalg.norm over the last axis)
+        seg = pos[None, :, 1:] - pos[:, None, :-1]
+        dist = np.sqrt(np.add.reduce(seg * seg, axis=-1)).reshape(nl * nl, m).T.tolist()
+        # rad[h][i]: certified radius at pos[h, i], None until fetched
+        cert_l = cert.tolist()
+        rad: list[list] = [[cert_l[0]] + [None] * m for _ in range(nl)]
+        rad[back] = cert_l
+        goal_dist: list = [None] * nl
+        level = [0] * k  # level of every centre (centre 0: 0, it never moves)
+        used: set[tuple[int, int]] = set()  # the trials below level 0 whose radius decided a round
+        prefetch = set(hint) if hint else set()
+
+        def fetch(pairs) -> None:
+            hs, cs = [], []
+            for h, i in pairs:
+                if rad[h][i] is None:
+                    hs.append(h)
+                    cs.append(i)
+            for h, i, r in zip(hs, cs, oracle.radii(pos[hs, cs]).tolist()):
+                rad[h][i] = r
+
+        def bad_centres() -> list[int]:
+            """The moving centres taking part in a broken constraint (links i - 1 and i; the goal for
+            centre k - 1), fetching the radii that cannot be done without; records in ``used`` the
+            radii below level 0 that decided (the next step likely needs them too)."""
+            lv = level
+            while True:
+                # per link j, then the goal: True broken, False kept, None unknown; lo: broken by r_min
+                state = [None] * k
+                lo = [False] * k
+                for j in range(m):
+                    h1 = lv[j]
+                    d = dist[j][h1 * nl + lv[j + 1]]
+                    if d < r_min:
+                        state[j] = lo[j] = True
+                    else:
+                        r = rad[h1][j]
+                        if r is not None:
+                            state[j] = d > r
+                hg = lv[m]
+                r = rad[hg][m]
+                if r is not None:
+                    if goal_dist[hg] is None:
+                        goal_dist[hg] = float(np.linalg.norm(q_goal - pos[hg, -1]))
+                    state[m] = r < r_min or goal_dist[hg] > r
+                bad, need, dec = [], [], []
+                for i in range(1, k):
+                    h = lv[i]
+                    if h > H:
+                        continue
+                    before, after = state[i - 1], state[i]  # link i - 1; link i (the goal for i = k - 1)
+                    if before is None or after is None:
+                        if before is not True and after is not True:
+                            if before is None:
+                                need.append((lv[i - 1], i - 1))
+                            if after is None:
+                                need.append((h, i))
+                            continue
+                    if after is not True and not lo[i - 1] and lv[i - 1]:
+                        dec.append((lv[i - 1], i - 1))
+                    if before is not True and not lo[i] and h:
+                        dec.append((h, i))
+                    if before or after:
+                        bad.append(i)
+                if not need:
+                    used.update(dec)
+                    return bad
+                pairs = set(need) | prefetch
+                prefetch.clear()
+                for h, i in need:  # ahead: a centre halved once is usually halved again
+                    if h > 0:
+                        pairs.update((g, i) for g in range(h + 1, H + 1))
+                fetch(pairs)
+
+        moved = True
+        for rnd in range(H + 1):
+            bad = bad_centres()
+            if not bad:
                 break
-            scale[bad] = 0.0
-            back = np.flatnonzero(bad) + 1
-            cand[back], cand_cert[back] = c[back], cert[back]
-        moved = bool(np.any(scale > 0))
-        return (cand, cand_cert, True) if moved else (c, cert, False)
+            if rnd < H:
+                for i in bad:
+                    level[i] += 1
+        else:
+            # Put offenders back until no constraint is broken (their old radii are known). This ends:
+            # with every centre back the chain is the previous, feasible one.
+            for _ in range(k):
+                for i in bad:
+                    level[i] = back
+                bad = bad_centres()
+                if not bad:
+                    break
+            moved = any(h <= H for h in level[1:])
+        if hint is not None:  # the trials below level 0 that this step's decisions needed
+            hint.clear()
+            hint.update(used)
+        if not moved:
+            return c, cert, False
+        idx = np.arange(k)
+        new_cert = np.array([rad[h][i] for i, h in enumerate(level)], dtype=float)
+        return pos[level, idx], new_cert, True
 
     def _bad_centres(self, c, cert, q_goal, r_min) -> np.ndarray:
         """Movable centres 1..k-1 taking part in a broken constraint -> bool (k-1,)."""
@@ -194,6 +294,19 @@ class RosaryAdjustment:
         bad[1:] |= bad_link
         bad[-1] |= bad_goal
         return bad[1:]
+
+
+def _tc_and_step(p: np.ndarray, eta: float) -> tuple[float, np.ndarray]:
+    """TC of the centre path p (L, n) and Eq. 8's step eta dTC/dx for centres 1..k-1 (the interior points):
+    ``tc_and_gradient`` for one path, the same operations with fewer numpy calls."""
+    seg = p[1:] - p[:-1]
+    ls = np.sqrt(np.add.reduce(seg * seg, axis=-1))  # np.linalg.norm(seg, axis=-1)
+    u = seg / np.maximum(ls, _EPS)[:, None]
+    length = ls.sum()
+    e = p[-1] - p[0]
+    de = np.sqrt(np.add.reduce(e * e, axis=-1))
+    tc = de / np.maximum(length, _EPS)
+    return float(tc), eta * (-(de / np.maximum(length, _EPS) ** 2) * (u[:-1] - u[1:]))
 
 
 def thesis_paths(

@@ -53,6 +53,8 @@ from foam_mj.smoothing.base import (
     trivial_result,
 )
 
+_EPS = 1e-12  # as foam_mj.smoothing.base
+
 #: Roulette weightings (see the module docstring).
 SELECTIONS = ("inverse", "rank", "linear")
 #: Generations whose random numbers are drawn in one batch (fixed, so results do not depend on the cap).
@@ -108,8 +110,10 @@ class GeneticAlgorithm(Smoother):
         m, n, P = h.m, rosary.dim, int(self.pop_size)
         stop = self.stop
 
-        # Coordinate-major population: pop[:, j] is individual j's whole path, (n, P, k+1).
-        pop = np.empty((n, P, m + 2))
+        # Coordinate-major population: pop[:, j] is individual j's whole path, (n, P, k+1). Two buffers:
+        # each generation's children are written into the other one, then they swap.
+        L = m + 2
+        pop, child = np.empty((n, P, L)), np.empty((n, P, L))
         pop[:, :, 0] = rosary.q_init[:, None]
         pop[:, :, -1] = rosary.q_goal[:, None]
         wps = h.sample(rng, np.broadcast_to(np.arange(m), (P, m)))
@@ -117,13 +121,22 @@ class GeneticAlgorithm(Smoother):
             wps[0] = init
         pop[:, :, 1:-1] = wps.transpose(2, 0, 1)
         fit = coordinate_major_objective(pop)
+        objective = _PopulationObjective(n, P, L)
+        outside = _OutsideHatches(h, P, rosary.q_init, rosary.q_goal)
+        parents12 = np.empty((n, 2 * P, L))  # [parent 1 of every child, parent 2 of every child]
+        x1, x2 = parents12[:, :P], parents12[:, P:]
+        diff = np.empty((n, P, L))
+        # hatch balls as Python floats, for the few mutated alleles of a generation
+        ca, cb = h.ca.tolist(), h.cb.tolist()
+        ra2, rb2 = (h.ra * h.ra).tolist(), (h.rb * h.rb).tolist()
         # Roulette on rank-scaled fitness (selection="rank"): the cumulative weights of ranks 1..P are fixed.
         cum_rank = np.cumsum(1.0 / np.sqrt(np.arange(1, P + 1)))
         cum_rank /= cum_rank[-1]
 
         hist_best: list[float] = []
         hist_mean: list[float] = []
-        best = float(fit.min())
+        i_best = int(fit.argmin())  # the elite
+        best = float(fit[i_best])
         stall = MeanStall(float(fit.sum()) / P, stop.stall_tol)
         t = 0
         reason = stop.reason(0, best, 0)
@@ -131,7 +144,7 @@ class GeneticAlgorithm(Smoother):
         while reason is None:
             if cpos >= CHUNK:
                 sel_u, no_cross, beta, mut_gen, mut_pos, mut_alpha = self._draw(rng, P, m)
-                mut_bounds = np.searchsorted(mut_gen, np.arange(CHUNK + 1))
+                mut_bounds = np.searchsorted(mut_gen, np.arange(CHUNK + 1)).tolist()
                 cpos = 0
             # 1. roulette selection
             if self.selection == "rank":
@@ -139,38 +152,43 @@ class GeneticAlgorithm(Smoother):
                 parents = order[np.minimum(np.searchsorted(cum_rank, sel_u[cpos], side="right"), P - 1)]
             else:
                 w = 1.0 / np.maximum(fit, 1e-300) if self.selection == "inverse" else fit.max() - fit + 1e-12
-                cw = np.cumsum(w)
-                parents = np.minimum(np.searchsorted(cw, sel_u[cpos] * cw[-1], side="right"), P - 1)
+                cw = np.add.accumulate(w)  # np.cumsum
+                parents = np.minimum(cw.searchsorted(sel_u[cpos] * cw[-1], side="right"), P - 1)
             a, b = parents[:P], parents[P:]
-            a_better = fit[a] <= fit[b]
-            p1 = np.where(a_better, a, b)
-            p2 = np.where(a_better, b, a)
-            # 2. heuristic crossover (Eq. 6); a waypoint leaving its hatch reverts to parent 1's
-            x1 = pop[:, p1]
-            child = x1 + beta[cpos] * (x1 - pop[:, p2])
-            bi, bw = h.outside_cm(child[:, :, 1:-1]).nonzero()  # few (about 1%): revert them sparsely
+            fp = fit[parents]
+            a_better = fp[:P] <= fp[P:]
+            p12 = np.concatenate((np.where(a_better, a, b), np.where(a_better, b, a)))
+            # 2. heuristic crossover (Eq. 6): child = x1 + beta (x1 - x2); a waypoint leaving its hatch
+            # reverts to parent 1's
+            np.take(pop, p12, axis=1, out=parents12)
+            np.subtract(x1, x2, diff)
+            np.multiply(beta[cpos], diff, diff)
+            np.add(x1, diff, child)
+            bi, bw = outside(child).nonzero()  # few (about 1%): revert them sparsely
             if bi.size:
-                child[:, bi, bw + 1] = x1[:, bi, bw + 1]
+                child[:, bi, bw] = x1[:, bi, bw]
             nc = no_cross[cpos]
             if nc.size:
                 child[:, nc] = pop[:, a[nc]]
-            # 3. mutation q' <- alpha q', reverted when it leaves the hatch
+            # 3. mutation q' <- alpha q', reverted when it leaves the hatch (about one allele a generation:
+            # plain float arithmetic, the same operations as on arrays)
             lo, hi = mut_bounds[cpos], mut_bounds[cpos + 1]
             if hi > lo:
-                ind, wp = np.divmod(mut_pos[lo:hi], m)
-                mutated = child[:, ind, wp + 1] * mut_alpha[lo:hi]
-                ok = ((np.sum((mutated.T - h.ca[wp]) ** 2, axis=1) <= h.ra[wp] ** 2)
-                      & (np.sum((mutated.T - h.cb[wp]) ** 2, axis=1) <= h.rb[wp] ** 2))
-                child[:, ind[ok], wp[ok] + 1] = mutated[:, ok]
-            f = coordinate_major_objective(child)
+                for flat, alpha in zip(mut_pos[lo:hi].tolist(), mut_alpha[lo:hi].tolist()):
+                    ind, wp = divmod(flat, m)
+                    allele = child[:, ind, wp + 1]
+                    q = [v * alpha for v in allele.tolist()]
+                    if _sq_dist(q, ca[wp]) <= ra2[wp] and _sq_dist(q, cb[wp]) <= rb2[wp]:
+                        allele[:] = q
+            f = objective(child)
             # 4. elitism: the previous best replaces the worst child
             if self.elitism:
-                i_old = int(fit.argmin())
                 i_worst = int(f.argmax())
-                child[:, i_worst] = pop[:, i_old]
-                f[i_worst] = fit[i_old]
-            pop, fit = child, f
-            best = float(fit.min())
+                child[:, i_worst] = pop[:, i_best]
+                f[i_worst] = fit[i_best]
+            pop, child, fit = child, pop, f
+            i_best = int(fit.argmin())
+            best = float(fit[i_best])
             mean = float(fit.sum()) / P
             stall.update(mean)
             hist_best.append(best)
@@ -211,3 +229,113 @@ class GeneticAlgorithm(Smoother):
         gen, pos = np.divmod(flat, per_gen)
         alpha = rng.uniform(*self.alpha_range, size=count)
         return sel_u, no_cross, beta, gen, pos, alpha
+
+
+# -- the per-generation fast path ---------------------------------------------------------------------
+# A generation works on 50 paths of ~30 points: numpy's per-call overhead and strided loops dominate.
+# The two classes below compute what ``coordinate_major_objective`` and ``Hatches.outside_cm`` compute,
+# with the same floating-point operations in the same order (dot products over the coordinates add
+# x0 y0 + x1 y1 + ... in sequence, as numpy's einsum does over a leading axis), but on the whole
+# contiguous population buffer (n, P, L) at once, flat: a path's last point differs with the next
+# path's first one, which gives junk entries that are computed (finite) and left out of the sums;
+# the ends get a dummy hatch that holds them. Preallocated buffers, positional ``out`` arguments.
+
+
+def _sq_dist(q: list[float], c: list[float]) -> float:
+    """|q - c|^2 summed in coordinate order, as numpy sums a short axis."""
+    d = q[0] - c[0]
+    s = d * d
+    for x, y in zip(q[1:], c[1:]):
+        d = x - y
+        s = s + d * d
+    return s
+
+
+def _coordinate_sum(prod: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """out = prod[0] + prod[1] + ... in sequence (prod (n, ...): coordinate blocks)."""
+    np.add(prod[0], prod[1], out)
+    for x in prod[2:]:
+        np.add(out, x, out)
+    return out
+
+
+class _PopulationObjective:
+    """f of paper 000 Eq. 5 for a coordinate-major population X (n, P, L) -> (P,): equal, bit for bit,
+    to ``coordinate_major_objective(X)`` (tests/test_smoothing_math.py)."""
+
+    def __init__(self, n: int, P: int, L: int) -> None:
+        N, PL = n * P * L, P * L
+        self.n_ang = L - 2
+        self._seg = np.zeros(N + 1)  # seg[k] = x[k + 1] - x[k] (flat), the last two elements unused
+        # prod[i] = [seg_i^2, seg_i[k] seg_i[k + 1]] (2, P L) for every coordinate i
+        self._pairs = (_strided(self._seg, (n, 2, PL), (PL, 0, 1)), _strided(self._seg, (n, 2, PL), (PL, 1, 1)))
+        self._prod = np.empty((n, 2, PL))
+        self._q = np.empty((2, PL))  # [|seg|^2, dot of consecutive segments]
+        self._lens = np.empty(PL + 1)
+        self._lens[PL] = 1.0
+        self._den = np.empty(PL)
+        self._hit = np.empty(PL, dtype=bool)
+        self._eps = np.full(PL, _EPS)
+        self._ones, self._minus_ones = np.ones(PL), -np.ones(PL)
+        self._ang = np.empty(PL)
+        # per path: the L - 2 angles and the L - 1 segment lengths (the rest is junk)
+        self._ang_rows = self._ang.reshape(P, L)[:, : L - 2]
+        self._len_rows = self._lens[:PL].reshape(P, L)[:, : L - 1]
+        self._den_rows = self._den.reshape(P, L)[:, : L - 2]
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        x = X.reshape(-1)
+        q, lens, den, ang = self._q, self._lens, self._den, self._ang
+        np.subtract(x[1:], x[:-1], self._seg[: x.size - 1])
+        np.multiply(*self._pairs, self._prod)
+        _coordinate_sum(self._prod, q)
+        np.sqrt(q[0], lens[:-1])
+        np.multiply(lens[:-1], lens[1:], den)
+        dot = q[1]
+        if np.minimum.reduce(self._den_rows, axis=None) <= _EPS:  # a zero-length segment: a straight vertex
+            np.add(dot, np.less_equal(den, _EPS, self._hit), dot)
+        np.maximum(den, self._eps, out=den)
+        np.divide(dot, den, ang)
+        np.minimum(ang, self._ones, out=ang)
+        np.maximum(ang, self._minus_ones, out=ang)
+        np.arccos(ang, ang)
+        angle = np.add.reduce(self._ang_rows, axis=-1) / self.n_ang
+        return angle + np.add.reduce(self._len_rows, axis=-1)
+
+
+class _OutsideHatches:
+    """Which waypoints of a coordinate-major population X (n, P, L) lie outside their hatch: bool (P, L),
+    False at the ends; the same test as ``Hatches.outside_cm(X[:, :, 1:-1])``."""
+
+    def __init__(self, h: Hatches, P: int, q_init: np.ndarray, q_goal: np.ndarray) -> None:
+        m, n = h.ca.shape
+        L = m + 2
+
+        def full(c, r):  # (n, P, L) centres and (P * L,) squared radii; the ends: the end itself, radius 1
+            cf = np.empty((n, L))
+            cf[:, 0], cf[:, 1:-1], cf[:, -1] = q_init, c.T, q_goal
+            rf = np.ones(L)
+            rf[1:-1] = r * r
+            return np.broadcast_to(cf[:, None, :], (n, P, L)).reshape(n, P * L), np.broadcast_to(rf, (P, L)).reshape(-1)
+
+        ca, ra2 = full(h.ca, h.ra)
+        cb, rb2 = full(h.cb, h.rb)
+        self._c = np.ascontiguousarray(np.stack([ca, cb], axis=1))  # (n, 2, P L): ball a and ball b
+        self._r2 = np.ascontiguousarray(np.stack([ra2, rb2]))
+        self._d = np.empty((n, 2, P * L))
+        self._q = np.empty((2, P * L))
+        self._out = np.empty((2, P * L), dtype=bool)
+        self._shape = (P, L)
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        d, out = self._d, self._out
+        np.subtract(X.reshape(X.shape[0], 1, -1), self._c, d)
+        np.multiply(d, d, d)
+        np.greater(_coordinate_sum(d, self._q), self._r2, out)
+        return np.logical_or(out[0], out[1], out[0]).reshape(self._shape)
+
+
+def _strided(buf: np.ndarray, shape: tuple[int, ...], strides: tuple[int, ...]) -> np.ndarray:
+    """A strided view of the flat buffer ``buf`` (strides in elements)."""
+    item = buf.itemsize
+    return np.lib.stride_tricks.as_strided(buf, shape=shape, strides=tuple(x * item for x in strides), writeable=True)

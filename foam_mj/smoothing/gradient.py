@@ -98,131 +98,160 @@ def tc_and_gradient(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 # -- the single-path fast path ------------------------------------------------------------------------
 # Gradient smoothing takes thousands of steps on one small path (L = k + 1 points of dimension n,
-# k ~ 30), where numpy's per-call overhead (about 1 us) dominates: the generic code above costs about
-# 300 us a step. The two classes below do the same floating-point operations with about a third of
-# the numpy calls: the path is stored coordinate-major, (n, L), so that most operations run over one
-# contiguous block (ends included: their gradient is zeroed, their "hatch" holds them in place); the
-# a/b pair of every vertex is one stacked view; the masks of ``np.where`` become ``where=``/``out=``
-# arguments; the dot products of a step share calls. For n = 3 a dot product adds the coordinate
-# products in the order numpy's einsum uses for the generic code's ``einsum("...i,...i->...")`` on
-# x86-64 ((x0 y0 + x2 y2) + x1 y1), so that the iterates are bit-identical to the generic code's; on
-# another platform, and for n != 3, they may differ from it by rounding only (tests/test_smoothing_math.py
-# compares both on random inputs).
+# k ~ 30), where numpy's per-call overhead dominates: the generic code above makes ~100 numpy calls a
+# step (~300 us). The two classes below do the same floating-point operations, in the same order, in
+# about 50 calls that each run over one or two contiguous blocks, with positional ``out`` buffers
+# allocated once:
+#
+# * the path is stored coordinate-major, P (n, L), and every array is laid out like it, flat; the
+#   quantities of a point (lengths, cosines, angles, radii, ...) are repeated on each of the n rows,
+#   so that they combine with coordinates without broadcasting;
+# * the ends are computed with the waypoints and then held: their step is zeroed and they get a
+#   dummy hatch that contains them; the junk that the flat layout produces at the ends (differences
+#   across two rows) is kept finite and non-zero, and masked out;
+# * the a/b pair of every vertex, and ball a/ball b of every hatch, are stacked views of one buffer;
+#   the masks of ``np.where`` become ``where=`` copies or factors.
+#
+# A dot product adds the coordinate products in the order numpy's einsum uses for the generic code's
+# ``einsum("...i,...i->...")`` on x86-64 (even and odd coordinates in two running sums: (x0 y0 + x2 y2)
+# + x1 y1 for n = 3), so that the iterates are bit-identical to the generic code's there; on another
+# platform they may differ from it by rounding only (tests/test_smoothing_math.py compares both).
+
+_add, _sub, _mul, _div = np.add, np.subtract, np.multiply, np.divide
+_sqrt, _maximum, _minimum, _copyto = np.sqrt, np.maximum, np.minimum, np.copyto
 
 
 def _view(buf: np.ndarray, offset: int, shape: tuple[int, ...], strides: tuple[int, ...]) -> np.ndarray:
-    """A strided view of the 1-D buffer ``buf`` from element ``offset`` (strides in elements)."""
+    """A strided view of the flat buffer ``buf`` from element ``offset`` (strides in elements)."""
     item = buf.itemsize
     return as_strided(buf[offset:], shape=shape, strides=tuple(s * item for s in strides), writeable=True)
 
 
-class _CoordSum:
-    """``out`` = the sum over the coordinates of ``prod`` (n, ...) (n blocks): for n = 3 as (x0 + x2) + x1,
-    the order of numpy's einsum over a length-3 axis."""
+class _RepeatedCoordSum:
+    """For prod (B, n, L) (contiguous): out (B, n, L) = the sum over the n coordinate rows of each block,
+    repeated on every row, added as numpy's einsum adds a short contiguous axis on x86-64: the even and
+    the odd coordinates in two running sums, then their sum ((x0 + x2) + x1 for n = 3)."""
 
     def __init__(self, prod: np.ndarray, out: np.ndarray) -> None:
-        self.prod, self.out, self.n = prod, out, len(prod)
+        B, n, L = prod.shape
+        flat = prod.reshape(-1)
+        rows = [_view(flat, i * L, (B, n, L), (n * L, 0, 1)) for i in range(n)]
+        self.even, self.odd = rows[0::2], rows[1::2]
+        self.out = out
+        self.tmp = np.empty_like(out) if n >= 4 else None
 
     def __call__(self) -> np.ndarray:
-        p, out = self.prod, self.out
-        if self.n == 3:
-            np.add(p[0], p[2], out=out)
-            np.add(out, p[1], out=out)
-        else:
-            np.add.reduce(p, axis=0, out=out)
+        even, odd, out = self.even, self.odd, self.out
+        if len(even) == 1:  # n = 2
+            _add(even[0], odd[0], out)
+            return out
+        _add(even[0], even[1], out)
+        for x in even[2:]:
+            _add(out, x, out)
+        if len(odd) == 1:  # n = 3
+            _add(out, odd[0], out)
+            return out
+        tmp = self.tmp
+        _add(odd[0], odd[1], tmp)
+        for x in odd[2:]:
+            _add(tmp, x, tmp)
+        _add(out, tmp, out)
         return out
 
 
 class _PathSV:
     """SV (paper 003 Eq. 7) and its gradient for one coordinate-major path P (n, L), L = m + 2 >= 3.
 
-    ``__call__(P)`` returns SV and the gradient with respect to every point, (n, L), with exact zeros
-    at both ends (they are fixed), in a buffer that the next call overwrites. The operations are those
-    of :func:`sv_and_gradient`; a path with a zero-length segment next to a vertex (|a||b| <= _EPS)
-    goes to :func:`sv_and_gradient` itself.
+    ``__call__(P)`` returns SV and the gradient with respect to the points, (n, L), in a buffer that the
+    next call overwrites; its two end columns are junk (finite: the ends are fixed, their step is
+    zeroed by the caller).
+    The operations are those of :func:`sv_and_gradient`; a path with a zero-length segment next to a
+    vertex (|a||b| <= _EPS) goes to :func:`sv_and_gradient` itself.
     """
 
     def __init__(self, m: int, n: int) -> None:
         L = m + 2
-        self.m, self.L, self.n = m, L, n
-        self.neg_half_m = -(m / 2.0)  # (-2 r) / m == r / (-m / 2) exactly: both are 2 r / m correctly rounded
-        # Backward differences D[:, p] = P[:, p] - P[:, p - 1] as one flat (n L) array (column 0 is junk:
-        # the previous row's last point), one spare element at the end. Vertex p (1..m) has a = D[:, p],
-        # b = D[:, p + 1].
-        self._dbuf = np.zeros(n * L + 1)
-        self._d_flat = self._dbuf[1 : n * L]
-        # prod[i] = [D[i]^2, D[i, p] D[i, p + 1]] (2, L) for every coordinate i
-        self._mul = (_view(self._dbuf, 0, (n, 2, L), (L, 0, 1)), _view(self._dbuf, 0, (n, 2, L), (L, 1, 1)))
-        self._prod = np.empty((n, 2, L))
-        self._q = np.empty((2, L))  # [|D[:, p]|^2, a.b of vertex p]
-        self._qsum = _CoordSum(self._prod, self._q)
-        self._dot = self._q[1, 1 : m + 1]
-        self._ls = np.empty(L)
-        self._la, self._lb = self._ls[1 : m + 1], self._ls[2 : m + 2]
-        self._lsq = np.empty(L)  # |D| squared again (la_s ** 2 and lb_s ** 2 of the generic code)
-        self._lsq_ab = _view(self._lsq, 1, (2, 1, m), (1, 0, 1))  # [la^2, lb^2] (2, 1, m)
-        self._ab = _view(self._dbuf, 1, (2, n, m), (1, L, 1))  # [a, b] (2, n, m)
-        self._ba = self._ab[::-1]  # [b, a]
-        self._den = np.empty(m)
-        self._c = np.empty(m)
-        self._ones, self._minus_ones = np.ones(m), -np.ones(m)
-        self._tiny = np.full(m, 1e-8)
-        self._theta = np.empty(m)
-        self._t2 = np.empty(m)
-        self._s = np.empty(m)
-        self._big = np.empty(m, dtype=bool)
-        self._ratio = np.empty(m)
-        self._g = np.empty(m)
-        self._cx = np.empty((2, n, m))
-        # [dSV/da, dSV/db] per point (2, n, L), zero at both ends (never written): the gradient of point p
-        # is ((ga[p] - gb[p]) - ga[p + 1]) + gb[p - 1], one flat pass (the shifted ends read zeros).
-        self._gab = np.zeros((2, n, L))
-        self._num = self._gab[:, :, 1 : m + 1]
-        gab = self._gab.reshape(-1)
         N = n * L
+        self.m = m
+        # Backward differences D[i, p] = P[i, p] - P[i, p - 1], flat, and one spare element (1.0) at each
+        # end. Vertex p (1..m) has a = D[:, p], b = D[:, p + 1]. Column 0 is junk (the previous row's last
+        # point); its first element stays 1.0 so that its length is >= 1 (finite quotients everywhere).
+        self._dbuf = np.ones(N + 1)
+        self._d = self._dbuf[1:N]
+        self._dd = (_view(self._dbuf, 0, (2, N), (0, 1)), _view(self._dbuf, 0, (2, N), (1, 1)))  # [D, D], [D, D next]
+        self._prod = np.empty((2, n, L))
+        self._prod_flat = self._prod.reshape(2, N)
+        self._q = np.empty((2, N))  # [|D|^2, a.b], repeated on each row
+        self._qsum = _RepeatedCoordSum(self._prod, self._q.reshape(2, n, L))
+        self._lsbuf = np.ones(N + 1)  # |D| and a spare 1.0
+        self._ls, self._ls_next = self._lsbuf[:N], self._lsbuf[1:]
+        self._den = np.empty(N)
+        self._den_check = self._den[1 : m + 1]  # the vertices' |a||b| (row 0)
+        self._c = np.empty(N)
+        self._ones, self._minus_ones, self._tiny = np.ones(N), -np.ones(N), np.full(N, 1e-8)
+        self._theta = np.empty(N)
+        self._t2 = np.empty(m)
+        self._theta_vertices = self._theta[1 : m + 1]
+        self._s = np.empty(N)
+        self._s_check = self._s[1 : m + 1]
+        self._small = np.empty(N, dtype=bool)
+        self._ratio = np.empty(N)
+        # g = -2 ratio / m = ratio / (-m / 2) exactly (both are 2 ratio / m correctly rounded); dividing by
+        # inf at the ends makes their (junk) a/b terms vanish.
+        self._g_div = np.full((n, L), -(m / 2.0))
+        self._g_div[:, [0, -1]] = np.inf
+        self._g_div = self._g_div.reshape(-1)
+        self._g = np.empty(N)
+        self._lsqbuf = np.empty(N + 1)
+        self._lsq_ab = _view(self._lsqbuf, 0, (2, N), (1, 1))  # [la^2, lb^2]
+        self._ab = self._dd[1]  # [a, b] = [D, D next]
+        self._ba = _view(self._dbuf, 1, (2, N), (-1, 1))  # [b, a]
+        self._cx = np.empty((2, N))
+        # [dSV/da, dSV/db] (2, N), zero at the ends (g = 0 there): the gradient of point p is
+        # ((ga[p] - gb[p]) - ga[p + 1]) + gb[p - 1], one flat pass (the first point's gb[p - 1] is the
+        # last end's ga, and the last point's ga[p + 1] the first end's gb: zeros).
+        gab = np.zeros(2 * N + 2)
+        self._gab = gab[1 : 2 * N + 1].reshape(2, N)
         self._grad = np.empty((n, L))
-        self._assemble = (gab[:N], gab[N:], gab[1 : N + 1], gab[N - 1 : 2 * N - 1], self._grad.reshape(-1))
-        self._interior = np.ones((n, L))
-        self._interior[:, [0, -1]] = 0.0
+        ga, gb, ga_next, gb_prev = gab[1 : N + 1], gab[N + 1 : 2 * N + 1], gab[2 : N + 2], gab[N : 2 * N]
+        self._assemble = (ga, gb, ga_next, gb_prev, self._grad.reshape(-1))
 
     def __call__(self, P: np.ndarray) -> tuple[float, np.ndarray]:
-        m = self.m
-        ls, den, c, theta = self._ls, self._den, self._c, self._theta
-        p_flat = P.reshape(-1)
-        np.subtract(p_flat[1:], p_flat[:-1], out=self._d_flat)
-        np.multiply(*self._mul, out=self._prod)
-        q = self._qsum()  # [|D|^2, a.b]
-        np.sqrt(q[0], out=ls)
-        np.multiply(self._la, self._lb, out=den)
-        if min(den.tolist()) <= _EPS:  # a zero-length segment: the generic code's masks matter
+        ls, den, c, theta, s, ratio = self._ls, self._den, self._c, self._theta, self._s, self._ratio
+        p = P.reshape(-1)
+        _sub(p[1:], p[:-1], self._d)
+        _mul(*self._dd, self._prod_flat)
+        q = self._qsum().reshape(2, -1)  # [|D|^2, a.b]
+        _sqrt(q[0], ls)
+        _mul(ls, self._ls_next, den)
+        if min(self._den_check.tolist()) <= _EPS:  # a zero-length segment: the generic code's masks matter
             sv, g = sv_and_gradient(P.T)
             self._grad[...] = g.T
-            self._grad[:, [0, -1]] = 0.0
             return float(sv), self._grad
-        np.divide(self._dot, den, out=c)
-        np.minimum(c, self._ones, out=c)
-        np.maximum(c, self._minus_ones, out=c)
-        np.arccos(c, out=theta)
-        np.multiply(theta, theta, out=self._t2)
-        sv = float(np.add.reduce(self._t2) / m)
-        s = np.sin(theta, out=self._s)
-        # d(theta^2)/dc / (-2) = theta / sin(theta), 1 where sin(theta) <= 1e-8 (as the generic code)
-        ratio = self._ratio
-        ratio.fill(1.0)
-        np.divide(theta, s, out=ratio, where=np.greater(s, self._tiny, out=self._big))
-        g = np.divide(ratio, self.neg_half_m, out=self._g)
-        np.multiply(ls, ls, out=self._lsq)
-        num, cx = self._num, self._cx
-        np.divide(self._ba, den, out=num)  # [b, a] / (|a||b|)
-        np.multiply(c, self._ab, out=cx)  # [c a, c b]
-        np.divide(cx, self._lsq_ab, out=cx)  # [c a / |a|^2, c b / |b|^2]
-        np.subtract(num, cx, out=num)  # [dc/da, dc/db]
-        np.multiply(g, num, out=num)  # [dSV/da, dSV/db]
+        _div(q[1], den, c)
+        _minimum(c, self._ones, out=c)
+        _maximum(c, self._minus_ones, out=c)
+        np.arccos(c, theta)
+        _mul(self._theta_vertices, self._theta_vertices, self._t2)
+        sv = float(np.add.reduce(self._t2)) / self.m  # the same IEEE division as numpy's
+        np.sin(theta, s)
+        # d(theta^2)/dc / (-2) = theta / sin(theta), and 1 where sin(theta) <= 1e-8 (the generic code's rule)
+        _maximum(s, self._tiny, out=s)
+        _div(theta, s, ratio)
+        if min(self._s_check.tolist()) <= 1e-8:  # a straight (or reversed) vertex
+            _copyto(ratio, 1.0, where=np.less_equal(s, 1e-8, out=self._small))
+        g = _div(ratio, self._g_div, self._g)
+        _mul(self._lsbuf, self._lsbuf, self._lsqbuf)
+        gab, cx = self._gab, self._cx
+        _div(self._ba, den, gab)  # [b, a] / (|a||b|)
+        _mul(c, self._ab, cx)  # [c a, c b]
+        _div(cx, self._lsq_ab, cx)  # [c a / |a|^2, c b / |b|^2]
+        _sub(gab, cx, gab)  # [dc/da, dc/db]
+        _mul(g, gab, gab)  # [dSV/da, dSV/db]
         ga, gb, ga_next, gb_prev, grad = self._assemble
-        np.subtract(ga, gb, out=grad)
-        np.subtract(grad, ga_next, out=grad)
-        np.add(grad, gb_prev, out=grad)
-        np.multiply(self._grad, self._interior, out=self._grad)  # the ends are fixed
+        _sub(ga, gb, grad)
+        _sub(grad, ga_next, grad)
+        _add(grad, gb_prev, grad)
         return sv, self._grad
 
 
@@ -231,8 +260,8 @@ class _LensProjection:
 
     Every quantity of the generic code is computed for all points at once (ball a and ball b stacked),
     and the closed form's case selection is done with ``where=`` copies; a point inside both balls is
-    copied unchanged, as there. The two ends get a dummy hatch (a unit ball about the point itself, for
-    both balls) which holds them, so they are copied unchanged too.
+    copied unchanged, as there. The two ends get a dummy hatch (ball a = ball b = the unit ball about the
+    end itself) which holds them, so they are copied unchanged too.
     """
 
     def __init__(self, h: Hatches, inset: float, q_init: np.ndarray, q_goal: np.ndarray) -> None:
@@ -243,76 +272,78 @@ class _LensProjection:
             raise ValueError(f"inset {inset} is larger than a hatch ball's radius")
         mid, u, rho, alt = h._rim(inset)
 
-        def pad(a, first, last):  # (m, ...) hatch data -> (n or 1, L) coordinate-major, with the ends' values
+        def pad(a, first, last):  # hatch data (m, n) or (m,) -> (n, L): the ends' values added, scalars repeated
             full = np.empty((L,) + a.shape[1:])
             full[0], full[1:-1], full[-1] = first, a, last
-            return np.ascontiguousarray(full.T)
+            return np.ascontiguousarray(np.broadcast_to(full.T, (n, L)))
 
         e0, e1 = np.eye(n)[0], np.eye(n)[1]
         ca, cb = pad(h.ca, q_init, q_goal), pad(h.cb, q_init, q_goal)
         self._c = np.stack([ca, cb])  # (2, n, L)
         self._c_swap = np.ascontiguousarray(self._c[::-1])
-        r = np.stack([pad(ra, 1.0, 1.0), pad(rb, 1.0, 1.0)])
-        self._r = r[:, None, :]  # (2, 1, L)
+        self._r = np.stack([pad(ra, 1.0, 1.0), pad(rb, 1.0, 1.0)])
         r2 = np.stack([pad(ra * ra, 1.0, 1.0), pad(rb * rb, 1.0, 1.0)])
         self._r2, self._r2_swap = r2, np.ascontiguousarray(r2[::-1])
-        # The ends' rim: any finite values (y = x - mid must not vanish there, see __call__).
+        # The ends' rim: any finite values with y = x - mid off the axis (|y| > eps there).
         self._mid = pad(mid, q_init + 1.0, q_goal + 1.0)
         self._u, self._rho, self._alt = pad(u, e0, e0), pad(rho, 0.0, 0.0), pad(alt, e1, e1)
         self._cc = np.stack([ca, cb, self._mid])  # x - [ca, cb, mid]
-        # z = [x - ca, x - cb, y, pa - cb, pb - ca] (5, n, L); prod (n, 3, L): the coordinate products
-        self._z = np.empty((5, n, L))
-        self._d, self._y, self._e = self._z[:2], self._z[2], self._z[3:]
-        self._prod = np.empty((n, 3, L))
-        self._prod_t = self._prod.transpose(1, 0, 2)  # (3, n, L)
-        self._q = np.empty((3, L))
-        self._qsum = _CoordSum(self._prod, self._q)
-        self._nd = np.empty((2, 1, L))
+        self._z = np.empty((3, n, L))  # [x - ca, x - cb, x - mid]
+        self._d, self._x_mid = self._z[:2], self._z[2]
+        self._ye = np.empty((3, n, L))  # [y, pa - cb, pb - ca]
+        self._y, self._e = self._ye[0], self._ye[1:]
+        self._prod = np.empty((3, n, L))
+        self._prod_d, self._prod_t = self._prod[:2], self._prod[2]
+        self._q = np.empty((3, n, L))
+        self._qsum = _RepeatedCoordSum(self._prod, self._q)
+        self._nd = np.empty((2, n, L))
         self._pp = np.empty((2, n, L))
         self._tu = np.empty((n, L))
-        self._ny = np.empty(L)
-        self._inside = np.empty((2, L), dtype=bool)
-        self._img_in = np.empty((2, L), dtype=bool)
-        self._use = np.empty((2, L), dtype=bool)
-        self._both = np.empty(L, dtype=bool)
-        self._small = np.empty(L, dtype=bool)
+        self._ny = np.empty((n, L))
+        self._ny_check = self._ny[0]
+        self._inside = np.empty((2, n, L), dtype=bool)
+        self._img_in = np.empty((2, n, L), dtype=bool)
+        self._use = np.empty((2, n, L), dtype=bool)
+        self._both = np.empty((n, L), dtype=bool)
+        self._small = np.empty((n, L), dtype=bool)
+        self._eps = np.full((n, L), _EPS)
+        self._eps2 = np.full((2, n, L), _EPS)
 
     def __call__(self, x: np.ndarray, out: np.ndarray) -> np.ndarray:
-        z, d, y, e, prod_t = self._z, self._d, self._y, self._e, self._prod_t
-        np.subtract(x, self._cc, out=z[:3])
-        np.multiply(d, d, out=prod_t[:2])
-        np.multiply(y, self._u, out=prod_t[2])
-        q = self._qsum()  # |x - ca|^2, |x - cb|^2, y.u
-        inside = np.less_equal(q[:2], self._r2, out=self._inside)
+        d, y, ye, pp, nd = self._d, self._y, self._ye, self._pp, self._nd
+        _sub(x, self._cc, self._z)
+        _mul(d, d, self._prod_d)
+        _mul(self._x_mid, self._u, self._prod_t)
+        q = self._qsum()  # |x - ca|^2, |x - cb|^2, (x - mid).u
+        inside = np.less_equal(q[:2], self._r2, self._inside)
         # Projections onto each ball: c + d min(1, r / max(|d|, eps)). The min is left out: the
         # projection onto a ball is only used for a point outside it, where r / |d| <= 1 already.
-        nd = self._nd
-        np.sqrt(q[:2, None, :], out=nd)
-        np.maximum(nd, _EPS, out=nd)
-        np.divide(self._r, nd, out=nd)
-        pp = np.multiply(d, nd, out=self._pp)
-        np.add(self._c, pp, out=pp)  # [pa, pb]
+        _sqrt(q[:2], nd)
+        _maximum(nd, self._eps2, out=nd)
+        _div(self._r, nd, nd)
+        _mul(d, nd, pp)
+        _add(self._c, pp, pp)  # [pa, pb]
         # The rim point nearest x: y = x - mid without its component along u, scaled to the radius rho.
-        np.multiply(q[2], self._u, out=self._tu)
-        np.subtract(y, self._tu, out=y)
-        np.subtract(pp, self._c_swap, out=e)
-        np.multiply(z[2:], z[2:], out=prod_t)
+        _mul(q[2], self._u, self._tu)
+        _sub(self._x_mid, self._tu, y)
+        _sub(pp, self._c_swap, self._e)
+        _mul(ye, ye, self._prod)
         q = self._qsum()  # |y|^2, |pa - cb|^2, |pb - ca|^2
-        img_in = np.less_equal(q[1:], self._r2_swap, out=self._img_in)  # pa in b, pb in a
-        ny = np.sqrt(q[0], out=self._ny)
-        if min(ny.tolist()) > _EPS:
-            np.divide(y, ny, out=out)
+        img_in = np.less_equal(q[1:], self._r2_swap, self._img_in)  # pa in b, pb in a
+        ny = _sqrt(q[0], self._ny)
+        if min(self._ny_check.tolist()) > _EPS:
+            _div(y, ny, out)
         else:  # a point on the axis: any rim point (the fixed normal alt)
-            small = np.less_equal(ny, _EPS, out=self._small)
-            np.maximum(ny, _EPS, out=ny)
-            np.divide(y, ny, out=out)
-            np.copyto(out, self._alt, where=small)
-        np.multiply(self._rho, out, out=out)
-        np.add(self._mid, out, out=out)
-        use = np.greater(img_in, inside, out=self._use)  # outside one ball, its projection inside the other
-        np.copyto(out, pp[1], where=use[1])
-        np.copyto(out, pp[0], where=use[0])
-        np.copyto(out, x, where=np.logical_and(inside[0], inside[1], out=self._both))
+            small = np.less_equal(ny, self._eps, self._small)
+            _maximum(ny, self._eps, out=ny)
+            _div(y, ny, out)
+            _copyto(out, self._alt, where=small)
+        _mul(self._rho, out, out)
+        _add(self._mid, out, out)
+        use = np.greater(img_in, inside, self._use)  # outside one ball, its projection inside the other
+        _copyto(out, pp[1], where=use[1])
+        _copyto(out, pp[0], where=use[0])
+        _copyto(out, x, where=np.logical_and(inside[0], inside[1], self._both))
         return out
 
 
@@ -354,22 +385,24 @@ class GradientSmoothing(Smoother):
         sv_grad = _PathSV(m, rosary.dim)
         project = _LensProjection(h, self.inset, rosary.q_init, rosary.q_goal)
         # Coordinate-major paths (n, k + 1), two buffers: each step projects into the other one, then
-        # they swap. The gradient is zero at the ends and their dummy hatch keeps them: they stay put.
+        # they swap. The ends' step is zero (eta_pts) and their dummy hatch keeps them: they stay put.
         path = np.ascontiguousarray(rosary.path(w).T)
         other = path.copy()
         trial, diff = np.empty_like(path), np.empty_like(path)
+        eta_pts = np.full_like(path, eta)
+        eta_pts[:, [0, -1]] = 0.0
         sv, grad = sv_grad(path)
         best_p, best, initial_sv = path.copy(), sv, sv
         stall = MeanStall(sv, stop.stall_tol)
         hist: list[float] = []
         t, reason = 0, stop.reason(0, sv, 0)
+        mul, sub, absolute = np.multiply, np.subtract, np.absolute
         while reason is None:
             # Eq. 9 then the projection onto the hatches: w_new = P(w - eta grad)
-            np.multiply(eta, grad, out=trial)
-            np.subtract(path, trial, out=trial)
-            new = project(trial, out=other)
-            np.subtract(new, path, out=diff)
-            step = float(np.abs(diff, out=diff).max())
+            mul(eta_pts, grad, trial)
+            sub(path, trial, trial)
+            new = project(trial, other)
+            step = float(absolute(sub(new, path, diff), diff).max())
             path, other = new, path
             sv, grad = sv_grad(path)
             t += 1
