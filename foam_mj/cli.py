@@ -297,6 +297,9 @@ def main(argv: list[str] | None = None) -> int:
     except FoamError as exc:
         print(f"foam-mj: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
+        sys.stderr.close()
+        return EXIT_OK
     except KeyboardInterrupt:
         print("foam-mj: interrupted", file=sys.stderr)
         return 130
