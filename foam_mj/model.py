@@ -116,6 +116,12 @@ class RobotModel:
     pairs: np.ndarray  # (P, 2) geom ids (robot, obstacle)
     _data: mujoco.MjData = field(repr=False, default=None)  # type: ignore[assignment]
 
+    def __post_init__(self) -> None:
+        # Per-geom masks for in_collision, computed once rather than on every call.
+        ids = np.arange(self.model.ngeom)
+        self._is_robot = np.isin(ids, self.robot_geoms)
+        self._is_obstacle = np.isin(ids, self.obstacle_geoms)
+
     @classmethod
     def from_xml(cls, path: str | Path) -> "RobotModel":
         """Load an MJCF scene and read its configuration declaration (see the module docstring)."""
@@ -215,13 +221,6 @@ class RobotModel:
         leg, obs = self._is_robot, self._is_obstacle
         return bool(np.any(hit & ((leg[g[:, 0]] & obs[g[:, 1]]) | (leg[g[:, 1]] & obs[g[:, 0]]))))
 
-    @property
-    def _is_robot(self) -> np.ndarray:
-        return np.isin(np.arange(self.model.ngeom), self.robot_geoms)
-
-    @property
-    def _is_obstacle(self) -> np.ndarray:
-        return np.isin(np.arange(self.model.ngeom), self.obstacle_geoms)
 
 
 def _configuration_map(m: mujoco.MjModel, path: Path) -> ConfigurationMap:

@@ -67,13 +67,10 @@ class BodyPoses:
     xquat: np.ndarray
 
 
-@dataclass(frozen=True)
-class KinematicReplay:
-    """A trajectory played back pose by pose: times (T,), qpos (T, nq), poses, clearance (T,) in metres."""
+class _ReplayMeasures:
+    """What both replays report from their ``times`` and ``clearance`` arrays."""
 
     times: np.ndarray
-    qpos: np.ndarray
-    poses: BodyPoses
     clearance: np.ndarray
 
     @property
@@ -83,6 +80,17 @@ class KinematicReplay:
     @property
     def n_frames(self) -> int:
         return len(self.times)
+
+
+@dataclass(frozen=True)
+class KinematicReplay(_ReplayMeasures):
+    """A trajectory played back pose by pose: times (T,), qpos (T, nq), poses, clearance (T,) in metres."""
+
+    times: np.ndarray
+    qpos: np.ndarray
+    poses: BodyPoses
+    clearance: np.ndarray
+
 
 
 @dataclass(frozen=True)
@@ -99,7 +107,7 @@ class Contact:
 
 
 @dataclass(frozen=True)
-class DynamicReplay:
+class DynamicReplay(_ReplayMeasures):
     """The leg's servos tracking a trajectory under gravity.
 
     ``qpos`` is the simulated state and ``qpos_ref`` the reference, per frame (T, nq); ``error`` (T, n) is
@@ -124,13 +132,6 @@ class DynamicReplay:
     saturated_frames: np.ndarray  # (nu,) frames at which each actuator's force sat at its force range
     warnings: tuple[str, ...]  # MuJoCo warnings raised during the simulation (e.g. "mjWARN_BADQACC")
 
-    @property
-    def min_clearance(self) -> float:
-        return float(self.clearance.min())
-
-    @property
-    def n_frames(self) -> int:
-        return len(self.times)
 
 
 def leg_bodies(robot: RobotModel) -> np.ndarray:
