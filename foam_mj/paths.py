@@ -9,8 +9,15 @@ line) and Eq. 5 averages pi - theta_i; paper 003 Eq. 7 squares the supplementary
 Both are taken over every interior vertex of [q_init, q'_1, ..., q'_(k-1), q_goal], i.e. k - 1 angles.
 Paper 000 writes the mean as a sum over i = 1..k-2 divided by k - 2, but its own sigma holds k - 1
 waypoints, so with the endpoints there are k - 1 angles; we average over all of them (the choice
-does not change the minimiser's character and makes f well defined for any k >= 2). A vertex with a
-zero-length adjacent segment counts as straight (turn 0).
+does not change the minimiser's character and makes f well defined for any k >= 2).
+
+Repeated points. At a zero-length segment (|p_(j+1) - p_j| <= 1e-12) the angle is undefined. Such a
+segment takes the direction of the next segment of non-zero length (of the previous one at the end of
+the path), so the repeated point adds one straight vertex and the corner it sits on is counted once,
+in full: the angle sum is then the limit of the sums as the points separate along the path, the
+lowest value near the repeated points. (Counting both vertices next to a zero-length segment as
+straight, as this module did before issue 8, let an optimiser hide a corner by stacking two waypoints
+on it.)
 """
 
 from __future__ import annotations
@@ -32,16 +39,33 @@ def path_length(points: np.ndarray) -> np.ndarray:
     return segment_lengths(points).sum(axis=-1)
 
 
+def fill_index(zero: np.ndarray) -> np.ndarray:
+    """For a mask of zero-length segments (..., S) the index of the segment whose direction each one
+    takes: itself when non-zero, else the next non-zero one, else the previous one (itself when all are
+    zero). See "Repeated points" above."""
+    S = zero.shape[-1]
+    idx = np.broadcast_to(np.arange(S), zero.shape)
+    nxt = np.flip(np.minimum.accumulate(np.flip(np.where(zero, S, idx), -1), axis=-1), -1)
+    prv = np.maximum.accumulate(np.where(zero, -1, idx), axis=-1)
+    return np.where(nxt < S, nxt, np.where(prv >= 0, prv, idx))
+
+
 def turning_angles(points: np.ndarray) -> np.ndarray:
     """Supplementary angles pi - theta_i at the interior vertices (0 for a straight line), paper 000 Eq. 4
-    and paper 003 Eq. 7. (..., m, n) -> (..., m-2)."""
+    and paper 003 Eq. 7. (..., m, n) -> (..., m-2). Repeated points: see the module docstring."""
     seg = np.diff(points, axis=-2)
+    lens = np.linalg.norm(seg, axis=-1)
+    zero = lens <= _EPS
+    if zero.any():
+        src = fill_index(zero)
+        seg = np.take_along_axis(seg, src[..., None], axis=-2)
+        lens = np.take_along_axis(lens, src, axis=-1)
     a, b = seg[..., :-1, :], seg[..., 1:, :]
-    na = np.linalg.norm(a, axis=-1)
-    nb = np.linalg.norm(b, axis=-1)
+    na, nb = lens[..., :-1], lens[..., 1:]
     dot = np.einsum("...i,...i->...", a, b)
     denom = na * nb
-    cos = np.where(denom > _EPS, dot / np.where(denom > _EPS, denom, 1.0), 1.0)
+    ok = denom > _EPS * _EPS  # false only when every segment has zero length
+    cos = np.where(ok, dot / np.where(ok, denom, 1.0), 1.0)
     # Eq. 4's theta_i is the angle between (q'_i - q'_(i+1)) and (q'_(i+2) - q'_(i+1)), i.e. between -a and b;
     # pi - theta_i is then the angle between a and b.
     return np.arccos(np.clip(cos, -1.0, 1.0))

@@ -18,6 +18,7 @@ from typing import Any, ClassVar, Mapping
 import numpy as np
 
 from foam_mj import paths
+from foam_mj.paths import fill_index
 from foam_mj.rosary import Rosary
 
 #: Paper 000 section 5.1/5.2's threshold f(sigma) < 0.38 (from paper 002). Under paper 000's own Eq. 5
@@ -386,7 +387,7 @@ def population_objective(points: np.ndarray) -> np.ndarray:
     """f of paper 000 Eq. 5 for a whole population of paths (P, m, n) -> (P,), in one numpy computation.
 
     The same function as :func:`foam_mj.paths.objective` (mean supplementary angle over the m - 2
-    interior vertices plus the length; a vertex next to a zero-length segment counts as straight;
+    interior vertices plus the length; repeated points handled as there;
     the tests check equality), with fewer temporaries. Any leading batch shape works.
     """
     return coordinate_major_objective(np.moveaxis(np.asarray(points, dtype=float), -1, 0))
@@ -400,15 +401,20 @@ def coordinate_major_objective(X: np.ndarray) -> np.ndarray:
     """
     seg = X[..., 1:] - X[..., :-1]
     lens = np.sqrt(np.einsum("i...,i...->...", seg, seg))
+    length = lens.sum(axis=-1)
+    zero = lens <= _EPS
+    if zero.any():  # repeated points take the next segment's direction, as in foam_mj.paths (rare: no cost otherwise)
+        src = fill_index(zero)
+        seg = np.take_along_axis(seg, np.broadcast_to(src, seg.shape), axis=-1)
+        lens = np.take_along_axis(lens, src, axis=-1)
     dot = np.einsum("i...,i...->...", seg[..., :-1], seg[..., 1:])
     den = lens[..., :-1] * lens[..., 1:]
-    # A vertex next to a zero-length segment (den <= _EPS, so |dot| <= _EPS) gets cos >= (1 - _EPS) / _EPS,
-    # clipped to 1 below: a straight vertex, as in foam_mj.paths.
-    dot += den <= _EPS
-    cos = dot / np.maximum(den, _EPS)
+    # Only a path with every segment of zero length leaves den <= _EPS^2 (|dot| <= den): cos >= 1, straight.
+    dot += den <= _EPS * _EPS
+    cos = dot / np.maximum(den, _EPS * _EPS)
     np.minimum(cos, 1.0, out=cos)
     np.maximum(cos, -1.0, out=cos)
     ang = np.arccos(cos)
     n_ang = ang.shape[-1]
     angle = ang.sum(axis=-1) / n_ang if n_ang else np.zeros(ang.shape[:-1])
-    return angle + lens.sum(axis=-1)
+    return angle + length

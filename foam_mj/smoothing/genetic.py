@@ -274,14 +274,12 @@ class _PopulationObjective:
         self._lens = np.empty(PL + 1)
         self._lens[PL] = 1.0
         self._den = np.empty(PL)
-        self._hit = np.empty(PL, dtype=bool)
-        self._eps = np.full(PL, _EPS)
+        self._eps = np.full(PL, _EPS * _EPS)
         self._ones, self._minus_ones = np.ones(PL), -np.ones(PL)
         self._ang = np.empty(PL)
         # per path: the L - 2 angles and the L - 1 segment lengths (the rest is junk)
         self._ang_rows = self._ang.reshape(P, L)[:, : L - 2]
         self._len_rows = self._lens[:PL].reshape(P, L)[:, : L - 1]
-        self._den_rows = self._den.reshape(P, L)[:, : L - 2]
 
     def __call__(self, X: np.ndarray) -> np.ndarray:
         x = X.reshape(-1)
@@ -292,8 +290,8 @@ class _PopulationObjective:
         np.sqrt(q[0], lens[:-1])
         np.multiply(lens[:-1], lens[1:], den)
         dot = q[1]
-        if np.minimum.reduce(self._den_rows, axis=None) <= _EPS:  # a zero-length segment: a straight vertex
-            np.add(dot, np.less_equal(den, _EPS, self._hit), dot)
+        if np.minimum.reduce(self._len_rows, axis=None) <= _EPS:  # repeated points (rare): the reference code
+            return coordinate_major_objective(X)
         np.maximum(den, self._eps, out=den)
         np.divide(dot, den, ang)
         np.minimum(ang, self._ones, out=ang)

@@ -1,0 +1,804 @@
+"""The best path inside the rosary: a certified local optimum of the papers' objectives (issue 8).
+
+    minimise   F(W) = w_len * L + w_angle * mean_i phi_i + w_sv * mean_i phi_i^2
+    subject to |w_i - c_i| <= r_i - inset,  |w_i - c_(i+1)| <= r_(i+1) - inset     (w_i in hatch i)
+
+over the waypoints W = (q'_1 .. q'_(k-1)) of paper 000 Eq. 3 on the path [q_init, W, q_goal]; phi_i is
+the supplementary angle pi - theta_i of Eq. 4 at the k-1 interior vertices, L the length. Weights
+(1, 1, 0) give f of paper 000 Eq. 5, (0, 0, 1) SV of paper 003 Eq. 7 (with the same vertex count),
+(1, 0, 0) the length; any non-negative weights give the user's trade-off.
+
+The method: sequential convex programming (prox-linear), each subproblem a second-order cone program
+solved by Clarabel. Why not SLSQP or trust-constr: the angle phi is not differentiable where two segments
+are collinear (it behaves like a norm there) and the optimum of f has such straight vertices (the mean
+angle acts like an L1 penalty that makes angles exactly zero). Measured on the obstacle rosary,
+SLSQP on a smoothed angle sqrt(phi^2 + eps^2) did not converge in 1,000 iterations and trust-constr
+went uphill; smooth solvers see a gradient that jumps. The composite structure is exact instead:
+
+    phi = h(|v|),  v = a/|a| - b/|b|,  h(s) = 2 arcsin(s / 2)
+
+(a, b the two segments at the vertex), with h convex and increasing and v smooth. The subproblem keeps
+the convex parts exact (segment lengths |p_(j+1) - p_j| <= t_j and the hatch balls as second-order
+cones) and linearises only v inside the norm: s_i >= |v_i + J_i dW|, angle model h(s0) + h'(s0)(s - s0),
+SV model h0^2 + (h0 h0' / s0)(s^2 - s0^2). At a straight vertex (s0 = 0) the model is the exact
+first-order model |J_i dW| of the kink, so the iteration converges to points that satisfy the
+nonsmooth (Clarke) first-order conditions, which a smooth method cannot certify. A box trust region
+with the usual ratio test on the true F makes every accepted step decrease F.
+
+Certificate. :func:`kkt_certificate` checks first-order optimality of the true objective: at a
+straight vertex the subdifferential of phi is {J_i^T g : |g| <= 1}; elsewhere phi is differentiable.
+The residual
+
+    min  || grad F_smooth + sum_straight (w_angle / M) J_i^T g_i - sum_active lambda_j grad c_j ||_inf
+    s.t. |g_i| <= 1,  lambda_j >= 0
+
+is itself a small SOCP (Clarabel). Stationarity below ``kkt_tol`` with complementarity max lambda_j |c_j|
+below it certifies a local optimum; the angle is not convex, so ``multistart`` looks for better ones
+(random hatch points, or HS/GA results passed as ``initial``).
+
+Coincident waypoints: the shortest path often puts two consecutive waypoints on the same corner
+(their hatches overlap there); the angles at a zero-length segment are undefined. The start is
+therefore the convex solution pulled by ``spread`` (1e-3) toward the hatch centres, a convex
+combination of two points of each (convex) hatch, so still inside it.
+
+Strictly inside: the balls are shrunk by ``inset`` (1e-6) and every returned waypoint is projected
+onto the shrunk hatch (a no-op up to the solver's 1e-8 feasibility) and checked to be at least inset/2
+inside both balls.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import clarabel
+import numpy as np
+import scipy.sparse as sp
+
+from foam_mj import paths
+from foam_mj.rosary import Rosary
+from foam_mj.smoothing.base import (
+    Hatches,
+    SeedLike,
+    SmoothingResult,
+    Smoother,
+    _check_positive,
+    as_generator,
+    check_initial,
+    trivial_result,
+)
+from foam_mj.smoothing.convex import ConvexShortestPath, build_socp
+
+_TINY = 1e-300
+SOLVER_TOL = 1e-9
+_S_MAX = 2.0 - 1e-9  # |v| = 2 sin(phi / 2) <= 2; h'(s) blows up at a U-turn
+
+
+# -- objective --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ObjectiveWeights:
+    """F = length * L + angle * mean(phi) + sv * mean(phi^2). Paper 000's f is (1, 1, 0)."""
+
+    length: float = 1.0
+    angle: float = 1.0
+    sv: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("length", "angle", "sv"):
+            _check_positive(f"weights.{name}", getattr(self, name), allow_zero=True)
+        if self.length == 0 and self.angle == 0 and self.sv == 0:
+            raise ValueError("weights: at least one of length, angle, sv must be > 0")
+
+    PRESETS: ClassVar[dict[str, tuple[float, float, float]]] = {
+        "f": (1.0, 1.0, 0.0),
+        "sv": (0.0, 0.0, 1.0),
+        "length": (1.0, 0.0, 0.0),
+    }
+
+    @classmethod
+    def named(cls, objective: str) -> "ObjectiveWeights":
+        if objective not in cls.PRESETS:
+            raise ValueError(f"objective must be one of {sorted(cls.PRESETS)}, got {objective!r}")
+        return cls(*cls.PRESETS[objective])
+
+    @property
+    def as_tuple(self) -> tuple[float, float, float]:
+        return (float(self.length), float(self.angle), float(self.sv))
+
+    @property
+    def name(self) -> str:
+        for key, value in self.PRESETS.items():
+            if value == self.as_tuple:
+                return key
+        return "weighted({:g}, {:g}, {:g})".format(*self.as_tuple)
+
+
+def objective_value(points: np.ndarray, weights: ObjectiveWeights) -> float:
+    """F of a path (m, n) with the library's definitions (foam_mj.paths): the number reported."""
+    p = np.asarray(points, dtype=float)
+    phi = paths.turning_angles(p)
+    value = weights.length * float(paths.path_length(p))
+    if len(phi):
+        value += weights.angle * float(phi.mean()) + weights.sv * float(np.mean(phi**2))
+    return value
+
+
+def objective_and_gradient(points: np.ndarray, weights: ObjectiveWeights) -> tuple[float, np.ndarray]:
+    """F and its gradient with respect to every point of the path (m, n) (ends included).
+
+    d phi / d a = -(b^ - cos(phi) a^) / (|a| sin(phi)) (and symmetrically for b), from
+    cos(phi) = a.b / (|a||b|); d phi^2 = 2 phi d phi is smooth (phi / sin(phi) -> 1). At an exactly
+    straight vertex the angle's gradient is taken as 0 (a subgradient); the certificate handles the
+    whole subdifferential. Segments must have non-zero length.
+    """
+    p = np.asarray(points, dtype=float)
+    seg = np.diff(p, axis=0)
+    lens = np.linalg.norm(seg, axis=1)
+    if np.any(lens <= 0):
+        raise ValueError("objective_and_gradient: the path has a zero-length segment")
+    u = seg / lens[:, None]
+    grad = np.zeros_like(p)
+    value = weights.length * float(lens.sum())
+    grad[:-1] -= weights.length * u
+    grad[1:] += weights.length * u
+    M = len(p) - 2
+    if M > 0 and (weights.angle or weights.sv):
+        ua, ub = u[:-1], u[1:]
+        c = np.clip(np.einsum("ij,ij->i", ua, ub), -1.0, 1.0)
+        phi = np.arccos(c)
+        s = np.sin(phi)
+        bent = s > 1e-12
+        inv_s = np.where(bent, 1.0 / np.where(bent, s, 1.0), 0.0)
+        ratio = np.where(bent, phi * inv_s, 1.0)  # phi / sin(phi) -> 1 at 0
+        value += weights.angle * float(phi.mean()) + weights.sv * float(np.mean(phi**2))
+        coef = (weights.angle * inv_s + weights.sv * 2.0 * ratio) / M  # dF/d cos = -coef
+        va = (ub - c[:, None] * ua) / lens[:-1, None]  # d cos / d a
+        vb = (ua - c[:, None] * ub) / lens[1:, None]  # d cos / d b
+        da, db = -coef[:, None] * va, -coef[:, None] * vb  # dF / da, dF / db at each vertex
+        grad[:-2] -= da
+        grad[1:-1] += da - db
+        grad[2:] += db
+    return value, grad
+
+
+# -- the composite model ----------------------------------------------------------------------------
+def _unit_segments(seg: np.ndarray, lens: np.ndarray) -> np.ndarray:
+    """Unit directions of the segments, a zero-length one taking its neighbour's (foam_mj.paths)."""
+    zero = lens <= paths._EPS
+    if zero.any():
+        src = paths.fill_index(zero)
+        seg, lens = seg[src], lens[src]
+    return seg / np.maximum(lens, paths._EPS)[:, None]
+
+
+RELATIVE = 0.5  # a segment's vector may change by at most this fraction of its length in one step
+TIE = 1e-5  # points closer than this are one point (a tie) in the next subproblem
+
+
+@dataclass
+class _Vertices:
+    """The merged polyline of a path: ``rep[k]`` the point that stands for point k (the first of its
+    run of coincident points, or the fixed end in a run that holds one), ``D`` the distinct points,
+    v = a^ - b^ at their interior vertices, its Jacobian blocks (Mv, 3, n, n) with respect to
+    (Q_(i), Q_(i+1), Q_(i+2)), s0 = |v|."""
+
+    rep: np.ndarray
+    D: np.ndarray
+    v: np.ndarray
+    J: np.ndarray
+    s0: np.ndarray
+
+
+def tie_mask(p: np.ndarray, h: Hatches | None = None, inset: float = 0.0, tie: float = TIE) -> np.ndarray:
+    """Which segments of the path p (L, n) join a tie: shorter than ``tie`` and, with ``h``, such that the
+    point after the segment may stand on the point before it (that point is inside the shrunk hatch of
+    the waypoint after it; the end q_goal counts as always able to take a waypoint's place only if it
+    is in that waypoint's hatch too)."""
+    close = np.linalg.norm(np.diff(p, axis=0), axis=1) < tie
+    if h is not None and close.any():
+        L = len(p)
+        j = np.flatnonzero(close)
+        # segment j joins points j and j+1; waypoint of point k is hatch k-1
+        wp = np.where(j + 1 <= L - 2, j + 1, j)  # the waypoint that moves onto the other point
+        other = np.where(j + 1 <= L - 2, j, j + 1)
+        ok = Hatches(h.ca[wp - 1], h.ra[wp - 1], h.cb[wp - 1], h.rb[wp - 1]).inside(p[other], inset)
+        close[j[~ok]] = False
+    return close
+
+
+def default_tie(weights: ObjectiveWeights) -> float:
+    """The tie distance the solver uses: ``TIE`` when the objective has no SV term; otherwise only exact
+    coincidences (a split corner, two close vertices sharing a turn, is what minimises SV, and a tie
+    would hide it)."""
+    return TIE if weights.sv == 0 else paths._EPS
+
+
+def _vertex_data(p: np.ndarray, close: np.ndarray | None = None) -> _Vertices:
+    L, n = p.shape
+    if close is None:
+        close = tie_mask(p)
+    group = np.r_[0, np.cumsum(~close)]
+    first = np.flatnonzero(np.r_[True, ~close])
+    rep_of_group = first.copy()
+    if close[-1] and len(first) > 1:
+        rep_of_group[-1] = L - 1  # a run that ends at q_goal stands on q_goal
+    rep = rep_of_group[group]
+    D = rep_of_group
+    Q = p[D]
+    seg = np.diff(Q, axis=0)
+    lens = np.maximum(np.linalg.norm(seg, axis=1), paths._EPS)
+    u = seg / lens[:, None]
+    G = (np.eye(n) - u[:, :, None] * u[:, None, :]) / lens[:, None, None]  # d u / d seg
+    Ga, Gb = G[:-1], G[1:]
+    v = u[:-1] - u[1:]
+    # dv/dQ_i = -Ga, dv/dQ_(i+1) = Ga + Gb, dv/dQ_(i+2) = -Gb
+    J = np.stack([-Ga, Ga + Gb, -Gb], axis=1)
+    return _Vertices(rep, D, v, J, np.linalg.norm(v, axis=1))
+
+
+def _h(s):
+    return 2.0 * np.arcsin(np.minimum(s, 2.0) / 2.0)
+
+
+def _dh(s):
+    return 1.0 / np.sqrt(np.maximum(1.0 - (np.minimum(s, _S_MAX) / 2.0) ** 2, 1e-18))
+
+
+@dataclass
+class _Structure:
+    """The parts of the subproblem that do not change between iterations."""
+
+    A0: sp.csc_matrix  # segment and ball cones over x = [W, t]
+    b0: np.ndarray
+    nw: int
+    nt: int
+    M: int
+    n: int
+
+
+def _structure(rosary: Rosary, inset: float) -> _Structure:
+    _, _, A0, b0, _, nw = build_socp(rosary, 0.0, inset)
+    m = rosary.n_hatches
+    return _Structure(A0.tocoo(), b0, nw, m + 1, m, rosary.dim)
+
+
+def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta: float, vx: _Vertices):
+    """Clarabel data for one step. Variables x = [W (m n), t (m + 1), s (M)]; cones in the order
+    ties (zero cone), trust region (box), segment and ball cones, vertex cones."""
+    n, nw, nt, M = st.n, st.nw, st.nt, st.M
+    m = M
+    nx = nw + nt + M
+    rows, cols, vals, b, cones = [], [], [], [], []
+    dd = np.arange(n)
+    off = 0
+    # Ties: w_k = w_rep(k) (or = the fixed end) for every waypoint that is not its run's representative.
+    k = np.arange(1, m + 1)
+    tied = k[vx.rep[k] != k]
+    if tied.size:
+        r = off + (np.arange(tied.size)[:, None] * n + dd).ravel()
+        rows.append(r)
+        cols.append(((tied - 1)[:, None] * n + dd).ravel())
+        vals.append(np.ones(r.size))
+        rp = vx.rep[tied]
+        free_rep = (rp >= 1) & (rp <= m)
+        rr = off + (np.flatnonzero(free_rep)[:, None] * n + dd).ravel()
+        rows.append(rr)
+        cols.append(((rp[free_rep] - 1)[:, None] * n + dd).ravel())
+        vals.append(-np.ones(rr.size))
+        bt = np.zeros((tied.size, n))
+        bt[~free_rep] = p[rp[~free_rep]]
+        b.append(bt.ravel())
+        cones.append(clarabel.ZeroConeT(tied.size * n))
+        off += tied.size * n
+    # Box trust region: |W - W0|_inf <= delta.
+    w0 = p[1:-1].ravel()
+    idx = np.arange(nw)
+    rows += [off + idx, off + nw + idx]
+    cols += [idx, idx]
+    vals += [np.ones(nw), -np.ones(nw)]
+    b += [w0 + delta, -(w0 - delta)]
+    off += 2 * nw
+    # Relative trust region on the segments: |d(p_(j+1) - p_j)|_inf <= RELATIVE |p_(j+1) - p_j| for the
+    # segments shorter than delta / RELATIVE (not tied), so a short segment's direction, to which the angles
+    # are most sensitive, stays within the model's reach while its two points may still move together.
+    seg = np.diff(p, axis=0)
+    lens = np.linalg.norm(seg, axis=1)
+    tied_seg = vx.rep[1:] == vx.rep[:-1]
+    short = np.flatnonzero((RELATIVE * lens < delta) & ~tied_seg & (m > 0))
+    n_rel = 0
+    if short.size:
+        r = (np.arange(short.size)[:, None] * n + dd).ravel()
+        jj = np.repeat(short, n)
+        ee = np.tile(dd, short.size)
+        hi = jj + 1 <= m  # p_(j+1) is waypoint j (free)
+        lo = jj >= 1  # p_j is waypoint j - 1 (free)
+        for sign, base in ((1.0, off), (-1.0, off + r.size)):
+            rows += [base + r[hi], base + r[lo]]
+            cols += [jj[hi] * n + ee[hi], (jj[lo] - 1) * n + ee[lo]]
+            vals += [np.full(int(hi.sum()), sign), np.full(int(lo.sum()), -sign)]
+        seg0 = seg[short]  # includes the fixed ends' contribution, as does D W0 below
+        dw0 = np.zeros((short.size, n))
+        pw = p.copy()
+        pw[0] = 0.0
+        pw[-1] = 0.0
+        dw0 = pw[short + 1] - pw[short]  # D W0 (only the free points)
+        rad = np.repeat(RELATIVE * lens[short], n)
+        b += [dw0.ravel() + rad, -dw0.ravel() + rad]
+        n_rel = 2 * r.size
+        off += n_rel
+    cones.append(clarabel.NonnegativeConeT(2 * nw + n_rel))
+    # Segment and ball cones (constant).
+    A0 = st.A0
+    rows.append(off + A0.row)
+    cols.append(A0.col)
+    vals.append(A0.data)
+    b.append(st.b0)
+    cones += [clarabel.SecondOrderConeT(n + 1)] * (nt + 2 * m)
+    off += A0.shape[0]
+    q = np.zeros(nx)
+    q[nw:nw + nt] = weights.length
+    Pdiag = np.ones(nx) * 0.0
+    Mv = len(vx.s0)
+    Pdiag[nw + nt + Mv:] = 1.0  # pins the unused s at 0
+    if Mv and (weights.angle or weights.sv):
+        # Vertex cones (s_i, v_i + sum_j J_ij (Q_(i+j) - Q0_(i+j))) for the waypoints among the three points.
+        i = np.arange(Mv)
+        cone_base = off + i * (n + 1)
+        rows.append(cone_base)
+        cols.append(nw + nt + i)
+        vals.append(np.full(Mv, -1.0))
+        const = vx.v.copy()
+        for j in range(3):
+            point = vx.D[i + j]
+            free = (point >= 1) & (point <= m)
+            ii = i[free]
+            Jk = vx.J[ii, j]  # (F, n, n): rows d, cols e
+            const[ii] -= np.einsum("fde,fe->fd", Jk, p[point[free]])
+            r = cone_base[ii][:, None, None] + 1 + dd[None, :, None]
+            c = (point[free] - 1)[:, None, None] * n + dd[None, None, :]
+            rows.append(np.broadcast_to(r, Jk.shape).ravel())
+            cols.append(np.broadcast_to(c, Jk.shape).ravel())
+            vals.append(-Jk.ravel())
+        bv = np.zeros((Mv, n + 1))
+        bv[:, 1:] = const
+        b.append(bv.ravel())
+        cones += [clarabel.SecondOrderConeT(n + 1)] * Mv
+        sc = np.minimum(vx.s0, _S_MAX)
+        q[nw + nt:nw + nt + Mv] = weights.angle * _dh(sc) / M
+        Pdiag[nw + nt:nw + nt + Mv] = 2.0 * weights.sv * _kappa(sc) / M
+    else:
+        Pdiag[nw + nt:] = 1.0
+    b = np.concatenate(b)
+    A = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(len(b), nx))
+    return sp.diags(Pdiag, format="csc"), q, A, b, cones
+
+
+def _kappa(sc: np.ndarray) -> np.ndarray:
+    """h(s) h'(s) / s (-> 1 at 0): the SV model's curvature in s."""
+    return np.where(sc > 1e-8, _h(sc) * _dh(sc) / np.maximum(sc, 1e-8), 1.0)
+
+
+def _model_value(x: np.ndarray, st: _Structure, weights: ObjectiveWeights, vx: _Vertices) -> float:
+    """The subproblem's model of F at its solution x (equals F at the current point when x = x0)."""
+    nw, nt, M = st.nw, st.nt, st.M
+    value = weights.length * float(x[nw:nw + nt].sum())
+    Mv = len(vx.s0)
+    if Mv and (weights.angle or weights.sv):
+        s = np.maximum(x[nw + nt:nw + nt + Mv], 0.0)
+        sc = np.minimum(vx.s0, _S_MAX)
+        h0, dh0 = _h(sc), _dh(sc)
+        value += weights.angle * float(np.sum(h0 + dh0 * (s - sc))) / M
+        value += weights.sv * float(np.sum(h0**2 + _kappa(sc) * (s**2 - sc**2))) / M
+    return value
+
+
+def _true_value(p: np.ndarray, weights: ObjectiveWeights) -> float:
+    """F with the angles from h(|v|) (arccos of the cosine, better conditioned near 0) and repeated
+    points as in foam_mj.paths."""
+    seg = np.diff(p, axis=0)
+    lens = np.linalg.norm(seg, axis=1)
+    value = weights.length * float(lens.sum())
+    if len(p) > 2 and (weights.angle or weights.sv):
+        u = _unit_segments(seg, lens)
+        phi = _h(np.linalg.norm(u[:-1] - u[1:], axis=1))
+        value += weights.angle * float(phi.mean()) + weights.sv * float(np.mean(phi**2))
+    return value
+
+
+def untied_start(rosary: Rosary, h: Hatches, w: np.ndarray, inset: float, tie: float = TIE, eta: float = 1e-2) -> np.ndarray | None:
+    """Waypoints with every run of coincident points (a tie) split: the first point of the run moved
+    toward the previous distinct point, the last toward the next one, by ``eta`` of the way, the rest
+    spread between (then projected onto the shrunk hatches). None when there is no tie.
+
+    A tie is where the merged polyline's corner is counted once; splitting it cuts the corner. For SV a
+    split corner is always better if feasible (phi^2 halves), and the SCP cannot split a tie on its own
+    (the split is a jump in the angles), so :class:`OptimalSmoother` tries this start after each run.
+    """
+    p = rosary.path(w)
+    vx = _vertex_data(p, tie_mask(p, h, inset / 2, tie))
+    L = len(p)
+    k = np.arange(L)
+    if np.all(vx.rep == k):
+        return None
+    q = p.copy()
+    for r in np.unique(vx.rep[vx.rep != k]):
+        run = np.flatnonzero(vx.rep == r)
+        lo, hi = run[0], run[-1]
+        prev = p[lo - 1] if lo > 0 else p[lo]
+        nxt = p[hi + 1] if hi < L - 1 else p[hi]
+        c = p[r]
+        t = np.linspace(-1.0, 1.0, len(run))
+        targets = np.where(t[:, None] < 0, c + (-t[:, None]) * eta * (prev - c), c + t[:, None] * eta * (nxt - c))
+        q[run] = targets
+    q[0], q[-1] = p[0], p[-1]
+    return h.project(q[1:-1], inset)
+
+
+def _settings() -> clarabel.DefaultSettings:
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = SOLVER_TOL
+    for key, value in _EXTRA.items():
+        setattr(settings, key, value)
+    return settings
+
+
+_EXTRA: dict = {}
+
+
+@dataclass
+class SCPTrace:
+    """What one run of :func:`sequential_convex` did: F after every accepted step, subproblems solved."""
+
+    values: list[float] = field(default_factory=list)
+    iterations: int = 0
+    accepted: int = 0
+    stop_reason: str = ""
+
+
+def sequential_convex(
+    rosary: Rosary,
+    h: Hatches,
+    w0: np.ndarray,
+    weights: ObjectiveWeights,
+    inset: float,
+    *,
+    delta0: float = 0.05,
+    max_iter: int = 200,
+    tol: float = 1e-10,
+    stall: int = 4,
+    tie: float | None = None,
+    structure: _Structure | None = None,
+) -> tuple[np.ndarray, SCPTrace]:
+    """Trust-region SCP from ``w0`` (inside the shrunk hatches) -> (waypoints, trace).
+
+    Each iteration solves the convex model (module docstring) in the box |W - W0|_inf <= delta, and
+    accepts the step when the true decrease is at least 0.1 of the predicted one (delta doubles when
+    it is 0.75 or more, else shrinks by 4 on rejection). Stops when the predicted decrease falls
+    below ``tol`` * |F| ("converged"), or when ``stall`` steps in a row are rejected while the
+    predicted decrease is below 1e-7 |F| (the subproblem is solved to a relative 1e-9, so such
+    predictions are rounding: "converged (solver accuracy)"), or delta falls below 1e-12.
+    """
+    st = structure or _structure(rosary, inset)
+    tie = default_tie(weights) if tie is None else tie
+    w = np.array(w0, dtype=float)
+    p = rosary.path(w)
+    F = _true_value(p, weights)
+    trace = SCPTrace(values=[F])
+    delta = delta0
+    settings = _settings()
+    trace.stop_reason = "max_iter"
+    rejected = 0
+    for it in range(max_iter):
+        trace.iterations = it + 1
+        vx = _vertex_data(p, tie_mask(p, h, inset / 2, tie))
+        P, q, A, b, cones = _subproblem(st, p, weights, delta, vx)
+        sol = clarabel.DefaultSolver(P, q, A, b, cones, settings).solve()
+        status = str(sol.status).rsplit(".", 1)[-1]
+        if status in ("Solved", "AlmostSolved"):
+            x = np.asarray(sol.x)
+            pred = F - _model_value(x, st, weights, vx)
+            if pred <= tol * abs(F) + 1e-15:
+                trace.stop_reason = "converged"
+                break
+            p_new = p.copy()
+            p_new[1:-1] = x[: st.nw].reshape(w.shape)
+            p_new = p_new[vx.rep]  # ties exact (the solver meets them to its tolerance only)
+            w_new = h.project(p_new[1:-1], inset)
+            p_new = rosary.path(w_new)
+            F_new = _true_value(p_new, weights)
+            rho = (F - F_new) / pred
+        else:
+            rho = -np.inf  # a failed subproblem: shrink the region and retry
+        if rho >= 0.1:
+            w, p, F = w_new, p_new, F_new
+            trace.values.append(F)
+            trace.accepted += 1
+            rejected = 0
+            if rho >= 0.75:
+                delta = min(2.0 * delta, 1.0)
+        else:
+            rejected = rejected + 1 if np.isfinite(rho) and pred < 1e-7 * abs(F) else 0
+            if rejected >= stall:
+                trace.stop_reason = "converged (solver accuracy)"
+                break
+            delta *= 0.25
+            if delta < 1e-12:
+                trace.stop_reason = "trust region collapsed" if status in ("Solved", "AlmostSolved") else f"subproblem {status}"
+                break
+    return w, trace
+
+
+# -- the certificate --------------------------------------------------------------------------------
+STRAIGHT = 1e-3  # |v| below this: a straight vertex, where the angle's subdifferential is a ball
+ACTIVE = 1e-6  # a ball constraint whose slack (in configuration units) is below this is active
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """First-order optimality of waypoints for the true (nonsmooth) objective, see the module docstring.
+
+    ``stationarity``: the smallest inf-norm of grad F_smooth + sum_straight (w_angle/M) J_i^T g_i -
+    sum_active lambda_j grad c_j over |g_i| <= 1 and lambda >= 0; ``complementarity``: max lambda_j *
+    slack_j over those multipliers; ``gradient_norm``: the inf-norm of the smooth gradient alone (the
+    scale to compare with); counts of straight vertices, active constraints and tied waypoints.
+    """
+
+    stationarity: float
+    raw_stationarity: float
+    complementarity: float
+    gradient_norm: float
+    straight_vertices: int
+    active_constraints: int
+    tied_waypoints: int
+
+    def certified(self, tol: float) -> bool:
+        return self.stationarity <= tol and self.complementarity <= tol
+
+    def as_dict(self) -> dict:
+        return {
+            "kkt_stationarity": self.stationarity,
+            "kkt_raw_stationarity": self.raw_stationarity,
+            "kkt_complementarity": self.complementarity,
+            "gradient_norm": self.gradient_norm,
+            "straight_vertices": self.straight_vertices,
+            "active_constraints": self.active_constraints,
+            "tied_waypoints": self.tied_waypoints,
+        }
+
+
+def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWeights, inset: float = 0.0) -> Certificate:
+    """The KKT residual of ``waypoints`` for min F subject to the hatch balls shrunk by ``inset``.
+
+    Coincident waypoints (closer than 1e-12, as foam_mj.paths) are one point: the variables are the
+    distinct free points of the merged polyline, each constrained by the balls of every hatch it stands
+    for. Constraints c_j = (r_j - inset)^2 - |x - c_j|^2 >= 0; active when the point is within ``ACTIVE``
+    of the shrunk sphere.
+    """
+    h = Hatches.of(rosary)
+    n, m = rosary.dim, h.m
+    p = rosary.path(np.asarray(waypoints, dtype=float))
+    vx = _vertex_data(p, tie_mask(p, h, inset / 2, paths._EPS))
+    Q = p[vx.D]
+    nq = len(Q)
+    free = np.flatnonzero((vx.D >= 1) & (vx.D <= m))  # indices into Q of the distinct free points
+    col = -np.ones(nq, dtype=int)
+    col[free] = np.arange(free.size)
+    nv = free.size * n
+    # Smooth gradient over the merged polyline: length, SV, and the angle at bent vertices.
+    M = m
+    grad_q = np.zeros_like(Q)
+    seg = np.diff(Q, axis=0)
+    lens = np.maximum(np.linalg.norm(seg, axis=1), paths._EPS)
+    u = seg / lens[:, None]
+    grad_q[:-1] -= weights.length * u
+    grad_q[1:] += weights.length * u
+    straight = np.zeros(len(vx.s0), dtype=bool)
+    if len(vx.s0) and (weights.angle or weights.sv):
+        sc = np.minimum(vx.s0, _S_MAX)
+        straight = (sc < STRAIGHT) & (weights.angle > 0)
+        unit_v = np.where(sc[:, None] > 0, vx.v / np.maximum(sc, _TINY)[:, None], 0.0)
+        # d/dv of w_angle h(|v|) + w_sv h(|v|)^2 = (w_angle h' + 2 w_sv h h') v/|v|, zero where straight (angle part)
+        dh0 = _dh(sc)
+        coef = (np.where(straight, 0.0, weights.angle * dh0) + 2.0 * weights.sv * _h(sc) * dh0) / M
+        gv = coef[:, None] * unit_v  # (Mv, n)
+        for j in range(3):
+            grad_q[j:j + len(gv)] += np.einsum("fde,fd->fe", vx.J[:, j], gv)
+    grad = grad_q[free].ravel()
+    # Active constraints: for every waypoint, its two balls, at its merged point.
+    ca, ra, cb, rb = h.ca, h.ra - inset, h.cb, h.rb - inset
+    owner = np.searchsorted(vx.D, vx.rep[1:-1])  # index into Q of each waypoint's point
+    x = Q[owner]
+    centres = np.concatenate([ca, cb])
+    radii = np.concatenate([ra, rb])
+    xx = np.concatenate([x, x])
+    own = np.concatenate([owner, owner])
+    slack = radii - np.linalg.norm(xx - centres, axis=1)
+    cval = radii**2 - np.sum((xx - centres) ** 2, axis=1)
+    active = np.flatnonzero((slack <= ACTIVE) & (col[own] >= 0))
+    na = active.size
+    st_idx = np.flatnonzero(straight)
+    ns = st_idx.size
+    # SOCP in z = [t, lambda (na), g (ns n)]: min t, |grad + B g - C lambda|_inf <= t, lambda >= 0, |g_i| <= 1.
+    nz = 1 + na + ns * n
+    Gm = np.zeros((nv, nz))
+    for a_i, j in enumerate(active):
+        c = col[own[j]]
+        Gm[c * n:(c + 1) * n, 1 + a_i] = 2.0 * (xx[j] - centres[j])  # -grad c_j
+    for s_i, vtx in enumerate(st_idx):
+        for j in range(3):
+            c = col[vtx + j]
+            if c >= 0:
+                Gm[c * n:(c + 1) * n, 1 + na + s_i * n:1 + na + (s_i + 1) * n] = weights.angle / M * vx.J[vtx, j].T
+    # Row scaling: the residual at a point times its neighbour distance ell (<= 1), see Certificate.
+    qlens = np.linalg.norm(np.diff(Q, axis=0), axis=1)
+    ell = np.minimum(1.0, np.minimum(np.r_[np.inf, qlens], np.r_[qlens, np.inf]))[free]
+    scale = np.repeat(ell, n)
+    Gs, grad_s = Gm[:, 1:] * scale[:, None], grad * scale
+    ones = np.ones((nv, 1))
+    A_rows = [np.hstack([-ones, Gs]), np.hstack([-ones, -Gs])]
+    b_rows = [-grad_s, grad_s]
+    lam = np.zeros((na, nz))
+    lam[np.arange(na), 1 + np.arange(na)] = -1.0
+    A_rows.append(lam)
+    b_rows.append(np.zeros(na))
+    cones = [clarabel.NonnegativeConeT(2 * nv + na)]
+    for s_i in range(ns):
+        blk = np.zeros((1 + n, nz))
+        blk[1:, 1 + na + s_i * n:1 + na + (s_i + 1) * n] = -np.eye(n)
+        A_rows.append(blk)
+        b_rows.append(np.r_[1.0, np.zeros(n)])
+        cones.append(clarabel.SecondOrderConeT(1 + n))
+    q = np.zeros(nz)
+    q[0] = 1.0
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    sol = clarabel.DefaultSolver(sp.csc_matrix((nz, nz)), q, sp.csc_matrix(np.vstack(A_rows)), np.concatenate(b_rows), cones, settings).solve()
+    z = np.asarray(sol.x)
+    lam_v = np.maximum(z[1:1 + na], 0.0)
+    # Recompute the residual from the multipliers found (not the solver's t), so the number is exact.
+    g = z[1 + na:].reshape(ns, n) if ns else np.zeros((0, n))
+    norms = np.linalg.norm(g, axis=1)
+    g = g / np.maximum(norms, 1.0)[:, None]
+    resid = grad + Gm[:, 1:] @ np.r_[lam_v, g.ravel()]
+    return Certificate(
+        stationarity=float(np.max(np.abs(resid * scale))) if nv else 0.0,
+        raw_stationarity=float(np.max(np.abs(resid))) if nv else 0.0,
+        complementarity=float(np.max(lam_v * np.maximum(slack[active], 0.0))) if na else 0.0,
+        gradient_norm=float(np.max(np.abs(grad))) if nv else 0.0,
+        straight_vertices=int(ns),
+        active_constraints=int(na),
+        tied_waypoints=int(np.sum(vx.rep[1:-1] != np.arange(1, m + 1))),
+    )
+
+
+# -- the smoother -----------------------------------------------------------------------------------
+KKT_TOL = 1e-5  # stationarity and complementarity below this (objective units per configuration unit): certified
+
+
+@dataclass(frozen=True)
+class StartOutcome:
+    """One start of the multistart: where it began, F it reached, its certificate and SCP trace."""
+
+    label: str
+    value: float
+    certificate: Certificate
+    iterations: int
+    stop_reason: str
+
+    def as_dict(self) -> dict:
+        return {"start": self.label, "value": self.value, "iterations": self.iterations,
+                "stop_reason": self.stop_reason, "certified_stationarity": self.certificate.stationarity}
+
+
+@dataclass(frozen=True)
+class OptimalSmoother(Smoother):
+    """Minimise f (or SV, or a weighted objective) over the hatches to a certified local optimum.
+
+    ``objective`` names a preset ("f": paper 000 Eq. 5, "sv": paper 003 Eq. 7, "length") unless
+    ``weights`` is given. The first start is ``initial`` when given (e.g. an HS or GA result), else the
+    convex reference's shortest path; ``multistart`` more starts are random hatch points (from
+    ``seed``); the best certified result is returned (the best overall if none is). ``info`` holds
+    the objective value, the certificate of the returned waypoints (``kkt_stationarity``,
+    ``kkt_complementarity``, ``certified``), and every start's outcome.
+    """
+
+    objective: str = "f"
+    weights: ObjectiveWeights | None = None
+    inset: float = 1e-6
+    multistart: int = 0
+    untie_rounds: int = 2
+    max_iter: int = 200
+    kkt_tol: float = KKT_TOL
+
+    name: ClassVar[str] = "optimal"
+
+    def __post_init__(self) -> None:
+        if self.weights is None:
+            ObjectiveWeights.named(self.objective)  # validates the name
+        elif not isinstance(self.weights, ObjectiveWeights):
+            raise TypeError(f"weights must be an ObjectiveWeights, got {type(self.weights).__name__}")
+        _check_positive("inset", self.inset)
+        _check_positive("kkt_tol", self.kkt_tol)
+        for name, low in (("multistart", 0), ("untie_rounds", 0), ("max_iter", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+                raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+
+    @property
+    def resolved_weights(self) -> ObjectiveWeights:
+        return self.weights if self.weights is not None else ObjectiveWeights.named(self.objective)
+
+    @property
+    def method(self) -> str:
+        name = self.resolved_weights.name
+        return "optimal" if name == "f" else f"optimal-{name}"
+
+    def smooth(self, rosary: Rosary, initial: np.ndarray | None = None, seed: SeedLike = 0) -> SmoothingResult:
+        t_start = time.perf_counter()
+        weights = self.resolved_weights
+        start = check_initial(rosary, initial)
+        if rosary.n_hatches == 0:
+            return trivial_result(self.method, rosary, t_start, objective=weights.name)
+        h = Hatches.of(rosary)
+        if np.any(h.ra <= 2 * self.inset) or np.any(h.rb <= 2 * self.inset):
+            raise ValueError(f"inset {self.inset} is too large for the rosary's smallest ball")
+        rng = as_generator(seed)
+        starts: list[tuple[str, np.ndarray]] = []
+        if start is not None:
+            starts.append(("initial", h.project(start, self.inset)))
+        else:
+            starts.append(("convex", np.array(ConvexShortestPath(inset=self.inset).smooth(rosary).waypoints)))
+        for j in range(self.multistart):
+            starts.append((f"random {j}", h.project(h.sample(rng, np.arange(h.m)), self.inset)))
+        st = _structure(rosary, self.inset)
+        best = None
+        outcomes: list[StartOutcome] = []
+        iterations = 0
+        for label, w0 in starts:
+            w, trace = sequential_convex(rosary, h, w0, weights, self.inset, max_iter=self.max_iter, structure=st)
+            iterations += trace.iterations
+            w = h.project(w, self.inset)
+            value = objective_value(rosary.path(w), weights)
+            for _ in range(self.untie_rounds):
+                w_split = untied_start(rosary, h, w, self.inset, default_tie(weights))
+                if w_split is None:
+                    break
+                w2, trace2 = sequential_convex(rosary, h, w_split, weights, self.inset, max_iter=self.max_iter, structure=st)
+                iterations += trace2.iterations
+                w2 = h.project(w2, self.inset)
+                value2 = objective_value(rosary.path(w2), weights)
+                if not value2 < value - 1e-9 * abs(value):
+                    break
+                w, trace, value = w2, trace2, value2
+            cert = kkt_certificate(rosary, w, weights, self.inset)
+            outcomes.append(StartOutcome(label, value, cert, trace.iterations, trace.stop_reason))
+            key = (not cert.certified(self.kkt_tol), value)
+            if best is None or key < best[0]:
+                best = (key, w, trace, cert, value, label)
+        _, w, trace, cert, value, label = best
+        if not np.all(h.inside(w, self.inset / 2)):  # pragma: no cover - guaranteed by the projection
+            raise RuntimeError("optimal smoother: a waypoint is not strictly inside its hatch")
+        certified = cert.certified(self.kkt_tol)
+        return SmoothingResult.build(
+            self.method,
+            rosary,
+            w,
+            history_best=np.array(trace.values),
+            iterations=iterations,
+            evaluations=iterations + len(starts),
+            wall_time=time.perf_counter() - t_start,
+            stop_reason="certified local optimum" if certified else f"not certified ({trace.stop_reason})",
+            objective=weights.name,
+            info={
+                "objective_value": value,
+                "weights": weights.as_tuple,
+                "certified": certified,
+                "kkt_tol": self.kkt_tol,
+                **cert.as_dict(),
+                "best_start": label,
+                "starts": [o.as_dict() for o in outcomes],
+                "inset": self.inset,
+            },
+        )
