@@ -8,6 +8,8 @@ One module per method, one interface (:class:`Smoother`: ``smooth(rosary, initia
 * :class:`GradientSmoothing` (paper 003 Eq. 9) and :class:`RosaryAdjustment` (Eq. 8) give the thesis's
   paths T, T_CA, T_RA, T_RCA (:func:`thesis_paths`);
 * :class:`ConvexShortestPath` is the convex reference (shortest path through the hatches, SOCP);
+* :class:`OptimalSmoother` (issue 8) minimises f (or SV, or a weighted objective) in the hatches to a
+  certified local optimum (sequential convex programming, KKT certificate);
 * :class:`MGOASmoother` and :class:`MOPSOSmoother` (paper 004, issue 7) return the Pareto front of
   (length, angle term) (``front()`` -> :class:`ParetoResult`; ``smooth()`` -> the knee, the front in
   ``info["front"]``).
@@ -30,6 +32,7 @@ from foam_mj.smoothing.genetic import GeneticAlgorithm
 from foam_mj.smoothing.goa import GOA, MGOA, MGOASmoother
 from foam_mj.smoothing.gradient import GradientSmoothing, center_path_result, sv_and_gradient, tc_and_gradient
 from foam_mj.smoothing.harmony import HarmonySearch
+from foam_mj.smoothing.optimal import Certificate, ObjectiveWeights, OptimalSmoother, kkt_certificate
 from foam_mj.smoothing.pareto import (
     Archive,
     ParetoResult,
@@ -48,6 +51,7 @@ __all__ = [
     "PAPER_STALL_ITERATIONS",
     "AdjustmentResult",
     "Archive",
+    "Certificate",
     "ConvexShortestPath",
     "ConvexSolveError",
     "GOA",
@@ -59,6 +63,8 @@ __all__ = [
     "MGOASmoother",
     "MOPSO",
     "MOPSOSmoother",
+    "ObjectiveWeights",
+    "OptimalSmoother",
     "PSO",
     "ParetoResult",
     "ParetoSmoother",
@@ -72,6 +78,7 @@ __all__ = [
     "coordinate_major_objective",
     "error_ratio",
     "hypervolume_2d",
+    "kkt_certificate",
     "knee_index",
     "population_objective",
     "set_coverage",
