@@ -17,6 +17,10 @@ import numpy as np
 
 from foam_mj.errors import FoamError, PlanningFailed
 
+#: ``foam-mj plan``'s smoother when none is named; equal to foam_mj.pipeline.DEFAULT_SMOOTHER (a test checks),
+#: repeated here because the command line imports the pipeline (and MuJoCo) only when it runs.
+DEFAULT_SMOOTHER = "optimal"
+
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_PLANNING_FAILED = 0, 1, 2, 3
 
 
@@ -113,6 +117,22 @@ def _print_fronts(outcome) -> None:
             print(f"  {label:<9} length {F[i, 0]:.4f}  angle term {F[i, 1]:.4f}{gap}")
 
 
+def _print_certificates(outcome) -> None:
+    """For the optimal smoother: whether its path is a certified local optimum, and its gain on the convex path."""
+    convex = outcome.paths.get("convex")
+    for po in outcome.paths.values():
+        info = po.result.info or {}
+        if "kkt_stationarity" not in info:
+            continue
+        verdict = "certified local optimum" if info.get("certified") else "NOT certified"
+        gain = f"; f {100 * (po.metrics.f / convex.metrics.f - 1):+.2f}% vs convex" if convex is not None else ""
+        print(
+            f"{po.label}: {verdict} of {po.result.objective} (KKT residual {info['kkt_stationarity']:.1e}, tolerance "
+            f"{info['kkt_tol']:.0e}; {info['straight_vertices']} straight vertices, {info['active_constraints']} active "
+            f"hatch constraints) in {1e3 * po.result.wall_time:.0f} ms{gain}"
+        )
+
+
 def _record(path: Path, outcome=None, *, scenario=None, foam=None) -> None:
     from foam_mj.recording import Recording
 
@@ -184,6 +204,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     )
     print(_summary_table(outcome))
     _print_fronts(outcome)
+    _print_certificates(outcome)
     if rrd is not None:
         progress("recording")
         _record(rrd, outcome)
@@ -260,7 +281,13 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Exit codes: 0 success, 2 bad input, 3 planning failed (the foam so far is still written).",
     )
     p.add_argument("--scene", default="obstacle", help="a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: obstacle)")
-    p.add_argument("--smoother", default="all", help="none, hs, ga, gradient, adjust, convex, mgoa, mopso or all, or a comma-separated list (default: all)")
+    p.add_argument(
+        "--smoother",
+        default=DEFAULT_SMOOTHER,
+        help="optimal, none, hs, ga, gradient, adjust, convex, mgoa, mopso or all, or a comma-separated list "
+        "(default: optimal, the certified optimum of f; all: every method of the papers plus convex and optimal, "
+        "for comparison). The centre path is always there.",
+    )
     p.add_argument("--seed", type=int, default=None, help="random seed of the planner and smoothers (default: the scenario's)")
     p.add_argument("--rrd", metavar="OUT.rrd", help="where to write the Rerun recording (default: foam-mj-<scenario>.rrd)")
     p.add_argument("--no-rrd", action="store_true", help="write no recording")

@@ -12,6 +12,7 @@ adjusted_gradient   the adjusted path smoothed by Eq. 9                         
 hs                  Harmony Search on f (Eq. 5)                                 000, 5.1
 ga                  the genetic algorithm on f (Eq. 5)                          000, 5.2
 convex              the shortest path through the hatches (SOCP)                reference
+optimal             f (Eq. 5) minimised in the hatches, KKT-certified           000 (issue 8)
 mgoa                knee of MGOA's Pareto front (length, angle term)            004
 mopso               knee of MOPSO's Pareto front (length, angle term)           004
 ==================  ==========================================================  ============
@@ -46,6 +47,7 @@ from foam_mj.smoothing import (
     HarmonySearch,
     MGOASmoother,
     MOPSOSmoother,
+    OptimalSmoother,
     RosaryAdjustment,
     SmoothingResult,
 )
@@ -60,10 +62,14 @@ SMOOTHERS: dict[str, tuple[str, ...]] = {
     "gradient": ("gradient",),
     "adjust": ("adjusted", "adjusted_gradient"),
     "convex": ("convex",),
+    "optimal": ("optimal",),
     "mgoa": ("mgoa",),
     "mopso": ("mopso",),
 }
-SMOOTHERS["all"] = tuple(p for k in ("gradient", "adjust", "hs", "ga", "convex") for p in SMOOTHERS[k])
+SMOOTHERS["all"] = tuple(p for k in ("gradient", "adjust", "hs", "ga", "convex", "optimal") for p in SMOOTHERS[k])
+#: What ``foam-mj plan`` runs when no smoother is named: the certified optimum of f, the best f of all the
+#: methods and among the fastest (benchmarks/smoothing.py).
+DEFAULT_SMOOTHER = "optimal"
 
 LABELS = {
     "centre": "centre (T)",
@@ -73,6 +79,7 @@ LABELS = {
     "hs": "harmony search",
     "ga": "genetic algorithm",
     "convex": "convex shortest",
+    "optimal": "optimal (certified f)",
     "mgoa": "MGOA (Pareto knee)",
     "mopso": "MOPSO (Pareto knee)",
 }
@@ -166,6 +173,9 @@ def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], see
     if "convex" in names:
         say("smoothing: convex shortest path")
         out["convex"] = ConvexShortestPath().smooth(rosary)
+    if "optimal" in names:
+        say("smoothing: optimal f (sequential convex programming)")
+        out["optimal"] = OptimalSmoother().smooth(rosary, seed=seed)
     if "mgoa" in names:
         say("smoothing: multi-objective grasshopper optimisation (MGOA)")
         out["mgoa"] = MGOASmoother().smooth(rosary, seed=seed)

@@ -25,6 +25,7 @@ Layout (format "foam-mj/result", version 1)::
           "smoother": {"method", "iterations", "evaluations", "wall_time", "stop_reason", ...},
           "convergence": {"best": [...], "mean": [...]},      # objective per iteration
           "pareto_front": {"objectives": [[length, angle term], ...], "knee": i, "paths": [...]},  # mgoa, mopso
+          "certificate": {"certified", "kkt_stationarity", "kkt_complementarity", "kkt_tol", ...},  # optimal
           "replay": {"min_clearance": ..., "duration": ..., "max_error": [...], "rms_error": [...],
                      "contacts": N, "joints": [...]}
         }, ...
@@ -92,6 +93,26 @@ def _foam_dict(foam, stats) -> dict:
     }
 
 
+#: What the JSON keeps of the optimal smoother's info (foam_mj.smoothing.optimal).
+CERTIFICATE_KEYS = (
+    "certified", "kkt_stationarity", "kkt_raw_stationarity", "kkt_complementarity", "kkt_tol", "gradient_norm",
+    "straight_vertices", "active_constraints", "tied_waypoints", "objective_value", "weights", "best_start", "inset",
+)
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars and tuples as JSON types."""
+    if isinstance(value, (tuple, list, np.ndarray)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value)
+    return value
+
+
 def outcome_dict(outcome) -> dict:
     """The JSON document of a :class:`foam_mj.pipeline.Outcome`."""
     doc = _header(outcome.scenario, outcome.seed)
@@ -125,6 +146,8 @@ def outcome_dict(outcome) -> dict:
                 "knee": None if front.get("knee") is None else int(front["knee"]),
                 "paths": np.asarray(front["paths"]).tolist(),
             }
+        if res.info and "kkt_stationarity" in res.info:
+            entry["certificate"] = {k: _plain(res.info[k]) for k in CERTIFICATE_KEYS if k in res.info}
         if po.kinematic is not None:
             rep: dict[str, Any] = {"min_clearance": po.kinematic.min_clearance, "duration": po.trajectory.duration}
             if po.dynamic is not None:

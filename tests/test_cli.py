@@ -23,7 +23,7 @@ VERIFY = Path(__file__).resolve().parents[2] / "shared" / "tools" / "verify_resu
 def planned(tmp_path_factory):
     out = tmp_path_factory.mktemp("plan")
     rrd, js = out / "obstacle.rrd", out / "obstacle.json"
-    code = main(["plan", "--scene", "obstacle", "--seed", "0", "--rrd", str(rrd), "--json", str(js)])
+    code = main(["plan", "--scene", "obstacle", "--seed", "0", "--smoother", "all", "--rrd", str(rrd), "--json", str(js)])
     assert code == 0
     return {"rrd": rrd, "json": js, "doc": json.loads(js.read_text())}
 
@@ -31,12 +31,39 @@ def planned(tmp_path_factory):
 def test_plan_writes_a_json_result_with_every_path(planned):
     doc = planned["doc"]
     assert doc["format"] == "foam-mj/result" and doc["outcome"] == "reached"
-    assert set(doc["paths"]) == {"centre", "gradient", "adjusted", "adjusted_gradient", "hs", "ga", "convex"}
+    assert set(doc["paths"]) == {"centre", "gradient", "adjusted", "adjusted_gradient", "hs", "ga", "convex", "optimal"}
     assert Path(doc["mjcf"]).is_file()
     for name, p in doc["paths"].items():
         assert len(p["qpos"]) == len(p["times"]) > 10
         assert p["replay"]["contacts"] == 0, name
         assert p["replay"]["min_clearance"] >= doc["planner"]["delta"] - 1e-9, name
+
+
+def test_the_optimal_path_has_the_best_f_and_its_certificate_in_the_json(planned):
+    paths = planned["doc"]["paths"]
+    cert = paths["optimal"]["certificate"]
+    assert cert["certified"] is True and cert["kkt_stationarity"] <= cert["kkt_tol"]
+    assert cert["objective_value"] == pytest.approx(paths["optimal"]["metrics"]["f"], rel=1e-12)
+    best_other = min(p["metrics"]["f"] for name, p in paths.items() if name != "optimal" and not name.startswith("adjusted"))
+    assert paths["optimal"]["metrics"]["f"] <= best_other
+    assert all("certificate" not in p for name, p in paths.items() if name != "optimal")
+
+
+def test_the_default_smoother_is_the_certified_optimum(tmp_path, capsys):
+    from foam_mj.cli import DEFAULT_SMOOTHER
+    from foam_mj.pipeline import DEFAULT_SMOOTHER as PIPELINE_DEFAULT
+    from foam_mj.rosary import Rosary
+
+    assert DEFAULT_SMOOTHER == PIPELINE_DEFAULT == "optimal"
+    js = tmp_path / "r.json"
+    assert main(["plan", "--scene", "step_up", "--no-rrd", "--no-replay", "--json", str(js)]) == 0
+    assert "certified local optimum of f" in capsys.readouterr().out
+    doc = read_result(js)
+    assert set(doc["paths"]) == {"centre", "optimal"}
+    entry = doc["paths"]["optimal"]
+    assert entry["certificate"]["certified"] is True
+    ros = Rosary(np.asarray(entry["rosary"]["centers"]), np.asarray(entry["rosary"]["radii"]), np.asarray(doc["q_init"]), np.asarray(doc["q_goal"]))
+    assert ros.all_in_hatches(np.asarray(entry["waypoints"])[1:-1], tol=0.0)
 
 
 def test_every_recorded_path_is_collision_free_under_an_independent_check(planned, obstacle_robot):
@@ -76,7 +103,7 @@ def test_replay_of_a_saved_result(planned, tmp_path, capsys):
     rrd = tmp_path / "replay.rrd"
     assert main(["replay", str(planned["json"]), "--rrd", str(rrd), "--kinematic-only"]) == 0
     out = capsys.readouterr().out
-    assert "replayed 7 path(s)" in out
+    assert "replayed 8 path(s)" in out
     assert read_recording(rrd, static=False)["world/leg/centre/foot"] == len(planned["doc"]["paths"]["centre"]["times"])
 
 
