@@ -7,10 +7,16 @@ thesis's paths T, T_CA, T_RA, T_RCA and the convex reference, and prints
 
 * Table 1's columns (time, f, iterations: mean, max, min, std) beside the paper's own figures;
 * per method: median time, time per iteration and speed-up over the paper's per-iteration time,
-  f, length, TC, SV (medians over runs), and the length gap to the convex optimum on the same rosary.
+  f, length, TC, SV (medians over runs), the length gap to the convex optimum and the f gap to the
+  certified optimum of f (issue 8's optimal smoother) on the same rosary;
+* for the obstacle, step-up and step-down scenarios (their TOMLs and seeds): every method's f gap to
+  the optimum (absolute and percent) beside its median time, the optimum's time, KKT residual and
+  iterations, the SV optimum beside gradient smoothing's SV, and (not with --quick) whether eight
+  random starts find a better optimum than the default start.
 
 The same goes to JSON (``--json PATH``). ``--quick`` does a few runs (for CI, well under a minute).
-The exit status is 1 if any returned path has a waypoint outside its hatch.
+The exit status is 1 if any returned path has a waypoint outside its hatch, or if any method finds a
+lower f than the optimal smoother on a scenario's rosary.
 
     python benchmarks/smoothing.py [--runs 50] [--quick] [--json out/benchmarks/smoothing.json]
 """
@@ -39,6 +45,7 @@ from foam_mj.smoothing import (
     GeneticAlgorithm,
     GradientSmoothing,
     HarmonySearch,
+    OptimalSmoother,
     RosaryAdjustment,
     SmoothingResult,
     StopCriteria,
@@ -108,7 +115,8 @@ def run_benchmark(runs: int, quick: bool, progress: bool = True) -> dict:
     if not quick:
         stochastic["GA (beta~U[0,1])"] = lambda s: GeneticAlgorithm(beta=None, stop=ga_stop).smooth(rosary, seed=s)
     repeats = 1 if quick else 3  # deterministic methods: median time over repeats
-    deterministic = ["T", "T_CA", "T_RA", "T_RCA", "convex", "convex-smooth", "convex (adjusted rosary)"]
+    deterministic = ["T", "T_CA", "T_RA", "T_RCA", "convex", "convex-smooth", "convex (adjusted rosary)",
+                     "optimal", "optimal (adjusted rosary)"]
     bar = Progress(runs * len(stochastic) + repeats * len(deterministic)) if progress else None
 
     results: dict[str, list[SmoothingResult]] = {}
@@ -132,6 +140,8 @@ def run_benchmark(runs: int, quick: bool, progress: bool = True) -> dict:
         "convex": lambda: ConvexShortestPath().smooth(rosary),
         "convex-smooth": lambda: ConvexShortestPath(smoothness=10.0).smooth(rosary),
         "convex (adjusted rosary)": lambda: ConvexShortestPath().smooth(adjusted.rosary),
+        "optimal": lambda: OptimalSmoother().smooth(rosary),
+        "optimal (adjusted rosary)": lambda: OptimalSmoother().smooth(adjusted.rosary),
     }
     for name in deterministic:
         reps = []
@@ -148,6 +158,8 @@ def run_benchmark(runs: int, quick: bool, progress: bool = True) -> dict:
 
     convex_len = {id(rosary): results["convex"][0].length,
                   id(results["T_RA"][0].rosary): results["convex (adjusted rosary)"][0].length}
+    optimal_f = {id(rosary): results["optimal"][0].f,
+                 id(results["T_RA"][0].rosary): results["optimal (adjusted rosary)"][0].f}
 
     out: dict = {
         "task": {"scene": "obstacle", "q_init": Q_INIT, "q_goal": Q_GOAL, "K": FOAM.K, "r_min": FOAM.r_min,
@@ -182,6 +194,8 @@ def run_benchmark(runs: int, quick: bool, progress: bool = True) -> dict:
             "tc": stats([r.tc for r in rs]),
             "sv": stats([r.sv for r in rs]),
             "length_gap_to_convex": stats([r.length - convex_len[id(r.rosary)] for r in rs]),
+            "f_gap_to_optimum": stats([r.f - optimal_f[id(r.rosary)] for r in rs]),
+            "f_gap_to_optimum_percent": stats([100 * (r.f / optimal_f[id(r.rosary)] - 1) for r in rs]),
             "time_per_iteration": stats(per_it),
             "stop_reasons": {k: int(v) for k, v in zip(*np.unique([r.stop_reason for r in rs], return_counts=True))},
             "objective": rs[0].objective,
@@ -196,6 +210,118 @@ def run_benchmark(runs: int, quick: bool, progress: bool = True) -> dict:
         out["methods"][name] = entry
     out["centre_path"] = paths.metrics(rosary.path(rosary.center_waypoints())).as_dict()
     return out
+
+
+GAP_SCENES = ("obstacle", "step_up", "step_down")
+
+
+def run_scene_gaps(runs: int, quick: bool, progress: bool = True) -> dict:
+    """Every method's f gap to the certified optimum on the obstacle, step-up and step-down rosaries."""
+    from foam_mj.scenarios import load_scenario
+    from foam_mj.smoothing.optimal import ObjectiveWeights
+
+    repeats = 1 if quick else 5
+    stochastic = ("HS", "GA")
+    deterministic = ("T", "T_CA", "convex", "convex-smooth", "optimal")
+    per_scene = runs * len(stochastic) + repeats * len(deterministic) + 1 + (0 if quick else 1)
+    bar = Progress(per_scene * len(GAP_SCENES)) if progress else None
+    out: dict = {}
+    for scene in GAP_SCENES:
+        sc = load_scenario(scene)
+        oracle = sc.oracle()
+        try:
+            rosary = plan(oracle, sc.q_init, sc.q_goal, sc.params, seed=sc.seed).rosary
+        finally:
+            oracle.close()
+        fns: dict[str, Callable[[int], SmoothingResult]] = {
+            "HS": lambda s, r=rosary: HarmonySearch(stop=TABLE1_STOP).smooth(r, seed=s),
+            "GA": lambda s, r=rosary: GeneticAlgorithm(stop=TABLE1_STOP).smooth(r, seed=s),
+            "T": lambda s, r=rosary: center_path_result(r, "T"),
+            "T_CA": lambda s, r=rosary: GradientSmoothing().smooth(r),
+            "convex": lambda s, r=rosary: ConvexShortestPath().smooth(r),
+            "convex-smooth": lambda s, r=rosary: ConvexShortestPath(smoothness=10.0).smooth(r),
+            "optimal": lambda s, r=rosary: OptimalSmoother().smooth(r),
+        }
+        results: dict[str, list[SmoothingResult]] = {}
+        times: dict[str, list[float]] = {}
+        for name in stochastic + deterministic:
+            n = runs if name in stochastic else repeats
+            results[name], times[name] = [], []
+            for s in range(n):
+                t0 = time.perf_counter()
+                results[name].append(fns[name](s))
+                times[name].append(time.perf_counter() - t0)
+                if bar:
+                    bar.step(f"{scene}: {name}")
+        best = results["optimal"][0]
+        sv_opt = OptimalSmoother(objective="sv").smooth(rosary)
+        if bar:
+            bar.step(f"{scene}: optimal SV")
+        entry: dict = {
+            "bubbles_in_rosary": rosary.k,
+            "optimum": {"f": best.f, "certified": bool(best.info["certified"]),
+                        "kkt_stationarity": best.info["kkt_stationarity"], "iterations": best.iterations,
+                        "time": stats(times["optimal"])},
+            "sv_optimum": {"sv": sv_opt.sv, "certified": bool(sv_opt.info["certified"]),
+                           "kkt_stationarity": sv_opt.info["kkt_stationarity"], "time": sv_opt.wall_time,
+                           "t_ca_sv": results["T_CA"][0].sv},
+            "methods": {},
+        }
+        for name, rs in results.items():
+            entry["methods"][name] = {
+                "n": len(rs),
+                "f": stats([r.f for r in rs]),
+                "f_gap": stats([r.f - best.f for r in rs]),
+                "f_gap_percent": stats([100 * (r.f / best.f - 1) for r in rs]),
+                "time": stats(times[name]),
+                "all_in_hatches": bool(all(r.rosary.all_in_hatches(r.waypoints) for r in rs)),
+            }
+        if not quick:
+            ms = OptimalSmoother(multistart=8).smooth(rosary, seed=0)
+            starts = ms.info["starts"]
+            entry["multistart"] = {
+                "starts": len(starts),
+                "default_value": starts[0]["value"],
+                "best_value": ms.f,
+                "best_start": ms.info["best_start"],
+                "improvement": starts[0]["value"] - ms.f,
+                "time": ms.wall_time,
+            }
+            if bar:
+                bar.step(f"{scene}: multistart")
+        out[scene] = entry
+    return out
+
+
+def format_scene_gaps(gaps: dict) -> str:
+    lines = ["", "f gap to the certified optimum of f on each scenario's rosary (medians; HS and GA over their runs)"]
+    hdr = f"{'rosary':<10} {'bubbles':>7} {'method':<14} {'f':>8} {'f gap':>9} {'f gap %':>8} {'t_med (s)':>10}"
+    lines.append(hdr)
+    lines.append("-" * len(hdr))
+    for scene, e in gaps.items():
+        for name, m in e["methods"].items():
+            lines.append(f"{scene:<10} {e['bubbles_in_rosary']:>7} {name:<14} {m['f']['median']:8.4f} "
+                         f"{m['f_gap']['median']:9.2e} {m['f_gap_percent']['median']:7.2f}% {m['time']['median']:10.4f}")
+    lines.append("")
+    lines.append("The optimum: time (median), KKT residual, SCP iterations; the SV optimum beside T_CA's SV")
+    hdr = (f"{'rosary':<10} {'bubbles':>7} {'t_med (ms)':>10} {'KKT':>8} {'certified':>9} {'iters':>5} "
+           f"{'SV opt':>8} {'T_CA SV':>8} {'SV KKT':>8} {'SV ms':>6}")
+    lines.append(hdr)
+    lines.append("-" * len(hdr))
+    for scene, e in gaps.items():
+        o, v = e["optimum"], e["sv_optimum"]
+        lines.append(f"{scene:<10} {e['bubbles_in_rosary']:>7} {1e3 * o['time']['median']:10.1f} {o['kkt_stationarity']:8.1e} "
+                     f"{'yes' if o['certified'] else 'NO':>9} {o['iterations']:5d} {v['sv']:8.5f} {v['t_ca_sv']:8.5f} "
+                     f"{v['kkt_stationarity']:8.1e} {1e3 * v['time']:6.0f}")
+    if any("multistart" in e for e in gaps.values()):
+        lines.append("")
+        lines.append("Multistart (default start + 8 random hatch points, seed 0): does any start beat the default?")
+        for scene, e in gaps.items():
+            ms = e["multistart"]
+            better = ms["improvement"] > 1e-7
+            lines.append(f"  {scene:<10} default {ms['default_value']:.8f}, best {ms['best_value']:.8f} "
+                         f"({ms['best_start']}){'  BETTER by %.2e' % ms['improvement'] if better else ': no'}, {ms['time']:.1f} s")
+    return "\n".join(lines)
 
 
 def format_tables(res: dict) -> str:
@@ -224,9 +350,10 @@ def format_tables(res: dict) -> str:
             cells = "  ".join(f"{four(p[k]):<34}" for k in ("time", "f", "iterations"))
             lines.append(f"{'  paper 000 ' + name:<26} " + cells)
     lines.append("")
-    lines.append("Paths (medians over runs); gap = length - convex optimum on the same rosary")
+    lines.append("Paths (medians over runs); gap = length - convex optimum; f gap = f - certified optimum of f;")
+    lines.append("both on the same rosary (T_RA and T_RCA: the adjusted one)")
     hdr2 = (f"{'method':<26} {'t_med (s)':>10} {'us/iter':>9} {'x paper':>8} {'f':>8} {'length':>8} "
-            f"{'TC':>7} {'SV':>8} {'gap':>9} {'gap %':>7}  stop")
+            f"{'TC':>7} {'SV':>8} {'gap':>9} {'gap %':>7} {'f gap':>9} {'f gap %':>8}  stop")
     lines.append(hdr2)
     lines.append("-" * len(hdr2))
     for name, m in res["methods"].items():
@@ -238,7 +365,8 @@ def format_tables(res: dict) -> str:
         lines.append(
             f"{name:<26} {m['time']['median']:10.4f} {per_it} {('%7.0fx' % speed) if speed else '       -':>8} "
             f"{m['f']['median']:8.4f} {m['length']['median']:8.4f} {m['tc']['median']:7.4f} {m['sv']['median']:8.4f} "
-            f"{gap:9.2e} {100 * gap / conv:6.2f}%  {stops}"
+            f"{gap:9.2e} {100 * gap / conv:6.2f}% {m['f_gap_to_optimum']['median']:9.2e} "
+            f"{m['f_gap_to_optimum_percent']['median']:7.2f}%  {stops}"
         )
     c = res["centre_path"]
     lines.append("")
@@ -259,11 +387,21 @@ def main(argv: list[str] | None = None) -> int:
     if runs < 1:
         ap.error(f"--runs must be >= 1, got {runs}")
     res = run_benchmark(runs, args.quick, progress=not args.no_progress)
+    res["scene_gaps"] = run_scene_gaps(min(runs, 2) if args.quick else min(runs, 10), args.quick, progress=not args.no_progress)
+    for scene, e in res["scene_gaps"].items():
+        for name, m in e["methods"].items():
+            if not m["all_in_hatches"]:
+                res["hatch_violations"].append({"method": name, "scene": scene})
+    beaten = [(scene, name) for scene, e in res["scene_gaps"].items() for name, m in e["methods"].items()
+              if m["f_gap"]["min"] < -1e-6]
     print(format_tables(res))
+    print(format_scene_gaps(res["scene_gaps"]))
+    if beaten:
+        print(f"\nA METHOD BEAT THE OPTIMUM OF f (a better local optimum; try OptimalSmoother(multistart=...)): {beaten}")
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(res, indent=1))
     print(f"\nJSON written to {args.json}")
-    return 1 if res["hatch_violations"] else 0
+    return 1 if res["hatch_violations"] or beaten else 0
 
 
 if __name__ == "__main__":
