@@ -179,6 +179,16 @@ def test_starting_from_hs_reaches_the_same_optimum(scenario_rosaries, optimum):
     assert r.f == pytest.approx(optimum["obstacle"].f, abs=1e-6)
 
 
+def test_several_initial_starts_from_hs_and_ga(scenario_rosaries, optimum):
+    _, ros = scenario_rosaries["step_down"]
+    hs, ga = HS.smooth(ros, seed=0), GA.smooth(ros, seed=0)
+    r = OptimalSmoother().smooth(ros, initial=np.stack([hs.waypoints, ga.waypoints]))
+    assert [s["start"] for s in r.info["starts"]] == ["initial 0", "initial 1"]
+    assert r.f <= min(hs.f, ga.f)
+    assert r.info["certified"]
+    assert r.f == pytest.approx(optimum["step_down"].f, abs=1e-5)
+
+
 def test_multistart_is_deterministic_and_no_worse(scenario_rosaries, optimum):
     _, ros = scenario_rosaries["step_up"]
     a = OptimalSmoother(multistart=3).smooth(ros, seed=7)
@@ -284,6 +294,8 @@ def test_bad_initial_waypoints_are_refused(scenario_rosaries):
     _, ros = scenario_rosaries["obstacle"]
     with pytest.raises(ValueError, match="shape"):
         OptimalSmoother().smooth(ros, initial=np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="shape"):
+        OptimalSmoother().smooth(ros, initial=np.zeros((0, ros.n_hatches, 3)))
     far = np.full((ros.n_hatches, 3), 50.0)
     with pytest.raises(ValueError, match="outside their hatches"):
         OptimalSmoother().smooth(ros, initial=far)

@@ -718,7 +718,8 @@ class OptimalSmoother(Smoother):
     """Minimise f (or SV, or a weighted objective) over the hatches to a certified local optimum.
 
     ``objective`` names a preset ("f": paper 000 Eq. 5, "sv": paper 003 Eq. 7, "length") unless
-    ``weights`` is given. The first start is ``initial`` when given (e.g. an HS or GA result), else the
+    ``weights`` is given. The first start is ``initial`` when given (e.g. an HS or GA result; a stack
+    (S, k-1, n) gives S starts), else the
     convex reference's shortest path (for objectives with an SV term, also the midpoint of that path
     and the hatch centres, whose close vertices can split corners); ``multistart`` more starts are random hatch points (from ``seed``); while no
     best result is not certified, up to ``restarts`` more random starts are tried. The lowest objective
@@ -761,7 +762,15 @@ class OptimalSmoother(Smoother):
     def smooth(self, rosary: Rosary, initial: np.ndarray | None = None, seed: SeedLike = 0) -> SmoothingResult:
         t_start = time.perf_counter()
         weights = self.resolved_weights
-        start = check_initial(rosary, initial)
+        given = None
+        if initial is not None:
+            arr = np.asarray(initial, dtype=float)
+            # One set of waypoints (k-1, n), or a stack of them (S, k-1, n): several starts (e.g. HS and GA results).
+            stack = arr[None] if arr.ndim == 2 else arr
+            if arr.ndim not in (2, 3) or len(stack) == 0:
+                raise ValueError(f"initial waypoints must have shape ({rosary.n_hatches}, {rosary.dim}) or "
+                                 f"(starts, {rosary.n_hatches}, {rosary.dim}), got {arr.shape}")
+            given = [check_initial(rosary, w) for w in stack]
         if rosary.n_hatches == 0:
             return trivial_result(self.method, rosary, t_start, objective=weights.name)
         h = Hatches.of(rosary)
@@ -769,8 +778,8 @@ class OptimalSmoother(Smoother):
             raise ValueError(f"inset {self.inset} is too large for the rosary's smallest ball")
         rng = as_generator(seed)
         starts: list[tuple[str, np.ndarray]] = []
-        if start is not None:
-            starts.append(("initial", h.project(start, self.inset)))
+        if given is not None:
+            starts += [("initial" if len(given) == 1 else f"initial {j}", h.project(w, self.inset)) for j, w in enumerate(given)]
         else:
             convex = np.array(ConvexShortestPath(inset=self.inset).smooth(rosary).waypoints)
             starts.append(("convex", convex))
