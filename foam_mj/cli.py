@@ -124,10 +124,14 @@ def _print_certificates(outcome) -> None:
         info = po.result.info or {}
         if "kkt_stationarity" not in info:
             continue
-        verdict = "certified local optimum" if info.get("certified") else "NOT certified"
         gain = f"; f {100 * (po.metrics.f / convex.metrics.f - 1):+.2f}% vs convex" if convex is not None else ""
+        if info.get("certified"):
+            verdict, residual = "certified local optimum", f"KKT residual {info['kkt_stationarity']:.1e}"
+        else:
+            verdict = "NOT certified as a local optimum"
+            residual = f"KKT residual {info['kkt_stationarity']:.1e}, complementarity {info.get('kkt_complementarity', float('nan')):.1e}"
         print(
-            f"{po.label}: {verdict} of {po.result.objective} (KKT residual {info['kkt_stationarity']:.1e}, tolerance "
+            f"{po.label}: {verdict} of {po.result.objective} ({residual}, tolerance "
             f"{info['kkt_tol']:.0e}; {info['straight_vertices']} straight vertices, {info['active_constraints']} active "
             f"hatch constraints) in {1e3 * po.result.wall_time:.0f} ms{gain}"
         )

@@ -85,9 +85,10 @@ _OTHERS = {
     "hs": ("HS (harmony search)", (1.0, 0.55, 0.0)),
     "ga": ("GA (genetic algorithm)", (0.0, 0.7, 0.8)),
     "convex": ("convex (shortest through hatches)", (0.3, 0.3, 0.3)),
+    "optimal": ("optimal (certified $f$)", (0.45, 0.0, 0.65)),
 }
 _FALLBACK_COLOURS = [(0.58, 0.4, 0.74), (0.55, 0.34, 0.29), (0.74, 0.74, 0.13), (0.5, 0.5, 0.5), (0.09, 0.75, 0.81)]
-_ORDER = ["centre", "gradient", "adjusted", "adjusted_gradient", "hs", "ga", "convex"]
+_ORDER = ["centre", "gradient", "adjusted", "adjusted_gradient", "hs", "ga", "convex", "optimal"]
 
 # Symbols of the papers' configuration coordinates (paper 003, section 5.1).
 _SYMBOLS = {"hip_flexion": r"\theta_h", "knee_flexion": r"\theta_k", "hip_displacement": r"\theta_q"}
@@ -743,8 +744,8 @@ def _body_depth(m: mujoco.MjModel, b: int) -> int:
 
 
 def _is_metaheuristic(p: _Path) -> bool:
-    """A population method minimising f (paper 000 Eq. 5): HS, GA, or any path whose smoother says its
-    objective is "f". Gradient descent of SV and the rosary adjustment (TC) are not."""
+    """A method minimising f (paper 000 Eq. 5) step by step: HS, GA, the optimal smoother, or any path
+    whose smoother says its objective is "f". Gradient descent of SV and the rosary adjustment (TC) are not."""
     if p.objective is not None:
         return p.objective == "f"
     return _ALIASES.get(p.name, p.name) not in _THESIS and p.name != "convex"
@@ -761,10 +762,11 @@ def _fig_convergence(mpl, paths: list[_Path]) -> Any | None:
         best = np.asarray(p.convergence["best"], dtype=float)
         it = np.arange(1, len(best) + 1)
         ax.plot(it, best, color=p.colour, linewidth=1.4, label="best")
-        if p.convergence.get("mean") is not None and len(p.convergence["mean"]):
-            mean = np.asarray(p.convergence["mean"], dtype=float)
+        mean = p.convergence.get("mean")
+        if mean is not None and len(mean) and not np.array_equal(np.asarray(mean, dtype=float), best):  # a population
+            mean = np.asarray(mean, dtype=float)
             ax.plot(np.arange(1, len(mean) + 1), mean, color=p.colour, linewidth=1.0, linestyle="--", alpha=0.6, label="population mean")
-        ax.set_xlabel("iteration")
+        ax.set_xlabel("accepted step" if _ALIASES.get(p.name, p.name) == "optimal" else "iteration")
         ax.set_ylabel("$f$ (paper 000, Eq. 5)")
         ax.set_title(f"{p.label}: best {best[-1]:.4g}", fontsize=9)
         ax.grid(True, linewidth=0.3, alpha=0.5)

@@ -25,7 +25,9 @@ Layout (format "foam-mj/result", version 1)::
           "smoother": {"method", "iterations", "evaluations", "wall_time", "stop_reason", ...},
           "convergence": {"best": [...], "mean": [...]},      # objective per iteration
           "pareto_front": {"objectives": [[length, angle term], ...], "knee": i, "paths": [...]},  # mgoa, mopso
-          "certificate": {"certified", "kkt_stationarity", "kkt_complementarity", "kkt_tol", ...},  # optimal
+          "certificate": {"certified", "kkt_stationarity", "kkt_complementarity", "kkt_tol",      # optimal only
+                          "straight_vertices", "active_constraints", "tied_waypoints", "objective_value",
+                          "weights", "best_start", "starts", ...},
           "replay": {"min_clearance": ..., "duration": ..., "max_error": [...], "rms_error": [...],
                      "contacts": N, "joints": [...]}
         }, ...
@@ -34,6 +36,11 @@ Layout (format "foam-mj/result", version 1)::
 
 When ``plan`` has no time-parametrized trajectory (``--no-replay``), "qpos" holds the waypoints'
 qpos rows (a polyline in qpos, which is affine in q) and "times" is absent.
+
+"certificate" (the optimal smoother's path only): "certified" is true when the path is a local optimum of
+its objective (f, paper 000 Eq. 5, by default) over the hatches to the tolerance "kkt_tol": the first-order
+(KKT) residuals "kkt_stationarity" (scaled) and "kkt_complementarity" are both at most it. A number that
+is not finite is written as null.
 """
 
 from __future__ import annotations
@@ -93,15 +100,20 @@ def _foam_dict(foam, stats) -> dict:
     }
 
 
-#: What the JSON keeps of the optimal smoother's info (foam_mj.smoothing.optimal).
+#: What the JSON keeps of the optimal smoother's info (foam_mj.smoothing.optimal): whether the path is a
+#: certified local optimum (``certified``: both KKT residuals at most ``kkt_tol``), the residuals, what is
+#: active at the optimum, the objective and its weights (length, angle, sv), and the starts tried.
 CERTIFICATE_KEYS = (
     "certified", "kkt_stationarity", "kkt_raw_stationarity", "kkt_complementarity", "kkt_tol", "gradient_norm",
-    "straight_vertices", "active_constraints", "tied_waypoints", "objective_value", "weights", "best_start", "inset",
+    "straight_vertices", "active_constraints", "tied_waypoints", "objective_value", "weights", "best_start",
+    "starts", "inset",
 )
 
 
 def _plain(value: Any) -> Any:
-    """numpy scalars and tuples as JSON types."""
+    """numpy scalars, arrays, tuples and dicts as JSON types; a non-finite number becomes null (strict JSON)."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
     if isinstance(value, (tuple, list, np.ndarray)):
         return [_plain(v) for v in value]
     if isinstance(value, (bool, np.bool_)):
@@ -109,7 +121,7 @@ def _plain(value: Any) -> Any:
     if isinstance(value, (int, np.integer)):
         return int(value)
     if isinstance(value, (float, np.floating)):
-        return float(value)
+        return float(value) if np.isfinite(value) else None
     return value
 
 

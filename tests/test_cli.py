@@ -66,6 +66,63 @@ def test_the_default_smoother_is_the_certified_optimum(tmp_path, capsys):
     assert ros.all_in_hatches(np.asarray(entry["waypoints"])[1:-1], tol=0.0)
 
 
+def test_plan_optimal_writes_a_strict_json_certificate_that_replays_and_verifies(tmp_path, capsys):
+    """``--smoother optimal`` on the obstacle scene: certified, in its hatches, strict JSON, replayable, verified."""
+    from foam_mj.rosary import Rosary
+
+    js = tmp_path / "optimal.json"
+    assert main(["plan", "--scene", "obstacle", "--smoother", "optimal", "--no-rrd", "--json", str(js)]) == 0
+    out = capsys.readouterr().out
+    line = next(ln for ln in out.splitlines() if ln.startswith("optimal (certified f): "))
+    assert "certified local optimum of f (KKT residual" in line and "NOT" not in line
+
+    def no_constants(name):
+        raise AssertionError(f"non-standard JSON constant {name}")
+
+    doc = json.loads(js.read_text(), parse_constant=no_constants)  # no NaN or Infinity anywhere
+    assert set(doc["paths"]) == {"centre", "optimal"}
+    entry = doc["paths"]["optimal"]
+    assert entry["smoother"]["method"] == "optimal" and entry["smoother"]["stop_reason"] == "certified local optimum"
+    cert = entry["certificate"]
+    assert cert["certified"] is True
+    assert 0.0 <= cert["kkt_stationarity"] <= cert["kkt_tol"] and 0.0 <= cert["kkt_complementarity"] <= cert["kkt_tol"]
+    assert isinstance(cert["straight_vertices"], int) and isinstance(cert["active_constraints"], int)
+    assert isinstance(cert["tied_waypoints"], int) and cert["weights"] == [1.0, 1.0, 0.0]
+    assert cert["objective_value"] == pytest.approx(entry["metrics"]["f"], rel=1e-12)
+    assert entry["metrics"]["f"] < doc["paths"]["centre"]["metrics"]["f"]
+    ros = Rosary(np.asarray(entry["rosary"]["centers"]), np.asarray(entry["rosary"]["radii"]), np.asarray(doc["q_init"]), np.asarray(doc["q_goal"]))
+    assert ros.all_in_hatches(np.asarray(entry["waypoints"])[1:-1], tol=0.0)
+    assert entry["replay"]["contacts"] == 0 and entry["replay"]["min_clearance"] >= doc["planner"]["delta"]
+    # Read back and replayed: the same path.
+    assert main(["replay", str(js), "--kinematic-only"]) == 0
+    assert "replayed 2 path(s)" in capsys.readouterr().out
+    from foam_mj.results import outcome_from_result
+
+    back = outcome_from_result(read_result(js), js, dynamic=False)
+    assert back.paths["optimal"].metrics.f == pytest.approx(entry["metrics"]["f"], rel=1e-12)
+    if VERIFY.is_file():
+        run = subprocess.run([sys.executable, str(VERIFY), str(js)], capture_output=True, text=True, timeout=300)
+        assert run.returncode == 0, run.stdout + run.stderr
+        assert "paths 2 collisions 0" in run.stdout.splitlines()[-1]
+
+
+def test_the_certificate_is_plain_json():
+    from foam_mj.results import _plain
+
+    info = {"a": np.float64(1.5), "b": np.int64(3), "c": np.bool_(True), "d": (1, np.float32(2.0)), "e": np.array([[1.0, 2.0]]),
+            "f": [{"start": "convex", "value": np.float64(np.nan)}], "g": np.inf}
+    plain = _plain(info)
+    assert plain == {"a": 1.5, "b": 3, "c": True, "d": [1, 2.0], "e": [[1.0, 2.0]], "f": [{"start": "convex", "value": None}], "g": None}
+    assert type(plain["b"]) is int and type(plain["c"]) is bool
+    json.dumps(plain, allow_nan=False)
+
+
+def test_plan_help_names_optimal_as_the_default(capsys):
+    with pytest.raises(SystemExit):
+        main(["plan", "--help"])
+    assert "default: optimal" in " ".join(capsys.readouterr().out.split())
+
+
 def test_every_recorded_path_is_collision_free_under_an_independent_check(planned, obstacle_robot):
     """Dense check of every joint trajectory in the JSON with mj_collision (step 1e-3 in qpos)."""
     doc = planned["doc"]
