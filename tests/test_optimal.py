@@ -161,6 +161,21 @@ def test_optimal_path_is_collision_free_under_dense_mujoco_check(scene, scenario
     assert checker.first_collision_along(optimum[scene].path, step=1e-3) is None
 
 
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(scene=st.sampled_from(SCENES), seed=st.integers(0, 2**31 - 1))
+def test_optimal_paths_over_random_planner_seeds_are_collision_free(scene, seed, scenario_rosaries):
+    sc, _ = scenario_rosaries[scene]
+    oracle = sc.oracle()
+    try:
+        ros = plan(oracle, sc.q_init, sc.q_goal, sc.params, seed=seed).rosary
+    finally:
+        oracle.close()
+    r = OptimalSmoother().smooth(ros, seed=seed)
+    assert np.all(Hatches.of(ros).inside(r.waypoints, r.info["inset"] / 2))
+    assert r.f <= ConvexShortestPath().smooth(ros).f + F_TOL
+    assert MujocoChecker(sc.robot).first_collision_along(r.path, step=1e-3) is None
+
+
 def test_certificate_rejects_the_convex_start(scenario_rosaries, optimum):
     # The shortest path is not stationary for f: the certificate must say so (it is not a rubber stamp).
     _, ros = scenario_rosaries["obstacle"]
