@@ -31,36 +31,10 @@ from foam_mj import paths  # noqa: E402
 from foam_mj.foam import plan  # noqa: E402
 from foam_mj.scenarios import load_scenario  # noqa: E402
 from foam_mj.smoothing import ConvexShortestPath, Hatches, ObjectiveWeights, OptimalSmoother, kkt_certificate  # noqa: E402
+from foam_mj.smoothing.optimal import objective_and_gradient  # noqa: E402
 
 INSET = 1e-6
 EPS_SCHEDULE = (1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
-
-
-def smoothed_value_and_grad(p: np.ndarray, w: ObjectiveWeights, eps: float) -> tuple[float, np.ndarray]:
-    """F with the angle replaced by sqrt(phi^2 + eps^2) - eps (eps = 0: the true F), and its gradient."""
-    seg = np.diff(p, axis=0)
-    lens = np.maximum(np.linalg.norm(seg, axis=1), 1e-12)
-    u = seg / lens[:, None]
-    grad = np.zeros_like(p)
-    value = w.length * float(lens.sum())
-    grad[:-1] -= w.length * u
-    grad[1:] += w.length * u
-    M = len(p) - 2
-    ua, ub = u[:-1], u[1:]
-    c = np.clip(np.einsum("ij,ij->i", ua, ub), -1.0, 1.0)
-    phi = np.arccos(c)
-    s = np.sqrt(np.maximum(1.0 - c * c, 1e-300))
-    ratio = np.where(phi > 1e-8, phi / s, 1.0)
-    root = np.sqrt(phi**2 + eps**2)
-    value += w.angle * float(np.mean(root - eps)) + w.sv * float(np.mean(phi**2))
-    coef = (w.angle * ratio / np.maximum(root, 1e-300) + 2.0 * w.sv * ratio) / M  # dF/dphi * dphi/dcos * (-1)
-    va = (ub - c[:, None] * ua) / lens[:-1, None]
-    vb = (ua - c[:, None] * ub) / lens[1:, None]
-    da, db = -coef[:, None] * va, -coef[:, None] * vb
-    grad[:-2] -= da
-    grad[1:-1] += da - db
-    grad[2:] += db
-    return value, grad
 
 
 def scipy_solve(ros, w: ObjectiveWeights, method: str) -> np.ndarray:
@@ -83,7 +57,7 @@ def scipy_solve(ros, w: ObjectiveWeights, method: str) -> np.ndarray:
     x = ConvexShortestPath(inset=INSET).smooth(ros).waypoints.ravel()
     for eps in EPS_SCHEDULE if w.angle else (0.0,):
         def fg(x, eps=eps):
-            v, g = smoothed_value_and_grad(ros.path(x.reshape(m, n)), w, eps)
+            v, g = objective_and_gradient(ros.path(x.reshape(m, n)), w, eps)
             return v, g[1:-1].ravel()
 
         with warnings.catch_warnings():

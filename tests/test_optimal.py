@@ -94,8 +94,9 @@ def foam_rosaries(draw):
 
 # -- the objective and its gradient ------------------------------------------------------------------
 @SLOW
-@given(seed=st.integers(0, 2**32 - 1), weights=st.tuples(*[st.sampled_from([0.0, 0.3, 1.0, 4.0])] * 3))
-def test_gradient_matches_finite_differences(seed, weights):
+@given(seed=st.integers(0, 2**32 - 1), weights=st.tuples(*[st.sampled_from([0.0, 0.3, 1.0, 4.0])] * 3),
+       eps=st.sampled_from([0.0, 1e-2]))
+def test_gradient_matches_finite_differences(seed, weights, eps):
     if not any(weights):
         return
     w = ObjectiveWeights(*weights)
@@ -105,15 +106,16 @@ def test_gradient_matches_finite_differences(seed, weights):
     seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
     if seg.min() < 0.1 or ang.min() < 0.05 or ang.max() > np.pi - 0.05:
         return  # finite differences need a smooth neighbourhood
-    value, grad = objective_and_gradient(p, w)
-    assert value == pytest.approx(objective_value(p, w), rel=1e-12)
+    value, grad = objective_and_gradient(p, w, eps)
+    if eps == 0:
+        assert value == pytest.approx(objective_value(p, w), rel=1e-12)
     num = np.zeros_like(p)
     h = 1e-6
     for i in range(p.shape[0]):
         for j in range(p.shape[1]):
             e = np.zeros_like(p)
             e[i, j] = h
-            num[i, j] = (objective_value(p + e, w) - objective_value(p - e, w)) / (2 * h)
+            num[i, j] = (objective_and_gradient(p + e, w, eps)[0] - objective_and_gradient(p - e, w, eps)[0]) / (2 * h)
     np.testing.assert_allclose(grad, num, atol=1e-6 * max(1.0, np.abs(num).max()))
 
 

@@ -141,13 +141,15 @@ def objective_value(points: np.ndarray, weights: ObjectiveWeights) -> float:
     return value
 
 
-def objective_and_gradient(points: np.ndarray, weights: ObjectiveWeights) -> tuple[float, np.ndarray]:
+def objective_and_gradient(points: np.ndarray, weights: ObjectiveWeights, eps: float = 0.0) -> tuple[float, np.ndarray]:
     """F and its gradient with respect to every point of the path (m, n) (ends included).
 
     d phi / d a = -(b^ - cos(phi) a^) / (|a| sin(phi)) (and symmetrically for b), from
     cos(phi) = a.b / (|a||b|); d phi^2 = 2 phi d phi is smooth (phi / sin(phi) -> 1). At an exactly
     straight vertex the angle's gradient is taken as 0 (a subgradient); the certificate handles the
-    whole subdifferential. Segments must have non-zero length.
+    whole subdifferential. With ``eps`` > 0 the angle term is the smooth sqrt(phi^2 + eps^2) - eps
+    instead (how benchmarks/optimal_solvers.py hands the problem to smooth solvers). Segments must
+    have non-zero length.
     """
     p = np.asarray(points, dtype=float)
     seg = np.diff(p, axis=0)
@@ -168,8 +170,14 @@ def objective_and_gradient(points: np.ndarray, weights: ObjectiveWeights) -> tup
         bent = s > 1e-12
         inv_s = np.where(bent, 1.0 / np.where(bent, s, 1.0), 0.0)
         ratio = np.where(bent, phi * inv_s, 1.0)  # phi / sin(phi) -> 1 at 0
-        value += weights.angle * float(phi.mean()) + weights.sv * float(np.mean(phi**2))
-        coef = (weights.angle * inv_s + weights.sv * 2.0 * ratio) / M  # dF/d cos = -coef
+        if eps > 0:
+            root = np.sqrt(phi**2 + eps**2)
+            value += weights.angle * float(np.mean(root - eps)) + weights.sv * float(np.mean(phi**2))
+            d_angle = ratio / root  # d(root)/d phi * d phi / d(-cos)
+        else:
+            value += weights.angle * float(phi.mean()) + weights.sv * float(np.mean(phi**2))
+            d_angle = inv_s
+        coef = (weights.angle * d_angle + weights.sv * 2.0 * ratio) / M  # dF/d cos = -coef
         va = (ub - c[:, None] * ua) / lens[:-1, None]  # d cos / d a
         vb = (ua - c[:, None] * ub) / lens[1:, None]  # d cos / d b
         da, db = -coef[:, None] * va, -coef[:, None] * vb  # dF / da, dF / db at each vertex
