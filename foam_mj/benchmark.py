@@ -29,7 +29,7 @@ import platform
 import sys
 import time
 from dataclasses import replace
-from importlib.resources import files
+from foam_mj.data import model_path
 from pathlib import Path
 from typing import Callable
 
@@ -99,7 +99,7 @@ def stats(x) -> dict:
 
 
 def obstacle_rosary() -> tuple[BubbleOracle, Rosary, float]:
-    robot = RobotModel.from_xml(files("foam_mj") / "models" / "obstacle.xml")
+    robot = RobotModel.from_xml(model_path("obstacle.xml"))
     oracle = BubbleOracle(robot, delta=FOAM.delta)
     res = plan(oracle, Q_INIT, Q_GOAL, FOAM, seed=PLANNER_SEED)
     return oracle, res.rosary, res.stats.elapsed

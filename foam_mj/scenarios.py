@@ -15,7 +15,7 @@ Format (every field is checked; an unknown or missing one is named in the error)
     max_bubbles = 200000
     time_limit = 60.0
 
-Built-in scenarios live in ``foam_mj/scenarios``; :func:`load_scenario` takes one of their names or
+Built-in scenarios live in the top-level ``scenarios/`` folder (shipped inside the wheel); :func:`load_scenario` takes one of their names or
 a path to a TOML file.
 """
 
@@ -24,19 +24,19 @@ from __future__ import annotations
 import dataclasses
 import tomllib
 from dataclasses import dataclass, field
-from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
 
 from foam_mj.bubbles import BubbleOracle
+from foam_mj.data import models_dir, scenarios_dir
 from foam_mj.clearance import Clearance
 from foam_mj.errors import ConfigurationError, FoamError, ScenarioError
 from foam_mj.foam import FoamParams
 from foam_mj.model import RobotModel
 
-SCENARIO_DIR = Path(str(files("foam_mj") / "scenarios"))
-MODEL_DIR = Path(str(files("foam_mj") / "models"))
+SCENARIO_DIR = scenarios_dir()
+MODEL_DIR = models_dir()
 
 _TOP_FIELDS = {"name", "description", "scene", "q_init", "q_goal", "seed", "planner"}
 _PLANNER_FIELDS = {f.name for f in dataclasses.fields(FoamParams)}

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from importlib.resources import files
+from foam_mj.data import models_dir
 from pathlib import Path
 
 import mujoco
@@ -12,7 +12,7 @@ import pytest
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.model import RobotModel
 
-MODELS = Path(str(files("foam_mj") / "models"))
+MODELS = models_dir()
 SCENES = ("obstacle", "step_up", "step_down")
 
 

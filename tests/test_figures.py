@@ -8,7 +8,7 @@ import copy
 import json
 import sys
 import xml.etree.ElementTree as ET
-from importlib.resources import files
+from foam_mj.data import scenarios_dir
 from pathlib import Path
 
 import mujoco
@@ -23,7 +23,7 @@ from foam_mj.figures import MISSING_MATPLOTLIB, robot_kind, strobe_geometry, wri
 from foam_mj.model import RobotModel  # noqa: E402
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-SCENARIOS = Path(str(files("foam_mj") / "scenarios"))
+SCENARIOS = scenarios_dir()
 
 
 # -- helpers -------------------------------------------------------------------------------------------------

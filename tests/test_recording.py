@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from importlib.resources import files
+from foam_mj.data import model_path
 
 import mujoco
 import numpy as np
@@ -48,7 +48,7 @@ SHAPES_XML = """
 def run(tmp_path_factory):
     """One planning run recorded to a file: scene, foam, two paths and their trajectories, kinematic
     replays of both, a dynamic replay of the centre path, and two convergence curves."""
-    robot = RobotModel.from_xml(files("foam_mj") / "models" / "obstacle.xml")
+    robot = RobotModel.from_xml(model_path("obstacle.xml"))
     oracle = BubbleOracle(robot, delta=0.005)
     try:
         res = plan(oracle, Q_INIT, Q_GOAL, FoamParams(K=10, r_min=0.07, delta=0.005), seed=0)

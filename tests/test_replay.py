@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from importlib.resources import files
+from foam_mj.data import model_path
 
 import mujoco
 import numpy as np
@@ -25,7 +25,7 @@ MAX_ERROR = 0.5e-3
 
 @pytest.fixture(scope="module")
 def robot() -> RobotModel:
-    return RobotModel.from_xml(files("foam_mj") / "models" / "obstacle.xml")
+    return RobotModel.from_xml(model_path("obstacle.xml"))
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
-from importlib.resources import files
+from foam_mj.data import model_path
 
 import numpy as np
 import pytest
@@ -41,7 +41,7 @@ STOCHASTIC = {"HS": HS, "GA": GA, "GA-uniform-beta": GA_UNIFORM}
 
 @pytest.fixture(scope="session")
 def smoothing_setup():
-    robot = RobotModel.from_xml(files("foam_mj") / "models" / "obstacle.xml")
+    robot = RobotModel.from_xml(model_path("obstacle.xml"))
     oracle = BubbleOracle(robot, delta=0.005)
     res = plan(oracle, Q_INIT, Q_GOAL, FoamParams(K=10, r_min=R_MIN, delta=0.005), seed=0)
     return robot, oracle, res.rosary

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from importlib.resources import files
+from foam_mj.data import model_path
 
 import numpy as np
 import pytest
@@ -53,7 +53,7 @@ def _pulled(rosary: Rosary, rounds: int = 150) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def robot() -> RobotModel:
-    return RobotModel.from_xml(files("foam_mj") / "models" / "obstacle.xml")
+    return RobotModel.from_xml(model_path("obstacle.xml"))
 
 
 @pytest.fixture(scope="module")
