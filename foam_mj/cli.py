@@ -3,6 +3,10 @@
 Exit codes: 0 success, 1 internal error, 2 bad input (unknown scene, malformed scenario, unwritable
 output), 3 planning failed (the foam did not reach the goal; what was computed is still written).
 Errors are one line on stderr, never a traceback (set FOAM_MJ_DEBUG=1 to see one).
+
+Start-up is kept short: this module imports only the standard library at load time; numpy, MuJoCo, the
+pipeline, Rerun and matplotlib are imported inside the command that uses them, so ``foam-mj --help``
+and argument errors answer at once (benchmarks/speed.py measures it).
 """
 
 from __future__ import annotations
@@ -13,8 +17,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 from foam_mj.errors import FoamError, PlanningFailed
 
 #: ``foam-mj plan``'s smoother when none is named; equal to foam_mj.pipeline.DEFAULT_SMOOTHER (a test checks),
@@ -22,6 +24,10 @@ from foam_mj.errors import FoamError, PlanningFailed
 DEFAULT_SMOOTHER = "optimal"
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_PLANNING_FAILED = 0, 1, 2, 3
+
+#: Figure file formats and PNG resolution of ``foam-mj figures`` (foam_mj.figures uses these too).
+FIGURE_FORMATS = ("png", "svg", "pdf")
+FIGURE_DPI = 150
 
 
 class Progress:
@@ -75,11 +81,15 @@ def cmd_scenes(args: argparse.Namespace) -> int:
 
 
 def _fmt_q(q) -> str:
+    import numpy as np
+
     return "[" + ", ".join(f"{v:g}" for v in np.asarray(q)) + "]"
 
 
 def _summary_table(outcome) -> str:
     """The per-path summary printed by ``plan`` and ``replay``."""
+    import numpy as np
+
     head = f"{'path':<27}{'length':>8}{'f':>8}{'TC':>8}{'SV':>8}{'min clear':>11}{'duration':>10}{'track err':>10}{'contacts':>9}{'time':>9}"
     lines = [head, "-" * len(head)]
     for po in outcome.paths.values():
@@ -101,6 +111,8 @@ def _summary_table(outcome) -> str:
 
 def _print_fronts(outcome) -> None:
     """For multi-objective smoothers: the front's extremes and knee, and the gap to the convex length."""
+    import numpy as np
+
     convex = outcome.paths.get("convex")
     for name, po in outcome.paths.items():
         front = po.result.info.get("front") if po.result.info else None
@@ -266,6 +278,30 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return bench_main(rest)
 
 
+def _cmd_figures(args: argparse.Namespace) -> int:
+    from foam_mj.figures import cmd_figures
+
+    return cmd_figures(args)
+
+
+def add_figures_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``figures`` command (foam_mj.figures.cmd_figures, imported only when it runs) to ``subparsers``."""
+    p = subparsers.add_parser(
+        "figures",
+        help="draw publication figures from a plan's JSON result",
+        description="Draw the foam, rosary, leg-pose strobe, convergence, joint and (walker) map figures "
+        "from a result written by `foam-mj plan --json` (needs matplotlib: pip install 'foam-mj[figures]').",
+    )
+    p.add_argument("result", metavar="RESULT.json", help="a result written by `foam-mj plan --json`")
+    p.add_argument("out_dir", metavar="DIR", help="folder for the figures (created if missing)")
+    p.add_argument("--format", nargs="+", choices=FIGURE_FORMATS, default=["png"], dest="formats",
+                   help="one or more of png (default), svg, pdf")
+    p.add_argument("--paths", nargs="+", metavar="NAME", default=None, help="only these paths (default: all in the result)")
+    p.add_argument("--dpi", type=int, default=FIGURE_DPI, help=f"resolution of PNG files (default {FIGURE_DPI})")
+    p.set_defaults(func=_cmd_figures)
+    return p
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="foam-mj",
@@ -311,8 +347,6 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="run the smoothing benchmark", description="The smoothing benchmark (HS and GA runs, the thesis's methods, the convex reference); every argument is passed on to it (see `foam-mj bench --help`).", add_help=False)
     p.add_argument("bench_args", nargs=argparse.REMAINDER, help="arguments for the benchmark, e.g. --quick")
     p.set_defaults(func=cmd_bench)
-    from foam_mj.figures import add_figures_parser
-
     add_figures_parser(sub)  # foam-mj figures RESULT.json DIR [--format png svg pdf] [--paths ...] [--dpi N]
     return parser
 

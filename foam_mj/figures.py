@@ -35,7 +35,7 @@ drawn, and only through its object-oriented API (``matplotlib.figure.Figure``): 
 imported, no window is ever opened and the global backend is left alone.
 
 Command line: ``foam-mj figures RESULT.json OUT_DIR [--format png svg pdf]`` (:func:`main`,
-:func:`add_figures_parser`).
+:func:`foam_mj.cli.add_figures_parser`, which the command line can build without importing this module).
 """
 
 from __future__ import annotations
@@ -50,6 +50,7 @@ from typing import Any, Iterable, Sequence
 import mujoco
 import numpy as np
 
+from foam_mj.cli import FIGURE_DPI, FIGURE_FORMATS, add_figures_parser
 from foam_mj.errors import FoamError
 from foam_mj.model import RobotModel
 
@@ -66,9 +67,9 @@ __all__ = [
     "write_figures",
 ]
 
-FORMATS = ("png", "svg", "pdf")
+FORMATS = FIGURE_FORMATS
 MISSING_MATPLOTLIB = "figures need matplotlib: pip install 'foam-mj[figures]'"
-DPI = 150
+DPI = FIGURE_DPI
 N_POSES = 8  # poses per strobe panel
 
 # -- names, colours and labels ------------------------------------------------------------------------
@@ -944,24 +945,6 @@ def write_figures(doc, out_dir, formats: Sequence[str] = ("png",), paths: Sequen
 
 
 # -- command line --------------------------------------------------------------------------------------------
-def add_figures_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``figures`` command to the CLI's subparsers; its ``func`` is :func:`cmd_figures`."""
-    p = subparsers.add_parser(
-        "figures",
-        help="draw publication figures from a plan's JSON result",
-        description="Draw the foam, rosary, leg-pose strobe, convergence, joint and (walker) map figures "
-        "from a result written by `foam-mj plan --json` (needs matplotlib: pip install 'foam-mj[figures]').",
-    )
-    p.add_argument("result", metavar="RESULT.json", help="a result written by `foam-mj plan --json`")
-    p.add_argument("out_dir", metavar="DIR", help="folder for the figures (created if missing)")
-    p.add_argument("--format", nargs="+", choices=FORMATS, default=["png"], dest="formats",
-                   help="one or more of png (default), svg, pdf")
-    p.add_argument("--paths", nargs="+", metavar="NAME", default=None, help="only these paths (default: all in the result)")
-    p.add_argument("--dpi", type=int, default=DPI, help=f"resolution of PNG files (default {DPI})")
-    p.set_defaults(func=cmd_figures)
-    return p
-
-
 def cmd_figures(args: argparse.Namespace) -> int:
     """Run the ``figures`` command; raises FoamError for bad input (the CLI turns it into exit code 2)."""
     from foam_mj.results import read_result

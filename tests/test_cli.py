@@ -249,3 +249,14 @@ def test_multi_objective_smoothers_record_their_pareto_front(tmp_path, capsys):
     assert np.allclose(scatter, F)
     rows = read_recording(rrd)
     assert sum(1 for k in rows if k.startswith("cspace/fronts/mopso/")) == len(F)
+
+
+def test_the_parser_is_built_without_importing_numpy_mujoco_or_the_plotting_stack():
+    """`foam-mj --help` and argument errors answer at once: build_parser loads only the standard library."""
+    code = (
+        "import sys; from foam_mj.cli import build_parser; build_parser(); "
+        "print(','.join(m for m in ('numpy', 'mujoco', 'scipy', 'rerun', 'matplotlib', 'foam_mj.figures', "
+        "'foam_mj.pipeline') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ""
