@@ -282,8 +282,13 @@ def replay_dynamic(
     if trajectory.qvel is not None:
         d.qvel[:] = trajectory.qvel[0]
     ids = leg_bodies(robot)
-    leg = set(robot.robot_geoms.tolist())
-    obstacles = set(robot.obstacle_geoms.tolist())
+    # leg_obstacle[a, b]: geoms a and b are a leg geom and an obstacle geom (either order), so a step's
+    # contacts are filtered with one gather instead of a Python loop over MuJoCo's contact structs
+    leg_obstacle = np.zeros((m.ngeom, m.ngeom), dtype=bool)
+    leg_obstacle[np.ix_(robot.robot_geoms, robot.obstacle_geoms)] = True
+    leg_obstacle |= leg_obstacle.T
+    is_leg = np.zeros(m.ngeom, dtype=bool)
+    is_leg[robot.robot_geoms] = True
     T = len(trajectory)
     qpos = np.empty((T, m.nq))
     xpos = np.empty((T, len(ids), 3))
@@ -295,12 +300,14 @@ def replay_dynamic(
         qpos[i] = d.qpos
         xpos[i] = d.xpos[ids]
         xquat[i] = d.xquat[ids]
-        for c in d.contact[: d.ncon]:
-            a, b = int(c.geom[0]), int(c.geom[1])
-            if c.dist <= 0 and ((a in leg and b in obstacles) or (b in leg and a in obstacles)):
-                g_leg, g_obs = (a, b) if a in leg else (b, a)
+        if d.ncon:
+            con = d.contact  # the step's contacts as arrays (geom (ncon, 2), dist (ncon,), pos (ncon, 3))
+            geom, dist = con.geom, con.dist
+            for j in np.flatnonzero((dist <= 0) & leg_obstacle[geom[:, 0], geom[:, 1]]).tolist():
+                a, b = int(geom[j, 0]), int(geom[j, 1])
+                g_leg, g_obs = (a, b) if is_leg[a] else (b, a)
                 contacts.append(
-                    Contact(i, float(trajectory.times[i]), robot.geom_name(g_leg), robot.geom_name(g_obs), float(-c.dist), tuple(float(x) for x in c.pos))
+                    Contact(i, float(trajectory.times[i]), robot.geom_name(g_leg), robot.geom_name(g_obs), float(-dist[j]), tuple(float(x) for x in con.pos[j]))
                 )
         d.ctrl[:] = ctrl[i]
         if i + 1 < T:
