@@ -2,42 +2,64 @@
 
 The bound
 ---------
-Move the robot along the straight segment from q to a in configuration space. No point of the robot
+Move the robot along the straight segment from q to a in configuration space. No point of geom g
 moves farther than
 
-    D(q, a) <= sum_g rho_g ||a_g - q_g||_2                                           (paper 003, Eq. 4)
+    D_g(q, a) <= sum_grp rho_(g,grp) ||a_grp - q_grp||_2                             (paper 003, Eq. 4)
 
-where the coordinates are split into groups g. For a hinge, rho is an upper bound, valid in every
-configuration, on the distance from the joint's axis to any point of the collision geometry distal to
-it: a point at distance rho from the axis moves at most rho |dtheta|. For a slide, rho is the metres
-of travel per unit of q (the normalization scale). Slides on one body whose axes are mutually
-orthogonal and that have equal scales form one group: together they translate the body by exactly
-the Euclidean length of their displacement, so their group norm is the 2-norm (for a planar mobile
-base this gives paper 003 Eq. 5's sqrt(dx^2 + dy^2) + r_robot |dtheta|). Every other coordinate is a
-group of its own.
+where the configuration coordinates are split into groups grp. For a hinge, rho is an upper bound,
+valid in every configuration within the joint ranges, on the distance from the joint's axis to any
+point of geom g (a point at distance rho from the axis moves at most rho |dtheta|); for a slide, rho is
+the metres of travel per unit of q (the normalization scale). Slides on one body whose axes are
+mutually orthogonal and that have equal scales form one group: together they translate the body by
+exactly the Euclidean length of their displacement, so their group norm is the 2-norm (for a planar
+mobile base this gives paper 003 Eq. 5's sqrt(dx^2 + dy^2) + r_robot |dtheta|). Every other
+coordinate is a group of its own. A joint that does not move g has rho_(g, j) = 0.
 
-The distance from hinge j's axis to a point of a distal body depends on the joints between them, so
-the value at the current configuration is not a bound. The triangle inequality along the chain gives
-one that holds everywhere: for the hinges j = k_0, k_1, ..., k_m on the way from joint j to a geom,
+Derivation of the hinge bound for any serial chain. Only configuration joints move; every other
+joint stays at its fixed value, so it is part of a rigid link. Evaluate the kinematics once at the
+*reference pose*: every configuration joint at its ``qpos0`` (MuJoCo's ``ref``: the pose in which the
+MJCF draws the bodies; MuJoCo rotates a hinge by qpos - qpos0 and translates a slide by
+qpos - qpos0), the other joints at their fixed values. Let k = h_0, h_1, ..., h_m be the configuration
+hinges from joint k down to geom g's body, in kinematic order (joints of one body in their MJCF order),
+a_i their anchors, and S_i the configuration slides between h_i and h_(i+1) (S_m: those between h_m
+and the geom), u_s a slide's unit axis and t_s = qpos_s - qpos0_s its travel from the reference pose.
+In any configuration, for a point p of the geom,
 
-    rho_j >= sum_i |P (anchor_{k_(i+1)} - anchor_{k_i})| + max_{p in geom} |P (p - anchor_{k_m})|
+    p - a_0 = sum_(i<m) R_i [ (a_(i+1) - a_i)^ref + sum_(s in S_i) t_s u_s^ref ] + R_m [ (p - a_m)^ref + sum_(s in S_m) t_s u_s^ref ]
 
-with P the projection orthogonal to j's axis when every axis on the chain is parallel to it (a planar
-chain: rotations about parallel axes keep these projected lengths), and the identity otherwise (3-D
-distances, always an upper bound). Distances between consecutive anchors are fixed, since anchor
-k_(i+1) is rigidly attached to the body that joint k_i turns. The farthest point of a convex geom
-from an axis or a point is a vertex of it (both distances are convex): box corners, capsule end
-centres plus the radius, sphere centre plus radius, mesh vertices, and the bounding box's corners for
-cylinders and ellipsoids.
+with R_i the rotation accumulated from h_0 to h_i (upstream joints move a_0 and p together and drop
+out; consecutive anchors are rigidly attached to the link between them; a slide translates everything
+downstream by t_s along its axis, which only the hinges before it have turned). Rotations keep
+lengths, so the triangle inequality gives
+
+    dist(p, axis_k) <= |p - a_0| <= sum_i |(a_(i+1) - a_i)^ref| + sum_s T_s + max_p |(p - a_m)^ref|
+
+where T_s = max(|lo_s - qpos0_s|, |hi_s - qpos0_s|) is the largest travel the slide's range allows,
+measured from the reference pose (not max(|lo|, |hi|): a slide with ref = -0.5 and range [-1, 2]
+carries its geom up to 2.5 m from where the model draws it). When every hinge h_i is parallel to k's
+axis (a planar chain; rotations about parallel axes keep parallel axes parallel and commute with the
+projection P orthogonal to the axis) the lengths are taken after P, and a slide contributes
+T_s |P u_s|: dist(p, axis_k) = |P (p - a_0)|. The farthest point of a convex geom from an axis or a
+point is a vertex of it (both distances are convex): box corners, capsule end centres plus the
+radius, sphere centre plus radius, mesh vertices, and the bounding box's corners for cylinders and
+ellipsoids. The bound holds in every configuration within the ranges; a bubble never leaves the
+ranges (below), so it holds along every segment inside a bubble.
 
 The bubble
 ----------
-If D(q, a) < d(q), the workspace clearance at q, the whole motion q -> a is collision-free; so is the
-"diamond" {a : sum_g rho_g ||a_g - q_g|| <= d(q)} (paper 003 Eq. 4). By Cauchy-Schwarz,
-sum_g rho_g ||x_g|| <= ||rho||_2 ||x||_2, so the ball of radius d(q) / ||rho||_2 about q lies in the
-diamond: it is the largest ball that does (paper 003, section 3.1; ``../shared/notes/bubbles-math.md``).
-With a safety margin delta >= 0 the radius is (d(q) - delta) / ||rho||_2, and every configuration in
-the ball keeps at least delta of workspace clearance.
+For a pair p = (g1, g2) of geoms MuJoCo lets collide (``foam_mj.model``), the distance d_p changes by at
+most D_(g1) + D_(g2), each taken over only the joints on the kinematic path between the two bodies
+(joints above their lowest common ancestor move both rigidly and leave d_p unchanged; for an obstacle
+pair the path is the robot geom's chain). Call rho_p the vector of these group weights. If
+sum_grp rho_(p,grp) ||a_grp - q_grp|| < d_p(q) for every pair, the motion q -> a is collision-free; by
+Cauchy-Schwarz, sum_grp rho_(p,grp) ||x_grp|| <= ||rho_p||_2 ||x||_2, so the ball of radius
+
+    r(q) = min_p (d_p(q) - delta) / ||rho_p||_2
+
+about q keeps at least delta of clearance on every pair (paper 003 Eq. 4 applied per pair; with one
+pair, or one rho for all pairs, it is the paper's (d(q) - delta) / ||rho||_2). A pair whose distance
+no configuration joint can change has rho_p = 0 and drops out (``foam_mj.model`` leaves it out).
 
 Design choice (not in the papers): the radius is also capped by the distance from q to the boundary
 of the configuration bounds (the joint ranges), so that a bubble never holds a configuration the
@@ -62,10 +84,16 @@ _PARALLEL_TOL = 1e-9
 
 @dataclass(frozen=True)
 class DisplacementBound:
-    """sum_g weights[g] * ||dq[groups[g]]||_2 bounds how far any robot point moves for a move dq (Eq. 4)."""
+    """sum_g weights[g] * ||dq[groups[g]]||_2 bounds how far any robot point moves for a move dq (Eq. 4).
+
+    ``weights`` is the bound over every robot geom; ``per_geom[g]`` (ngeom, G) the bound of geom g alone
+    (zero for a group that does not move it), ``rho[g]`` (ngeom, n) the same per coordinate.
+    """
 
     groups: tuple[tuple[int, ...], ...]
     weights: np.ndarray  # (G,) metres per unit of q
+    per_geom: np.ndarray | None = None  # (ngeom, G)
+    rho: np.ndarray | None = None  # (ngeom, n)
 
     @property
     def ball_factor(self) -> float:
@@ -80,29 +108,54 @@ class DisplacementBound:
             total = total + w * np.linalg.norm(dq[..., list(g)], axis=-1)
         return total
 
+    def group_weights(self, rho: np.ndarray) -> np.ndarray:
+        """Per-coordinate bounds (..., n) -> per-group weights (..., G) (the largest member of each group)."""
+        return np.stack([rho[..., list(g)].max(axis=-1) for g in self.groups], axis=-1)
+
     @classmethod
     def from_model(cls, robot: RobotModel) -> "DisplacementBound":
-        """Compute rho for every configuration coordinate from the compiled model's geometry."""
+        """Compute rho for every configuration coordinate and geom from the compiled model's geometry."""
         m = robot.model
         d = mujoco.MjData(m)
-        d.qpos[:] = m.qpos0
-        mujoco.mj_kinematics(m, d)
         cfg = robot.config
-        rho = np.zeros(cfg.dim)
-        for i, j in enumerate(cfg.joint_ids):
-            j = int(j)
-            if int(m.jnt_type[j]) == _SLIDE:
-                rho[i] = abs(cfg.scale[i])
-            else:
-                reach = max((_hinge_reach(m, d, j, int(g)) for g in robot.robot_geoms if _is_distal(m, j, int(g))), default=0.0)
-                rho[i] = reach * abs(cfg.scale[i])
+        d.qpos[:] = reference_qpos(robot)
+        mujoco.mj_kinematics(m, d)
+        travel = _slide_travel(robot)
+        rho = np.zeros((m.ngeom, cfg.dim))
+        geoms = np.unique(np.concatenate([np.asarray(robot.robot_geoms, dtype=int).ravel(), np.asarray(robot.pairs, dtype=int).ravel()]))
+        for g in geoms:
+            g = int(g)
+            joints = _config_chain(m, cfg, g)  # configuration coordinates moving g, kinematic order
+            for pos, i in enumerate(joints):
+                j = int(cfg.joint_ids[i])
+                if int(m.jnt_type[j]) == _SLIDE:
+                    rho[g, i] = abs(cfg.scale[i])
+                else:
+                    rho[g, i] = _hinge_reach(m, d, cfg, joints[pos:], g, travel) * abs(cfg.scale[i])
         groups = _slide_groups(m, d, robot)
-        weights = np.array([rho[list(g)].max() for g in groups])
-        return cls(tuple(groups), weights)
+        tmp = cls(tuple(groups), np.zeros(len(groups)))
+        per_geom = tmp.group_weights(rho)
+        robot_geoms = np.asarray(robot.robot_geoms, dtype=int)
+        weights = per_geom[robot_geoms].max(axis=0) if len(robot_geoms) else np.zeros(len(groups))
+        return cls(tuple(groups), weights, per_geom, rho)
 
 
-def _joint_body(m: mujoco.MjModel, j: int) -> int:
-    return int(m.jnt_bodyid[j])
+def reference_qpos(robot: RobotModel) -> np.ndarray:
+    """The pose the bound is measured from: configuration joints at ``qpos0`` (their MJCF ``ref``), the
+    other joints at their fixed values."""
+    cfg = robot.config
+    q = np.array(cfg.qpos0, dtype=float)
+    q[cfg.qpos_index] = robot.model.qpos0[cfg.qpos_index]
+    return q
+
+
+def _slide_travel(robot: RobotModel) -> np.ndarray:
+    """T_s per coordinate: the largest |qpos - qpos0| the range allows (zero for hinges)."""
+    cfg, m = robot.config, robot.model
+    lo = cfg.offset + cfg.scale * cfg.lower
+    hi = cfg.offset + cfg.scale * cfg.upper
+    q0 = m.qpos0[cfg.qpos_index]
+    return np.maximum(np.abs(lo - q0), np.abs(hi - q0))
 
 
 def _ancestors(m: mujoco.MjModel, body: int) -> list[int]:
@@ -114,20 +167,15 @@ def _ancestors(m: mujoco.MjModel, body: int) -> list[int]:
     return out
 
 
-def _is_distal(m: mujoco.MjModel, j: int, g: int) -> bool:
-    """True when joint j moves geom g."""
-    return _joint_body(m, j) in _ancestors(m, int(m.geom_bodyid[g]))
-
-
-def _chain_joints(m: mujoco.MjModel, j: int, g: int) -> list[int]:
-    """Joints from j (inclusive) down to geom g's body, in kinematic order."""
-    bodies = list(reversed(_ancestors(m, int(m.geom_bodyid[g]))))
-    start = bodies.index(_joint_body(m, j))
-    joints = []
-    for b in bodies[start:]:
+def _config_chain(m: mujoco.MjModel, cfg, g: int) -> list[int]:
+    """Configuration coordinates (indices into q) whose joints move geom g, root first; joints of one
+    body in their MJCF order (the order MuJoCo applies them)."""
+    index = {int(j): i for i, j in enumerate(cfg.joint_ids)}
+    out = []
+    for b in reversed(_ancestors(m, int(m.geom_bodyid[g]))):
         adr, num = int(m.body_jntadr[b]), int(m.body_jntnum[b])
-        joints.extend(range(adr, adr + num))
-    return joints[joints.index(j) :]
+        out.extend(index[j] for j in range(adr, adr + num) if j in index)
+    return out
 
 
 def _geom_extreme_points(m: mujoco.MjModel, d: mujoco.MjData, g: int) -> tuple[np.ndarray, float]:
@@ -154,16 +202,19 @@ def _geom_extreme_points(m: mujoco.MjModel, d: mujoco.MjData, g: int) -> tuple[n
         verts = m.mesh_vert[adr : adr + num]
         return pos + verts @ mat.T, 0.0
     else:
-        raise ValueError(f"geom '{mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)}': type {t} cannot be a robot geom")
+        raise ValueError(f"geom '{mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)}': type {t} cannot be moved by a joint")
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
     return pos + (signs * half) @ mat.T, 0.0
 
 
-def _hinge_reach(m: mujoco.MjModel, d: mujoco.MjData, j: int, g: int) -> float:
-    """Upper bound, valid in every configuration, of the distance from hinge j's axis to geom g."""
-    axis = d.xaxis[j] / np.linalg.norm(d.xaxis[j])
-    chain = _chain_joints(m, j, g)
-    hinges = [k for k in chain if int(m.jnt_type[k]) == _HINGE]
+def _hinge_reach(m: mujoco.MjModel, d: mujoco.MjData, cfg, chain: list[int], g: int, travel: np.ndarray) -> float:
+    """Upper bound, valid in every configuration within the ranges, of the distance from the axis of the
+    hinge ``chain[0]`` to geom g; ``chain`` lists the configuration coordinates from it down to g (module
+    docstring: the sum over anchors, slide travels from the reference pose, and the geom's farthest
+    vertex). ``d`` holds the reference pose."""
+    jid = [int(cfg.joint_ids[i]) for i in chain]
+    axis = d.xaxis[jid[0]] / np.linalg.norm(d.xaxis[jid[0]])
+    hinges = [j for j in jid if int(m.jnt_type[j]) == _HINGE]
     planar = all(np.linalg.norm(np.cross(d.xaxis[k] / np.linalg.norm(d.xaxis[k]), axis)) < _PARALLEL_TOL for k in hinges)
 
     def length(v: np.ndarray) -> np.ndarray:
@@ -174,11 +225,9 @@ def _hinge_reach(m: mujoco.MjModel, d: mujoco.MjData, j: int, g: int) -> float:
     total = 0.0
     for a, b in zip(hinges[:-1], hinges[1:]):
         total += float(length(d.xanchor[b] - d.xanchor[a]))
-    # Slides between j and the geom move it by at most their largest travel.
-    for k in chain:
-        if int(m.jnt_type[k]) == _SLIDE:
-            lo, hi = m.jnt_range[k] if m.jnt_limited[k] else (-np.inf, np.inf)
-            total += float(max(abs(lo), abs(hi)))
+    for i, j in zip(chain, jid):
+        if int(m.jnt_type[j]) == _SLIDE:
+            total += float(travel[i]) * float(length(d.xaxis[j] / np.linalg.norm(d.xaxis[j])))
     points, radius = _geom_extreme_points(m, d, g)
     return total + float(np.max(length(points - d.xanchor[hinges[-1]]))) + radius
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from foam_mj.bubbles import BubbleOracle, DisplacementBound
@@ -132,3 +132,101 @@ def test_batch_radii_equal_single_radii(obstacle_robot, oracles):
 def test_a_negative_margin_is_refused(obstacle_robot):
     with pytest.raises(ValueError, match="delta"):
         BubbleOracle(obstacle_robot, delta=-0.01)
+
+
+# -- the bound on any serial chain ----------------------------------------------------------------------
+
+REPRODUCER = """<mujoco><compiler angle="radian"/><worldbody>
+  <!-- A hinge about z; 0.5 m out, a slide along x drawn at ref = -0.5 (range -1..2), carrying a 5 cm ball. -->
+  <body name="arm"><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
+    <joint name="turn" axis="0 0 1" range="-3.14 3.14"/>
+    <body name="carriage" pos="0.5 0 0">
+      <joint name="reach" type="slide" axis="1 0 0" ref="-0.5" range="-1 2"/>
+      <geom name="ball" type="sphere" size="0.05"/>
+    </body>
+  </body>
+  <!-- A wall from x = 2 to 3.5 whose near face is 0.55 m from the x axis. -->
+  <geom name="wall" type="box" pos="2.75 0.6 0" size="0.75 0.05 0.1"/>
+</worldbody></mujoco>"""
+
+
+def _robot_from_xml(tmp_path, xml: str, name: str = "scene.xml"):
+    from foam_mj.model import RobotModel
+
+    path = tmp_path / name
+    path.write_text(xml)
+    return RobotModel.from_xml(path)
+
+
+def test_a_slide_reach_is_measured_from_its_ref_pose(tmp_path):
+    """The slide carries the ball up to 2.5 m past where the model draws it (qpos - ref, not qpos), so the
+    hinge's reach is 0.5 + 2.5 + 0.05 = 3.05 m; with 2.55 the bubble at q = (0, 1.8) reached into the wall."""
+    robot = _robot_from_xml(tmp_path, REPRODUCER)
+    oracle = BubbleOracle(robot, delta=0.005)
+    np.testing.assert_allclose(oracle.bound.weights, [3.05, 1.0], atol=1e-12)
+    q = np.array([0.0, 1.8])
+    assert oracle.clearance(q) == pytest.approx(0.5)
+    r = oracle.radius(q)
+    assert r == pytest.approx(0.495 / np.hypot(3.05, 1.0))
+    m, d = robot.model, mujoco.MjData(robot.model)
+    wall, ball = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("wall", "ball"))
+    angles = np.linspace(0, 2 * np.pi, 721)
+    for a in np.vstack([q + r * np.c_[np.cos(angles), np.sin(angles)], q + [[r, 0], [-r, 0]]]):
+        robot.set_configuration(a, d)
+        assert mujoco.mj_geomDistance(m, d, ball, wall, 1.0, None) >= 0.005 - 1e-9
+        mujoco.mj_collision(m, d)
+        assert d.ncon == 0
+
+
+class _IndependentCheck:
+    """Clearance straight from MuJoCo: the pairs within ``reach`` come from mj_collision on a copy of the
+    model whose geoms carry that margin (MuJoCo's own filters and broad phase), their distances from
+    mj_geomDistance on the model itself. Shares no code with foam_mj's pair lists or clearance."""
+
+    def __init__(self, robot, reach: float = 0.3) -> None:
+        spec = mujoco.MjSpec.from_file(str(robot.path))
+        for g in spec.geoms:
+            g.margin = reach
+        self.wide = spec.compile()
+        self.m = robot.model
+        self.dw, self.d = mujoco.MjData(self.wide), mujoco.MjData(self.m)
+        self.to_qpos = robot.config.to_qpos
+
+    def clearance(self, q) -> float:
+        self.dw.qpos[:] = self.d.qpos[:] = self.to_qpos(q)
+        mujoco.mj_kinematics(self.wide, self.dw)
+        mujoco.mj_collision(self.wide, self.dw)
+        mujoco.mj_kinematics(self.m, self.d)
+        pairs = {tuple(sorted(map(int, g))) for g in self.dw.contact.geom[: self.dw.ncon]}
+        return min((mujoco.mj_geomDistance(self.m, self.d, a, b, 1.0, None) for a, b in pairs), default=1.0)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much])
+@given(seed=st.integers(0, 2**32 - 1), delta=st.sampled_from([0.0, 0.005, 0.02]))
+def test_random_chains_keep_the_margin_inside_every_bubble(tmp_path, seed, delta):
+    """Hinges and slides in random order on random axes with random ref, random primitive geoms and
+    obstacles: every configuration sampled inside a certified bubble, in the ball, on its sphere and along
+    segments between such points, keeps clearance >= delta by MuJoCo's own reckoning."""
+    from chains import random_chain_xml
+
+    rng = np.random.default_rng(seed)
+    robot = _robot_from_xml(tmp_path, random_chain_xml(rng), f"chain{seed}.xml")
+    oracle = BubbleOracle(robot, delta=delta)
+    check = _IndependentCheck(robot)
+    n = robot.dim
+    Q = rng.uniform(robot.lower, robot.upper, (12, n))
+    R = oracle.radii(Q)
+    checked = 0
+    for q, r in zip(Q, R):
+        if r <= 0:
+            continue
+        inside = _uniform_in_ball(rng, q, r, 12)
+        u = rng.standard_normal((6, n))
+        on_sphere = q + r * u / np.linalg.norm(u, axis=1, keepdims=True)
+        ends = np.vstack([inside, on_sphere])
+        segments = [a + s * (b - a) for a, b in zip(ends[:6], ends[6:12]) for s in np.linspace(0, 1, 6)]
+        for a in np.vstack([ends, segments]):
+            assert check.clearance(a) >= delta - 1e-7, f"clearance below {delta} at {a} in bubble ({q}, {r})"
+        checked += 1
+    oracle.close()
+    assume(checked > 0)
