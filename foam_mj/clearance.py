@@ -42,7 +42,7 @@ class Clearance:
         self.calls = 0  # configurations evaluated, for statistics
 
     def _sensor_model(self) -> mujoco.MjModel:
-        spec = mujoco.MjSpec.from_file(str(self.robot.path))
+        spec = self.robot.spec_copy()
         for g, o in self._pairs:
             s = spec.add_sensor()
             s.type = mujoco.mjtSensor.mjSENS_GEOMDIST

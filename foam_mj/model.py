@@ -2,8 +2,12 @@
 
 Configuration map
 -----------------
-The MJCF declares the planner's configuration coordinates in a ``<custom>`` text field
-``foam_mj:configuration`` (joint names, in order). A coordinate is the joint's own value
+The configuration coordinates are, in order of precedence: the joint names a scenario gives
+(``joints = [...]``, passed here as ``joints``), the MJCF's ``<custom>`` text field
+``foam_mj:configuration`` (joint names, in order), or else every *limited* hinge and slide joint in
+model order (unlimited hinges, ball and free joints then stay at ``qpos0``). A configuration joint
+must be a limited hinge or slide: a ball or free joint, an unlimited joint, or the name of a tendon is
+refused with a :class:`~foam_mj.errors.ModelError` naming it, before any planning. A coordinate is the joint's own value
 (radians for hinges, metres for slides) unless a numeric field ``foam_mj:normalize:<joint>`` holds
 "a b S", in which case qpos values a..b map linearly onto [0, S] (one number S alone means the joint's
 range [lo, hi]):
@@ -13,6 +17,10 @@ range [lo, hi]):
 For the Ortholeg, q = [theta_h, theta_k, theta_q] with theta_q the hip displacement normalized so that
 the swing's 0.7 m of travel is [0, pi/2] (paper 003, section 5.1). Joints that are not configuration coordinates stay at their
 ``qpos0``. The bounds of q come from the joint ranges (every configuration joint must be limited).
+A scenario's ``[normalize]`` table gives the same numbers per joint and takes precedence over the MJCF.
+
+Unnamed geoms get the name ``geom<i>`` (``i`` their index in the model) when the model is loaded, so
+that the distance sensors of :mod:`foam_mj.clearance` can refer to them; an existing name is never changed.
 
 Robot and obstacle geoms
 ------------------------
@@ -24,6 +32,7 @@ This is the same rule the independent checker ``shared/tools/verify_result.py`` 
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,13 +49,50 @@ _SUPPORTED_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT
 
 def load_mjcf(path: str | Path) -> mujoco.MjModel:
     """Compile an MJCF file, turning MuJoCo's errors into a :class:`ModelError` naming the file."""
+    return compile_spec(load_spec(path), path)
+
+
+def load_spec(path: str | Path) -> mujoco.MjSpec:
+    """Parse an MJCF file into a :class:`mujoco.MjSpec` (errors as :class:`ModelError` naming the file)."""
     p = Path(path)
     if not p.is_file():
         raise ModelError(f"MJCF file not found: {p}")
     try:
-        return mujoco.MjModel.from_xml_path(str(p))
+        return mujoco.MjSpec.from_file(str(p))
     except ValueError as exc:  # MuJoCo reports XML and compile errors as ValueError
         raise ModelError(f"could not load MJCF file {p}: {exc}") from None
+
+
+def compile_spec(spec: mujoco.MjSpec, path: str | Path) -> mujoco.MjModel:
+    """Compile a spec, turning MuJoCo's errors into a :class:`ModelError` naming ``path``."""
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        raise ModelError(f"could not load MJCF file {path}: {exc}") from None
+
+
+def name_unnamed_geoms(spec: mujoco.MjSpec) -> int:
+    """Give every unnamed geom of ``spec`` the name ``geom<i>`` (i: its index in the compiled model).
+
+    MuJoCo's distance sensors refer to geoms by name; users' models often leave them unnamed. Returns
+    how many geoms were named. A name already taken gets a ``_`` suffix until it is free.
+    """
+    geoms = list(spec.geoms)
+    if all(g.name for g in geoms):
+        return 0
+    spec.compile()  # assigns the ids (g.id) the compiled model will use
+    taken = {g.name for g in geoms if g.name}
+    count = 0
+    for g in geoms:
+        if g.name:
+            continue
+        name = f"geom{int(g.id)}"
+        while name in taken:
+            name += "_"
+        g.name = name
+        taken.add(name)
+        count += 1
+    return count
 
 
 def _custom_text(m: mujoco.MjModel, name: str) -> str | None:
@@ -115,6 +161,8 @@ class RobotModel:
     obstacle_geoms: np.ndarray  # geom ids
     pairs: np.ndarray  # (P, 2) geom ids (robot, obstacle)
     _data: mujoco.MjData = field(repr=False, default=None)  # type: ignore[assignment]
+    spec: mujoco.MjSpec | None = field(repr=False, default=None)  # what ``model`` was compiled from
+    xml: str | None = field(repr=False, default=None)  # the edited scene's MJCF when it differs from ``path``
 
     def __post_init__(self) -> None:
         # Per-geom masks for in_collision, computed once rather than on every call.
@@ -123,11 +171,37 @@ class RobotModel:
         self._is_obstacle = np.isin(ids, self.obstacle_geoms)
 
     @classmethod
-    def from_xml(cls, path: str | Path) -> "RobotModel":
-        """Load an MJCF scene and read its configuration declaration (see the module docstring)."""
+    def from_xml(
+        cls,
+        path: str | Path,
+        joints: Sequence[str] | None = None,
+        normalize: Mapping[str, Sequence[float]] | None = None,
+    ) -> "RobotModel":
+        """Load an MJCF scene and read its configuration (see the module docstring).
+
+        ``joints`` and ``normalize`` (joint name -> [span] or [qpos_lo, qpos_hi, span]) override the MJCF's
+        declaration, as a scenario's ``joints = [...]`` and ``[normalize]`` do.
+        """
         p = Path(path).resolve()
-        m = load_mjcf(p)
-        config = _configuration_map(m, p)
+        return cls.from_spec(load_spec(p), p, joints, normalize)
+
+    @classmethod
+    def from_spec(
+        cls,
+        spec: mujoco.MjSpec,
+        path: str | Path,
+        joints: Sequence[str] | None = None,
+        normalize: Mapping[str, Sequence[float]] | None = None,
+    ) -> "RobotModel":
+        """Build from a (possibly edited) :class:`mujoco.MjSpec`; ``path`` names the source in messages.
+
+        Unnamed geoms are named in ``spec`` (module docstring); the spec is kept (:meth:`spec_copy`).
+        """
+        p = Path(path)
+        compile_spec(spec, p)
+        name_unnamed_geoms(spec)
+        m = compile_spec(spec, p)
+        config = _configuration_map(m, p, joints, normalize)
         robot, obstacles = [], []
         for g in range(m.ngeom):
             if not (m.geom_contype[g] or m.geom_conaffinity[g]):
@@ -151,7 +225,17 @@ class RobotModel:
                 f"{p}: collision geoms {nonzero} have a non-zero margin; mj_geomDistance subtracts margins, "
                 "so clearances would be wrong. Set margin=\"0\" on collision geoms."
             )
-        return cls(p, m, config, np.array(robot), np.array(obstacles), np.array(pairs, dtype=int), mujoco.MjData(m))
+        out = cls(p, m, config, np.array(robot), np.array(obstacles), np.array(pairs, dtype=int), mujoco.MjData(m))
+        out.spec = spec
+        return out
+
+    def spec_copy(self) -> mujoco.MjSpec:
+        """A fresh, editable copy of the spec this model was compiled from (e.g. to add sensors)."""
+        if self.spec is None:
+            spec = load_spec(self.path)
+            name_unnamed_geoms(spec)
+            return spec
+        return self.spec.copy()
 
     # -- configuration helpers -------------------------------------------------------------------------
     @property
@@ -223,31 +307,86 @@ class RobotModel:
 
 
 
-def _configuration_map(m: mujoco.MjModel, path: Path) -> ConfigurationMap:
+_JOINT_TYPE_NAMES = {
+    int(mujoco.mjtJoint.mjJNT_FREE): "a free joint",
+    int(mujoco.mjtJoint.mjJNT_BALL): "a ball joint",
+    int(mujoco.mjtJoint.mjJNT_SLIDE): "a slide joint",
+    int(mujoco.mjtJoint.mjJNT_HINGE): "a hinge joint",
+}
+
+
+def _joint_name(m: mujoco.MjModel, j: int) -> str:
+    return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
+
+
+def configuration_joint_names(m: mujoco.MjModel, path: str | Path, joints: Sequence[str] | None = None) -> list[str]:
+    """The configuration joints' names (module docstring: scenario, MJCF declaration, or every limited
+    hinge/slide joint)."""
+    if joints is not None:
+        return list(joints)
     text = _custom_text(m, CONFIGURATION_FIELD)
-    if text is None:
-        # No declaration: every hinge and slide joint, in model order, unnormalized.
-        names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt) if int(m.jnt_type[j]) in _SUPPORTED_JOINTS]
-        if len(names) != m.njnt:
-            raise ModelError(f"{path}: without a '{CONFIGURATION_FIELD}' custom text, every joint must be a hinge or slide")
-        if any(n is None for n in names):
-            raise ModelError(f"{path}: every joint must be named")
-    else:
-        names = text.split()
+    if text is not None:
+        return text.split()
+    ids = [j for j in range(m.njnt) if int(m.jnt_type[j]) in _SUPPORTED_JOINTS and m.jnt_limited[j]]
+    unnamed = [j for j in ids if not mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)]
+    if unnamed:
+        raise ModelError(
+            f"{path}: joint {unnamed[0]} (a limited hinge/slide, so a configuration joint by default) has no name; "
+            "name it in the MJCF or list the configuration joints with `joints = [...]` (--joints)"
+        )
+    if not ids:
+        raise ModelError(f"{path}: the model has no limited hinge or slide joint to plan over (give joints a range)")
+    return [_joint_name(m, j) for j in ids]
+
+
+def check_configuration_joint(m: mujoco.MjModel, path: str | Path, name: str) -> int:
+    """The id of joint ``name`` if it can be a configuration coordinate; ModelError saying why not otherwise."""
+    j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
+    if j < 0:
+        if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, name) >= 0:
+            raise ModelError(
+                f"{path}: configuration joint '{name}' is a tendon, not a joint; foam-mj plans over hinge and slide joints"
+            )
+        known = [_joint_name(m, k) for k in range(m.njnt)]
+        raise ModelError(f"{path}: configuration joint '{name}' is not in the model (joints: {known})")
+    kind = int(m.jnt_type[j])
+    if kind not in _SUPPORTED_JOINTS:
+        raise ModelError(
+            f"{path}: configuration joint '{name}' is {_JOINT_TYPE_NAMES.get(kind, 'not a hinge or slide')}; "
+            "foam-mj plans over hinge and slide joints only (leave it out of the configuration)"
+        )
+    if not m.jnt_limited[j]:
+        raise ModelError(
+            f"{path}: configuration joint '{name}' has no range; the bounds of q come from it "
+            "(add range=\"lo hi\" to the joint, or leave it out of the configuration)"
+        )
+    return j
+
+
+def _configuration_map(
+    m: mujoco.MjModel,
+    path: Path,
+    joints: Sequence[str] | None = None,
+    normalize: Mapping[str, Sequence[float]] | None = None,
+) -> ConfigurationMap:
+    names = configuration_joint_names(m, path, joints)
     if not names:
         raise ModelError(f"{path}: the configuration declares no joints")
+    if len(set(names)) != len(names):
+        dup = sorted({n for n in names if names.count(n) > 1})
+        raise ModelError(f"{path}: configuration joint(s) {dup} listed more than once")
+    normalize = dict(normalize or {})
+    unknown = set(normalize) - set(names)
+    if unknown:
+        raise ModelError(f"{path}: normalization given for {sorted(unknown)}, which are not configuration joints {names}")
     ids, adr, scale, offset, lo, hi = [], [], [], [], [], []
     for name in names:
-        j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
-        if j < 0:
-            known = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, k) for k in range(m.njnt)]
-            raise ModelError(f"{path}: configuration joint '{name}' is not in the model (joints: {known})")
-        if int(m.jnt_type[j]) not in _SUPPORTED_JOINTS:
-            raise ModelError(f"{path}: configuration joint '{name}' must be a hinge or a slide")
-        if not m.jnt_limited[j]:
-            raise ModelError(f"{path}: configuration joint '{name}' needs a range (the bounds of q come from it)")
+        j = check_configuration_joint(m, path, name)
         jlo, jhi = (float(v) for v in m.jnt_range[j])
-        norm = _custom_numeric(m, NORMALIZE_PREFIX + name)
+        if name in normalize:
+            norm, where = np.asarray(normalize[name], dtype=float).ravel(), f"normalize.{name}"
+        else:
+            norm, where = _custom_numeric(m, NORMALIZE_PREFIX + name), f"'{NORMALIZE_PREFIX + name}'"
         if norm is None:
             s, o = 1.0, 0.0
         else:
@@ -256,9 +395,9 @@ def _configuration_map(m: mujoco.MjModel, path: Path) -> ConfigurationMap:
             elif norm.size == 3:
                 a, b, span = (float(v) for v in norm)
             else:
-                raise ModelError(f"{path}: '{NORMALIZE_PREFIX + name}' must hold 1 number (span) or 3 (qpos_lo qpos_hi span)")
+                raise ModelError(f"{path}: {where} must hold 1 number (span) or 3 (qpos_lo qpos_hi span)")
             if not (span > 0 and b > a):
-                raise ModelError(f"{path}: '{NORMALIZE_PREFIX + name}' needs span > 0 and qpos_hi > qpos_lo")
+                raise ModelError(f"{path}: {where} needs span > 0 and qpos_hi > qpos_lo")
             s, o = (b - a) / span, a
         ids.append(j)
         adr.append(int(m.jnt_qposadr[j]))

@@ -7,6 +7,9 @@ Layout (format "foam-mj/result", version 1)::
       "format": "foam-mj/result", "version": 1,
       "scenario": "obstacle", "scenario_file": "/abs/path/obstacle.toml",
       "mjcf": "/abs/path/to/scene.xml",               # the compiled scene
+      "scene_source": "/abs/path/obstacle.xml",        # only when the scenario edits its scene (joints,
+      "scene_edits": {"subject": {...}, ...},          # [subject], [obstacle], [[mesh]]): then "mjcf" is
+                                                       # <result>.scene.xml, the edited scene saved beside it
       "qpos_joints": ["hip_displacement", ...],        # names of the qpos entries, in qpos order
       "configuration": {"joints": [...], "lower": [...], "upper": [...]},
       "q_init": [...], "q_goal": [...], "seed": 0,
@@ -176,9 +179,38 @@ def outcome_dict(outcome) -> dict:
     return doc
 
 
+def _write_atomic(p: Path, text: str) -> None:
+    import os
+    import tempfile
+
+    fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        os.replace(tmp, p)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _save_edited_scene(p: Path, doc: dict, scenario) -> None:
+    """An edited scene (scenario joints, [subject], [obstacle], [[mesh]]) is saved beside the result as
+    ``<result stem>.scene.xml`` and "mjcf" points to it, so any MuJoCo-only checker loads the scene planned on."""
+    xml = getattr(scenario.robot, "xml", None)
+    if not xml:
+        return
+    scene = p.with_name(p.stem + ".scene.xml")
+    _write_atomic(scene, xml)
+    doc["scene_source"] = doc["mjcf"]
+    doc["scene_edits"] = scenario.edits.as_dict()
+    doc["mjcf"] = str(scene.resolve())
+
+
 def write_outcome(path: str | Path, outcome) -> Path:
     p = Path(path)
-    p.write_text(json.dumps(outcome_dict(outcome), indent=1))
+    doc = outcome_dict(outcome)
+    _save_edited_scene(p, doc, outcome.scenario)
+    p.write_text(json.dumps(doc, indent=1))
     return p
 
 
@@ -191,6 +223,7 @@ def write_failure(path: str | Path, scenario, failure, seed: int) -> Path:
     doc["rosary"] = None
     doc["paths"] = {}
     p = Path(path)
+    _save_edited_scene(p, doc, scenario)
     p.write_text(json.dumps(doc, indent=1))
     return p
 

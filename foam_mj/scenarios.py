@@ -15,6 +15,31 @@ Format (every field is checked; an unknown or missing one is named in the error)
     max_bubbles = 200000
     time_limit = 60.0
 
+Optional tables that edit the scene through ``mujoco.MjSpec`` (:mod:`foam_mj.scene_edits`; the MJCF file
+itself is never changed)::
+
+    joints = ["shoulder", "elbow"]         # configuration joints (default: the MJCF's declaration, else
+                                           # every limited hinge/slide joint)
+    [normalize]                            # per joint: [span] or [qpos_lo, qpos_hi, span] (model.py)
+    hip_displacement = [0.0, 0.7, 1.5707963267948966]
+    [subject]                              # scale the leg (Winter's segment fractions)
+    height = 1.62                          # m
+    mass = 58                              # kg
+    [obstacle]                             # resize/move the scene's box
+    size = [0.2, 0.5, 0.15]                # full extents x, y, z in m
+    pos = [0.5, 0.0, 0.075]                # centre, m (default: same x, y and bottom face)
+    name = "obstacle_box"                  # only needed when the scene has several boxes
+    [[mesh]]                               # an obstacle from a mesh file (repeatable)
+    file = "kerb.stl"                      # STL/OBJ/PLY, relative to the TOML file
+    pos = [0.5, 0.0, 0.0]                  # m
+    euler = [0, 0, 90]                     # degrees
+    scale = 1.0                            # or [sx, sy, sz]
+    decompose = true                       # convex decomposition (CoACD); false: the convex hull
+    threshold = 0.05                       # CoACD concavity threshold
+
+:func:`scenario_from_dict` validates a parsed document (so a sweep can override dotted keys such as
+``obstacle.size`` or ``subject.height`` before validation); :func:`load_scenario` reads a file.
+
 Built-in scenarios live in the top-level ``scenarios/`` folder (shipped inside the wheel); :func:`load_scenario` takes one of their names or
 a path to a TOML file.
 """
@@ -34,11 +59,18 @@ from foam_mj.clearance import Clearance
 from foam_mj.errors import ConfigurationError, FoamError, ScenarioError
 from foam_mj.foam import FoamParams
 from foam_mj.model import RobotModel
+from foam_mj.scene_edits import BoxObstacle, MeshObstacle, SceneEdits, Subject, build_robot
 
 SCENARIO_DIR = scenarios_dir()
 MODEL_DIR = models_dir()
 
-_TOP_FIELDS = {"name", "description", "scene", "q_init", "q_goal", "seed", "planner"}
+_TOP_FIELDS = {"name", "description", "scene", "q_init", "q_goal", "seed", "planner", "joints", "normalize", "subject", "obstacle", "mesh"}
+_SUBJECT_FIELDS = {"height", "mass"}
+_OBSTACLE_FIELDS = {"size", "pos", "name"}
+_MESH_FIELDS = {"file", "pos", "euler", "scale", "name", "decompose", "threshold"}
+#: Plausible ranges for [subject] (adults and adolescents; Winter's table is for adults).
+SUBJECT_HEIGHT_RANGE = (1.2, 2.2)  # m
+SUBJECT_MASS_RANGE = (25.0, 200.0)  # kg
 _PLANNER_FIELDS = {f.name for f in dataclasses.fields(FoamParams)}
 
 
@@ -55,12 +87,13 @@ class Scenario:
     seed: int = 0
     source: Path | None = None
     _robot: RobotModel | None = field(default=None, repr=False)
+    edits: SceneEdits = field(default_factory=SceneEdits)
 
     @property
     def robot(self) -> RobotModel:
-        """The compiled scene (loaded on first use)."""
+        """The compiled scene with the scenario's edits (loaded on first use)."""
         if self._robot is None:
-            self._robot = RobotModel.from_xml(self.scene)
+            self._robot = build_robot(self.scene, self.edits)
         return self._robot
 
     def oracle(self) -> BubbleOracle:
@@ -94,6 +127,107 @@ def _number_list(value, where: str, n: int | None = None) -> np.ndarray:
     return np.array(value, dtype=float)
 
 
+def _number(value, where: str, lo: float | None = None, hi: float | None = None) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ScenarioError(f"{where} must be a number, got {value!r}")
+    if (lo is not None and not value >= lo) or (hi is not None and not value <= hi):
+        raise ScenarioError(f"{where} must be in [{lo}, {hi}], got {value!r}")
+    return float(value)
+
+
+def _table(raw: dict, key: str, fields: set[str], where: str) -> dict | None:
+    value = raw.get(key)
+    if value is None:
+        return None
+    if not isinstance(value, dict):
+        raise ScenarioError(f"{where}: [{key}] must be a table")
+    unknown = set(value) - fields
+    if unknown:
+        raise ScenarioError(f"{where}: unknown [{key}] field(s) {sorted(unknown)}; expected {sorted(fields)}")
+    return value
+
+
+def _vec3(value, where: str, positive: bool = False) -> tuple[float, float, float]:
+    arr = _number_list(value, where, 3)
+    if not np.all(np.isfinite(arr)) or (positive and not np.all(arr > 0)):
+        raise ScenarioError(f"{where} must be 3 finite numbers{' > 0' if positive else ''}, got {value!r}")
+    return tuple(float(v) for v in arr)  # type: ignore[return-value]
+
+
+def _scene_edits(raw: dict, where: str, base_dir: Path) -> SceneEdits:
+    joints = raw.get("joints")
+    if joints is not None:
+        if not isinstance(joints, list) or not joints or not all(isinstance(j, str) and j for j in joints):
+            raise ScenarioError(f"{where}: field 'joints' must be a non-empty list of joint names, got {joints!r}")
+        joints = tuple(joints)
+    normalize = raw.get("normalize", {})
+    if not isinstance(normalize, dict):
+        raise ScenarioError(f"{where}: [normalize] must be a table of joint = [span] or [qpos_lo, qpos_hi, span]")
+    norm: dict[str, tuple[float, ...]] = {}
+    for joint, value in normalize.items():
+        value = [value] if isinstance(value, (int, float)) and not isinstance(value, bool) else value
+        arr = _number_list(value, f"{where}: [normalize] field '{joint}'")
+        if arr.size not in (1, 3):
+            raise ScenarioError(f"{where}: [normalize] field '{joint}' must be [span] or [qpos_lo, qpos_hi, span], got {value!r}")
+        norm[joint] = tuple(float(v) for v in arr)
+    subject = None
+    t = _table(raw, "subject", _SUBJECT_FIELDS, where)
+    if t is not None:
+        h = None if t.get("height") is None else _number(t["height"], f"{where}: [subject] field 'height' (m)", *SUBJECT_HEIGHT_RANGE)
+        m = None if t.get("mass") is None else _number(t["mass"], f"{where}: [subject] field 'mass' (kg)", *SUBJECT_MASS_RANGE)
+        subject = Subject(h, m) if (h is not None or m is not None) else None
+    obstacle = None
+    t = _table(raw, "obstacle", _OBSTACLE_FIELDS, where)
+    if t is not None:
+        size = None if t.get("size") is None else _vec3(t["size"], f"{where}: [obstacle] field 'size' (full extents x, y, z in m)", positive=True)
+        pos = None if t.get("pos") is None else _vec3(t["pos"], f"{where}: [obstacle] field 'pos' (m)")
+        name = t.get("name")
+        if name is not None and (not isinstance(name, str) or not name):
+            raise ScenarioError(f"{where}: [obstacle] field 'name' must be a geom name")
+        obstacle = BoxObstacle(size, pos, name) if (size is not None or pos is not None) else None
+    meshes = []
+    mesh_list = raw.get("mesh", [])
+    if isinstance(mesh_list, dict):
+        mesh_list = [mesh_list]
+    if not isinstance(mesh_list, list):
+        raise ScenarioError(f"{where}: [[mesh]] must be an array of tables")
+    for i, t in enumerate(mesh_list):
+        w = f"{where}: [[mesh]] #{i + 1}"
+        if not isinstance(t, dict):
+            raise ScenarioError(f"{w} must be a table")
+        unknown = set(t) - _MESH_FIELDS
+        if unknown:
+            raise ScenarioError(f"{w}: unknown field(s) {sorted(unknown)}; expected {sorted(_MESH_FIELDS)}")
+        if not isinstance(t.get("file"), str):
+            raise ScenarioError(f"{w}: field 'file' (a mesh file path) is missing")
+        f = (base_dir / t["file"]).resolve()
+        if not f.is_file():
+            raise ScenarioError(f"{w}: field 'file': mesh file not found: {f}")
+        if f.suffix.lower() not in (".stl", ".obj", ".ply"):
+            raise ScenarioError(f"{w}: field 'file': {f.name} is not an STL, OBJ or PLY file")
+        scale = t.get("scale", 1.0)
+        if isinstance(scale, (int, float)) and not isinstance(scale, bool):
+            scale = [scale] * 3
+        decompose = t.get("decompose", True)
+        if not isinstance(decompose, bool):
+            raise ScenarioError(f"{w}: field 'decompose' must be true or false")
+        name = t.get("name")
+        if name is not None and (not isinstance(name, str) or not name):
+            raise ScenarioError(f"{w}: field 'name' must be a non-empty string")
+        meshes.append(
+            MeshObstacle(
+                f,
+                _vec3(t.get("pos", [0, 0, 0]), f"{w}: field 'pos' (m)"),
+                _vec3(t.get("euler", [0, 0, 0]), f"{w}: field 'euler' (degrees)"),
+                _vec3(scale, f"{w}: field 'scale'", positive=True),
+                name,
+                decompose,
+                _number(t.get("threshold", 0.05), f"{w}: field 'threshold'", 0.01, 1.0),
+            )
+        )
+    return SceneEdits(joints, norm, subject, obstacle, tuple(meshes))
+
+
 def load_scenario(name_or_path: str | Path, *, check: bool = True) -> Scenario:
     """Read and validate a scenario (built-in name or TOML path).
 
@@ -107,21 +241,35 @@ def load_scenario(name_or_path: str | Path, *, check: bool = True) -> Scenario:
         raise ScenarioError(f"{path}: malformed TOML: {exc}") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{path}: cannot read: {exc}") from None
+    return scenario_from_dict(raw, path.parent, source=path, check=check)
+
+
+def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None = None, check: bool = True) -> Scenario:
+    """Validate a parsed scenario document (the TOML's tables as dicts) into a :class:`Scenario`.
+
+    Relative paths (``scene``, mesh files) are relative to ``base_dir``; ``source`` (the TOML file, if
+    any) names the scenario in messages and gives the default name. ``check`` as in :func:`load_scenario`.
+    """
+    raw = doc
+    base_dir = Path(base_dir)
+    path = source if source is not None else "scenario"
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"{path}: a scenario must be a table, got {type(raw).__name__}")
     unknown = set(raw) - _TOP_FIELDS
     if unknown:
         raise ScenarioError(f"{path}: unknown field(s) {sorted(unknown)}; expected {sorted(_TOP_FIELDS)}")
     for req in ("scene", "q_init", "q_goal"):
         if req not in raw:
             raise ScenarioError(f"{path}: missing field '{req}'")
-    name = raw.get("name", path.stem)
+    name = raw.get("name", source.stem if source is not None else "scenario")
     description = raw.get("description", "")
     if not isinstance(name, str) or not name:
         raise ScenarioError(f"{path}: field 'name' must be a non-empty string")
     if not isinstance(description, str):
         raise ScenarioError(f"{path}: field 'description' must be a string")
-    if not isinstance(raw["scene"], str):
+    if not isinstance(raw["scene"], (str, Path)):
         raise ScenarioError(f"{path}: field 'scene' must be a path string")
-    scene = (path.parent / raw["scene"]).resolve()
+    scene = (base_dir / raw["scene"]).resolve()
     if not scene.is_file():
         raise ScenarioError(f"{path}: field 'scene': MJCF file not found: {scene}")
     seed = raw.get("seed", 0)
@@ -142,7 +290,8 @@ def load_scenario(name_or_path: str | Path, *, check: bool = True) -> Scenario:
         raise ScenarioError(f"{path}: [planner] {exc}") from None
     q_init = _number_list(raw["q_init"], f"{path}: field 'q_init'")
     q_goal = _number_list(raw["q_goal"], f"{path}: field 'q_goal'")
-    scenario = Scenario(name, description, scene, q_init, q_goal, params, seed, path)
+    edits = _scene_edits(raw, str(path), base_dir)
+    scenario = Scenario(name, description, scene, q_init, q_goal, params, seed, source, edits=edits)
     if check:
         check_scenario(scenario)
     return scenario
@@ -152,7 +301,7 @@ def check_scenario(scenario: Scenario) -> None:
     """Load the scene and check q_init and q_goal: shape, bounds, and clearance above the margin."""
     where = scenario.source or scenario.name
     try:
-        robot = RobotModel.from_xml(scenario.scene)
+        robot = build_robot(scenario.scene, scenario.edits)
     except FoamError as exc:
         raise ScenarioError(f"{where}: field 'scene': {exc}") from None
     clearance = Clearance(robot)

@@ -1,0 +1,148 @@
+"""Scenario obstacles applied through :class:`mujoco.MjSpec`: a parametric box, and obstacles from mesh files.
+
+Meshes and convexity
+--------------------
+MuJoCo's collision and distance queries treat every mesh geom as its convex hull. A non-convex
+obstacle (a U-shaped step, a stair) loaded as one mesh geom would have its notches filled in, and the
+bubbles would be sized against that filled-in hull: safe, but the leg could never enter a notch.
+:func:`add_mesh_obstacle` therefore splits the mesh into convex parts by approximate convex
+decomposition (CoACD: X. Wei et al., "Approximate Convex Decomposition for 3D Meshes with
+Collision-Aware Concavity and Tree Search", ACM Transactions on Graphics 41(4), 2022) and adds one mesh
+geom per part. Each part is the convex hull of a piece of the mesh, so the parts together cover the
+whole mesh: a clearance measured against them is never larger than the true one. Where a hull bulges
+past the mesh (within CoACD's concavity threshold) it adds material, which is conservative: a path
+clear of the parts is clear of the mesh. ``decompose = false``
+keeps one convex hull (the filled-in, most conservative obstacle).
+
+``trimesh`` and ``coacd`` are imported only here, when a scenario has a mesh.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+from foam_mj.errors import ModelError, ScenarioError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from foam_mj.scene_edits import BoxObstacle, MeshObstacle
+
+_BOX = mujoco.mjtGeom.mjGEOM_BOX
+
+
+def _is_static(body: mujoco.MjsBody) -> bool:
+    while body is not None and body.name != "world":
+        if len(body.joints):
+            return False
+        body = body.parent
+    return True
+
+
+def resize_box(spec: mujoco.MjSpec, scene: Path, box: "BoxObstacle") -> None:
+    """Resize and/or move the scene's static box geom in place (:class:`~foam_mj.scene_edits.BoxObstacle`)."""
+    boxes = [
+        g for g in spec.geoms if g.type == _BOX and (g.contype or g.conaffinity) and _is_static(g.parent)
+    ]
+    if box.name is not None:
+        chosen = [g for g in boxes if g.name == box.name]
+        if not chosen:
+            raise ScenarioError(
+                f"[obstacle] name '{box.name}': no static collision box of that name in {scene.name} "
+                f"(boxes: {[g.name or '(unnamed)' for g in boxes]})"
+            )
+    elif len(boxes) == 1:
+        chosen = boxes
+    elif not boxes:
+        raise ScenarioError(f"[obstacle]: scene {scene.name} has no static collision box to resize")
+    else:
+        raise ScenarioError(
+            f"[obstacle]: scene {scene.name} has {len(boxes)} static boxes {[g.name or '(unnamed)' for g in boxes]}; "
+            "say which with name = \"...\""
+        )
+    g = chosen[0]
+    if g.parent.name != "world":
+        raise ScenarioError(f"[obstacle]: box '{g.name}' sits in body '{g.parent.name}'; only boxes in <worldbody> can be moved")
+    old_half = np.asarray(g.size[:3], dtype=float)
+    old_pos = np.asarray(g.pos, dtype=float)
+    half = old_half if box.size is None else np.asarray(box.size, dtype=float) / 2
+    if box.pos is not None:
+        pos = np.asarray(box.pos, dtype=float)
+    else:  # same centre in x and y, same bottom face
+        pos = old_pos.copy()
+        pos[2] = old_pos[2] - old_half[2] + half[2]
+    g.size = half
+    g.pos = pos
+
+
+def _euler_quat(euler_deg: tuple[float, float, float]) -> np.ndarray:
+    """Quaternion (w, x, y, z) of extrinsic x-y-z rotations by ``euler_deg`` degrees (MuJoCo's eulerseq "xyz")."""
+    q = np.array([1.0, 0.0, 0.0, 0.0])
+    for axis, angle in zip(np.eye(3), np.radians(euler_deg)):
+        r = np.zeros(4)
+        mujoco.mju_axisAngle2Quat(r, axis, float(angle))
+        out = np.zeros(4)
+        mujoco.mju_mulQuat(out, r, q)  # extrinsic: each new rotation applied on the left
+        q = out
+    return q
+
+
+def load_mesh(mesh: "MeshObstacle"):
+    """The mesh file as a ``trimesh.Trimesh`` in the world frame (scale, then rotation, then position)."""
+    import trimesh
+
+    try:
+        tm = trimesh.load(str(mesh.file), force="mesh")
+    except Exception as exc:  # trimesh raises many types for unreadable files
+        raise ScenarioError(f"[[mesh]] file {mesh.file}: cannot read it as a mesh: {exc}") from None
+    if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
+        raise ScenarioError(f"[[mesh]] file {mesh.file}: no triangles in it")
+    tm = tm.copy()
+    tm.apply_scale(np.asarray(mesh.scale, dtype=float)) if np.ptp(mesh.scale) == 0 else tm.apply_transform(np.diag([*mesh.scale, 1.0]))
+    T = np.eye(4)
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, _euler_quat(mesh.euler))
+    T[:3, :3] = R.reshape(3, 3)
+    T[:3, 3] = mesh.pos
+    tm.apply_transform(T)
+    return tm
+
+
+def convex_parts(mesh: "MeshObstacle") -> list[tuple[np.ndarray, np.ndarray]]:
+    """The world-frame mesh split into convex parts: a list of (vertices (V, 3), faces (F, 3)).
+
+    With ``mesh.decompose`` false, one part: the convex hull. CoACD runs with the mesh's ``threshold``
+    and a fixed seed (deterministic).
+    """
+    tm = load_mesh(mesh)
+    if not mesh.decompose:
+        hull = tm.convex_hull
+        return [(np.asarray(hull.vertices), np.asarray(hull.faces))]
+    import coacd
+
+    coacd.set_log_level("error")
+    parts = coacd.run_coacd(coacd.Mesh(np.asarray(tm.vertices), np.asarray(tm.faces)), threshold=mesh.threshold, seed=0)
+    return [(np.asarray(v, dtype=float), np.asarray(f, dtype=int)) for v, f in parts]
+
+
+def add_mesh_obstacle(spec: mujoco.MjSpec, mesh: "MeshObstacle", name: str) -> int:
+    """Add the mesh's convex parts to ``spec``'s worldbody as static collision geoms named ``<name>_<i>``
+    (mesh assets ``<name>_part<i>``, vertices in world coordinates); returns the number of parts."""
+    parts = convex_parts(mesh)
+    existing = {g.name for g in spec.geoms} | {m.name for m in spec.meshes}
+    if any(n.startswith(name + "_") for n in existing):
+        raise ModelError(f"mesh obstacle name '{name}' clashes with a geom or mesh of the scene; give [[mesh]] a name")
+    for i, (v, f) in enumerate(parts):
+        asset = spec.add_mesh()
+        asset.name = f"{name}_part{i}"
+        asset.uservert = np.asarray(v, dtype=float).ravel().tolist()
+        asset.userface = np.asarray(f, dtype=int).ravel().tolist()
+        g = spec.worldbody.add_geom()
+        g.name = f"{name}_{i}"
+        g.type = mujoco.mjtGeom.mjGEOM_MESH
+        g.meshname = asset.name
+        g.contype, g.conaffinity, g.margin = 1, 1, 0.0
+        g.rgba = [0.7, 0.55, 0.35, 1.0]
+    return len(parts)

@@ -1,0 +1,182 @@
+"""Tests for foam_mj.scene_edits, foam_mj.anthropometry and foam_mj.obstacles (boxes): what a scenario
+changes in its scene through MjSpec, and the robots refused before any planning."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from foam_mj.anthropometry import SEGMENTS, segment_length
+from foam_mj.errors import FoamError, ModelError, ScenarioError
+from foam_mj.model import RobotModel
+from foam_mj.scenarios import load_scenario, scenario_from_dict
+
+from conftest import MODELS
+
+OBSTACLE = {"scene": "obstacle.xml", "q_init": [0.2, 0.3, 0.08], "q_goal": [0.45, 0.4536, 1.45]}
+
+
+def _robot(**tables) -> RobotModel:
+    return scenario_from_dict({**OBSTACLE, **tables}, MODELS, check=False).robot
+
+
+def _segment_lengths(robot: RobotModel) -> dict[str, float]:
+    """Hip-knee and knee-ankle distances, and the foot box's length, read from the compiled model."""
+    m = robot.model
+    return {
+        "thigh": float(np.linalg.norm(m.body("shank").pos)),
+        "leg": float(np.linalg.norm(m.body("foot").pos)),
+        "foot": float(2 * m.geom("foot_collision").size[0]),
+    }
+
+
+def test_a_scenario_dict_is_validated_like_a_file():
+    s = scenario_from_dict(dict(OBSTACLE), MODELS)
+    f = load_scenario("obstacle")
+    np.testing.assert_array_equal(s.q_goal, f.q_goal)
+    assert s.robot.config.joint_names == f.robot.config.joint_names
+    with pytest.raises(ScenarioError, match=r"\[subject\] field 'height'"):
+        scenario_from_dict({**OBSTACLE, "subject": {"height": "tall"}}, MODELS)
+    with pytest.raises(ScenarioError, match=r"\[obstacle\] field 'size'"):
+        scenario_from_dict({**OBSTACLE, "obstacle": {"size": [0.2, 0.5]}}, MODELS)
+    with pytest.raises(ScenarioError, match=r"unknown \[obstacle\] field"):
+        scenario_from_dict({**OBSTACLE, "obstacle": {"height": 0.2}}, MODELS)
+
+
+@pytest.mark.parametrize("height, mass", [(1.62, 58.0), (1.90, 95.0), (1.75, 75.0)])
+def test_subject_scaling_sets_segment_lengths_to_winters_fractions(height, mass):
+    base = _robot()
+    scaled = _robot(subject={"height": height, "mass": mass})
+    lengths = _segment_lengths(scaled)
+    for seg in ("thigh", "leg", "foot"):
+        assert lengths[seg] == pytest.approx(segment_length(seg, height), abs=1e-6)
+    # Masses change by Winter's fraction of the mass difference; the orthosis part is kept.
+    m0, m1 = base.model, scaled.model
+    for body, seg in (("thigh", "thigh"), ("shank", "leg"), ("foot", "foot")):
+        assert m1.body(body).mass[0] == pytest.approx(m0.body(body).mass[0] + SEGMENTS[seg].mass * (mass - 75.0), rel=1e-5)
+    # Inertia scales as mass ratio times length ratio squared.
+    k = segment_length("thigh", height) / 0.43
+    ratio = m1.body("thigh").mass[0] / m0.body("thigh").mass[0]
+    np.testing.assert_allclose(m1.body("thigh").inertia, m0.body("thigh").inertia * ratio * k**2, rtol=1e-5)
+    # The hip's height above the floor scales with the subject's height.
+    assert m1.body("pelvis").pos[2] == pytest.approx(1.06 * height / 1.75, rel=1e-5)
+
+
+def test_a_shorter_subject_has_a_shorter_reach():
+    tall, short = _robot(subject={"height": 1.9}), _robot(subject={"height": 1.5})
+    q = np.array([0.6, 0.2, 0.0])
+    toe_tall = tall.set_configuration(q).xpos[tall.model.body("foot").id]
+    toe_short = short.set_configuration(q).xpos[short.model.body("foot").id]
+    assert toe_short[0] < toe_tall[0]
+
+
+def test_subject_scaling_needs_the_models_declaration(tmp_path):
+    p = tmp_path / "arm.xml"
+    p.write_text(TWO_LINK)
+    with pytest.raises(ModelError, match="foam_mj:subject"):
+        scenario_from_dict({"scene": str(p), "q_init": [0, 0], "q_goal": [1, 1], "subject": {"height": 1.6}}, tmp_path, check=False).robot
+
+
+def test_obstacle_table_resizes_the_box_and_keeps_it_on_the_floor():
+    r = _robot(obstacle={"size": [0.3, 0.6, 0.25]})
+    g = r.model.geom("obstacle_box")
+    np.testing.assert_allclose(g.size, [0.15, 0.3, 0.125])
+    np.testing.assert_allclose(g.pos, [0.5, 0.0, 0.125])  # bottom face still at z = 0
+    r = _robot(obstacle={"pos": [0.6, 0.0, 0.075]})
+    np.testing.assert_allclose(r.model.geom("obstacle_box").pos, [0.6, 0.0, 0.075])
+
+
+def test_a_taller_obstacle_puts_the_goal_in_collision():
+    with pytest.raises(ScenarioError, match="q_goal"):
+        scenario_from_dict({**OBSTACLE, "obstacle": {"size": [0.3, 0.5, 0.3], "pos": [0.85, 0.0, 0.15]}}, MODELS)
+
+
+# A user's 2-link arm: unnamed geoms, no actuators, angles in degrees (MuJoCo's default).
+TWO_LINK = """
+<mujoco>
+  <worldbody>
+    <geom type="plane" size="2 2 0.1"/>
+    <geom type="box" pos="0.7 0 0.5" size="0.05 0.2 0.05"/>
+    <body pos="0 0 0.5">
+      <joint name="shoulder" type="hinge" axis="0 -1 0" range="-90 90"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1"/>
+      <body pos="0.3 0 0">
+        <joint name="elbow" type="hinge" axis="0 -1 0" range="-120 120"/>
+        <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.025" mass="0.5"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_unnamed_geoms_and_degrees_work(tmp_path):
+    p = tmp_path / "arm.xml"
+    p.write_text(TWO_LINK)
+    r = RobotModel.from_xml(p)
+    assert r.config.joint_names == ("shoulder", "elbow")
+    np.testing.assert_allclose(r.upper, np.radians([90, 120]))
+    assert all(r.geom_name(g).startswith("geom") for g in r.pairs.ravel())
+    from foam_mj.clearance import Clearance
+
+    c = Clearance(r)
+    # Arm straight out along x at z = 0.5: its tip (x = 0.55 + 0.025) is 0.075 m short of the box's face (x = 0.65).
+    assert c(np.zeros(2)) == pytest.approx(0.075, abs=1e-6)
+    np.testing.assert_allclose(c.batch(np.zeros((1, 2))), [c(np.zeros(2))])
+    c.close()
+
+
+BAD_JOINTS = """
+<mujoco>
+  <worldbody>
+    <geom type="plane" size="2 2 0.1"/>
+    <body name="a" pos="0 0 1">
+      <joint name="swivel" type="ball"/>
+      <geom type="sphere" size="0.05"/>
+      <body name="b" pos="0 0 -0.3">
+        <joint name="spin" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.03"/>
+        <site name="s1"/>
+      </body>
+    </body>
+    <body name="c" pos="1 0 1">
+      <freejoint name="float"/>
+      <geom type="box" size="0.1 0.1 0.1"/>
+      <site name="s2"/>
+    </body>
+  </worldbody>
+  <tendon>
+    <spatial name="cable" limited="true" range="0 2"><site site="s1"/><site site="s2"/></spatial>
+  </tendon>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize(
+    "joint, reason",
+    [("swivel", "is a ball joint"), ("float", "is a free joint"), ("spin", "has no range"), ("cable", "is a tendon"), ("nope", "not in the model")],
+)
+def test_bad_configuration_joints_are_named_before_planning(tmp_path, joint, reason):
+    p = tmp_path / "bad.xml"
+    p.write_text(BAD_JOINTS)
+    with pytest.raises(FoamError, match=f"'{joint}' {reason}" if joint != "nope" else reason) as info:
+        scenario_from_dict({"scene": str(p), "q_init": [0.0], "q_goal": [0.1], "joints": [joint]}, tmp_path)
+    assert "\n" not in str(info.value)
+
+
+def test_a_model_without_limited_joints_is_refused(tmp_path):
+    p = tmp_path / "bad.xml"
+    p.write_text(BAD_JOINTS)
+    with pytest.raises(FoamError, match="no limited hinge or slide joint"):
+        scenario_from_dict({"scene": str(p), "q_init": [0.0], "q_goal": [0.1]}, tmp_path)
+
+
+def test_scenario_joints_and_normalization_override_the_model():
+    r = _robot(joints=["knee_flexion", "hip_flexion"], normalize={"knee_flexion": [1.0]})
+    assert r.config.joint_names == ("knee_flexion", "hip_flexion")
+    np.testing.assert_allclose([r.lower[0], r.upper[0]], [0.0, 1.0])  # knee range 0..2.1 rad onto 0..1
+    # The edited scene is self-describing: loading its MJCF gives the same configuration.
+    again = RobotModel.from_spec(mujoco.MjSpec.from_string(r.xml), "copy.xml")
+    assert again.config.joint_names == r.config.joint_names
+    np.testing.assert_allclose(again.upper, r.upper)
