@@ -1,0 +1,362 @@
+"""The PFM variants of Nascimento et al. (2021): goal-biased (GBPF), radius-biased (RBPF), heuristic-guided (HPF).
+
+L. B. P. Nascimento, D. Barrios-Aranibar, V. G. Santos, D. S. Pereira, W. C. Ribeiro, P. J. Alsina,
+"Safe Path Planning Algorithms for Mobile Robots Based on Probabilistic Foam", Sensors 21(12):4156, 2021.
+
+All three keep PFM's bubbles (certified radius r(q) = (d(q) - delta) / ||rho||_2 from MuJoCo distance
+queries, :class:`~foam_mj.bubbles.BubbleOracle`), its rule that a child's centre lies on its parent's
+surface, outside every other bubble, with a radius of at least r_min, and its rosary (the parent
+chain from the root to the bubble holding q_goal). They change only *which* parent grows next:
+
+* **GBPF** (the paper's Algorithm 2, introduced in the authors' earlier work): each iteration draws an
+  auxiliary configuration q_aux, q_goal with probability ``bias`` and a uniform sample of the bounds
+  otherwise; the bubble whose centre is nearest to q_aux is the parent, and the one candidate is the
+  point of its surface nearest to q_aux: c + r (q_aux - c) / |q_aux - c|. An RRT-like, goal-driven
+  foam: the paper reports it fast.
+* **RBPF** (Algorithm 3): PFM's expansion (N = K floor(r / r_min)^(n-1) candidates drawn uniformly on
+  the parent's surface, paper 000 Eq. 2), but the parent is drawn from the open list (bubbles not yet
+  expanded) by roulette wheel, with probability p_i = r_i / sum_j r_j (Eq. 6): wide, high-clearance
+  regions grow first; the paper reports high-clearance paths.
+* **HPF** (Algorithm 4): PFM's expansion, but the open bubble with the least f = g + h (Eq. 7) is
+  expanded first (best-first, as A*): h(b) = |c_b - q_goal|, g(b) the length of the centre polyline
+  from the root to c_b along parents; the paper reports short paths.
+
+What is reconstructed, and why
+------------------------------
+Only the paper's abstract was readable here (the full text was not in the sources available to this
+project), so the algorithms are rebuilt from the abstract (GBPF fast, HPF short paths, RBPF high
+clearance; RBPF and HPF new in that paper), the method names, and the authors' published 2-D GBPF
+script. The choices:
+
+* GBPF's ``bias`` defaults to 0.25, the value in the authors' 2-D script; the nearest bubble is the
+  nearest *centre* (Euclidean in q), as there.
+* RBPF's roulette weights are the radii themselves (Eq. 6 as p_i = r_i / sum r_j); an expanded
+  bubble leaves the open list (each bubble is expanded once, as in PFM).
+* HPF's g adds the distance between consecutive centres, i.e. the parent's radius (a child sits on its
+  parent's surface), so g + h is a lower bound of the length of any centre path through b: the
+  natural A* reading of "heuristic-guided" for short paths. Ties go to the older bubble.
+* Every variant starts from a root bubble of *any* positive certified radius (pfm requires
+  r >= r_min there): the root gets at least K candidates, since floor(r / r_min) = 0 would leave it
+  none. A start or goal with clearance <= delta is refused (:class:`ConfigurationError`).
+
+Batching and determinism
+------------------------
+RBPF and HPF take one parent per iteration, exactly as the paper's loop; its candidates are sized in
+one batch (:meth:`BubbleOracle.radii`) and accepted in their drawn order, each checked against the
+siblings accepted before it (as :func:`foam_mj.foam.plan`). GBPF draws ``batch`` auxiliary samples per
+iteration against the foam as it stood at the start of the iteration and sizes their candidates in one
+batch; ``batch = 1`` is the paper's loop exactly. A candidate that GBPF has already rejected (same
+parent, same direction toward q_goal) is not queried again: its answer cannot change. All randomness
+comes from one ``numpy.random.Generator`` seeded by ``seed``: same seed, same foam.
+"""
+
+from __future__ import annotations
+
+import heapq
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.errors import ConfigurationError, PlanningFailed
+from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult
+from foam_mj.rosary import MEMBERSHIP_TOL
+
+#: Citation used in docstrings, the README and docs/references.md.
+PAPER = (
+    'Nascimento, Barrios-Aranibar, Santos, Pereira, Ribeiro, Alsina: "Safe Path Planning Algorithms for '
+    'Mobile Robots Based on Probabilistic Foam", Sensors 21(12):4156, 2021'
+)
+
+
+@dataclass(frozen=True)
+class GoalBias:
+    """GBPF's own parameters: the probability of aiming at q_goal, and auxiliary samples per batch."""
+
+    bias: float = 0.25
+    batch: int = 8
+
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.bias <= 1.0):
+            raise ValueError(f"`bias` must lie in [0, 1], got {self.bias!r}")
+        if not (isinstance(self.batch, (int, np.integer)) and self.batch >= 1):
+            raise ValueError(f"`batch` must be an integer >= 1, got {self.batch!r}")
+
+
+def _unit(rng: np.random.Generator, count: int, dim: int) -> np.ndarray:
+    u = rng.standard_normal((count, dim))
+    return u / np.linalg.norm(u, axis=1, keepdims=True)
+
+
+def _accept_in_order(cand: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Mask of candidates kept when taken in order, each dropped if strictly inside an earlier kept one."""
+    m = len(cand)
+    if m <= 1:
+        return np.ones(m, dtype=bool)
+    d2 = np.einsum("ij,ij->i", cand, cand)[:, None] + np.einsum("ij,ij->i", cand, cand)[None, :] - 2.0 * cand @ cand.T
+    inside = np.tril(np.maximum(d2, 0.0) < r[None, :] ** 2, -1)  # inside[i, j], j < i: i lies in j's bubble
+    if not inside.any():
+        return np.ones(m, dtype=bool)
+    acc = np.ones(m, dtype=bool)
+    for i in np.flatnonzero(inside.any(axis=1)).tolist():
+        acc[i] = not np.any(acc[:i] & inside[i, :i])
+    return acc
+
+
+class _Growth:
+    """The foam under construction, shared by the three variants: storage, coverage, candidate tests, budget."""
+
+    def __init__(self, oracle: BubbleOracle, q_init, q_goal, params: FoamParams, seed, progress) -> None:
+        robot = oracle.robot
+        self.oracle = oracle
+        self.params = params
+        self.q_init = robot.validate(q_init, "q_init")
+        self.q_goal = robot.validate(q_goal, "q_goal")
+        if oracle.delta != params.delta:
+            raise ValueError(f"the oracle's margin delta={oracle.delta} differs from params.delta={params.delta}")
+        self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        self.n = robot.dim
+        self.lo, self.hi = robot.lower, robot.upper
+        self.t0 = time.perf_counter()
+        self.stats = FoamStats()
+        self.calls0 = oracle.clearance.calls
+        self.progress = progress
+        self.next_report = self.t0 + 0.5
+        for name, q in (("q_goal", self.q_goal), ("q_init", self.q_init)):
+            c = oracle.clearance(q)
+            if c <= params.delta:
+                raise ConfigurationError(
+                    f"{name} {q.tolist()} is too close to an obstacle: clearance {c:.4f} m <= margin {params.delta} m"
+                )
+        r0 = float(oracle.radius_from_clearance(oracle.clearance(self.q_init), self.q_init))
+        if r0 <= 0.0:
+            raise ConfigurationError(f"q_init {self.q_init.tolist()} lies on the configuration bounds: its bubble has radius 0")
+        cap = 1024
+        self.centers = np.empty((cap, self.n))
+        self.radii = np.empty(cap)
+        self.parents = np.empty(cap, dtype=np.int64)
+        self.count = 0
+        self.index = CoverageIndex(self.n)
+        self.goal: int | None = None
+        self.add(self.q_init, r0, -1)
+        self.goal = 0 if self.holds_goal(self.q_init, r0) else None
+
+    def holds_goal(self, c: np.ndarray, r) -> np.ndarray:
+        return np.sum((np.atleast_2d(c) - self.q_goal) ** 2, axis=1) <= (np.asarray(r) + MEMBERSHIP_TOL) ** 2
+
+    def add(self, c: np.ndarray, r: float, parent: int) -> int:
+        if self.count == len(self.radii):
+            self.centers = np.concatenate([self.centers, np.empty_like(self.centers)])
+            self.radii = np.concatenate([self.radii, np.empty_like(self.radii)])
+            self.parents = np.concatenate([self.parents, np.empty_like(self.parents)])
+        i = self.count
+        self.centers[i], self.radii[i], self.parents[i] = c, r, parent
+        self.index.add(c, r)
+        self.count += 1
+        return i
+
+    def child_count(self, r: float, is_root: bool) -> int:
+        """N = K floor(r / r_min)^(n-1) (paper 000 Eq. 2); at least K for the root (see the module docstring)."""
+        k = int(self.params.K * np.floor(r / self.params.r_min) ** (self.n - 1))
+        return max(k, self.params.K) if is_root else k
+
+    def budget(self) -> str | None:
+        """The exhausted budget's name, or None (and report progress every 0.5 s)."""
+        if self.count >= self.params.max_bubbles:
+            return "bubble budget"
+        now = time.perf_counter()
+        if now - self.t0 > self.params.time_limit:
+            return "time budget"
+        if self.progress is not None and now >= self.next_report:
+            self.stats.bubbles, self.stats.elapsed = self.count, now - self.t0
+            self.progress(self.stats)
+            self.next_report = now + 0.5
+        return None
+
+    def offer(self, cand: np.ndarray, parent_of: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Test candidate centres (bounds, coverage, certified radius >= r_min, earlier siblings) and add the
+        survivors in order, stopping at the first that holds q_goal or at the bubble budget.
+
+        Returns (mask over ``cand`` of the rejected ones, indices of the bubbles added)."""
+        st = self.stats
+        m = len(cand)
+        st.candidates += m
+        rejected = np.ones(m, dtype=bool)
+        keep = np.all((cand >= self.lo) & (cand <= self.hi), axis=1)
+        st.dropped_out_of_bounds += int(m - keep.sum())
+        idx = np.flatnonzero(keep)
+        cov = self.index.covered(cand[idx], parent_of[idx])
+        st.dropped_covered += int(cov.sum())
+        idx = idx[~cov]
+        if idx.size == 0:
+            return rejected, np.empty(0, dtype=np.int64)
+        r = self.oracle.radius_from_clearance(self.oracle.clearance.batch(cand[idx]), cand[idx])
+        big = r >= self.params.r_min
+        st.dropped_small += int((~big).sum())
+        idx, r = idx[big], r[big]
+        acc = _accept_in_order(cand[idx], r)
+        st.dropped_covered += int((~acc).sum())
+        idx, r = idx[acc], r[acc]
+        idx, r = idx[: self.params.max_bubbles - self.count], r[: self.params.max_bubbles - self.count]
+        reach = self.holds_goal(cand[idx], r)
+        if reach.any():
+            stop = int(np.argmax(reach)) + 1
+            idx, r = idx[:stop], r[:stop]
+        added = np.array([self.add(cand[i], float(ri), int(parent_of[i])) for i, ri in zip(idx.tolist(), r.tolist())], dtype=np.int64)
+        rejected[idx] = False
+        if len(added) and reach[len(added) - 1]:
+            self.goal = int(added[-1])
+        return rejected, added
+
+    def finish(self, outcome: str) -> PlanResult:
+        st = self.stats
+        st.bubbles = self.count
+        st.elapsed = time.perf_counter() - self.t0
+        st.clearance_calls = self.oracle.clearance.calls - self.calls0
+        st.outcome = outcome
+        foam = Foam(
+            self.centers[: self.count].copy(), self.radii[: self.count].copy(), self.parents[: self.count].copy(),
+            self.q_init, self.q_goal, self.goal,
+        )
+        if self.goal is None:
+            raise PlanningFailed(
+                f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles in {st.elapsed:.2f} s", stats=st, foam=foam
+            )
+        return PlanResult(foam, foam.rosary(), st)
+
+
+def _expand(g: _Growth, parent: int) -> np.ndarray:
+    """PFM's expansion of one parent: N candidates uniform on its surface, tested and added in drawn order."""
+    g.stats.parents_expanded += 1
+    count = g.child_count(float(g.radii[parent]), parent == 0)
+    if count == 0:
+        return np.empty(0, dtype=np.int64)
+    cand = g.centers[parent] + g.radii[parent] * _unit(g.rng, count, g.n)
+    _, added = g.offer(cand, np.full(count, parent, dtype=np.int64))
+    return added
+
+
+def plan_rbpf(
+    oracle: BubbleOracle, q_init, q_goal, params: FoamParams = FoamParams(), seed: int | np.random.Generator = 0,
+    progress: Callable[[FoamStats], None] | None = None,
+) -> PlanResult:
+    """Radius-biased Probabilistic Foam (RBPF, Nascimento et al. 2021, Algorithm 3): the next parent is drawn
+    from the open list by roulette wheel, p_i = r_i / sum_j r_j (Eq. 6), then expanded as in PFM.
+
+    Raises :class:`ConfigurationError` for a bad start or goal and :class:`PlanningFailed` when the open
+    list empties or a budget runs out."""
+    g = _Growth(oracle, q_init, q_goal, params, seed, progress)
+    open_w = np.zeros(1024)  # roulette weight of each bubble: its radius while open, 0 once expanded
+    open_w[0] = g.radii[0]
+    while g.goal is None:
+        if (outcome := g.budget()) is not None:
+            return g.finish(outcome)
+        w = open_w[: g.count]
+        cum = np.cumsum(w)
+        if cum[-1] <= 0.0:
+            return g.finish("queue empty")
+        parent = min(int(np.searchsorted(cum, g.rng.random() * cum[-1], side="right")), g.count - 1)
+        while w[parent] == 0.0:  # guard against rounding at the wheel's edges
+            parent -= 1
+        open_w[parent] = 0.0
+        added = _expand(g, parent)
+        if g.count > len(open_w):
+            open_w = np.concatenate([open_w, np.zeros(max(len(open_w), g.count))])
+        open_w[added] = g.radii[added]
+    return g.finish("reached")
+
+
+def plan_hpf(
+    oracle: BubbleOracle, q_init, q_goal, params: FoamParams = FoamParams(), seed: int | np.random.Generator = 0,
+    progress: Callable[[FoamStats], None] | None = None,
+) -> PlanResult:
+    """Heuristic-guided Probabilistic Foam (HPF, Nascimento et al. 2021, Algorithm 4): the open bubble with the
+    least f = g + h (Eq. 7) is expanded next, h = |c - q_goal|, g the centre-path length from the root.
+
+    Raises :class:`ConfigurationError` for a bad start or goal and :class:`PlanningFailed` when the open
+    list empties or a budget runs out."""
+    g = _Growth(oracle, q_init, q_goal, params, seed, progress)
+    cost = np.zeros(1024)  # g of each bubble
+    heap: list[tuple[float, int]] = [(float(np.linalg.norm(g.q_init - g.q_goal)), 0)]
+    while g.goal is None:
+        if (outcome := g.budget()) is not None:
+            return g.finish(outcome)
+        if not heap:
+            return g.finish("queue empty")
+        _, parent = heapq.heappop(heap)
+        added = _expand(g, parent)
+        if g.count > len(cost):
+            cost = np.concatenate([cost, np.zeros(max(len(cost), g.count))])
+        if len(added):
+            cost[added] = cost[parent] + g.radii[parent]
+            h = np.linalg.norm(g.centers[added] - g.q_goal, axis=1)
+            for f, i in zip((cost[added] + h).tolist(), added.tolist()):
+                heapq.heappush(heap, (f, i))
+    return g.finish("reached")
+
+
+class _NearestCentre:
+    """Nearest bubble centre to query points: a k-d tree rebuilt as the foam doubles, plus a brute-force buffer."""
+
+    def __init__(self) -> None:
+        self._tree: cKDTree | None = None
+        self._n_tree = 0
+
+    def query(self, centers: np.ndarray, count: int, points: np.ndarray) -> np.ndarray:
+        if count - self._n_tree > max(64, self._n_tree // 8):
+            self._tree = cKDTree(centers[:count])
+            self._n_tree = count
+        best_d = np.full(len(points), np.inf)
+        best_i = np.zeros(len(points), dtype=np.int64)
+        if self._tree is not None:
+            best_d, best_i = self._tree.query(points)
+            best_i = np.asarray(best_i, dtype=np.int64)
+        if count > self._n_tree:
+            buf = centers[self._n_tree : count]
+            d = np.linalg.norm(points[:, None, :] - buf[None, :, :], axis=2)
+            j = np.argmin(d, axis=1)
+            closer = d[np.arange(len(points)), j] < best_d
+            best_i[closer] = self._n_tree + j[closer]
+        return best_i
+
+
+def plan_gbpf(
+    oracle: BubbleOracle, q_init, q_goal, params: FoamParams = FoamParams(), seed: int | np.random.Generator = 0,
+    progress: Callable[[FoamStats], None] | None = None, goal_bias: GoalBias = GoalBias(),
+) -> PlanResult:
+    """Goal-biased Probabilistic Foam (GBPF, Nascimento et al. 2021, Algorithm 2): aim at q_goal with probability
+    ``goal_bias.bias`` and at a uniform sample otherwise; grow the nearest bubble's surface point toward it.
+
+    K is not used (one candidate per sample). Raises :class:`ConfigurationError` for a bad start or goal and
+    :class:`PlanningFailed` when a budget runs out."""
+    g = _Growth(oracle, q_init, q_goal, params, seed, progress)
+    nearest = _NearestCentre()
+    dead_toward_goal = np.zeros(1024, dtype=bool)  # bubble's candidate toward q_goal already rejected
+    B = int(goal_bias.batch)
+    while g.goal is None:
+        if (outcome := g.budget()) is not None:
+            return g.finish(outcome)
+        g.stats.parents_expanded += B
+        to_goal = g.rng.random(B) < goal_bias.bias
+        aux = g.lo + (g.hi - g.lo) * g.rng.random((B, g.n))
+        aux[to_goal] = g.q_goal
+        parent = nearest.query(g.centers, g.count, aux)
+        skip = to_goal & dead_toward_goal[parent]
+        if goal_bias.bias == 1.0 and skip.all():
+            return g.finish("queue empty")  # every bubble's step toward q_goal is spent: nothing else to try
+        aux, parent, to_goal = aux[~skip], parent[~skip], to_goal[~skip]
+        step = aux - g.centers[parent]
+        norm = np.linalg.norm(step, axis=1)
+        ok = norm > 0.0
+        aux, parent, to_goal, step, norm = aux[ok], parent[ok], to_goal[ok], step[ok], norm[ok]
+        if len(aux) == 0:
+            continue
+        cand = g.centers[parent] + g.radii[parent, None] * step / norm[:, None]
+        rejected, _ = g.offer(cand, parent)
+        dead_toward_goal[parent[to_goal & rejected]] = True
+        if g.count > len(dead_toward_goal):
+            dead_toward_goal = np.concatenate([dead_toward_goal, np.zeros(max(len(dead_toward_goal), g.count), dtype=bool)])
+    return g.finish("reached")

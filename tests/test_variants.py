@@ -1,0 +1,185 @@
+"""Tests for foam_mj.planners.variants: GBPF, RBPF and HPF (Nascimento et al., Sensors 2021).
+
+Each variant must reach the goal on the three leg scenes with a sound rosary whose centre path an
+independent, dense MuJoCo check finds collision-free; be deterministic per seed; certify every
+bubble it keeps; and order its growth as the paper's algorithm says.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.errors import ConfigurationError, PlanningFailed
+from foam_mj.foam import FoamParams
+from foam_mj.model import RobotModel
+from foam_mj.planners.variants import GoalBias, plan_gbpf, plan_hpf, plan_rbpf
+from foam_mj.scenarios import load_scenario
+
+from conftest import SCENES, MujocoChecker
+
+VARIANTS = {"gbpf": plan_gbpf, "rbpf": plan_rbpf, "hpf": plan_hpf}
+SCEN = {name: load_scenario(name) for name in SCENES}
+
+
+@pytest.fixture(scope="module")
+def scene_oracles():
+    out = {name: s.oracle() for name, s in SCEN.items()}
+    yield out
+    for o in out.values():
+        o.close()
+
+
+@pytest.fixture(scope="module")
+def plans(scene_oracles):
+    """Two seeds of every variant on every leg scene."""
+    return {
+        (v, sc, seed): fn(scene_oracles[sc], SCEN[sc].q_init, SCEN[sc].q_goal, SCEN[sc].params, seed=seed)
+        for v, fn in VARIANTS.items()
+        for sc in SCENES
+        for seed in (0, 1)
+    }
+
+
+def _centre_length(res) -> float:
+    path = res.rosary.path(res.rosary.center_waypoints())
+    return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+@pytest.mark.parametrize("scene", SCENES)
+def test_each_variant_reaches_the_goal_with_a_sound_rosary(plans, variant, scene):
+    for seed in (0, 1):
+        res = plans[(variant, scene, seed)]
+        ros, foam = res.rosary, res.foam
+        assert res.stats.outcome == "reached"
+        assert ros.check_structure() == []
+        np.testing.assert_array_equal(ros.centers[0], SCEN[scene].q_init)
+        assert np.linalg.norm(ros.centers[-1] - SCEN[scene].q_goal) <= ros.radii[-1] + 1e-12
+        # Every child's centre lies on its parent's surface, and the rosary follows parents.
+        d = np.linalg.norm(np.diff(ros.centers, axis=0), axis=1)
+        np.testing.assert_allclose(d, ros.radii[:-1], rtol=1e-12)
+        assert np.all(foam.parents[ros.bubble_ids[1:]] == ros.bubble_ids[:-1])
+        assert res.stats.bubbles == foam.size
+        assert res.stats.clearance_calls >= foam.size
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_centre_paths_are_collision_free_under_a_dense_mujoco_check(plans, robots, variant):
+    for sc in SCENES:
+        check = MujocoChecker(robots[sc])
+        for seed in (0, 1):
+            res = plans[(variant, sc, seed)]
+            path = res.rosary.path(res.rosary.center_waypoints())
+            assert check.first_collision_along(path, step=1e-3) is None
+            # The margin holds too: MuJoCo's own distance at points along the path stays >= delta.
+            t = np.linspace(0, 1, 9)[1:-1, None]
+            pts = (path[:-1, None, :] + t * (path[1:, None, :] - path[:-1, None, :])).reshape(-1, path.shape[1])
+            assert min(check.distance(q) for q in pts[::3]) >= SCEN[sc].params.delta - 1e-9
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_same_seed_same_foam_and_different_seeds_differ(scene_oracles, plans, variant):
+    s = SCEN["obstacle"]
+    again = VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, s.params, seed=1)
+    first = plans[(variant, "obstacle", 1)]
+    np.testing.assert_array_equal(again.foam.centers, first.foam.centers)
+    np.testing.assert_array_equal(again.foam.parents, first.foam.parents)
+    other = plans[(variant, "obstacle", 0)]
+    n = min(other.foam.size, first.foam.size)
+    assert not np.array_equal(other.foam.centers[:n], first.foam.centers[:n])
+    gen = VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, s.params, seed=np.random.default_rng(1))
+    np.testing.assert_array_equal(gen.foam.centers, first.foam.centers)
+
+
+@settings(max_examples=9, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**31 - 1), variant=st.sampled_from(sorted(VARIANTS)), scene=st.sampled_from(SCENES))
+def test_every_bubble_is_certified_and_none_grew_inside_an_older_one(scene_oracles, robots, seed, variant, scene):
+    s = SCEN[scene]
+    res = VARIANTS[variant](scene_oracles[scene], s.q_init, s.q_goal, s.params, seed=seed)
+    foam = res.foam
+    fresh = BubbleOracle(RobotModel.from_xml(s.scene), delta=s.params.delta)
+    assert np.all(foam.radii <= fresh.radii(foam.centers) + 1e-12)
+    assert np.all(foam.radii[1:] >= s.params.r_min)
+    assert np.all((foam.centers >= s.robot.lower) & (foam.centers <= s.robot.upper))
+    d2 = np.sum((foam.centers[:, None, :] - foam.centers[None, :, :]) ** 2, axis=2)
+    inside = d2 < foam.radii[None, :] ** 2 * (1 - 1e-9)
+    assert not np.any(inside & np.tril(np.ones_like(inside), -1))
+    # Random configurations inside rosary bubbles keep the margin under MuJoCo's own distance.
+    rng = np.random.default_rng(seed)
+    ros = res.rosary
+    j = rng.integers(0, ros.k, 40)
+    u = rng.standard_normal((40, ros.dim))
+    u *= (ros.radii[j] * rng.random(40) ** (1 / ros.dim) / np.linalg.norm(u, axis=1))[:, None]
+    check = MujocoChecker(robots[scene])
+    assert min(check.distance(q) for q in ros.centers[j] + u) >= s.params.delta - 1e-9
+
+
+def test_hpf_finds_shorter_rosaries_than_rbpf(plans):
+    """The paper's claim (HPF short paths, RBPF high clearance), on the medians over scenes and seeds."""
+    hpf = [_centre_length(plans[("hpf", sc, s)]) for sc in SCENES for s in (0, 1)]
+    rbpf = [_centre_length(plans[("rbpf", sc, s)]) for sc in SCENES for s in (0, 1)]
+    assert np.median(hpf) < np.median(rbpf)
+
+
+def test_hpf_expands_the_open_bubble_of_least_g_plus_h(scene_oracles):
+    """With a budget of a few bubbles, HPF's second parent is the root's child of least |c - c0| + |c - q_goal|."""
+    s = SCEN["obstacle"]
+    params = FoamParams(K=s.params.K, r_min=s.params.r_min, max_bubbles=200)
+    with pytest.raises(PlanningFailed) as err:
+        plan_hpf(scene_oracles["obstacle"], s.q_init, s.q_goal, params, seed=0)
+    foam = err.value.foam
+    children = np.flatnonzero(foam.parents == 0)
+    f = foam.radii[0] + np.linalg.norm(foam.centers[children] - s.q_goal, axis=1)
+    best = children[np.argmin(f)]
+    grandchildren = np.flatnonzero(foam.parents > 0)
+    assert foam.parents[grandchildren[0]] == best
+
+
+def test_gbpf_with_full_bias_grows_straight_toward_the_goal(scene_oracles):
+    """bias = 1: every bubble grows from the nearest centre straight toward q_goal, until none can."""
+    s = SCEN["step_down"]
+    params = FoamParams(K=s.params.K, r_min=0.01, max_bubbles=400, time_limit=20.0)
+    with pytest.raises(PlanningFailed) as err:
+        plan_gbpf(scene_oracles["step_down"], s.q_init, s.q_goal, params, seed=0, goal_bias=GoalBias(bias=1.0))
+    foam = err.value.foam
+    assert err.value.stats.outcome == "queue empty"
+    assert foam.size >= 3
+    kids = np.arange(1, foam.size)
+    step = foam.centers[kids] - foam.centers[foam.parents[kids]]
+    aim = s.q_goal - foam.centers[foam.parents[kids]]
+    cos = np.sum(step * aim, axis=1) / np.linalg.norm(step, axis=1) / np.linalg.norm(aim, axis=1)
+    np.testing.assert_allclose(cos, 1.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_budgets_stop_every_variant_with_statistics(scene_oracles, variant):
+    s = SCEN["obstacle"]
+    params = FoamParams(K=s.params.K, r_min=s.params.r_min, max_bubbles=30)
+    with pytest.raises(PlanningFailed) as err:
+        VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, params, seed=0)
+    assert err.value.stats.outcome == "bubble budget"
+    assert err.value.foam.size == 30
+    params = FoamParams(K=s.params.K, r_min=s.params.r_min, time_limit=1e-4)
+    with pytest.raises(PlanningFailed, match="time budget"):
+        VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, params, seed=0)
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_a_start_or_goal_inside_the_margin_is_refused_naming_its_clearance(scene_oracles, variant):
+    s = SCEN["obstacle"]
+    foot_in_box = [0.2, 0.3, 1.0]  # the foot sinks 19 mm into the box
+    with pytest.raises(ConfigurationError, match="q_init .* clearance"):
+        VARIANTS[variant](scene_oracles["obstacle"], foot_in_box, s.q_goal, s.params, seed=0)
+    with pytest.raises(ConfigurationError, match="q_goal .* clearance"):
+        VARIANTS[variant](scene_oracles["obstacle"], s.q_init, foot_in_box, s.params, seed=0)
+
+
+def test_goal_bias_parameters_are_checked():
+    with pytest.raises(ValueError, match="bias"):
+        GoalBias(bias=1.5)
+    with pytest.raises(ValueError, match="batch"):
+        GoalBias(batch=0)
