@@ -191,7 +191,15 @@ def cmd_plan(args: argparse.Namespace) -> int:
         if not figures_dir.exists() and not figures_dir.parent.is_dir():
             raise FoamError(f"--figures {figures_dir}: folder {figures_dir.parent} does not exist")
     names = parse_smoothers(args.smoother)
+    if args.planner is not None:
+        from foam_mj.planners import planner_class
+
+        planner_class(args.planner)  # an unknown name fails here, listing the known ones
     scenario = load_scenario(args.scene)
+    if args.planner is not None:
+        import dataclasses
+
+        scenario = dataclasses.replace(scenario, params=scenario.params.with_algorithm(args.planner))
     rrd = None if args.no_rrd else _check_writable(args.rrd or f"foam-mj-{scenario.name}.rrd", "--rrd")
     if rrd is not None and rrd.suffix != ".rrd":
         raise FoamError(f"--rrd output {rrd} must end in .rrd")
@@ -215,7 +223,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         progress.done()
     st = outcome.plan.stats
     print(
-        f"scenario {scenario.name} (seed {seed}): {st.bubbles:,} bubbles in {st.elapsed:.3f} s "
+        f"scenario {scenario.name} (seed {seed}, planner {scenario.params.algorithm}): {st.bubbles:,} bubbles in {st.elapsed:.3f} s "
         f"({st.bubbles_per_second:,.0f} bubbles/s), rosary of {outcome.plan.rosary.k} bubbles, margin {scenario.params.delta * 1000:g} mm"
     )
     print(_summary_table(outcome))
@@ -329,6 +337,13 @@ def build_parser() -> argparse.ArgumentParser:
         "for comparison). The centre path is always there.",
     )
     p.add_argument("--seed", type=int, default=None, help="random seed of the planner and smoothers (default: the scenario's)")
+    p.add_argument(
+        "--planner",
+        metavar="NAME",
+        default=None,
+        help="the planner (default: the scenario's [planner] algorithm); another planner than the scenario's "
+        "runs with its default options and the scenario's margin and budgets. Names: foam_mj.planners.PLANNERS",
+    )
     p.add_argument("--rrd", metavar="OUT.rrd", help="where to write the Rerun recording (default: foam-mj-<scenario>.rrd)")
     p.add_argument("--no-rrd", action="store_true", help="write no recording")
     p.add_argument("--json", metavar="OUT.json", help="write the result as JSON (readable by shared/tools/verify_result.py)")

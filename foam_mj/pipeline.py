@@ -40,7 +40,7 @@ from typing import Callable
 import numpy as np
 
 from foam_mj.errors import FoamError
-from foam_mj.foam import PlanResult, plan
+from foam_mj.planners import PlanResult
 from foam_mj.paths import PathMetrics, metrics
 from foam_mj.replay import DynamicReplay, KinematicReplay, replay_dynamic, replay_kinematic
 from foam_mj.rosary import Rosary
@@ -136,16 +136,17 @@ Report = Callable[[str], None]
 
 
 def plan_scenario(scenario: Scenario, seed: int, report: Report | None = None) -> PlanResult:
-    """Grow the foam for a scenario (raises PlanningFailed with the foam when the goal is not reached)."""
+    """Plan with the scenario's planner (``scenario.params.algorithm``, from :data:`foam_mj.planners.PLANNERS`).
+
+    Raises PlanningFailed with every bubble grown when the goal is not reached."""
+    planner = scenario.params.planner()
     oracle = scenario.oracle()
     try:
-        return plan(
-            oracle,
-            scenario.q_init,
-            scenario.q_goal,
-            scenario.params,
+        problem = scenario.params.problem(oracle, scenario.q_init, scenario.q_goal)
+        return planner.plan(
+            problem,
             seed=seed,
-            progress=None if report is None else (lambda st: report(f"planning: {st.bubbles:,} bubbles, {st.elapsed:.1f} s")),
+            progress=None if report is None else (lambda st: report(f"planning ({planner.name}): {st.bubbles:,} bubbles, {st.elapsed:.1f} s")),
         )
     finally:
         oracle.close()
@@ -162,7 +163,9 @@ def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], see
         say("smoothing: rosary adjustment (T_RA)")
         oracle = scenario.oracle()
         try:
-            adj = RosaryAdjustment(r_min=scenario.params.r_min).adjust(rosary, oracle)
+            # Paper 003 keeps every adjusted bubble at least r_min; a planner without r_min keeps the rosary's smallest.
+            r_min = getattr(scenario.params.planner().options, "r_min", None) or float(np.min(rosary.radii))
+            adj = RosaryAdjustment(r_min=r_min).adjust(rosary, oracle)
         finally:
             oracle.close()
         out["adjusted"] = adj.path

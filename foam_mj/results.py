@@ -13,9 +13,10 @@ Layout (format "foam-mj/result", version 1)::
       "qpos_joints": ["hip_displacement", ...],        # names of the qpos entries, in qpos order
       "configuration": {"joints": [...], "lower": [...], "upper": [...]},
       "q_init": [...], "q_goal": [...], "seed": 0,
-      "planner": {"K": 10, "r_min": 0.07, "delta": 0.005, ...},
+      "planner": {"algorithm": "pfm", "delta": 0.005, "max_bubbles": ..., "time_limit": ..., "K": 10, "r_min": 0.07},  # + the algorithm's options
       "outcome": "reached" | "queue empty" | "bubble budget" | "time budget",
-      "foam": {"stats": {...}, "centers": [[...], ...], "radii": [...], "parents": [...]},   # every bubble
+      "foam": {"stats": {"planner", "outcome", "bubbles", "distance_queries", "elapsed", "time_to_first_path", ...},
+               "centers": [[...], ...], "radii": [...], "parents": [...]},   # every bubble
       "rosary": {"centers": [[...], ...], "radii": [...], "bubble_ids": [...]},
       "paths": {
         "<name>": {
@@ -90,7 +91,7 @@ def _header(scenario, seed: int) -> dict:
         "q_init": np.asarray(scenario.q_init).tolist(),
         "q_goal": np.asarray(scenario.q_goal).tolist(),
         "seed": int(seed),
-        "planner": {k: getattr(scenario.params, k) for k in ("K", "r_min", "delta", "max_bubbles", "time_limit")},
+        "planner": scenario.params.as_dict(),
     }
 
 
@@ -253,8 +254,8 @@ def read_result(path: str | Path) -> dict:
 
 def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
     """Rebuild trajectories from a result's waypoints and rosaries and replay them on its scene."""
-    from foam_mj.foam import Foam, FoamStats, PlanResult
-    from foam_mj.foam import FoamParams
+    from foam_mj.foam import Foam
+    from foam_mj.planners import PlannerConfig, PlanResult, PlanStats
     from foam_mj.paths import metrics
     from foam_mj.pipeline import Outcome, PathOutcome
     from foam_mj.replay import replay_dynamic, replay_kinematic
@@ -264,7 +265,7 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
     from foam_mj.trajectory import make_trajectory
 
     try:
-        params = FoamParams(**doc["planner"])
+        params = PlannerConfig.from_dict(doc["planner"])  # results written before the seam were pfm's
         scenario = Scenario(
             doc.get("scenario", "result"), "", Path(doc["mjcf"]), np.asarray(doc["q_init"], float), np.asarray(doc["q_goal"], float), params, int(doc.get("seed", 0)), Path(source)
         )
@@ -280,7 +281,7 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
         )
         top = doc.get("rosary") or next(iter(doc["paths"].values()))["rosary"]
         ros0 = Rosary(np.asarray(top["centers"], float), np.asarray(top["radii"], float), q_init, q_goal)
-        outcome = Outcome(scenario, scenario.seed, PlanResult(foam, ros0, FoamStats(bubbles=foam.size, outcome=doc.get("outcome", ""))))
+        outcome = Outcome(scenario, scenario.seed, PlanResult(foam, ros0, PlanStats(params.algorithm, doc.get("outcome", ""), foam.size, 0, 0.0)))
         for name, entry in doc["paths"].items():
             rosary = Rosary(np.asarray(entry["rosary"]["centers"], float), np.asarray(entry["rosary"]["radii"], float), q_init, q_goal)
             path = np.asarray(entry["waypoints"], float)

@@ -8,12 +8,18 @@ Format (every field is checked; an unknown or missing one is named in the error)
     q_init = [0.2, 0.3, 0.08]
     q_goal = [0.45, 0.4536, 1.45]
     seed = 0                               # optional, default 0
-    [planner]                              # optional; defaults are FoamParams'
-    K = 10
+    [planner]                              # optional
+    algorithm = "pfm"                      # a planner of foam_mj.planners.PLANNERS (see below)
+    K = 10                                 # pfm's own options; other planners have others
     r_min = 0.07
     delta = 0.005
     max_bubbles = 200000
     time_limit = 60.0
+
+``delta``, ``max_bubbles`` and ``time_limit`` are shared by every planner; every other field is an
+option of the named algorithm (``foam_mj.planners``), checked against its options. Without
+``algorithm``, a table holding pfm's options (K, r_min) means pfm, as before the planner seam;
+otherwise the default planner (:data:`foam_mj.planners.DEFAULT_PLANNER`).
 
 Optional tables that edit the scene through ``mujoco.MjSpec`` (:mod:`foam_mj.scene_edits`; the MJCF file
 itself is never changed)::
@@ -57,8 +63,9 @@ from foam_mj.bubbles import BubbleOracle
 from foam_mj.data import models_dir, scenarios_dir
 from foam_mj.clearance import Clearance
 from foam_mj.errors import ConfigurationError, FoamError, ScenarioError
-from foam_mj.foam import FoamParams
 from foam_mj.model import RobotModel
+from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
+from foam_mj.planners.base import COMMON_FIELDS, option_names
 from foam_mj.scene_edits import BoxObstacle, MeshObstacle, SceneEdits, Subject, build_robot
 
 SCENARIO_DIR = scenarios_dir()
@@ -71,19 +78,19 @@ _MESH_FIELDS = {"file", "pos", "euler", "scale", "name", "decompose", "threshold
 #: Plausible ranges for [subject] (adults and adolescents; Winter's table is for adults).
 SUBJECT_HEIGHT_RANGE = (1.2, 2.2)  # m
 SUBJECT_MASS_RANGE = (25.0, 200.0)  # kg
-_PLANNER_FIELDS = {f.name for f in dataclasses.fields(FoamParams)}
 
 
 @dataclass
 class Scenario:
-    """A planning problem: where (scene), from and to (q_init, q_goal), and how (params, seed)."""
+    """A planning problem: where (scene), from and to (q_init, q_goal), and how (params: the planner's
+    name, margin, budgets and options; seed)."""
 
     name: str
     description: str
     scene: Path
     q_init: np.ndarray
     q_goal: np.ndarray
-    params: FoamParams
+    params: PlannerConfig
     seed: int = 0
     source: Path | None = None
     _robot: RobotModel | None = field(default=None, repr=False)
@@ -278,15 +285,30 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     planner = raw.get("planner", {})
     if not isinstance(planner, dict):
         raise ScenarioError(f"{path}: [planner] must be a table")
-    unknown = set(planner) - _PLANNER_FIELDS
+    algorithm = planner.get("algorithm")
+    if algorithm is not None and not isinstance(algorithm, str):
+        raise ScenarioError(f"{path}: [planner] field 'algorithm' must be a planner name, got {algorithm!r}")
+    if algorithm is None:
+        algorithm = "pfm" if ("K" in planner or "r_min" in planner) else DEFAULT_PLANNER
+    try:
+        cls = planner_class(algorithm)
+    except PlannerError as exc:
+        raise ScenarioError(f"{path}: [planner] field 'algorithm': {exc}") from None
+    own = option_names(cls)
+    unknown = set(planner) - set(COMMON_FIELDS) - set(own)
     if unknown:
-        raise ScenarioError(f"{path}: unknown [planner] field(s) {sorted(unknown)}; expected {sorted(_PLANNER_FIELDS)}")
+        expected = sorted(COMMON_FIELDS) + sorted(own)
+        raise ScenarioError(f"{path}: unknown [planner] field(s) {sorted(unknown)} for algorithm '{algorithm}'; expected {expected}")
+    defaults = {f.name: f.default for f in dataclasses.fields(cls.Options)}
     for key, value in planner.items():
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        numeric = key in ("delta", "max_bubbles", "time_limit") or (
+            isinstance(defaults.get(key), (int, float)) and not isinstance(defaults.get(key), bool)
+        )
+        if numeric and (isinstance(value, bool) or not isinstance(value, (int, float))):
             raise ScenarioError(f"{path}: [planner] field '{key}' must be a number, got {value!r}")
     try:
-        params = FoamParams(**planner)
-    except ValueError as exc:
+        params = PlannerConfig.from_dict(planner)
+    except (PlannerError, ValueError) as exc:
         raise ScenarioError(f"{path}: [planner] {exc}") from None
     q_init = _number_list(raw["q_init"], f"{path}: field 'q_init'")
     q_goal = _number_list(raw["q_goal"], f"{path}: field 'q_goal'")

@@ -1,0 +1,60 @@
+"""Planners over certified bubbles, interchangeable by name (``foam-mj plan --planner NAME``, or
+``algorithm = "NAME"`` in a scenario's ``[planner]`` table).
+
+==============  =====================================================================================
+name            what it is
+==============  =====================================================================================
+pfm             the Probabilistic Foam Method of the papers, breadth-first (foam_mj.planners.pfm)
+==============  =====================================================================================
+
+Add a planner: subclass :class:`~foam_mj.planners.base.Planner` (``name``, ``summary``, a frozen
+``Options`` dataclass, ``plan``) and :func:`register` it.
+"""
+
+from __future__ import annotations
+
+from foam_mj.planners.base import (
+    Planner,
+    PlannerConfig,
+    PlannerError,
+    PlanningProblem,
+    PlanResult,
+    PlanStats,
+    Progress,
+    make_options,
+)
+from foam_mj.planners.pfm import PFMPlanner
+
+#: Every planner by name.
+PLANNERS: dict[str, type[Planner]] = {}
+
+#: The planner a scenario uses when its ``[planner]`` table names none (and holds no pfm option).
+DEFAULT_PLANNER = "pfm"
+
+
+def register(cls: type[Planner]) -> type[Planner]:
+    """Add a planner class to :data:`PLANNERS` under ``cls.name``."""
+    PLANNERS[cls.name] = cls
+    return cls
+
+
+def planner_class(name: str) -> type[Planner]:
+    """The planner class called ``name``; :class:`PlannerError` listing the known names otherwise."""
+    try:
+        return PLANNERS[name]
+    except (KeyError, TypeError):
+        raise PlannerError(f"unknown planner '{name}'; known planners: {', '.join(sorted(PLANNERS))}") from None
+
+
+def get_planner(name: str, **options) -> Planner:
+    """A planner by name with its options (unknown or invalid options are named in a PlannerError)."""
+    cls = planner_class(name)
+    return cls(make_options(cls, options))
+
+
+register(PFMPlanner)
+
+__all__ = [
+    "DEFAULT_PLANNER", "PLANNERS", "Planner", "PlannerConfig", "PlannerError", "PlanningProblem", "PlanResult",
+    "PlanStats", "Progress", "get_planner", "planner_class", "register",
+]

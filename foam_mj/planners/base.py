@@ -1,0 +1,280 @@
+"""The planner seam: a planning problem, a planner, and a result with statistics (OMPL's split of
+``ProblemDefinition`` / ``Planner`` / solution, kept small).
+
+* :class:`PlanningProblem` -- what to solve: the bubble oracle (scene, margin delta), q_init, q_goal,
+  and the budgets (wall time, bubble count). Frozen.
+* :class:`Planner` -- how: a named algorithm with its own frozen ``Options`` dataclass; ``plan(problem,
+  seed, progress)`` returns a :class:`PlanResult` or raises :class:`~foam_mj.errors.PlanningFailed`
+  (carrying the stats and every bubble grown so far). Planners are interchangeable by name through
+  :data:`foam_mj.planners.PLANNERS`.
+* :class:`PlanResult` -- every bubble grown (a :class:`~foam_mj.foam.Foam`, for the recording and the
+  JSON), the rosary (the certified chain of overlapping bubbles from q_init to q_goal that the
+  smoothers work in) and :class:`PlanStats`.
+* :class:`PlannerConfig` -- what a scenario's ``[planner]`` table says: the algorithm's name, the
+  margin and budgets shared by every planner, and the algorithm's own options.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, Callable, ClassVar, Mapping
+
+import numpy as np
+
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.errors import ConfigurationError, FoamError
+from foam_mj.foam import Foam
+from foam_mj.rosary import Rosary
+
+
+class PlannerError(FoamError, ValueError):
+    """An unknown planner name, or an unknown or invalid planner option."""
+
+
+@dataclass(frozen=True)
+class PlanningProblem:
+    """q_init -> q_goal among the oracle's obstacles, every bubble keeping ``delta`` (metres) of clearance.
+
+    ``delta`` must equal ``oracle.delta`` (it is repeated so that a problem states its margin).
+    ``time_limit`` (seconds of wall time) and ``max_bubbles`` bound the search.
+    """
+
+    oracle: BubbleOracle
+    q_init: np.ndarray
+    q_goal: np.ndarray
+    delta: float = 0.005
+    time_limit: float = 60.0
+    max_bubbles: int = 200_000
+
+    def __post_init__(self) -> None:
+        robot = self.oracle.robot
+        object.__setattr__(self, "q_init", robot.validate(self.q_init, "q_init"))
+        object.__setattr__(self, "q_goal", robot.validate(self.q_goal, "q_goal"))
+        if not (np.isfinite(self.delta) and self.delta >= 0):
+            raise ValueError(f"`delta` must be >= 0 (metres), got {self.delta!r}")
+        if self.oracle.delta != self.delta:
+            raise ValueError(f"the oracle's margin delta={self.oracle.delta} differs from the problem's delta={self.delta}")
+        if not (self.time_limit > 0):
+            raise ValueError(f"`time_limit` must be > 0 seconds, got {self.time_limit!r}")
+        if not (isinstance(self.max_bubbles, (int, np.integer)) and self.max_bubbles >= 1):
+            raise ValueError(f"`max_bubbles` must be an integer >= 1, got {self.max_bubbles!r}")
+
+    @property
+    def dim(self) -> int:
+        return self.oracle.robot.dim
+
+    def endpoint_radii(self) -> tuple[float, float]:
+        """Certified radii at q_init and q_goal; :class:`ConfigurationError` naming the clearance when
+        either is closer than delta to an obstacle (or has no room inside the joint bounds)."""
+        o = self.oracle
+        out = []
+        for name, q in (("q_init", self.q_init), ("q_goal", self.q_goal)):
+            d = float(o.clearance(q))
+            if d <= self.delta:
+                state = "in collision" if d < 0 else "too close to an obstacle"
+                raise ConfigurationError(
+                    f"{name} {q.tolist()} is {state}: clearance {d:.4f} m <= margin delta = {self.delta} m"
+                )
+            r = float(o.radius_from_clearance(d, q))
+            if not r > 0:
+                raise ConfigurationError(f"{name} {q.tolist()} lies on the boundary of the joint bounds: no certified bubble fits")
+            out.append(r)
+        return out[0], out[1]
+
+
+@dataclass(frozen=True)
+class PlanStats:
+    """What a planner did. ``distance_queries`` counts configurations whose clearance MuJoCo evaluated;
+    ``time_to_first_path`` is the wall time until the first certified chain q_init -> q_goal existed
+    (``None`` when none did); ``details`` holds the planner's own counters."""
+
+    planner: str
+    outcome: str  # "reached", or why not: "queue empty", "bubble budget", "time budget", ...
+    bubbles: int
+    distance_queries: int
+    elapsed: float
+    time_to_first_path: float | None = None
+    details: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def bubbles_per_second(self) -> float:
+        return self.bubbles / self.elapsed if self.elapsed > 0 else float("nan")
+
+    @property
+    def clearance_calls(self) -> int:
+        return self.distance_queries
+
+    def as_dict(self) -> dict:
+        d = dict(self.details)
+        d.update(
+            planner=self.planner, outcome=self.outcome, bubbles=self.bubbles, distance_queries=self.distance_queries,
+            clearance_calls=self.distance_queries, elapsed=self.elapsed, time_to_first_path=self.time_to_first_path,
+            bubbles_per_second=self.bubbles_per_second,
+        )
+        return d
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """Every bubble grown (``foam``), the certified chain q_init -> q_goal (``rosary``), and statistics."""
+
+    foam: Foam
+    rosary: Rosary
+    stats: PlanStats
+
+
+@dataclass(frozen=True)
+class Progress:
+    """What a planner reports to a ``progress`` callback (about twice a second)."""
+
+    bubbles: int
+    elapsed: float
+
+
+ProgressFn = Callable[[Progress], None]
+
+
+@dataclass(frozen=True)
+class NoOptions:
+    """A planner without options of its own."""
+
+
+class Planner(ABC):
+    """A motion planner over certified bubbles. Subclasses set ``name``, ``summary`` and ``Options``
+    (a frozen dataclass whose ``__post_init__`` validates with ValueError naming the field)."""
+
+    name: ClassVar[str]
+    summary: ClassVar[str] = ""
+    Options: ClassVar[type] = NoOptions
+
+    def __init__(self, options: Any = None, **kwargs: Any) -> None:
+        if options is None:
+            options = make_options(type(self), kwargs)
+        elif kwargs:
+            raise TypeError("pass either an Options instance or keyword options, not both")
+        elif not isinstance(options, self.Options):
+            raise TypeError(f"planner '{self.name}' takes {self.Options.__name__}, got {type(options).__name__}")
+        self.options = options
+
+    @abstractmethod
+    def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> PlanResult:
+        """Solve ``problem``; raise :class:`~foam_mj.errors.PlanningFailed` (with stats and bubbles) when
+        the budget runs out, :class:`~foam_mj.errors.ConfigurationError` for bad endpoints."""
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.options!r})"
+
+
+def option_names(cls: type[Planner]) -> list[str]:
+    return [f.name for f in dataclasses.fields(cls.Options)]
+
+
+def make_options(cls: type[Planner], values: Mapping[str, Any]) -> Any:
+    """``cls.Options(**values)`` with unknown names and invalid values reported as :class:`PlannerError`."""
+    known = option_names(cls)
+    unknown = sorted(set(values) - set(known))
+    if unknown:
+        expected = ", ".join(known) if known else "none"
+        raise PlannerError(f"planner '{cls.name}' has no option(s) {unknown}; its options: {expected}")
+    try:
+        return cls.Options(**values)
+    except (TypeError, ValueError) as exc:
+        raise PlannerError(f"planner '{cls.name}': {exc}") from None
+
+
+class Timer:
+    """Wall time since construction, and a rate-limited progress report."""
+
+    def __init__(self, progress: ProgressFn | None = None, every: float = 0.5) -> None:
+        self.t0 = time.perf_counter()
+        self._progress = progress
+        self._every = every
+        self._next = self.t0 + every
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.t0
+
+    def report(self, bubbles: int) -> None:
+        if self._progress is None:
+            return
+        now = time.perf_counter()
+        if now >= self._next:
+            self._progress(Progress(bubbles, now - self.t0))
+            self._next = now + self._every
+
+
+#: The shared fields of a scenario's ``[planner]`` table (every other field is the algorithm's option).
+COMMON_FIELDS = ("algorithm", "delta", "max_bubbles", "time_limit")
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """A scenario's ``[planner]`` table: the algorithm, the margin and budgets, and the algorithm's options.
+
+    Reading an attribute that is not a field falls through to ``options`` (``config.r_min`` for pfm),
+    so code written for the foam's parameters keeps working.
+    """
+
+    algorithm: str = "pfm"
+    delta: float = 0.005
+    max_bubbles: int = 200_000
+    time_limit: float = 60.0
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.delta, (int, float)) and np.isfinite(self.delta) and self.delta >= 0):
+            raise ValueError(f"`delta` must be >= 0 (metres), got {self.delta!r}")
+        if not (isinstance(self.max_bubbles, (int, np.integer)) and not isinstance(self.max_bubbles, bool) and self.max_bubbles >= 1):
+            raise ValueError(f"`max_bubbles` must be an integer >= 1, got {self.max_bubbles!r}")
+        if not (isinstance(self.time_limit, (int, float)) and self.time_limit > 0):
+            raise ValueError(f"`time_limit` must be > 0 seconds, got {self.time_limit!r}")
+        object.__setattr__(self, "options", dict(self.options))
+        self.planner()  # validates the name and the options
+
+    def __getattr__(self, key: str) -> Any:
+        if key.startswith("_") or key == "options":
+            raise AttributeError(key)
+        try:
+            return self.options[key]
+        except KeyError:
+            opts = self.planner().options
+            if hasattr(opts, key):
+                return getattr(opts, key)
+            raise AttributeError(f"planner '{self.algorithm}' has no parameter '{key}'") from None
+
+    def planner(self) -> Planner:
+        from foam_mj.planners import get_planner
+
+        return get_planner(self.algorithm, **self.options)
+
+    def problem(self, oracle: BubbleOracle, q_init, q_goal) -> PlanningProblem:
+        return PlanningProblem(oracle, q_init, q_goal, self.delta, self.time_limit, self.max_bubbles)
+
+    def with_algorithm(self, name: str) -> "PlannerConfig":
+        """The same margin and budgets with another algorithm (its default options unless it is this one)."""
+        if name == self.algorithm:
+            return self
+        return dataclasses.replace(self, algorithm=name, options={})
+
+    def as_dict(self) -> dict:
+        d = {"algorithm": self.algorithm, "delta": self.delta, "max_bubbles": self.max_bubbles, "time_limit": self.time_limit}
+        d.update(dataclasses.asdict(self.planner().options))
+        return d
+
+    @classmethod
+    def from_dict(cls, table: Mapping[str, Any], default_algorithm: str | None = None) -> "PlannerConfig":
+        """From a ``[planner]`` table. Without ``algorithm``, a table with pfm's options (K, r_min) means
+        pfm (scenario files written before the planner seam keep their meaning), otherwise the default."""
+        from foam_mj.planners import DEFAULT_PLANNER
+
+        table = dict(table)
+        algorithm = table.pop("algorithm", None)
+        if algorithm is None:
+            algorithm = "pfm" if ("K" in table or "r_min" in table) else (default_algorithm or DEFAULT_PLANNER)
+        if not isinstance(algorithm, str):
+            raise PlannerError(f"`algorithm` must be a planner name (a string), got {algorithm!r}")
+        common = {k: table.pop(k) for k in ("delta", "max_bubbles", "time_limit") if k in table}
+        return cls(algorithm, **common, options=table)

@@ -1,0 +1,55 @@
+"""``pfm``: the Probabilistic Foam Method exactly as the papers give it (:func:`foam_mj.foam.plan`).
+
+This wrapper only translates: the problem's margin and budgets and the options K and r_min become
+:class:`~foam_mj.foam.FoamParams`, the foam's statistics become :class:`PlanStats`. The same seed
+grows the same foam, bubble for bubble, as calling :func:`foam_mj.foam.plan` directly (the paper
+reproductions rely on it). PFM's own rule stays: the root bubble must have radius >= r_min.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from foam_mj.errors import PlanningFailed
+from foam_mj.foam import FoamParams, FoamStats, plan as foam_plan
+from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn
+
+
+@dataclass(frozen=True)
+class PFMOptions:
+    """K candidates per unit of r / r_min (paper 000 Eq. 2), r_min the smallest bubble kept.
+    Defaults are paper 000's (K = 10, r_min = 0.07)."""
+
+    K: int = 10
+    r_min: float = 0.07
+
+    def __post_init__(self) -> None:
+        FoamParams(K=self.K, r_min=self.r_min)  # the same validation, the same messages
+
+
+def _stats(st: FoamStats, reached: bool) -> PlanStats:
+    details = {k: v for k, v in st.as_dict().items() if k not in ("bubbles", "elapsed", "outcome", "clearance_calls", "bubbles_per_second")}
+    return PlanStats(
+        planner="pfm", outcome=st.outcome, bubbles=st.bubbles, distance_queries=st.clearance_calls, elapsed=st.elapsed,
+        time_to_first_path=st.elapsed if reached else None, details=details,
+    )
+
+
+class PFMPlanner(Planner):
+    name = "pfm"
+    summary = "Probabilistic Foam Method, breadth-first (paper 000 / 003; the paper reproductions use it)"
+    Options = PFMOptions
+
+    def foam_params(self, problem: PlanningProblem) -> FoamParams:
+        o = self.options
+        return FoamParams(K=o.K, r_min=o.r_min, delta=problem.delta, max_bubbles=int(problem.max_bubbles), time_limit=problem.time_limit)
+
+    def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> PlanResult:
+        try:
+            res = foam_plan(problem.oracle, problem.q_init, problem.q_goal, self.foam_params(problem), seed=seed, progress=progress)
+        except PlanningFailed as exc:
+            stats = _stats(exc.stats, False) if isinstance(exc.stats, FoamStats) else exc.stats
+            raise PlanningFailed(str(exc), stats, exc.foam) from None
+        return PlanResult(res.foam, res.rosary, _stats(res.stats, True))

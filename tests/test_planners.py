@@ -1,0 +1,163 @@
+"""Tests for foam_mj.planners: the planner seam (problem, planner, result), the registry, and every
+registered planner's paths checked collision-free by MuJoCo independently."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from foam_mj.errors import ConfigurationError, PlanningFailed
+from foam_mj.foam import FoamParams, plan as foam_plan
+from foam_mj.planners import PLANNERS, PlannerConfig, PlannerError, PlanningProblem, get_planner
+from foam_mj.scenarios import load_scenario
+from foam_mj.smoothing import ConvexShortestPath
+
+SHIPPED = ("obstacle", "step_up", "step_down")
+
+
+def _problem(oracle, scenario, **kw):
+    return PlanningProblem(oracle, scenario.q_init, scenario.q_goal, delta=oracle.delta, **kw)
+
+
+# -- the registry ----------------------------------------------------------------------------------
+def test_unknown_planner_lists_the_known_names():
+    with pytest.raises(PlannerError, match="unknown planner 'nope'; known planners: .*pfm"):
+        get_planner("nope")
+
+
+def test_unknown_and_invalid_options_are_named():
+    with pytest.raises(PlannerError, match=r"planner 'pfm' has no option\(s\) \['speed'\]; its options: K, r_min"):
+        get_planner("pfm", speed=3)
+    with pytest.raises(PlannerError, match="planner 'pfm': `r_min` must be > 0"):
+        get_planner("pfm", r_min=-1.0)
+
+
+def test_every_planner_has_a_name_a_summary_and_default_options():
+    for name, cls in PLANNERS.items():
+        p = get_planner(name)
+        assert p.name == name and cls.summary
+
+
+def test_planner_config_reads_a_table_and_keeps_old_pfm_tables():
+    c = PlannerConfig.from_dict({"K": 6, "r_min": 0.045, "delta": 0.01})
+    assert (c.algorithm, c.K, c.r_min, c.delta) == ("pfm", 6, 0.045, 0.01)
+    assert c.as_dict() == {"algorithm": "pfm", "delta": 0.01, "max_bubbles": 200_000, "time_limit": 60.0, "K": 6, "r_min": 0.045}
+    assert c.with_algorithm("pfm") is c
+
+
+# -- pfm is the papers' foam, bubble for bubble -----------------------------------------------------
+@pytest.mark.parametrize("name", ["obstacle", "obstacle_thesis"])
+@pytest.mark.parametrize("seed", [0, 3])
+def test_pfm_grows_the_same_foam_as_the_foam_module(oracles, name, seed):
+    s = load_scenario(name)
+    assert s.params.algorithm == "pfm"
+    oracle = oracles["obstacle"]
+    direct = foam_plan(oracle, s.q_init, s.q_goal, FoamParams(K=s.params.K, r_min=s.params.r_min, delta=0.005), seed=seed)
+    res = get_planner("pfm", K=s.params.K, r_min=s.params.r_min).plan(_problem(oracle, s), seed=seed)
+    assert res.stats.bubbles == direct.stats.bubbles == len(res.foam.radii)
+    np.testing.assert_array_equal(res.foam.centers, direct.foam.centers)
+    np.testing.assert_array_equal(res.rosary.bubble_ids, direct.rosary.bubble_ids)
+    assert res.stats.planner == "pfm" and res.stats.outcome == "reached"
+    assert res.stats.distance_queries == direct.stats.clearance_calls
+    assert res.stats.time_to_first_path == res.stats.elapsed
+
+
+def test_pfm_bubble_counts_of_the_paper_scenarios_are_unchanged(oracles):
+    """Seed 0's foam sizes as the README and the paper reproductions quote them."""
+    s = load_scenario("obstacle")
+    res = s.params.planner().plan(_problem(oracles["obstacle"], s), seed=0)
+    assert res.stats.bubbles == 1698 and res.rosary.k == 29
+
+
+def test_pfm_failure_carries_plan_stats_and_the_foam(oracles):
+    s = load_scenario("obstacle")
+    with pytest.raises(PlanningFailed) as err:
+        get_planner("pfm").plan(_problem(oracles["obstacle"], s, max_bubbles=50), seed=0)
+    assert err.value.stats.outcome == "bubble budget" and err.value.stats.planner == "pfm"
+    assert err.value.stats.time_to_first_path is None
+    assert err.value.foam.size == 50
+
+
+def test_a_start_closer_than_delta_is_refused_naming_its_clearance(oracles):
+    s = load_scenario("obstacle")
+    q_bad = np.array([0.0, 0.0, 1.1219973762820265])  # the shin inside the box
+    with pytest.raises(ConfigurationError, match="q_init .* in collision: clearance -0.0180"):
+        PlanningProblem(oracles["obstacle"], q_bad, s.q_goal).endpoint_radii()
+
+
+# -- every planner: a certified chain whose paths MuJoCo finds collision-free -------------------------
+def _check_paths(checker, oracle, res, delta):
+    ros = res.rosary
+    assert ros.check_structure() == []
+    # Every rosary bubble is certified: its radius is at most the oracle's at its centre.
+    assert np.all(ros.radii <= oracle.radii(ros.centers) + 1e-9)
+    centre = ros.path(ros.center_waypoints())
+    convex = ConvexShortestPath().smooth(ros).path
+    for path in (centre, convex):
+        assert checker.first_collision_along(path, step=2e-3) is None
+        for q in path:
+            assert checker.distance(q) >= delta - 1e-6
+
+
+@pytest.mark.parametrize("name", sorted(PLANNERS))
+@pytest.mark.parametrize("scene", SHIPPED)
+def test_every_planner_solves_the_shipped_scenes(oracles, checkers, name, scene):
+    s = load_scenario(scene)
+    planner = s.params.planner() if name == s.params.algorithm else get_planner(name)
+    res = planner.plan(_problem(oracles[scene], s, time_limit=30.0), seed=1)
+    assert res.stats.outcome == "reached" and res.stats.planner == name
+    assert res.stats.time_to_first_path is not None and res.stats.time_to_first_path <= res.stats.elapsed
+    assert res.stats.bubbles == res.foam.size
+    _check_paths(checkers[scene], oracles[scene], res, 0.005)
+
+
+# -- the scenario's [planner] table and the --planner flag -------------------------------------------
+def _toml(tmp_path, planner_table: str):
+    from conftest import MODELS
+
+    p = tmp_path / "s.toml"
+    p.write_text(
+        f'scene = "{MODELS / "obstacle.xml"}"\nq_init = [0.2, 0.3, 0.08]\nq_goal = [0.45, 0.4536, 1.45]\n[planner]\n{planner_table}\n'
+    )
+    return p
+
+
+def test_the_scenario_names_its_algorithm(tmp_path):
+    s = load_scenario(_toml(tmp_path, 'algorithm = "pfm"\nK = 6\nr_min = 0.05'), check=False)
+    assert (s.params.algorithm, s.params.K, s.params.r_min) == ("pfm", 6, 0.05)
+
+
+@pytest.mark.parametrize(
+    "table, message",
+    [
+        ('algorithm = "nope"', r"field 'algorithm': unknown planner 'nope'; known planners: .*pfm"),
+        ("algorithm = 3", "field 'algorithm' must be a planner name"),
+        ('algorithm = "pfm"\nspeed = 3', r"unknown \[planner\] field\(s\) \['speed'\] for algorithm 'pfm'"),
+        ('algorithm = "pfm"\nr_min = -1.0', r"\[planner\] planner 'pfm': `r_min` must be > 0"),
+    ],
+)
+def test_a_bad_planner_table_is_named(tmp_path, table, message):
+    from foam_mj.errors import ScenarioError
+
+    with pytest.raises(ScenarioError, match=message):
+        load_scenario(_toml(tmp_path, table), check=False)
+
+
+def test_cli_refuses_an_unknown_planner_before_any_work(capsys):
+    from foam_mj.cli import main
+
+    assert main(["plan", "--planner", "nope", "--no-rrd"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown planner 'nope'; known planners:" in err and "pfm" in err and "Traceback" not in err
+
+
+def test_cli_plans_with_the_named_planner(tmp_path, capsys):
+    import json
+
+    from foam_mj.cli import main
+
+    out = tmp_path / "r.json"
+    assert main(["plan", "--scene", "obstacle", "--planner", "pfm", "--smoother", "none", "--no-rrd", "--no-replay", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["planner"]["algorithm"] == "pfm" and doc["foam"]["stats"]["planner"] == "pfm"
+    assert "planner pfm" in capsys.readouterr().out
