@@ -109,6 +109,13 @@ def _summary_table(outcome) -> str:
     return "\n".join(lines)
 
 
+def _print_servo_note(outcome) -> None:
+    """One line when the dynamic replay had to add servos to the model (foam_mj.replay.servo_model)."""
+    notes = {po.dynamic.servo_note for po in outcome.paths.values() if po.dynamic is not None and po.dynamic.servo_note}
+    for note in sorted(notes):
+        print(f"note: {note}")
+
+
 def _print_fronts(outcome) -> None:
     """For multi-objective smoothers: the front's extremes and knee, and the gap to the convex length."""
     import numpy as np
@@ -174,6 +181,51 @@ def _record(path: Path, outcome=None, *, scenario=None, foam=None) -> None:
                 rec.log_pareto_front(name, front["objectives"], front["paths"], front.get("knee"), tuple(front.get("objective_names", ("length", "angle term"))))
 
 
+def _parse_q(text: str, flag: str) -> list[float]:
+    """``--start "0.1 0.2 0.3"`` (spaces or commas) as a list of numbers."""
+    parts = text.replace(",", " ").split()
+    try:
+        values = [float(v) for v in parts]
+    except ValueError:
+        raise FoamError(f"{flag} must be numbers separated by spaces or commas, got {text!r}") from None
+    if not values:
+        raise FoamError(f"{flag} is empty; give one number per configuration joint")
+    return values
+
+
+def _plan_scenario(args: argparse.Namespace):
+    """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta and
+    --subject-height/--subject-mass override the scenario's fields."""
+    from foam_mj.scenarios import read_scenario_doc, scenario_from_dict
+
+    if args.mjcf is not None:
+        if args.scene is not None:
+            raise FoamError("give either --scene or --mjcf, not both")
+        if args.start is None or args.goal is None:
+            raise FoamError("--mjcf needs --start and --goal (one number per configuration joint each)")
+        mjcf = Path(args.mjcf)
+        if not mjcf.is_file():
+            raise FoamError(f"--mjcf: MJCF file not found: {mjcf}")
+        doc: dict = {"name": mjcf.stem, "scene": str(mjcf.resolve()), "q_init": _parse_q(args.start, "--start"), "q_goal": _parse_q(args.goal, "--goal")}
+        base, source = Path.cwd(), None
+    else:
+        if args.start is not None or args.goal is not None:
+            raise FoamError("--start and --goal go with --mjcf (a scenario has its own q_init and q_goal)")
+        doc, source = read_scenario_doc(args.scene or "obstacle")
+        base = source.parent
+    if args.joints is not None:
+        joints = [j.strip() for j in args.joints.split(",") if j.strip()]
+        if not joints:
+            raise FoamError("--joints must name joints separated by commas")
+        doc["joints"] = joints
+    if args.delta is not None:
+        doc["planner"] = {**doc.get("planner", {}), "delta": args.delta}
+    for flag, key in (("subject_height", "height"), ("subject_mass", "mass")):
+        if getattr(args, flag) is not None:
+            doc["subject"] = {**doc.get("subject", {}), key: getattr(args, flag)}
+    return scenario_from_dict(doc, base, source=source)
+
+
 def cmd_plan(args: argparse.Namespace) -> int:
     from foam_mj.pipeline import parse_smoothers, run
     from foam_mj.results import write_outcome, write_failure
@@ -195,7 +247,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         from foam_mj.planners import planner_class
 
         planner_class(args.planner)  # an unknown name fails here, listing the known ones
-    scenario = load_scenario(args.scene)
+    scenario = _plan_scenario(args)
     if args.planner is not None:
         import dataclasses
 
@@ -227,6 +279,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         f"({st.bubbles_per_second:,.0f} bubbles/s), rosary of {outcome.plan.rosary.k} bubbles, margin {scenario.params.delta * 1000:g} mm"
     )
     print(_summary_table(outcome))
+    _print_servo_note(outcome)
     _print_fronts(outcome)
     _print_certificates(outcome)
     if rrd is not None:
@@ -257,6 +310,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     outcome = outcome_from_result(doc, args.result, dynamic=not args.kinematic_only)
     print(f"replayed {len(outcome.paths)} path(s) of {args.result} on {doc['mjcf']}")
     print(_summary_table(outcome))
+    _print_servo_note(outcome)
     if rrd is not None:
         _record(rrd, outcome)
         print(f"wrote {rrd}")
@@ -328,7 +382,14 @@ def build_parser() -> argparse.ArgumentParser:
         "write a Rerun recording.",
         epilog="Exit codes: 0 success, 2 bad input, 3 planning failed (the foam so far is still written).",
     )
-    p.add_argument("--scene", default="obstacle", help="a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: obstacle)")
+    p.add_argument("--scene", default=None, help="a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: obstacle)")
+    p.add_argument("--mjcf", metavar="ROBOT.xml", help="plan on any MJCF scene without a scenario file (needs --start and --goal; default planner parameters)")
+    p.add_argument("--start", metavar='"q1 q2 ..."', help="with --mjcf: the start configuration, one number per configuration joint (radians, metres)")
+    p.add_argument("--goal", metavar='"q1 q2 ..."', help="with --mjcf: the goal configuration")
+    p.add_argument("--joints", metavar="a,b,c", help="the configuration joints, in order (default: the scenario's or the MJCF's declaration, else every limited hinge/slide joint)")
+    p.add_argument("--delta", type=float, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
+    p.add_argument("--subject-height", type=float, metavar="M", help="scale the leg to a subject this tall (m; Winter's segment fractions)")
+    p.add_argument("--subject-mass", type=float, metavar="KG", help="scale the leg's segment masses to a subject this heavy (kg)")
     p.add_argument(
         "--smoother",
         default=DEFAULT_SMOOTHER,

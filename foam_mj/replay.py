@@ -35,6 +35,15 @@ joint with ``"inverse"``: hip flexion 0.39 (0.14) mrad, knee flexion 0.20 (0.06)
 (inertia is not compensated). The error shrinks about as 1/sqrt(kp): with kp = 3000 N m/rad and
 20000 N/m, ``"inverse"`` leaves 1.3 mrad, 0.6 mrad, 0.3 mm.
 
+Models without servos
+---------------------
+When some configuration joint has no position servo (a user's MJCF often has no actuators, or motors),
+the dynamic replay runs on a copy of the model, made with :class:`mujoco.MjSpec`, whose actuators are
+replaced by one position servo per configuration joint (:func:`servo_model`): kp = I_j (2 pi f)^2 with
+f = :data:`SERVO_HZ` and I_j the joint's diagonal entry of the joint-space inertia matrix at ``qpos0``
+(``dof_M0``, armature included), critically damped (dampratio 1), no force limit. The replay's
+``servo_note`` says so in one line. Nothing fails after planning for want of actuators.
+
 Contacts are read from ``data.contact`` after each ``mj_step1`` (collision detection at that frame's
 state): every contact between a leg geom and an obstacle geom with ``dist <= 0`` is reported with its
 frame, time, geom names and penetration depth.
@@ -55,6 +64,8 @@ from foam_mj.trajectory import Trajectory
 DT_TOL = 1e-9
 #: Feed-forward modes of the dynamic replay (module docstring).
 FEEDFORWARD = ("inverse", "gravity", "none")
+#: Natural frequency (Hz) of the servos added to a model that has none (module docstring).
+SERVO_HZ = 10.0
 
 
 @dataclass(frozen=True)
@@ -131,6 +142,7 @@ class DynamicReplay(_ReplayMeasures):
     actuator_force: np.ndarray  # (T, nu) the actuators' forces at each frame (N m, N)
     saturated_frames: np.ndarray  # (nu,) frames at which each actuator's force sat at its force range
     warnings: tuple[str, ...]  # MuJoCo warnings raised during the simulation (e.g. "mjWARN_BADQACC")
+    servo_note: str = ""  # set when servos were added to the model for this replay (module docstring)
 
 
 
@@ -196,25 +208,66 @@ class _Servo:
     b2: np.ndarray
 
 
-def _servos(robot: RobotModel) -> _Servo:
-    m = robot.model
-    cfg = robot.config
-    ids = []
-    for name, j in zip(cfg.joint_names, cfg.joint_ids):
+def _servo_problem(m: mujoco.MjModel, robot: RobotModel) -> str | None:
+    """Why ``m`` cannot drive the configuration joints with one position servo each (None if it can)."""
+    for name, j in zip(robot.config.joint_names, robot.config.joint_ids):
         acts = [
             a
             for a in range(m.nu)
             if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT) and int(m.actuator_trnid[a, 0]) == int(j)
         ]
         if len(acts) != 1:
-            raise ValueError(f"joint '{name}' needs exactly one joint-transmission actuator for the dynamic replay, found {len(acts)}")
+            return f"joint '{name}' has {len(acts)} joint actuators, not one position servo"
         a = acts[0]
-        aname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a)
+        aname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or f"actuator{a}"
         if int(m.actuator_dyntype[a]) != int(mujoco.mjtDyn.mjDYN_NONE) or int(m.actuator_gaintype[a]) != int(mujoco.mjtGain.mjGAIN_FIXED):
-            raise ValueError(f"actuator '{aname}' must be a position servo (no activation dynamics, fixed gain)")
+            return f"actuator '{aname}' is not a position servo (activation dynamics or a non-fixed gain)"
         if not (m.actuator_gainprm[a, 0] > 0 and m.actuator_biasprm[a, 1] < 0):
-            raise ValueError(f"actuator '{aname}' must be a position servo (kp > 0)")
-        ids.append(a)
+            return f"actuator '{aname}' is not a position servo (kp > 0 needed)"
+    return None
+
+
+def servo_model(robot: RobotModel) -> tuple[mujoco.MjModel, str]:
+    """The model the dynamic replay drives, and a one-line note ("" when it is ``robot.model`` itself).
+
+    When the model lacks a position servo on some configuration joint, a copy whose actuators are all
+    replaced by position servos with gains from the joints' inertia (module docstring).
+    """
+    m = robot.model
+    problem = _servo_problem(m, robot)
+    if problem is None:
+        return m, ""
+    spec = robot.spec_copy()
+    for act in list(spec.actuators):
+        spec.delete(act)
+    inertia = np.asarray(m.dof_M0)[m.jnt_dofadr[robot.config.joint_ids]]
+    omega = 2 * np.pi * SERVO_HZ
+    gains = []
+    for name, I in zip(robot.config.joint_names, inertia):
+        kp = float(max(I, 1e-6) * omega**2)
+        act = spec.add_actuator()
+        act.name = f"foam_mj_servo_{name}"
+        act.target = name
+        act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+        act.set_to_position(kp=kp, dampratio=1.0)
+        gains.append(f"{name} {kp:.4g}")
+    out = spec.compile()
+    note = (
+        f"dynamic replay: {problem}, so every configuration joint is driven by an added position servo, "
+        f"kp = joint inertia x (2 pi {SERVO_HZ:g} Hz)^2, critically damped: {', '.join(gains)} (N m/rad or N/m)"
+    )
+    return out, note
+
+
+def _servos(robot: RobotModel, m: mujoco.MjModel | None = None) -> _Servo:
+    m = robot.model if m is None else m
+    cfg = robot.config
+    problem = _servo_problem(m, robot)
+    if problem is not None:
+        raise ValueError(problem)
+    ids = []
+    for j in cfg.joint_ids:
+        ids.append(next(a for a in range(m.nu) if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT) and int(m.actuator_trnid[a, 0]) == int(j)))
     ids = np.array(ids)
     return _Servo(
         ids,
@@ -226,15 +279,16 @@ def _servos(robot: RobotModel) -> _Servo:
     )
 
 
-def servo_controls(robot: RobotModel, trajectory: Trajectory, feedforward: str = "inverse") -> np.ndarray:
+def servo_controls(robot: RobotModel, trajectory: Trajectory, feedforward: str = "inverse", model: mujoco.MjModel | None = None) -> np.ndarray:
     """ctrl (T, nu) for the position servos (module docstring): the set point q_ref, the velocity
-    reference and the feed-forward torque folded in. ``feedforward``: "inverse", "gravity" or "none"."""
+    reference and the feed-forward torque folded in. ``feedforward``: "inverse", "gravity" or "none".
+    ``model``: the model with the servos (default ``robot.model``; see :func:`servo_model`)."""
     _check(robot, trajectory)
     if feedforward not in FEEDFORWARD:
         raise ValueError(f"`feedforward` must be one of {FEEDFORWARD}, got {feedforward!r}")
-    m = robot.model
+    m = robot.model if model is None else model
     cfg = robot.config
-    servo = _servos(robot)
+    servo = _servos(robot, m)
     dof = m.jnt_dofadr[cfg.joint_ids]
     T = len(trajectory)
     qref = trajectory.qpos[:, cfg.qpos_index]
@@ -267,16 +321,17 @@ def replay_dynamic(
     feedforward: str = "inverse",
     clearance: Clearance | None = None,
 ) -> DynamicReplay:
-    """Simulate the leg's servos tracking ``trajectory`` under gravity (module docstring)."""
+    """Simulate the leg's servos tracking ``trajectory`` under gravity (module docstring); servos are added
+    to a copy of the model when it has none (:func:`servo_model`, noted in ``servo_note``)."""
     _check(robot, trajectory)
-    m = robot.model
+    m, note = servo_model(robot)
     if np.any(np.abs(np.diff(trajectory.times) - m.opt.timestep) > DT_TOL):
         raise ValueError(
             f"`trajectory.times` must be spaced by the model's timestep {m.opt.timestep} s, got dt = {trajectory.dt}"
         )
     if int(m.opt.integrator) == int(mujoco.mjtIntegrator.mjINT_RK4):
         raise ValueError("the dynamic replay steps with mj_step1/mj_step2, which RK4 does not support")
-    ctrl = servo_controls(robot, trajectory, feedforward)
+    ctrl = servo_controls(robot, trajectory, feedforward, m)
     d = mujoco.MjData(m)
     d.qpos[:] = trajectory.qpos[0]
     if trajectory.qvel is not None:
@@ -344,4 +399,5 @@ def replay_dynamic(
         actuator_force=force,
         saturated_frames=at_limit.sum(axis=0),
         warnings=warned,
+        servo_note=note,
     )

@@ -235,19 +235,24 @@ def _scene_edits(raw: dict, where: str, base_dir: Path) -> SceneEdits:
     return SceneEdits(joints, norm, subject, obstacle, tuple(meshes))
 
 
+def read_scenario_doc(name_or_path: str | Path) -> tuple[dict, Path]:
+    """The parsed TOML document of a scenario (built-in name or path) and its file, not yet validated."""
+    path = resolve_scenario_path(name_or_path)
+    try:
+        return tomllib.loads(path.read_text()), path
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: malformed TOML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{path}: cannot read: {exc}") from None
+
+
 def load_scenario(name_or_path: str | Path, *, check: bool = True) -> Scenario:
     """Read and validate a scenario (built-in name or TOML path).
 
     With ``check`` (the default) the scene is loaded and q_init and q_goal are refused when out of the
     bounds or closer to an obstacle than the safety margin, with their clearance in the message.
     """
-    path = resolve_scenario_path(name_or_path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path}: malformed TOML: {exc}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"{path}: cannot read: {exc}") from None
+    raw, path = read_scenario_doc(name_or_path)
     return scenario_from_dict(raw, path.parent, source=path, check=check)
 
 

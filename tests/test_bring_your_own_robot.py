@@ -1,0 +1,122 @@
+"""Tests for planning on a user's own MJCF (README "Bring your own robot"): `foam-mj plan --mjcf`, servos
+added to a model without actuators (foam_mj.replay.servo_model), and bad robots refused before planning."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from foam_mj.cli import main
+from foam_mj.model import RobotModel
+from foam_mj.replay import SERVO_HZ, servo_model
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+ARM = EXAMPLES / "two_link_arm" / "arm.xml"
+START, GOAL = "0.3 2.0", "0.1 0.6"
+
+
+def _independent_clearance(mjcf: str, qpos_rows: np.ndarray) -> float:
+    """min mj_geomDistance between geoms on moving bodies and static geoms, over qpos rows (MuJoCo alone)."""
+    m = mujoco.MjModel.from_xml_path(mjcf)
+    d = mujoco.MjData(m)
+
+    def moving(b: int) -> bool:
+        while b:
+            if m.body_jntnum[b]:
+                return True
+            b = int(m.body_parentid[b])
+        return False
+
+    coll = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    leg = [g for g in coll if moving(int(m.geom_bodyid[g]))]
+    obs = [g for g in coll if not moving(int(m.geom_bodyid[g]))]
+    worst = np.inf
+    for row in qpos_rows:
+        d.qpos[:] = row
+        mujoco.mj_kinematics(m, d)
+        worst = min(worst, min(mujoco.mj_geomDistance(m, d, g, o, 1.0, None) for g in leg for o in obs))
+    return float(worst)
+
+
+def test_plan_on_an_unmodified_mjcf_from_the_command_line(tmp_path, capsys):
+    js = tmp_path / "arm.json"
+    assert main(["plan", "--mjcf", str(ARM), "--start", START, "--goal", GOAL, "--delta", "0.01", "--no-rrd", "--json", str(js)]) == 0
+    out = capsys.readouterr().out
+    assert "note: dynamic replay:" in out and "added position servo" in out
+    doc = json.loads(js.read_text())
+    assert doc["mjcf"] == str(ARM.resolve()) and doc["planner"]["delta"] == 0.01
+    for name, entry in doc["paths"].items():
+        assert _independent_clearance(doc["mjcf"], np.asarray(entry["qpos"])) >= 0.01 - 1e-9, name
+        assert entry["replay"]["contacts"] == 0
+    assert main(["replay", str(js)]) == 0
+
+
+def test_joints_flag_picks_the_configuration(tmp_path, capsys):
+    # Only the elbow moves; the shoulder stays at its qpos0 (arm horizontal, above the post).
+    js = tmp_path / "elbow.json"
+    assert main(["plan", "--mjcf", str(ARM), "--joints", "elbow", "--start", "-0.5", "--goal", "0.5", "--no-rrd", "--no-replay", "--json", str(js)]) == 0
+    doc = json.loads(js.read_text())
+    assert doc["configuration"]["joints"] == ["elbow"]
+    # A scenario's joints are written into the saved scene copy, which "mjcf" points to.
+    again = RobotModel.from_xml(doc["mjcf"])
+    assert again.config.joint_names == ("elbow",)
+
+
+def test_servos_added_to_a_model_without_actuators_have_gains_from_the_joint_inertia():
+    robot = RobotModel.from_xml(ARM)
+    m, note = servo_model(robot)
+    assert m is not robot.model and m.nu == 2 and note.startswith("dynamic replay:")
+    inertia = robot.model.dof_M0[robot.model.jnt_dofadr[robot.config.joint_ids]]
+    np.testing.assert_allclose(m.actuator_gainprm[:, 0], inertia * (2 * np.pi * SERVO_HZ) ** 2, rtol=1e-9)
+    assert np.all(m.actuator_biasprm[:, 2] < 0)  # damped
+    # A model that has its servos keeps them, with no note.
+    from conftest import MODELS
+
+    leg = RobotModel.from_xml(MODELS / "obstacle.xml")
+    assert servo_model(leg) == (leg.model, "")
+
+
+BAD = """
+<mujoco>
+  <worldbody>
+    <geom type="plane" size="2 2 0.1"/>
+    <body name="a" pos="0 0 1">
+      <joint name="swivel" type="ball"/>
+      <geom type="sphere" size="0.05"/>
+      <body name="b" pos="0 0 -0.3">
+        <joint name="spin" type="hinge" axis="0 1 0"/>
+        <joint name="lift" type="slide" axis="0 0 1" range="-0.1 0.1"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.03"/>
+        <site name="s1"/>
+      </body>
+    </body>
+    <site name="s2" pos="1 0 1"/>
+  </worldbody>
+  <tendon>
+    <spatial name="cable" limited="true" range="0 2"><site site="s1"/><site site="s2"/></spatial>
+  </tendon>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("joint, reason", [("swivel", "ball joint"), ("spin", "has no range"), ("cable", "is a tendon")])
+def test_bad_robots_exit_2_with_one_line_before_planning(tmp_path, capsys, joint, reason):
+    p = tmp_path / "bad.xml"
+    p.write_text(BAD)
+    code = main(["plan", "--mjcf", str(p), "--joints", joint, "--start", "0", "--goal", "0.05", "--no-rrd"])
+    cap = capsys.readouterr()
+    assert code == 2
+    assert cap.out == ""  # nothing planned
+    lines = cap.err.strip().splitlines()
+    assert len(lines) == 1 and f"'{joint}'" in lines[0] and reason in lines[0]
+
+
+def test_default_configuration_skips_unlimited_and_ball_joints(tmp_path, capsys):
+    p = tmp_path / "bad.xml"
+    p.write_text(BAD)
+    robot = RobotModel.from_xml(p)
+    assert robot.config.joint_names == ("lift",)
