@@ -146,13 +146,17 @@ class CoverageIndex:
         self._n_tree = 0
         self._R = 0.0
 
-    def add(self, center: np.ndarray, radius: float) -> None:
-        if self.n == len(self._r):
-            self._c = np.concatenate([self._c, np.empty_like(self._c)])
-            self._r = np.concatenate([self._r, np.empty_like(self._r)])
-        self._c[self.n] = center
-        self._r[self.n] = radius
-        self.n += 1
+    def add(self, centers: np.ndarray, radii: np.ndarray) -> None:
+        """Store balls (k, n) with radii (k,) (one ball: (n,) and a float)."""
+        centers = np.asarray(centers, dtype=float).reshape(-1, self._c.shape[1])
+        k = len(centers)
+        if self.n + k > len(self._r):
+            size = max(2 * len(self._r), self.n + k)
+            self._c = np.concatenate([self._c[: self.n], np.empty((size - self.n, self._c.shape[1]))])
+            self._r = np.concatenate([self._r[: self.n], np.empty(size - self.n)])
+        self._c[self.n : self.n + k] = centers
+        self._r[self.n : self.n + k] = radii
+        self.n += k
 
 
     def _rebuild(self) -> None:
@@ -172,7 +176,9 @@ class CoverageIndex:
             self._rebuild()
         if self._n_tree:
             lifted = np.hstack([points, np.zeros((m, 1))])
-            dist, idx = self._tree.query(lifted, k=2)
+            # Only balls within lifted distance R can contain a point: the bound prunes the search (a
+            # missing neighbour comes back as (inf, n_tree), which the tests below reject).
+            dist, idx = self._tree.query(lifted, k=2, distance_upper_bound=self._R * (1.0 + 1e-9))
             # The nearest may be the excluded parent (its surface points sit at lifted distance ~R).
             own = idx[:, 0] == exclude
             first = np.where(own, dist[:, 1], dist[:, 0])
@@ -204,9 +210,18 @@ MAX_BATCH_CANDIDATES = 2048
 
 
 def _pairwise_sq_dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """|a_i - b_j|^2 for all pairs, through one matrix product (|a|^2 + |b|^2 - 2 a.b, clipped at 0)."""
-    d2 = np.einsum("ij,ij->i", a, a)[:, None] + np.einsum("ij,ij->i", b, b)[None, :] - 2.0 * (a @ b.T)
-    return np.maximum(d2, 0.0)
+    """|a_i - b_j|^2 for all pairs, summed coordinate by coordinate from the differences.
+
+    No matrix product: the sets are small (a few hundred by a few hundred in a few dimensions), where
+    BLAS's threads cost more than they save on a busy machine, and the differences are exact to rounding
+    (no cancellation as in |a|^2 + |b|^2 - 2 a.b), independent of the BLAS build and its thread count."""
+    d = np.subtract.outer(a[:, 0], b[:, 0])
+    out = d * d
+    for k in range(1, a.shape[1]):
+        np.subtract.outer(a[:, k], b[:, k], out=d)
+        np.multiply(d, d, out=d)
+        out += d
+    return out
 
 
 def _unit_sphere(rng: np.random.Generator, count: int, dim: int) -> np.ndarray:
@@ -261,16 +276,18 @@ def plan(
     index = CoverageIndex(n)
     count = 0
 
-    def add(c: np.ndarray, r: float, parent: int) -> int:
+    def add(c: np.ndarray, r: np.ndarray, parent: np.ndarray) -> None:
+        """Append bubbles (k, n), radii (k,), parents (k,) to the preallocated arrays (doubled when full)."""
         nonlocal centers, radii, parents, count
-        if count == len(radii):
-            centers = np.concatenate([centers, np.empty_like(centers)])
-            radii = np.concatenate([radii, np.empty_like(radii)])
-            parents = np.concatenate([parents, np.empty_like(parents)])
-        centers[count], radii[count], parents[count] = c, r, parent
+        k = len(r)
+        if count + k > len(radii):
+            size = max(2 * len(radii), count + k)
+            centers = np.concatenate([centers[:count], np.empty((size - count, n))])
+            radii = np.concatenate([radii[:count], np.empty(size - count)])
+            parents = np.concatenate([parents[:count], np.empty(size - count, dtype=np.int64)])
+        centers[count : count + k], radii[count : count + k], parents[count : count + k] = c, r, parent
         index.add(c, r)
-        count += 1
-        return count - 1
+        count += k
 
     def foam_now(goal: int | None = None) -> Foam:
         return Foam(centers[:count].copy(), radii[:count].copy(), parents[:count].copy(), q_init, q_goal, goal)
@@ -281,7 +298,7 @@ def plan(
         stats.clearance_calls = oracle.clearance.calls - calls0
         stats.outcome = outcome
 
-    add(q_init, r0, -1)
+    add(q_init[None, :], np.array([r0]), np.array([-1]))
     goal = 0 if np.sum((q_goal - q_init) ** 2) <= (r0 + MEMBERSHIP_TOL) ** 2 else None
     head = 0
     next_report = time.perf_counter() + 0.5
@@ -344,12 +361,10 @@ def plan(
         hits = np.flatnonzero(reach[order])
         if hits.size:
             order = order[: hits[0] + 1]
-        accepted[:] = False
-        accepted[order] = True
-        for i in np.flatnonzero(accepted):
-            j = add(cand[i], float(r[i]), int(parent_of[i]))
-            if reach[i]:
-                goal = j
+        # The accepted bubbles join in their drawn order; only the last can hold the goal (order ends there).
+        add(cand[order], r[order], parent_of[order])
+        if order.size and reach[order[-1]]:
+            goal = count - 1
     if goal is None:
         foam = foam_now()
         raise PlanningFailed(
