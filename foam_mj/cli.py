@@ -116,6 +116,39 @@ def _print_servo_note(outcome) -> None:
         print(f"note: {note}")
 
 
+def _loads_table(outcome) -> str:
+    """Per path and joint: peak and RMS torque (mj_inverse), per kilogram, the actuator limit and its use,
+    positive and negative work; then the human reference (foam_mj.dynamics.HUMAN_SWING)."""
+    from foam_mj.dynamics import HUMAN_SWING
+
+    rows = [(po.label, po.loads) for po in outcome.paths.values() if getattr(po, "loads", None) is not None]
+    if not rows:
+        return ""
+    law = getattr(outcome, "time_law", "")
+    head = f"{'path':<27}{'joint':<18}{'peak':>11}{'RMS':>11}{'per kg':>8}{'limit':>11}{'use':>6}{'work +':>9}{'work -':>9}"
+    lines = [f"joint loads (mj_inverse along each trajectory, timed by {law}):", head, "-" * len(head)]
+    any_kg = False
+    for label, L in rows:
+        per_kg = L.per_kg
+        for j, joint in enumerate(L.joint_names):
+            unit = L.torque_units[j]
+            kg = "-"
+            if per_kg is not None and unit == "N m":
+                kg, any_kg = f"{per_kg[j]:.2f}", True
+            lim = f"{L.limit[j]:.0f} {unit}" if np.isfinite(L.limit[j]) else "none"
+            use = f"{100 * L.use[j]:.0f}%" if np.isfinite(L.limit[j]) else "-"
+            lines.append(
+                f"{label if j == 0 else '':<27}{joint:<18}{L.peak[j]:>7.1f} {unit:<3}{L.rms[j]:>7.1f} {unit:<3}{kg:>8}{lim:>11}{use:>6}"
+                f"{L.positive_work[j]:>7.1f} J{L.negative_work[j]:>7.1f} J"
+            )
+    lines.append("peak/RMS: joint torque (N m) or force (N); per kg: peak per kilogram of body mass (N m/kg); use: peak / the "
+                 "actuator's force range; work +/-: energy the joint supplies / absorbs.")
+    if any_kg:
+        h = HUMAN_SWING
+        lines.append(f"human reference, swing of normal walking ({h.source.split(',')[0]}): peak hip {h.hip:.2f} N m/kg, knee {h.knee:.2f} N m/kg")
+    return "\n".join(lines)
+
+
 def _print_fronts(outcome) -> None:
     """For multi-objective smoothers: the front's extremes and knee, and the gap to the convex length."""
     import numpy as np
@@ -171,6 +204,8 @@ def _record(path: Path, outcome=None, *, scenario=None, foam=None) -> None:
             rec.log_path(name, po.result.path)
             if po.trajectory is not None:
                 rec.log_joint_trajectory(name, po.trajectory)
+            if getattr(po, "loads", None) is not None:
+                rec.log_joint_loads(name, po.loads)
             replay = po.dynamic if po.dynamic is not None else po.kinematic
             if replay is not None:
                 rec.log_replay(name, robot, replay)
@@ -259,7 +294,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     progress = Progress()
     t0 = time.perf_counter()
     try:
-        outcome = run(scenario, seed, names, replay=not args.no_replay, dynamic=not args.no_replay, report=progress)
+        outcome = run(scenario, seed, names, replay=not args.no_replay, dynamic=not args.no_replay, time_law=args.time_law, report=progress)
     except PlanningFailed as exc:
         progress.done()
         print(f"foam-mj: planning failed: {exc}", file=sys.stderr)
@@ -280,6 +315,9 @@ def cmd_plan(args: argparse.Namespace) -> int:
     )
     print(_summary_table(outcome))
     _print_servo_note(outcome)
+    loads = _loads_table(outcome)
+    if loads:
+        print(loads)
     _print_fronts(outcome)
     _print_certificates(outcome)
     if rrd is not None:
@@ -311,9 +349,30 @@ def cmd_replay(args: argparse.Namespace) -> int:
     print(f"replayed {len(outcome.paths)} path(s) of {args.result} on {doc['mjcf']}")
     print(_summary_table(outcome))
     _print_servo_note(outcome)
+    loads = _loads_table(outcome)
+    if loads:
+        print(loads)
     if rrd is not None:
         _record(rrd, outcome)
         print(f"wrote {rrd}")
+    return EXIT_OK
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """foam-mj export RESULT.json [--path NAME] --format csv|npz|parquet --out FILE [--hz 500]."""
+    from foam_mj.export import check_hz, export_table, pick_path, require_pyarrow, write_table
+    from foam_mj.results import read_result
+
+    hz = check_hz(args.hz)
+    out = _check_writable(args.out, "--out")
+    if args.format == "parquet":
+        require_pyarrow()
+    doc = read_result(args.result)
+    name = pick_path(doc, args.path)
+    table = export_table(doc, args.result, name, hz)
+    write_table(table, out, args.format)
+    print(f"wrote {out}: path '{name}', {table.n_rows} rows at {hz:g} Hz ({table.metadata['duration_s']:.3f} s), "
+          f"{len(table.columns)} columns ({args.format})")
     return EXIT_OK
 
 
@@ -409,6 +468,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-rrd", action="store_true", help="write no recording")
     p.add_argument("--json", metavar="OUT.json", help="write the result as JSON (readable by shared/tools/verify_result.py)")
     p.add_argument("--no-replay", action="store_true", help="skip trajectories and replays (paths only)")
+    p.add_argument(
+        "--time-law",
+        choices=["toppra", "own"],
+        default=None,
+        help="how each path's safe curve is timed under joint velocity, acceleration and torque limits: toppra "
+        "(time-optimal) or own (smooth minimum-jerk, stretched to fit); default: the scenario's [limits] time_law, else toppra",
+    )
     p.add_argument("--figures", metavar="DIR", help="also draw the paper-style figures into DIR (needs foam-mj[figures])")
     p.add_argument("--figure-format", nargs="+", default=["png"], choices=["png", "svg", "pdf"], help="figure file formats (default: png)")
     p.set_defaults(func=cmd_plan)
@@ -417,6 +483,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rrd", metavar="OUT.rrd", help="write a Rerun recording of the replay")
     p.add_argument("--kinematic-only", action="store_true", help="skip the dynamic (servo) replay")
     p.set_defaults(func=cmd_replay)
+    p = sub.add_parser(
+        "export",
+        help="write a result's trajectory as CSV, NPZ or Parquet",
+        description="Write the timed trajectory of one path of a `plan --json` result, one row per sample: time_s, then "
+        "<joint>.q, .qd, .qdd, .tau (mj_inverse), .power per configuration joint, in qpos units (units in the file).",
+        epilog="Exit codes: 0 success, 2 bad input (unknown path, bad --hz, unwritable --out), 3 no timing fits the limits.",
+    )
+    p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
+    p.add_argument("--path", default=None, help="which path of the result (default: the last one, plan's smoothed path)")
+    p.add_argument("--format", required=True, choices=["csv", "npz", "parquet"], help="file format (parquet needs pyarrow)")
+    p.add_argument("--out", required=True, metavar="FILE", help="where to write the table")
+    p.add_argument("--hz", default=500.0, help="samples per second (default: 500)")
+    p.set_defaults(func=cmd_export)
     p = sub.add_parser("view", help="open a recording in the Rerun viewer", description="Open a .rrd recording in the Rerun viewer (shipped with rerun-sdk).")
     p.add_argument("recording", help="a .rrd file")
     p.set_defaults(func=cmd_view)
@@ -435,6 +514,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
+    except PlanningFailed as exc:  # e.g. a saved path that no timing fits the limits (replay, export)
+        print(f"foam-mj: planning failed: {exc}", file=sys.stderr)
+        return EXIT_PLANNING_FAILED
     except FoamError as exc:
         print(f"foam-mj: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

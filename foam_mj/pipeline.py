@@ -57,6 +57,8 @@ from foam_mj.smoothing import (
     SmoothingResult,
 )
 from foam_mj.smoothing.gradient import center_path_result
+from foam_mj.dynamics import JointLoads, joint_loads
+from foam_mj.timing import DEFAULT_METHOD as DEFAULT_TIME_LAW, Limits, TimingInfeasible, as_limits, retime
 from foam_mj.trajectory import JointLimits, Trajectory, make_trajectory
 
 #: Smoother names accepted by ``--smoother`` and what each adds to the centre path.
@@ -111,6 +113,7 @@ class PathOutcome:
     trajectory: Trajectory | None = None
     kinematic: KinematicReplay | None = None
     dynamic: DynamicReplay | None = None
+    loads: JointLoads | None = None  # torques, power and work along the trajectory (foam_mj.dynamics)
 
     @property
     def label(self) -> str:
@@ -130,6 +133,8 @@ class Outcome:
     plan: PlanResult
     paths: dict[str, PathOutcome] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
+    limits: Limits = field(default_factory=Limits)  # the time law's limits (foam_mj.timing)
+    time_law: str = DEFAULT_TIME_LAW
 
 
 Report = Callable[[str], None]
@@ -203,7 +208,8 @@ def run(
     *,
     replay: bool = True,
     dynamic: bool = True,
-    limits: JointLimits | None = None,
+    limits: Limits | JointLimits | None = None,
+    time_law: str | None = None,
     report: Report | None = None,
 ) -> Outcome:
     """Plan, smooth, build trajectories and replay them (kinematically, and dynamically when asked).
@@ -214,7 +220,9 @@ def run(
     seed = scenario.seed if seed is None else seed
     t0 = time.perf_counter()
     result = plan_scenario(scenario, seed, report)
-    outcome = Outcome(scenario, seed, result)
+    lim = as_limits(limits if limits is not None else getattr(scenario, "limits", None))
+    time_law = time_law or getattr(scenario, "time_law", None) or DEFAULT_TIME_LAW
+    outcome = Outcome(scenario, seed, result, limits=lim, time_law=time_law)
     outcome.timings["plan"] = time.perf_counter() - t0
     t1 = time.perf_counter()
     smoothed = smooth_paths(scenario, result.rosary, smoothers, seed, report)
@@ -226,7 +234,8 @@ def run(
         if replay:
             if report:
                 report(f"replaying: {LABELS.get(name, name)}")
-            po.trajectory = make_trajectory(robot, res.path, res.rosary, limits)
+            po.trajectory = time_path(robot, name, res.path, res.rosary, lim, time_law)
+            po.loads = joint_loads(robot, po.trajectory)  # the subject's mass from the (scaled) model
             po.kinematic = replay_kinematic(robot, po.trajectory)
             if dynamic:
                 po.dynamic = replay_dynamic(robot, po.trajectory)
@@ -234,3 +243,12 @@ def run(
     outcome.timings["replay"] = time.perf_counter() - t2
     outcome.timings["total"] = time.perf_counter() - t0
     return outcome
+
+
+def time_path(robot, name: str, path, rosary: Rosary, limits: Limits, time_law: str = DEFAULT_TIME_LAW) -> Trajectory:
+    """The safe curve through ``path`` timed by ``time_law`` under ``limits``; a TimingInfeasible names the path."""
+    base = make_trajectory(robot, path, rosary, limits.joint_limits(robot))
+    try:
+        return retime(robot, base, rosary, limits, time_law)
+    except TimingInfeasible as exc:
+        raise TimingInfeasible(f"path '{name}': {exc}", exc.joint, exc.excess) from None

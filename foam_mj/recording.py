@@ -33,6 +33,8 @@ sanitized to it):
 ``plots/joints/<name>/<joint>``             joint positions in joint units (rad, m) over ``time``/``frame``
 ``plots/clearance/<name>``                  a replay's clearance per frame (metres)
 ``plots/tracking/<name>/<joint>``           a dynamic replay's tracking error (rad, m)
+``plots/torque/<name>/<joint>``             joint torque (N m) or force (N) from mj_inverse over ``time``/``frame``
+``plots/power/<name>/<joint>``              joint mechanical power tau qd (W)
 ==========================================  ==========================================================
 
 The default blueprint (stored in the file) shows the workspace, the configuration space and the plots
@@ -81,6 +83,8 @@ def default_blueprint() -> rrb.Blueprint:
                 rrb.TimeSeriesView(origin="plots/convergence", name="Smoother convergence"),
                 rrb.TimeSeriesView(origin="plots/clearance", name="Clearance"),
                 rrb.TimeSeriesView(origin="plots/tracking", name="Tracking error"),
+                rrb.TimeSeriesView(origin="plots/torque", name="Joint torque (N m, N)"),
+                rrb.TimeSeriesView(origin="plots/power", name="Joint power (W)"),
             ),
             column_shares=[2, 2, 1],
         ),
@@ -345,6 +349,17 @@ class Recording:
             rec.log(f"cspace/trajectories/{name}", rr.LineStrips3D([q3], radii=[0.003], labels=[name]), static=True)
             rec.send_columns(f"cspace/trajectories/{name}/now", indexes=index, columns=rr.Points3D.columns(positions=q3))
             rec.log(f"cspace/trajectories/{name}/now", rr.Points3D.from_fields(radii=[0.025]), static=True)
+
+    def log_joint_loads(self, name: str, loads) -> None:
+        """Joint torques at ``plots/torque/<name>/<joint>`` and powers at ``plots/power/<name>/<joint>``
+        over the ``time``/``frame`` timelines (a :class:`foam_mj.dynamics.JointLoads`)."""
+        self._check_open()
+        name = _name(name)
+        T = len(loads.times)
+        index = [rr.TimeColumn("time", duration=loads.times), rr.TimeColumn("frame", sequence=np.arange(T))]
+        for j, joint in enumerate(loads.joint_names):
+            self._scalars(f"plots/torque/{name}/{_sanitize(joint)}", index, loads.tau[:, j], f"{joint} ({loads.torque_units[j]})")
+            self._scalars(f"plots/power/{name}/{_sanitize(joint)}", index, loads.power[:, j], f"{joint} (W)")
 
     # -- plots -----------------------------------------------------------------------------------------
     def log_convergence(self, name: str, best, mean=None) -> None:

@@ -33,10 +33,20 @@ Layout (format "foam-mj/result", version 1)::
                           "straight_vertices", "active_constraints", "tied_waypoints", "objective_value",
                           "weights", "best_start", "starts", ...},
           "replay": {"min_clearance": ..., "duration": ..., "max_error": [...], "rms_error": [...],
-                     "contacts": N, "joints": [...]}
+                     "contacts": N, "joints": [...]},
+          "dynamics": {"joints", "torque_units", "peak_torque", "rms_torque", "peak_power", "positive_work",
+                       "negative_work", "torque_limit", "peak_use", "body_mass", "peak_torque_per_kg"}
         }, ...
-      }
+      },
+      "limits": {"joints": [...], "velocity": [...], "acceleration": [...], "torque": [...]},  # joint units
+      "time_law": "toppra" | "own"
     }
+
+"dynamics" (foam_mj.dynamics): joint torques from ``mj_inverse`` along the timed trajectory, per
+configuration joint (N m for hinges, N for slides): peak and RMS torque, peak power (W), positive and
+negative work (J), the MJCF's torque limit (null: none) and the peak's share of it, and the peak per
+kilogram of the subject's body mass. "limits" and "time_law" are what the trajectories were timed with
+(foam_mj.timing); ``replay`` and ``export`` rebuild the same trajectories from them.
 
 When ``plan`` has no time-parametrized trajectory (``--no-replay``), "qpos" holds the waypoints'
 qpos rows (a polyline in qpos, which is affine in q) and "times" is absent.
@@ -175,8 +185,13 @@ def outcome_dict(outcome) -> dict:
                     dynamic_min_clearance=po.dynamic.min_clearance,
                 )
             entry["replay"] = rep
+        if getattr(po, "loads", None) is not None:
+            entry["dynamics"] = _plain(po.loads.summary())
         paths[name] = entry
     doc["paths"] = paths
+    if hasattr(outcome, "limits"):
+        doc["limits"] = _plain(outcome.limits.as_dict(outcome.scenario.robot))
+        doc["time_law"] = outcome.time_law
     return doc
 
 
@@ -252,6 +267,16 @@ def read_result(path: str | Path) -> dict:
     return doc
 
 
+def outcome_robot(doc: dict, source: str | Path):
+    """The compiled scene a result was planned on (a ModelError, exit 2, when it cannot be loaded)."""
+    from foam_mj.model import RobotModel
+
+    mjcf = doc.get("mjcf")
+    if not isinstance(mjcf, str) or not mjcf:
+        raise FoamError(f"{source}: field 'mjcf' must name the scene's MJCF file")
+    return RobotModel.from_xml(Path(mjcf))
+
+
 def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
     """Rebuild trajectories from a result's waypoints and rosaries and replay them on its scene."""
     from foam_mj.foam import Foam
@@ -262,9 +287,16 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
     from foam_mj.rosary import Rosary
     from foam_mj.scenarios import Scenario
     from foam_mj.smoothing import SmoothingResult
-    from foam_mj.trajectory import make_trajectory
+    from foam_mj.dynamics import joint_loads
+    from foam_mj.pipeline import time_path
+    from foam_mj.timing import METHODS, Limits
 
     try:
+        # Results written before the torque-limited time laws have neither field: they were timed by "own".
+        limits = Limits.from_dict(doc["limits"]) if doc.get("limits") else Limits()
+        time_law = doc.get("time_law") or "own"
+        if time_law not in METHODS:
+            raise FoamError(f"{source}: field 'time_law' must be one of {list(METHODS)}, got {time_law!r}")
         params = PlannerConfig.from_dict(doc["planner"])  # results written before the seam were pfm's
         scenario = Scenario(
             doc.get("scenario", "result"), "", Path(doc["mjcf"]), np.asarray(doc["q_init"], float), np.asarray(doc["q_goal"], float), params, int(doc.get("seed", 0)), Path(source)
@@ -281,7 +313,8 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
         )
         top = doc.get("rosary") or next(iter(doc["paths"].values()))["rosary"]
         ros0 = Rosary(np.asarray(top["centers"], float), np.asarray(top["radii"], float), q_init, q_goal)
-        outcome = Outcome(scenario, scenario.seed, PlanResult(foam, ros0, PlanStats(params.algorithm, doc.get("outcome", ""), foam.size, 0, 0.0)))
+        outcome = Outcome(scenario, scenario.seed, PlanResult(foam, ros0, PlanStats(params.algorithm, doc.get("outcome", ""), foam.size, 0, 0.0)),
+                          limits=limits, time_law=time_law)
         for name, entry in doc["paths"].items():
             rosary = Rosary(np.asarray(entry["rosary"]["centers"], float), np.asarray(entry["rosary"]["radii"], float), q_init, q_goal)
             path = np.asarray(entry["waypoints"], float)
@@ -297,7 +330,8 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
                 iterations=0, evaluations=0, wall_time=0.0, stop_reason="loaded",
             )
             po = PathOutcome(name, res, metrics(path))
-            po.trajectory = make_trajectory(robot, path, rosary)
+            po.trajectory = time_path(robot, name, path, rosary, limits, time_law)
+            po.loads = joint_loads(robot, po.trajectory)
             po.kinematic = replay_kinematic(robot, po.trajectory)
             if dynamic:
                 po.dynamic = replay_dynamic(robot, po.trajectory)

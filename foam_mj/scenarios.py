@@ -15,6 +15,11 @@ Format (every field is checked; an unknown or missing one is named in the error)
     delta = 0.005
     max_bubbles = 200000
     time_limit = 60.0
+    [limits]                               # optional; the time law's joint limits, configuration order,
+    velocity = [5.0, 5.0, 1.5]             # joint units (rad/s, m/s); default: the model's / JointLimits
+    acceleration = [50.0, 50.0, 10.0]      # rad/s^2, m/s^2
+    torque = [400.0, 400.0, 3000.0]        # N m, N; default: the MJCF's actuator force ranges
+    time_law = "toppra"                    # or "own" (foam_mj.timing)
 
 ``delta``, ``max_bubbles`` and ``time_limit`` are shared by every planner; every other field is an
 option of the named algorithm (``foam_mj.planners``), checked against its options. Without
@@ -67,17 +72,19 @@ from foam_mj.model import RobotModel
 from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
 from foam_mj.planners.base import COMMON_FIELDS, option_names
 from foam_mj.scene_edits import BoxObstacle, MeshObstacle, SceneEdits, Subject, build_robot
+from foam_mj.timing import METHODS as TIME_LAWS, Limits
 
 SCENARIO_DIR = scenarios_dir()
 MODEL_DIR = models_dir()
 
-_TOP_FIELDS = {"name", "description", "scene", "q_init", "q_goal", "seed", "planner", "joints", "normalize", "subject", "obstacle", "mesh"}
+_TOP_FIELDS = {"name", "description", "scene", "q_init", "q_goal", "seed", "planner", "joints", "normalize", "subject", "obstacle", "mesh", "limits"}
 _SUBJECT_FIELDS = {"height", "mass"}
 _OBSTACLE_FIELDS = {"size", "pos", "name"}
 _MESH_FIELDS = {"file", "pos", "euler", "scale", "name", "decompose", "threshold"}
 #: Plausible ranges for [subject] (adults and adolescents; Winter's table is for adults).
 SUBJECT_HEIGHT_RANGE = (1.2, 2.2)  # m
 SUBJECT_MASS_RANGE = (25.0, 200.0)  # kg
+_LIMITS_FIELDS = {"velocity", "acceleration", "torque", "time_law"}
 
 
 @dataclass
@@ -95,6 +102,8 @@ class Scenario:
     source: Path | None = None
     _robot: RobotModel | None = field(default=None, repr=False)
     edits: SceneEdits = field(default_factory=SceneEdits)
+    limits: Limits | None = None  # [limits]: the time law's joint limits (None: the model's)
+    time_law: str | None = None  # [limits] time_law (None: foam_mj.timing.DEFAULT_METHOD)
 
     @property
     def robot(self) -> RobotModel:
@@ -319,9 +328,32 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     q_goal = _number_list(raw["q_goal"], f"{path}: field 'q_goal'")
     edits = _scene_edits(raw, str(path), base_dir)
     scenario = Scenario(name, description, scene, q_init, q_goal, params, seed, source, edits=edits)
+    scenario.limits, scenario.time_law = _limits(raw.get("limits"), path)
     if check:
         check_scenario(scenario)
     return scenario
+
+
+def _limits(table, path: Path) -> tuple[Limits | None, str | None]:
+    """The [limits] table: velocity, acceleration, torque (lists of numbers > 0) and time_law."""
+    if table is None:
+        return None, None
+    if not isinstance(table, dict):
+        raise ScenarioError(f"{path}: [limits] must be a table")
+    unknown = set(table) - _LIMITS_FIELDS
+    if unknown:
+        raise ScenarioError(f"{path}: unknown [limits] field(s) {sorted(unknown)}; expected {sorted(_LIMITS_FIELDS)}")
+    lists = {}
+    for key in ("velocity", "acceleration", "torque"):
+        if key in table:
+            vals = _number_list(table[key], f"{path}: [limits] field '{key}'")
+            if len(vals) == 0 or not np.all(np.isfinite(vals) & (vals > 0)):
+                raise ScenarioError(f"{path}: [limits] field '{key}' must be a non-empty list of numbers > 0, got {table[key]!r}")
+            lists[key] = tuple(vals.tolist())
+    law = table.get("time_law")
+    if law is not None and law not in TIME_LAWS:
+        raise ScenarioError(f"{path}: [limits] field 'time_law' must be one of {list(TIME_LAWS)}, got {law!r}")
+    return (Limits(**lists) if lists else None), law
 
 
 def check_scenario(scenario: Scenario) -> None:
@@ -331,6 +363,11 @@ def check_scenario(scenario: Scenario) -> None:
         robot = build_robot(scenario.scene, scenario.edits)
     except FoamError as exc:
         raise ScenarioError(f"{where}: field 'scene': {exc}") from None
+    if scenario.limits is not None:
+        try:
+            scenario.limits.resolve(robot)
+        except ValueError as exc:
+            raise ScenarioError(f"{where}: [limits] {exc}") from None
     clearance = Clearance(robot)
     try:
         for field_name in ("q_init", "q_goal"):

@@ -1,0 +1,224 @@
+"""``foam-mj export``: a saved result's timed trajectory as a table a controller can load.
+
+One row per sample at ``hz`` samples per second, t = k / hz for k = 0, 1, ... up to the duration, plus a
+last row at the end of the motion when the duration is not a whole number of periods (the leg at rest
+at the goal). Columns: ``time_s``, then for each configuration joint, in the model's configuration order
+and MuJoCo's qpos units,
+
+    <joint>.q     position      rad (hinge) or m (slide)
+    <joint>.qd    velocity      rad/s or m/s
+    <joint>.qdd   acceleration  rad/s^2 or m/s^2
+    <joint>.tau   joint torque  N m, or force N: mujoco.mj_inverse at (q, qd, qdd), other joints at qpos0
+    <joint>.power tau * qd      W
+
+The trajectory is rebuilt from the result's waypoints and rosary with the result's limits and time law
+(:func:`foam_mj.pipeline.time_path`, the same code ``plan`` ran), and evaluated exactly at the export's
+times from its curve and time law, so any rate is exact, not interpolated between stored samples.
+
+Formats (units stored in the file):
+
+* ``csv``: a first line starting with ``#`` holding the metadata as JSON (scenario, path, rate, units per
+  column, MJCF), then a header line and the rows;
+* ``npz``: one array per column (named as the columns) and ``metadata``, the same JSON as a string;
+* ``parquet``: one column per column, the JSON under the schema metadata key ``foam_mj`` and each
+  field's unit under its field metadata key ``unit`` (needs ``pyarrow``: ``pip install foam-mj[export]``).
+
+Every file is written to a temporary file in the target folder and renamed into place when complete.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from foam_mj.errors import FoamError
+
+FORMATS = ("csv", "npz", "parquet")
+DEFAULT_HZ = 500.0
+#: Highest export rate accepted (samples per second).
+MAX_HZ = 100_000.0
+
+
+@dataclass(frozen=True)
+class ExportTable:
+    """Columns (name -> (T,) array, ``time_s`` first) and their units, with the export's metadata."""
+
+    columns: dict[str, np.ndarray]
+    units: dict[str, str]
+    metadata: dict
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.columns["time_s"])
+
+
+def check_hz(hz) -> float:
+    """``hz`` as a float in (0, MAX_HZ], or FoamError (exit 2)."""
+    try:
+        v = float(hz)
+    except (TypeError, ValueError):
+        raise FoamError(f"--hz must be a number of samples per second, got {hz!r}") from None
+    if not (np.isfinite(v) and 0 < v <= MAX_HZ):
+        raise FoamError(f"--hz must be a number of samples per second in (0, {MAX_HZ:g}], got {hz!r}")
+    return v
+
+
+def pick_path(doc: dict, name: str | None) -> str:
+    """The path to export: ``name`` (FoamError listing the result's paths when unknown), or by default
+    the result's last path (``plan``'s smoothed one; the centre path when it is alone)."""
+    names = list(doc.get("paths") or {})
+    if not names:
+        raise FoamError("the result has no paths to export (planning failed?)")
+    if name is None:
+        return names[-1]
+    if name not in names:
+        raise FoamError(f"--path '{name}' is not in the result; its paths: {', '.join(names)}")
+    return name
+
+
+def export_table(doc: dict, source: str | Path, path_name: str, hz: float = DEFAULT_HZ) -> ExportTable:
+    """The table of ``path_name`` of a result document (module docstring)."""
+    import mujoco
+
+    from foam_mj.dynamics import inverse_dynamics, joint_units
+    from foam_mj.pipeline import time_path
+    from foam_mj.results import outcome_robot
+    from foam_mj.rosary import Rosary
+    from foam_mj.timing import METHODS, Limits
+
+    robot = outcome_robot(doc, source)
+    entry = doc["paths"][path_name]
+    try:
+        limits = Limits.from_dict(doc["limits"]) if doc.get("limits") else Limits()
+        time_law = doc.get("time_law") or "own"
+        if time_law not in METHODS:
+            raise FoamError(f"{source}: field 'time_law' must be one of {list(METHODS)}, got {time_law!r}")
+        q_init, q_goal = np.asarray(doc["q_init"], float), np.asarray(doc["q_goal"], float)
+        rosary = Rosary(np.asarray(entry["rosary"]["centers"], float), np.asarray(entry["rosary"]["radii"], float), q_init, q_goal)
+        path = np.asarray(entry["waypoints"], float)
+    except (KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, FoamError):
+            raise
+        raise FoamError(f"{source}: malformed result: {type(exc).__name__}: {exc}") from None
+    if path.ndim != 2 or path.shape[1] != robot.dim or len(path) != rosary.k + 1:
+        raise FoamError(f"{source}: path '{path_name}' has waypoints of shape {path.shape}, expected ({rosary.k + 1}, {robot.dim})")
+    if not rosary.all_in_hatches(path[1:-1], tol=1e-9):
+        raise FoamError(f"{source}: path '{path_name}' has waypoints outside its rosary's hatches: refusing to export it")
+    traj = time_path(robot, path_name, path, rosary, limits, time_law)
+
+    T = traj.duration
+    k = np.arange(int(np.floor(T * hz + 1e-9)) + 1)
+    times = k / hz
+    if T - times[-1] > 1e-9:
+        times = np.append(times, T)
+    q, qd, qdd = traj.evaluate(times)
+    cfg, m = robot.config, robot.model
+    scale = cfg.scale
+    qd, qdd = qd * scale, qdd * scale
+    qpos = cfg.to_qpos(q)
+    dof = m.jnt_dofadr[cfg.joint_ids]
+    qvel = np.zeros((len(times), m.nv))
+    qacc = np.zeros((len(times), m.nv))
+    qvel[:, dof] = qd
+    qacc[:, dof] = qdd
+    tau = inverse_dynamics(robot, qpos, qvel, qacc)[:, dof]
+
+    columns: dict[str, np.ndarray] = {"time_s": times}
+    units: dict[str, str] = {"time_s": "s"}
+    for j, (joint, (uq, uqd, uqdd, utau)) in enumerate(zip(cfg.joint_names, joint_units(robot))):
+        for suffix, values, unit in (
+            ("q", qpos[:, cfg.qpos_index[j]], uq),
+            ("qd", qd[:, j], uqd),
+            ("qdd", qdd[:, j], uqdd),
+            ("tau", tau[:, j], utau),
+            ("power", tau[:, j] * qd[:, j], "W"),
+        ):
+            columns[f"{joint}.{suffix}"] = np.asarray(values, dtype=float)
+            units[f"{joint}.{suffix}"] = unit
+    metadata = {
+        "format": "foam-mj/trajectory",
+        "version": 1,
+        "scenario": doc.get("scenario"),
+        "path": path_name,
+        "hz": hz,
+        "duration_s": T,
+        "time_law": time_law,
+        "joints": list(cfg.joint_names),
+        "units": units,
+        "mjcf": doc.get("mjcf"),
+        "tau": "mujoco.mj_inverse at (q, qd, qdd); other joints at qpos0; N m for hinges, N for slides",
+        "mujoco": mujoco.__version__,
+    }
+    return ExportTable(columns, units, metadata)
+
+
+# -- writers ---------------------------------------------------------------------------------------------------
+def _atomic(out: Path, write) -> None:
+    """Call ``write(tmp_path)`` on a temporary file in ``out``'s folder, then rename it to ``out``."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{out.name[:60]}.", suffix=".tmp", dir=out.parent if str(out.parent) else ".")
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 -> what a plain open() would have given
+        os.replace(tmp, out)
+    except BaseException as exc:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        if isinstance(exc, OSError):
+            raise FoamError(f"cannot write {out}: {exc.strerror or exc}") from None
+        raise
+
+
+def _csv_text(table: ExportTable) -> str:
+    names = list(table.columns)
+    data = np.column_stack([table.columns[n] for n in names])
+    buf = io.StringIO()
+    buf.write("# " + json.dumps(table.metadata, separators=(",", ":")) + "\n")
+    np.savetxt(buf, data, delimiter=",", header=",".join(names), comments="", fmt="%.9g")
+    return buf.getvalue()
+
+
+def write_table(table: ExportTable, out: str | Path, fmt: str) -> Path:
+    """Write ``table`` to ``out`` as csv, npz or parquet, atomically."""
+    out = Path(out)
+    if fmt == "csv":
+        text = _csv_text(table)
+        _atomic(out, lambda p: p.write_text(text))
+    elif fmt == "npz":
+        arrays = dict(table.columns)
+        arrays["metadata"] = np.array(json.dumps(table.metadata))
+
+        def write_npz(p: Path) -> None:
+            with open(p, "wb") as f:
+                np.savez(f, **arrays)
+
+        _atomic(out, write_npz)
+    elif fmt == "parquet":
+        pa, pq = require_pyarrow()
+        fields = [pa.field(n, pa.float64(), metadata={"unit": table.units[n]}) for n in table.columns]
+        schema = pa.schema(fields, metadata={"foam_mj": json.dumps(table.metadata)})
+        arrow = pa.table({n: pa.array(v) for n, v in table.columns.items()}, schema=schema)
+        _atomic(out, lambda p: pq.write_table(arrow, p))
+    else:
+        raise FoamError(f"--format must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    return out
+
+
+def require_pyarrow():
+    """(pyarrow, pyarrow.parquet), or FoamError with the install hint."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise FoamError("--format parquet needs pyarrow: pip install 'foam-mj[export]'") from None
+    return pa, pq

@@ -1,0 +1,457 @@
+"""Torque-limited time laws: the certified curve re-timed under joint velocity, acceleration and torque limits.
+
+The geometry does not change
+----------------------------
+:func:`foam_mj.trajectory.make_trajectory` builds the safe curve q(u) (quintic Bézier segments whose
+control points lie in their bubbles, so every point of the curve does) and a first, smooth time law
+bounded by joint velocity and acceleration only. Here only u(t) changes: every sample is q(u(t)) on the
+same curve, so it stays in the same bubbles (each sample is checked again against its bubble), and the
+safety certificate carries over unchanged.
+
+Limits (:class:`Limits`)
+------------------------
+Joint units: rad/s, rad/s^2, N m for hinges; m/s, m/s^2, N for slides, in configuration-joint order.
+Velocity and acceleration default to :class:`~foam_mj.trajectory.JointLimits` (the MJCF's
+``foam_mj:limits:<joint>`` or the hinge/slide defaults); torque to the MJCF's actuator force ranges
+(:func:`foam_mj.dynamics.torque_limits`). Any of the three may be given as a list (scenario TOML
+``[limits] velocity = [...], acceleration = [...], torque = [...]``, or ``Limits(torque=(...))``).
+
+The torque model is MuJoCo's inverse dynamics, tau = M(q) qdd + c(q, qd) + g(q) + B qd (armature in M,
+joint damping B from the MJCF). Along the curve, with s the path parameter, qd = q' sd and
+qdd = q' sdd + q'' sd^2, so
+
+    tau(s) = a(s) sdd + b(s) sd^2 + g(s) + B q'(s) sd,    a = M q',  b = M q'' + c(q, q').
+
+Two time laws (``method``)
+--------------------------
+* ``"toppra"`` (the default): time-optimal path parametrization by reachability analysis (Pham & Pham,
+  "A new approach to time-optimal path parameterization based on reachability analysis", IEEE T-RO 2018;
+  the ``toppra`` package), on a grid of :data:`GRID_POINTS` path positions, with the velocity,
+  acceleration and torque constraints above. toppra's constraints are linear in (sdd, sd^2), so the
+  damping term (linear in sd) is left out of the constraint and accounted for afterwards: the samples'
+  torques are recomputed with ``mj_inverse`` (damping included) and, where a joint exceeds its limit, that
+  joint's limit given to toppra is lowered by the excess and the parametrization recomputed (at most
+  :data:`REFINE_ROUNDS` rounds); the same rounds absorb the grid's discretization error. toppra's own
+  output spline re-interpolates q and would change the geometry, so only its (s, sd, sdd) are used: s(t)
+  is piecewise quadratic (constant sdd between grid points) and q(t) = q(s(t)) on the certified curve.
+* ``"own"``: the smooth minimum-jerk time law of :mod:`foam_mj.trajectory`, stretched uniformly. For a
+  fixed time law with speed factor x = T0 / T (T0 the duration meeting velocity and acceleration limits),
+  tau(x) = g + x D + x^2 R at every sample (D the damping torque at T0, R the rest), so the largest x
+  meeting |tau_j| <= L_j at every sample is the smallest positive root of R x^2 + D x + g -+ L = 0:
+  exact, no search.
+
+``benchmarks/timing.py`` compares them on the same curves (duration, peak torque use, smoothness).
+
+Infeasible limits
+-----------------
+No timing can help where gravity alone (sd = 0) needs more than a joint's limit: :class:`TimingInfeasible`
+names the joint, where along the path, and by how much. Where gravity fits but leaves so little margin
+that the timing would last more than :data:`MAX_SLOWDOWN` times the timing without torque limits, the
+path is reported the same way rather than slowed to an absurd duration.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from foam_mj.dynamics import inverse_dynamics, joint_units, torque_limits
+from foam_mj.errors import PlanningFailed
+from foam_mj.model import RobotModel
+from foam_mj.rosary import Rosary, in_ball
+from foam_mj.trajectory import SAFETY_TOL, JointLimits, SafeCurve, Trajectory, TrajectoryError, _motion, make_trajectory
+
+#: Time laws accepted by :func:`retime` / :func:`timed_trajectory`.
+METHODS = ("toppra", "own")
+DEFAULT_METHOD = "toppra"
+#: Path positions of toppra's grid (uniform in u, plus the knots).
+GRID_POINTS = 800
+#: Rounds of limit tightening after toppra (damping and discretization error, module docstring).
+REFINE_ROUNDS = 8
+#: A torque-limited timing longer than this multiple of the unlimited one is reported as infeasible.
+MAX_SLOWDOWN = 10.0
+
+
+class TimingInfeasible(PlanningFailed):
+    """No timing of the (safe) curve meets the limits: ``joint`` the joint, ``excess`` by how much."""
+
+    def __init__(self, message: str, joint: str | None = None, excess: float | None = None) -> None:
+        super().__init__(message)
+        self.joint = joint
+        self.excess = excess
+
+
+def _positive_list(value, name: str, allow_inf: bool = False) -> tuple[float, ...] | None:
+    if value is None:
+        return None
+    try:
+        vals = tuple(float("inf") if (v is None and allow_inf) else float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"`{name}` must be a list of numbers, got {value!r}") from None
+    ok = all((np.isfinite(v) or (allow_inf and v == np.inf)) and v > 0 for v in vals)
+    if isinstance(value, (str, bytes)) or not vals or not ok:
+        raise ValueError(f"`{name}` must be a non-empty list of finite numbers > 0, got {value!r}")
+    return vals
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Joint limits for the time law (module docstring): ``velocity``, ``acceleration``, ``torque`` lists
+    in configuration-joint order and joint units, None for the defaults (``joint`` for velocity and
+    acceleration, the MJCF's actuator force ranges for torque)."""
+
+    velocity: tuple[float, ...] | None = None
+    acceleration: tuple[float, ...] | None = None
+    torque: tuple[float, ...] | None = None
+    joint: JointLimits = field(default_factory=JointLimits)
+
+    def __post_init__(self) -> None:
+        for name in ("velocity", "acceleration", "torque"):  # torque: None/inf entries mean "no limit"
+            object.__setattr__(self, name, _positive_list(getattr(self, name), name, allow_inf=name == "torque"))
+        if not isinstance(self.joint, JointLimits):
+            raise ValueError(f"`joint` must be a JointLimits, got {type(self.joint).__name__}")
+
+    def resolve(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(velocity, acceleration, torque), each (n,) in joint units; torque is inf where unlimited."""
+        v, a = self.joint.resolve(robot)
+        tau = torque_limits(robot)
+        n = robot.dim
+        for name, given in (("velocity", self.velocity), ("acceleration", self.acceleration), ("torque", self.torque)):
+            if given is not None and len(given) != n:
+                raise ValueError(f"limits `{name}` must have {n} numbers ({', '.join(robot.config.joint_names)}), got {len(given)}")
+        if self.velocity is not None:
+            v = np.array(self.velocity)
+        if self.acceleration is not None:
+            a = np.array(self.acceleration)
+        if self.torque is not None:
+            tau = np.array(self.torque)
+        return v, a, tau
+
+    def joint_limits(self, robot: RobotModel) -> JointLimits:
+        """The velocity and acceleration limits as a :class:`JointLimits` (for ``make_trajectory``)."""
+        v, a, _ = self.resolve(robot)
+        j = self.joint
+        return JointLimits(j.hinge_velocity, j.hinge_acceleration, j.slide_velocity, j.slide_acceleration,
+                           {name: (float(v[i]), float(a[i])) for i, name in enumerate(robot.config.joint_names)})
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> "Limits":
+        """The limits :meth:`as_dict` wrote (null torque: no limit)."""
+        return cls(velocity=doc.get("velocity"), acceleration=doc.get("acceleration"), torque=doc.get("torque"))
+
+    def as_dict(self, robot: RobotModel) -> dict:
+        """The resolved limits, for the JSON result (an absent torque limit is null)."""
+        v, a, tau = self.resolve(robot)
+        return {"joints": list(robot.config.joint_names), "velocity": v.tolist(), "acceleration": a.tolist(),
+                "torque": [float(t) if np.isfinite(t) else None for t in tau]}
+
+
+def as_limits(limits: Limits | JointLimits | None) -> Limits:
+    """``limits`` as a :class:`Limits` (a bare JointLimits sets the velocity/acceleration defaults)."""
+    if limits is None:
+        return Limits()
+    if isinstance(limits, JointLimits):
+        return Limits(joint=limits)
+    if isinstance(limits, Limits):
+        return limits
+    raise ValueError(f"`limits` must be a Limits or JointLimits, got {type(limits).__name__}")
+
+
+# -- the path seen in joint units -----------------------------------------------------------------------
+class _Kinematics:
+    """The curve at path positions in MuJoCo's units: qpos (N, nq) and dq/du, d2q/du2 (N, n)."""
+
+    def __init__(self, robot: RobotModel, curve: SafeCurve) -> None:
+        self.robot, self.curve = robot, curve
+        self.scale = robot.config.scale
+        m = robot.model
+        self.dof = m.jnt_dofadr[robot.config.joint_ids]
+        self.damping = m.dof_damping[self.dof].copy()
+
+    def at(self, u: np.ndarray):
+        q, qu, quu = self.curve.evaluate(u)
+        return self.robot.config.to_qpos(q), qu * self.scale, quu * self.scale
+
+    def coefficients(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """a(u), b(u), g(u) (N, n): tau = a sdd + b sd^2 + g + B q' sd (module docstring)."""
+        m = self.robot.model
+        qpos, qu, quu = self.at(u)
+        N = len(u)
+        zero = np.zeros((N, m.nv))
+        vel = zero.copy()
+        acc = zero.copy()
+        d = mujoco.MjData(m)
+        g = inverse_dynamics(self.robot, qpos, zero, zero, d)[:, self.dof]
+        acc[:, self.dof] = qu
+        a = inverse_dynamics(self.robot, qpos, zero, acc, d)[:, self.dof] - g
+        vel[:, self.dof] = qu
+        acc[:, self.dof] = quu
+        b = inverse_dynamics(self.robot, qpos, vel, acc, d)[:, self.dof] - g - self.damping * qu
+        return a, b, g
+
+
+def check_gravity(robot: RobotModel, curve: SafeCurve, torque: np.ndarray, samples: int = 2000) -> None:
+    """Raise :class:`TimingInfeasible` where gravity alone exceeds a joint's torque limit on the curve."""
+    if not np.any(np.isfinite(torque)):
+        return
+    kin = _Kinematics(robot, curve)
+    u = np.linspace(0.0, curve.length, samples)
+    qpos, _, _ = kin.at(u)
+    zero = np.zeros((len(u), robot.model.nv))
+    g = np.abs(inverse_dynamics(robot, qpos, zero, zero)[:, kin.dof])
+    over = g - torque
+    if np.any(over > 0):
+        i, j = np.unravel_index(int(np.argmax(over / torque)), over.shape)
+        name, unit = robot.config.joint_names[j], joint_units(robot)[j][3]
+        raise TimingInfeasible(
+            f"no timing fits the torque limit of {name}: gravity alone needs {g[i, j]:.1f} {unit} at "
+            f"{100 * u[i] / curve.length:.0f}% of the path, over its limit {torque[j]:.1f} {unit} by "
+            f"{over[i, j]:.1f} {unit} ({100 * over[i, j] / torque[j]:.0f}%)",
+            joint=name, excess=float(over[i, j]),
+        )
+
+
+# -- toppra -----------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PathTiming:
+    """A time law u(t) given by path velocities ``sd`` at grid positions ``s`` with constant path
+    acceleration between them (toppra's output): s(t) piecewise quadratic. ``native`` is its own duration;
+    evaluated for a longer ``duration`` it is stretched uniformly (speeds x native/duration)."""
+
+    s: np.ndarray  # (N+1,)
+    sd: np.ndarray  # (N+1,)
+    sdd: np.ndarray  # (N,)
+    t: np.ndarray  # (N+1,) time at each grid position
+    duration: float
+
+    @property
+    def native(self) -> float:
+        return float(self.t[-1])
+
+    def at_tau(self, tau: np.ndarray, duration: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """u, du/dt, d2u/dt2 at normalized times tau in [0, 1] (same contract as TimeLaw.at_tau)."""
+        T = self.duration if duration is None else duration
+        k = self.native / T
+        tn = np.clip(np.asarray(tau, dtype=float), 0.0, 1.0) * self.native
+        i = np.clip(np.searchsorted(self.t, tn, side="right") - 1, 0, len(self.sdd) - 1)
+        dt = tn - self.t[i]
+        u = np.clip(self.s[i] + self.sd[i] * dt + 0.5 * self.sdd[i] * dt * dt, self.s[i], self.s[i + 1])
+        return u, np.maximum(self.sd[i] + self.sdd[i] * dt, 0.0) * k, self.sdd[i] * k * k
+
+    def time_at(self, u: np.ndarray) -> np.ndarray:
+        """Times (of this law's ``duration``) at which the path passes positions u."""
+        u = np.clip(np.asarray(u, dtype=float), self.s[0], self.s[-1])
+        i = np.clip(np.searchsorted(self.s, u, side="right") - 1, 0, len(self.sdd) - 1)
+        ds = u - self.s[i]
+        a, v = self.sdd[i], self.sd[i]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            quad = np.where(np.abs(a) > 1e-12, (-v + np.sqrt(np.maximum(v * v + 2 * a * ds, 0.0))) / a, ds / np.maximum(v, 1e-300))
+        return (self.t[i] + np.where(ds > 0, quad, 0.0)) * self.duration / self.native
+
+
+def _toppra_law(kin: _Kinematics, vmax, amax, tmax) -> PathTiming:
+    import toppra
+    import toppra.algorithm
+    import toppra.constraint as tc
+    from toppra.interpolator import AbstractGeometricPath
+
+    class CurvePath(AbstractGeometricPath):
+        def __call__(self, s, order=0):
+            arr = np.atleast_1d(np.asarray(s, dtype=float))
+            qpos, qu, quu = kin.at(arr)
+            out = (qpos[:, kin.robot.config.qpos_index], qu, quu)[order]
+            return out if np.ndim(s) else out[0]
+
+        @property
+        def dof(self):
+            return kin.robot.dim
+
+        @property
+        def path_interval(self):
+            return np.array([0.0, kin.curve.length])
+
+    class TorqueConstraint(tc.LinearConstraint):
+        def __init__(self, lim):
+            super().__init__()
+            self.lim = lim
+            self.identical = True
+            self.set_discretization_type(tc.DiscretizationType.Interpolation)
+
+        def get_dof(self):
+            return len(self.lim)
+
+        def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
+            a, b, c = kin.coefficients(gridpoints)
+            n = len(self.lim)
+            F = np.vstack([np.eye(n), -np.eye(n)])
+            g = np.concatenate([self.lim, self.lim])
+            return tc.canlinear_colloc_to_interpolate(a, b, c, F, g, None, None, gridpoints, identical=True)
+
+    L = kin.curve.length
+    grid = np.unique(np.concatenate([np.linspace(0.0, L, GRID_POINTS + 1), kin.curve.knots]))
+    constraints = [
+        tc.JointVelocityConstraint(np.stack([-vmax, vmax], axis=1)),
+        tc.JointAccelerationConstraint(np.stack([-amax, amax], axis=1), discretization_scheme=tc.DiscretizationType.Interpolation),
+    ]
+    limited = np.isfinite(tmax)
+    if np.any(limited):
+        constraints.append(TorqueConstraint(np.where(limited, tmax, 1e12)))
+    algo = toppra.algorithm.TOPPRA(constraints, CurvePath(), gridpoints=grid, solver_wrapper="seidel")
+    sdd, sd, _ = algo.compute_parameterization(0.0, 0.0)
+    if sd is None or np.any(~np.isfinite(sd)):
+        raise TimingInfeasible("toppra found no timing of the path under the limits")
+    sd = np.sqrt(np.maximum(np.asarray(sd, dtype=float) ** 2, 0.0))
+    ds = np.diff(grid)
+    sdd = (sd[1:] ** 2 - sd[:-1] ** 2) / (2 * ds)  # consistent with sd exactly
+    dt = 2 * ds / np.maximum(sd[1:] + sd[:-1], 1e-300)
+    t = np.concatenate([[0.0], np.cumsum(dt)])
+    return PathTiming(grid, sd, sdd, t, float(t[-1]))
+
+
+# -- sampling a time law on the curve ----------------------------------------------------------------------------
+def _sample(robot: RobotModel, rosary: Rosary, curve: SafeCurve, law, duration: float, dt: float, waypoint_times) -> Trajectory:
+    steps = max(1, int(round(duration / dt)))
+    times = np.arange(steps + 1) * dt
+    q, qd, qdd, u = _motion(curve, law, times / times[-1], times[-1])
+    q[0], q[-1] = curve.control_points[0, 0], curve.control_points[-1, 5]
+    seg = curve.segment_of(u)
+    if not in_ball(q, curve.centers[seg], curve.radii[seg], SAFETY_TOL).all():  # pragma: no cover - the curve is certified
+        raise TrajectoryError("a re-timed sample left its bubble")
+    cfg, m = robot.config, robot.model
+    dof = m.jnt_dofadr[cfg.joint_ids]
+    qvel = np.zeros((len(times), m.nv))
+    qacc = np.zeros((len(times), m.nv))
+    qvel[:, dof] = qd * cfg.scale
+    qacc[:, dof] = qdd * cfg.scale
+    qvel[[0, -1]] = 0.0
+    return Trajectory(times=times, q=q, qpos=cfg.to_qpos(q), joint_names=cfg.joint_names, qvel=qvel, qacc=qacc,
+                      bubble=curve.bubble[seg], waypoint_times=np.asarray(waypoint_times, float), qpos_index=cfg.qpos_index.copy(),
+                      curve=curve, time_law=law)
+
+
+def _peaks(robot: RobotModel, traj: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per configuration joint: peak |qd|, |qdd| (joint units) and |tau| (mj_inverse) over the samples."""
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    tau = inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]
+    return np.abs(traj.qvel[:, dof]).max(axis=0), np.abs(traj.qacc[:, dof]).max(axis=0), np.abs(tau).max(axis=0)
+
+
+def _whole_steps(duration: float, dt: float) -> float:
+    return max(1, int(np.ceil(duration / dt - 1e-9))) * dt
+
+
+def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Trajectory:
+    curve = base.curve
+    kin = _Kinematics(robot, curve)
+    knots_of_points = np.searchsorted(curve.point_index, np.arange(rosary.k + 1), side="right") - 1
+    free = _toppra_law(kin, vmax, amax, np.full_like(tmax, np.inf)) if np.any(np.isfinite(tmax)) else None
+    v_eff, a_eff, t_eff = vmax.copy(), amax.copy(), tmax.copy()
+    for _ in range(REFINE_ROUNDS):
+        law = _toppra_law(kin, v_eff, a_eff, t_eff)
+        if free is not None and law.native > MAX_SLOWDOWN * free.native:
+            _report_slowdown(robot, kin, law, free, tmax)
+        T = _whole_steps(law.native, dt)
+        law = PathTiming(law.s, law.sd, law.sdd, law.t, T)
+        traj = _sample(robot, rosary, curve, law, T, dt, law.time_at(curve.knots)[knots_of_points])
+        pv, pa, pt = _peaks(robot, traj)
+        over_v, over_a = pv / vmax, pa / amax
+        with np.errstate(invalid="ignore"):
+            over_t = np.where(np.isfinite(tmax), pt / tmax, 0.0)
+        if max(over_v.max(), over_a.max(), over_t.max()) <= 1.0 + 1e-9:
+            return traj
+        v_eff = np.where(over_v > 1, v_eff / over_v * (1 - 1e-4), v_eff)
+        a_eff = np.where(over_a > 1, a_eff / over_a * (1 - 1e-4), a_eff)
+        t_eff = np.where(over_t > 1, t_eff - (pt - tmax) * 1.2 - 1e-6 * np.where(np.isfinite(tmax), tmax, 0), t_eff)
+        if np.any(t_eff <= 0):
+            j = int(np.argmin(t_eff))
+            raise TimingInfeasible(f"no timing fits the torque limit of {robot.config.joint_names[j]}", joint=robot.config.joint_names[j])
+    raise TimingInfeasible(  # pragma: no cover - has not happened on the shipped scenes
+        f"toppra's timing still exceeds the limits after {REFINE_ROUNDS} refinements"
+    )
+
+
+def _report_slowdown(robot, kin: _Kinematics, law: PathTiming, free: PathTiming, tmax) -> None:
+    """The torque limits only fit with an absurd slowdown: name the joint with the least margin over gravity."""
+    u = law.s
+    qpos, _, _ = kin.at(u)
+    zero = np.zeros((len(u), robot.model.nv))
+    g = np.abs(inverse_dynamics(robot, qpos, zero, zero)[:, kin.dof])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        margin = np.where(np.isfinite(tmax), (tmax - g) / tmax, np.inf)
+    i, j = np.unravel_index(int(np.argmin(margin)), margin.shape)
+    name, unit = robot.config.joint_names[j], joint_units(robot)[j][3]
+    raise TimingInfeasible(
+        f"the torque limit of {name} ({tmax[j]:.1f} {unit}) leaves only {tmax[j] - g[i, j]:.2f} {unit} above gravity "
+        f"({g[i, j]:.1f} {unit}) at {100 * u[i] / kin.curve.length:.0f}% of the path: the timing would take "
+        f"{law.native:.1f} s, over {MAX_SLOWDOWN:g} times the {free.native:.2f} s without torque limits",
+        joint=name, excess=float(g[i, j] - tmax[j]),
+    )
+
+
+def _retime_own(robot, rosary, base: Trajectory, tmax, dt) -> Trajectory:
+    """The min-jerk law stretched to meet the torque limits (exact roots, module docstring)."""
+    T0 = base.duration
+    if not np.any(np.isfinite(tmax)):
+        return base
+    m = robot.model
+    dof = m.jnt_dofadr[robot.config.joint_ids]
+    B = m.dof_damping[dof]
+    x_max = 1.0
+    traj = base
+    for _ in range(REFINE_ROUNDS):
+        zero = np.zeros_like(traj.qvel)
+        g = inverse_dynamics(robot, traj.qpos, zero, zero)[:, dof]
+        tau = inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]
+        x0 = T0 / traj.duration  # speed factor of these samples relative to T0
+        D = B * traj.qvel[:, dof] / x0
+        R = (tau - g - B * traj.qvel[:, dof]) / x0**2
+        L = np.where(np.isfinite(tmax), tmax, np.inf)
+        if np.all(np.abs(tau) <= L * (1 + 1e-9)):
+            return traj
+        roots = [_smallest_positive_root(R, D, g - L), _smallest_positive_root(R, D, g + L)]
+        x_max = min(x_max, float(np.min(np.minimum(*roots)))) * (1 - 1e-6)
+        T = _whole_steps(T0 / x_max, dt)
+        law = type(base.time_law)(base.time_law.grid, base.time_law.weight, T)
+        traj = _sample(robot, rosary, base.curve, law, T, dt, base.waypoint_times * T / T0)
+    raise TimingInfeasible("the stretched time law still exceeds the torque limits")  # pragma: no cover
+
+
+def _smallest_positive_root(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Elementwise smallest root x > 0 of a x^2 + b x + c = 0 (inf when none)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        disc = b * b - 4 * a * c
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        r1 = np.where(np.abs(a) > 1e-300, (-b - sq) / (2 * a), -c / b)
+        r2 = np.where(np.abs(a) > 1e-300, (-b + sq) / (2 * a), -c / b)
+        ok = disc >= 0
+        r1 = np.where(ok & (r1 > 0), r1, np.inf)
+        r2 = np.where(ok & (r2 > 0), r2, np.inf)
+    return np.minimum(r1, r2)
+
+
+def retime(robot: RobotModel, trajectory: Trajectory, rosary: Rosary, limits: Limits | JointLimits | None = None,
+           method: str = DEFAULT_METHOD, dt: float | None = None) -> Trajectory:
+    """``trajectory`` (from :func:`make_trajectory`, same curve) re-timed under velocity, acceleration and
+    torque limits by ``method`` ("toppra" or "own"); raises :class:`TimingInfeasible` (module docstring)."""
+    if method not in METHODS:
+        raise ValueError(f"`method` must be one of {METHODS}, got {method!r}")
+    if trajectory.curve is None or trajectory.time_law is None:
+        raise ValueError("`trajectory` must come from make_trajectory (it needs its curve and time law)")
+    lim = as_limits(limits)
+    vmax, amax, tmax = lim.resolve(robot)
+    dt = trajectory.dt if dt is None else float(dt)
+    check_gravity(robot, trajectory.curve, tmax)
+    if method == "own":
+        return _retime_own(robot, rosary, trajectory, tmax, dt)
+    return _retime_toppra(robot, rosary, trajectory, vmax, amax, tmax, dt)
+
+
+def timed_trajectory(robot: RobotModel, path, rosary: Rosary, limits: Limits | JointLimits | None = None,
+                     method: str = DEFAULT_METHOD, dt: float | None = None) -> Trajectory:
+    """The safe curve through ``path`` (:func:`make_trajectory`) timed under velocity, acceleration and
+    torque ``limits`` by ``method``."""
+    lim = as_limits(limits)
+    base = make_trajectory(robot, path, rosary, lim.joint_limits(robot), dt)
+    return retime(robot, base, rosary, lim, method, dt)

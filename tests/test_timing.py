@@ -1,0 +1,124 @@
+"""Torque-limited time laws and joint loads: the certified curve re-timed (toppra and our own law) keeps
+its geometry, meets every limit on its samples (torques checked with mj_inverse), and a path no timing
+can fit is reported, naming the joint."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from foam_mj.dynamics import HUMAN_SWING, body_mass, joint_loads, torque_limits
+from foam_mj.pipeline import plan_scenario, smooth_paths
+from foam_mj.scenarios import load_scenario
+from foam_mj.timing import Limits, TimingInfeasible, retime
+from foam_mj.trajectory import make_trajectory
+
+from conftest import MujocoChecker
+
+
+@pytest.fixture(scope="module")
+def planned():
+    scenario = load_scenario("obstacle")
+    result = plan_scenario(scenario, 0)
+    paths = smooth_paths(scenario, result.rosary, ("convex",), 0)
+    robot = scenario.robot
+    out = {}
+    for name, res in paths.items():
+        out[name] = (res, make_trajectory(robot, res.path, res.rosary))
+    return scenario.robot, out
+
+
+def _independent_torques(robot, traj) -> np.ndarray:
+    """mj_inverse per sample on a fresh MjData, written here without foam_mj.dynamics."""
+    m = robot.model
+    d = mujoco.MjData(m)
+    dof = m.jnt_dofadr[robot.config.joint_ids]
+    out = []
+    for qpos, qvel, qacc in zip(traj.qpos, traj.qvel, traj.qacc):
+        d.qpos[:], d.qvel[:], d.qacc[:] = qpos, qvel, qacc
+        mujoco.mj_inverse(m, d)
+        out.append(d.qfrc_inverse[dof].copy())
+    return np.array(out)
+
+
+def test_torque_limits_come_from_the_actuator_force_ranges(obstacle_robot):
+    # models/ortholeg.xml: hinge servos forcerange -400 400 (gear 1), the slide servo -3000 3000.
+    names = obstacle_robot.config.joint_names
+    lim = dict(zip(names, torque_limits(obstacle_robot)))
+    assert lim == {"hip_flexion": 400.0, "knee_flexion": 400.0, "hip_displacement": 3000.0}
+    assert body_mass(obstacle_robot) == 75.0
+
+
+@pytest.mark.parametrize("method", ["toppra", "own"])
+@pytest.mark.parametrize("torque", [None, (150.0, 40.0, 400.0)])
+def test_a_retimed_trajectory_keeps_the_curve_and_meets_every_limit(planned, method, torque):
+    robot, paths = planned
+    limits = Limits(torque=torque)
+    vmax, amax, tmax = limits.resolve(robot)
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    for name, (res, base) in paths.items():
+        traj = retime(robot, base, res.rosary, limits, method)
+        assert traj.dt == pytest.approx(base.dt)
+        # Same geometry: the certified curve, every sample in its rosary bubble, clearance above the margin.
+        assert traj.curve is base.curve
+        dist = np.linalg.norm(traj.q - res.rosary.centers[traj.bubble], axis=1)
+        assert np.all(dist <= res.rosary.radii[traj.bubble] + 1e-9), name
+        checker = MujocoChecker(robot)
+        assert min(checker.distance(q) for q in traj.q[::5]) >= 0.005 - 1e-6
+        np.testing.assert_allclose(traj.q[[0, -1]], base.q[[0, -1]], atol=1e-12)
+        # Limits on the samples, the torques recomputed independently.
+        tau = _independent_torques(robot, traj)
+        assert np.all(np.abs(traj.qvel[:, dof]) <= vmax * (1 + 1e-6)), name
+        assert np.all(np.abs(traj.qacc[:, dof]) <= amax * (1 + 1e-6)), name
+        assert np.all(np.abs(tau) <= tmax * (1 + 1e-6)), (name, np.abs(tau).max(axis=0))
+        if torque is not None:  # the tight limit binds: some joint uses more than 90 % of it
+            assert np.max(np.abs(tau).max(axis=0) / tmax) > 0.9
+
+
+def test_toppra_is_faster_than_the_smooth_law_for_the_same_curve(planned):
+    robot, paths = planned
+    for name, (res, base) in paths.items():
+        fast = retime(robot, base, res.rosary, Limits(), "toppra")
+        smooth = retime(robot, base, res.rosary, Limits(), "own")
+        assert fast.duration < smooth.duration, name
+
+
+def test_gravity_beyond_the_limit_is_infeasible_and_names_the_joint(planned):
+    robot, paths = planned
+    res, base = paths["convex"]
+    for method in ("toppra", "own"):
+        with pytest.raises(TimingInfeasible, match=r"torque limit of knee_flexion: gravity alone needs [0-9.]+ N m .* over its limit 1\.0 N m by") as exc:
+            retime(robot, base, res.rosary, Limits(torque=(400.0, 1.0, 3000.0)), method)
+        assert exc.value.joint == "knee_flexion" and exc.value.excess > 0
+
+
+def test_joint_loads_match_an_independent_inverse_dynamics(planned):
+    robot, paths = planned
+    res, base = paths["convex"]
+    traj = retime(robot, base, res.rosary, Limits(), "toppra")
+    loads = joint_loads(robot, traj)
+    tau = _independent_torques(robot, traj)
+    np.testing.assert_allclose(loads.tau, tau, rtol=1e-9, atol=1e-9)
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    np.testing.assert_allclose(loads.power, tau * traj.qvel[:, dof], rtol=1e-12)
+    np.testing.assert_allclose(loads.peak, np.abs(tau).max(axis=0))
+    # Work: positive minus |negative| is the net work, the integral of the power.
+    net = np.trapezoid(tau * traj.qvel[:, dof], traj.times, axis=0)
+    np.testing.assert_allclose(loads.positive_work + loads.negative_work, net, rtol=1e-9, atol=1e-9)
+    assert np.all(loads.positive_work >= 0) and np.all(loads.negative_work <= 0)
+    assert loads.per_kg is not None and np.allclose(loads.per_kg, loads.peak / 75.0)
+    assert 0.1 < HUMAN_SWING.hip < 1.0 and 0.1 < HUMAN_SWING.knee < 1.0
+
+
+def test_limits_validate_their_input():
+    with pytest.raises(ValueError, match="torque"):
+        Limits(torque=(1.0, -2.0, 3.0))
+    with pytest.raises(ValueError, match="velocity"):
+        Limits(velocity="fast")
+    assert Limits(torque=(1.0, None, 3.0)).torque[1] == np.inf
+
+
+def test_limits_must_match_the_configuration(obstacle_robot):
+    with pytest.raises(ValueError, match="must have 3 numbers"):
+        Limits(torque=(1.0, 2.0)).resolve(obstacle_robot)
