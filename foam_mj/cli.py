@@ -119,6 +119,8 @@ def _print_servo_note(outcome) -> None:
 def _loads_table(outcome) -> str:
     """Per path and joint: peak and RMS torque (mj_inverse), per kilogram, the actuator limit and its use,
     positive and negative work; then the human reference (foam_mj.dynamics.HUMAN_SWING)."""
+    import numpy as np
+
     from foam_mj.dynamics import HUMAN_SWING
 
     rows = [(po.label, po.loads) for po in outcome.paths.values() if getattr(po, "loads", None) is not None]
