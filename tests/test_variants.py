@@ -23,6 +23,8 @@ from conftest import SCENES, MujocoChecker
 
 VARIANTS = {"gbpf": plan_gbpf, "rbpf": plan_rbpf, "hpf": plan_hpf}
 SCEN = {name: load_scenario(name) for name in SCENES}
+#: Each scene's paper parameters (K, r_min, delta) as the variants' FoamParams.
+PARAMS = {n: FoamParams(K=s.params.K, r_min=s.params.r_min, delta=s.params.delta) for n, s in SCEN.items()}
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +39,7 @@ def scene_oracles():
 def plans(scene_oracles):
     """Two seeds of every variant on every leg scene."""
     return {
-        (v, sc, seed): fn(scene_oracles[sc], SCEN[sc].q_init, SCEN[sc].q_goal, SCEN[sc].params, seed=seed)
+        (v, sc, seed): fn(scene_oracles[sc], SCEN[sc].q_init, SCEN[sc].q_goal, PARAMS[sc], seed=seed)
         for v, fn in VARIANTS.items()
         for sc in SCENES
         for seed in (0, 1)
@@ -84,14 +86,14 @@ def test_centre_paths_are_collision_free_under_a_dense_mujoco_check(plans, robot
 @pytest.mark.parametrize("variant", sorted(VARIANTS))
 def test_same_seed_same_foam_and_different_seeds_differ(scene_oracles, plans, variant):
     s = SCEN["obstacle"]
-    again = VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, s.params, seed=1)
+    again = VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, PARAMS["obstacle"], seed=1)
     first = plans[(variant, "obstacle", 1)]
     np.testing.assert_array_equal(again.foam.centers, first.foam.centers)
     np.testing.assert_array_equal(again.foam.parents, first.foam.parents)
     other = plans[(variant, "obstacle", 0)]
     n = min(other.foam.size, first.foam.size)
     assert not np.array_equal(other.foam.centers[:n], first.foam.centers[:n])
-    gen = VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, s.params, seed=np.random.default_rng(1))
+    gen = VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, PARAMS["obstacle"], seed=np.random.default_rng(1))
     np.testing.assert_array_equal(gen.foam.centers, first.foam.centers)
 
 
@@ -99,7 +101,7 @@ def test_same_seed_same_foam_and_different_seeds_differ(scene_oracles, plans, va
 @given(seed=st.integers(0, 2**31 - 1), variant=st.sampled_from(sorted(VARIANTS)), scene=st.sampled_from(SCENES))
 def test_every_bubble_is_certified_and_none_grew_inside_an_older_one(scene_oracles, robots, seed, variant, scene):
     s = SCEN[scene]
-    res = VARIANTS[variant](scene_oracles[scene], s.q_init, s.q_goal, s.params, seed=seed)
+    res = VARIANTS[variant](scene_oracles[scene], s.q_init, s.q_goal, PARAMS[scene], seed=seed)
     foam = res.foam
     fresh = BubbleOracle(RobotModel.from_xml(s.scene), delta=s.params.delta)
     assert np.all(foam.radii <= fresh.radii(foam.centers) + 1e-12)
@@ -173,9 +175,9 @@ def test_a_start_or_goal_inside_the_margin_is_refused_naming_its_clearance(scene
     s = SCEN["obstacle"]
     foot_in_box = [0.2, 0.3, 1.0]  # the foot sinks 19 mm into the box
     with pytest.raises(ConfigurationError, match="q_init .* clearance"):
-        VARIANTS[variant](scene_oracles["obstacle"], foot_in_box, s.q_goal, s.params, seed=0)
+        VARIANTS[variant](scene_oracles["obstacle"], foot_in_box, s.q_goal, PARAMS["obstacle"], seed=0)
     with pytest.raises(ConfigurationError, match="q_goal .* clearance"):
-        VARIANTS[variant](scene_oracles["obstacle"], s.q_init, foot_in_box, s.params, seed=0)
+        VARIANTS[variant](scene_oracles["obstacle"], s.q_init, foot_in_box, PARAMS["obstacle"], seed=0)
 
 
 def test_goal_bias_parameters_are_checked():
@@ -183,3 +185,35 @@ def test_goal_bias_parameters_are_checked():
         GoalBias(bias=1.5)
     with pytest.raises(ValueError, match="batch"):
         GoalBias(batch=0)
+
+
+def test_the_variants_are_planners_by_name_with_checked_options(scene_oracles):
+    from foam_mj.planners import PLANNERS, PlannerError, PlanningProblem, get_planner
+
+    assert {"gbpf", "rbpf", "hpf"} <= set(PLANNERS)
+    with pytest.raises(PlannerError, match="planner 'gbpf': `bias` must lie in"):
+        get_planner("gbpf", bias=2.0)
+    with pytest.raises(PlannerError, match=r"planner 'hpf' has no option\(s\) \['bias'\]"):
+        get_planner("hpf", bias=0.5)
+    s = SCEN["step_up"]
+    problem = PlanningProblem(scene_oracles["step_up"], s.q_init, s.q_goal, delta=0.005)
+    for name in ("gbpf", "rbpf", "hpf"):
+        res = get_planner(name, r_min=s.params.r_min).plan(problem, seed=2)
+        direct = VARIANTS[name](scene_oracles["step_up"], s.q_init, s.q_goal, FoamParams(r_min=s.params.r_min), seed=2)
+        np.testing.assert_array_equal(res.foam.centers, direct.foam.centers)
+        assert res.stats.planner == name and res.stats.outcome == "reached"
+        assert res.stats.distance_queries == direct.stats.clearance_calls
+        assert res.stats.time_to_first_path == res.stats.elapsed
+
+
+def test_cli_plans_with_a_variant(tmp_path):
+    import json
+
+    from foam_mj.cli import main
+
+    out = tmp_path / "r.json"
+    args = ["plan", "--scene", "obstacle", "--planner", "gbpf", "--smoother", "none", "--no-rrd", "--no-replay", "--json", str(out)]
+    assert main(args) == 0
+    doc = json.loads(out.read_text())
+    assert doc["planner"]["algorithm"] == "gbpf" and doc["foam"]["stats"]["planner"] == "gbpf"
+    assert doc["outcome"] == "reached"

@@ -5,6 +5,9 @@
 name            what it is
 ==============  =====================================================================================
 pfm             the Probabilistic Foam Method of the papers, breadth-first (foam_mj.planners.pfm)
+gbpf            goal-biased PFM: the nearest bubble grows toward q_goal or a uniform sample (variants)
+rbpf            radius-biased PFM: parents drawn by roulette wheel on their radii (variants)
+hpf             heuristic-guided PFM: best-first on g + h, as A* (variants)
 ==============  =====================================================================================
 
 Add a planner: subclass :class:`~foam_mj.planners.base.Planner` (``name``, ``summary``, a frozen
@@ -24,6 +27,7 @@ from foam_mj.planners.base import (
     make_options,
 )
 from foam_mj.planners.pfm import PFMPlanner
+from foam_mj.planners.variants import GBPFPlanner, HPFPlanner, RBPFPlanner
 
 #: Every planner by name.
 PLANNERS: dict[str, type[Planner]] = {}
@@ -53,6 +57,8 @@ def get_planner(name: str, **options) -> Planner:
 
 
 register(PFMPlanner)
+for _cls in (GBPFPlanner, RBPFPlanner, HPFPlanner):  # Nascimento et al., Sensors 2021
+    register(_cls)
 
 __all__ = [
     "DEFAULT_PLANNER", "PLANNERS", "Planner", "PlannerConfig", "PlannerError", "PlanningProblem", "PlanResult",

@@ -360,3 +360,87 @@ def plan_gbpf(
         if g.count > len(dead_toward_goal):
             dead_toward_goal = np.concatenate([dead_toward_goal, np.zeros(max(len(dead_toward_goal), g.count), dtype=bool)])
     return g.finish("reached")
+
+
+# ---------------------------------------------------------------------------------------------------
+# The planner seam: ``--planner gbpf | rbpf | hpf``.
+
+from foam_mj.planners.base import PlanningProblem, PlanResult as SeamResult, PlanStats, Planner, Progress, ProgressFn  # noqa: E402
+
+
+@dataclass(frozen=True)
+class FoamOptions:
+    """K candidates per unit of r / r_min (paper 000 Eq. 2) and r_min, the smallest bubble kept (paper 000's
+    defaults, as pfm's)."""
+
+    K: int = 10
+    r_min: float = 0.07
+
+    def __post_init__(self) -> None:
+        FoamParams(K=self.K, r_min=self.r_min)  # the same validation and messages as pfm's
+
+
+@dataclass(frozen=True)
+class GBPFOptions:
+    """r_min, the smallest bubble kept; ``bias``, the probability of aiming at q_goal; ``batch``, auxiliary
+    samples sized per distance-query batch (1 = the paper's loop exactly)."""
+
+    r_min: float = 0.07
+    bias: float = 0.25
+    batch: int = 8
+
+    def __post_init__(self) -> None:
+        FoamParams(r_min=self.r_min)
+        GoalBias(self.bias, self.batch)
+
+
+def _seam_stats(name: str, st: FoamStats, reached: bool) -> PlanStats:
+    details = {k: v for k, v in st.as_dict().items() if k not in ("bubbles", "elapsed", "outcome", "clearance_calls", "bubbles_per_second")}
+    return PlanStats(
+        planner=name, outcome=st.outcome, bubbles=st.bubbles, distance_queries=st.clearance_calls, elapsed=st.elapsed,
+        time_to_first_path=st.elapsed if reached else None, details=details,
+    )
+
+
+class _VariantPlanner(Planner):
+    Options = FoamOptions
+
+    def _run(self, problem: PlanningProblem, params: FoamParams, seed, progress: ProgressFn | None, **kw) -> SeamResult:
+        report = None if progress is None else (lambda st: progress(Progress(st.bubbles, st.elapsed)))
+        fn = _FUNCTIONS[self.name]
+        try:
+            res = fn(problem.oracle, problem.q_init, problem.q_goal, params, seed=seed, progress=report, **kw)
+        except PlanningFailed as exc:
+            stats = _seam_stats(self.name, exc.stats, False) if isinstance(exc.stats, FoamStats) else exc.stats
+            raise PlanningFailed(str(exc), stats, exc.foam) from None
+        return SeamResult(res.foam, res.rosary, _seam_stats(self.name, res.stats, True))
+
+    def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> SeamResult:
+        o = self.options
+        params = FoamParams(K=getattr(o, "K", FoamParams.K), r_min=o.r_min, delta=problem.delta,
+                            max_bubbles=int(problem.max_bubbles), time_limit=problem.time_limit)
+        return self._run(problem, params, seed, progress)
+
+
+class GBPFPlanner(_VariantPlanner):
+    name = "gbpf"
+    summary = "goal-biased Probabilistic Foam (Nascimento et al., Sensors 2021): grow the nearest bubble toward q_goal or a sample"
+    Options = GBPFOptions
+
+    def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> SeamResult:
+        o = self.options
+        params = FoamParams(r_min=o.r_min, delta=problem.delta, max_bubbles=int(problem.max_bubbles), time_limit=problem.time_limit)
+        return self._run(problem, params, seed, progress, goal_bias=GoalBias(o.bias, o.batch))
+
+
+class RBPFPlanner(_VariantPlanner):
+    name = "rbpf"
+    summary = "radius-biased Probabilistic Foam (Nascimento et al., Sensors 2021): parents drawn by roulette on their radii"
+
+
+class HPFPlanner(_VariantPlanner):
+    name = "hpf"
+    summary = "heuristic-guided Probabilistic Foam (Nascimento et al., Sensors 2021): best-first on g + h, as A*"
+
+
+_FUNCTIONS = {"gbpf": plan_gbpf, "rbpf": plan_rbpf, "hpf": plan_hpf}
