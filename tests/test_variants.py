@@ -217,3 +217,27 @@ def test_cli_plans_with_a_variant(tmp_path):
     doc = json.loads(out.read_text())
     assert doc["planner"]["algorithm"] == "gbpf" and doc["foam"]["stats"]["planner"] == "gbpf"
     assert doc["outcome"] == "reached"
+
+
+@pytest.mark.parametrize(
+    "mjcf, q_init, q_goal, seed",
+    [
+        ("bench_leg5.xml", [0.2, 0.3, 0.08, 0.0, 0.0], [0.45, 0.4536, 1.45, 0.0, 0.0], 0),
+        ("bench_arm6.xml", [-0.7, 0.87, 1.12, -0.08, 0.0, 0.0], [0.7, 0.87, 1.12, -0.08, 0.0, 0.0], 1),
+    ],
+)
+def test_gbpf_solves_the_benchmark_leg5_and_arm6_collision_free(mjcf, q_init, q_goal, seed):
+    """The 5-joint leg and 6-joint arm of benchmarks/planners.py: the start and goal keep the margin, the
+    straight line between them does not (for the arm), and GBPF's centre path is collision-free."""
+    from conftest import MODELS
+
+    robot = RobotModel.from_xml(MODELS / mjcf)
+    oracle = BubbleOracle(robot, delta=0.005)
+    check = MujocoChecker(robot)
+    assert check.distance(np.array(q_init)) > 0.005 and check.distance(np.array(q_goal)) > 0.005
+    if "arm" in mjcf:
+        assert check.first_collision_along(np.array([q_init, q_goal]), step=2e-3) is not None
+    res = plan_gbpf(oracle, q_init, q_goal, FoamParams(K=10, r_min=0.05, time_limit=30.0), seed=seed)
+    path = res.rosary.path(res.rosary.center_waypoints())
+    assert check.first_collision_along(path, step=2e-3) is None
+    oracle.close()
