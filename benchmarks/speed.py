@@ -1,0 +1,254 @@
+"""Speed of every step that a user waits for, in one run, with its target beside it.
+
+    .venv/bin/python benchmarks/speed.py [--quick] [--repeats 5] [--json out.json]
+
+Rows (obstacle scenario, its default seed, unless named):
+
+* ``optimal``: OptimalSmoother (the default smoother) to its certificate, beside the convex shortest
+  path (one SOCP) and the certificate's KKT residual;
+* ``GA / generation``, ``HS / improvisation``: paper 000's GA and HS, wall time over a fixed number of
+  generations / improvisations (no stall stop) divided by that number;
+* ``MGOA``, ``MOPSO``: paper 004's parameters on its planar environment #1 (swarm 500, 100 iterations,
+  8 waypoints);
+* ``gradient (T_CA)``, ``adjusted (T_RA)``: paper 003's gradient smoothing (Eq. 9) and rosary
+  adjustment (Eq. 8) to their stop criteria;
+* ``pfm foam growth``: bubbles per second of foam_mj.foam.plan over seeds 0..4;
+* ``foam-mj --help``, ``foam-mj plan --scene obstacle``: wall time of the console command in a new
+  process (start-up included; plan writes its recording to a temporary folder);
+* ``walker replay``: trajectories, kinematic and dynamic replays of the walker scenes' paths (the
+  "replay" phase of ``foam-mj plan --scene walker_*``).
+
+Every number is a median of ``--repeats`` runs (>= 5; ``--quick``: 3, and smaller GA/HS/MGOA runs). The
+JSON (``--json``) holds every row, the raw times, the machine's core count and load average at the start
+and at the end: absolute times measured while other work runs are slower, so the table says so when
+the load average is above half the core count.
+
+``--quick`` (CI) exits 1 only on ratios that cannot be noise, each measured in the same process
+moments apart (:data:`RATIO_LIMITS`): e.g. the optimal smoother more than 20x slower than the convex
+SOCP it starts from, a GA generation more than 10x slower than an HS improvisation.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _common import table, write_json  # noqa: E402
+
+#: row -> (target, unit, "<=" or ">="): the targets of the speed issue.
+TARGETS = {
+    "optimal": (20.0, "ms", "<="),
+    "GA / generation": (36.0, "us", "<="),
+    "HS / improvisation": (15.0, "us", "<="),
+    "MGOA (500 x 100, planar #1)": (0.5, "s", "<="),
+    "MOPSO (500 x 100, planar #1)": (0.5, "s", "<="),
+    "gradient (T_CA)": (50.0, "ms", "<="),
+    "adjusted (T_RA)": (50.0, "ms", "<="),
+    "pfm foam growth": (20000.0, "bubbles/s", ">="),
+    "foam-mj --help": (0.25, "s", "<="),
+    "foam-mj plan --scene obstacle": (1.5, "s", "<="),
+    "walker_corridor replay": (2.0, "s", "<="),
+    "walker_two_routes replay": (2.0, "s", "<="),
+}
+
+#: CI limits on ratios of two timings taken in the same run (name -> (numerator, denominator, limit)).
+#: Only gross regressions trip them: each limit is several times what an idle or a loaded machine shows.
+RATIO_LIMITS = {
+    "optimal / convex": ("optimal", "convex", 20.0),
+    "GA generation / HS improvisation": ("GA / generation", "HS / improvisation", 10.0),
+    "foam-mj --help / python -c 'import numpy'": ("foam-mj --help", "python -c 'import numpy'", 2.0),
+    "replay step / raw mj_step": ("walker replay per step", "raw mj_step", 10.0),
+}
+
+
+def _median(fn, repeats: int) -> tuple[float, list[float], object]:
+    """Median wall time of fn() over ``repeats`` runs after one warm-up; also the raw times and the last result."""
+    out = fn()
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return float(np.median(times)), times, out
+
+
+def _command(args: list[str], repeats: int, cwd: str) -> tuple[float, list[float]]:
+    env = dict(os.environ)
+    root = str(Path(__file__).resolve().parent.parent)
+    env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+
+    def run():
+        subprocess.run(args, cwd=cwd, env=env, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+    med, times, _ = _median(run, repeats)
+    return med, times
+
+
+def measure(quick: bool, repeats: int, log=print) -> dict:
+    from foam_mj.foam import plan
+    from foam_mj.scenarios import load_scenario
+    from foam_mj.smoothing import (ConvexShortestPath, GeneticAlgorithm, GradientSmoothing, HarmonySearch,
+                                   OptimalSmoother, RosaryAdjustment, StopCriteria)
+
+    rows: dict[str, dict] = {}
+
+    def row(name: str, value: float, unit: str, times=None, **extra) -> None:
+        rows[name] = {"value": value, "unit": unit, "times": times, **extra}
+        target = TARGETS.get(name)
+        log(f"  {name}: {value:.4g} {unit}" + (f" (target {target[2]} {target[0]:g})" if target else ""))
+
+    s = load_scenario("obstacle")
+    oracle = s.oracle()
+    seed = s.seed
+    try:
+        # -- foam growth
+        counts, secs = [], []
+        for sd in range(repeats):
+            t = time.perf_counter()
+            res = plan(oracle, s.q_init, s.q_goal, s.params, seed=sd)
+            secs.append(time.perf_counter() - t)
+            counts.append(res.stats.bubbles)
+        rates = [c / t for c, t in zip(counts, secs)]
+        row("pfm foam growth", float(np.median(rates)), "bubbles/s", secs, bubbles=counts)
+        rosary = plan(oracle, s.q_init, s.q_goal, s.params, seed=seed).rosary
+        # -- smoothers
+        med, times, _ = _median(lambda: ConvexShortestPath().smooth(rosary), repeats)
+        row("convex", med * 1e3, "ms", times)
+        med, times, r = _median(lambda: OptimalSmoother().smooth(rosary, seed=seed), repeats)
+        row("optimal", med * 1e3, "ms", times, kkt_stationarity=r.info["kkt_stationarity"], certified=bool(r.info["certified"]),
+            f=r.f, subproblems=r.iterations)
+        gens, imps = (200, 2000) if quick else (1000, 10000)
+        ga = GeneticAlgorithm(stop=StopCriteria(max_iterations=gens, stall_iterations=None))
+        med, times, r = _median(lambda: ga.smooth(rosary, seed=seed), repeats)
+        row("GA / generation", med / r.iterations * 1e6, "us", times, generations=r.iterations, f=r.f)
+        hs = HarmonySearch(stop=StopCriteria(max_iterations=imps, stall_iterations=None))
+        med, times, r = _median(lambda: hs.smooth(rosary, seed=seed), repeats)
+        row("HS / improvisation", med / r.iterations * 1e6, "us", times, improvisations=r.iterations, f=r.f)
+        med, times, r = _median(lambda: GradientSmoothing().smooth(rosary), repeats)
+        row("gradient (T_CA)", med * 1e3, "ms", times, steps=r.iterations, sv=r.sv)
+        adj = RosaryAdjustment(r_min=s.params.r_min)
+        med, times, r = _median(lambda: adj.adjust(rosary, oracle), repeats)
+        row("adjusted (T_RA)", med * 1e3, "ms", times, tc=r.path.tc)
+    finally:
+        oracle.close()
+
+    # -- paper 004's swarms on its planar environment
+    from foam_mj.planar2d import PlanarPathProblem, paper_environment
+    from foam_mj.smoothing.goa import MGOA
+    from foam_mj.smoothing.pso import MOPSO
+
+    prob = PlanarPathProblem(paper_environment(1), 8)
+    swarm, iters = (100, 20) if quick else (500, 100)
+    for label, alg in (("MGOA", MGOA(swarm_size=swarm, iterations=iters)), ("MOPSO", MOPSO(swarm_size=swarm, iterations=iters))):
+        med, times, _ = _median(lambda: alg.run(prob, seed=0), max(1, repeats // 2) if not quick else 1)
+        name = f"{label} ({swarm} x {iters}, planar #1)"
+        if name not in TARGETS:
+            name = f"{label} ({swarm} x {iters}, planar #1, quick)"
+        row(name, med, "s", times)
+
+    # -- replay of the walker scenes (pipeline phase "replay") and the raw cost of a simulation step
+    import mujoco
+
+    from foam_mj.pipeline import run
+
+    steps = 0
+    for scene in ("walker_corridor", "walker_two_routes"):
+        sc = load_scenario(scene)
+        outcome = run(sc)
+        t = outcome.timings["replay"]
+        n_steps = sum(len(po.trajectory) for po in outcome.paths.values())
+        steps += n_steps
+        row(f"{scene} replay", t, "s", [t], simulated_steps=n_steps, paths=list(outcome.paths))
+    replay_total = rows["walker_corridor replay"]["value"] + rows["walker_two_routes replay"]["value"]
+    robot = load_scenario("walker_corridor").robot
+    m, d = robot.model, mujoco.MjData(robot.model)
+    n_raw = 2000
+    t = time.perf_counter()
+    for _ in range(n_raw):
+        mujoco.mj_step1(m, d)
+        mujoco.mj_step2(m, d)
+    raw = (time.perf_counter() - t) / n_raw
+    # a replayed step does a kinematic pose, a dynamic step, inverse dynamics and a clearance query
+    row("walker replay per step", replay_total / steps * 1e6, "us")
+    row("raw mj_step", raw * 1e6, "us")
+
+    # -- the console command, start-up included
+    exe = str(Path(sys.executable).with_name("foam-mj"))
+    with tempfile.TemporaryDirectory() as tmp:
+        med, times = _command([sys.executable, "-c", "import numpy"], repeats, tmp)
+        row("python -c 'import numpy'", med, "s", times)
+        med, times = _command([exe, "--help"], repeats, tmp)
+        row("foam-mj --help", med, "s", times)
+        med, times = _command([exe, "plan", "--scene", "obstacle", "--rrd", str(Path(tmp) / "o.rrd")], repeats, tmp)
+        row("foam-mj plan --scene obstacle", med, "s", times)
+    return rows
+
+
+def ratios(rows: dict) -> dict:
+    out = {}
+    for name, (a, b, limit) in RATIO_LIMITS.items():
+        value = rows[a]["value"] / rows[b]["value"]
+        out[name] = {"value": value, "limit": limit, "ok": bool(value <= limit)}
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="3 repeats and smaller GA/HS/MGOA/MOPSO runs (CI)")
+    ap.add_argument("--repeats", type=int, default=None, help="runs per median (default 5; --quick: 3)")
+    ap.add_argument("--json", metavar="OUT.json", help="write every row, the ratios and the machine's load")
+    args = ap.parse_args(argv)
+    repeats = args.repeats or (3 if args.quick else 5)
+    if repeats < 1:
+        ap.error("--repeats must be >= 1")
+    cores = os.cpu_count() or 1
+    load0 = os.getloadavg()
+    print(f"speed benchmark ({'quick' if args.quick else 'full'}; median of {repeats}); {cores} cores, "
+          f"load average {load0[0]:.2f} at the start", flush=True)
+    rows = measure(args.quick, repeats, log=lambda s: print(s, file=sys.stderr, flush=True))
+    load1 = os.getloadavg()
+    busy = max(load0[0], load1[0]) > cores / 2
+    print()
+    table_rows = []
+    for name, r in rows.items():
+        target = TARGETS.get(name)
+        if target:
+            ok = r["value"] <= target[0] if target[2] == "<=" else r["value"] >= target[0]
+            verdict = "met" if ok else "NOT met"
+            tgt = f"{target[2]} {target[0]:g}"
+        else:
+            verdict, tgt = "", "(reference)"
+        table_rows.append([name, f"{r['value']:.4g}", r["unit"], tgt, verdict])
+    print(table(["step", "median", "unit", "target", ""], table_rows))
+    rq = ratios(rows)
+    print()
+    print(table(["ratio (same run)", "value", "CI limit", ""], [[k, f"{v['value']:.3g}", f"<= {v['limit']:g}", "ok" if v["ok"] else "FAIL"] for k, v in rq.items()]))
+    if busy:
+        print(f"\nmeasured under load (load average {load0[0]:.2f} -> {load1[0]:.2f} on {cores} cores): absolute times are "
+              "slower than on an idle machine; the ratios compare timings taken moments apart")
+    if args.json:
+        write_json(args.json, {
+            "benchmark": "speed", "quick": args.quick, "repeats": repeats,
+            "machine": {"cores": cores, "load_average_start": list(load0), "load_average_end": list(load1),
+                        "under_load": busy, "platform": platform.platform(), "python": platform.python_version()},
+            "targets": {k: {"value": v[0], "unit": v[1], "sense": v[2]} for k, v in TARGETS.items()},
+            "rows": rows, "ratios": rq,
+        })
+    failed = [k for k, v in rq.items() if not v["ok"]]
+    if failed and args.quick:
+        print(f"FAIL: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
