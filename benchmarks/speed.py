@@ -24,8 +24,10 @@ and at the end: absolute times measured while other work runs are slower, so the
 the load average is above half the core count.
 
 ``--quick`` (CI) exits 1 only on ratios that cannot be noise, each measured in the same process
-moments apart (:data:`RATIO_LIMITS`): e.g. the optimal smoother more than 20x slower than the convex
-SOCP it starts from, a GA generation more than 10x slower than an HS improvisation.
+moments apart (:data:`RATIO_LIMITS`): e.g. the optimal smoother more than 30x slower than the convex
+SOCP it starts from (CPU time: a loaded machine preempts a 15-subproblem run more than a single solve;
+the issue's 20 ms target would be about 5x), a GA generation more than 10x slower than an HS
+improvisation.
 """
 
 from __future__ import annotations
@@ -61,23 +63,30 @@ TARGETS = {
 }
 
 #: CI limits on ratios of two timings taken in the same run (name -> (numerator, denominator, limit)).
-#: Only gross regressions trip them: each limit is several times what an idle or a loaded machine shows.
+#: Only gross regressions trip them. Measured (2 cores, loaded and idle): optimal / convex 12-23 (CPU time),
+#: GA / HS 3-6, --help / import numpy 0.3-0.5, replay step / mj_step 2-4.
 RATIO_LIMITS = {
-    "optimal / convex": ("optimal", "convex", 20.0),
+    "optimal / convex": ("optimal", "convex", 30.0),
     "GA generation / HS improvisation": ("GA / generation", "HS / improvisation", 10.0),
     "foam-mj --help / python -c 'import numpy'": ("foam-mj --help", "python -c 'import numpy'", 2.0),
     "replay step / raw mj_step": ("walker replay per step", "raw mj_step", 10.0),
 }
 
 
+_CPU: dict[int, float] = {}  # id(times list) -> median CPU time of the same runs
+
+
 def _median(fn, repeats: int) -> tuple[float, list[float], object]:
-    """Median wall time of fn() over ``repeats`` runs after one warm-up; also the raw times and the last result."""
+    """Median wall time of fn() over ``repeats`` runs after one warm-up; also the raw times and the last
+    result. The median CPU time of this process over the same runs is kept for :func:`cpu_of`."""
     out = fn()
-    times = []
+    times, cpu = [], []
     for _ in range(repeats):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         out = fn()
         times.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
+    _CPU[id(times)] = float(np.median(cpu))
     return float(np.median(times)), times, out
 
 
@@ -103,6 +112,8 @@ def measure(quick: bool, repeats: int, log=print) -> dict:
 
     def row(name: str, value: float, unit: str, times=None, **extra) -> None:
         rows[name] = {"value": value, "unit": unit, "times": times, **extra}
+        if times is not None and id(times) in _CPU:  # CPU time in the row's unit (scaled like the value)
+            rows[name]["cpu"] = value * _CPU[id(times)] / float(np.median(times))
         target = TARGETS.get(name)
         log(f"  {name}: {value:.4g} {unit}" + (f" (target {target[2]} {target[0]:g})" if target else ""))
 
@@ -196,8 +207,11 @@ def measure(quick: bool, repeats: int, log=print) -> dict:
 def ratios(rows: dict) -> dict:
     out = {}
     for name, (a, b, limit) in RATIO_LIMITS.items():
-        value = rows[a]["value"] / rows[b]["value"]
-        out[name] = {"value": value, "limit": limit, "ok": bool(value <= limit)}
+        # CPU time where both rows have it (a busy machine preempts a long run more than a short one;
+        # CPU time is what the code costs), else wall time
+        key = "cpu" if "cpu" in rows[a] and "cpu" in rows[b] else "value"
+        value = rows[a][key] / rows[b][key]
+        out[name] = {"value": value, "limit": limit, "ok": bool(value <= limit), "of": "cpu" if key == "cpu" else "wall"}
     return out
 
 
@@ -231,7 +245,8 @@ def main(argv: list[str] | None = None) -> int:
     print(table(["step", "median", "unit", "target", ""], table_rows))
     rq = ratios(rows)
     print()
-    print(table(["ratio (same run)", "value", "CI limit", ""], [[k, f"{v['value']:.3g}", f"<= {v['limit']:g}", "ok" if v["ok"] else "FAIL"] for k, v in rq.items()]))
+    print(table(["ratio (same run)", "value", "of", "CI limit", ""],
+                [[k, f"{v['value']:.3g}", v["of"], f"<= {v['limit']:g}", "ok" if v["ok"] else "FAIL"] for k, v in rq.items()]))
     if busy:
         print(f"\nmeasured under load (load average {load0[0]:.2f} -> {load1[0]:.2f} on {cores} cores): absolute times are "
               "slower than on an idle machine; the ratios compare timings taken moments apart")

@@ -3,7 +3,7 @@
 
 Kinematic replay
 ----------------
-Every frame's qpos is set and ``mj_forward`` run; the frame's body poses (``xpos``, ``xquat``) of the
+Every frame's qpos is set and its pose computed (``mj_kinematics``, the pose stage of ``mj_forward``); the frame's body poses (``xpos``, ``xquat``) of the
 leg's bodies (those moved by a joint) are kept for the recording, and the workspace clearance of every
 frame comes from :meth:`foam_mj.clearance.Clearance.batch` (MuJoCo distance sensors).
 
@@ -171,7 +171,7 @@ def _check(robot: RobotModel, trajectory: Trajectory) -> None:
 
 
 def replay_kinematic(robot: RobotModel, trajectory: Trajectory, clearance: Clearance | None = None) -> KinematicReplay:
-    """Pose every frame with ``mj_forward``; clearance of every frame from ``clearance`` (default: a new
+    """Pose every frame with ``mj_kinematics`` (the body poses of ``mj_forward``); clearance of every frame from ``clearance`` (default: a new
     :class:`Clearance` of ``robot``)."""
     _check(robot, trajectory)
     m = robot.model
@@ -182,7 +182,7 @@ def replay_kinematic(robot: RobotModel, trajectory: Trajectory, clearance: Clear
     xquat = np.empty((T, len(ids), 4))
     for i, qpos in enumerate(trajectory.qpos):
         d.qpos[:] = qpos
-        mujoco.mj_forward(m, d)
+        mujoco.mj_kinematics(m, d)  # poses only: the first stage of mj_forward, same xpos and xquat
         xpos[i] = d.xpos[ids]
         xquat[i] = d.xquat[ids]
     own = clearance is None

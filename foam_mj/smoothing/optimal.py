@@ -67,7 +67,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Callable, ClassVar
 
 import clarabel
 import numpy as np
@@ -460,7 +460,35 @@ def _settings() -> clarabel.DefaultSettings:
     return settings
 
 
-_EXTRA: dict = {}
+#: Presolve off: the subproblems have no redundant rows to remove, and with it off Clarabel allows
+#: :meth:`_Solver.solve`'s data updates (measured: about a quarter less time per subproblem).
+_EXTRA: dict = {"presolve_enable": False}
+
+
+class _Solver:
+    """Clarabel for a sequence of subproblems: when a subproblem has the previous one's sparsity pattern and
+    cones (the usual case between SCP steps: only the numbers change), its data replace the previous data
+    in the same solver (``DefaultSolver.update``), which keeps the symbolic factorisation and the
+    workspace; otherwise a new solver is made."""
+
+    def __init__(self, settings: clarabel.DefaultSettings) -> None:
+        self.settings = settings
+        self._solver = None
+        self._key = None
+        self.reused = 0
+
+    def solve(self, P: sp.csc_matrix, q: np.ndarray, A: sp.csc_matrix, b: np.ndarray, cones: list):
+        # The cones are the zero cone of the ties (if any), the trust region's, then second-order cones of
+        # one size: their count and the first two fix them all.
+        key = (A.shape, len(cones), tuple((type(c).__name__, c.dim) for c in cones[:2]), A.indptr.tobytes(),
+               A.indices.tobytes(), P.indptr.tobytes(), P.indices.tobytes())
+        if self._solver is not None and key == self._key and self._solver.is_data_update_allowed():
+            self._solver.update(P=P.data, q=q, A=A.data, b=b)
+            self.reused += 1
+        else:
+            self._solver = clarabel.DefaultSolver(P, q, A, b, cones, self.settings)
+            self._key = key
+        return self._solver.solve()
 
 
 @dataclass
@@ -486,6 +514,8 @@ def sequential_convex(
     stall: int = 4,
     tie: float | None = None,
     structure: _Structure | None = None,
+    certify: Callable[[np.ndarray], bool] | None = None,
+    certify_tol: float = 1e-8,
 ) -> tuple[np.ndarray, SCPTrace]:
     """Trust-region SCP from ``w0`` (inside the shrunk hatches) -> (waypoints, trace).
 
@@ -495,6 +525,11 @@ def sequential_convex(
     below ``tol`` * |F| ("converged"), or when ``stall`` steps in a row are rejected while the
     predicted decrease is below 1e-7 |F| (the subproblem is solved to a relative 1e-9, so such
     predictions are rounding: "converged (solver accuracy)"), or delta falls below 1e-12.
+
+    With ``certify`` (waypoints -> certified?), a prediction below ``certify_tol`` * |F| (coarser than
+    ``tol``) asks it first, and a certified point ends the run ("certified"): the last few subproblems of
+    a linearly converging SCP only polish F in its ninth digit. When the answer is no, the next question
+    waits until the prediction is 10 times smaller.
     """
     st = structure or _structure(rosary, inset)
     tie = default_tie(weights) if tie is None else tie
@@ -503,7 +538,7 @@ def sequential_convex(
     F = _true_value(p, weights)
     trace = SCPTrace(values=[F])
     delta = delta0
-    settings = _settings()
+    solver = _Solver(_settings())
     trace.stop_reason = "max_iter"
     rejected = 0
     refused = np.zeros(len(p) - 1, dtype=bool)
@@ -520,7 +555,7 @@ def sequential_convex(
         close = ((lens < tie) & ~refused) | (lens <= paths._EPS)
         vx = _vertex_data(p, close)
         P, q, A, b, cones = _subproblem(st, p, weights, delta, vx)
-        sol = clarabel.DefaultSolver(P, q, A, b, cones, settings).solve()
+        sol = solver.solve(P, q, A, b, cones)
         status = str(sol.status).rsplit(".", 1)[-1]
         if status in ("Solved", "AlmostSolved"):
             x = np.asarray(sol.x)
@@ -528,6 +563,11 @@ def sequential_convex(
             if pred <= tol * abs(F) + 1e-15:
                 trace.stop_reason = "converged"
                 break
+            if certify is not None and pred <= certify_tol * abs(F):
+                if certify(w):
+                    trace.stop_reason = "certified"
+                    break
+                certify_tol *= 0.1
             p_new = p.copy()
             p_new[1:-1] = x[: st.nw].reshape(w.shape)
             p_new = _snap(rosary.path(h.project(p_new[vx.rep][1:-1], inset)), h, inset, tie)
@@ -802,10 +842,20 @@ class OptimalSmoother(Smoother):
         iterations = 0
         def run(label: str, w0: np.ndarray) -> None:
             nonlocal best, iterations
-            w, trace = sequential_convex(rosary, h, w0, weights, self.inset, max_iter=self.max_iter, structure=st)
+            checked: dict = {}
+
+            def certify(wc: np.ndarray) -> bool:
+                checked["w"], checked["cert"] = wc.copy(), kkt_certificate(rosary, wc, weights, self.inset)
+                return checked["cert"].certified(self.kkt_tol)
+
+            w, trace = sequential_convex(rosary, h, w0, weights, self.inset, max_iter=self.max_iter, structure=st,
+                                         certify=certify if weights.sv == 0 else None)  # SV's optimum is flat: polish it
             iterations += trace.iterations
             value = objective_value(rosary.path(w), weights)
-            cert = kkt_certificate(rosary, w, weights, self.inset)
+            if "w" in checked and np.array_equal(checked["w"], w):
+                cert = checked["cert"]
+            else:
+                cert = kkt_certificate(rosary, w, weights, self.inset)
             outcomes.append(StartOutcome(label, value, cert, trace.iterations, trace.stop_reason))
             key = (value, not cert.certified(self.kkt_tol))
             if best is None or key < best[0]:
