@@ -5,6 +5,7 @@
 name            what it is
 ==============  =====================================================================================
 pfm             the Probabilistic Foam Method of the papers, breadth-first (foam_mj.planners.pfm)
+bubbletree      bidirectional goal-directed tree of certified bubbles + near-shortest corridor (default)
 gbpf            goal-biased PFM: the nearest bubble grows toward q_goal or a uniform sample (variants)
 rbpf            radius-biased PFM: parents drawn by roulette wheel on their radii (variants)
 hpf             heuristic-guided PFM: best-first on g + h, as A* (variants)
@@ -26,6 +27,7 @@ from foam_mj.planners.base import (
     Progress,
     make_options,
 )
+from foam_mj.planners.bubbletree import BubbleTreePlanner
 from foam_mj.planners.pfm import PFMPlanner
 from foam_mj.planners.variants import GBPFPlanner, HPFPlanner, RBPFPlanner
 
@@ -33,7 +35,7 @@ from foam_mj.planners.variants import GBPFPlanner, HPFPlanner, RBPFPlanner
 PLANNERS: dict[str, type[Planner]] = {}
 
 #: The planner a scenario uses when its ``[planner]`` table names none (and holds no pfm option).
-DEFAULT_PLANNER = "pfm"
+DEFAULT_PLANNER = "bubbletree"
 
 
 def register(cls: type[Planner]) -> type[Planner]:
@@ -57,6 +59,7 @@ def get_planner(name: str, **options) -> Planner:
 
 
 register(PFMPlanner)
+register(BubbleTreePlanner)
 for _cls in (GBPFPlanner, RBPFPlanner, HPFPlanner):  # Nascimento et al., Sensors 2021
     register(_cls)
 

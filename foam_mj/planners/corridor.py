@@ -1,0 +1,391 @@
+"""A near-shortest certified corridor through a set of bubbles.
+
+1. **Shortest chain.** The bubbles form a graph: an edge joins two bubbles that overlap with a hatch
+   (|c_i - c_j| <= r_i + r_j - HATCH min(r_i, r_j)), weighted by |c_i - c_j|; q_init joins every bubble
+   that holds it, q_goal likewise. Dijkstra's algorithm (``scipy.sparse.csgraph.dijkstra``) gives the
+   shortest chain through this graph -- through any overlapping bubbles, not only a tree's parent links.
+2. **Shortest path in the chain.** The shortest polyline whose waypoint i lies in the hatch
+   b_i ∩ b_(i+1) is a second-order cone program (:func:`foam_mj.smoothing.convex.build_socp`,
+   Clarabel). Each of its segments lies in one bubble, so the path keeps the margin delta.
+3. **Refinement.** Where that path presses on a bubble's boundary (waypoint i at distance r - tol
+   from the centre of b_i or b_(i+1)), the corridor is too narrow for it. A certified bubble centred
+   at the waypoint itself is spliced between b_i and b_(i+1): it holds w_i, so it overlaps both, the
+   old path stays feasible (the length cannot grow), and it reaches beyond the pressed boundary by its
+   own radius. The program is solved again; rounds repeat while the length drops by more than
+   ``refine_tol`` (0.5 %). Bubbles below the floor ``floor_factor * delta / ||rho||_2`` are not added:
+   such a bubble's centre has a clearance below (1 + floor_factor) delta, and the length it could win is
+   of the order of its radius.
+
+Design choice: splicing (rather than re-running Dijkstra after each round) keeps every round's chain
+a superset of the previous path's corridor, so the length is monotone and each round costs one batch of
+distance queries and one cone program.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import clarabel
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import dijkstra
+from scipy.spatial import cKDTree
+
+from foam_mj.rosary import Rosary
+from foam_mj.smoothing.convex import build_socp
+
+#: A hatch must be at least this fraction of the smaller radius deep.
+HATCH = 0.05
+DEBUG = False
+#: Outward pushes of a refinement bubble's centre, in units of the radius at the pressing waypoint.
+PUSH = np.array([0.0, 0.5, 0.75, 0.9])
+#: Ball inset of the cone program (configuration units), as the convex smoother's default.
+INSET = 1e-6
+
+
+@dataclass(frozen=True)
+class CorridorOptions:
+    refine: bool = True
+    refine_tol: float = 0.005
+    refine_rounds: int = 30
+    floor_factor: float = 0.1
+    chords: int = 8
+    prune: bool = True
+
+
+@dataclass
+class Corridor:
+    """The chain of bubbles (indices into the planner's bubbles, then into ``added_*``), and the bubbles
+    the refinement added (their ``added_parents``: the chain bubble before which they were spliced)."""
+
+    centers: np.ndarray
+    radii: np.ndarray
+    ids: np.ndarray
+    added_centers: np.ndarray
+    added_radii: np.ndarray
+    added_parents: np.ndarray
+    waypoints: np.ndarray
+    length: float
+    stats: dict = field(default_factory=dict)
+
+    def rosary(self, q_init: np.ndarray, q_goal: np.ndarray) -> Rosary:
+        return Rosary(self.centers, self.radii, q_init, q_goal, self.ids)
+
+
+def overlap_pairs(centers: np.ndarray, radii: np.ndarray, hatch: float = HATCH) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i < j) of bubbles that overlap with a hatch of ``hatch`` x the smaller radius.
+
+    Up to :data:`BRUTE_FORCE` bubbles, all pairs in blocks; beyond, a k-d tree: each bubble's neighbours
+    within r_i + max r."""
+    n = len(radii)
+    if n < 2:
+        return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
+    I, J = [], []
+    if n <= BRUTE_FORCE:
+        sq = np.einsum("ij,ij->i", centers, centers)
+        for s0 in range(0, n, 1024):
+            blk = slice(s0, min(n, s0 + 1024))
+            d2 = sq[blk, None] + sq[None, :] - 2.0 * centers[blk] @ centers.T
+            d = np.sqrt(np.maximum(d2, 0.0))
+            rb = radii[blk, None]
+            ok = d <= rb + radii[None, :] - hatch * np.minimum(rb, radii[None, :])
+            i, j = np.nonzero(ok)
+            i = i + s0
+            up = j > i
+            I.append(i[up])
+            J.append(j[up])
+        return np.concatenate(I), np.concatenate(J)
+    tree = cKDTree(centers)
+    nb = tree.query_ball_point(centers, r=radii + float(radii.max()), return_sorted=False)
+    counts = np.fromiter((len(x) for x in nb), dtype=np.int64, count=n)
+    i = np.repeat(np.arange(n), counts)
+    j = np.fromiter((k for x in nb for k in x), dtype=np.int64, count=int(counts.sum()))
+    up = j > i
+    i, j = i[up], j[up]
+    d = np.linalg.norm(centers[i] - centers[j], axis=1)
+    ok = d <= radii[i] + radii[j] - hatch * np.minimum(radii[i], radii[j])
+    return i[ok], j[ok]
+
+
+#: Bubble counts up to which the overlap graph is built by brute force.
+BRUTE_FORCE = 4096
+
+
+def shortest_chain(centers: np.ndarray, radii: np.ndarray, q_init: np.ndarray, q_goal: np.ndarray) -> np.ndarray | None:
+    """Bubble indices of the shortest chain q_init -> q_goal through the overlap graph, or None."""
+    n = len(radii)
+    i, j = overlap_pairs(centers, radii)
+    w = np.linalg.norm(centers[i] - centers[j], axis=1)
+    S, G = n, n + 1
+    hs = np.flatnonzero(np.linalg.norm(centers - q_init, axis=1) <= radii)
+    hg = np.flatnonzero(np.linalg.norm(centers - q_goal, axis=1) <= radii)
+    rows = np.concatenate([i, j, np.full(len(hs), S), hg])
+    cols = np.concatenate([j, i, hs, np.full(len(hg), G)])
+    vals = np.concatenate([w, w, np.linalg.norm(centers[hs] - q_init, axis=1), np.linalg.norm(centers[hg] - q_goal, axis=1)])
+    vals = np.maximum(vals, 1e-12)  # an explicit zero would read as "no edge"
+    g = sp.csr_matrix((vals, (rows, cols)), shape=(n + 2, n + 2))
+    dist, pred = dijkstra(g, directed=True, indices=S, return_predecessors=True)
+    if not np.isfinite(dist[G]):
+        return None
+    out = []
+    k = int(pred[G])
+    while k != S:
+        out.append(k)
+        k = int(pred[k])
+    return np.array(out[::-1], dtype=np.int64)
+
+
+def shortest_path(centers: np.ndarray, radii: np.ndarray, q_init: np.ndarray, q_goal: np.ndarray) -> tuple[np.ndarray, float]:
+    """Waypoints (k-1, n) of the shortest polyline through the chain's hatches, and its length."""
+    ros = Rosary(centers, radii, q_init, q_goal)
+    if ros.n_hatches == 0:
+        return np.empty((0, ros.dim)), float(np.linalg.norm(q_goal - q_init))
+    P, q, A, b, cones, nw = build_socp(ros, 0.0, INSET)
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-9
+    sol = clarabel.DefaultSolver(P, q, A, b, cones, settings).solve()
+    w = np.asarray(sol.x[:nw]).reshape(ros.n_hatches, ros.dim)
+    pts = ros.path(w)
+    return w, float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+
+
+def _arc_points(P: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points of the polyline P at arc lengths x, and the segment index of each."""
+    seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    j = np.clip(np.searchsorted(cum, x, side="right") - 1, 0, len(seg) - 1)
+    f = np.clip((x - cum[j]) / np.where(seg[j] > 0, seg[j], 1.0), 0.0, 1.0)
+    return P[j] + f[:, None] * (P[j + 1] - P[j]), j
+
+
+def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: float, levels: int = 10) -> list[tuple[np.ndarray, np.ndarray] | None]:
+    """For each straight chord A[k] -> B[k]: bubble centres along it, every two consecutive overlapping
+    with a hatch and every radius >= floor (a certified chain that holds the chord), or None.
+
+    Centres start ``spacing`` apart; a gap between two neighbours that do not overlap gets its midpoint,
+    all chords' midpoints in one batch per level (at most ``levels``)."""
+    lo, hi = oracle.robot.lower, oracle.robot.upper
+    ts = []
+    for a, b in zip(A, B):
+        m = max(1, int(np.ceil(np.linalg.norm(b - a) / spacing)))
+        ts.append(np.linspace(0.0, 1.0, m + 1))
+    pts = [a + (b - a) * t[:, None] for a, b, t in zip(A, B, ts)]
+    flat = np.concatenate(pts)
+    rflat = oracle.radius_from_clearance(oracle.clearance.batch(flat), flat)
+    rs = np.split(rflat, np.cumsum([len(t) for t in ts])[:-1])
+    alive = [bool(np.all(r >= floor)) for r in rs]
+    for _ in range(levels):
+        mids, owners = [], []
+        for k in range(len(ts)):
+            if not alive[k]:
+                continue
+            p, r = pts[k], rs[k]
+            d = np.linalg.norm(np.diff(p, axis=0), axis=1)
+            gap = d > r[:-1] + r[1:] - HATCH * np.minimum(r[:-1], r[1:])
+            if gap.any():
+                g = np.flatnonzero(gap)
+                tm = 0.5 * (ts[k][g] + ts[k][g + 1])
+                mids.append((k, g, tm))
+        if not mids:
+            break
+        newp = np.concatenate([A[k] + (B[k] - A[k]) * tm[:, None] for k, _, tm in mids])
+        inb = np.all((newp >= lo) & (newp <= hi), axis=1)
+        rn = np.zeros(len(newp))
+        if inb.any():
+            rn[inb] = oracle.radius_from_clearance(oracle.clearance.batch(newp[inb]), newp[inb])
+        off = 0
+        for k, g, tm in mids:
+            rk = rn[off : off + len(tm)]
+            pk = newp[off : off + len(tm)]
+            off += len(tm)
+            if np.any(rk < floor):
+                alive[k] = False
+                continue
+            ts[k] = np.insert(ts[k], g + 1, tm)
+            pts[k] = np.insert(pts[k], g + 1, pk, axis=0)
+            rs[k] = np.insert(rs[k], g + 1, rk)
+    out: list[tuple[np.ndarray, np.ndarray] | None] = []
+    for k in range(len(ts)):
+        if alive[k]:
+            p, r = pts[k], rs[k]
+            d = np.linalg.norm(np.diff(p, axis=0), axis=1)
+            if np.any(d > r[:-1] + r[1:] - HATCH * np.minimum(r[:-1], r[1:])):
+                alive[k] = False
+        out.append((pts[k], rs[k]) if alive[k] else None)
+    return out
+
+
+def prune_chain(C: np.ndarray, R: np.ndarray, P: np.ndarray, pieces: int = 8) -> np.ndarray:
+    """Positions (into the chain) of a shortest sub-chain that still holds the polyline P.
+
+    P's segment j lies in bubble j. Walking along P (sampled ``pieces`` times per segment), take the
+    bubble that holds the current point and the longest stretch after it, and move to that stretch's
+    end (a point in both bubbles: a hatch point). The polyline through those hatch points keeps each
+    piece inside one bubble (balls are convex) and is no longer than P (triangle inequality), so the
+    shortest path through the pruned chain is no longer either. "Holds" is tested with the balls shrunk
+    by 1.5 INSET so that the cone program stays feasible."""
+    k = len(R)
+    t = np.arange(pieces) / pieces
+    D = np.concatenate([(P[:-1, None, :] + (P[1:] - P[:-1])[:, None, :] * t[None, :, None]).reshape(-1, P.shape[1]), P[-1:]])
+    inside = np.linalg.norm(D[None, :, :] - C[:, None, :], axis=2) <= (R - 1.5 * INSET)[:, None]
+    # The segment a sample point belongs to always holds it (it was solved inside the shrunk ball).
+    seg = np.minimum(np.arange(len(D)) // pieces, k - 1)
+    inside[seg, np.arange(len(D))] = True
+    # Waypoint j (sample j * pieces) lies in the hatch of bubbles j - 1 and j.
+    v = np.arange(1, k) * pieces
+    inside[np.arange(k - 1), v] = True
+    # run[i, p]: last index of the contiguous stretch of samples from p held by bubble i (p - 1 if none).
+    T = len(D)
+    run = np.empty((k, T), dtype=np.int64)
+    nxt = np.full(k, T - 1)
+    for p_ in range(T - 1, -1, -1):
+        nxt = np.where(inside[:, p_], nxt, p_ - 1)
+        if p_ < T - 1:
+            nxt = np.where(inside[:, p_] & inside[:, p_ + 1], run[:, p_ + 1], np.where(inside[:, p_], p_, p_ - 1))
+        run[:, p_] = nxt
+    out = []
+    p_ = 0
+    while True:
+        i = int(np.argmax(run[:, p_]))
+        out.append(i)
+        if run[i, p_] >= T - 1:
+            break
+        if run[i, p_] <= p_:  # pragma: no cover - cannot happen: the sample's own segment bubble holds it
+            raise RuntimeError("prune_chain: the polyline leaves the chain")
+        p_ = int(run[i, p_])
+    return np.array(out, dtype=np.int64)
+
+
+def _press_bubbles(oracle, C, R, w, floor):
+    """Certified bubbles for the waypoints that press on a ball's boundary, pushed outward (see PUSH):
+    (positions in the chain after which each goes, centres, radii)."""
+    da = np.linalg.norm(w - C[:-1], axis=1)
+    db = np.linalg.norm(w - C[1:], axis=1)
+    tol = 1e-3 * np.minimum(R[:-1], R[1:]) + 4 * INSET
+    on_a, on_b = da >= R[:-1] - tol, db >= R[1:] - tol
+    press = np.flatnonzero(on_a | on_b)
+    if press.size == 0:
+        return press, np.empty((0, w.shape[1])), np.empty(0)
+    wp = w[press]
+    rp = oracle.radius_from_clearance(oracle.clearance.batch(wp), wp)
+    # Outward: away from the centres of the pressed balls. r is 1-Lipschitz (the Cauchy-Schwarz ball of
+    # paper 003 Eq. 4), so a centre pushed by t r with t <= 1/2 still holds w.
+    nrm = (wp - C[press]) * on_a[press, None] + (wp - C[press + 1]) * on_b[press, None]
+    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+    cands = wp[:, None, :] + (PUSH[None, :, None] * rp[:, None, None]) * nrm[:, None, :]
+    flat = cands.reshape(-1, wp.shape[1])
+    okb = np.all((flat >= oracle.robot.lower) & (flat <= oracle.robot.upper), axis=1)
+    rc = np.zeros(len(flat))
+    if okb.any():
+        rc[okb] = oracle.radius_from_clearance(oracle.clearance.batch(flat[okb]), flat[okb])
+    rc = rc.reshape(len(press), len(PUSH))
+    holds = rc > PUSH[None, :] * rp[:, None] * (1 + 1e-6) + 2 * INSET
+    reach = np.where(holds, PUSH[None, :] * rp[:, None] + rc, -np.inf)
+    best = np.argmax(reach, axis=1)
+    row = np.arange(len(press))
+    has = np.isfinite(reach[row, best])
+    pc = np.where(has[:, None], cands[row, best], wp)
+    pr = np.where(has, rc[row, best], rp)
+    useful = (
+        (pr >= floor)
+        & (np.linalg.norm(pc - C[press], axis=1) + pr > R[press] * (1 + 1e-6))
+        & (np.linalg.norm(pc - C[press + 1], axis=1) + pr > R[press + 1] * (1 + 1e-6))
+    )
+    return press[useful], pc[useful], pr[useful]
+
+
+def build_corridor(
+    problem, centers: np.ndarray, radii: np.ndarray, link: tuple[int, int] | None, options: CorridorOptions,
+    rng: np.random.Generator | None = None,
+) -> Corridor:
+    """The shortest chain through the bubbles, refined while the shortest path through it shortens."""
+    oracle = problem.oracle
+    rng = rng if rng is not None else np.random.default_rng(0)
+    q0, q1 = problem.q_init, problem.q_goal
+    n_base = len(radii)
+    ids = shortest_chain(centers, radii, q0, q1)
+    if ids is None:  # pragma: no cover - the trees met, so a chain exists
+        raise RuntimeError("no chain of overlapping bubbles joins q_init and q_goal")
+    C, R = centers[ids], radii[ids]
+    added_c: list[np.ndarray] = []
+    added_r: list[np.ndarray] = []
+    w, length = shortest_path(C, R, q0, q1)
+    stats = {"chain_first": int(len(ids)), "length_first": length, "refine_rounds": 0, "refine_added": 0, "shortcuts": 0}
+
+    def new_ids(count: int) -> np.ndarray:
+        start = n_base + sum(len(x) for x in added_r)
+        return np.arange(start, start + count)
+
+    if options.refine and len(ids) > 1:
+        floor = options.floor_factor * max(problem.delta, 1e-4) / oracle.bound.ball_factor
+        for _ in range(options.refine_rounds):
+            P = np.concatenate([[q0], w, [q1]])
+            C2, R2, ids2 = C, R, ids
+            # 1. Shortcuts: certified chords between random points of the path, the best few spliced.
+            if options.chords:
+                x = np.sort(rng.random((options.chords, 2)) * np.sum(np.linalg.norm(np.diff(P, axis=0), axis=1)), axis=1)
+                A, ja = _arc_points(P, x[:, 0])
+                B, jb = _arc_points(P, x[:, 1])
+                gain = (x[:, 1] - x[:, 0]) - np.linalg.norm(B - A, axis=1)
+                cand = np.flatnonzero((jb > ja) & (gain > 1e-3 * length))
+                if cand.size:
+                    res = certify_chords(oracle, A[cand], B[cand], floor, max(float(np.median(R)), floor))
+                    order = sorted((k for k in range(len(cand)) if res[k] is not None), key=lambda k: -gain[cand[k]])
+                    used = np.zeros(len(R) + 1, dtype=bool)
+                    splices = []
+                    for k in order:
+                        i = cand[k]
+                        if used[ja[i] : jb[i] + 1].any():
+                            continue
+                        used[ja[i] : jb[i] + 1] = True
+                        splices.append((int(ja[i]), int(jb[i]), res[k]))
+                    # Apply from the end so that earlier positions stay valid: C[:ja+1] + chord + C[jb:].
+                    for a_, b_, (pc, pr) in sorted(splices, key=lambda z: -z[0]):
+                        nid = new_ids(len(pr))
+                        added_c.append(pc)
+                        added_r.append(pr)
+                        C2 = np.concatenate([C2[: a_ + 1], pc, C2[b_:]])
+                        R2 = np.concatenate([R2[: a_ + 1], pr, R2[b_:]])
+                        ids2 = np.concatenate([ids2[: a_ + 1], nid, ids2[b_:]])
+                    stats["shortcuts"] += len(splices)
+                    if splices:
+                        w2, _ = shortest_path(C2, R2, q0, q1)
+                    else:
+                        w2 = w
+                else:
+                    w2 = w
+            else:
+                w2 = w
+            # 2. Bubbles where the path presses on a boundary, spliced in place.
+            sp_, pc, pr = _press_bubbles(oracle, C2, R2, w2, floor)
+            if len(sp_):
+                added_c.append(pc)
+                added_r.append(pr)
+                nid = new_ids(len(pr))
+                C2 = np.insert(C2, sp_ + 1, pc, axis=0)
+                R2 = np.insert(R2, sp_ + 1, pr)
+                ids2 = np.insert(ids2, sp_ + 1, nid)
+            if len(R2) == len(R) and np.array_equal(ids2, ids):
+                break
+            w2, length2 = shortest_path(C2, R2, q0, q1)
+            # 3. Drop the bubbles the path no longer needs.
+            if options.prune:
+                keep_pos = prune_chain(C2, R2, np.concatenate([[q0], w2, [q1]]))
+                if len(keep_pos) < len(R2):
+                    C2, R2, ids2 = C2[keep_pos], R2[keep_pos], ids2[keep_pos]
+                    w2, length2 = shortest_path(C2, R2, q0, q1)
+            stats["refine_rounds"] += 1
+            stats["refine_added"] = sum(len(x) for x in added_r)
+            gain = (length - length2) / length if length > 0 else 0.0
+            if DEBUG:
+                print(f"round: chain {len(R2)} length {length:.4f} -> {length2:.4f}")
+            if length2 <= length:
+                C, R, ids, w, length = C2, R2, ids2, w2, length2
+            if gain <= options.refine_tol:
+                break
+    stats.update(chain=int(len(ids)), length=length)
+    n = centers.shape[1]
+    ac = np.concatenate(added_c) if added_c else np.empty((0, n))
+    ar = np.concatenate(added_r) if added_r else np.empty(0)
+    return Corridor(C, R, ids, ac, ar, np.full(len(ar), -1, dtype=np.int64), w, length, stats)
