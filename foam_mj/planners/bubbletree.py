@@ -57,7 +57,8 @@ class BubbleTreeOptions:
     """``batch``: random extensions per tree per iteration; ``connect``: extensions per tree toward the
     other tree per iteration; ``r_min``: smallest bubble grown (configuration units; 0 = delta / ||rho|| / 2);
     ``refine``: build the near-shortest corridor after the first path; ``refine_tol``: stop refining when a
-    round shortens the path by less than this fraction; ``refine_rounds``: at most this many rounds."""
+    round shortens the path by less than this fraction; ``refine_rounds``: at most this many rounds; ``refine_time``: no new round after this many seconds of
+    refinement (the first path is never lost: refinement only shortens it)."""
 
     batch: int = 24
     connect: int = 4
@@ -65,6 +66,7 @@ class BubbleTreeOptions:
     refine: bool = True
     refine_tol: float = 0.005
     refine_rounds: int = 30
+    refine_time: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("batch", "connect", "refine_rounds"):
@@ -75,6 +77,8 @@ class BubbleTreeOptions:
             raise ValueError(f"`r_min` must be >= 0 (0: derived from delta), got {self.r_min!r}")
         if not isinstance(self.refine, bool):
             raise ValueError(f"`refine` must be true or false, got {self.refine!r}")
+        if not (isinstance(self.refine_time, (int, float)) and self.refine_time > 0):
+            raise ValueError(f"`refine_time` must be > 0 seconds, got {self.refine_time!r}")
         if not (isinstance(self.refine_tol, (int, float)) and 0 < self.refine_tol < 1):
             raise ValueError(f"`refine_tol` must be in (0, 1), got {self.refine_tol!r}")
 
@@ -251,7 +255,7 @@ class BubbleTreePlanner(Planner):
         foam_first = B.n
         corridor = build_corridor(
             problem, B.c[: B.n], B.r[: B.n], link,
-            CorridorOptions(refine=o.refine, refine_tol=o.refine_tol, refine_rounds=o.refine_rounds), rng,
+            CorridorOptions(refine=o.refine, refine_tol=o.refine_tol, refine_rounds=o.refine_rounds, time_limit=o.refine_time), rng,
         )
         if len(corridor.added_centers):
             B.add(corridor.added_centers, corridor.added_radii, corridor.added_parents, np.full(len(corridor.added_radii), 2, dtype=np.int8))

@@ -23,6 +23,7 @@ distance queries and one cone program.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import clarabel
@@ -50,6 +51,7 @@ class CorridorOptions:
     refine_rounds: int = 30
     floor_factor: float = 0.1
     chords: int = 8
+    time_limit: float = 1.0
     prune: bool = True
 
 
@@ -319,7 +321,11 @@ def build_corridor(
 
     if options.refine and len(ids) > 1:
         floor = options.floor_factor * max(problem.delta, 1e-4) / oracle.bound.ball_factor
+        t_end = time.perf_counter() + options.time_limit
         for _ in range(options.refine_rounds):
+            if time.perf_counter() > t_end:
+                stats["refine_stopped"] = "time"
+                break
             P = np.concatenate([[q0], w, [q1]])
             C2, R2, ids2 = C, R, ids
             # 1. Shortcuts: certified chords between random points of the path, the best few spliced.
