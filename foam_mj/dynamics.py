@@ -146,7 +146,8 @@ def inverse_dynamics(robot: RobotModel, qpos, qvel, qacc, data: mujoco.MjData | 
 @dataclass(frozen=True)
 class JointLoads:
     """What the joints must do along a trajectory: tau (T, n) in N m (hinges) or N (slides), power (T, n)
-    in W, for the configuration joints in order; ``limit`` (n,) the MJCF's torque limits (inf: none);
+    in W, for the configuration joints in order; ``limit`` (n,) the torque limits they are held to (the
+    MJCF's actuator force ranges unless the time law was given others; inf: none);
     ``body_mass`` the subject's mass in kg (None when unknown)."""
 
     joint_names: tuple[str, ...]
@@ -211,9 +212,10 @@ class JointLoads:
         }
 
 
-def joint_loads(robot: RobotModel, trajectory: Trajectory, mass: float | None = None) -> JointLoads:
+def joint_loads(robot: RobotModel, trajectory: Trajectory, mass: float | None = None, limit=None) -> JointLoads:
     """Torques (``mj_inverse``), power and work of ``trajectory`` for ``robot``'s configuration joints.
-    ``mass``: the subject's body mass in kg (default: the MJCF's ``foam_mj:subject``, if any)."""
+    ``mass``: the subject's body mass in kg (default: the MJCF's ``foam_mj:subject``, if any); ``limit``:
+    the torque limits (n,) the loads are compared with (default: the MJCF's, :func:`torque_limits`)."""
     if trajectory.qvel is None or trajectory.qacc is None:
         raise ValueError("`trajectory` needs qvel and qacc for inverse dynamics")
     m = robot.model
@@ -226,6 +228,6 @@ def joint_loads(robot: RobotModel, trajectory: Trajectory, mass: float | None = 
         times=trajectory.times.copy(),
         tau=tau,
         power=tau * qd,
-        limit=torque_limits(robot),
+        limit=torque_limits(robot) if limit is None else np.asarray(limit, dtype=float),
         body_mass=body_mass(robot) if mass is None else float(mass),
     )

@@ -235,7 +235,7 @@ def run(
             if report:
                 report(f"replaying: {LABELS.get(name, name)}")
             po.trajectory = time_path(robot, name, res.path, res.rosary, lim, time_law)
-            po.loads = joint_loads(robot, po.trajectory)  # the subject's mass from the (scaled) model
+            po.loads = joint_loads(robot, po.trajectory, limit=lim.resolve(robot)[2])  # mass: the (scaled) model's
             po.kinematic = replay_kinematic(robot, po.trajectory)
             if dynamic:
                 po.dynamic = replay_dynamic(robot, po.trajectory)

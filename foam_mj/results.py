@@ -331,7 +331,7 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
             )
             po = PathOutcome(name, res, metrics(path))
             po.trajectory = time_path(robot, name, path, rosary, limits, time_law)
-            po.loads = joint_loads(robot, po.trajectory)
+            po.loads = joint_loads(robot, po.trajectory, limit=limits.resolve(robot)[2])
             po.kinematic = replay_kinematic(robot, po.trajectory)
             if dynamic:
                 po.dynamic = replay_dynamic(robot, po.trajectory)

@@ -75,12 +75,13 @@ def test_the_done_when_command_exports_a_csv_with_units_and_reproducible_torques
         peak = np.abs(ref[j]).max()
         assert np.max(np.abs(cols[f"{j}.tau"] - ref[j])) <= 0.01 * peak, j
         np.testing.assert_allclose(cols[f"{j}.power"], cols[f"{j}.tau"] * cols[f"{j}.qd"], rtol=1e-6, atol=1e-6 * peak)
-    # q, qd, qdd are one motion: each integrates to the previous (trapezoid, within 1 % of its range).
+    # q, qd, qdd are one motion: each integrates to the previous (trapezoid rule, within 1 % of the range
+    # for qd -> q; 2 % for qdd -> qd, since toppra's accelerations jump between samples).
     for j in JOINTS:
-        for lo, hi in (("q", "qd"), ("qd", "qdd")):
+        for lo, hi, tol in (("q", "qd", 0.01), ("qd", "qdd", 0.02)):
             integral = np.concatenate([[0.0], np.cumsum(0.5 * (cols[f"{j}.{hi}"][1:] + cols[f"{j}.{hi}"][:-1]) * np.diff(t))])
             x = cols[f"{j}.{lo}"]
-            assert np.max(np.abs(x[0] + integral - x)) <= 0.01 * max(np.ptp(x), 1e-9), (j, lo)
+            assert np.max(np.abs(x[0] + integral - x)) <= tol * max(np.ptp(x), 1e-9), (j, lo)
     # At 500 Hz (the model's timestep) the exported positions are the result's own trajectory samples.
     qpos = np.asarray(planned["doc"]["paths"]["optimal"]["qpos"])
     names = planned["doc"]["qpos_joints"]

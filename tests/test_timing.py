@@ -122,3 +122,29 @@ def test_limits_validate_their_input():
 def test_limits_must_match_the_configuration(obstacle_robot):
     with pytest.raises(ValueError, match="must have 3 numbers"):
         Limits(torque=(1.0, 2.0)).resolve(obstacle_robot)
+
+
+from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    hip=st.floats(20.0, 200.0), knee=st.floats(2.0, 60.0), slide=st.floats(100.0, 1000.0),
+    method=st.sampled_from(["toppra", "own"]),
+)
+def test_any_torque_limits_are_met_or_reported_with_the_joint(planned, hip, knee, slide, method):
+    """Property: for any torque limits, either every sample meets them (independent mj_inverse) or the
+    timing is refused naming a configuration joint, never an over-limit trajectory."""
+    robot, paths = planned
+    res, base = paths["convex"]
+    limits = Limits(torque=(hip, knee, slide))
+    tmax = np.array([hip, knee, slide])
+    try:
+        traj = retime(robot, base, res.rosary, limits, method)
+    except TimingInfeasible as exc:
+        assert exc.joint in robot.config.joint_names and exc.joint in str(exc)
+        return
+    tau = _independent_torques(robot, traj)
+    assert np.all(np.abs(tau) <= tmax * (1 + 1e-6))
+    dist = np.linalg.norm(traj.q - res.rosary.centers[traj.bubble], axis=1)
+    assert np.all(dist <= res.rosary.radii[traj.bubble] + 1e-9)
