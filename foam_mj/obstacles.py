@@ -120,8 +120,13 @@ def convex_parts(mesh: "MeshObstacle") -> list[tuple[np.ndarray, np.ndarray]]:
     if not mesh.decompose:
         hull = tm.convex_hull
         return [(np.asarray(hull.vertices), np.asarray(hull.faces))]
-    import coacd
-
+    try:
+        import coacd
+    except ImportError:
+        raise ScenarioError(
+            f"[[mesh]] file {mesh.file}: convex decomposition needs coacd (pip install 'foam-mj[meshes]'), "
+            "or set decompose = false to use the mesh's convex hull"
+        ) from None
     coacd.set_log_level("error")
     parts = coacd.run_coacd(coacd.Mesh(np.asarray(tm.vertices), np.asarray(tm.faces)), threshold=mesh.threshold, seed=0)
     return [(np.asarray(v, dtype=float), np.asarray(f, dtype=int)) for v, f in parts]
