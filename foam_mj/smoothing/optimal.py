@@ -416,7 +416,10 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         Pdiag[nw + nt:] = 1.0
     b = np.concatenate(b)
     A = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(len(b), nx))
-    return sp.diags(Pdiag, format="csc"), q, A, b, cones
+    # P is diagonal: built as CSC directly (every diagonal entry stored, zeros too, so that the pattern is
+    # the same at every step; sp.diags costs more than the rest of this function)
+    ix = np.arange(nx + 1, dtype=np.int32)
+    return sp.csc_matrix((Pdiag, ix[:-1], ix), shape=(nx, nx)), q, A, b, cones
 
 
 def _kappa(sc: np.ndarray) -> np.ndarray:
@@ -723,6 +726,7 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     q[0] = 1.0
     settings = clarabel.DefaultSettings()
     settings.verbose = False
+    settings.presolve_enable = False  # nothing to remove; saves a fifth of the certificate's time
     sol = clarabel.DefaultSolver(sp.csc_matrix((nz, nz)), q, sp.csc_matrix(np.vstack(A_rows)), np.concatenate(b_rows), cones, settings).solve()
     z = np.asarray(sol.x)
     lam_v = np.maximum(z[1:1 + na], 0.0)
