@@ -161,3 +161,126 @@ def test_cli_plans_with_the_named_planner(tmp_path, capsys):
     doc = json.loads(out.read_text())
     assert doc["planner"]["algorithm"] == "pfm" and doc["foam"]["stats"]["planner"] == "pfm"
     assert "planner pfm" in capsys.readouterr().out
+
+
+# -- resolution is not a precondition; feasible variants of the scene plan ---------------------------
+BASE = {"scene": "obstacle.xml", "q_init": [0.2, 0.3, 0.08], "q_goal": [0.45, 0.4536, 1.45]}
+
+
+def _variant(dx: float, sx: float, sz: float):
+    """The obstacle scene with its box moved by dx (m) along the walk and scaled by sx (depth), sz (height)."""
+    from conftest import MODELS
+    from foam_mj.scenarios import scenario_from_dict
+
+    box = {"size": [0.2 * sx, 0.5, 0.15 * sz], "pos": [0.5 + dx, 0.0, 0.075 * sz]}
+    return scenario_from_dict({**BASE, "obstacle": box}, MODELS)
+
+
+def test_a_start_bubble_far_below_r_min_is_accepted_by_the_default_and_refused_by_pfm():
+    from conftest import MujocoChecker
+
+    s = _variant(-0.05, 1.5, 1.5)  # the box 5 cm nearer, 50 % deeper and taller: the start has 0.002 of room
+    oracle = s.oracle()
+    assert 0 < oracle.radius(s.q_init) < 0.01
+    problem = _problem(oracle, s, time_limit=30.0)
+    with pytest.raises(ConfigurationError, match="r_min"):
+        get_planner("pfm").plan(problem, seed=0)  # the paper's own rule: root radius >= r_min
+    res = get_planner("bubbletree").plan(problem, seed=0)
+    assert res.foam.radii[0] == pytest.approx(oracle.radius(s.q_init))  # the start tree's root
+    _check_paths(MujocoChecker(s.robot), oracle, res, 0.005)
+
+
+def test_a_start_closer_than_delta_is_refused_by_every_planner(obstacle_robot):
+    from foam_mj.bubbles import BubbleOracle
+
+    s = load_scenario("obstacle")
+    d = BubbleOracle(obstacle_robot).clearance(s.q_init)
+    oracle = BubbleOracle(obstacle_robot, delta=float(d) + 0.001)
+    problem = PlanningProblem(oracle, s.q_init, s.q_goal, delta=oracle.delta)
+    for name in PLANNERS:
+        with pytest.raises(ConfigurationError, match=f"q_init .*clearance {d:.4f} m"):
+            get_planner(name).plan(problem, seed=0)
+
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    dx=st.floats(-0.05, 0.05), sx=st.floats(1.0, 1.5), sz=st.floats(1.0, 1.5), seed=st.integers(0, 2**31 - 1),
+    name=st.sampled_from(sorted(PLANNERS)),
+)
+def test_random_boxes_and_seeds_every_returned_path_is_collision_free(dx, sx, sz, seed, name):
+    """Every planner on a moved and enlarged box: the default always plans; the foam family may refuse
+    (its r_min rule) or run out of its budget; any path returned is certified and MuJoCo finds it free."""
+    from conftest import MujocoChecker
+
+    s = _variant(dx, sx, sz)
+    oracle = s.oracle()
+    default = name == "bubbletree"
+    problem = _problem(oracle, s, time_limit=30.0 if default else 3.0)
+    try:
+        res = get_planner(name).plan(problem, seed=seed)
+    except (ConfigurationError, PlanningFailed):
+        if default:
+            raise
+        return
+    _check_paths(MujocoChecker(s.robot), oracle, res, 0.005)
+
+
+# -- the default planner's corridor ---------------------------------------------------------------------
+def test_the_corridor_is_the_shortest_chain_and_refinement_only_shortens_it(oracles, checkers):
+    from foam_mj.planners.corridor import shortest_path
+
+    s = load_scenario("obstacle")
+    oracle = oracles["obstacle"]
+    rough = get_planner("bubbletree", refine=False).plan(_problem(oracle, s), seed=2)
+    fine = get_planner("bubbletree").plan(_problem(oracle, s), seed=2)
+    d = fine.stats.details
+    assert rough.stats.details["length"] == pytest.approx(d["length_first"])
+    assert d["length"] <= d["length_first"] and d["refine_rounds"] >= 1
+    w, length = shortest_path(fine.rosary.centers, fine.rosary.radii, s.q_init, s.q_goal)
+    assert length == pytest.approx(d["length"], rel=1e-6)
+    # Every refinement bubble is in the foam and certified.
+    assert np.all(fine.foam.radii <= oracle.radii(fine.foam.centers) + 1e-9)
+    np.testing.assert_array_equal(fine.foam.centers[fine.rosary.bubble_ids], fine.rosary.centers)
+    np.testing.assert_array_equal(fine.foam.radii[fine.rosary.bubble_ids], fine.rosary.radii)
+
+
+def test_pruning_keeps_the_path_inside_a_shorter_chain():
+    from foam_mj.planners.corridor import prune_chain, shortest_path
+
+    # Ten overlapping balls on a straight line, q_init and q_goal at the ends: two balls suffice.
+    C = np.stack([np.linspace(0, 1, 10), np.zeros(10)], axis=1)
+    R = np.full(10, 0.3)
+    q0, q1 = np.array([0.0, 0.0]), np.array([1.0, 0.0])
+    w, L = shortest_path(C, R, q0, q1)
+    keep = prune_chain(C, R, np.concatenate([[q0], w, [q1]]))
+    assert len(keep) < 10 and np.all(np.diff(keep) > 0)
+    w2, L2 = shortest_path(C[keep], R[keep], q0, q1)
+    assert L2 <= L + 1e-9 and L2 == pytest.approx(1.0, abs=1e-5)
+
+
+def test_overlap_graph_brute_force_and_kd_tree_agree(monkeypatch):
+    import foam_mj.planners.corridor as corridor
+
+    rng = np.random.default_rng(0)
+    C = rng.random((300, 4))
+    R = 0.05 + 0.15 * rng.random(300)
+    a = set(zip(*map(np.ndarray.tolist, corridor.overlap_pairs(C, R))))
+    monkeypatch.setattr(corridor, "BRUTE_FORCE", 10)
+    b = set(zip(*map(np.ndarray.tolist, corridor.overlap_pairs(C, R))))
+    assert a == b and len(a) > 100
+
+
+@pytest.mark.slow
+def test_the_default_plans_the_five_joint_leg():
+    from conftest import MujocoChecker
+
+    s = load_scenario("obstacle5")
+    assert s.params.algorithm == "bubbletree" and s.robot.dim == 5
+    oracle = s.oracle()
+    res = s.params.planner().plan(_problem(oracle, s, time_limit=60.0), seed=0)
+    assert res.stats.outcome == "reached"
+    _check_paths(MujocoChecker(s.robot), oracle, res, 0.005)

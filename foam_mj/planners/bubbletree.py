@@ -47,7 +47,7 @@ from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planne
 from foam_mj.planners.corridor import CorridorOptions, build_corridor, overlap_pairs
 
 #: Candidate centres per extension, at s r_p from the parent's centre along the direction to the target.
-STEPS = np.array([1.0, 1.6, 2.5])
+STEPS = np.array([1.0, 2.0])
 #: A hatch must be at least this fraction of the smaller radius deep (keeps hatches away from tangency).
 HATCH = 0.05
 
@@ -67,6 +67,7 @@ class BubbleTreeOptions:
     refine_tol: float = 0.005
     refine_rounds: int = 30
     refine_time: float = 1.0
+    refine_floor: float = 2.0
 
     def __post_init__(self) -> None:
         for name in ("batch", "connect", "refine_rounds"):
@@ -79,6 +80,8 @@ class BubbleTreeOptions:
             raise ValueError(f"`refine` must be true or false, got {self.refine!r}")
         if not (isinstance(self.refine_time, (int, float)) and self.refine_time > 0):
             raise ValueError(f"`refine_time` must be > 0 seconds, got {self.refine_time!r}")
+        if not (isinstance(self.refine_floor, (int, float)) and self.refine_floor > 0):
+            raise ValueError(f"`refine_floor` must be > 0 (a multiple of delta / ||rho||), got {self.refine_floor!r}")
         if not (isinstance(self.refine_tol, (int, float)) and 0 < self.refine_tol < 1):
             raise ValueError(f"`refine_tol` must be in (0, 1), got {self.refine_tol!r}")
 
@@ -255,7 +258,7 @@ class BubbleTreePlanner(Planner):
         foam_first = B.n
         corridor = build_corridor(
             problem, B.c[: B.n], B.r[: B.n], link,
-            CorridorOptions(refine=o.refine, refine_tol=o.refine_tol, refine_rounds=o.refine_rounds, time_limit=o.refine_time), rng,
+            CorridorOptions(refine=o.refine, refine_tol=o.refine_tol, refine_rounds=o.refine_rounds, time_limit=o.refine_time, floor_factor=o.refine_floor), rng,
         )
         if len(corridor.added_centers):
             B.add(corridor.added_centers, corridor.added_radii, corridor.added_parents, np.full(len(corridor.added_radii), 2, dtype=np.int8))

@@ -366,9 +366,9 @@ def build_corridor(
             # 2. Bubbles where the path presses on a boundary, spliced in place.
             sp_, pc, pr = _press_bubbles(oracle, C2, R2, w2, floor)
             if len(sp_):
+                nid = new_ids(len(pr))
                 added_c.append(pc)
                 added_r.append(pr)
-                nid = new_ids(len(pr))
                 C2 = np.insert(C2, sp_ + 1, pc, axis=0)
                 R2 = np.insert(R2, sp_ + 1, pr)
                 ids2 = np.insert(ids2, sp_ + 1, nid)
