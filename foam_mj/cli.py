@@ -1,7 +1,8 @@
 """The ``foam-mj`` command line.
 
 Exit codes: 0 success, 1 internal error, 2 bad input (unknown scene, malformed scenario, unwritable
-output), 3 planning failed (the foam did not reach the goal; what was computed is still written).
+output, bad sweep key or value), 3 planning failed (the foam did not reach the goal; what was computed is
+still written), 130 interrupted.
 Errors are one line on stderr, never a traceback (set FOAM_MJ_DEBUG=1 to see one).
 
 Start-up is kept short: this module imports only the standard library at load time; numpy, MuJoCo, the
@@ -425,6 +426,47 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    import signal
+
+    from foam_mj.sweep import WorkersDied, load_sweep
+    from foam_mj.sweep_run import _pyarrow, run_sweep
+
+    _pyarrow()  # the install hint before any work when pyarrow is missing
+    sweep = load_sweep(args.sweep)  # every key and value checked: exit 2 naming it, before any plan
+    engine = "local" if args.ray is None else "ray"
+    signal.signal(signal.SIGTERM, signal.default_int_handler)  # `kill` stops it like Ctrl-C: completed rows kept
+    where = Path(args.out) / "rows"
+    try:
+        s = run_sweep(
+            sweep, args.out, engine=engine, workers=args.workers, ray_address=args.ray or None, batch=args.batch,
+            flush_seconds=args.flush_seconds, progress=False if args.quiet else None, interval=args.progress_interval, limit=args.limit,
+        )
+    except KeyboardInterrupt:
+        print(f"foam-mj: interrupted; the completed plans are in {where} (run the same command again to continue)", file=sys.stderr)
+        return 130
+    except WorkersDied as exc:
+        print(f"foam-mj: {exc}", file=sys.stderr)
+        return EXIT_INTERNAL
+    on = f"{s.workers} local worker{'s' * (s.workers != 1)}" if engine == "local" else f"Ray ({args.ray or 'local'})"
+    print(
+        f"sweep {args.sweep}: {s.tasks} plans in all, {s.skipped} already done, {s.run} run now ({s.failed} did not reach), "
+        f"{s.rows_written} rows in {s.files_written} files under {where}; {s.rate:.2f} plans/s on {on} ({s.elapsed:.1f} s)"
+    )
+    return EXIT_OK
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from foam_mj.report import write_report
+
+    text, written = write_report(args.dir, args.figures, formats=tuple(args.format))
+    print(text)
+    figs = [p for p in written if p.suffix != ".txt" and p.suffix != ".json"]
+    folder = written[0].parent if written else args.dir
+    print(f"wrote {len(figs)} figure(s), summary.txt and summary.json to {folder}")
+    return EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="foam-mj",
@@ -504,6 +546,34 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="run the smoothing benchmark", description="The smoothing benchmark (HS and GA runs, the thesis's methods, the convex reference); every argument is passed on to it (see `foam-mj bench --help`).", add_help=False)
     p.add_argument("bench_args", nargs=argparse.REMAINDER, help="arguments for the benchmark, e.g. --quick")
     p.set_defaults(func=cmd_bench)
+    p = sub.add_parser(
+        "sweep",
+        help="run a study: many plans over a grid or random samples, rows in Parquet",
+        description="Plan every combination of a sweep file's values and seeds (a grid and/or random samples over "
+        "any scenario field, as dotted keys) and write one row per plan and smoother to a Parquet dataset under "
+        "--out. Re-running the same command skips the rows already there.",
+        epilog="Exit codes: 0 done, 1 workers kept dying, 2 bad sweep file, key or value (before any plan), 130 interrupted (completed rows kept).",
+    )
+    p.add_argument("sweep", metavar="SWEEP.toml", help="the sweep file (see README, 'Studies')")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder: DIR/rows/*.parquet and DIR/sweep.json")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core); with --ray, the local Ray instance's CPUs")
+    p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS", help="run the plans as Ray tasks (needs foam-mj[cluster]): alone, on a local Ray instance; with an address (auto, ray://host:10001), on that cluster")
+    p.add_argument("--batch", type=int, default=200, help="rows per Parquet file (default 200)")
+    p.add_argument("--flush-seconds", type=float, default=10.0, help="write the rows received at least this often (default 10 s)")
+    p.add_argument("--limit", type=int, default=None, help="run at most this many plans now (try a sweep; re-run to continue)")
+    p.add_argument("--progress-interval", type=float, default=5.0, help="seconds between progress lines when stderr is not a terminal (default 5)")
+    p.add_argument("--quiet", action="store_true", help="no progress display")
+    p.set_defaults(func=cmd_sweep)
+    p = sub.add_parser(
+        "report",
+        help="feasibility-envelope figures and a summary of a sweep",
+        description="Heatmaps (success rate, min clearance, f, peak knee torque) over the two most varied swept keys, one panel per value of a third, and a summary table per smoother.",
+        epilog="Exit codes: 0 done, 2 not a sweep folder or matplotlib missing.",
+    )
+    p.add_argument("dir", metavar="DIR", help="a folder written by foam-mj sweep")
+    p.add_argument("--figures", metavar="FIGDIR", default=None, help="where to write the figures (default: DIR/report)")
+    p.add_argument("--format", nargs="+", default=["png"], choices=["png", "svg", "pdf"], help="figure formats (default: png)")
+    p.set_defaults(func=cmd_report)
     add_figures_parser(sub)  # foam-mj figures RESULT.json DIR [--format png svg pdf] [--paths ...] [--dpi N]
     return parser
 

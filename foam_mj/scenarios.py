@@ -356,13 +356,15 @@ def _limits(table, path: Path) -> tuple[Limits | None, str | None]:
     return (Limits(**lists) if lists else None), law
 
 
-def check_scenario(scenario: Scenario) -> None:
-    """Load the scene and check q_init and q_goal: shape, bounds, and clearance above the margin."""
+def check_scenario(scenario: Scenario, robot: RobotModel | None = None) -> None:
+    """Load the scene (unless its compiled ``robot`` is given, e.g. a sweep worker's cached one) and check
+    q_init and q_goal: shape, bounds, and clearance above the margin."""
     where = scenario.source or scenario.name
-    try:
-        robot = build_robot(scenario.scene, scenario.edits)
-    except FoamError as exc:
-        raise ScenarioError(f"{where}: field 'scene': {exc}") from None
+    if robot is None:
+        try:
+            robot = build_robot(scenario.scene, scenario.edits)
+        except FoamError as exc:
+            raise ScenarioError(f"{where}: field 'scene': {exc}") from None
     if scenario.limits is not None:
         try:
             scenario.limits.resolve(robot)

@@ -1,0 +1,300 @@
+"""``foam-mj report DIR``: feasibility-envelope figures and a summary table of a sweep's rows.
+
+The envelope is drawn over the swept keys that vary most (most distinct values): the first is the
+heatmap's x axis, the second its y axis, and each value of a third gets its own panel; every other key
+(and the seeds) is pooled into the cells. A key with more than :data:`MAX_LEVELS` numeric values (random
+samples) is cut into :data:`BINS` equal-width bins, labelled by their centres. One figure per measure and
+per smoother (path name):
+
+=====================  ==============================================  =====================================
+file                   cell value                                      why this aggregate
+=====================  ==============================================  =====================================
+success-<path>         share of plans that reached the goal            the envelope itself
+min_clearance-<path>   smallest clearance (mm) over the cell's plans   safety is a worst case, not a mean
+f-<path>               median f (paper 000 Eq. 5) of the reached ones  robust to the odd long detour
+knee_torque-<path>     largest peak knee torque (N m) of the reached   the actuator must cover the worst
+=====================  ==============================================  =====================================
+
+Empty cells (no plan, or none reached) are grey. The knee figure is drawn when the rows carry a
+``peak_torque_*knee*`` column (the dynamic replay).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from foam_mj.errors import FoamError
+
+MAX_LEVELS = 12
+BINS = 8
+MAX_PANELS = 6
+
+
+@dataclass(frozen=True)
+class Level:
+    """One axis of the envelope: the key, the label of each level, and each row's level index."""
+
+    key: str
+    labels: tuple[str, ...]
+    index: np.ndarray  # (rows,) int, -1 where the value is missing
+
+
+def _levels(key: str, kind: str, values: list) -> Level:
+    present = [v for v in values if v is not None]
+    if kind == "json":
+        decoded = sorted({v for v in present}, key=lambda s: (json.loads(s) if isinstance(json.loads(s), list) else [], s))
+        pos = {v: i for i, v in enumerate(decoded)}
+        return Level(key, tuple(decoded), np.array([pos.get(v, -1) for v in values]))
+    distinct = sorted(set(present), key=lambda v: (isinstance(v, str), v))
+    if kind in ("int", "float") and len(distinct) > MAX_LEVELS:
+        x = np.array([np.nan if v is None else float(v) for v in values])
+        lo, hi = float(np.nanmin(x)), float(np.nanmax(x))
+        edges = np.linspace(lo, hi, BINS + 1)
+        idx = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, BINS - 1)
+        idx[np.isnan(x)] = -1
+        centres = 0.5 * (edges[:-1] + edges[1:])
+        return Level(key, tuple(f"{c:.4g}" for c in centres), idx.astype(int))
+    pos = {v: i for i, v in enumerate(distinct)}
+    return Level(key, tuple(f"{v:g}" if isinstance(v, float) else str(v) for v in distinct), np.array([pos.get(v, -1) for v in values]))
+
+
+def _torque_column(columns: Sequence[str]) -> str | None:
+    knee = [c for c in columns if c.startswith("peak_torque_") and "knee" in c]
+    return knee[0] if knee else None
+
+
+#: (file stem, title, unit, colormap, aggregate over a cell's rows -> value or nan)
+def _measures(data: dict[str, np.ndarray], torque: str | None):
+    reached = data["outcome"] == "reached"
+
+    def success(rows):
+        return float(np.mean(reached[rows])) if rows.size else np.nan
+
+    def over_reached(column, fn, scale=1.0):
+        col = data[column]
+
+        def agg(rows):
+            r = rows[reached[rows]]
+            v = col[r]
+            v = v[np.isfinite(v)]
+            return float(fn(v)) * scale if v.size else np.nan
+
+        return agg
+
+    out = [
+        ("success", "success rate", "", "RdYlGn", success, (0.0, 1.0)),
+        ("min_clearance", "min clearance", "mm", "viridis", over_reached("min_clearance", np.min, 1000.0), None),
+        ("f", "median f", "", "viridis_r", over_reached("f", np.median), None),
+    ]
+    if torque is not None:
+        out.append(("knee_torque", "peak knee torque", "N m", "magma_r", over_reached(torque, np.max), None))
+    return out
+
+
+def _column(table, name: str) -> np.ndarray:
+    values = table.column(name).to_pylist()
+    if table.schema.field(name).type in (_pa().float64(), _pa().int64()):
+        return np.array([np.nan if v is None else v for v in values], dtype=float)
+    return np.array(values, dtype=object)
+
+
+def _pa():
+    import pyarrow
+
+    return pyarrow
+
+
+def load(out: str | Path) -> tuple[dict, Any]:
+    """The sweep's manifest and rows (a pyarrow Table)."""
+    from foam_mj.sweep_run import read_manifest, read_rows
+
+    out = Path(out)
+    if not out.is_dir():
+        raise FoamError(f"sweep folder not found: {out}")
+    manifest = read_manifest(out)
+    if manifest is None:
+        raise FoamError(f"{out} is not a sweep folder (no sweep.json): run foam-mj sweep SWEEP.toml --out {out} first")
+    return manifest, read_rows(out)
+
+
+def summary(manifest: dict, table) -> list[dict]:
+    """One line per smoother: plans, reached share, failures by outcome, medians and extremes."""
+    data = {n: _column(table, n) for n in table.column_names}
+    torque = _torque_column(table.column_names)
+    lines = []
+    for path in _paths(manifest, data):
+        rows = data["smoother"] == path
+        reached = rows & (data["outcome"] == "reached")
+
+        def med(c, scale=1.0):
+            v = data[c][reached]
+            v = v[np.isfinite(v)]
+            return float(np.median(v)) * scale if v.size else None
+
+        def ext(c, fn, scale=1.0):
+            v = data[c][reached]
+            v = v[np.isfinite(v)]
+            return float(fn(v)) * scale if v.size else None
+
+        outcomes = {o: int(np.sum(rows & (data["outcome"] == o))) for o in ("reached", "failed", "invalid", "error")}
+        lines.append(
+            {
+                "smoother": path,
+                "plans": int(rows.sum()),
+                **outcomes,
+                "success": outcomes["reached"] / max(1, int(rows.sum())),
+                "median_f": med("f"),
+                "median_length": med("length"),
+                "min_clearance_mm": ext("min_clearance", np.min, 1000.0),
+                "median_plan_time_s": med("plan_time"),
+                "median_task_time_s": med("task_time"),
+                "max_knee_torque": ext(torque, np.max) if torque else None,
+            }
+        )
+    return lines
+
+
+def format_summary(lines: list[dict]) -> str:
+    head = ["smoother", "plans", "reached", "failed", "invalid", "error", "median f", "median length", "min clear", "plan time", "knee torque"]
+    cells = [head]
+    for ln in lines:
+
+        def f(v, fmt):
+            return "-" if v is None else format(v, fmt)
+
+        cells.append(
+            [
+                ln["smoother"], str(ln["plans"]), f"{ln['reached']} ({100 * ln['success']:.0f}%)", str(ln["failed"]), str(ln["invalid"]),
+                str(ln["error"]), f(ln["median_f"], ".4f"), f(ln["median_length"], ".4f"),
+                "-" if ln["min_clearance_mm"] is None else f"{ln['min_clearance_mm']:.1f} mm",
+                "-" if ln["median_plan_time_s"] is None else f"{ln['median_plan_time_s']:.3f} s",
+                "-" if ln["max_knee_torque"] is None else f"{ln['max_knee_torque']:.1f} N m",
+            ]
+        )
+    widths = [max(len(r[i]) for r in cells) for i in range(len(head))]
+    out = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths))) for r in cells]
+    out.insert(1, "-" * len(out[0]))
+    return "\n".join(out)
+
+
+def _paths(manifest: dict, data) -> list[str]:
+    present = list(dict.fromkeys(data["smoother"].tolist()))
+    order = [p for p in manifest.get("paths", []) if p in present]
+    return order + [p for p in present if p not in order]
+
+
+def envelope_axes(manifest: dict, table) -> list[Level]:
+    """The swept keys with more than one level, most varied first (ties: the sweep file's order)."""
+    kinds = manifest.get("keys", {})
+    levels = [_levels(k, kind, table.column(k).to_pylist()) for k, kind in kinds.items() if k in table.column_names]
+    varied = [lv for lv in levels if len(lv.labels) > 1]
+    return sorted(varied, key=lambda lv: -len(lv.labels))
+
+
+def grid_values(x: Level, y: Level | None, rows: np.ndarray, agg) -> np.ndarray:
+    """(len(y), len(x)) cell values of ``agg`` over the rows selected by ``rows`` (a boolean mask)."""
+    ny = 1 if y is None else len(y.labels)
+    out = np.full((ny, len(x.labels)), np.nan)
+    for j in range(ny):
+        for i in range(len(x.labels)):
+            sel = rows & (x.index == i) & (True if y is None else (y.index == j))
+            idx = np.flatnonzero(sel)
+            if idx.size:
+                out[j, i] = agg(idx)
+    return out
+
+
+def write_report(out: str | Path, figures_dir: str | Path | None = None, *, formats: Sequence[str] = ("png",), dpi: int = 120) -> tuple[str, list[Path]]:
+    """Draw the envelope figures into ``figures_dir`` (default DIR/report) and return (summary text, files)."""
+    from foam_mj.figures import _matplotlib
+
+    manifest, table = load(out)
+    _matplotlib()  # FoamError with the install hint when matplotlib is missing
+    figures_dir = Path(out) / "report" if figures_dir is None else Path(figures_dir)
+    if figures_dir.exists() and not figures_dir.is_dir():
+        raise FoamError(f"--figures {figures_dir} is a file, not a folder")
+    figures_dir.mkdir(parents=True, exist_ok=True)
+    lines = summary(manifest, table)
+    text = format_summary(lines)
+    written = [_write_text(figures_dir / "summary.txt", text + "\n"), _write_text(figures_dir / "summary.json", json.dumps(lines, indent=1) + "\n")]
+    axes = envelope_axes(manifest, table)
+    if not axes:
+        return text, written
+    x, y = axes[0], (axes[1] if len(axes) > 1 else None)
+    panel = axes[2] if len(axes) > 2 else None
+    data = {n: _column(table, n) for n in table.column_names}
+    torque = _torque_column(table.column_names)
+    for path in _paths(manifest, data):
+        mask = data["smoother"] == path
+        for stem, title, unit, cmap, agg, lims in _measures(data, torque):
+            written += _draw(figures_dir, f"{stem}-{path}", f"{title} ({path})", unit, cmap, lims, agg, x, y, panel, mask, formats, dpi)
+    return text, written
+
+
+def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, formats, dpi) -> list[Path]:
+    from matplotlib.figure import Figure
+
+    panels = [(None, mask)] if panel is None else [(lab, mask & (panel.index == k)) for k, lab in enumerate(panel.labels[:MAX_PANELS])]
+    grids = [grid_values(x, y, m, agg) for _, m in panels]
+    finite = np.concatenate([g[np.isfinite(g)] for g in grids]) if grids else np.array([])
+    vmin, vmax = lims if lims is not None else ((float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0))
+    if vmax <= vmin:
+        vmax = vmin + 1e-9
+    ncell_x = len(x.labels)
+    ny = 1 if y is None else len(y.labels)
+    fig = Figure(figsize=(1.2 + len(panels) * max(2.6, 0.62 * ncell_x + 1.2), 1.3 + max(1.2, 0.45 * ny + 0.8)), layout="constrained")
+    axs = fig.subplots(1, len(panels), squeeze=False)[0]
+    import matplotlib
+
+    cm = matplotlib.colormaps[cmap].copy()
+    cm.set_bad("#d0d0d0")
+    im = None
+    for ax, (lab, _), g in zip(axs, panels, grids):
+        im = ax.imshow(np.ma.masked_invalid(g), origin="lower", cmap=cm, vmin=vmin, vmax=vmax, aspect="auto")
+        ax.set_xticks(range(ncell_x), x.labels, rotation=30 if max(len(s) for s in x.labels) > 6 else 0, ha="right" if max(len(s) for s in x.labels) > 6 else "center")
+        ax.set_xlabel(x.key)
+        if y is not None:
+            ax.set_yticks(range(ny), y.labels)
+            ax.set_ylabel(y.key)
+        else:
+            ax.set_yticks([])
+        if lab is not None:
+            ax.set_title(f"{panel.key} = {lab}", fontsize=9)
+        if g.size <= 120:
+            for (j, i), v in np.ndenumerate(g):
+                if np.isfinite(v):
+                    frac = (v - vmin) / (vmax - vmin)
+                    r, gg, b, _ = cm(frac)
+                    ink = "white" if 0.299 * r + 0.587 * gg + 0.114 * b < 0.5 else "black"
+                    ax.text(i, j, f"{v:.2f}" if abs(v) < 100 else f"{v:.0f}", ha="center", va="center", fontsize=7, color=ink)
+    if im is not None:
+        fig.colorbar(im, ax=list(axs), label=f"{title.split(' (')[0]}{f' ({unit})' if unit else ''}", shrink=0.9)
+    fig.suptitle(title, fontsize=10)
+    out = []
+    for fmt in formats:
+        p = folder / f"{stem}.{fmt}"
+        tmp = folder / f".{p.name}.{uuid.uuid4().hex}.tmp"
+        try:
+            fig.savefig(tmp, format=fmt, dpi=dpi, metadata={"Creator": "foam-mj"} if fmt == "png" else {"Creator": "foam-mj", "Date": None})
+            os.replace(tmp, p)
+        finally:
+            tmp.unlink(missing_ok=True)
+        out.append(p)
+    return out
+
+
+def _write_text(path: Path, text: str) -> Path:
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path

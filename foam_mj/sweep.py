@@ -1,0 +1,580 @@
+"""Studies at scale: a sweep file, its tasks, and the rows they produce.
+
+A sweep file (TOML) names a base scenario and the values to try::
+
+    scenario = "obstacle"            # a built-in scenario or a TOML path (relative to the sweep file)
+    seeds = [1, 2, 3]                # or a count: seeds = 3 means 0, 1, 2 (default: the scenario's seed)
+    smoothers = "convex"             # as ``foam-mj plan --smoother`` (default: optimal)
+    replay = "dynamic"               # "dynamic" (default: servos under gravity), "kinematic" (clearance,
+                                     # joint torques by inverse dynamics) or "none" (paths only)
+    [grid]                           # every combination of these values
+    "planner.delta" = [0.005, 0.01]
+    "q_goal" = [[0.45, 0.4536, 1.45], [0.40, 0.45, 1.45]]
+    [random]                         # and/or `samples` random draws (each combined with every grid point)
+    samples = 20
+    seed = 0
+    [random.uniform]                 # uniform in [low, high]; integers when both are; lists element-wise
+    "planner.r_min" = [0.05, 0.09]
+    [random.choice]                  # one of the listed values
+    "planner.K" = [6, 8, 10]
+
+A swept key is a dotted path into the scenario's TOML table (``planner.delta`` is the ``delta`` field of
+``[planner]``); the value replaces that field *before* the scenario is validated, so every field the
+scenario format knows can be swept and a wrong key or value is named by the scenario's own check.
+Every value of every key is checked that way before any planning (:func:`load_sweep`); a combination
+that is only wrong together (a goal in collision with a taller obstacle, say) becomes a row with
+outcome ``invalid``.
+
+A *task* is one (parameters, seed): one plan, smoothed by every requested smoother, replayed. It gives
+one *row* per path (``centre`` always, plus the smoothers' paths), identified by a deterministic key,
+the hash of (parameters, seed, path) (:func:`row_key`); the engines (foam_mj.sweep_run) skip rows whose
+key is already in the output. The row's columns (:func:`row_schema`) are plain: one per swept key (the
+dotted key is the column name; list values are stored as their JSON text), then ``seed``, ``smoother``
+(the path name), ``outcome`` (reached, failed, invalid, error) and ``reason`` (why not reached), the
+times, the foam's size, the path's measures, its replay and, when replayed, the peak joint torque along
+the timed trajectory by inverse dynamics (``peak_torque_<joint>``, foam_mj.dynamics: N m for hinges, N for
+slides).
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import itertools
+import json
+import math
+import time
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterator
+
+import numpy as np
+
+from foam_mj.errors import FoamError, PlanningFailed, ScenarioError
+
+FORMAT = "foam-mj/sweep"
+VERSION = 1
+REPLAYS = ("dynamic", "kinematic", "none")
+OUTCOMES = ("reached", "failed", "invalid", "error")
+_TOP_FIELDS = {"scenario", "seeds", "smoothers", "replay", "grid", "random"}
+_RANDOM_FIELDS = {"samples", "seed", "uniform", "choice"}
+
+#: The result columns after the swept keys, with their Arrow type names (peak torques are added per joint).
+RESULT_COLUMNS: tuple[tuple[str, str], ...] = (
+    ("seed", "int64"),
+    ("smoother", "string"),
+    ("outcome", "string"),
+    ("reason", "string"),
+    ("scenario", "string"),
+    ("plan_time", "float64"),  # seconds growing the foam
+    ("smooth_time", "float64"),  # seconds of this path's smoother
+    ("task_time", "float64"),  # seconds of the whole task (plan, every smoother, every replay)
+    ("bubbles", "int64"),  # bubbles in the foam
+    ("rosary", "int64"),  # bubbles in the rosary
+    ("length", "float64"),
+    ("angle_term", "float64"),
+    ("f", "float64"),  # length + angle term (paper 000 Eq. 5)
+    ("tc", "float64"),
+    ("sv", "float64"),
+    ("min_clearance", "float64"),  # metres, along the replayed trajectory
+    ("duration", "float64"),  # seconds of the trajectory
+    ("max_track_error", "float64"),  # largest servo tracking error (rad for hinges, m for slides)
+    ("contacts", "int64"),  # leg/obstacle contacts in the dynamic replay
+    ("certified", "bool"),  # optimal smoother only: KKT-certified local optimum
+    ("kkt_residual", "float64"),  # optimal smoother only
+)
+#: Columns that change from run to run of the same row (timings); everything else is deterministic.
+TIMING_COLUMNS = ("plan_time", "smooth_time", "task_time")
+
+
+class SweepError(FoamError):
+    """A sweep file, a swept key or value, or an output folder is wrong (exit 2)."""
+
+
+class WorkersDied(RuntimeError):
+    """The local workers kept dying (exit 1); the rows received before are kept."""
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One swept key: its values (grid or choice), or its uniform range, and its column kind."""
+
+    key: str
+    kind: str  # "int", "float", "bool", "str" or "json" (lists and tables, stored as JSON text)
+    values: tuple = ()
+    low: Any = None
+    high: Any = None
+    source: str = "grid"  # "grid", "uniform" or "choice"
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A parsed and validated sweep file."""
+
+    source: Path
+    scenario: str  # a built-in scenario's name, or the absolute path of a scenario TOML
+    builtin: bool
+    base: dict = field(repr=False)  # the base scenario's TOML table
+    base_dir: Path = field(repr=False)
+    seeds: tuple[int, ...] = (0,)
+    smoothers: str = "optimal"
+    smoother_paths: tuple[str, ...] = ()  # what foam_mj.pipeline.run is asked for
+    paths: tuple[str, ...] = ()  # one row per path: "centre" and the smoothers' paths
+    replay: str = "dynamic"
+    grid: tuple[Axis, ...] = ()
+    random: tuple[Axis, ...] = ()
+    samples: int = 0
+    random_seed: int = 0
+    actuated_joints: tuple[str, ...] = ()  # joints whose peak torque gets a column (when replayed)
+
+    @property
+    def axes(self) -> tuple[Axis, ...]:
+        return self.grid + self.random
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return tuple(a.key for a in self.axes)
+
+    @property
+    def n_points(self) -> int:
+        n = math.prod(len(a.values) for a in self.grid)
+        return n * (self.samples if self.random else 1)
+
+    @property
+    def n_tasks(self) -> int:
+        return self.n_points * len(self.seeds)
+
+    @property
+    def torque_columns(self) -> tuple[str, ...]:
+        return tuple(f"peak_torque_{j}" for j in self.actuated_joints) if self.replay != "none" else ()
+
+    def columns(self) -> list[tuple[str, str]]:
+        """Every column of a row, in order, with its Arrow type name."""
+        arrow = {"int": "int64", "float": "float64", "bool": "bool", "str": "string", "json": "string"}
+        cols = [("key", "string")] + [(a.key, arrow[a.kind]) for a in self.axes] + list(RESULT_COLUMNS)
+        return cols + [(c, "float64") for c in self.torque_columns]
+
+    def points(self) -> Iterator[dict[str, Any]]:
+        """Every parameter combination: the grid's product, each with every random sample."""
+        grid = [[(a.key, v) for v in a.values] for a in self.grid]
+        samples = self._samples() if self.random else [{}]
+        for combo in itertools.product(*grid):
+            for sample in samples:
+                yield {**dict(combo), **sample}
+
+    def _samples(self) -> list[dict[str, Any]]:
+        """The random draws, the same every time for the same [random] table (one Generator, keys in order)."""
+        rng = np.random.default_rng(self.random_seed)
+        columns: dict[str, list] = {}
+        for a in self.random:
+            if a.source == "choice":
+                idx = rng.integers(0, len(a.values), size=self.samples)
+                columns[a.key] = [a.values[i] for i in idx]
+            elif a.kind == "int":
+                columns[a.key] = [int(v) for v in rng.integers(a.low, a.high, size=self.samples, endpoint=True)]
+            elif a.kind == "float":
+                columns[a.key] = [float(v) for v in rng.uniform(a.low, a.high, size=self.samples)]
+            else:  # element-wise uniform between two lists
+                lo, hi = np.asarray(a.low, float), np.asarray(a.high, float)
+                columns[a.key] = [[float(x) for x in row] for row in rng.uniform(lo, hi, size=(self.samples, lo.size))]
+        return [{k: columns[k][i] for k in columns} for i in range(self.samples)]
+
+    def tasks(self) -> Iterator["Task"]:
+        """Every task, in order: points, then seeds."""
+        for point in self.points():
+            for seed in self.seeds:
+                yield self.task(point, seed)
+
+    def task(self, point: dict[str, Any], seed: int) -> "Task":
+        kinds = {a.key: a.kind for a in self.axes}
+        params = tuple((k, _normalize(v, kinds[k])) for k, v in point.items())
+        return Task(
+            scenario=self.scenario,
+            builtin=self.builtin,
+            base=self.base,
+            params=params,
+            kinds=tuple(kinds[k] for k, _ in params),
+            seed=seed,
+            smoother_paths=self.smoother_paths,
+            paths=self.paths,
+            replay=self.replay,
+            actuated_joints=self.actuated_joints,
+        )
+
+    def manifest(self) -> dict:
+        """What identifies the rows of this sweep (kept as sweep.json beside them)."""
+        return {
+            "format": FORMAT,
+            "version": VERSION,
+            "scenario": self.scenario,
+            "base": self.base,
+            "replay": self.replay,
+            "keys": {a.key: a.kind for a in self.axes},
+            "columns": [c for c, _ in self.columns()],
+            "seeds": list(self.seeds),
+            "smoothers": self.smoothers,
+            "paths": list(self.paths),
+            "tasks": self.n_tasks,
+        }
+
+
+def _normalize(value: Any, kind: str) -> Any:
+    """A value in its column's kind (an integer in a float column becomes a float, so keys stay stable)."""
+    if kind == "float":
+        return float(value)
+    if kind == "int":
+        return int(value)
+    return value
+
+
+def column_value(value: Any, kind: str) -> Any:
+    """What a swept value looks like in its column (lists and tables as JSON text)."""
+    return json.dumps(value) if kind == "json" else value
+
+
+def row_key(params: tuple[tuple[str, Any], ...], seed: int, path: str) -> str:
+    """The row's identity: a hash of its parameters (by key), seed and path name (stable across runs)."""
+    text = json.dumps([sorted(params), seed, path], separators=(",", ":"), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def apply_overrides(doc: dict, params) -> dict:
+    """A copy of the scenario table ``doc`` with each dotted key's field replaced (tables made as needed)."""
+    doc = copy.deepcopy(doc)
+    for key, value in params:
+        parts = key.split(".")
+        table = doc
+        for i, part in enumerate(parts[:-1]):
+            nxt = table.setdefault(part, {})
+            if not isinstance(nxt, dict):
+                raise SweepError(f"key '{key}': '{'.'.join(parts[: i + 1])}' is not a table")
+            table = nxt
+        table[parts[-1]] = copy.deepcopy(value)
+    return doc
+
+
+# --------------------------------------------------------------------------------------------- tasks
+
+
+@dataclass(frozen=True)
+class Task:
+    """One plan: the base scenario with ``params`` applied, one seed; picklable, run by :func:`run_task`."""
+
+    scenario: str
+    builtin: bool
+    base: dict
+    params: tuple[tuple[str, Any], ...]
+    kinds: tuple[str, ...]
+    seed: int
+    smoother_paths: tuple[str, ...]
+    paths: tuple[str, ...]
+    replay: str
+    actuated_joints: tuple[str, ...] = ()
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return tuple(row_key(self.params, self.seed, p) for p in self.paths)
+
+
+def _base_dir(scenario: str, builtin: bool) -> Path:
+    if builtin:
+        from foam_mj.data import scenarios_dir
+
+        return scenarios_dir()
+    return Path(scenario).parent
+
+
+#: One compiled model per scene per worker process, keyed by the scene file and the scenario's scene edits
+#: (obstacle, subject, meshes: foam_mj.scene_edits); a few are kept, the oldest dropped first.
+_ROBOTS: dict[str, Any] = {}
+_MAX_ROBOTS = 8
+
+
+def _robot_for(scenario):
+    from foam_mj.scene_edits import build_robot
+
+    ident = f"{scenario.scene}|{scenario.edits!r}"
+    robot = _ROBOTS.get(ident)
+    if robot is None:
+        if len(_ROBOTS) >= _MAX_ROBOTS:
+            _ROBOTS.pop(next(iter(_ROBOTS)))
+        robot = _ROBOTS[ident] = build_robot(scenario.scene, scenario.edits)
+    return robot
+
+
+def build_scenario(scenario: str, builtin: bool, base: dict, params, *, check: bool = True):
+    """The base scenario with ``params`` applied, validated (ScenarioError / SweepError otherwise)."""
+    from foam_mj.scenarios import check_scenario, scenario_from_dict
+
+    doc = apply_overrides(base, params)
+    source = None if builtin else Path(scenario)
+    s = scenario_from_dict(doc, _base_dir(scenario, builtin), source=source, check=False)
+    if check:
+        try:
+            robot = _robot_for(s)
+        except FoamError as exc:
+            raise ScenarioError(f"field 'scene': {exc}") from None
+        check_scenario(s, robot)
+    return s
+
+
+def run_task(task: Task) -> list[dict]:
+    """Plan, smooth and replay one task; one row per path, failures as rows (never raises for a bad plan)."""
+    from foam_mj.pipeline import run
+
+    t0 = time.perf_counter()
+    common: dict[str, Any] = {k: column_value(v, kind) for (k, v), kind in zip(task.params, task.kinds)}
+    common.update(seed=task.seed, scenario=task.base.get("name", Path(task.scenario).stem))
+    rows = [{"key": key, **common, "smoother": path} for key, path in zip(task.keys, task.paths)]
+
+    def fail(outcome: str, reason: str, **extra) -> list[dict]:
+        for r in rows:
+            r.update(outcome=outcome, reason=reason, task_time=time.perf_counter() - t0, **extra)
+        return rows
+
+    try:
+        scenario = build_scenario(task.scenario, task.builtin, task.base, task.params)
+    except FoamError as exc:
+        return fail("invalid", str(exc))
+    try:
+        out = run(scenario, task.seed, task.smoother_paths, replay=task.replay != "none", dynamic=task.replay == "dynamic")
+    except PlanningFailed as exc:
+        st = exc.stats
+        extra = {} if st is None else {"bubbles": int(st.bubbles), "plan_time": float(st.elapsed)}
+        reason = str(exc) if st is None else f"{st.outcome}: {exc}"
+        return fail("failed", reason, **extra)
+    except Exception as exc:  # a bug or a solver failure on one task must not stop the sweep
+        return fail("error", f"{type(exc).__name__}: {exc}")
+    task_time = time.perf_counter() - t0
+    for row in rows:
+        po = out.paths.get(row["smoother"])
+        row.update(plan_time=out.timings.get("plan"), task_time=task_time, bubbles=int(out.plan.stats.bubbles))
+        if po is None:
+            row.update(outcome="error", reason=f"the pipeline produced no path '{row['smoother']}'")
+            continue
+        m = po.metrics
+        row.update(
+            outcome="reached",
+            smooth_time=float(po.result.wall_time),
+            rosary=int(po.rosary.k),
+            length=float(m.length),
+            angle_term=float(m.angle_term),
+            f=float(m.f),
+            tc=float(m.tc),
+            sv=float(m.sv),
+        )
+        if po.trajectory is not None:
+            row["duration"] = float(po.trajectory.duration)
+        if po.kinematic is not None:
+            row["min_clearance"] = float(po.kinematic.min_clearance)
+        if po.dynamic is not None:
+            d = po.dynamic
+            row.update(max_track_error=float(np.max(d.max_error)), contacts=len(d.contacts))
+        loads = getattr(po, "loads", None)
+        if loads is not None:
+            row.update({f"peak_torque_{j}": float(v) for j, v in zip(loads.joint_names, loads.peak) if j in task.actuated_joints})
+        info = po.result.info or {}
+        if "kkt_stationarity" in info:
+            row.update(certified=bool(info.get("certified")), kkt_residual=_finite(info["kkt_stationarity"]))
+    return rows
+
+
+def _finite(x) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def actuated_joints(robot) -> tuple[str, ...]:
+    """The configuration joints, whose peak torques (inverse dynamics, foam_mj.dynamics) get a column."""
+    return tuple(robot.config.joint_names)
+
+
+# --------------------------------------------------------------------------------- reading a sweep file
+
+
+def load_sweep(path: str | Path) -> Sweep:
+    """Read and validate a sweep file; every swept value is tried on the base scenario (SweepError naming it)."""
+    from foam_mj.pipeline import SMOOTHERS, parse_smoothers
+    from foam_mj.scenarios import read_scenario_doc
+
+    path = Path(path)
+    if not path.is_file():
+        raise SweepError(f"sweep file not found: {path}")
+    try:
+        raw = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepError(f"{path}: malformed TOML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SweepError(f"{path}: cannot read: {exc}") from None
+    where = str(path)
+    unknown = set(raw) - _TOP_FIELDS
+    if unknown:
+        raise SweepError(f"{where}: unknown field(s) {sorted(unknown)}; expected {sorted(_TOP_FIELDS)}")
+    if "scenario" not in raw or not isinstance(raw["scenario"], str):
+        raise SweepError(f"{where}: field 'scenario' (a built-in scenario name or a TOML path) is required")
+    ref = raw["scenario"]
+    candidate = path.parent / ref
+    try:
+        if ref.endswith(".toml") or "/" in ref:
+            base, spath = read_scenario_doc(candidate)
+            scenario, builtin = str(spath.resolve()), False
+        else:
+            base, spath = read_scenario_doc(ref)
+            scenario, builtin = ref, True
+    except ScenarioError as exc:
+        raise SweepError(f"{where}: field 'scenario': {exc}") from None
+    # seeds
+    seeds = raw.get("seeds", [base.get("seed", 0)])
+    if isinstance(seeds, int) and not isinstance(seeds, bool):
+        if seeds < 1:
+            raise SweepError(f"{where}: field 'seeds' must be a count >= 1 or a list of integers >= 0, got {seeds}")
+        seeds = list(range(seeds))
+    if not (isinstance(seeds, list) and seeds and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)):
+        raise SweepError(f"{where}: field 'seeds' must be a count >= 1 or a non-empty list of integers >= 0, got {seeds!r}")
+    if len(set(seeds)) != len(seeds):
+        raise SweepError(f"{where}: field 'seeds' has repeated values {seeds}")
+    # smoothers and replay
+    smoothers = raw.get("smoothers", "optimal")
+    if isinstance(smoothers, list) and all(isinstance(s, str) for s in smoothers):
+        smoothers = ",".join(smoothers)
+    if not isinstance(smoothers, str):
+        raise SweepError(f"{where}: field 'smoothers' must be a string or a list of names from {', '.join(SMOOTHERS)}")
+    try:
+        smoother_paths = parse_smoothers(smoothers)
+    except FoamError as exc:
+        raise SweepError(f"{where}: field 'smoothers': {exc}") from None
+    paths = ("centre",) + tuple(p for p in smoother_paths if p != "centre")
+    replay = raw.get("replay", "dynamic")
+    if replay not in REPLAYS:
+        raise SweepError(f"{where}: field 'replay' must be one of {', '.join(REPLAYS)}, got {replay!r}")
+    # grid and random
+    grid_raw = raw.get("grid", {})
+    if not isinstance(grid_raw, dict):
+        raise SweepError(f"{where}: [grid] must be a table of \"dotted.key\" = [values]")
+    grid = []
+    for key, values in grid_raw.items():
+        if not isinstance(values, list) or not values:
+            raise SweepError(f"{where}: [grid] '{key}' must be a non-empty list of values, got {values!r}")
+        grid.append(_axis(where, "[grid]", key, values, "grid"))
+    rnd = raw.get("random", {})
+    if not isinstance(rnd, dict):
+        raise SweepError(f"{where}: [random] must be a table")
+    unknown = set(rnd) - _RANDOM_FIELDS
+    if unknown:
+        raise SweepError(f"{where}: unknown [random] field(s) {sorted(unknown)}; expected {sorted(_RANDOM_FIELDS)} (keys go in [random.uniform] or [random.choice])")
+    random_axes = []
+    for key, spec in (rnd.get("uniform") or {}).items():
+        if not (isinstance(spec, list) and len(spec) == 2):
+            raise SweepError(f"{where}: [random.uniform] '{key}' must be [low, high], got {spec!r}")
+        random_axes.append(_uniform_axis(where, key, spec[0], spec[1]))
+    for key, values in (rnd.get("choice") or {}).items():
+        if not isinstance(values, list) or not values:
+            raise SweepError(f"{where}: [random.choice] '{key}' must be a non-empty list of values, got {values!r}")
+        random_axes.append(_axis(where, "[random.choice]", key, values, "choice"))
+    samples = rnd.get("samples", 0 if not random_axes else None)
+    if random_axes and not (isinstance(samples, int) and not isinstance(samples, bool) and samples >= 1):
+        raise SweepError(f"{where}: [random] 'samples' must be an integer >= 1, got {samples!r}")
+    if samples and not random_axes:
+        raise SweepError(f"{where}: [random] has samples but no key in [random.uniform] or [random.choice]")
+    rseed = rnd.get("seed", 0)
+    if not (isinstance(rseed, int) and not isinstance(rseed, bool) and rseed >= 0):
+        raise SweepError(f"{where}: [random] 'seed' must be an integer >= 0, got {rseed!r}")
+    keys = [a.key for a in grid + random_axes]
+    dup = sorted({k for k in keys if keys.count(k) > 1})
+    if dup:
+        raise SweepError(f"{where}: key(s) {dup} swept twice")
+    # every value, one key at a time, on the base scenario: bad keys and values named before any work
+    try:
+        robot = build_scenario(scenario, builtin, base, ()).robot
+    except FoamError as exc:
+        raise SweepError(f"{where}: the base scenario: {exc}") from None
+    for a in grid + random_axes:
+        section = {"grid": "[grid]", "uniform": "[random.uniform]", "choice": "[random.choice]"}[a.source]
+        tries = a.values if a.source != "uniform" else (a.low, a.high)
+        for v in tries:
+            try:
+                build_scenario(scenario, builtin, base, ((a.key, _normalize(v, a.kind)),))
+            except FoamError as exc:
+                raise SweepError(f"{where}: {section} '{a.key}' = {json.dumps(v)}: {exc}") from None
+    return Sweep(
+        source=path,
+        scenario=scenario,
+        builtin=builtin,
+        base=base,
+        base_dir=spath.parent,
+        seeds=tuple(seeds),
+        smoothers=smoothers,
+        smoother_paths=smoother_paths,
+        paths=paths,
+        replay=replay,
+        grid=tuple(grid),
+        random=tuple(random_axes),
+        samples=int(samples or 0),
+        random_seed=rseed,
+        actuated_joints=actuated_joints(robot),
+    )
+
+
+_RESERVED = {"seed": "sweep seeds with the `seeds` field", "key": "'key' is a result column"}
+
+
+def _kind(where: str, section: str, key: str, values: list) -> str:
+    kinds = set()
+    for v in values:
+        if isinstance(v, bool):
+            kinds.add("bool")
+        elif isinstance(v, int):
+            kinds.add("int")
+        elif isinstance(v, float):
+            if not math.isfinite(v):
+                raise SweepError(f"{where}: {section} '{key}' = {v}: values must be finite")
+            kinds.add("float")
+        elif isinstance(v, str):
+            kinds.add("str")
+        elif isinstance(v, (list, dict)):
+            kinds.add("json")
+        else:
+            raise SweepError(f"{where}: {section} '{key}': unsupported value {v!r}")
+    if kinds == {"int", "float"}:
+        return "float"
+    if len(kinds) != 1:
+        raise SweepError(f"{where}: {section} '{key}' mixes kinds of values ({', '.join(sorted(kinds))}): {values!r}")
+    return kinds.pop()
+
+
+def _check_key(where: str, section: str, key: str) -> None:
+    if key in _RESERVED:
+        raise SweepError(f"{where}: {section} '{key}' cannot be swept: {_RESERVED[key]}")
+    if key in {c for c, _ in RESULT_COLUMNS} or not key or any(not p for p in key.split(".")):
+        raise SweepError(f"{where}: {section} '{key}' is not a scenario field (a dotted key such as 'planner.delta')")
+
+
+def _axis(where: str, section: str, key: str, values: list, source: str) -> Axis:
+    _check_key(where, section, key)
+    kind = _kind(where, section, key, values)
+    normalized = tuple(_normalize(v, kind) for v in values)
+    if len({json.dumps(v, sort_keys=True) for v in normalized}) != len(normalized):
+        raise SweepError(f"{where}: {section} '{key}' has repeated values {values!r}")
+    return Axis(key, kind, normalized, source=source)
+
+
+def _uniform_axis(where: str, key: str, low, high) -> Axis:
+    section = "[random.uniform]"
+    _check_key(where, section, key)
+
+    def numbers(v) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+    if numbers(low) and numbers(high):
+        kind = "int" if isinstance(low, int) and isinstance(high, int) else "float"
+        lo, hi = _normalize(low, kind), _normalize(high, kind)
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+            raise SweepError(f"{where}: {section} '{key}' = [{low}, {high}]: need finite low <= high")
+        return Axis(key, kind, low=lo, high=hi, source="uniform")
+    if isinstance(low, list) and isinstance(high, list) and len(low) == len(high) and low and all(numbers(v) for v in low + high):
+        lo, hi = [float(v) for v in low], [float(v) for v in high]
+        if not all(math.isfinite(a) and math.isfinite(b) and a <= b for a, b in zip(lo, hi)):
+            raise SweepError(f"{where}: {section} '{key}': need finite low <= high element-wise, got {low} and {high}")
+        return Axis(key, "json", low=lo, high=hi, source="uniform")
+    raise SweepError(f"{where}: {section} '{key}' must be [low, high] with two numbers or two lists of numbers of one length")

@@ -1,0 +1,492 @@
+"""Running a sweep: the output folder (a Parquet dataset), the engines (a local process pool or Ray) and progress.
+
+Output folder ``DIR``::
+
+    DIR/sweep.json          what the rows are (base scenario, swept keys and their kinds, columns)
+    DIR/rows/part-*.parquet the rows, in batches; read DIR/rows as one dataset (pyarrow, DuckDB, pandas)
+    DIR/.lock               held while a sweep writes (a second sweep on DIR is refused)
+
+Nothing is lost: rows are kept in memory only until the next batch (``batch`` rows or ``flush_seconds``,
+whichever first) and each batch is written to a hidden temporary file in ``DIR/rows`` and renamed
+into place (atomic on POSIX), so a reader never sees a partial file, and a kill loses at most the rows
+of the current batch. Ctrl-C writes the rows completed so far before exiting (130). A re-run reads the
+keys already in ``DIR/rows`` and runs only the tasks with a missing row, so it ends with exactly the
+rows of an uninterrupted run, each once. The folder belongs to one sweep: a sweep file with another
+base scenario, replay mode or set of swept keys is refused (exit 2); more values or seeds are fine.
+
+Engines run the same :func:`foam_mj.sweep.run_task` on picklable tasks, so they give the same rows:
+
+* ``local`` (default): a ``concurrent.futures`` process pool (``spawn``), one worker per core unless
+  told, each keeping its compiled MuJoCo models between tasks. A worker that dies (killed, out of
+  memory) breaks the pool: the rows already received are kept, the unfinished tasks are sent to a new
+  pool (up to :data:`MAX_POOL_RESTARTS` times).
+* ``ray``: the same tasks as Ray tasks (``pip install foam-mj[cluster]``); with no address a local Ray
+  instance is started with ``workers`` CPUs, with an address (``auto``, ``ray://host:10001``, ...) a
+  running cluster is joined. Ray re-runs a task whose worker died (``max_retries``). On a cluster every
+  node needs foam-mj installed, and a scenario given by path must exist at the same path on every node
+  (built-in scenarios are found by name).
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import signal
+import sys
+import time
+import uuid
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Iterable, Iterator
+
+from foam_mj.sweep import FORMAT, Sweep, SweepError, Task, WorkersDied, run_task
+
+#: How many times a broken local pool is replaced before the sweep gives up.
+MAX_POOL_RESTARTS = 3
+ROWS = "rows"
+MANIFEST = "sweep.json"
+
+
+def _pyarrow():
+    try:
+        import pyarrow
+        import pyarrow.parquet  # noqa: F401
+    except ImportError:
+        raise SweepError("sweeps write Parquet with pyarrow, which is not installed: pip install 'foam-mj[sweep]'") from None
+    return pyarrow
+
+
+# ------------------------------------------------------------------------------------------- the store
+
+
+def _atomic_write_bytes(path: Path, data: bytes) -> None:
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def read_manifest(out: Path) -> dict | None:
+    p = Path(out) / MANIFEST
+    if not p.is_file():
+        return None
+    try:
+        doc = json.loads(p.read_text())
+    except (OSError, ValueError) as exc:
+        raise SweepError(f"{p}: unreadable sweep manifest: {exc}") from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise SweepError(f"{p} is not a foam-mj sweep manifest")
+    return doc
+
+
+class RowStore:
+    """The Parquet dataset under ``out/rows``: the keys already there, and batches written by atomic rename."""
+
+    def __init__(self, out: Path, sweep: Sweep, *, batch: int = 200, flush_seconds: float = 10.0) -> None:
+        pa = _pyarrow()
+        self.out = Path(out)
+        self.dir = self.out / ROWS
+        self.schema = pa.schema([(name, pa.bool_() if kind == "bool" else getattr(pa, kind)()) for name, kind in sweep.columns()])
+        self.batch, self.flush_seconds = max(1, int(batch)), float(flush_seconds)
+        self.pending: list[dict] = []
+        self.files_written = 0
+        self.rows_written = 0
+        self._last_flush = time.monotonic()
+        self._lock = None
+
+    def open(self, sweep: Sweep) -> None:
+        """Create the folder, take its lock, check or write its manifest, remove stale temporary files."""
+        if self.out.exists() and not self.out.is_dir():
+            raise SweepError(f"--out {self.out} is a file, not a folder")
+        if not self.out.parent.is_dir():
+            raise SweepError(f"--out {self.out}: folder {self.out.parent} does not exist")
+        try:
+            self.dir.mkdir(parents=True, exist_ok=True)
+            self._lock = open(self.out / ".lock", "a")
+        except OSError as exc:
+            raise SweepError(f"--out {self.out}: cannot write: {exc}") from None
+        try:
+            fcntl.flock(self._lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self._lock.close()
+            self._lock = None
+            raise SweepError(f"--out {self.out}: another sweep is writing to this folder") from None
+        mine = sweep.manifest()
+        old = read_manifest(self.out)
+        if old is not None:
+            for field, what in (("scenario", "base scenario"), ("base", "base scenario"), ("replay", "replay mode"), ("keys", "swept keys"), ("columns", "columns")):
+                if old.get(field) != mine[field]:
+                    raise SweepError(
+                        f"--out {self.out} holds rows of another sweep (its {what} differs: {json.dumps(old.get(field))[:120]}); "
+                        "use another folder"
+                    )
+        _atomic_write_bytes(self.out / MANIFEST, json.dumps(mine, indent=1).encode())
+        for stale in self.dir.glob(".*.tmp"):
+            stale.unlink(missing_ok=True)
+
+    def close(self) -> None:
+        if self._lock is not None:
+            self._lock.close()
+            self._lock = None
+
+    def done_keys(self) -> set[str]:
+        """Keys of the rows already written."""
+        files = sorted(self.dir.glob("*.parquet"))
+        if not files:
+            return set()
+        import pyarrow.parquet as pq
+
+        keys: set[str] = set()
+        for f in files:
+            keys.update(pq.read_table(f, columns=["key"]).column("key").to_pylist())
+        return keys
+
+    def add(self, rows: Iterable[dict]) -> None:
+        self.pending.extend(rows)
+        if len(self.pending) >= self.batch or time.monotonic() - self._last_flush >= self.flush_seconds:
+            self.flush()
+
+    def tick(self) -> None:
+        if self.pending and time.monotonic() - self._last_flush >= self.flush_seconds:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the pending rows as one Parquet file (temporary name, fsync, rename)."""
+        self._last_flush = time.monotonic()
+        if not self.pending:
+            return
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        names = self.schema.names
+        table = pa.Table.from_pylist([{n: r.get(n) for n in names} for r in self.pending], schema=self.schema)
+        name = f"part-{time.time_ns():016x}-{os.getpid()}-{self.files_written:05d}.parquet"
+        final = self.dir / name
+        tmp = self.dir / f".{name}.tmp"
+        try:
+            pq.write_table(table, tmp)
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
+            os.replace(tmp, final)
+            dfd = os.open(self.dir, os.O_RDONLY)
+            try:
+                os.fsync(dfd)
+            finally:
+                os.close(dfd)
+        finally:
+            if tmp.exists():
+                tmp.unlink()
+        self.rows_written += len(self.pending)
+        self.files_written += 1
+        self.pending = []
+
+
+def read_rows(out: str | Path):
+    """Every row of a sweep folder as one pyarrow Table."""
+    pa = _pyarrow()
+    import pyarrow.parquet as pq
+
+    files = sorted((Path(out) / ROWS).glob("*.parquet"))
+    if not files:
+        raise SweepError(f"{out}: no rows (expected Parquet files in {Path(out) / ROWS})")
+    return pa.concat_tables([pq.read_table(f) for f in files], promote_options="default")
+
+
+# ----------------------------------------------------------------------------------------- progress
+
+
+class SweepProgress:
+    """Plans done/total, failures, rate and ETA: a rich bar on a terminal, else a plain line every ``interval`` s."""
+
+    def __init__(self, total: int, done: int, *, terminal: bool | None = None, interval: float = 5.0, label: str = "sweep") -> None:
+        self.total, self.done, self.failed = total, done, 0
+        self.start_done = done
+        self.t0 = time.monotonic()
+        self.interval = interval
+        self.label = label
+        self._last = self.t0
+        self.terminal = sys.stderr.isatty() if terminal is None else terminal
+        self._rich = None
+        if self.terminal:
+            from rich.console import Console
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+            self._rich = Progress(
+                TextColumn("[bold]{task.description}"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TextColumn("plans, {task.fields[failed]} failed, {task.fields[rate]}"),
+                TextColumn("ETA"),
+                TimeRemainingColumn(),
+                TimeElapsedColumn(),
+                console=Console(stderr=True),
+                transient=False,
+            )
+            self._rich.start()
+            self._task = self._rich.add_task(label, total=total, completed=done, failed=0, rate="- plans/s")
+
+    @property
+    def rate(self) -> float:
+        dt = time.monotonic() - self.t0
+        return (self.done - self.start_done) / dt if dt > 0 else 0.0
+
+    def line(self) -> str:
+        rate = self.rate
+        left = self.total - self.done
+        eta = f"{left / rate:.0f} s" if rate > 0 else "-"
+        return f"{self.label}: {self.done}/{self.total} plans, {self.failed} failed, {rate:.2f} plans/s, ETA {eta}"
+
+    def update(self, n: int = 1, failed: int = 0) -> None:
+        self.done += n
+        self.failed += failed
+        if self._rich is not None:
+            self._rich.update(self._task, completed=self.done, failed=self.failed, rate=f"{self.rate:.2f} plans/s")
+        else:
+            self.tick()
+
+    def tick(self) -> None:
+        if self._rich is None and time.monotonic() - self._last >= self.interval:
+            self._last = time.monotonic()
+            print(self.line(), file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        if self._rich is not None:
+            self._rich.stop()
+            self._rich = None
+
+
+# ------------------------------------------------------------------------------------------- engines
+
+#: (task, rows) for a finished task, or (None, None) when nothing finished for a while (a tick).
+Event = tuple[Task | None, list[dict] | None]
+
+
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle (it flushes and stops us)
+
+
+def default_workers() -> int:
+    """The cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def local_engine(tasks: Iterator[Task], workers: int, *, poll: float = 0.5) -> Iterator[Event]:
+    """Run tasks in a process pool of ``workers`` (spawned processes); yields as they finish."""
+    import multiprocessing as mp
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    ctx = mp.get_context("spawn")
+    limit = 2 * workers
+    retry: deque[Task] = deque()
+    restarts = 0
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_ignore_sigint)
+    inflight: dict = {}
+    exhausted = False
+    try:
+        while True:
+            while len(inflight) < limit and (retry or not exhausted):
+                if retry:
+                    task = retry.popleft()
+                else:
+                    task = next(tasks, None)
+                    if task is None:
+                        exhausted = True
+                        break
+                inflight[pool.submit(run_task, task)] = task
+            if not inflight:
+                return
+            finished, _ = wait(list(inflight), timeout=poll, return_when=FIRST_COMPLETED)
+            if not finished:
+                yield None, None
+                continue
+            broken = False
+            for fut in finished:
+                task = inflight.pop(fut)
+                try:
+                    rows = fut.result()
+                except BrokenProcessPool:
+                    broken = True
+                    retry.append(task)
+                    continue
+                yield task, rows
+            if broken:
+                retry.extend(inflight.values())
+                inflight.clear()
+                restarts += 1
+                if restarts > MAX_POOL_RESTARTS:
+                    raise WorkersDied(f"local workers died {restarts} times; the rows received so far are kept, re-run to continue")
+                print(f"sweep: a worker died; restarting the pool ({len(retry)} unfinished tasks resent)", file=sys.stderr)
+                _terminate(pool)
+                pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_ignore_sigint)
+    finally:
+        _terminate(pool)
+
+
+def _terminate(pool) -> None:
+    """Stop a pool now: cancel what is queued and end its worker processes (ours, by their ids)."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    for p in procs:
+        p.join(timeout=5)
+
+
+def ray_engine(tasks: Iterator[Task], workers: int, address: str | None, *, poll: float = 0.5) -> Iterator[Event]:
+    """Run tasks as Ray tasks: a local Ray instance (``address`` None) with ``workers`` CPUs, or a cluster."""
+    try:
+        import ray
+    except ImportError:
+        raise SweepError("--ray needs Ray: pip install 'foam-mj[cluster]'") from None
+    import logging
+
+    kwargs = dict(include_dashboard=False, logging_level=logging.ERROR, log_to_driver=False, configure_logging=True)
+    if address:
+        ray.init(address=address, **kwargs)
+    else:
+        # A private local instance; workers inherit this environment (PYTHONPATH included).
+        ray.init(num_cpus=workers, **kwargs)
+    try:
+        remote = ray.remote(num_cpus=1, max_retries=3)(run_task)
+        limit = 2 * max(workers, int(ray.cluster_resources().get("CPU", workers)))
+        inflight: dict = {}
+        exhausted = False
+        while True:
+            while len(inflight) < limit and not exhausted:
+                task = next(tasks, None)
+                if task is None:
+                    exhausted = True
+                    break
+                inflight[remote.remote(task)] = task
+            if not inflight:
+                return
+            ready, _ = ray.wait(list(inflight), num_returns=1, timeout=poll)
+            if not ready:
+                yield None, None
+                continue
+            for ref in ready:
+                task = inflight.pop(ref)
+                yield task, ray.get(ref)
+    finally:
+        for ref in list(locals().get("inflight", {})):
+            try:
+                ray.cancel(ref, force=True)
+            except Exception:  # noqa: BLE001 - best effort on the way out
+                pass
+        ray.shutdown()
+
+
+# ------------------------------------------------------------------------------------------ the sweep
+
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """What a run of a sweep did."""
+
+    tasks: int  # tasks in the sweep
+    skipped: int  # already done before this run
+    run: int  # run now
+    failed: int  # of those, tasks whose plan did not reach (outcome != reached)
+    rows_written: int
+    files_written: int
+    elapsed: float
+    engine: str
+    workers: int
+    interrupted: bool = False
+
+    @property
+    def rate(self) -> float:
+        return self.run / self.elapsed if self.elapsed > 0 else float("nan")
+
+
+def run_sweep(
+    sweep: Sweep,
+    out: str | Path,
+    *,
+    engine: str = "local",
+    workers: int | None = None,
+    ray_address: str | None = None,
+    batch: int = 200,
+    flush_seconds: float = 10.0,
+    progress: bool | None = None,
+    interval: float = 5.0,
+    limit: int | None = None,
+    on_rows: Callable[[list[dict]], None] | None = None,
+) -> SweepSummary:
+    """Run every task of ``sweep`` whose rows are not yet in ``out`` and write the rows (module docstring).
+
+    ``progress``: None shows it on stderr (rich on a terminal, plain lines otherwise), False hides it.
+    ``limit`` stops after that many tasks of this run (to try a sweep on a few plans).
+    KeyboardInterrupt is re-raised after the completed rows are written.
+    """
+    if engine not in ("local", "ray"):
+        raise SweepError(f"unknown engine {engine!r}; choose local or ray")
+    workers = default_workers() if workers is None else int(workers)
+    if workers < 1:
+        raise SweepError(f"--workers must be >= 1, got {workers}")
+    store = RowStore(Path(out), sweep, batch=batch, flush_seconds=flush_seconds)
+    store.open(sweep)
+    t0 = time.monotonic()
+    ran = failed = skipped = 0
+    interrupted = False
+    bar = None
+    try:
+        done = store.done_keys()
+        total = sweep.n_tasks
+
+        def todo() -> Iterator[Task]:
+            nonlocal skipped
+            n = 0
+            for task in sweep.tasks():
+                if done.issuperset(task.keys):
+                    skipped += 1
+                    continue
+                if limit is not None and n >= limit:
+                    return
+                n += 1
+                yield task
+
+        pending = list(todo()) if total <= 200_000 else None  # counted up front for the progress total
+        already = skipped
+        bar = SweepProgress(total, already, interval=interval) if progress is not False else None
+        source = iter(pending) if pending is not None else todo()
+        events = local_engine(source, workers) if engine == "local" else ray_engine(source, workers, ray_address)
+        try:
+            for task, rows in events:
+                if task is None:
+                    store.tick()
+                    if bar:
+                        bar.tick()
+                    continue
+                ran += 1
+                bad = any(r.get("outcome") != "reached" for r in rows)
+                failed += bad
+                store.add(rows)
+                if on_rows is not None:
+                    on_rows(rows)
+                if bar:
+                    bar.update(1, int(bad))
+        except KeyboardInterrupt:
+            interrupted = True
+            raise
+        finally:
+            events.close() if hasattr(events, "close") else None
+            store.flush()
+    finally:
+        if bar:
+            bar.close()
+        store.close()
+    return SweepSummary(sweep.n_tasks, already, ran, failed, store.rows_written, store.files_written, time.monotonic() - t0, engine, workers, interrupted)

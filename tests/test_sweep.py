@@ -1,0 +1,303 @@
+"""Studies: `foam-mj sweep` writes one plain row per (parameters, seed, smoother) to Parquet, loses nothing
+when killed, gives the same rows locally and on Ray; `foam-mj report` draws the envelope."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from itertools import product
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pa = pytest.importorskip("pyarrow")
+import pyarrow.parquet as pq  # noqa: E402
+
+from foam_mj.cli import main  # noqa: E402
+from foam_mj.sweep import TIMING_COLUMNS, SweepError, load_sweep, row_key  # noqa: E402
+from foam_mj.sweep_run import read_rows, run_sweep  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+GOALS = [[0.45, 0.4536, 1.45], [0.4, 0.45, 1.45]]
+STUDY = f"""
+scenario = "obstacle"
+seeds = [1, 2, 3]
+smoothers = "convex"
+[grid]
+"planner.delta" = [0.005, 0.01]
+"q_goal" = {json.dumps(GOALS)}
+"""
+
+
+def write(folder: Path, text: str, name: str = "sweep.toml") -> Path:
+    p = folder / name
+    p.write_text(text)
+    return p
+
+
+def deterministic(rows: list[dict]) -> list[dict]:
+    """Rows without their timings, sorted by key."""
+    return sorted(({k: v for k, v in r.items() if k not in TIMING_COLUMNS} for r in rows), key=lambda r: r["key"])
+
+
+def cli(*args: str, **kw) -> subprocess.Popen:
+    """`foam-mj ...` in a subprocess (its own process group, so that we can signal all of it), this checkout first."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    return subprocess.Popen(
+        [sys.executable, "-m", "foam_mj.cli", *args], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True, **kw
+    )
+
+
+def wait_for_files(rows: Path, n: int, proc: subprocess.Popen, timeout: float = 120.0) -> None:
+    t0 = time.monotonic()
+    while len(list(rows.glob("*.parquet"))) < n:
+        assert proc.poll() is None, f"the sweep ended before {n} files: {proc.communicate()}"
+        assert time.monotonic() - t0 < timeout
+        time.sleep(0.02)
+
+
+def check_folder(out: Path) -> list[dict]:
+    """Every Parquet file readable, no duplicate key; the rows."""
+    files = sorted((out / "rows").glob("*.parquet"))
+    rows = [r for f in files for r in pq.read_table(f).to_pylist()]
+    keys = [r["key"] for r in rows]
+    assert len(keys) == len(set(keys)), "duplicate row keys"
+    return rows
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    """The 2 x 2 x 3-seed study (convex smoother, dynamic replay) run by the CLI on 2 local workers."""
+    folder = tmp_path_factory.mktemp("sweep")
+    spec = write(folder, STUDY)
+    out = folder / "study"
+    assert main(["sweep", str(spec), "--out", str(out), "--workers", "2", "--quiet"]) == 0
+    return {"spec": spec, "out": out, "rows": read_rows(out).to_pylist(), "table": read_rows(out)}
+
+
+def test_a_2x2x3_sweep_writes_12_rows_per_smoother_as_plain_columns(study):
+    rows, table = study["rows"], study["table"]
+    for smoother in ("centre", "convex"):
+        mine = [r for r in rows if r["smoother"] == smoother]
+        assert len(mine) == 12
+        combos = {(r["planner.delta"], r["q_goal"], r["seed"]) for r in mine}
+        assert combos == {(d, json.dumps(g), s) for d, g, s in product([0.005, 0.01], GOALS, [1, 2, 3])}
+    assert len({r["key"] for r in rows}) == 24
+    for r in rows:
+        assert r["key"] == row_key((("planner.delta", r["planner.delta"]), ("q_goal", json.loads(r["q_goal"]))), r["seed"], r["smoother"])
+    # plain columns: numbers, strings, booleans (DuckDB and pandas read them as they are)
+    assert all(pa.types.is_primitive(f.type) or pa.types.is_string(f.type) for f in table.schema)
+    for col in ("planner.delta", "q_goal", "seed", "smoother", "outcome", "reason", "plan_time", "task_time", "bubbles",
+                "length", "f", "min_clearance", "certified", "peak_torque_knee_flexion"):
+        assert col in table.column_names
+    # every plan reached, every replay kept the row's own margin, and the torques were measured
+    for r in rows:
+        assert r["outcome"] == "reached" and r["reason"] is None
+        assert r["min_clearance"] >= r["planner.delta"] - 1e-9
+        assert r["contacts"] == 0 and r["peak_torque_knee_flexion"] > 0 and r["bubbles"] > r["rosary"] > 1
+        assert r["f"] >= r["length"] > 0
+    # one plan, two paths: the convex path is never longer than the centre path of the same plan
+    by = {(r["planner.delta"], r["q_goal"], r["seed"], r["smoother"]): r for r in rows}
+    for (d, g, s, smoother), r in by.items():
+        if smoother == "convex":
+            assert r["length"] <= by[(d, g, s, "centre")]["length"] + 1e-9
+            assert r["bubbles"] == by[(d, g, s, "centre")]["bubbles"]
+
+
+def test_a_rerun_skips_the_rows_already_there(study, capsys):
+    assert main(["sweep", str(study["spec"]), "--out", str(study["out"]), "--quiet"]) == 0
+    assert "12 plans in all, 12 already done, 0 run now" in capsys.readouterr().out
+    assert deterministic(check_folder(study["out"])) == deterministic(study["rows"])
+
+
+@pytest.mark.slow
+def test_ctrl_c_then_a_kill_midway_then_a_rerun_give_the_same_rows(study, tmp_path):
+    out = tmp_path / "study"
+    args = ("sweep", str(study["spec"]), "--out", str(out), "--workers", "2", "--batch", "1")
+    # Ctrl-C (SIGINT to the whole process group, as a terminal does): completed rows written, exit 130
+    proc = cli(*args)
+    wait_for_files(out / "rows", 1, proc)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    first = check_folder(out)
+    # a real kill (SIGKILL to the sweep and its workers) midway through the rest
+    proc = cli(*args)
+    wait_for_files(out / "rows", len(list((out / "rows").glob("*.parquet"))) + 1, proc)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate(timeout=60)
+    second = check_folder(out)
+    assert len(first) <= len(second) < 24, "killed midway"
+    assert all(len([r for r in second if r["seed"] == s and r["q_goal"] == g and r["planner.delta"] == d]) in (0, 2)
+               for s, g, d in product([1, 2, 3], map(json.dumps, GOALS), [0.005, 0.01])), "a plan's rows are written together"
+    # the re-run runs only what is missing; progress lines on a non-terminal stderr
+    proc = cli(*args, "--progress-interval", "0.2")
+    stdout, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    assert f"{len(second) // 2} already done" in stdout
+    assert re.search(r"sweep: \d+/12 plans, 0 failed, [\d.]+ plans/s, ETA", err)
+    assert deterministic(check_folder(out)) == deterministic(study["rows"])
+    assert not list((out / "rows").glob(".*"))  # no temporary file left behind after a clean run
+
+
+@pytest.mark.slow
+def test_a_worker_that_dies_loses_no_row(tmp_path):
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = 5\nsmoothers = "none"\nreplay = "none"\n[grid]\n"planner.delta" = [0.005, 0.01]\n')
+    out = tmp_path / "out"
+    proc = cli("sweep", str(spec), "--out", str(out), "--workers", "2", "--batch", "1")
+    wait_for_files(out / "rows", 1, proc)
+    workers = []
+    for child in Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split():
+        if "spawn_main" in Path(f"/proc/{child}/cmdline").read_text():
+            workers.append(int(child))
+    assert workers
+    os.kill(workers[0], signal.SIGKILL)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    rows = check_folder(out)
+    assert len(rows) == 10 and all(r["outcome"] == "reached" for r in rows)
+    if "a worker died" not in err:  # the worker was idle at the end: nothing to resend, still nothing lost
+        pytest.skip("the killed worker had finished its tasks")
+
+
+@pytest.mark.slow
+def test_ray_gives_the_same_rows_as_local(study, tmp_path):
+    pytest.importorskip("ray")
+    # a slice of the study (same keys, so the same row keys), as Ray tasks on a local Ray instance
+    spec = write(tmp_path, STUDY.replace("seeds = [1, 2, 3]", "seeds = [2]").replace('[0.005, 0.01]', '[0.01]'))
+    out = tmp_path / "ray"
+    proc = cli("sweep", str(spec), "--out", str(out), "--ray", "--workers", "2", "--quiet")
+    stdout, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err
+    assert "on Ray (local)" in stdout
+    ray_rows = deterministic(check_folder(out))
+    assert len(ray_rows) == 4
+    local = {r["key"]: r for r in deterministic(study["rows"])}
+    assert ray_rows == [local[r["key"]] for r in ray_rows]
+
+
+@pytest.mark.parametrize(
+    "table, named",
+    [
+        ('"planner.dleta" = [0.01]', ["planner.dleta", "dleta"]),
+        ('"planner.delta" = [0.005, -1.0]', ["'planner.delta' = -1.0", "delta"]),
+        ('"obstacel.size" = [[0.5, 0.2, 0.1]]', ["obstacel.size", "obstacel"]),
+        ('"q_goal" = [[0.45, 0.4536, 1.45], [0.45, 0.4536, 9.0]]', ["'q_goal' = [0.45, 0.4536, 9.0]", "bound"]),
+        ('"q_goal" = [[0.45, 0.4536, 1.45, 2.0]]', ["'q_goal'"]),
+        ('"planner.K" = [10, "ten"]', ["'planner.K' mixes"]),
+        ('"seed" = [1, 2]', ["'seed' cannot be swept", "seeds"]),
+        ('"planner.delta" = []', ["'planner.delta' must be a non-empty list"]),
+    ],
+)
+def test_a_bad_key_or_value_is_exit_2_before_any_work_naming_it(tmp_path, capsys, table, named):
+    spec = write(tmp_path, f'scenario = "obstacle"\nseeds = 2\n[grid]\n{table}\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(spec), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and err.startswith("foam-mj: error:")
+    for piece in named:
+        assert piece in err
+    assert not out.exists()
+
+
+def test_bad_random_tables_and_fields_are_named(tmp_path):
+    bad = {
+        '[random]\nsamples = 3\n[random.uniform]\n"planner.r_min" = [0.09, 0.05]\n': "low <= high",
+        '[random]\nsamples = 0\n[random.uniform]\n"planner.r_min" = [0.05, 0.09]\n': "'samples'",
+        '[random]\nsamples = 2\n[random.uniform]\n"planner.r_min" = [0.0, 0.09]\n': "'planner.r_min' = 0.0",
+        'grids = 1\n': "unknown field(s) ['grids']",
+        'replay = "sometimes"\n': "'replay'",
+        'smoothers = "best"\n': "unknown smoother 'best'",
+    }
+    for text, named in bad.items():
+        top, _, rest = text.partition("[")
+        spec = write(tmp_path, f'scenario = "obstacle"\n{top}' + (f"[{rest}" if rest else ""))
+        with pytest.raises(SweepError, match=re.escape(named)):
+            load_sweep(spec)
+
+
+def test_random_samples_are_drawn_once_from_their_seed_and_crossed_with_the_grid(tmp_path):
+    spec = write(tmp_path, """
+scenario = "obstacle"
+seeds = [0, 1]
+[grid]
+"planner.delta" = [0.005, 0.01]
+[random]
+samples = 3
+seed = 7
+[random.uniform]
+"planner.r_min" = [0.05, 0.09]
+"planner.K" = [6, 10]
+"q_goal" = [[0.4, 0.45, 1.4], [0.45, 0.4536, 1.45]]
+[random.choice]
+"planner.max_bubbles" = [100000, 200000]
+""")
+    a, b = load_sweep(spec), load_sweep(spec)
+    assert a.n_tasks == 2 * 3 * 2 == len(list(a.tasks()))
+    pa_, pb = list(a.points()), list(b.points())
+    assert pa_ == pb and len(pa_) == 6
+    assert [p["planner.r_min"] for p in pa_[:3]] == [p["planner.r_min"] for p in pa_[3:]]  # the same draws per grid point
+    for p in pa_:
+        assert 0.05 <= p["planner.r_min"] <= 0.09 and isinstance(p["planner.K"], int) and 6 <= p["planner.K"] <= 10
+        assert all(lo <= v <= hi for v, lo, hi in zip(p["q_goal"], [0.4, 0.45, 1.4], [0.45, 0.4536, 1.45]))
+        assert p["planner.max_bubbles"] in (100000, 200000)
+    keys = [k for t in a.tasks() for k in t.keys]
+    assert len(keys) == len(set(keys)) == 12 * 2
+    assert dict(a.columns())["q_goal"] == "string" and dict(a.columns())["planner.K"] == "int64"
+
+
+def test_a_folder_of_another_sweep_is_refused(study, tmp_path):
+    other = load_sweep(write(tmp_path, STUDY.replace('smoothers = "convex"', 'smoothers = "convex"\nreplay = "kinematic"')))
+    with pytest.raises(SweepError, match="holds rows of another sweep"):
+        run_sweep(other, study["out"], workers=1, progress=False)
+
+
+def test_report_draws_the_envelope_and_prints_a_summary(study, tmp_path, capsys):
+    import matplotlib.image as mpimg
+
+    from foam_mj.report import envelope_axes, grid_values, load
+
+    figs = tmp_path / "figs"
+    assert main(["report", str(study["out"]), "--figures", str(figs)]) == 0
+    text = capsys.readouterr().out
+    assert re.search(r"convex\s+12\s+12 \(100%\)", text) and re.search(r"centre\s+12\s+12 \(100%\)", text)
+    for measure in ("success", "min_clearance", "f", "knee_torque"):
+        for smoother in ("centre", "convex"):
+            img = mpimg.imread(figs / f"{measure}-{smoother}.png")
+            assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100
+    summary = json.loads((figs / "summary.json").read_text())
+    assert {s["smoother"]: s["reached"] for s in summary} == {"centre": 12, "convex": 12}
+    # the f heatmap's cells are the medians over the seeds of each (delta, goal)
+    manifest, table = load(study["out"])
+    x, y = envelope_axes(manifest, table)[:2]
+    smoother = np.array(table.column("smoother").to_pylist())
+    f = np.array(table.column("f").to_pylist(), dtype=float)
+    cells = grid_values(x, y, smoother == "convex", lambda idx: float(np.median(f[idx])))
+    for r in (r for r in study["rows"] if r["smoother"] == "convex"):
+        i = x.labels.index(_label(r[x.key])) if x.key != "q_goal" else x.labels.index(r["q_goal"])
+        j = y.labels.index(_label(r[y.key])) if y.key != "q_goal" else y.labels.index(r["q_goal"])
+        same = [s["f"] for s in study["rows"] if s["smoother"] == "convex" and s[x.key] == r[x.key] and s[y.key] == r[y.key]]
+        assert cells[j, i] == pytest.approx(np.median(same))
+
+
+def _label(v):
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def test_the_readme_duckdb_query_runs_on_the_parquet_files(study, monkeypatch):
+    duckdb = pytest.importorskip("duckdb")
+    readme = (ROOT / "README.md").read_text()
+    queries = re.findall(r"```sql\n(.*?)```", readme, flags=re.S)
+    assert queries, "the README shows a DuckDB query"
+    monkeypatch.chdir(study["out"].parent)  # the README's folder is called study/
+    result = duckdb.sql(queries[0]).fetchall()
+    assert len(result) == 4  # one line per (delta, goal) of the convex rows: 3 seeds each, all reached
+    assert [(r[0], r[1]) for r in result] == sorted(product([0.005, 0.01], map(json.dumps, GOALS)))
+    assert all(r[2] == 1.0 and r[-1] == 3 for r in result)
