@@ -253,8 +253,7 @@ def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, formats
     axs = fig.subplots(1, len(panels), squeeze=False)[0]
     import matplotlib
 
-    cm = matplotlib.colormaps[cmap].copy()
-    cm.set_bad("#d0d0d0")
+    cm = matplotlib.colormaps[cmap].with_extremes(bad="#d0d0d0")
     im = None
     for ax, (lab, _), g in zip(axs, panels, grids):
         im = ax.imshow(np.ma.masked_invalid(g), origin="lower", cmap=cm, vmin=vmin, vmax=vmax, aspect="auto")
