@@ -24,14 +24,14 @@ from foam_mj.sweep import TIMING_COLUMNS, SweepError, load_sweep, row_key  # noq
 from foam_mj.sweep_run import read_rows, run_sweep  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-GOALS = [[0.45, 0.4536, 1.45], [0.4, 0.45, 1.45]]
+SIZES = [[0.2, 0.5, 0.10], [0.2, 0.5, 0.15]]  # the box: full extents x (walking direction), y, z
 STUDY = f"""
 scenario = "obstacle"
 seeds = [1, 2, 3]
 smoothers = "convex"
 [grid]
 "planner.delta" = [0.005, 0.01]
-"q_goal" = {json.dumps(GOALS)}
+"obstacle.size" = {json.dumps(SIZES)}
 """
 
 
@@ -86,14 +86,14 @@ def test_a_2x2x3_sweep_writes_12_rows_per_smoother_as_plain_columns(study):
     for smoother in ("centre", "convex"):
         mine = [r for r in rows if r["smoother"] == smoother]
         assert len(mine) == 12
-        combos = {(r["planner.delta"], r["q_goal"], r["seed"]) for r in mine}
-        assert combos == {(d, json.dumps(g), s) for d, g, s in product([0.005, 0.01], GOALS, [1, 2, 3])}
+        combos = {(r["planner.delta"], r["obstacle.size"], r["seed"]) for r in mine}
+        assert combos == {(d, json.dumps(g), s) for d, g, s in product([0.005, 0.01], SIZES, [1, 2, 3])}
     assert len({r["key"] for r in rows}) == 24
     for r in rows:
-        assert r["key"] == row_key((("planner.delta", r["planner.delta"]), ("q_goal", json.loads(r["q_goal"]))), r["seed"], r["smoother"])
+        assert r["key"] == row_key((("planner.delta", r["planner.delta"]), ("obstacle.size", json.loads(r["obstacle.size"]))), r["seed"], r["smoother"])
     # plain columns: numbers, strings, booleans (DuckDB and pandas read them as they are)
     assert all(pa.types.is_primitive(f.type) or pa.types.is_string(f.type) for f in table.schema)
-    for col in ("planner.delta", "q_goal", "seed", "smoother", "outcome", "reason", "plan_time", "task_time", "bubbles",
+    for col in ("planner.delta", "obstacle.size", "seed", "smoother", "outcome", "reason", "plan_time", "task_time", "bubbles",
                 "length", "f", "min_clearance", "certified", "peak_torque_knee_flexion"):
         assert col in table.column_names
     # every plan reached, every replay kept the row's own margin, and the torques were measured
@@ -103,7 +103,7 @@ def test_a_2x2x3_sweep_writes_12_rows_per_smoother_as_plain_columns(study):
         assert r["contacts"] == 0 and r["peak_torque_knee_flexion"] > 0 and r["bubbles"] > r["rosary"] > 1
         assert r["f"] >= r["length"] > 0
     # one plan, two paths: the convex path is never longer than the centre path of the same plan
-    by = {(r["planner.delta"], r["q_goal"], r["seed"], r["smoother"]): r for r in rows}
+    by = {(r["planner.delta"], r["obstacle.size"], r["seed"], r["smoother"]): r for r in rows}
     for (d, g, s, smoother), r in by.items():
         if smoother == "convex":
             assert r["length"] <= by[(d, g, s, "centre")]["length"] + 1e-9
@@ -135,8 +135,8 @@ def test_ctrl_c_then_a_kill_midway_then_a_rerun_give_the_same_rows(study, tmp_pa
     proc.communicate(timeout=60)
     second = check_folder(out)
     assert len(first) <= len(second) < 24, "killed midway"
-    assert all(len([r for r in second if r["seed"] == s and r["q_goal"] == g and r["planner.delta"] == d]) in (0, 2)
-               for s, g, d in product([1, 2, 3], map(json.dumps, GOALS), [0.005, 0.01])), "a plan's rows are written together"
+    assert all(len([r for r in second if r["seed"] == s and r["obstacle.size"] == g and r["planner.delta"] == d]) in (0, 2)
+               for s, g, d in product([1, 2, 3], map(json.dumps, SIZES), [0.005, 0.01])), "a plan's rows are written together"
     # the re-run runs only what is missing; progress lines on a non-terminal stderr
     proc = cli(*args, "--progress-interval", "0.2")
     stdout, err = proc.communicate(timeout=300)
@@ -281,8 +281,7 @@ def test_report_draws_the_envelope_and_prints_a_summary(study, tmp_path, capsys)
     f = np.array(table.column("f").to_pylist(), dtype=float)
     cells = grid_values(x, y, smoother == "convex", lambda idx: float(np.median(f[idx])))
     for r in (r for r in study["rows"] if r["smoother"] == "convex"):
-        i = x.labels.index(_label(r[x.key])) if x.key != "q_goal" else x.labels.index(r["q_goal"])
-        j = y.labels.index(_label(r[y.key])) if y.key != "q_goal" else y.labels.index(r["q_goal"])
+        i, j = x.labels.index(_label(r[x.key])), y.labels.index(_label(r[y.key]))
         same = [s["f"] for s in study["rows"] if s["smoother"] == "convex" and s[x.key] == r[x.key] and s[y.key] == r[y.key]]
         assert cells[j, i] == pytest.approx(np.median(same))
 
@@ -299,5 +298,5 @@ def test_the_readme_duckdb_query_runs_on_the_parquet_files(study, monkeypatch):
     monkeypatch.chdir(study["out"].parent)  # the README's folder is called study/
     result = duckdb.sql(queries[0]).fetchall()
     assert len(result) == 4  # one line per (delta, goal) of the convex rows: 3 seeds each, all reached
-    assert [(r[0], r[1]) for r in result] == sorted(product([0.005, 0.01], map(json.dumps, GOALS)))
+    assert [(r[0], r[1]) for r in result] == sorted(product([0.005, 0.01], map(json.dumps, SIZES)))
     assert all(r[2] == 1.0 and r[-1] == 3 for r in result)
