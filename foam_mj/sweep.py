@@ -30,7 +30,7 @@ one *row* per path (``centre`` always, plus the smoothers' paths), identified by
 the hash of (parameters, seed, path) (:func:`row_key`); the engines (foam_mj.sweep_run) skip rows whose
 key is already in the output. The row's columns (:func:`row_schema`) are plain: one per swept key (the
 dotted key is the column name; list values are stored as their JSON text), then ``seed``, ``smoother``
-(the path name), ``outcome`` (reached, failed, invalid, error) and ``reason`` (why not reached), the
+(the path name), ``outcome`` and ``reason`` (why not reached), the
 times, the foam's size, the path's measures, its replay and, when replayed, the peak joint torque along
 the timed trajectory by inverse dynamics (``peak_torque_<joint>``, foam_mj.dynamics: N m for hinges, N for
 slides).
@@ -56,6 +56,9 @@ from foam_mj.errors import FoamError, PlanningFailed, ScenarioError
 FORMAT = "foam-mj/sweep"
 VERSION = 1
 REPLAYS = ("dynamic", "kinematic", "none")
+#: reached: the plan reached the goal; failed: it did not (budget, queue empty) or no timing fits the limits;
+#: invalid: the combination is no valid problem (a goal in collision, a start too close for r_min);
+#: error: anything else (a bug, a solver failure), with the exception in ``reason``.
 OUTCOMES = ("reached", "failed", "invalid", "error")
 _TOP_FIELDS = {"scenario", "seeds", "smoothers", "replay", "grid", "random"}
 _RANDOM_FIELDS = {"samples", "seed", "uniform", "choice"}
@@ -308,7 +311,7 @@ def build_scenario(scenario: str, builtin: bool, base: dict, params, *, check: b
     from foam_mj.scenarios import check_scenario, scenario_from_dict
 
     doc = apply_overrides(base, params)
-    source = None if builtin else Path(scenario)
+    source = _base_dir(scenario, builtin) / f"{scenario}.toml" if builtin else Path(scenario)
     s = scenario_from_dict(doc, _base_dir(scenario, builtin), source=source, check=False)
     if check:
         try:
@@ -344,6 +347,8 @@ def run_task(task: Task) -> list[dict]:
         extra = {} if st is None else {"bubbles": int(st.bubbles), "plan_time": float(st.elapsed)}
         reason = str(exc) if st is None else f"{st.outcome}: {exc}"
         return fail("failed", reason, **extra)
+    except FoamError as exc:  # e.g. a start whose root bubble is below r_min: this combination is no valid problem
+        return fail("invalid", f"{type(exc).__name__}: {exc}")
     except Exception as exc:  # a bug or a solver failure on one task must not stop the sweep
         return fail("error", f"{type(exc).__name__}: {exc}")
     task_time = time.perf_counter() - t0

@@ -97,6 +97,7 @@ class RowStore:
         self.schema = pa.schema([(name, pa.bool_() if kind == "bool" else getattr(pa, kind)()) for name, kind in sweep.columns()])
         self.batch, self.flush_seconds = max(1, int(batch)), float(flush_seconds)
         self.pending: list[dict] = []
+        self._written: set[str] = set()  # keys written by this run
         self.files_written = 0
         self.rows_written = 0
         self._last_flush = time.monotonic()
@@ -159,10 +160,19 @@ class RowStore:
             self.flush()
 
     def flush(self) -> None:
-        """Write the pending rows as one Parquet file (temporary name, fsync, rename)."""
+        """Write the pending rows as one Parquet file (temporary name, fsync, rename).
+
+        Ctrl-C and SIGTERM are held back until the file is in place and the rows are marked written, so an
+        interrupt can neither lose the batch nor make the final flush write it twice.
+        """
         self._last_flush = time.monotonic()
+        self.pending = [r for r in self.pending if r["key"] not in self._written]
         if not self.pending:
             return
+        with _interrupts_deferred():
+            self._write()
+
+    def _write(self) -> None:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
@@ -184,9 +194,34 @@ class RowStore:
         finally:
             if tmp.exists():
                 tmp.unlink()
+        self._written.update(r["key"] for r in self.pending)
         self.rows_written += len(self.pending)
         self.files_written += 1
         self.pending = []
+
+
+class _interrupts_deferred:
+    """Hold SIGINT and SIGTERM back for the duration of the block (main thread only), then act on them."""
+
+    def __enter__(self):
+        import threading
+
+        self.saved = {}
+        self.got: list[int] = []
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self.saved[sig] = signal.signal(sig, lambda signum, frame: self.got.append(signum))
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for sig, handler in self.saved.items():
+            signal.signal(sig, handler)
+        if self.got:
+            handler = self.saved.get(self.got[0])
+            if callable(handler):
+                handler(self.got[0], None)
+            elif handler != signal.SIG_IGN:
+                raise KeyboardInterrupt
 
 
 def read_rows(out: str | Path):

@@ -300,3 +300,13 @@ def test_the_readme_duckdb_query_runs_on_the_parquet_files(study, monkeypatch):
     assert len(result) == 4  # one line per (delta, goal) of the convex rows: 3 seeds each, all reached
     assert [(r[0], r[1]) for r in result] == sorted(product([0.005, 0.01], map(json.dumps, SIZES)))
     assert all(r[2] == 1.0 and r[-1] == 3 for r in result)
+
+
+def test_the_readme_sweep_file_is_valid(tmp_path):
+    readme = (ROOT / "README.md").read_text()
+    example = re.findall(r"```toml\n(.*?)```", readme[readme.index("## Studies"):], flags=re.S)[0]
+    sweep = load_sweep(write(tmp_path, example))
+    assert sweep.keys == ("planner.delta", "obstacle.size", "subject.height", "planner.K")
+    assert sweep.n_tasks == 2 * 2 * 20 * 3
+    heights = {p["subject.height"] for p in sweep.points()}
+    assert len(heights) == 20 and all(1.55 <= h <= 1.95 for h in heights)

@@ -1,0 +1,107 @@
+"""Sweep throughput: plans per second in this process, on 1 and 2 local workers and on a local Ray instance
+with 2 workers; the overhead per task and the start-up of each engine; what a 1-million-plan study costs.
+
+Every engine runs the same tasks (the obstacle scenario, ``--plans`` seeds, the convex smoother, the
+kinematic replay with joint torques unless ``--replay`` says otherwise) into a fresh output folder.
+
+* ``in-process``: :func:`foam_mj.sweep.run_task` called in a loop here after one warm-up: the compute
+  time of a plan, with no engine at all.
+* ``wall``: the whole ``run_sweep`` call (start-up, every plan, writing Parquet).
+* ``steady plans/s``: (plans - 1) / (time between the first and the last finished plan): the rate once
+  the workers are up, which is what a long study sees.
+* ``overhead/task``: steady time per plan times workers, minus the in-process time: what the engine
+  adds to each plan (pickling, scheduling, result transfer, Parquet) when the cores are otherwise free.
+* ``start-up``: wall minus the steady part: spawning workers (and starting Ray).
+
+Usage: python benchmarks/sweep.py [--plans 16] [--quick] [--replay kinematic] [--no-ray] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import table, write_json  # noqa: E402
+
+from foam_mj.sweep import load_sweep, run_task  # noqa: E402
+from foam_mj.sweep_run import run_sweep  # noqa: E402
+
+
+def sweep_file(folder: Path, plans: int, replay: str) -> Path:
+    p = folder / "bench.toml"
+    p.write_text(f'scenario = "obstacle"\nseeds = {plans}\nsmoothers = "convex"\nreplay = "{replay}"\n')
+    return p
+
+
+def measure(sweep, out: Path, engine: str, workers: int) -> dict:
+    stamps: list[float] = []
+    t0 = time.perf_counter()
+    s = run_sweep(sweep, out, engine=engine, workers=workers, progress=False, on_rows=lambda rows: stamps.append(time.perf_counter()))
+    wall = time.perf_counter() - t0
+    n = s.run
+    steady = (n - 1) / (stamps[-1] - stamps[0]) if n > 1 and stamps[-1] > stamps[0] else float("nan")
+    startup = wall - n / steady if np.isfinite(steady) else float("nan")
+    return {"engine": engine, "workers": workers, "plans": n, "failed": s.failed, "wall_s": wall, "plans_per_s": n / wall,
+            "steady_plans_per_s": steady, "startup_s": startup}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--plans", type=int, default=16, help="plans per engine (default 16)")
+    ap.add_argument("--quick", action="store_true", help="6 plans, no Ray")
+    ap.add_argument("--replay", default="kinematic", choices=["dynamic", "kinematic", "none"])
+    ap.add_argument("--no-ray", action="store_true", help="skip the Ray engine")
+    ap.add_argument("--json", metavar="OUT.json")
+    args = ap.parse_args(argv)
+    plans = 6 if args.quick else args.plans
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        sweep = load_sweep(sweep_file(tmp, plans, args.replay))
+        tasks = list(sweep.tasks())
+        run_task(tasks[0])  # warm-up: imports, first model
+        times = []
+        for t in tasks:
+            t0 = time.perf_counter()
+            rows = run_task(t)
+            times.append(time.perf_counter() - t0)
+            assert all(r["outcome"] == "reached" for r in rows), rows[0].get("reason")
+        task_s = float(np.median(times))
+        results = [{"engine": "in-process", "workers": 1, "plans": len(tasks), "failed": 0, "wall_s": float(np.sum(times)),
+                    "plans_per_s": 1 / task_s, "steady_plans_per_s": 1 / task_s, "startup_s": 0.0}]
+        runs = [("local", 1), ("local", 2)]
+        if not (args.no_ray or args.quick):
+            try:
+                import ray  # noqa: F401
+
+                runs.append(("ray", 2))
+            except ImportError:
+                print("ray is not installed: skipping the Ray engine (pip install 'foam-mj[cluster]')", file=sys.stderr)
+        for i, (engine, workers) in enumerate(runs):
+            print(f"running {plans} plans on {engine} with {workers} worker(s)...", file=sys.stderr)
+            results.append(measure(sweep, tmp / f"out{i}", engine, workers))
+    for r in results:
+        r["overhead_per_task_ms"] = 1000 * (r["workers"] / r["steady_plans_per_s"] - task_s) if r["engine"] != "in-process" else 0.0
+    print(f"obstacle scenario, convex smoother, {args.replay} replay; median plan in-process {task_s * 1000:.0f} ms")
+    print(table(["engine", "workers", "plans", "wall s", "start-up s", "plans/s", "steady plans/s", "overhead/task ms"],
+                [[r["engine"], r["workers"], r["plans"], r["wall_s"], r["startup_s"], r["plans_per_s"], r["steady_plans_per_s"],
+                  r["overhead_per_task_ms"]] for r in results], floatfmt=".3g"))
+    per_core = min((r["steady_plans_per_s"] / r["workers"] for r in results if r["engine"] == "local"), default=1 / task_s)
+    print(f"\n1,000,000 plans at {per_core:.2f} plans/s per core (the slower local rate per worker):")
+    cost = []
+    for cores in (2, 16, 64, 256, 1024):
+        hours = 1e6 / (per_core * cores) / 3600
+        cost.append({"cores": cores, "hours": hours, "core_hours": hours * cores})
+    print(table(["cores", "hours", "core-hours"], [[c["cores"], c["hours"], c["core_hours"]] for c in cost], floatfmt=".3g"))
+    if args.json:
+        write_json(args.json, {"replay": args.replay, "plans": plans, "task_s": task_s, "engines": results, "million": cost})
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
