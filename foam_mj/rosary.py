@@ -149,8 +149,16 @@ class Rosary:
     # -- reference paths ---------------------------------------------------------------------------
     def center_waypoints(self) -> np.ndarray:
         """The centre path's waypoints: the centres of bubbles 1..k-1 (each on its parent's surface, so in
-        its hatch). With q_init (= centre 0) and q_goal they give the path T of paper 003 (Fig. 6)."""
-        return self.centers[1:].copy()
+        its hatch). With q_init (= centre 0) and q_goal they give the path T of paper 003 (Fig. 6).
+
+        A rosary not grown by the foam (a chain of overlapping bubbles from another planner) may have a
+        centre outside its predecessor; that waypoint is then the portal centre of its hatch (on the
+        segment between the two centres), so the centre path always runs through the hatches."""
+        w = self.centers[1:].copy()
+        ok = self.in_hatches(w)
+        if not ok.all():
+            w[~ok] = self.portal_waypoints()[~ok]
+        return w
 
     def portal_waypoints(self) -> np.ndarray:
         """Waypoints at the portal centres (the middle of each hatch)."""

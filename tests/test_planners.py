@@ -91,6 +91,7 @@ def _check_paths(checker, oracle, res, delta):
     assert ros.check_structure() == []
     # Every rosary bubble is certified: its radius is at most the oracle's at its centre.
     assert np.all(ros.radii <= oracle.radii(ros.centers) + 1e-9)
+    assert ros.all_in_hatches(ros.center_waypoints()) and ros.all_in_hatches(ros.portal_waypoints())
     centre = ros.path(ros.center_waypoints())
     convex = ConvexShortestPath().smooth(ros).path
     for path in (centre, convex):
@@ -151,16 +152,22 @@ def test_cli_refuses_an_unknown_planner_before_any_work(capsys):
     assert "unknown planner 'nope'; known planners:" in err and "pfm" in err and "Traceback" not in err
 
 
-def test_cli_plans_with_the_named_planner(tmp_path, capsys):
+@pytest.mark.parametrize("name", ["pfm", "bubbletree"])
+def test_cli_plans_with_the_named_planner(tmp_path, capsys, name):
     import json
 
     from foam_mj.cli import main
 
     out = tmp_path / "r.json"
-    assert main(["plan", "--scene", "obstacle", "--planner", "pfm", "--smoother", "none", "--no-rrd", "--no-replay", "--json", str(out)]) == 0
+    args = ["plan", "--scene", "obstacle", "--planner", name, "--smoother", "convex", "--no-rrd", "--no-replay", "--json", str(out)]
+    assert main(args) == 0
     doc = json.loads(out.read_text())
-    assert doc["planner"]["algorithm"] == "pfm" and doc["foam"]["stats"]["planner"] == "pfm"
-    assert "planner pfm" in capsys.readouterr().out
+    assert doc["planner"]["algorithm"] == name and doc["foam"]["stats"]["planner"] == name
+    assert set(doc["paths"]) == {"centre", "convex"}
+    assert f"planner {name}" in capsys.readouterr().out
+    # The rosary's bubbles are the foam's (bubble_ids index every bubble grown).
+    foam, ros = doc["foam"], doc["rosary"]
+    np.testing.assert_array_equal(np.asarray(foam["centers"])[ros["bubble_ids"]], ros["centers"])
 
 
 # -- resolution is not a precondition; feasible variants of the scene plan ---------------------------
