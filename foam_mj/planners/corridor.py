@@ -237,15 +237,12 @@ def prune_chain(C: np.ndarray, R: np.ndarray, P: np.ndarray, pieces: int = 8) ->
     # Waypoint j (sample j * pieces) lies in the hatch of bubbles j - 1 and j.
     v = np.arange(1, k) * pieces
     inside[np.arange(k - 1), v] = True
-    # run[i, p]: last index of the contiguous stretch of samples from p held by bubble i (p - 1 if none).
+    # run[i, p]: last index of the contiguous stretch of samples from p held by bubble i (p - 1 if none):
+    # the first sample at or after p that bubble i does not hold, minus one.
     T = len(D)
-    run = np.empty((k, T), dtype=np.int64)
-    nxt = np.full(k, T - 1)
-    for p_ in range(T - 1, -1, -1):
-        nxt = np.where(inside[:, p_], nxt, p_ - 1)
-        if p_ < T - 1:
-            nxt = np.where(inside[:, p_] & inside[:, p_ + 1], run[:, p_ + 1], np.where(inside[:, p_], p_, p_ - 1))
-        run[:, p_] = nxt
+    pos = np.arange(T)
+    first_out = np.minimum.accumulate(np.where(inside, T, pos)[:, ::-1], axis=1)[:, ::-1]
+    run = first_out - 1
     out = []
     p_ = 0
     while True:
