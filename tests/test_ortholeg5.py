@@ -89,3 +89,20 @@ def test_subject_scaling_on_the_five_joint_leg():
     j = m.joint("ankle_dorsiflexion")
     np.testing.assert_allclose(j.range, [-0.52, 0.35])
     assert mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "hip_adduction") >= 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", SCENES5)
+def test_the_five_joint_scenes_plan_on_ten_seeds(name):
+    from conftest import MujocoChecker
+    from foam_mj.pipeline import plan_scenario
+    from foam_mj.smoothing.gradient import center_path_result
+
+    s = load_scenario(name)
+    checker = MujocoChecker(s.robot)
+    for seed in range(10):
+        res = plan_scenario(s, seed)
+        assert res.rosary.check_structure() == [], (name, seed)
+        path = center_path_result(res.rosary).path
+        np.testing.assert_array_equal(path[[0, -1]], [s.q_init, s.q_goal])
+        assert checker.first_collision_along(path, step=2e-3) is None, (name, seed)
