@@ -431,17 +431,9 @@ class GradientSmoothing(Smoother):
 
 
 def center_path_result(rosary: Rosary, method: str = "centre") -> SmoothingResult:
-    """The centre path T (through the bubble centres, paper 003 Fig. 6) as a result record.
-
-    PFM puts every bubble's centre on its parent's surface, so the centres are in the hatches. A rosary
-    from another planner (e.g. bubbletree's chains) need not: then the waypoints are the portal centres,
-    which lie on the segments between consecutive centres and inside both balls, so the path still runs
-    through the hatches (our choice: the closest hatch points to the centre polyline).
-    """
+    """The centre path T (through the bubble centres, paper 003 Fig. 6) as a result record."""
     t0 = time.perf_counter()
     w = rosary.center_waypoints()
-    if not rosary.all_in_hatches(w):
-        w = rosary.portal_waypoints()
     p = rosary.path(w)
     return SmoothingResult.build(
         method, rosary, w, history_best=np.array([float(paths.objective(p))]), iterations=0, evaluations=1,
