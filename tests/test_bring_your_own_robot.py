@@ -120,3 +120,17 @@ def test_default_configuration_skips_unlimited_and_ball_joints(tmp_path, capsys)
     p.write_text(BAD)
     robot = RobotModel.from_xml(p)
     assert robot.config.joint_names == ("lift",)
+
+
+def test_subject_flags_scale_the_leg_and_the_result_names_the_scaled_scene(tmp_path):
+    from foam_mj.anthropometry import segment_length
+
+    js = tmp_path / "small.json"
+    assert main(["plan", "--scene", "step_up5", "--subject-height", "1.62", "--subject-mass", "58", "--no-rrd", "--no-replay", "--json", str(js)]) == 0
+    doc = json.loads(js.read_text())
+    assert doc["scene_edits"]["subject"] == {"height": 1.62, "mass": 58.0}
+    assert Path(doc["mjcf"]).name == "small.scene.xml" and Path(doc["scene_source"]).name == "step_up5.xml"
+    m = mujoco.MjModel.from_xml_path(doc["mjcf"])  # MuJoCo alone loads the scene that was planned on
+    assert np.linalg.norm(m.body("shank").pos) == pytest.approx(segment_length("thigh", 1.62), abs=1e-6)
+    for entry in doc["paths"].values():
+        assert _independent_clearance(doc["mjcf"], np.asarray(entry["qpos"])) >= doc["planner"]["delta"] - 1e-9
