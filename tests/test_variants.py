@@ -241,3 +241,18 @@ def test_gbpf_solves_the_benchmark_leg5_and_arm6_collision_free(mjcf, q_init, q_
     path = res.rosary.path(res.rosary.center_waypoints())
     assert check.first_collision_along(path, step=2e-3) is None
     oracle.close()
+
+
+def test_a_scenario_names_a_variant_and_its_options(tmp_path):
+    from conftest import MODELS
+
+    from foam_mj.errors import ScenarioError
+
+    p = tmp_path / "s.toml"
+    head = f'scene = "{MODELS / "obstacle.xml"}"\nq_init = [0.2, 0.3, 0.08]\nq_goal = [0.45, 0.4536, 1.45]\n[planner]\n'
+    p.write_text(head + 'algorithm = "gbpf"\nr_min = 0.05\nbias = 0.4\n')
+    s = load_scenario(p, check=False)
+    assert (s.params.algorithm, s.params.r_min, s.params.bias, s.params.batch) == ("gbpf", 0.05, 0.4, 8)
+    p.write_text(head + 'algorithm = "rbpf"\nbias = 0.4\n')
+    with pytest.raises(ScenarioError, match=r"\['bias'\] for algorithm 'rbpf'"):
+        load_scenario(p, check=False)
