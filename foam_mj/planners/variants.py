@@ -125,12 +125,11 @@ class _Growth:
         self.calls0 = oracle.clearance.calls
         self.progress = progress
         self.next_report = self.t0 + 0.5
-        for name, q in (("q_goal", self.q_goal), ("q_init", self.q_init)):
-            c = oracle.clearance(q)
+        for name, q in (("q_init", self.q_init), ("q_goal", self.q_goal)):
+            c = float(oracle.clearance(q))
             if c <= params.delta:
-                raise ConfigurationError(
-                    f"{name} {q.tolist()} is too close to an obstacle: clearance {c:.4f} m <= margin {params.delta} m"
-                )
+                state = "in collision" if c < 0 else "too close to an obstacle"
+                raise ConfigurationError(f"{name} {q.tolist()} is {state}: clearance {c:.4f} m <= margin delta = {params.delta} m")
         r0 = float(oracle.radius_from_clearance(oracle.clearance(self.q_init), self.q_init))
         if r0 <= 0.0:
             raise ConfigurationError(f"q_init {self.q_init.tolist()} lies on the configuration bounds: its bubble has radius 0")
