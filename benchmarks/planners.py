@@ -6,9 +6,11 @@ beside OMPL's RRTConnect (+ PathSimplifier) and RRT* (10x the time) on the same 
     python benchmarks/planners.py --quick      # CI: 3 seeds, the 3-joint leg scenes, OMPL only if installed
 
 Problems: the Ortholeg's ``obstacle``, ``step_up`` and ``step_down`` scenarios (their paper parameters
-K and r_min for the foam planners), ``leg5`` (``models/bench_leg5.xml``: the leg with hip
-ab/adduction and an ankle, stepping over the same box; K = 10, r_min = 0.05) and ``arm6``
-(``models/bench_arm6.xml``: a 6-joint arm reaching around a tall box; K = 10, r_min = 0.05).
+K and r_min for the foam planners), ``obstacle5`` (the 5-joint leg of ``models/ortholeg5.xml``, hip
+ab/adduction and ankle added, over the same box; K = 10, r_min = 0.05 for the foam planners) and
+``arm6`` (``models/bench_arm6.xml``: a 6-joint arm reaching around a tall box; K = 10, r_min = 0.05).
+``--problems shelf6`` adds the example UR-like arm reaching into a shelf
+(``examples/industrial_arm/reach_shelf.toml``).
 Every planner of :data:`foam_mj.planners.PLANNERS` runs; the foam family (pfm, gbpf, rbpf, hpf) gets
 the problem's K and r_min, any other planner its own default options. The margin is delta = 5 mm
 for every planner and for OMPL's validity checker (MuJoCo clearance > delta at each checked state).
@@ -65,7 +67,8 @@ from foam_mj.smoothing import OptimalSmoother  # noqa: E402
 DELTA = 0.005
 FOAM_FAMILY = ("pfm", "gbpf", "rbpf", "hpf")
 QUICK_PROBLEMS = ("obstacle", "step_up", "step_down")
-ALL_PROBLEMS = QUICK_PROBLEMS + ("leg5", "arm6")
+ALL_PROBLEMS = QUICK_PROBLEMS + ("obstacle5", "arm6")
+EXTRA_PROBLEMS = ("shelf6",)  # only when named with --problems
 CHECK_STEP = 1e-3  # rad (max-norm in q) between densely checked configurations
 
 
@@ -80,18 +83,18 @@ class Problem:
 
 
 def problem(name: str) -> Problem:
-    if name in QUICK_PROBLEMS:
+    if name in QUICK_PROBLEMS or name == "obstacle5":
         s = load_scenario(name)
-        return Problem(name, Path(s.scene), s.q_init, s.q_goal, int(s.params.K), float(s.params.r_min))
-    here = models_dir()
-    if name == "leg5":
-        # The 3-joint obstacle task's start and goal with hip ab/adduction and ankle at 0.
-        return Problem(name, here / "bench_leg5.xml", np.array([0.2, 0.3, 0.08, 0.0, 0.0]), np.array([0.45, 0.4536, 1.45, 0.0, 0.0]), 10, 0.05)
+        K, r_min = (int(s.params.K), float(s.params.r_min)) if name in QUICK_PROBLEMS else (10, 0.05)
+        return Problem(name, Path(s.scene), s.q_init, s.q_goal, K, r_min)
     if name == "arm6":
         # Mirror poses either side of the box (tool 0.35 m above the floor); the straight line cuts 42 mm into it.
         a = np.array([-0.7, 0.87, 1.12, -0.08, 0.0, 0.0])
-        return Problem(name, here / "bench_arm6.xml", a, a * np.array([-1, 1, 1, 1, 1, 1]), 10, 0.05)
-    raise SystemExit(f"unknown problem '{name}'; known: {', '.join(ALL_PROBLEMS)}")
+        return Problem(name, models_dir() / "bench_arm6.xml", a, a * np.array([-1, 1, 1, 1, 1, 1]), 10, 0.05)
+    if name == "shelf6":
+        s = load_scenario(Path(__file__).resolve().parents[1] / "examples" / "industrial_arm" / "reach_shelf.toml")
+        return Problem(name, Path(s.scene), s.q_init, s.q_goal, 10, 0.05)
+    raise SystemExit(f"unknown problem '{name}'; known: {', '.join(ALL_PROBLEMS + EXTRA_PROBLEMS)}")
 
 
 class DenseChecker:
@@ -270,7 +273,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10, help="seeds per planner and problem (default 10)")
     ap.add_argument("--planners", nargs="*", default=None, help=f"default: every registered planner ({', '.join(sorted(PLANNERS))})")
-    ap.add_argument("--problems", nargs="*", default=None, help=f"default: {' '.join(ALL_PROBLEMS)}")
+    ap.add_argument("--problems", nargs="*", default=None, help=f"default: {' '.join(ALL_PROBLEMS)}; also {' '.join(EXTRA_PROBLEMS)}")
     ap.add_argument("--time-limit", type=float, default=10.0, help="seconds per planning run before it counts as failed (default 10)")
     ap.add_argument("--no-ompl", action="store_true", help="skip the OMPL peers")
     ap.add_argument("--bitstar", action="store_true", help="also run OMPL's BIT* with 10x RRTConnect's time")
@@ -290,8 +293,8 @@ def main(argv: list[str] | None = None) -> dict:
             ap.error(f"unknown planner '{p}'; known: {', '.join(sorted(PLANNERS))}")
     names = args.problems or list(QUICK_PROBLEMS if args.quick else ALL_PROBLEMS)
     for p in names:
-        if p not in ALL_PROBLEMS:
-            ap.error(f"unknown problem '{p}'; known: {', '.join(ALL_PROBLEMS)}")
+        if p not in ALL_PROBLEMS + EXTRA_PROBLEMS:
+            ap.error(f"unknown problem '{p}'; known: {', '.join(ALL_PROBLEMS + EXTRA_PROBLEMS)}")
     seeds = 3 if args.quick and args.seeds == 10 else args.seeds
     use_ompl = not args.no_ompl and have_ompl()
     if use_ompl:

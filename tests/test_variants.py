@@ -222,12 +222,12 @@ def test_cli_plans_with_a_variant(tmp_path):
 @pytest.mark.parametrize(
     "mjcf, q_init, q_goal, seed",
     [
-        ("bench_leg5.xml", [0.2, 0.3, 0.08, 0.0, 0.0], [0.45, 0.4536, 1.45, 0.0, 0.0], 0),
+        ("obstacle5.xml", [0.2, 1.05, 0.08, 0.0, -0.2], [0.45, 0.4536, 1.45, 0.0, 0.0036], 0),
         ("bench_arm6.xml", [-0.7, 0.87, 1.12, -0.08, 0.0, 0.0], [0.7, 0.87, 1.12, -0.08, 0.0, 0.0], 1),
     ],
 )
-def test_gbpf_solves_the_benchmark_leg5_and_arm6_collision_free(mjcf, q_init, q_goal, seed):
-    """The 5-joint leg and 6-joint arm of benchmarks/planners.py: the start and goal keep the margin, the
+def test_gbpf_solves_the_benchmark_5_joint_leg_and_6_joint_arm_collision_free(mjcf, q_init, q_goal, seed):
+    """The 5-joint leg (obstacle5) and 6-joint arm of benchmarks/planners.py: the start and goal keep the margin, the
     straight line between them does not (for the arm), and GBPF's centre path is collision-free."""
     from conftest import MODELS
 
