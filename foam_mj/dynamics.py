@@ -68,7 +68,7 @@ class HumanReference:
 # contact (frame 97), Table A.5(b) (moments on the thigh and the leg). Read every third frame: the largest
 # swing moments are 19.0 N m at the hip (extensor, frame 91, late swing decelerating the thigh) and
 # 14.5 N m at the knee (flexor, frames 91-94, decelerating the shank); 19.0 / 56.7 = 0.335 and
-# 14.5 / 56.7 = 0.256 N m/kg. Early swing's hip flexor moment peaks at 13.6 N m (0.24 N m/kg, frame 73).
+# 14.5 / 56.7 = 0.256 N m/kg. Every third frame of 69.9 frames/s: the true peaks may be slightly higher. Early swing's hip flexor moment peaks at 13.6 N m (0.24 N m/kg, frame 73).
 HUMAN_SWING = HumanReference(
     source="Winter (2009), Biomechanics and Motor Control of Human Movement, 4th ed., Appendix A, Table A.5",
     body_mass=56.7,

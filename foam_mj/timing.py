@@ -263,15 +263,45 @@ class PathTiming:
         return (self.t[i] + np.where(ds > 0, quad, 0.0)) * self.duration / self.native
 
 
+def _import_toppra():
+    """``toppra`` (with its algorithm, constraint and interpolator modules).
+
+    toppra 0.6 imports ``matplotlib.pyplot`` when it is imported, for plotting helpers foam-mj never
+    calls; that import costs about 0.5 s of CPU on every ``plan``. When matplotlib is not loaded yet, it is
+    imported with empty stand-ins for ``matplotlib`` and ``matplotlib.pyplot``, removed again right after,
+    so a later ``import matplotlib.pyplot`` (figures) loads the real one.
+    """
+    import sys
+    import types
+
+    if "toppra.algorithm" in sys.modules or "matplotlib" in sys.modules:
+        import toppra
+        import toppra.algorithm  # noqa: F401
+        return toppra
+    stubs = {"matplotlib": types.ModuleType("matplotlib"), "matplotlib.pyplot": types.ModuleType("matplotlib.pyplot")}
+    stubs["matplotlib"].__path__ = []  # a package, so that "matplotlib.pyplot" resolves to its stand-in
+    stubs["matplotlib"].pyplot = stubs["matplotlib.pyplot"]
+    sys.modules.update(stubs)
+    try:
+        import toppra
+        import toppra.algorithm  # noqa: F401
+        import toppra.constraint  # noqa: F401
+        import toppra.interpolator  # noqa: F401
+    finally:
+        for name, stub in stubs.items():
+            if sys.modules.get(name) is stub:
+                del sys.modules[name]
+    return toppra
+
+
 def _toppra_law(kin: _Kinematics, vmax, amax, tmax, x0: np.ndarray | None = None) -> PathTiming:
     """toppra's time-optimal law under the limits; damping enters the torque constraint through the
     tangent bound sd <= (x + x0) / (2 sqrt(x0)) (x = sd^2, any x0 > 0; equality at x = x0), on the side
     of each bound where it adds torque: a conservative linear constraint, exact where x = x0. ``x0`` (at
     :func:`_grid`'s points) defaults to the square of the path speed at the velocity limits."""
-    import toppra
-    import toppra.algorithm
-    import toppra.constraint as tc
-    from toppra.interpolator import AbstractGeometricPath
+    toppra = _import_toppra()
+    tc = toppra.constraint
+    AbstractGeometricPath = toppra.interpolator.AbstractGeometricPath
 
     class CurvePath(AbstractGeometricPath):
         def __call__(self, s, order=0):
