@@ -15,8 +15,9 @@ f-<path>               median f (paper 000 Eq. 5) of the reached ones  robust to
 knee_torque-<path>     largest peak knee torque (N m) of the reached   the actuator must cover the worst
 =====================  ==============================================  =====================================
 
-Empty cells (no plan, or none reached) are grey. The knee figure is drawn when the rows carry a
-``peak_torque_*knee*`` column (the dynamic replay).
+Empty cells (no plan, or none reached) are grey; a measure with no value at all (no replay: no
+clearance) gets no figure. The knee figure is drawn when the rows carry a ``peak_torque_*knee*`` column
+(any replay).
 """
 
 from __future__ import annotations
@@ -244,7 +245,9 @@ def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, formats
     panels = [(None, mask)] if panel is None else [(lab, mask & (panel.index == k)) for k, lab in enumerate(panel.labels[:MAX_PANELS])]
     grids = [grid_values(x, y, m, agg) for _, m in panels]
     finite = np.concatenate([g[np.isfinite(g)] for g in grids]) if grids else np.array([])
-    vmin, vmax = lims if lims is not None else ((float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0))
+    if not finite.size:  # nothing measured (e.g. no replay, so no clearance): no figure
+        return []
+    vmin, vmax = lims if lims is not None else (float(finite.min()), float(finite.max()))
     if vmax <= vmin:
         vmax = vmin + 1e-9
     ncell_x = len(x.labels)

@@ -494,8 +494,12 @@ def run_sweep(
                 n += 1
                 yield task
 
-        pending = list(todo()) if total <= 200_000 else None  # counted up front for the progress total
-        already = skipped
+        if total <= 200_000:  # the tasks to run, listed up front
+            pending = list(todo())
+            already = skipped
+        else:  # a big study: count what is done in a first pass, then generate the tasks again as they are sent
+            pending = None
+            already = sum(1 for t in sweep.tasks() if done.issuperset(t.keys))
         bar = SweepProgress(total, already, interval=interval) if progress is not False else None
         source = iter(pending) if pending is not None else todo()
         events = local_engine(source, workers) if engine == "local" else ray_engine(source, workers, ray_address)

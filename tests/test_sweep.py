@@ -310,3 +310,50 @@ def test_the_readme_sweep_file_is_valid(tmp_path):
     assert sweep.n_tasks == 2 * 2 * 20 * 3
     heights = {p["subject.height"] for p in sweep.points()}
     assert len(heights) == 20 and all(1.55 <= h <= 1.95 for h in heights)
+
+
+def test_the_envelope_uses_the_most_varied_keys_and_one_panel_per_value_of_a_third(tmp_path):
+    """Rows written straight to the store (no planning): the report's cells are what the rows say."""
+    from foam_mj.report import envelope_axes, grid_values, load, write_report
+    from foam_mj.sweep_run import RowStore
+
+    spec = write(tmp_path, """
+scenario = "obstacle"
+seeds = [0, 1]
+smoothers = "none"
+replay = "none"
+[grid]
+"planner.delta" = [0.005, 0.01]
+"planner.r_min" = [0.05, 0.06, 0.07]
+"planner.K" = [6, 8, 10, 12]
+""")
+    sweep = load_sweep(spec)
+    out = tmp_path / "out"
+    store = RowStore(out, sweep, batch=7)
+    store.open(sweep)
+
+    def reached(p, seed):  # the envelope: small margins always, the large one only with K >= 10 and seed 1
+        return p["planner.delta"] < 0.01 or (p["planner.K"] >= 10 and seed == 1)
+
+    for task in sweep.tasks():
+        p = dict(task.params)
+        ok = reached(p, task.seed)
+        store.add([{"key": k, **p, "seed": task.seed, "smoother": path, "outcome": "reached" if ok else "failed",
+                    "f": 3.0 + p["planner.r_min"] if ok else None} for k, path in zip(task.keys, task.paths)])
+    store.flush()
+    store.close()
+    manifest, table = load(out)
+    axes = envelope_axes(manifest, table)
+    assert [a.key for a in axes] == ["planner.K", "planner.r_min", "planner.delta"]
+    x, y, panel = axes
+    outcome = np.array(table.column("outcome").to_pylist())
+    for k, label in enumerate(panel.labels):
+        rows = panel.index == k
+        cells = grid_values(x, y, rows, lambda idx: float(np.mean(outcome[idx] == "reached")))
+        expected = 1.0 if float(label) < 0.01 else np.array([0.0, 0.0, 0.5, 0.5])  # per K, over the two seeds
+        assert np.allclose(cells, np.broadcast_to(expected, cells.shape))
+    text, written = write_report(out)
+    names = {p.name for p in written}
+    assert {"success-centre.png", "f-centre.png", "summary.txt", "summary.json"} <= names
+    assert "min_clearance-centre.png" not in names  # nothing replayed, nothing to draw
+    assert re.search(r"centre\s+48\s+30 \(62%\)\s+18", text)
