@@ -9,8 +9,9 @@ kinematic replay with joint torques unless ``--replay`` says otherwise) into a f
 * ``wall``: the whole ``run_sweep`` call (start-up, every plan, writing Parquet).
 * ``steady plans/s``: (plans - 1) / (time between the first and the last finished plan): the rate once
   the workers are up, which is what a long study sees.
-* ``overhead/task``: steady time per plan times workers, minus the in-process time: what the engine
-  adds to each plan (pickling, scheduling, result transfer, Parquet) when the cores are otherwise free.
+* ``overhead/task``: steady time per plan times workers, minus the mean time of a plan measured inside
+  its worker (the rows' ``task_time``): what the engine adds to each plan (pickling, scheduling, result
+  transfer, Parquet), measured under the same load as the plans themselves.
 * ``start-up``: wall minus the steady part: spawning workers (and starting Ray).
 
 On a machine shared with other work the wall times and the rates grow with the load (the load average
@@ -45,14 +46,21 @@ def sweep_file(folder: Path, plans: int, replay: str) -> Path:
 
 def measure(sweep, out: Path, engine: str, workers: int) -> dict:
     stamps: list[float] = []
+    inside: list[float] = []  # each plan's own time, measured in its worker (the rows' task_time)
+
+    def got(rows: list[dict]) -> None:
+        stamps.append(time.perf_counter())
+        inside.append(rows[0]["task_time"])
+
     t0 = time.perf_counter()
-    s = run_sweep(sweep, out, engine=engine, workers=workers, progress=False, on_rows=lambda rows: stamps.append(time.perf_counter()))
+    s = run_sweep(sweep, out, engine=engine, workers=workers, progress=False, on_rows=got)
     wall = time.perf_counter() - t0
     n = s.run
     steady = (n - 1) / (stamps[-1] - stamps[0]) if n > 1 and stamps[-1] > stamps[0] else float("nan")
     startup = wall - n / steady if np.isfinite(steady) else float("nan")
     return {"engine": engine, "workers": workers, "plans": n, "failed": s.failed, "wall_s": wall, "plans_per_s": n / wall,
-            "steady_plans_per_s": steady, "startup_s": startup}
+            "steady_plans_per_s": steady, "startup_s": startup, "task_in_worker_s": float(np.mean(inside)),
+            "overhead_per_task_ms": 1000 * (workers / steady - float(np.mean(inside)))}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -78,7 +86,8 @@ def main(argv: list[str] | None = None) -> int:
             assert all(r["outcome"] == "reached" for r in rows), rows[0].get("reason")
         task_s, cpu_s = float(np.median(times)), float(np.median(cpu))
         results = [{"engine": "in-process", "workers": 1, "plans": len(tasks), "failed": 0, "wall_s": float(np.sum(times)),
-                    "plans_per_s": 1 / task_s, "steady_plans_per_s": 1 / task_s, "startup_s": 0.0}]
+                    "plans_per_s": 1 / task_s, "steady_plans_per_s": 1 / task_s, "startup_s": 0.0,
+                    "task_in_worker_s": float(np.mean(times)), "overhead_per_task_ms": 0.0}]
         runs = [("local", 1), ("local", 2)]
         if not (args.no_ray or args.quick):
             try:
@@ -90,8 +99,6 @@ def main(argv: list[str] | None = None) -> int:
         for i, (engine, workers) in enumerate(runs):
             print(f"running {plans} plans on {engine} with {workers} worker(s)...", file=sys.stderr)
             results.append(measure(sweep, tmp / f"out{i}", engine, workers))
-    for r in results:
-        r["overhead_per_task_ms"] = 1000 * (r["workers"] / r["steady_plans_per_s"] - task_s) if r["engine"] != "in-process" else 0.0
     load = os.getloadavg()[0]
     print(f"obstacle scenario, convex smoother, {args.replay} replay; median plan in-process {task_s * 1000:.0f} ms wall, "
           f"{cpu_s * 1000:.0f} ms CPU; {os.cpu_count()} cores, load average {load:.1f} when done")
