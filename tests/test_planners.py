@@ -89,6 +89,11 @@ def test_a_start_closer_than_delta_is_refused_naming_its_clearance(oracles):
 def _check_paths(checker, oracle, res, delta):
     ros = res.rosary
     assert ros.check_structure() == []
+    # Every hatch has room: at least half the smaller radius deep, and the smoothers can sample in it.
+    ra, rb = ros.radii[:-1], ros.radii[1:]
+    depth = ra + rb - np.linalg.norm(np.diff(ros.centers, axis=0), axis=1)
+    assert np.all(depth >= 0.5 * np.minimum(ra, rb) - 1e-12)
+    assert ros.sample_hatches(np.random.default_rng(0), size=4).shape == (4, ros.k - 1, ros.dim)
     # Every rosary bubble is certified: its radius is at most the oracle's at its centre.
     assert np.all(ros.radii <= oracle.radii(ros.centers) + 1e-9)
     assert ros.all_in_hatches(ros.center_waypoints()) and ros.all_in_hatches(ros.portal_waypoints())
@@ -245,7 +250,7 @@ def test_the_corridor_is_the_shortest_chain_and_refinement_only_shortens_it(orac
     rough = get_planner("bubbletree", refine=False).plan(_problem(oracle, s), seed=2)
     fine = get_planner("bubbletree").plan(_problem(oracle, s), seed=2)
     d = fine.stats.details
-    assert rough.stats.details["length"] == pytest.approx(d["length_first"])
+    assert rough.stats.details["length_first"] == pytest.approx(d["length_first"])
     assert d["length"] <= d["length_first"] and d["refine_rounds"] >= 1
     w, length = shortest_path(fine.rosary.centers, fine.rosary.radii, s.q_init, s.q_goal)
     assert length == pytest.approx(d["length"], rel=1e-6)
@@ -291,3 +296,8 @@ def test_the_default_plans_the_five_joint_leg():
     res = s.params.planner().plan(_problem(oracle, s, time_limit=60.0), seed=0)
     assert res.stats.outcome == "reached"
     _check_paths(MujocoChecker(s.robot), oracle, res, 0.005)
+    # The default smoother runs on its rosary (it samples hatches for its restarts).
+    from foam_mj.smoothing import OptimalSmoother
+
+    sm = OptimalSmoother().smooth(res.rosary, seed=0)
+    assert res.rosary.all_in_hatches(sm.waypoints)

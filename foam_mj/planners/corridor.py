@@ -38,6 +38,9 @@ from foam_mj.smoothing.convex import build_socp
 #: A hatch must be at least this fraction of the smaller radius deep.
 HATCH = 0.05
 DEBUG = False
+#: The final rosary's hatches are at least this fraction of the smaller radius deep (hatch sampling by
+#: rejection from the smaller ball then accepts a few per cent of draws even in 6-D).
+DEEP = 0.5
 #: Outward pushes of a refinement bubble's centre, in units of the radius at the pressing waypoint.
 PUSH = np.array([0.0, 0.5, 0.75, 0.9])
 #: Ball inset of the cone program (configuration units), as the convex smoother's default.
@@ -184,7 +187,7 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
                 continue
             p, r = pts[k], rs[k]
             d = np.linalg.norm(np.diff(p, axis=0), axis=1)
-            gap = d > r[:-1] + r[1:] - HATCH * np.minimum(r[:-1], r[1:])
+            gap = d > r[:-1] + r[1:] - DEEP * np.minimum(r[:-1], r[1:])
             if gap.any():
                 g = np.flatnonzero(gap)
                 tm = 0.5 * (ts[k][g] + ts[k][g + 1])
@@ -212,7 +215,7 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
         if alive[k]:
             p, r = pts[k], rs[k]
             d = np.linalg.norm(np.diff(p, axis=0), axis=1)
-            if np.any(d > r[:-1] + r[1:] - HATCH * np.minimum(r[:-1], r[1:])):
+            if np.any(d > r[:-1] + r[1:] - DEEP * np.minimum(r[:-1], r[1:])):
                 alive[k] = False
         out.append((pts[k], rs[k]) if alive[k] else None)
     return out
@@ -243,17 +246,47 @@ def prune_chain(C: np.ndarray, R: np.ndarray, P: np.ndarray, pieces: int = 8) ->
     pos = np.arange(T)
     first_out = np.minimum.accumulate(np.where(inside, T, pos)[:, ::-1], axis=1)[:, ::-1]
     run = first_out - 1
-    out = []
-    p_ = 0
-    while True:
-        i = int(np.argmax(run[:, p_]))
-        out.append(i)
-        if run[i, p_] >= T - 1:
-            break
-        if run[i, p_] <= p_:  # pragma: no cover - cannot happen: the sample's own segment bubble holds it
-            raise RuntimeError("prune_chain: the polyline leaves the chain")
-        p_ = int(run[i, p_])
+    # Consecutive bubbles must overlap with a hatch (see HATCH); deepen() makes the final hatches deep.
+    d = np.linalg.norm(C[:, None, :] - C[None, :, :], axis=2)
+    deep = d <= R[:, None] + R[None, :] - HATCH * np.minimum(R[:, None], R[None, :])
+    out = [int(np.argmax(run[:, 0]))]
+    at = 0  # the sample where the current bubble takes over
+    others = ~np.eye(k, dtype=bool)
+    while run[out[-1], at] < T - 1:
+        prev = out[-1]
+        end = int(run[prev, at])
+        ok = deep[prev] & others[prev]
+        for p_ in range(end, at - 1, -1):  # the latest hand-over point that makes progress
+            r_ = np.where(ok & inside[:, p_], run[:, p_], -1)
+            i = int(np.argmax(r_))
+            if r_[i] > end:
+                out.append(i)
+                at = p_
+                break
+        else:
+            return np.arange(k)  # no deep successor makes progress: keep the chain as it is
     return np.array(out, dtype=np.int64)
+
+
+def deepen(oracle, C: np.ndarray, R: np.ndarray, ids: np.ndarray, new_ids) -> tuple:
+    """Make every hatch deep: where consecutive bubbles a, b overlap by less than DEEP x the smaller radius
+    (a thin lens, which the smoothers' rejection sampling of hatches cannot fill), splice a certified
+    bubble centred at their portal centre m. m lies in both balls, so r(m) > 0 (r is 1-Lipschitz), and
+    each new hatch is more than r(m) deep: |c_a - m| < r_a gives r_a + r(m) - |c_a - m| > r(m) >= min(r_a, r(m)).
+    Returns the new chain and the added bubbles."""
+    d = np.linalg.norm(np.diff(C, axis=0), axis=1)
+    thin = np.flatnonzero(d > R[:-1] + R[1:] - DEEP * np.minimum(R[:-1], R[1:]))
+    n = C.shape[1]
+    if thin.size == 0:
+        return C, R, ids, np.empty((0, n)), np.empty(0)
+    ca, cb, ra, rb, dd = C[thin], C[thin + 1], R[thin], R[thin + 1], d[thin]
+    t = (dd**2 + ra**2 - rb**2) / (2 * dd)
+    m = ca + (t / dd)[:, None] * (cb - ca)
+    rm = oracle.radius_from_clearance(oracle.clearance.batch(m), m)
+    good = rm > 2 * INSET
+    thin, m, rm = thin[good], m[good], rm[good]
+    nid = new_ids(len(rm))
+    return np.insert(C, thin + 1, m, axis=0), np.insert(R, thin + 1, rm), np.insert(ids, thin + 1, nid), m, rm
 
 
 def _press_bubbles(oracle, C, R, w, floor):
@@ -279,7 +312,7 @@ def _press_bubbles(oracle, C, R, w, floor):
     if okb.any():
         rc[okb] = oracle.radius_from_clearance(oracle.clearance.batch(flat[okb]), flat[okb])
     rc = rc.reshape(len(press), len(PUSH))
-    holds = rc > PUSH[None, :] * rp[:, None] * (1 + 1e-6) + 2 * INSET
+    holds = rc * (1 - HATCH) > PUSH[None, :] * rp[:, None] + 2 * INSET  # holds w with a hatch of HATCH r
     reach = np.where(holds, PUSH[None, :] * rp[:, None] + rc, -np.inf)
     best = np.argmax(reach, axis=1)
     row = np.arange(len(press))
@@ -324,8 +357,10 @@ def build_corridor(
                 stats["refine_stopped"] = "time"
                 break
             P = np.concatenate([[q0], w, [q1]])
-            C2, R2, ids2 = C, R, ids
-            # 1. Shortcuts: certified chords between random points of the path, the best few spliced.
+            k = len(R)
+            # 1. Shortcuts: certified chords between random points of the path; the best disjoint ones
+            #    replace the bubbles between their ends: C[:ja+1] + chord + C[jb:] (segment j lies in bubble j).
+            splices: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
             if options.chords:
                 x = np.sort(rng.random((options.chords, 2)) * np.sum(np.linalg.norm(np.diff(P, axis=0), axis=1)), axis=1)
                 A, ja = _arc_points(P, x[:, 0])
@@ -334,43 +369,43 @@ def build_corridor(
                 cand = np.flatnonzero((jb > ja) & (gain > 1e-3 * length))
                 if cand.size:
                     res = certify_chords(oracle, A[cand], B[cand], floor, max(float(np.median(R)), floor))
-                    order = sorted((k for k in range(len(cand)) if res[k] is not None), key=lambda k: -gain[cand[k]])
-                    used = np.zeros(len(R) + 1, dtype=bool)
-                    splices = []
-                    for k in order:
-                        i = cand[k]
-                        if used[ja[i] : jb[i] + 1].any():
-                            continue
-                        used[ja[i] : jb[i] + 1] = True
-                        splices.append((int(ja[i]), int(jb[i]), res[k]))
-                    # Apply from the end so that earlier positions stay valid: C[:ja+1] + chord + C[jb:].
-                    for a_, b_, (pc, pr) in sorted(splices, key=lambda z: -z[0]):
-                        nid = new_ids(len(pr))
-                        added_c.append(pc)
-                        added_r.append(pr)
-                        C2 = np.concatenate([C2[: a_ + 1], pc, C2[b_:]])
-                        R2 = np.concatenate([R2[: a_ + 1], pr, R2[b_:]])
-                        ids2 = np.concatenate([ids2[: a_ + 1], nid, ids2[b_:]])
-                    stats["shortcuts"] += len(splices)
-                    if splices:
-                        w2, _ = shortest_path(C2, R2, q0, q1)
-                    else:
-                        w2 = w
-                else:
-                    w2 = w
-            else:
-                w2 = w
-            # 2. Bubbles where the path presses on a boundary, spliced in place.
-            sp_, pc, pr = _press_bubbles(oracle, C2, R2, w2, floor)
-            if len(sp_):
-                nid = new_ids(len(pr))
-                added_c.append(pc)
-                added_r.append(pr)
-                C2 = np.insert(C2, sp_ + 1, pc, axis=0)
-                R2 = np.insert(R2, sp_ + 1, pr)
-                ids2 = np.insert(ids2, sp_ + 1, nid)
-            if len(R2) == len(R) and np.array_equal(ids2, ids):
+                    used = np.zeros(k + 1, dtype=bool)
+                    for c_ in sorted((c_ for c_ in range(len(cand)) if res[c_] is not None), key=lambda c_: -gain[cand[c_]]):
+                        i = cand[c_]
+                        if not used[ja[i] : jb[i] + 1].any():
+                            used[ja[i] : jb[i] + 1] = True
+                            splices[int(ja[i])] = (int(jb[i]), *res[c_])
+            # 2. Bubbles where the path presses on a boundary, spliced in place (hatch p: bubbles p, p + 1),
+            #    except inside a chord's span.
+            sp_, pc, pr = _press_bubbles(oracle, C, R, w, floor)
+            removed = np.zeros(k + 1, dtype=int)
+            for a_, (b_, _, _) in splices.items():
+                removed[a_ + 1] += 1
+                removed[b_] -= 1
+            inside_span = np.cumsum(removed)[:k] > 0  # bubbles a_+1 .. b_-1 of a chord
+            conflict = np.zeros(k, dtype=bool)
+            for a_, (b_, _, _) in splices.items():
+                conflict[a_:b_] = True
+            press = {int(p_): (c_, r_) for p_, c_, r_ in zip(sp_, pc, pr) if not conflict[p_]}
+            if not splices and not press:
                 break
+            parts_c, parts_r, parts_i = [], [], []
+            for j in range(k):
+                if inside_span[j]:
+                    continue
+                parts_c.append(C[j : j + 1])
+                parts_r.append(R[j : j + 1])
+                parts_i.append(ids[j : j + 1])
+                extra = splices[j][1:] if j in splices else (press[j][0][None, :], np.array([press[j][1]])) if j in press else None
+                if extra is not None:
+                    nid = new_ids(len(extra[1]))
+                    added_c.append(extra[0])
+                    added_r.append(extra[1])
+                    parts_c.append(extra[0])
+                    parts_r.append(extra[1])
+                    parts_i.append(nid)
+            C2, R2, ids2 = np.concatenate(parts_c), np.concatenate(parts_r), np.concatenate(parts_i)
+            stats["shortcuts"] += len(splices)
             w2, length2 = shortest_path(C2, R2, q0, q1)
             # 3. Drop the bubbles the path no longer needs.
             if options.prune:
@@ -387,6 +422,13 @@ def build_corridor(
                 C, R, ids, w, length = C2, R2, ids2, w2, length2
             if gain <= options.refine_tol:
                 break
+    # 4. Every hatch deep enough to sample from: the smaller ball's centre inside the larger ball.
+    C, R, ids, extra_c, extra_r = deepen(oracle, C, R, ids, lambda m: new_ids(m))
+    if len(extra_r):
+        added_c.append(extra_c)
+        added_r.append(extra_r)
+        w, length = shortest_path(C, R, q0, q1)
+        stats["deepened"] = int(len(extra_r))
     stats.update(chain=int(len(ids)), length=length)
     n = centers.shape[1]
     ac = np.concatenate(added_c) if added_c else np.empty((0, n))
