@@ -45,6 +45,11 @@ class Level:
     key: str
     labels: tuple[str, ...]
     index: np.ndarray  # (rows,) int, -1 where the value is missing
+    title: str = ""  # the axis label: the key, or e.g. "obstacle.size[2]" when only that element varies
+
+    @property
+    def name(self) -> str:
+        return self.title or self.key
 
 
 def _levels(key: str, kind: str, values: list) -> Level:
@@ -52,7 +57,15 @@ def _levels(key: str, kind: str, values: list) -> Level:
     if kind == "json":
         decoded = sorted({v for v in present}, key=lambda s: (json.loads(s) if isinstance(json.loads(s), list) else [], s))
         pos = {v: i for i, v in enumerate(decoded)}
-        return Level(key, tuple(decoded), np.array([pos.get(v, -1) for v in values]))
+        index = np.array([pos.get(v, -1) for v in values])
+        lists = [json.loads(v) for v in decoded]
+        if all(isinstance(v, list) and len(v) == len(lists[0]) for v in lists) and len(lists) > 1:
+            varying = [i for i in range(len(lists[0])) if len({json.dumps(v[i]) for v in lists}) > 1]
+            if len(varying) == 1:  # label by the one element that changes, e.g. the box's height
+                i = varying[0]
+                labels = tuple(f"{v[i]:g}" if isinstance(v[i], float) else str(v[i]) for v in lists)
+                return Level(key, labels, index, f"{key}[{i}]")
+        return Level(key, tuple(decoded), index)
     distinct = sorted(set(present), key=lambda v: (isinstance(v, str), v))
     if kind in ("int", "float") and len(distinct) > MAX_LEVELS:
         x = np.array([np.nan if v is None else float(v) for v in values])
@@ -261,21 +274,21 @@ def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, formats
     for ax, (lab, _), g in zip(axs, panels, grids):
         im = ax.imshow(np.ma.masked_invalid(g), origin="lower", cmap=cm, vmin=vmin, vmax=vmax, aspect="auto")
         ax.set_xticks(range(ncell_x), x.labels, rotation=30 if max(len(s) for s in x.labels) > 6 else 0, ha="right" if max(len(s) for s in x.labels) > 6 else "center")
-        ax.set_xlabel(x.key)
+        ax.set_xlabel(x.name)
         if y is not None:
             ax.set_yticks(range(ny), y.labels)
-            ax.set_ylabel(y.key)
+            ax.set_ylabel(y.name)
         else:
             ax.set_yticks([])
         if lab is not None:
-            ax.set_title(f"{panel.key} = {lab}", fontsize=9)
+            ax.set_title(f"{panel.name} = {lab}", fontsize=9)
         if g.size <= 120:
             for (j, i), v in np.ndenumerate(g):
                 if np.isfinite(v):
                     frac = (v - vmin) / (vmax - vmin)
                     r, gg, b, _ = cm(frac)
                     ink = "white" if 0.299 * r + 0.587 * gg + 0.114 * b < 0.5 else "black"
-                    ax.text(i, j, f"{v:.2f}" if abs(v) < 100 else f"{v:.0f}", ha="center", va="center", fontsize=7, color=ink)
+                    ax.text(i, j, f"{v:.2f}" if abs(v) < 10 else f"{v:.0f}", ha="center", va="center", fontsize=7, color=ink)
     if im is not None:
         fig.colorbar(im, ax=list(axs), label=f"{title.split(' (')[0]}{f' ({unit})' if unit else ''}", shrink=0.9)
     fig.suptitle(title, fontsize=10)

@@ -274,20 +274,20 @@ def test_report_draws_the_envelope_and_prints_a_summary(study, tmp_path, capsys)
             assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100
     summary = json.loads((figs / "summary.json").read_text())
     assert {s["smoother"]: s["reached"] for s in summary} == {"centre": 12, "convex": 12}
-    # the f heatmap's cells are the medians over the seeds of each (delta, goal)
+    # the f heatmap's cells are the medians over the seeds of each (delta, size); the box's size is labelled by
+    # the one element that varies, its height
     manifest, table = load(study["out"])
     x, y = envelope_axes(manifest, table)[:2]
+    assert {x.name, y.name} == {"planner.delta", "obstacle.size[2]"}
+    assert (x if x.key == "obstacle.size" else y).labels == ("0.1", "0.15")
     smoother = np.array(table.column("smoother").to_pylist())
     f = np.array(table.column("f").to_pylist(), dtype=float)
     cells = grid_values(x, y, smoother == "convex", lambda idx: float(np.median(f[idx])))
-    for r in (r for r in study["rows"] if r["smoother"] == "convex"):
-        i, j = x.labels.index(_label(r[x.key])), y.labels.index(_label(r[y.key]))
-        same = [s["f"] for s in study["rows"] if s["smoother"] == "convex" and s[x.key] == r[x.key] and s[y.key] == r[y.key]]
-        assert cells[j, i] == pytest.approx(np.median(same))
-
-
-def _label(v):
-    return f"{v:g}" if isinstance(v, float) else str(v)
+    xs, ys = table.column(x.key).to_pylist(), table.column(y.key).to_pylist()
+    for k in np.flatnonzero(smoother == "convex"):
+        same = (smoother == "convex") & (np.array(xs, dtype=object) == xs[k]) & (np.array(ys, dtype=object) == ys[k])
+        assert same.sum() == 3
+        assert cells[y.index[k], x.index[k]] == pytest.approx(np.median(f[same]))
 
 
 def test_the_readme_duckdb_query_runs_on_the_parquet_files(study, monkeypatch):
