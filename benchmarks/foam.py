@@ -2,9 +2,9 @@
 
     .venv/bin/python benchmarks/foam.py [--seeds 20] [--json out.json] [--scenarios obstacle step_up ...]
 
-The thesis (paper 003, section 5.2) reports 1,544 bubbles in 16.05 s and 1,795 in 13.2 s for its
+The thesis (Nascimento and Alsina 2021, section 5.2) reports 1,544 bubbles in 16.05 s and 1,795 in 13.2 s for its
 walker maps, about 100-140 bubbles/s. TC and SV are given for the centre path and after gradient
-smoothing (paper 003 Eq. 9; ``--no-smooth`` skips it).
+smoothing (Nascimento and Alsina 2021 Eq. 9; ``--no-smooth`` skips it).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from foam_mj.paths import metrics  # noqa: E402
 from foam_mj.scenarios import available_scenarios, load_scenario  # noqa: E402
 from foam_mj.smoothing import GradientSmoothing  # noqa: E402
 
-#: Paper 003, section 5.2: bubbles, search time (s), TC and SV of the walker maps' (unsmoothed) paths.
+#: Nascimento and Alsina 2021, section 5.2: bubbles, search time (s), TC and SV of the walker maps' (unsmoothed) paths.
 THESIS = {"walker_corridor": (1544, 16.0517, 0.7048, 0.8051), "walker_two_routes": (1795, 13.2180, 0.4220, 0.7308)}
 
 DEFAULT = ["obstacle", "obstacle_thesis", "step_up", "step_down"]

@@ -1,6 +1,6 @@
-"""Benchmark of MGOA and MOPSO (issue 7; paper 004), in two parts.
+"""Benchmark of MGOA and MOPSO (Elmi and Efe 2018), in two parts.
 
-(a) Paper 004's experiment (foam_mj.planar2d): 1000 x 1000 maps with 80 (environment #1) and 50 (#2)
+(a) Elmi and Efe 2018's experiment (foam_mj.planar2d): 1000 x 1000 maps with 80 (environment #1) and 50 (#2)
     random circular obstacles, section III's start and target points, n waypoints (default 8,
     "offsets" parametrization), objectives F1 (length, Eq. 12) and F2 (smoothness, Eq. 13), c_max = 1,
     c_min = 1e-5, 100 iterations. Prints
@@ -17,7 +17,7 @@
 
 (b) On the obstacle scenario's rosary (planner seed 0): the Pareto smoothers MGOASmoother and
     MOPSOSmoother (defaults; with --full-paper also the paper's 500 x 100, on 2 seeds), front of (length, angle
-    term of paper 000 Eq. 5) over ``--rosary-runs`` seeds, from a random swarm and from one with a particle
+    term of Nascimento et al. 2020 Eq. 5) over ``--rosary-runs`` seeds, from a random swarm and from one with a particle
     at the convex shortest path ("+convex"): front size, the shortest, knee and smoothest
     members and their length gap to the convex shortest path through the hatches (the lower bound on
     length), the share of the front that the convex path weakly dominates, time.
@@ -50,7 +50,7 @@ from foam_mj.smoothing.pareto import error_ratio, metric_stats, nondominated, se
 from foam_mj.smoothing.pso import MOPSO, MOPSOSmoother  # noqa: E402
 
 DEFAULT_JSON = Path("out/benchmarks/mgoa.json")
-#: Paper 004 Table II (10 runs): average, std, median, best, worst, as printed.
+#: Elmi and Efe 2018 Table II (10 runs): average, std, median, best, worst, as printed.
 PAPER_TABLE2 = {
     "MGOA (ER)": (0.022, 0.0008, 0.025, 0.0023, 0.022),
     "MPSO (ER)": (0.0101, 0.005, 0.017, 0.0143, 0.028),
@@ -238,7 +238,7 @@ def print_report(out: dict) -> None:
                              p["length"] if p["length"] is not None else "-",
                              p["smoothness"] if p["smoothness"] is not None else "-", p["time"]])
         print(table(["algorithm", "swarm", "feasible", "shortest F1", "best F2", "time [s]"], rows))
-    print("\nTable II, paper 004 (as printed):")
+    print("\nTable II, Elmi and Efe 2018 (as printed):")
     print(table(["metric"] + list(COLS), [[k] + list(v) for k, v in PAPER_TABLE2.items()]))
     for env, pm in a["pareto_metrics"].items():
         print(f"\nTable II, ours, environment #{env} (swarm {pm['swarm']}, {pm['iterations']} iterations, {pm['runs']} runs; "

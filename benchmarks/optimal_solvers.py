@@ -1,6 +1,6 @@
 """Why the optimal smoother uses sequential convex programming: the same problem handed to scipy's solvers.
 
-For the obstacle, step-up and step-down rosaries, minimise f (paper 000 Eq. 5) and SV (paper 003 Eq. 7)
+For the obstacle, step-up and step-down rosaries, minimise f (Nascimento et al. 2020 Eq. 5) and SV (Nascimento and Alsina 2021 Eq. 7)
 over the waypoints in their hatches (balls shrunk by 1e-6), from the convex reference's shortest path:
 
 * ``scp``: :class:`foam_mj.smoothing.OptimalSmoother` (Clarabel subproblems, ties, certificate);

@@ -25,7 +25,7 @@ Columns (medians over the successful seeds; ``ok`` counts them):
   (for OMPL: states checked by the validity checker, counted in the checker).
 * ``len q``, ``len qpos``: the final path's length in the planner's coordinates q and in MuJoCo's qpos
   (radians and metres: the leg's normalized hip displacement counted in metres).
-* ``f``: paper 000 Eq. 5 (mean turning angle + length in q) of the final path.
+* ``f``: Nascimento et al. 2020 Eq. 5 (mean turning angle + length in q) of the final path.
 * ``clear mm``: the smallest MuJoCo distance between robot and obstacle geoms along the final path,
   sampled every 1 mrad (max-norm in q) by this script's own mj_geomDistance loop (independent of
   foam_mj.clearance). Below delta = 5 mm means the path breaks the margin between checked states.
@@ -99,7 +99,7 @@ def problem(name: str) -> Problem:
 
 class DenseChecker:
     """min over robot/obstacle geom pairs of mj_geomDistance, own code: robot geoms are collision geoms on
-    bodies moved by a joint, obstacles the other collision geoms (as shared/tools/verify_result.py)."""
+    bodies moved by a joint, obstacles the other collision geoms (as foam-mj verify)."""
 
     def __init__(self, robot: RobotModel) -> None:
         m = self.m = robot.model

@@ -6,12 +6,12 @@ Rows (obstacle scenario, its default seed, unless named):
 
 * ``optimal``: OptimalSmoother (the default smoother) to its certificate, beside the convex shortest
   path (one SOCP) and the certificate's KKT residual;
-* ``GA / generation``, ``HS / improvisation``: paper 000's GA and HS with their default stop (Table 1's
+* ``GA / generation``, ``HS / improvisation``: Nascimento et al. 2020's GA and HS with their default stop (Table 1's
   criterion, capped at 2 x 10^4; ``--quick``: 200 generations, 4,000 improvisations), wall time divided
   by the generations / improvisations run;
-* ``MGOA``, ``MOPSO``: paper 004's parameters on its planar environment #1 (swarm 500, 100 iterations,
+* ``MGOA``, ``MOPSO``: Elmi and Efe 2018's parameters on its planar environment #1 (swarm 500, 100 iterations,
   8 waypoints);
-* ``gradient (T_CA)``, ``adjusted (T_RA)``: paper 003's gradient smoothing (Eq. 9) and rosary
+* ``gradient (T_CA)``, ``adjusted (T_RA)``: Nascimento and Alsina 2021's gradient smoothing (Eq. 9) and rosary
   adjustment (Eq. 8) to their stop criteria;
 * ``pfm foam growth``: bubbles per second of foam_mj.foam.plan over seeds 0..4;
 * ``foam-mj --help``, ``foam-mj plan --scene obstacle``: wall time of the console command in a new
@@ -173,7 +173,7 @@ def measure(quick: bool, repeats: int, log=print) -> dict:
     finally:
         oracle.close()
 
-    # -- paper 004's swarms on its planar environment
+    # -- Elmi and Efe 2018's swarms on its planar environment
     from foam_mj.planar2d import PlanarPathProblem, paper_environment
     from foam_mj.smoothing.goa import MGOA
     from foam_mj.smoothing.pso import MOPSO

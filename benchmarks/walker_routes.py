@@ -1,5 +1,5 @@
 """CloudWalker maps over 20 seeds: median bubbles, planning time, TC and SV of the centre path, and which
-route the foam took on Map 2, beside the thesis's figures (paper 003, section 5.2).
+route the foam took on Map 2, beside the thesis's figures (Nascimento and Alsina 2021, section 5.2).
 
     .venv/bin/python benchmarks/walker_routes.py [--seeds 20] [--json out.json]
 
@@ -33,7 +33,7 @@ from foam_mj.paths import metrics  # noqa: E402
 from foam_mj.scenarios import load_scenario  # noqa: E402
 
 MAPS = ("walker_corridor", "walker_two_routes")
-#: Paper 003, section 5.2 (one run per map).
+#: Nascimento and Alsina 2021, section 5.2 (one run per map).
 THESIS = {
     "walker_corridor": {"map": "Map 1 (narrow corridor)", "bubbles": 1544, "time": 16.0517, "tc": 0.7048, "sv": 0.8051},
     "walker_two_routes": {"map": "Map 2 (two routes)", "bubbles": 1795, "time": 13.2180, "tc": 0.4220, "sv": 0.7308},

@@ -1,4 +1,4 @@
-"""Benchmark of the path smoothers on the obstacle task (paper 000 Table 1, paper 003 section 5.1).
+"""Benchmark of the path smoothers on the obstacle task (Nascimento et al. 2020 Table 1, Nascimento and Alsina 2021 section 5.1).
 
 On one fixed rosary (obstacle scene, q_init = [0.2 0.3 0.08], q_goal = [0.45 0.4536 1.45], K = 10,
 r_min = 0.07, planner seed 0) it runs HS and GA 50 times each with Table 1's stop criterion (no
@@ -8,7 +8,7 @@ thesis's paths T, T_CA, T_RA, T_RCA and the convex reference, and prints
 * Table 1's columns (time, f, iterations: mean, max, min, std) beside the paper's own figures;
 * per method: median time, time per iteration and speed-up over the paper's per-iteration time,
   f, length, TC, SV (medians over runs), the length gap to the convex optimum and the f gap to the
-  certified optimum of f (issue 8's optimal smoother) on the same rosary;
+  certified optimum of f (the optimal smoother) on the same rosary;
 * for the obstacle, step-up and step-down scenarios (their TOMLs and seeds): every method's f gap to
   the optimum (absolute and percent) beside its median time, the optimum's time, KKT residual and
   iterations, the SV optimum beside gradient smoothing's SV, and (not with --quick) whether eight
@@ -36,6 +36,7 @@ from typing import Callable
 import numpy as np
 
 from foam_mj import paths
+from foam_mj.atomic import OutputError, atomic_write_text, check_output
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.foam import FoamParams, plan
 from foam_mj.model import RobotModel
@@ -58,14 +59,14 @@ FOAM = FoamParams(K=10, r_min=0.07, delta=0.005)
 PLANNER_SEED = 0
 DEFAULT_JSON = Path("out/benchmarks/smoothing.json")
 
-#: Paper 000 Table 1 (50 runs each; 1.8 GHz Core i7): (mean, max, min, std).
+#: Nascimento et al. 2020 Table 1 (50 runs each; 1.8 GHz Core i7): (mean, max, min, std).
 PAPER_TABLE1 = {
     "HS": {"time": (17.229, 23.432, 10.207, 4.0113), "f": (4.0198, 4.1505, 3.9115, 0.067772),
            "iterations": (4206.3, 6385, 3034, 962.95)},
     "GA": {"time": (27.112, 39.253, 16.7, 6.3739), "f": (3.9307, 3.985, 3.8576, 0.035699),
            "iterations": (3718.6, 5510, 2287, 935.18)},
 }
-TABLE1_STOP = StopCriteria()  # stall 200 (Table 1), capped at 2 x 10^4 (paper 002's NI)
+TABLE1_STOP = StopCriteria()  # stall 200 (Table 1), capped at 2 x 10^4 (Nascimento et al. 2019's NI)
 
 
 class Progress:
@@ -334,7 +335,7 @@ def format_tables(res: dict) -> str:
         f"{res['stop_criterion']['max_iterations']}."
     )
     lines.append("")
-    lines.append("Table 1 (paper 000) columns: mean / max / min / std")
+    lines.append("Table 1 (Nascimento et al. 2020) columns: mean / max / min / std")
     hdr = f"{'method':<26} {'time (s)':^36} {'f':^36} {'iterations':^36}"
     lines.append(hdr)
     lines.append("-" * len(hdr))
@@ -348,7 +349,7 @@ def format_tables(res: dict) -> str:
         if name in res["paper_table1"]:
             p = res["paper_table1"][name]
             cells = "  ".join(f"{four(p[k]):<34}" for k in ("time", "f", "iterations"))
-            lines.append(f"{'  paper 000 ' + name:<26} " + cells)
+            lines.append(f"{'  Nascimento et al. 2020 ' + name:<26} " + cells)
     lines.append("")
     lines.append("Paths (medians over runs); gap = length - convex optimum; f gap = f - certified optimum of f;")
     lines.append("both on the same rosary (T_RA and T_RCA: the adjusted one)")
@@ -386,6 +387,16 @@ def main(argv: list[str] | None = None) -> int:
     runs = args.runs if args.runs is not None else (3 if args.quick else 50)
     if runs < 1:
         ap.error(f"--runs must be >= 1, got {runs}")
+    try:  # checked before any work: the default folder is created, anything else must exist and be writable
+        if args.json == DEFAULT_JSON:
+            args.json.parent.mkdir(parents=True, exist_ok=True)
+        check_output(args.json, "--json")
+    except OutputError as exc:
+        print(f"foam-mj: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"foam-mj: error: --json output {args.json}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
     res = run_benchmark(runs, args.quick, progress=not args.no_progress)
     res["scene_gaps"] = run_scene_gaps(min(runs, 2) if args.quick else min(runs, 10), args.quick, progress=not args.no_progress)
     for scene, e in res["scene_gaps"].items():
@@ -398,8 +409,11 @@ def main(argv: list[str] | None = None) -> int:
     print(format_scene_gaps(res["scene_gaps"]))
     if beaten:
         print(f"\nA METHOD BEAT THE OPTIMUM OF f (a better local optimum; try OptimalSmoother(multistart=...)): {beaten}")
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(res, indent=1))
+    try:
+        atomic_write_text(args.json, json.dumps(res, indent=1))
+    except OutputError as exc:
+        print(f"foam-mj: error: {exc}", file=sys.stderr)
+        return 2
     print(f"\nJSON written to {args.json}")
     return 1 if res["hatch_violations"] or beaten else 0
 

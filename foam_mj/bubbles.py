@@ -1,11 +1,11 @@
-"""Certified bubbles of free space from workspace distance (Quinlan 1995; paper 003, section 3, Eq. 4).
+"""Certified bubbles of free space from workspace distance (Quinlan 1995; Nascimento and Alsina 2021, section 3, Eq. 4).
 
 The bound
 ---------
 Move the robot along the straight segment from q to a in configuration space. No point of geom g
 moves farther than
 
-    D_g(q, a) <= sum_grp rho_(g,grp) ||a_grp - q_grp||_2                             (paper 003, Eq. 4)
+    D_g(q, a) <= sum_grp rho_(g,grp) ||a_grp - q_grp||_2                             (Nascimento and Alsina 2021, Eq. 4)
 
 where the configuration coordinates are split into groups grp. For a hinge, rho is an upper bound,
 valid in every configuration within the joint ranges, on the distance from the joint's axis to any
@@ -13,7 +13,7 @@ point of geom g (a point at distance rho from the axis moves at most rho |dtheta
 the metres of travel per unit of q (the normalization scale). Slides on one body whose axes are
 mutually orthogonal and that have equal scales form one group: together they translate the body by
 exactly the Euclidean length of their displacement, so their group norm is the 2-norm (for a planar
-mobile base this gives paper 003 Eq. 5's sqrt(dx^2 + dy^2) + r_robot |dtheta|). Every other
+mobile base this gives Nascimento and Alsina 2021 Eq. 5's sqrt(dx^2 + dy^2) + r_robot |dtheta|). Every other
 coordinate is a group of its own. A joint that does not move g has rho_(g, j) = 0.
 
 Derivation of the hinge bound for any serial chain. Only configuration joints move; every other
@@ -57,7 +57,7 @@ Cauchy-Schwarz, sum_grp rho_(p,grp) ||x_grp|| <= ||rho_p||_2 ||x||_2, so the bal
 
     r(q) = min_p (d_p(q) - delta) / ||rho_p||_2
 
-about q keeps at least delta of clearance on every pair (paper 003 Eq. 4 applied per pair; with one
+about q keeps at least delta of clearance on every pair (Nascimento and Alsina 2021 Eq. 4 applied per pair; with one
 pair, or one rho for all pairs, it is the paper's (d(q) - delta) / ||rho||_2). A pair whose distance
 no configuration joint can change has rho_p = 0 and drops out (``foam_mj.model`` leaves it out).
 

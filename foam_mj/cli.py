@@ -1,9 +1,21 @@
-"""The ``foam-mj`` command line.
+"""The ``foam-mj`` command line: one ``cmd_<name>`` function per command, registered in :func:`build_parser`.
 
-Exit codes: 0 success, 1 internal error, 2 bad input (unknown scene, malformed scenario, unwritable
-output, bad sweep key or value), 3 planning failed (the foam did not reach the goal; what was computed is
-still written), 130 interrupted.
-Errors are one line on stderr, never a traceback (set FOAM_MJ_DEBUG=1 to see one).
+Exit codes (:data:`EXIT_CODES`; the README lists them too):
+
+===  =====================================================================================================
+0    success
+1    internal error (a bug: the one-line message says so; ``FOAM_MJ_DEBUG=1`` shows the traceback)
+2    bad input: a bad argument, scenario, model, result file, output location or sweep key/value, checked before any work
+     where it can be; also an output that could not be written (nothing is left half-written)
+3    planning failed (the foam did not reach the goal; what was computed is still written)
+4    a check found contacts or clearance below the margin (``verify``, ``replay``)
+130  interrupted (Ctrl-C); no output is left half-written
+===  =====================================================================================================
+
+Errors are one line on stderr, never a traceback. To add a command: write ``cmd_<name>(args) -> int``
+that raises :class:`~foam_mj.errors.FoamError` for bad input (or returns an exit code), and register it
+in :func:`build_parser` with ``p.set_defaults(func=cmd_<name>)``. Check outputs with
+:func:`foam_mj.atomic.check_output` before any work and write them with :func:`foam_mj.atomic.atomic_path`.
 
 Start-up is kept short: this module imports only the standard library at load time; numpy, MuJoCo, the
 pipeline, Rerun and matplotlib are imported inside the command that uses them, so ``foam-mj --help``
@@ -18,13 +30,48 @@ import sys
 import time
 from pathlib import Path
 
+from foam_mj import __version__
 from foam_mj.errors import FoamError, PlanningFailed
 
 #: ``foam-mj plan``'s smoother when none is named; equal to foam_mj.pipeline.DEFAULT_SMOOTHER (a test checks),
 #: repeated here because the command line imports the pipeline (and MuJoCo) only when it runs.
 DEFAULT_SMOOTHER = "optimal"
 
-EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_PLANNING_FAILED = 0, 1, 2, 3
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_PLANNING_FAILED, EXIT_UNSAFE, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 130
+EXIT_CODES = {
+    EXIT_OK: "success",
+    EXIT_INTERNAL: "internal error (a bug; FOAM_MJ_DEBUG=1 shows the traceback)",
+    EXIT_BAD_INPUT: "bad input (argument, scenario, model, result file or output location), or an output that could not be written",
+    EXIT_PLANNING_FAILED: "planning failed (the foam so far is still written)",
+    EXIT_UNSAFE: "verify/replay found contacts or clearance below the margin",
+    EXIT_INTERRUPTED: "interrupted",
+}
+EXIT_EPILOG = "exit codes: " + "; ".join(f"{k} {v}" for k, v in EXIT_CODES.items())
+
+#: Seeds are non-negative 64-bit integers (as in a scenario TOML, whose integers are 64-bit).
+MAX_SEED = 2**63 - 1
+
+
+def _seed(text: str) -> int:
+    """argparse type of ``--seed``: an integer in [0, 2**63 - 1]."""
+    try:
+        value = int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be an integer in [0, 2**63 - 1], got {text}")
+    return value
+
+
+class UsageError(FoamError):
+    """A command-line argument argparse refused (main prints it as one line and returns 2)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (exit 2), like every other foam-mj error."""
+
+    def error(self, message: str):  # noqa: D401 - argparse's hook
+        raise UsageError(f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)")
 
 #: Figure file formats and PNG resolution of ``foam-mj figures`` (foam_mj.figures uses these too).
 FIGURE_FORMATS = ("png", "svg", "pdf")
@@ -49,21 +96,6 @@ class Progress:
             sys.stderr.write("\r\033[K")
             sys.stderr.flush()
             self._shown = False
-
-
-def _check_writable(path: str | None, what: str) -> Path | None:
-    """Fail before any work when an output file cannot be written."""
-    if path is None:
-        return None
-    p = Path(path)
-    parent = p.parent if str(p.parent) else Path(".")
-    if p.is_dir():
-        raise FoamError(f"{what} output {p} is a directory")
-    if not parent.is_dir():
-        raise FoamError(f"{what} output {p}: folder {parent} does not exist")
-    if not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
-        raise FoamError(f"{what} output {p} is not writable")
-    return p
 
 
 def cmd_scenes(args: argparse.Namespace) -> int:
@@ -249,7 +281,7 @@ def _plan_scenario(args: argparse.Namespace):
     else:
         if args.start is not None or args.goal is not None:
             raise FoamError("--start and --goal go with --mjcf (a scenario has its own q_init and q_goal)")
-        doc, source = read_scenario_doc(args.scene or "obstacle")
+        doc, source = read_scenario_doc("obstacle" if args.scene is None else args.scene)
         base = source.parent
     if args.joints is not None:
         joints = [j.strip() for j in args.joints.split(",") if j.strip()]
@@ -264,22 +296,25 @@ def _plan_scenario(args: argparse.Namespace):
     return scenario_from_dict(doc, base, source=source)
 
 
+def _check_figures_dir(path: str | None) -> Path | None:
+    if path is None:
+        return None
+    from foam_mj.atomic import check_output_dir
+    from foam_mj.figures import _matplotlib
+
+    _matplotlib()  # fails now, with the install hint, when matplotlib is missing
+    return check_output_dir(path, "--figures")
+
+
 def cmd_plan(args: argparse.Namespace) -> int:
+    from foam_mj.atomic import check_output
     from foam_mj.pipeline import parse_smoothers, run
-    from foam_mj.results import write_outcome, write_failure
-    from foam_mj.scenarios import load_scenario
+    from foam_mj.results import write_failure, write_outcome
 
-    json_out = _check_writable(args.json, "--json")
-    figures_dir = None
-    if args.figures is not None:
-        from foam_mj.figures import _matplotlib
-
-        _matplotlib()  # fails now, with the install hint, when matplotlib is missing
-        figures_dir = Path(args.figures)
-        if figures_dir.exists() and not figures_dir.is_dir():
-            raise FoamError(f"--figures {figures_dir} is a file, not a folder")
-        if not figures_dir.exists() and not figures_dir.parent.is_dir():
-            raise FoamError(f"--figures {figures_dir}: folder {figures_dir.parent} does not exist")
+    # Every input and output is checked before any planning.
+    json_out = check_output(args.json, "--json")
+    rrd = check_output(args.rrd, "--rrd", suffix=".rrd")
+    figures_dir = _check_figures_dir(args.figures)
     names = parse_smoothers(args.smoother)
     if args.planner is not None:
         from foam_mj.planners import planner_class
@@ -290,9 +325,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
         import dataclasses
 
         scenario = dataclasses.replace(scenario, params=scenario.params.with_algorithm(args.planner))
-    rrd = None if args.no_rrd else _check_writable(args.rrd or f"foam-mj-{scenario.name}.rrd", "--rrd")
-    if rrd is not None and rrd.suffix != ".rrd":
-        raise FoamError(f"--rrd output {rrd} must end in .rrd")
+    if rrd is None and not args.no_rrd:
+        rrd = check_output(f"foam-mj-{scenario.name}.rrd", "--rrd (default)", suffix=".rrd")
     seed = scenario.seed if args.seed is None else args.seed
     progress = Progress()
     t0 = time.perf_counter()
@@ -300,7 +334,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         outcome = run(scenario, seed, names, replay=not args.no_replay, dynamic=not args.no_replay, time_law=args.time_law, report=progress)
     except PlanningFailed as exc:
         progress.done()
-        print(f"foam-mj: planning failed: {exc}", file=sys.stderr)
+        print(f"foam-mj: planning failed: {' '.join(str(exc).split())}", file=sys.stderr)
         if exc.foam is not None:
             if rrd is not None:
                 _record(rrd, scenario=scenario, foam=exc.foam)
@@ -343,13 +377,25 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _unsafe_paths(outcome, margin: float) -> list[str]:
+    """Paths whose replay has contacts or a clearance below ``margin``."""
+    bad = []
+    for name, po in outcome.paths.items():
+        contacts = len(po.dynamic.contacts) if po.dynamic is not None else 0
+        clear = po.kinematic.min_clearance if po.kinematic is not None else float("inf")
+        if contacts or clear < margin:
+            bad.append(f"{name} ({contacts} contacts, min clearance {clear * 1000:.1f} mm)")
+    return bad
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
+    from foam_mj.atomic import check_output
     from foam_mj.results import outcome_from_result, read_result
 
-    rrd = _check_writable(args.rrd, "--rrd")
+    rrd = check_output(args.rrd, "--rrd", suffix=".rrd")
     doc = read_result(args.result)
     outcome = outcome_from_result(doc, args.result, dynamic=not args.kinematic_only)
-    print(f"replayed {len(outcome.paths)} path(s) of {args.result} on {doc['mjcf']}")
+    print(f"replayed {len(outcome.paths)} path(s) of {args.result} on {outcome.scenario.scene}")
     print(_summary_table(outcome))
     _print_servo_note(outcome)
     loads = _loads_table(outcome)
@@ -358,6 +404,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
     if rrd is not None:
         _record(rrd, outcome)
         print(f"wrote {rrd}")
+    margin = float(doc["planner"].get("delta", 0.0))
+    bad = _unsafe_paths(outcome, margin)
+    if bad:
+        print(f"foam-mj: replay found contacts or clearance below the margin {margin * 1000:g} mm: {'; '.join(bad)}", file=sys.stderr)
+        return EXIT_UNSAFE
     return EXIT_OK
 
 
@@ -367,7 +418,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     from foam_mj.results import read_result
 
     hz = check_hz(args.hz)
-    out = _check_writable(args.out, "--out")
+    from foam_mj.atomic import check_output
+
+    out = check_output(args.out, "--out")
     if args.format == "parquet":
         require_pyarrow()
     doc = read_result(args.result)
@@ -379,20 +432,66 @@ def cmd_export(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def cmd_view(args: argparse.Namespace) -> int:
-    import shutil
-    import subprocess
+def cmd_verify(args: argparse.Namespace) -> int:
+    from foam_mj.verify import format_report, verify_result
 
-    p = Path(args.recording)
-    if not p.is_file():
-        raise FoamError(f"recording not found: {p}")
-    if p.suffix != ".rrd":
-        raise FoamError(f"{p} is not a Rerun recording (.rrd)")
+    report = verify_result(args.result, step=args.step)
+    print(format_report(report))
+    return EXIT_UNSAFE if report.violations else EXIT_OK
+
+
+def _has_display() -> bool:
+    """Can a native window open here? (Linux/BSD: an X11 or Wayland display; macOS and Windows: yes.)"""
+    if sys.platform.startswith(("darwin", "win")):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _free_port(bind: str) -> int:
+    """A port the OS reports free on ``bind`` (for ``--web-port 0`` / ``--grpc-port 0``)."""
+    import socket
+
+    family = socket.AF_INET6 if ":" in bind else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        s.bind((bind, 0))
+        return int(s.getsockname()[1])
+
+
+def _rerun_executable() -> str:
+    import shutil
+
     viewer = Path(sys.executable).with_name("rerun")
     exe = str(viewer) if viewer.exists() else shutil.which("rerun")
     if exe is None:
         raise FoamError("the Rerun viewer ('rerun', shipped with rerun-sdk) was not found on PATH")
-    return subprocess.call([exe, str(p)])
+    return exe
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    import subprocess
+
+    p = Path(args.recording)
+    if not p.is_file():
+        raise FoamError(f"recording not found: {p}" if not p.exists() else f"{p} is not a file")
+    if p.suffix != ".rrd":
+        raise FoamError(f"{p} is not a Rerun recording (.rrd)")
+    if not args.web and not _has_display():
+        raise FoamError(
+            f"no display (DISPLAY and WAYLAND_DISPLAY are unset): serve the web viewer with `foam-mj view --web {p}` "
+            f"(then open the URL it prints, e.g. through an SSH tunnel), or summarise the file with `rerun rrd stats {p}`"
+        )
+    exe = _rerun_executable()
+    if not args.web:
+        return subprocess.call([exe, str(p), "--bind", args.bind])
+    from urllib.parse import quote
+
+    host = "127.0.0.1" if args.bind in ("0.0.0.0", "::") else args.bind
+    web_port, grpc_port = (p or _free_port(args.bind) for p in (args.web_port, args.grpc_port))
+    host = f"[{host}]" if ":" in host else host
+    url = f"http://{host}:{web_port}?url={quote(f'rerun+http://{host}:{grpc_port}/proxy', safe='')}"
+    print(f"serving {p} in Rerun's web viewer (bound to {args.bind}; Ctrl-C stops it): open {url}", flush=True)
+    cmd = [exe, str(p), "--serve-web", "--bind", args.bind, "--web-viewer-port", str(web_port), "--port", str(grpc_port)]
+    return subprocess.call(cmd)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -467,13 +566,24 @@ def cmd_report(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _port(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a port number, got {text!r}") from None
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"must be a port number in [0, 65535], got {value}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="foam-mj",
         description="Plan safe, smooth swing-leg motions for the Ortholeg exoskeleton with the Probabilistic Foam Method.",
-        epilog="Exit codes: 0 success, 2 bad input, 3 planning failed.",
+        epilog=EXIT_EPILOG + ". Set FOAM_MJ_DEBUG=1 to see the traceback of an internal error.",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    parser.add_argument("--version", action="version", version=f"foam-mj {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
     p = sub.add_parser("scenes", help="list the built-in scenarios", description="List the built-in scenarios: name, what it is, start and goal.")
     p.set_defaults(func=cmd_scenes)
@@ -482,8 +592,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="plan, smooth, replay and record",
         description="Plan a path with the Probabilistic Foam Method, smooth it, turn every path into a joint "
         "trajectory, replay it on the simulated leg (kinematically and under gravity), print a summary and "
-        "write a Rerun recording.",
-        epilog="Exit codes: 0 success, 2 bad input, 3 planning failed (the foam so far is still written).",
+        "write a Rerun recording. Every output is checked before planning and written atomically.",
+        epilog="exit codes: 0 success; 2 bad input or an output that could not be written; 3 planning failed "
+        "(the foam so far is still written); 1 internal error; 130 interrupted.",
     )
     p.add_argument("--scene", default=None, help="a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: obstacle)")
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="plan on any MJCF scene without a scenario file (needs --start and --goal; default planner parameters)")
@@ -500,7 +611,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(default: optimal, the certified optimum of f; all: every method of the papers plus convex and optimal, "
         "for comparison). The centre path is always there.",
     )
-    p.add_argument("--seed", type=int, default=None, help="random seed of the planner and smoothers (default: the scenario's)")
+    p.add_argument("--seed", type=_seed, default=None, help="random seed of the planner and smoothers, an integer in [0, 2**63-1] (default: the scenario's)")
     p.add_argument(
         "--planner",
         metavar="NAME",
@@ -508,9 +619,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="the planner (default: the scenario's [planner] algorithm); another planner than the scenario's "
         "runs with its default options and the scenario's margin and budgets. Names: foam_mj.planners.PLANNERS",
     )
-    p.add_argument("--rrd", metavar="OUT.rrd", help="where to write the Rerun recording (default: foam-mj-<scenario>.rrd)")
-    p.add_argument("--no-rrd", action="store_true", help="write no recording")
-    p.add_argument("--json", metavar="OUT.json", help="write the result as JSON (readable by shared/tools/verify_result.py)")
+    rec = p.add_mutually_exclusive_group()
+    rec.add_argument("--rrd", metavar="OUT.rrd", help="where to write the Rerun recording (default: foam-mj-<scenario>.rrd)")
+    rec.add_argument("--no-rrd", action="store_true", help="write no recording")
+    p.add_argument("--json", metavar="OUT.json", help="write the result as JSON (see the README; `foam-mj verify` checks it)")
     p.add_argument("--no-replay", action="store_true", help="skip trajectories and replays (paths only)")
     p.add_argument(
         "--time-law",
@@ -522,7 +634,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--figures", metavar="DIR", help="also draw the paper-style figures into DIR (needs foam-mj[figures])")
     p.add_argument("--figure-format", nargs="+", default=["png"], choices=["png", "svg", "pdf"], help="figure file formats (default: png)")
     p.set_defaults(func=cmd_plan)
-    p = sub.add_parser("replay", help="replay a saved result", description="Rebuild the joint trajectories of a `plan --json` result and replay them on the scene it names.")
+    p = sub.add_parser(
+        "replay",
+        help="replay a saved result",
+        description="Rebuild the joint trajectories of a `plan --json` result and replay them on the scene it names. "
+        "Refuses (exit 2) a result of an unknown format version, or whose scene file now compiles to a different model.",
+        epilog="exit codes: 0 clean; 2 bad input; 4 the replay has contacts or clearance below the result's margin.",
+    )
     p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
     p.add_argument("--rrd", metavar="OUT.rrd", help="write a Rerun recording of the replay")
     p.add_argument("--kinematic-only", action="store_true", help="skip the dynamic (servo) replay")
@@ -540,11 +658,31 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, metavar="FILE", help="where to write the table")
     p.add_argument("--hz", default=500.0, help="samples per second (default: 500)")
     p.set_defaults(func=cmd_export)
-    p = sub.add_parser("view", help="open a recording in the Rerun viewer", description="Open a .rrd recording in the Rerun viewer (shipped with rerun-sdk).")
+    p = sub.add_parser(
+        "verify",
+        help="check a saved result independently with MuJoCo",
+        description="Independent check of a `plan --json` result, with none of the planner's code (MuJoCo, numpy and "
+        "the JSON only): every path's waypoints (piecewise linear) and its timed trajectory (qpos rows), sampled "
+        "densely, and mj_geomDistance over every pair of moving and static collision geoms.",
+        epilog="exit codes: 0 every sample keeps the result's margin; 4 some sample is closer; 2 bad input.",
+    )
+    p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
+    p.add_argument("--step", type=float, default=1e-3, help="largest step between samples, in q and in qpos (default: 1e-3)")
+    p.set_defaults(func=cmd_verify)
+    p = sub.add_parser(
+        "view",
+        help="open a recording in the Rerun viewer",
+        description="Open a .rrd recording in the Rerun viewer (shipped with rerun-sdk). Without a display, "
+        "use --web: it serves Rerun's web viewer on 127.0.0.1 and prints the URL.",
+    )
     p.add_argument("recording", help="a .rrd file")
+    p.add_argument("--web", action="store_true", help="serve Rerun's web viewer over HTTP instead of opening a window")
+    p.add_argument("--bind", default="127.0.0.1", help="address the viewer's servers listen on (default: 127.0.0.1, this machine only; 0.0.0.0 exposes it to the network)")
+    p.add_argument("--web-port", type=_port, default=9090, help="HTTP port of the web viewer (default: 9090)")
+    p.add_argument("--grpc-port", type=_port, default=9876, help="gRPC port of the viewer's data server (default: 9876)")
     p.set_defaults(func=cmd_view)
     p = sub.add_parser("bench", help="run the smoothing benchmark", description="The smoothing benchmark (HS and GA runs, the thesis's methods, the convex reference); every argument is passed on to it (see `foam-mj bench --help`).", add_help=False)
-    p.add_argument("bench_args", nargs=argparse.REMAINDER, help="arguments for the benchmark, e.g. --quick")
+    p.add_argument("bench_args", nargs=argparse.REMAINDER, help="arguments for the benchmark: --quick, --runs N, --json OUT.json, --no-progress")
     p.set_defaults(func=cmd_bench)
     p = sub.add_parser(
         "sweep",
@@ -578,30 +716,37 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split())
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["bench"]:  # everything after `bench` belongs to the benchmark's own parser
         argv = ["bench", "--", *argv[1:]] if len(argv) > 1 else argv
-    args = parser.parse_args(argv)
     try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
         return args.func(args)
     except PlanningFailed as exc:  # e.g. a saved path that no timing fits the limits (replay, export)
-        print(f"foam-mj: planning failed: {exc}", file=sys.stderr)
+        print(f"foam-mj: planning failed: {_one_line(exc)}", file=sys.stderr)
         return EXIT_PLANNING_FAILED
+    except UsageError as exc:
+        print(_one_line(exc), file=sys.stderr)
+        return EXIT_BAD_INPUT
     except FoamError as exc:
-        print(f"foam-mj: error: {exc}", file=sys.stderr)
+        print(f"foam-mj: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
         sys.stderr.close()
         return EXIT_OK
     except KeyboardInterrupt:
         print("foam-mj: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     except Exception as exc:  # pragma: no cover - the last line of defence
         if os.environ.get("FOAM_MJ_DEBUG"):
             raise
-        print(f"foam-mj: internal error: {type(exc).__name__}: {exc} (set FOAM_MJ_DEBUG=1 for a traceback)", file=sys.stderr)
+        print(f"foam-mj: internal error: {type(exc).__name__}: {_one_line(exc)} (set FOAM_MJ_DEBUG=1 for a traceback)", file=sys.stderr)
         return EXIT_INTERNAL
 
 

@@ -1,29 +1,29 @@
-"""Publication figures from a ``foam-mj plan --json`` result (issue 9).
+"""Publication figures from a ``foam-mj plan --json`` result.
 
 :func:`write_figures` reads the JSON document (see :mod:`foam_mj.results` for its layout), loads its
 MJCF scene and writes, into one folder:
 
 ``foam``         every bubble's centre in configuration space (3-D, sized and coloured by radius, the
-                 foam's tree drawn faintly), start and goal (paper 000 Fig. 7, paper 003 Fig. 8a);
+                 foam's tree drawn faintly), start and goal (Nascimento et al. 2020 Fig. 7, Nascimento and Alsina 2021 Fig. 8a);
 ``rosary``       the rosary's bubbles (3-D wireframes and the three exact 2-D projections, where a ball
-                 projects onto a disc) with the paths it holds, each in its own colour (paper 000 Fig. 8,
-                 paper 003 Fig. 8b-d: T red, T_CA blue, T_RA magenta, T_RCA green; no rosary: ``paths``);
+                 projects onto a disc) with the paths it holds, each in its own colour (Nascimento et al. 2020 Fig. 8,
+                 Nascimento and Alsina 2021 Fig. 8b-d: T red, T_CA blue, T_RA magenta, T_RCA green; no rosary: ``paths``);
 ``rosary_adjusted``  likewise for a path's own rosary when it differs from the planned one (the
-                 adjusted rosary of T_RA and T_RCA, paper 003 Fig. 8c; other rosaries: ``rosary_<path>``);
-``paths``        every path together without bubbles (paper 003 Fig. 8d), when the paths lie in
+                 adjusted rosary of T_RA and T_RCA, Nascimento and Alsina 2021 Fig. 8c; other rosaries: ``rosary_<path>``);
+``paths``        every path together without bubbles (Nascimento and Alsina 2021 Fig. 8d), when the paths lie in
                  different rosaries;
 ``strobe``       robot poses at evenly spaced times along each path, one panel per path, drawn from the
                  MJCF's own collision geoms projected onto the plane of motion (the sagittal x-z plane
-                 for the leg, paper 000 Fig. 9, paper 003 Figs. 9-10; top-down x-y for a planar mobile
-                 base, paper 003 Figs. 12f-13f), over the obstacles and the floor;
-``convergence``  best and population-mean f (paper 000 Eq. 5) per iteration of each metaheuristic (HS,
-                 GA, or any path whose "smoother" says its objective is "f"; paper 000 Figs. 10a and
+                 for the leg, Nascimento et al. 2020 Fig. 9, Nascimento and Alsina 2021 Figs. 9-10; top-down x-y for a planar mobile
+                 base, Nascimento and Alsina 2021 Figs. 12f-13f), over the obstacles and the floor;
+``convergence``  best and population-mean f (Nascimento et al. 2020 Eq. 5) per iteration of each metaheuristic (HS,
+                 GA, or any path whose "smoother" says its objective is "f"; Nascimento et al. 2020 Figs. 10a and
                  11a); only when such a path has ``convergence``;
 ``joints``       joint positions and finite-difference velocities (``numpy.gradient`` over "times") in
                  joint units, one row per configuration joint, one line per time-parametrized path;
                  only when some path has ``times``;
 ``map``          planar mobile bases only: top-down map with the walls, the foam's (x, y) footprint,
-                 the rosary and the paths (paper 003 Figs. 12-13).
+                 the rosary and the paths (Nascimento and Alsina 2021 Figs. 12-13).
 
 Geometry is MuJoCo's: every pose runs ``mj_kinematics`` and each geom is projected with its
 ``geom_xpos``/``geom_xmat`` (:func:`strobe_geometry`): boxes become rectangles (the convex hull of
@@ -51,6 +51,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.cli import FIGURE_DPI, FIGURE_FORMATS, add_figures_parser
+from foam_mj.atomic import atomic_path
 from foam_mj.errors import FoamError
 from foam_mj.model import RobotModel
 
@@ -73,7 +74,7 @@ DPI = FIGURE_DPI
 N_POSES = 8  # poses per strobe panel
 
 # -- names, colours and labels ------------------------------------------------------------------------
-# Paper 003 Fig. 8d: T red, T_CA blue, T_RA magenta, T_RCA green. The result file names them after the
+# Nascimento and Alsina 2021 Fig. 8d: T red, T_CA blue, T_RA magenta, T_RCA green. The result file names them after the
 # method ("centre", "gradient", "adjusted", "adjusted_gradient"); the thesis's own names work too.
 _THESIS = {
     "centre": (r"$\mathcal{T}$ (rosary centres)", (0.85, 0.0, 0.0)),
@@ -91,7 +92,7 @@ _OTHERS = {
 _FALLBACK_COLOURS = [(0.58, 0.4, 0.74), (0.55, 0.34, 0.29), (0.74, 0.74, 0.13), (0.5, 0.5, 0.5), (0.09, 0.75, 0.81)]
 _ORDER = ["centre", "gradient", "adjusted", "adjusted_gradient", "hs", "ga", "convex", "optimal"]
 
-# Symbols of the papers' configuration coordinates (paper 003, section 5.1).
+# Symbols of the papers' configuration coordinates (Nascimento and Alsina 2021, section 5.1).
 _SYMBOLS = {"hip_flexion": r"\theta_h", "knee_flexion": r"\theta_k", "hip_displacement": r"\theta_q"}
 _START_STYLE = dict(marker="o", color="black", markersize=7, markeredgecolor="white", linestyle="none")
 _GOAL_STYLE = dict(marker="*", color="black", markersize=12, markeredgecolor="white", linestyle="none")
@@ -499,7 +500,8 @@ def _save(fig, out_dir: Path, stem: str, formats: Sequence[str], dpi: int) -> li
     for fmt in formats:
         p = out_dir / f"{stem}.{fmt}"
         meta = {"Creator": "foam-mj"} if fmt == "png" else {"Creator": "foam-mj", "Date": None}
-        fig.savefig(p, format=fmt, dpi=dpi, metadata=meta)  # constrained layout: nothing is cut off
+        with atomic_path(p) as tmp:  # complete or absent (foam_mj.atomic)
+            fig.savefig(tmp, format=fmt, dpi=dpi, metadata=meta)  # constrained layout: nothing is cut off
         written.append(p)
     return written
 
@@ -745,7 +747,7 @@ def _body_depth(m: mujoco.MjModel, b: int) -> int:
 
 
 def _is_metaheuristic(p: _Path) -> bool:
-    """A method minimising f (paper 000 Eq. 5) step by step: HS, GA, the optimal smoother, or any path
+    """A method minimising f (Nascimento et al. 2020 Eq. 5) step by step: HS, GA, the optimal smoother, or any path
     whose smoother says its objective is "f". Gradient descent of SV and the rosary adjustment (TC) are not."""
     if p.objective is not None:
         return p.objective == "f"
@@ -768,7 +770,7 @@ def _fig_convergence(mpl, paths: list[_Path]) -> Any | None:
             mean = np.asarray(mean, dtype=float)
             ax.plot(np.arange(1, len(mean) + 1), mean, color=p.colour, linewidth=1.0, linestyle="--", alpha=0.6, label="population mean")
         ax.set_xlabel("accepted step" if _ALIASES.get(p.name, p.name) == "optimal" else "iteration")
-        ax.set_ylabel("$f$ (paper 000, Eq. 5)")
+        ax.set_ylabel("$f$ (Nascimento et al. 2020, Eq. 5)")
         ax.set_title(f"{p.label}: best {best[-1]:.4g}", fontsize=9)
         ax.grid(True, linewidth=0.3, alpha=0.5)
         ax.legend()
@@ -925,7 +927,7 @@ def write_figures(doc, out_dir, formats: Sequence[str] = ("png",), paths: Sequen
             ("foam", lambda: _fig_foam(mpl, doc, labels)),
             *[(stem, lambda t=title, r=ros, ps=ps: _fig_rosary(mpl, doc, robot, ps, labels, r, t))
               for stem, title, ros, ps in groups],
-            # Every path together (paper 003 Fig. 8d), when they lie in different rosaries.
+            # Every path together (Nascimento and Alsina 2021 Fig. 8d), when they lie in different rosaries.
             ("paths", lambda: _fig_rosary(mpl, doc, robot, sel, labels, None, "Paths") if len(groups) > 1 and groups[0][0] == "rosary" and len(sel) > 1 else None),
             ("strobe", lambda: _fig_strobe(mpl, robot, sel)),
             ("convergence", lambda: _fig_convergence(mpl, sel)),
@@ -949,8 +951,11 @@ def cmd_figures(args: argparse.Namespace) -> int:
     """Run the ``figures`` command; raises FoamError for bad input (the CLI turns it into exit code 2)."""
     from foam_mj.results import read_result
 
+    from foam_mj.atomic import check_output_dir
+
     if args.dpi <= 0:
         raise FoamError(f"--dpi must be positive, got {args.dpi}")
+    check_output_dir(args.out_dir, "DIR")
     doc = read_result(args.result)
     for p in write_figures(doc, args.out_dir, formats=args.formats, paths=args.paths, dpi=args.dpi):
         print(f"wrote {p}")

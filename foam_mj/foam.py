@@ -1,9 +1,9 @@
-"""Probabilistic Foam propagation (paper 000 section 3.1; paper 003 section 2.1).
+"""Probabilistic Foam propagation (Nascimento et al. 2020 section 3.1; Nascimento and Alsina 2021 section 2.1).
 
 The root bubble is centred at q_init with the certified radius. Parents are taken first-in-first-out.
 A parent of radius r gets
 
-    N = K floor(r / r_min)^(n-1)                                               (paper 000 Eq. 2)
+    N = K floor(r / r_min)^(n-1)                                               (Nascimento et al. 2020 Eq. 2)
 
 candidate centres drawn uniformly on its surface (the (n-1)-sphere). A candidate is dropped when it
 lies outside the configuration bounds, when it lies inside an existing bubble (other than its parent,
@@ -17,7 +17,7 @@ Implementation notes
   evaluated by ``mujoco.rollout``). Candidates of one parent are then accepted in their drawn order,
   each checked against the siblings accepted before it, so the result is the same as drawing and
   testing them one by one.
-* "Inside an existing bubble" is strict (``|c - c_i| < r_i``, paper 003 Eq. 1's open ball).
+* "Inside an existing bubble" is strict (``|c - c_i| < r_i``, Nascimento and Alsina 2021 Eq. 1's open ball).
   Coverage is tested with :class:`CoverageIndex`: a k-d tree on lifted points plus a brute-force
   buffer of recent bubbles, so no Python loop runs over the bubbles.
 * Deterministic for a given seed: all randomness comes from one ``numpy.random.Generator``.
@@ -39,7 +39,7 @@ from foam_mj.rosary import MEMBERSHIP_TOL, Rosary
 
 @dataclass(frozen=True)
 class FoamParams:
-    """Planner parameters. Defaults are paper 000's (K = 10, r_min = 0.07)."""
+    """Planner parameters. Defaults are Nascimento et al. 2020's (K = 10, r_min = 0.07)."""
 
     K: int = 10
     r_min: float = 0.07
@@ -107,7 +107,7 @@ class Foam:
         return n
 
     def chain(self, i: int) -> np.ndarray:
-        """Bubble indices from the root to bubble i, following parents (paper 003 Def. 2.5, reversed)."""
+        """Bubble indices from the root to bubble i, following parents (Nascimento and Alsina 2021 Def. 2.5, reversed)."""
         out = [i]
         while self.parents[out[-1]] >= 0:
             out.append(int(self.parents[out[-1]]))
@@ -205,6 +205,39 @@ class CoverageIndex:
 REBUILD_MIN = 64
 REBUILD_FRACTION = 16
 
+#: The most candidates one bubble may get. Eq. 2's N = K floor(r / r_min)^(n-1) grows without bound as
+#: r_min shrinks or K grows (K = 1e8 or r_min = 1e-7 asked for terabytes and ended in a MemoryError after
+#: minutes); a million candidates (24 MB of 3-D centres) is far beyond any useful foam (the papers' settings
+#: give at most a few thousand per bubble), so larger settings are refused before planning.
+MAX_CANDIDATES_PER_BUBBLE = 1_000_000
+
+
+def candidate_bound(params: FoamParams, lower, upper) -> float:
+    """The most candidates Eq. 2 can give one bubble inside the bounds [lower, upper].
+
+    A bubble centred in the box with a radius above the box's diagonal has every surface point outside
+    the box, so the planner caps r at the diagonal D when counting (:func:`plan`), and the bound is
+    K (D / r_min)^(n-1).
+    """
+    lower, upper = np.asarray(lower, float), np.asarray(upper, float)
+    diag = float(np.linalg.norm(upper - lower))
+    return float(params.K) * float(np.floor(diag / params.r_min)) ** (len(lower) - 1)
+
+
+def check_candidate_bound(params: FoamParams, lower, upper) -> None:
+    """Refuse (ConfigurationError) settings whose bubbles could get more than MAX_CANDIDATES_PER_BUBBLE candidates."""
+    if getattr(params, "K", None) is None or getattr(params, "r_min", None) is None:
+        return  # a planner without Eq. 2's expansion (one candidate per sample)
+    bound = candidate_bound(params, lower, upper)
+    if bound > MAX_CANDIDATES_PER_BUBBLE:
+        diag = float(np.linalg.norm(np.asarray(upper, float) - np.asarray(lower, float)))
+        raise ConfigurationError(
+            f"K = {params.K} and r_min = {params.r_min} give up to {bound:.3g} candidates per bubble "
+            f"(N = K floor(r / r_min)^(n-1), r up to the bounds' diagonal {diag:.3g}), more than the "
+            f"{MAX_CANDIDATES_PER_BUBBLE:,} the planner allows (memory): lower K or raise r_min"
+        )
+
+
 #: Candidates drawn per batch of parents (one clearance call); bounds memory and latency only.
 MAX_BATCH_CANDIDATES = 2048
 
@@ -248,10 +281,14 @@ def plan(
     q_goal = robot.validate(q_goal, "q_goal")
     if oracle.delta != params.delta:
         raise ValueError(f"the oracle's margin delta={oracle.delta} differs from params.delta={params.delta}")
+    if np.array_equal(q_init, q_goal):
+        raise ConfigurationError(f"q_goal equals q_init ({q_init.tolist()}): nothing to plan")
+    check_candidate_bound(params, robot.lower, robot.upper)
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     n = robot.dim
     lo, hi = robot.lower, robot.upper
     r_min = params.r_min
+    diag = float(np.linalg.norm(hi - lo))  # a larger radius puts every candidate outside the bounds
     t0 = time.perf_counter()
     stats = FoamStats()
     calls0 = oracle.clearance.calls
@@ -319,7 +356,7 @@ def plan(
             next_report = now + 0.5
         # A batch of queued parents, taken in FIFO order. Their candidates are drawn in parent order from
         # the one generator and accepted in that order below, exactly as one-by-one processing would.
-        counts_all = (params.K * np.floor(radii[head:count] / r_min) ** (n - 1)).astype(np.int64)
+        counts_all = (params.K * np.floor(np.minimum(radii[head:count], diag) / r_min) ** (n - 1)).astype(np.int64)
         stop = head + int(np.searchsorted(np.cumsum(counts_all), MAX_BATCH_CANDIDATES, side="right"))
         stop = min(max(stop, head + 1), count)
         batch = np.arange(head, stop)

@@ -15,7 +15,7 @@ range [lo, hi]):
     q_i = S (qpos_j - a) / (b - a)        qpos_j = a + (b - a) q_i / S.
 
 For the Ortholeg, q = [theta_h, theta_k, theta_q] with theta_q the hip displacement normalized so that
-the swing's 0.7 m of travel is [0, pi/2] (paper 003, section 5.1). Joints that are not configuration coordinates stay at their
+the swing's 0.7 m of travel is [0, pi/2] (Nascimento and Alsina 2021, section 5.1). Joints that are not configuration coordinates stay at their
 ``qpos0``. The bounds of q come from the joint ranges (every configuration joint must be limited).
 A scenario's ``[normalize]`` table gives the same numbers per joint and takes precedence over the MJCF.
 
@@ -27,7 +27,7 @@ Robot and obstacle geoms
 A collision geom (``contype`` or ``conaffinity`` non-zero) is a *robot* geom when its body is moved by
 some joint (the body or one of its ancestors has a joint), and an *obstacle* geom otherwise. The
 clearance pairs are every robot/obstacle pair that MuJoCo's contype/conaffinity filter lets collide.
-This is the same rule the independent checker ``shared/tools/verify_result.py`` uses.
+This is the same rule the independent checker ``foam-mj verify`` (foam_mj/verify.py) uses.
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def load_spec(path: str | Path) -> mujoco.MjSpec:
     try:
         return mujoco.MjSpec.from_file(str(p))
     except ValueError as exc:  # MuJoCo reports XML and compile errors as ValueError
-        raise ModelError(f"could not load MJCF file {p}: {exc}") from None
+        raise ModelError(f"could not load MJCF file {p}: {' '.join(str(exc).split())}") from None
 
 
 def compile_spec(spec: mujoco.MjSpec, path: str | Path) -> mujoco.MjModel:

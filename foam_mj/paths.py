@@ -1,13 +1,13 @@
-"""Path metrics: length, the turning angles of paper 000 Eq. 4, the objective f of Eq. 5, TC (paper 003
+"""Path metrics: length, the turning angles of Nascimento et al. 2020 Eq. 4, the objective f of Eq. 5, TC (Nascimento and Alsina 2021
 Eq. 6) and SV (Eq. 7), and the dense clearance check along a path.
 
 Every function takes points of shape (..., m, n) (m points of dimension n) and works on whole
 populations at once (leading dimensions are batch dimensions).
 
-Angles. Paper 000 Eq. 4 defines theta_i as the opening angle at an interior vertex (pi for a straight
-line) and Eq. 5 averages pi - theta_i; paper 003 Eq. 7 squares the supplementary angle pi - theta_i.
+Angles. Nascimento et al. 2020 Eq. 4 defines theta_i as the opening angle at an interior vertex (pi for a straight
+line) and Eq. 5 averages pi - theta_i; Nascimento and Alsina 2021 Eq. 7 squares the supplementary angle pi - theta_i.
 Both are taken over every interior vertex of [q_init, q'_1, ..., q'_(k-1), q_goal], i.e. k - 1 angles.
-Paper 000 writes the mean as a sum over i = 1..k-2 divided by k - 2, but its own sigma holds k - 1
+Nascimento et al. 2020 writes the mean as a sum over i = 1..k-2 divided by k - 2, but its own sigma holds k - 1
 waypoints, so with the endpoints there are k - 1 angles; we average over all of them (the choice
 does not change the minimiser's character and makes f well defined for any k >= 2).
 
@@ -16,7 +16,7 @@ segment takes the direction of the next segment of non-zero length (of the previ
 the path), so the repeated point adds one straight vertex and the corner it sits on is counted once,
 in full: the angle sum is then the limit of the sums as the points separate along the path, the
 lowest value near the repeated points. (Counting both vertices next to a zero-length segment as
-straight, as this module did before issue 8, let an optimiser hide a corner by stacking two waypoints
+straight, as an earlier version of this module did, let an optimiser hide a corner by stacking two waypoints
 on it.)
 """
 
@@ -51,8 +51,8 @@ def fill_index(zero: np.ndarray) -> np.ndarray:
 
 
 def turning_angles(points: np.ndarray) -> np.ndarray:
-    """Supplementary angles pi - theta_i at the interior vertices (0 for a straight line), paper 000 Eq. 4
-    and paper 003 Eq. 7. (..., m, n) -> (..., m-2). Repeated points: see the module docstring."""
+    """Supplementary angles pi - theta_i at the interior vertices (0 for a straight line), Nascimento et al. 2020 Eq. 4
+    and Nascimento and Alsina 2021 Eq. 7. (..., m, n) -> (..., m-2). Repeated points: see the module docstring."""
     seg = np.diff(points, axis=-2)
     lens = np.linalg.norm(seg, axis=-1)
     zero = lens <= _EPS
@@ -72,13 +72,13 @@ def turning_angles(points: np.ndarray) -> np.ndarray:
 
 
 def angle_term(points: np.ndarray) -> np.ndarray:
-    """Mean of (pi - theta_i) over the interior vertices: the first term of paper 000 Eq. 5."""
+    """Mean of (pi - theta_i) over the interior vertices: the first term of Nascimento et al. 2020 Eq. 5."""
     t = turning_angles(points)
     return t.mean(axis=-1) if t.shape[-1] else np.zeros(t.shape[:-1])
 
 
 def objective(points: np.ndarray) -> np.ndarray:
-    """f(sigma) of paper 000 Eq. 5: mean (pi - theta_i) + sigma_length. (..., m, n) -> (...)."""
+    """f(sigma) of Nascimento et al. 2020 Eq. 5: mean (pi - theta_i) + sigma_length. (..., m, n) -> (...)."""
     return angle_term(points) + path_length(points)
 
 
@@ -88,13 +88,13 @@ def objective_terms(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def tc(points: np.ndarray) -> np.ndarray:
-    """TC of paper 003 Eq. 6: |q_goal - q_init| / path length (1 for a straight line)."""
+    """TC of Nascimento and Alsina 2021 Eq. 6: |q_goal - q_init| / path length (1 for a straight line)."""
     de = np.linalg.norm(points[..., -1, :] - points[..., 0, :], axis=-1)
     return de / np.maximum(path_length(points), _EPS)
 
 
 def sv(points: np.ndarray) -> np.ndarray:
-    """SV of paper 003 Eq. 7: mean squared supplementary angle over the interior vertices (0 = straight)."""
+    """SV of Nascimento and Alsina 2021 Eq. 7: mean squared supplementary angle over the interior vertices (0 = straight)."""
     t = turning_angles(points)
     return (t**2).mean(axis=-1) if t.shape[-1] else np.zeros(t.shape[:-1])
 

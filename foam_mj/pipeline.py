@@ -2,20 +2,21 @@
 
 Path names (used in the summary, the JSON result and the Rerun recording):
 
-==================  ==========================================================  ============
+==================  ==========================================================  ==================================
 name                what it is                                                  paper
-==================  ==========================================================  ============
-centre              the polyline through the rosary's centres                   T (003)
-gradient            the centre path smoothed by gradient descent of SV (Eq. 9)  T_CA (003)
-adjusted            centre path of the rosary adjusted by TC ascent (Eq. 8)     T_RA (003)
-adjusted_gradient   the adjusted path smoothed by Eq. 9                         T_RCA (003)
-hs                  Harmony Search on f (Eq. 5)                                 000, 5.1
-ga                  the genetic algorithm on f (Eq. 5)                          000, 5.2
+==================  ==========================================================  ==================================
+centre              the polyline through the rosary's centres                   T (Nascimento and Alsina 2021)
+gradient            the centre path smoothed by gradient descent of SV (Eq. 9)  T_CA (Nascimento and Alsina 2021)
+adjusted            centre path of the rosary adjusted by TC ascent (Eq. 8)     T_RA (Nascimento and Alsina 2021)
+adjusted_gradient   the adjusted path smoothed by Eq. 9                         T_RCA (Nascimento and Alsina 2021)
+hs                  Harmony Search on f (Eq. 5)                                 Nascimento et al. 2020, 5.1
+ga                  the genetic algorithm on f (Eq. 5)                          Nascimento et al. 2020, 5.2
 convex              the shortest path through the hatches (SOCP)                reference
-optimal             f (Eq. 5) minimised in the hatches, KKT-certified           000 (issue 8)
-mgoa                knee of MGOA's Pareto front (length, angle term)            004
-mopso               knee of MOPSO's Pareto front (length, angle term)           004
-==================  ==========================================================  ============
+optimal             f (Eq. 5) minimised in the hatches, KKT-certified           Nascimento et al. 2020 (Eq. 5)
+mgoa                knee of MGOA's Pareto front (length, angle term)            Elmi and Efe 2018
+mopso               knee of MOPSO's Pareto front (length, angle term)           Elmi and Efe 2018
+==================  ==========================================================  ==================================
+
 
 ``foam-mj plan`` makes the centre path and, unless told otherwise, the optimal one
 (:data:`DEFAULT_SMOOTHER`); ``--smoother all`` runs every method of the papers beside it, and the convex
@@ -168,7 +169,7 @@ def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], see
         say("smoothing: rosary adjustment (T_RA)")
         oracle = scenario.oracle()
         try:
-            # Paper 003 keeps every adjusted bubble at least r_min; a planner without r_min keeps the rosary's smallest.
+            # Nascimento and Alsina 2021 keeps every adjusted bubble at least r_min; a planner without r_min keeps the rosary's smallest.
             r_min = getattr(scenario.params.planner().options, "r_min", None) or float(np.min(rosary.radii))
             adj = RosaryAdjustment(r_min=r_min).adjust(rosary, oracle)
         finally:

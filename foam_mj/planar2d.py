@@ -1,9 +1,9 @@
-"""Paper 004's experiment: a point robot on a 1000 x 1000 map with random circular obstacles, paths from a
+"""Elmi and Efe 2018's experiment: a point robot on a 1000 x 1000 map with random circular obstacles, paths from a
 start SP to a target TP through n waypoints, optimised for length F1 (Eq. 10-12) and smoothness F2
 (Eq. 13) by MGOA and MOPSO (:mod:`foam_mj.smoothing.goa`, :mod:`foam_mj.smoothing.pso`).
 
 The map (:class:`CircleMap`): obstacle centres uniform in the square, radii uniform in
-``radius_range`` (paper 004 does not give sizes; default [20, 45] pixels), obstacles that would come
+``radius_range`` (Elmi and Efe 2018 does not give sizes; default [20, 45] pixels), obstacles that would come
 within ``keep_clear`` of SP or TP redrawn; seeded. :data:`PAPER_ENVIRONMENTS` holds section III's two
 environments (80 obstacles, SP (70.6, 847.2), TP (855.57, 152.80); 50 obstacles, SP (88.73, 845.39),
 TP (681.9948, 179.92)); the paper ran its PSO from other points (also recorded), here both algorithms
@@ -162,7 +162,7 @@ class CircleMap:
 
 
 def paper_environment(env: int, seed: SeedLike | None = None, **kwargs) -> CircleMap:
-    """Environment #1 (80 obstacles) or #2 (50) of paper 004 section III, obstacles drawn with ``seed``
+    """Environment #1 (80 obstacles) or #2 (50) of Elmi and Efe 2018 section III, obstacles drawn with ``seed``
     (default: the environment's number)."""
     if env not in PAPER_ENVIRONMENTS:
         raise ValueError(f"env must be one of {sorted(PAPER_ENVIRONMENTS)}, got {env!r}")

@@ -10,7 +10,7 @@ Usage::
         rec.log_joint_trajectory("centre", trajectory)
         rec.log_replay("centre", robot, replay_kinematic(robot, trajectory))
         rec.log_convergence("hs", best, mean)
-    # closing writes the footer; open with `rerun run.rrd`
+    # closing writes the file (atomically: complete or not at all); open with `foam-mj view run.rrd`
 
 Entity paths (names given to the ``log_*`` methods must match :data:`NAME_PATTERN`; model names are
 sanitized to it):
@@ -54,6 +54,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
+from foam_mj.atomic import atomic_write_bytes
 from foam_mj.foam import Foam
 from foam_mj.model import RobotModel, body_is_moving
 from foam_mj.replay import DynamicReplay, KinematicReplay
@@ -179,7 +180,10 @@ class Recording:
         self._rec = rr.RecordingStream(app_id, recording_id=recording_id or p.stem, send_properties=False)
         self._rec.set_log_time_enabled(False)
         self._rec.set_log_tick_enabled(False)
-        self._rec.save(p, default_blueprint=default_blueprint())
+        # The stream goes to memory and reaches the file only in close(), atomically (foam_mj.atomic):
+        # Rerun's own file sink reports no write error (a full disk left a truncated file behind).
+        self._stream = self._rec.binary_stream()
+        self._rec.send_blueprint(default_blueprint(), make_active=False, make_default=True)
         self._rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._rec.log("cspace", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._open = True
@@ -187,16 +191,28 @@ class Recording:
 
     # -- lifecycle -------------------------------------------------------------------------------------
     def close(self) -> None:
-        """Flush and write the footer (idempotent)."""
+        """Write the file (complete, renamed into place; :class:`~foam_mj.atomic.OutputError` when it
+        cannot be written, leaving nothing behind). Idempotent."""
         if self._open:
-            rr.disconnect(recording=self._rec)
             self._open = False
+            data = self._stream.read(flush=True) or b""
+            rr.disconnect(recording=self._rec)
+            atomic_write_bytes(self.path, data)
+
+    def discard(self) -> None:
+        """Close without writing anything."""
+        if self._open:
+            self._open = False
+            rr.disconnect(recording=self._rec)
 
     def __enter__(self) -> "Recording":
         return self
 
-    def __exit__(self, *exc) -> None:
-        self.close()
+    def __exit__(self, exc_type, *exc) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.discard()  # an error while logging: no partial file
 
     def _check_open(self) -> rr.RecordingStream:
         if not self._open:

@@ -11,7 +11,7 @@ file                   cell value                                      why this 
 =====================  ==============================================  =====================================
 success-<path>         share of plans that reached the goal            the envelope itself
 min_clearance-<path>   smallest clearance (mm) over the cell's plans   safety is a worst case, not a mean
-f-<path>               median f (length + angle) of the reached ones   robust to the odd long detour
+f-<path>               median f (Nascimento et al. 2020 Eq. 5) of the reached ones  robust to the odd long detour
 knee_torque-<path>     largest peak knee torque (N m) of the reached   the actuator must cover the worst
 =====================  ==============================================  =====================================
 

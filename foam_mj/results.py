@@ -1,5 +1,5 @@
 """The JSON result of ``foam-mj plan --json``: enough to check it independently with MuJoCo alone
-(``shared/tools/verify_result.py`` reads "mjcf" and every path's "qpos") and to replay it later.
+(``foam-mj verify``, or any checker that reads "mjcf" and every path's "qpos") and to replay it later.
 
 Layout (format "foam-mj/result", version 1)::
 
@@ -7,11 +7,14 @@ Layout (format "foam-mj/result", version 1)::
       "format": "foam-mj/result", "version": 1,
       "scenario": "obstacle", "scenario_file": "/abs/path/obstacle.toml",
       "mjcf": "/abs/path/to/scene.xml",               # the compiled scene
+      "mjcf_relative": "../models/scene.xml",          # the same, relative to the result file's folder
+      "model_hash": {"sha256": ..., "parts": {"kinematics", "geometry", "dynamics", "declarations"}},
       "scene_source": "/abs/path/obstacle.xml",        # only when the scenario edits its scene (joints,
       "scene_edits": {"subject": {...}, ...},          # [subject], [obstacle], [[mesh]]): then "mjcf" is
                                                        # <result>.scene.xml, the edited scene saved beside it
       "qpos_joints": ["hip_displacement", ...],        # names of the qpos entries, in qpos order
-      "configuration": {"joints": [...], "lower": [...], "upper": [...]},
+      "configuration": {"joints": [...], "lower": [...], "upper": [...],
+                        "qpos_index": [...], "scale": [...], "offset": [...], "qpos0": [...]},
       "q_init": [...], "q_goal": [...], "seed": 0,
       "planner": {"algorithm": "pfm", "delta": 0.005, "max_bubbles": ..., "time_limit": ..., "K": 10, "r_min": 0.07},  # + the algorithm's options
       "outcome": "reached" | "queue empty" | "bubble budget" | "time budget",
@@ -48,11 +51,17 @@ negative work (J), the MJCF's torque limit (null: none) and the peak's share of 
 kilogram of the subject's body mass. "limits" and "time_law" are what the trajectories were timed with
 (foam_mj.timing); ``replay`` and ``export`` rebuild the same trajectories from them.
 
+"configuration" holds the affine map between the planner's q and MuJoCo's qpos:
+``qpos = qpos0; qpos[qpos_index] = offset + scale * q`` (q may be normalized, e.g. the Ortholeg's hip slide).
+"model_hash" is :func:`foam_mj.fingerprint.model_fingerprint` of the compiled scene: ``replay`` refuses
+a scene that compiles to a different model (exit 2 naming the part that differs), and "version" other
+than :data:`VERSION` is refused too.
+
 When ``plan`` has no time-parametrized trajectory (``--no-replay``), "qpos" holds the waypoints'
 qpos rows (a polyline in qpos, which is affine in q) and "times" is absent.
 
 "certificate" (the optimal smoother's path only): "certified" is true when the path is a local optimum of
-its objective (f, paper 000 Eq. 5, by default) over the hatches to the tolerance "kkt_tol": the first-order
+its objective (f, Nascimento et al. 2020 Eq. 5, by default) over the hatches to the tolerance "kkt_tol": the first-order
 (KKT) residuals "kkt_stationarity" (scaled) and "kkt_complementarity" are both at most it. A number that
 is not finite is written as null.
 """
@@ -60,13 +69,16 @@ is not finite is written as null.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
 
+from foam_mj.atomic import atomic_write_text
 from foam_mj.errors import FoamError
+from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 FORMAT = "foam-mj/result"
 VERSION = 1
@@ -96,8 +108,13 @@ def _header(scenario, seed: int) -> dict:
         "scenario": scenario.name,
         "scenario_file": str(scenario.source) if scenario.source else None,
         "mjcf": str(Path(scenario.scene).resolve()),
+        "model_hash": model_fingerprint(robot.model),
         "qpos_joints": _qpos_names(robot.model),
-        "configuration": {"joints": list(cfg.joint_names), "lower": cfg.lower.tolist(), "upper": cfg.upper.tolist()},
+        "configuration": {
+            "joints": list(cfg.joint_names), "lower": cfg.lower.tolist(), "upper": cfg.upper.tolist(),
+            "qpos_index": np.asarray(cfg.qpos_index).tolist(), "scale": np.asarray(cfg.scale).tolist(),
+            "offset": np.asarray(cfg.offset).tolist(), "qpos0": np.asarray(cfg.qpos0).tolist(),
+        },
         "q_init": np.asarray(scenario.q_init).tolist(),
         "q_goal": np.asarray(scenario.q_goal).tolist(),
         "seed": int(seed),
@@ -195,20 +212,6 @@ def outcome_dict(outcome) -> dict:
     return doc
 
 
-def _write_atomic(p: Path, text: str) -> None:
-    import os
-    import tempfile
-
-    fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _save_edited_scene(p: Path, doc: dict, scenario) -> None:
     """An edited scene (scenario joints, [subject], [obstacle], [[mesh]]) is saved beside the result as
     ``<result stem>.scene.xml`` and "mjcf" points to it, so any MuJoCo-only checker loads the scene planned on."""
@@ -216,18 +219,27 @@ def _save_edited_scene(p: Path, doc: dict, scenario) -> None:
     if not xml:
         return
     scene = p.with_name(p.stem + ".scene.xml")
-    _write_atomic(scene, xml)
+    atomic_write_text(scene, xml)
     doc["scene_source"] = doc["mjcf"]
     doc["scene_edits"] = scenario.edits.as_dict()
     doc["mjcf"] = str(scene.resolve())
 
 
+def _with_relative_mjcf(doc: dict, out: Path) -> dict:
+    """The document with "mjcf_relative": the scene's path relative to the result file's folder."""
+    try:
+        rel = os.path.relpath(doc["mjcf"], start=out.resolve().parent)
+    except ValueError:  # another drive (Windows): no relative path
+        rel = None
+    return {**doc, "mjcf_relative": rel}
+
+
 def write_outcome(path: str | Path, outcome) -> Path:
+    """Write the result atomically (complete or not at all; :class:`~foam_mj.atomic.OutputError`)."""
     p = Path(path)
     doc = outcome_dict(outcome)
     _save_edited_scene(p, doc, outcome.scenario)
-    p.write_text(json.dumps(doc, indent=1))
-    return p
+    return atomic_write_text(p, json.dumps(_with_relative_mjcf(doc, p), indent=1))
 
 
 def write_failure(path: str | Path, scenario, failure, seed: int) -> Path:
@@ -240,8 +252,7 @@ def write_failure(path: str | Path, scenario, failure, seed: int) -> Path:
     doc["paths"] = {}
     p = Path(path)
     _save_edited_scene(p, doc, scenario)
-    p.write_text(json.dumps(doc, indent=1))
-    return p
+    return atomic_write_text(p, json.dumps(_with_relative_mjcf(doc, p), indent=1))
 
 
 def read_result(path: str | Path) -> dict:
@@ -255,6 +266,8 @@ def read_result(path: str | Path) -> dict:
         raise FoamError(f"{p}: not a readable JSON result: {exc}") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise FoamError(f"{p}: not a foam-mj result (field 'format' should be '{FORMAT}')")
+    if doc.get("version") != VERSION:
+        raise FoamError(f"{p}: unknown format version {doc.get('version')!r} (this foam-mj {_version()} reads version {VERSION})")
     for key in ("mjcf", "paths", "q_init", "q_goal", "planner"):
         if key not in doc:
             raise FoamError(f"{p}: missing field '{key}'")
@@ -267,14 +280,51 @@ def read_result(path: str | Path) -> dict:
     return doc
 
 
+def _version() -> str:
+    from foam_mj import __version__
+
+    return __version__
+
+
+def resolve_model(doc: dict, source: str | Path) -> Path:
+    """The scene file a result was planned on, checked against the result's model hash.
+
+    Candidates are "mjcf_relative" (resolved against the result's folder: results moved together with
+    their models) and "mjcf"; every one that exists must compile to the stored "model_hash", else
+    :class:`FoamError` naming the field, the file and the parts that differ. Returns the first that
+    exists. A result without "model_hash" (written before it existed) is accepted unchecked.
+    """
+    from foam_mj.model import load_mjcf
+
+    src = Path(source)
+    candidates: list[tuple[str, Path]] = []
+    if isinstance(doc.get("mjcf_relative"), str):
+        candidates.append(("mjcf_relative", (src.parent / doc["mjcf_relative"]).resolve()))
+    if isinstance(doc.get("mjcf"), str) and doc["mjcf"]:
+        candidates.append(("mjcf", Path(doc["mjcf"])))
+    existing = [(k, p) for k, p in candidates if p.is_file()]
+    if not existing:
+        named = ", ".join(f"{k} = {p}" for k, p in candidates) or "none"
+        raise FoamError(f"{src}: the scene file it was planned on is not found ({named})")
+    stored = doc.get("model_hash")
+    if isinstance(stored, dict):
+        for key, path in existing:
+            current = model_fingerprint(load_mjcf(path))
+            diff = fingerprint_differences(stored, current)
+            if diff:
+                raise FoamError(
+                    f"{src}: field '{key}' names {path}, which compiles to a different model than the one planned on "
+                    f"({', '.join(diff)} differ{'s' if len(diff) == 1 else ''}; model_hash {str(stored.get('sha256'))[:12]} "
+                    f"in the result, {current['sha256'][:12]} now): refusing to replay on it"
+                )
+    return existing[0][1]
+
+
 def outcome_robot(doc: dict, source: str | Path):
     """The compiled scene a result was planned on (a ModelError, exit 2, when it cannot be loaded)."""
     from foam_mj.model import RobotModel
 
-    mjcf = doc.get("mjcf")
-    if not isinstance(mjcf, str) or not mjcf:
-        raise FoamError(f"{source}: field 'mjcf' must name the scene's MJCF file")
-    return RobotModel.from_xml(Path(mjcf))
+    return RobotModel.from_xml(resolve_model(doc, source))
 
 
 def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
@@ -299,7 +349,7 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
             raise FoamError(f"{source}: field 'time_law' must be one of {list(METHODS)}, got {time_law!r}")
         params = PlannerConfig.from_dict(doc["planner"])  # results written before the seam were pfm's
         scenario = Scenario(
-            doc.get("scenario", "result"), "", Path(doc["mjcf"]), np.asarray(doc["q_init"], float), np.asarray(doc["q_goal"], float), params, int(doc.get("seed", 0)), Path(source)
+            doc.get("scenario", "result"), "", resolve_model(doc, source), np.asarray(doc["q_init"], float), np.asarray(doc["q_goal"], float), params, int(doc.get("seed", 0)), Path(source)
         )
         robot = scenario.robot
         q_init, q_goal = scenario.q_init, scenario.q_goal

@@ -1,17 +1,17 @@
-"""The rosary and its hatches (paper 000 section 3.1; paper 003 Defs. 2.2, 2.3, 2.5).
+"""The rosary and its hatches (Nascimento et al. 2020 section 3.1; Nascimento and Alsina 2021 Defs. 2.2, 2.3, 2.5).
 
 The rosary is the chain of bubbles from the root (centred at q_init) to the bubble holding q_goal,
-found by following parents back from the goal bubble. Paper 003 numbers it from the goal
+found by following parents back from the goal bubble. Nascimento and Alsina 2021 numbers it from the goal
 (b_1 = b_final); here index 0 is the root and index k-1 the goal bubble, so that paths, waypoints
 and hatches all run from start to goal: hatch i is b_i ∩ b_(i+1) and holds waypoint i
-(paper 000 Eq. 3's q'_(i+1)).
+(Nascimento et al. 2020 Eq. 3's q'_(i+1)).
 
-Hatch geometry (``../shared/notes/bubbles-math.md``): two balls (c1, r1), (c2, r2) at distance
+Hatch geometry (docs/bubbles-math.md): two balls (c1, r1), (c2, r2) at distance
 d < r1 + r2 meet in a lens; the spheres meet in the plane normal to c2 - c1 at distance
 t = (d^2 + r1^2 - r2^2) / (2 d) from c1; the portal is the (n-1)-ball in that plane with centre
 c1 + t (c2 - c1)/d and radius sqrt(r1^2 - t^2).
 
-Balls are closed here (the bound of paper 003 Eq. 4 is "<= d_t"), and membership allows
+Balls are closed here (the bound of Nascimento and Alsina 2021 Eq. 4 is "<= d_t"), and membership allows
 :data:`MEMBERSHIP_TOL` so that a child's centre, placed on its parent's surface in floating point,
 counts as inside the parent.
 """
@@ -149,7 +149,7 @@ class Rosary:
     # -- reference paths ---------------------------------------------------------------------------
     def center_waypoints(self) -> np.ndarray:
         """The centre path's waypoints: the centres of bubbles 1..k-1 (each on its parent's surface, so in
-        its hatch). With q_init (= centre 0) and q_goal they give the path T of paper 003 (Fig. 6).
+        its hatch). With q_init (= centre 0) and q_goal they give the path T of Nascimento and Alsina 2021 (Fig. 6).
 
         A rosary not grown by the foam (a chain of overlapping bubbles from another planner) may have a
         centre outside its predecessor; that waypoint is then the portal centre of its hatch (on the

@@ -58,6 +58,7 @@ a path to a TOML file.
 from __future__ import annotations
 
 import dataclasses
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -68,6 +69,7 @@ from foam_mj.bubbles import BubbleOracle
 from foam_mj.data import models_dir, scenarios_dir
 from foam_mj.clearance import Clearance
 from foam_mj.errors import ConfigurationError, FoamError, ScenarioError
+from foam_mj.foam import check_candidate_bound
 from foam_mj.model import RobotModel
 from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
 from foam_mj.planners.base import COMMON_FIELDS, option_names
@@ -76,6 +78,9 @@ from foam_mj.timing import METHODS as TIME_LAWS, Limits
 
 SCENARIO_DIR = scenarios_dir()
 MODEL_DIR = models_dir()
+
+#: A scenario's name: it names the default recording ``foam-mj-<name>.rrd`` and Rerun entities.
+NAME_PATTERN = re.compile(r"^[A-Za-z0-9_.\-]+$")
 
 _TOP_FIELDS = {"name", "description", "scene", "q_init", "q_goal", "seed", "planner", "joints", "normalize", "subject", "obstacle", "mesh", "limits"}
 _SUBJECT_FIELDS = {"height", "mass"}
@@ -124,8 +129,12 @@ def available_scenarios() -> list[str]:
 
 def resolve_scenario_path(name_or_path: str | Path) -> Path:
     """A built-in scenario's file, or the given path; ScenarioError listing the known names otherwise."""
+    if not str(name_or_path).strip():
+        raise ScenarioError(f"empty scenario name; known scenarios: {', '.join(available_scenarios())}")
     p = Path(name_or_path)
     if p.suffix == ".toml" or p.exists() or len(p.parts) > 1:
+        if p.is_dir():
+            raise ScenarioError(f"scenario {p} is a directory, not a scenario TOML file")
         if not p.is_file():
             raise ScenarioError(f"scenario file not found: {p}")
         return p
@@ -284,8 +293,11 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
             raise ScenarioError(f"{path}: missing field '{req}'")
     name = raw.get("name", source.stem if source is not None else "scenario")
     description = raw.get("description", "")
-    if not isinstance(name, str) or not name:
-        raise ScenarioError(f"{path}: field 'name' must be a non-empty string")
+    if not isinstance(name, str) or not NAME_PATTERN.match(name):
+        raise ScenarioError(
+            f"{path}: field 'name' must be letters, digits, '_', '-' or '.' (it names output files and recording "
+            f"entities), got {name!r}"
+        )
     if not isinstance(description, str):
         raise ScenarioError(f"{path}: field 'description' must be a string")
     if not isinstance(raw["scene"], (str, Path)):
@@ -365,6 +377,12 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None) -> None:
             robot = build_robot(scenario.scene, scenario.edits)
         except FoamError as exc:
             raise ScenarioError(f"{where}: field 'scene': {exc}") from None
+    if np.array_equal(scenario.q_init, scenario.q_goal):
+        raise ScenarioError(f"{where}: fields 'q_goal' and 'q_init' are equal ({np.asarray(scenario.q_init).tolist()}): nothing to plan")
+    try:
+        check_candidate_bound(scenario.params, robot.lower, robot.upper)
+    except ConfigurationError as exc:
+        raise ScenarioError(f"{where}: [planner] {exc}") from None
     if scenario.limits is not None:
         try:
             scenario.limits.resolve(robot)

@@ -77,7 +77,7 @@ RESULT_COLUMNS: tuple[tuple[str, str], ...] = (
     ("rosary", "int64"),  # bubbles in the rosary
     ("length", "float64"),
     ("angle_term", "float64"),
-    ("f", "float64"),  # length + angle term (Nascimento et al., path smoothing for the Probabilistic Foam, Eq. 5)
+    ("f", "float64"),  # length + angle term (Nascimento et al. 2020 Eq. 5)
     ("tc", "float64"),
     ("sv", "float64"),
     ("min_clearance", "float64"),  # metres, along the replayed trajectory

@@ -4,7 +4,7 @@ Geometry: a C2 curve that stays in the rosary by construction
 ----------------------------------------------------------------
 The input is a path [q_init, w_1, ..., w_(k-1), q_goal] whose interior waypoint w_i lies in hatch
 b_(i-1) ∩ b_i of the rosary, so segment j (w_j -> w_(j+1)) lies in bubble b_j
-(``../shared/notes/bubbles-math.md``). A spline through the waypoints does not inherit this. Here each
+(docs/bubbles-math.md). A spline through the waypoints does not inherit this. Here each
 segment j is a *quintic Bézier curve* whose six control points all lie in b_j; a Bézier curve lies in
 the convex hull of its control points and a ball is convex, so the whole segment lies in b_j -- for
 every parameter value, not only at samples.

@@ -90,3 +90,13 @@ class MujocoChecker:
 @pytest.fixture(scope="session")
 def checkers(robots) -> dict[str, MujocoChecker]:
     return {name: MujocoChecker(r) for name, r in robots.items()}
+
+
+@pytest.fixture(scope="session")
+def planned_result(tmp_path_factory) -> Path:
+    """A `foam-mj plan --json` result of the obstacle scene (default smoother, timed trajectories)."""
+    from foam_mj.cli import main
+
+    out = tmp_path_factory.mktemp("planned") / "obstacle.json"
+    assert main(["plan", "--scene", "obstacle", "--no-rrd", "--json", str(out)]) == 0
+    return out

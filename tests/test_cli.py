@@ -16,7 +16,9 @@ from foam_mj.results import read_result
 
 from conftest import MODELS, MujocoChecker
 
-VERIFY = Path(__file__).resolve().parents[2] / "shared" / "tools" / "verify_result.py"
+#: The project's external checker, when this checkout sits inside the project's work folder.
+VERIFY = next((p / "shared" / "tools" / "verify_result.py" for p in Path(__file__).resolve().parents
+               if (p / "shared" / "tools" / "verify_result.py").is_file()), Path("/nonexistent"))
 
 
 @pytest.fixture(scope="module")

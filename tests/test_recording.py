@@ -227,12 +227,13 @@ def test_bad_calls_raise_clear_errors(tmp_path, run):
     assert read_recording(tmp_path / "bad.rrd") == {"world": 1, "cspace": 1}
 
 
-def test_an_unclosed_file_has_no_footer(tmp_path, run):
+def test_a_recording_reaches_its_file_only_complete(tmp_path, run):
     rec = Recording(tmp_path / "open.rrd")
     rec.log_path("centre", run["paths"]["centre"])
-    try:
-        with pytest.raises(Exception), pytest.warns(rr.RerunWarning, match="no footer"):
-            read_recording(tmp_path / "open.rrd")
-    finally:
-        rec.close()
+    assert list(tmp_path.iterdir()) == []  # nothing on disk while it is open
+    rec.close()
     assert read_recording(tmp_path / "open.rrd")["cspace/paths/centre"] == 1
+    with pytest.raises(RuntimeError), Recording(tmp_path / "failed.rrd") as rec:
+        rec.log_path("centre", run["paths"]["centre"])
+        raise RuntimeError("boom")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["open.rrd"]  # an error while logging leaves no file

@@ -31,7 +31,7 @@ boundary. Every bubble added there is certified as well: the margin stays delta 
 
 Design choices (the papers leave them open): start and goal bubbles of any positive certified radius
 are accepted (r_min is a resolution of the growth, not a precondition); ``r_min`` defaults to
-delta / ||rho||_2 / 2, half the radius that a clearance of 2 delta buys (the bound of paper 003
+delta / ||rho||_2 / 2, half the radius that a clearance of 2 delta buys (the bound of Nascimento and Alsina 2021
 Eq. 4 on this model), so that narrow passages down to a few delta of clearance are still entered.
 """
 

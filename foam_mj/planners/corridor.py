@@ -302,7 +302,7 @@ def _press_bubbles(oracle, C, R, w, floor):
     wp = w[press]
     rp = oracle.radius_from_clearance(oracle.clearance.batch(wp), wp)
     # Outward: away from the centres of the pressed balls. r is 1-Lipschitz (the Cauchy-Schwarz ball of
-    # paper 003 Eq. 4), so a centre pushed by t r with t <= 1/2 still holds w.
+    # Nascimento and Alsina 2021 Eq. 4), so a centre pushed by t r with t <= 1/2 still holds w.
     nrm = (wp - C[press]) * on_a[press, None] + (wp - C[press + 1]) * on_b[press, None]
     nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
     cands = wp[:, None, :] + (PUSH[None, :, None] * rp[:, None, None]) * nrm[:, None, :]

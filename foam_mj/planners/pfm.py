@@ -19,8 +19,8 @@ from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planne
 
 @dataclass(frozen=True)
 class PFMOptions:
-    """K candidates per unit of r / r_min (paper 000 Eq. 2), r_min the smallest bubble kept.
-    Defaults are paper 000's (K = 10, r_min = 0.07)."""
+    """K candidates per unit of r / r_min (Nascimento et al. 2020 Eq. 2), r_min the smallest bubble kept.
+    Defaults are Nascimento et al. 2020's (K = 10, r_min = 0.07)."""
 
     K: int = 10
     r_min: float = 0.07
@@ -39,7 +39,7 @@ def _stats(st: FoamStats, reached: bool) -> PlanStats:
 
 class PFMPlanner(Planner):
     name = "pfm"
-    summary = "Probabilistic Foam Method, breadth-first (paper 000 / 003; the paper reproductions use it)"
+    summary = "Probabilistic Foam Method, breadth-first (Nascimento et al. 2020 / 003; the paper reproductions use it)"
     Options = PFMOptions
 
     def foam_params(self, problem: PlanningProblem) -> FoamParams:

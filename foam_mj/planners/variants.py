@@ -14,7 +14,7 @@ chain from the root to the bubble holding q_goal). They change only *which* pare
   point of its surface nearest to q_aux: c + r (q_aux - c) / |q_aux - c|. An RRT-like, goal-driven
   foam: the paper reports it fast.
 * **RBPF** (Algorithm 3): PFM's expansion (N = K floor(r / r_min)^(n-1) candidates drawn uniformly on
-  the parent's surface, paper 000 Eq. 2), but the parent is drawn from the open list (bubbles not yet
+  the parent's surface, Nascimento et al. 2020 Eq. 2), but the parent is drawn from the open list (bubbles not yet
   expanded) by roulette wheel, with probability p_i = r_i / sum_j r_j (Eq. 6): wide, high-clearance
   regions grow first; the paper reports high-clearance paths.
 * **HPF** (Algorithm 4): PFM's expansion, but the open bubble with the least f = g + h (Eq. 7) is
@@ -158,7 +158,7 @@ class _Growth:
         return i
 
     def child_count(self, r: float, is_root: bool) -> int:
-        """N = K floor(r / r_min)^(n-1) (paper 000 Eq. 2); at least K for the root (see the module docstring)."""
+        """N = K floor(r / r_min)^(n-1) (Nascimento et al. 2020 Eq. 2); at least K for the root (see the module docstring)."""
         k = int(self.params.K * np.floor(r / self.params.r_min) ** (self.n - 1))
         return max(k, self.params.K) if is_root else k
 
@@ -369,7 +369,7 @@ from foam_mj.planners.base import PlanningProblem, PlanResult as SeamResult, Pla
 
 @dataclass(frozen=True)
 class FoamOptions:
-    """K candidates per unit of r / r_min (paper 000 Eq. 2) and r_min, the smallest bubble kept (paper 000's
+    """K candidates per unit of r / r_min (Nascimento et al. 2020 Eq. 2) and r_min, the smallest bubble kept (Nascimento et al. 2020's
     defaults, as pfm's)."""
 
     K: int = 10

@@ -1,16 +1,16 @@
-"""Path smoothers over a rosary's hatches (issue 4).
+"""Path smoothers over a rosary's hatches.
 
 One module per method, one interface (:class:`Smoother`: ``smooth(rosary, initial, seed)`` ->
 :class:`SmoothingResult`):
 
-* :class:`HarmonySearch` (paper 000 section 2.1, Eq. 1) and :class:`GeneticAlgorithm` (section 2.2,
-  Algorithm 1, Eq. 6) minimise f of paper 000 Eq. 5 with waypoint i in hatch b_i ∩ b_(i+1);
-* :class:`GradientSmoothing` (paper 003 Eq. 9) and :class:`RosaryAdjustment` (Eq. 8) give the thesis's
+* :class:`HarmonySearch` (Nascimento et al. 2020 section 2.1, Eq. 1) and :class:`GeneticAlgorithm` (section 2.2,
+  Algorithm 1, Eq. 6) minimise f of Nascimento et al. 2020 Eq. 5 with waypoint i in hatch b_i ∩ b_(i+1);
+* :class:`GradientSmoothing` (Nascimento and Alsina 2021 Eq. 9) and :class:`RosaryAdjustment` (Eq. 8) give the thesis's
   paths T, T_CA, T_RA, T_RCA (:func:`thesis_paths`);
 * :class:`ConvexShortestPath` is the convex reference (shortest path through the hatches, SOCP);
-* :class:`OptimalSmoother` (issue 8) minimises f (or SV, or a weighted objective) in the hatches to a
+* :class:`OptimalSmoother` minimises f (or SV, or a weighted objective) in the hatches to a
   certified local optimum (sequential convex programming, KKT certificate);
-* :class:`MGOASmoother` and :class:`MOPSOSmoother` (paper 004, issue 7) return the Pareto front of
+* :class:`MGOASmoother` and :class:`MOPSOSmoother` (Elmi and Efe 2018) return the Pareto front of
   (length, angle term) (``front()`` -> :class:`ParetoResult`; ``smooth()`` -> the knee, the front in
   ``info["front"]``).
 """

@@ -1,7 +1,7 @@
-"""Rosary adjustment (paper 003 section 4.3, Eq. 8) and the thesis's four paths T, T_CA, T_RA, T_RCA.
+"""Rosary adjustment (Nascimento and Alsina 2021 section 4.3, Eq. 8) and the thesis's four paths T, T_CA, T_RA, T_RCA.
 
 Eq. 8 moves the bubble centres p_i (all but the root's, which is q_init) up the gradient of TC
-(paper 003 Eq. 6) of the centre path [q_init, p_2, ..., p_k, q_goal]:
+(Nascimento and Alsina 2021 Eq. 6) of the centre path [q_init, p_2, ..., p_k, q_goal]:
 
     x_j^i <- x_j^i + eta dTC/dx_j^i,     eta = 0.1 (section 5.1).
 
@@ -59,7 +59,7 @@ class AdjustmentResult:
 
 @dataclass(frozen=True)
 class RosaryAdjustment:
-    """Gradient ascent of TC over the bubble centres (paper 003 Eq. 8), keeping every bubble certified.
+    """Gradient ascent of TC over the bubble centres (Nascimento and Alsina 2021 Eq. 8), keeping every bubble certified.
 
     ``r_min`` must be the planner's minimum radius (``FoamParams.r_min``): every adjusted bubble keeps
     a radius of at least r_min, as the foam's bubbles do.
@@ -316,7 +316,7 @@ def thesis_paths(
     adjustment: RosaryAdjustment | None = None,
     smoothing: GradientSmoothing | None = None,
 ) -> dict[str, SmoothingResult]:
-    """The four paths of paper 003 Fig. 8d: T (centre path), T_CA (T smoothed by Eq. 9), T_RA (centre path
+    """The four paths of Nascimento and Alsina 2021 Fig. 8d: T (centre path), T_CA (T smoothed by Eq. 9), T_RA (centre path
     of the rosary adjusted by Eq. 8) and T_RCA (T_RA smoothed), each with the rosary holding it."""
     adj = adjustment if adjustment is not None else RosaryAdjustment(r_min=r_min)
     sm = smoothing if smoothing is not None else GradientSmoothing()

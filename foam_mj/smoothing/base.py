@@ -1,10 +1,10 @@
 """The smoothers' shared interface: stop criteria, the result record, hatch geometry and the fast objective.
 
-Every smoother optimises the waypoints sigma = {q'_1, ..., q'_(k-1)} of paper 000 Eq. 3, waypoint i
+Every smoother optimises the waypoints sigma = {q'_1, ..., q'_(k-1)} of Nascimento et al. 2020 Eq. 3, waypoint i
 confined to its hatch b_i ∩ b_(i+1) (Eq. 5's constraint; ``Rosary.in_hatches``), and returns a
 :class:`SmoothingResult` built from the same fields whatever the method. Because the hatches are
 convex and each holds its waypoint, the polyline [q_init, sigma, q_goal] lies in the union of the
-rosary's certified bubbles: no smoother needs a collision check (``shared/notes/bubbles-math.md``).
+rosary's certified bubbles: no smoother needs a collision check (docs/bubbles-math.md).
 """
 
 from __future__ import annotations
@@ -21,12 +21,12 @@ from foam_mj import paths
 from foam_mj.paths import fill_index
 from foam_mj.rosary import Rosary
 
-#: Paper 000 section 5.1/5.2's threshold f(sigma) < 0.38 (from paper 002). Under paper 000's own Eq. 5
-#: (length about 3.6) f never falls below it; see ``shared/papers/README.md``.
+#: Nascimento et al. 2020 section 5.1/5.2's threshold f(sigma) < 0.38 (from Nascimento et al. 2019). Under Nascimento et al. 2020's own Eq. 5
+#: (length about 3.6) f never falls below it; see docs/references.md.
 PAPER_F_THRESHOLD = 0.38
-#: Paper 002's number of improvisations NI = 2 x 10^4.
+#: Nascimento et al. 2019's number of improvisations NI = 2 x 10^4.
 PAPER_MAX_ITERATIONS = 20_000
-#: Paper 000 Table 1's criterion: no improvement of the population's mean fitness in 200 iterations.
+#: Nascimento et al. 2020 Table 1's criterion: no improvement of the population's mean fitness in 200 iterations.
 PAPER_STALL_ITERATIONS = 200
 
 SeedLike = int | np.integer | np.random.Generator | None
@@ -67,14 +67,14 @@ def _check_positive(name: str, value: Any, allow_zero: bool = False) -> None:
 class StopCriteria:
     """When an iterative smoother stops; any combination, the first one met wins.
 
-    * ``f_threshold``: the best objective falls below it (papers 000/002: f < 0.38; None = off).
-    * ``max_iterations``: iteration cap (paper 002: NI = 2 x 10^4; None = off).
+    * ``f_threshold``: the best objective falls below it (Nascimento et al. 2020 and 2019: f < 0.38; None = off).
+    * ``max_iterations``: iteration cap (Nascimento et al. 2019: NI = 2 x 10^4; None = off).
     * ``stall_iterations``: no improvement of the population's mean objective in that many consecutive
-      iterations (paper 000 Table 1: 200; None = off). "Improvement" means a new lowest mean, lower
+      iterations (Nascimento et al. 2020 Table 1: 200; None = off). "Improvement" means a new lowest mean, lower
       than the previous lowest by more than ``stall_tol``. For a single-path method (gradient
       smoothing) the "population" is the one path.
 
-    The default is Table 1's criterion with paper 002's cap as a safety net. At least one criterion
+    The default is Table 1's criterion with Nascimento et al. 2019's cap as a safety net. At least one criterion
     must be set, and a run with a threshold only must also have a cap (the threshold may be
     unreachable: it is, under Eq. 5, for 0.38).
     """
@@ -128,8 +128,8 @@ class MeanStall:
 class SmoothingResult:
     """What every smoother returns.
 
-    ``path`` is [q_init, waypoints..., q_goal] (k+1, n); ``f``, ``angle_term`` and ``length`` are paper
-    000 Eq. 5 and its two terms, ``tc`` and ``sv`` paper 003 Eq. 6 and 7, all of ``path``.
+    ``path`` is [q_init, waypoints..., q_goal] (k+1, n); ``f``, ``angle_term`` and ``length`` are Nascimento
+    et al. 2020 Eq. 5 and its two terms, ``tc`` and ``sv`` Nascimento and Alsina 2021 Eq. 6 and 7, all of ``path``.
     ``history_best`` / ``history_mean`` hold, after each iteration, the best and the population-mean
     value of the method's own ``objective``: f for HS and GA; the lowest SV so far (both) for gradient
     smoothing; the highest TC so far and the current TC for the rosary adjustment; for the convex
@@ -384,7 +384,7 @@ def check_initial(rosary: Rosary, initial: np.ndarray | None, default: np.ndarra
 
 # -- the objective ----------------------------------------------------------------------------------
 def population_objective(points: np.ndarray) -> np.ndarray:
-    """f of paper 000 Eq. 5 for a whole population of paths (P, m, n) -> (P,), in one numpy computation.
+    """f of Nascimento et al. 2020 Eq. 5 for a whole population of paths (P, m, n) -> (P,), in one numpy computation.
 
     The same function as :func:`foam_mj.paths.objective` (mean supplementary angle over the m - 2
     interior vertices plus the length; repeated points handled as there;

@@ -4,10 +4,10 @@
     subject to  |p_(j+1) - p_j| <= t_j                        j = 0..k-1   (segment lengths)
                 |w_i - c_i| <= r_i - eps,  |w_i - c_(i+1)| <= r_(i+1) - eps   i = 1..k-1   (hatches)
 
-with p_0 = q_init, p_i = w_i (the waypoints, paper 000 Eq. 3), p_k = q_goal. With lambda = 0 it is
+with p_0 = q_init, p_i = w_i (the waypoints, Nascimento et al. 2020 Eq. 3), p_k = q_goal. With lambda = 0 it is
 the shortest polyline through the hatches; its length bounds from below every path whose waypoints
 lie in the (shrunk) hatches, so it is the yardstick for HS, GA and the thesis's methods
-(``shared/notes/bubbles-math.md``). With lambda > 0 the squared second differences (a convex stand-in
+(docs/bubbles-math.md). With lambda > 0 the squared second differences (a convex stand-in
 for the turning angles of Eq. 4, which are not convex) trade length for smoothness.
 
 Solved to optimality by Clarabel (interior point; the problem is convex, so the optimum is global),

@@ -1,10 +1,10 @@
-"""Genetic Algorithm over the hatches (paper 000 section 2.2, Algorithm 1, section 4.2; parameters of 5.2).
+"""Genetic Algorithm over the hatches (Nascimento et al. 2020 section 2.2, Algorithm 1, section 4.2; parameters of 5.2).
 
-Real encoding: an individual is the waypoint set sigma (paper 000 Eq. 3), its alleles the waypoints
+Real encoding: an individual is the waypoint set sigma (Nascimento et al. 2020 Eq. 3), its alleles the waypoints
 q'_i, each confined to its hatch. The initial population is drawn uniformly in the hatches. Each
 generation (one iteration of Algorithm 1, fully vectorized over the population):
 
-1. selection: 2 x pop_size parents by roulette, favouring low f (paper 000 Eq. 5);
+1. selection: 2 x pop_size parents by roulette, favouring low f (Nascimento et al. 2020 Eq. 5);
 2. crossover, per pair with probability cross_prob: heuristic crossover (Eq. 6)
    sigma_f = sigma_p1 + beta (sigma_p1 - sigma_p2), sigma_p1 the better parent; without crossover the
    child is a copy of the first selected parent;
@@ -20,7 +20,7 @@ Choices (the paper leaves them open):
   and "linear" collapses the population within ~50 generations on the obstacle rosary and ends at
   a worse f (about 4.6 against 4.3 after 4,000 generations with beta = 0.3); heuristic crossover already pushes every
   child towards the better of its parents, so weak roulette pressure keeps the diversity it needs.
-* beta: paper 000 gives both "beta uniform in [0, 1]" (section 4.2) and "beta = 0.3" (section 5.2,
+* beta: Nascimento et al. 2020 gives both "beta uniform in [0, 1]" (section 4.2) and "beta = 0.3" (section 5.2,
   the setting of the reported runs). Default ``beta = 0.3``; ``beta=None`` draws beta ~ U[0, 1] per
   crossover.
 * A crossover child's waypoint that leaves its hatch is reverted to parent 1's (the better parent,
@@ -63,7 +63,7 @@ CHUNK = 256
 
 @dataclass(frozen=True)
 class GeneticAlgorithm(Smoother):
-    """GA with paper 000 section 5.2's parameters (population 50, crossover 0.9, mutation 0.001, beta 0.3).
+    """GA with Nascimento et al. 2020 section 5.2's parameters (population 50, crossover 0.9, mutation 0.001, beta 0.3).
 
     ``initial`` (optional) replaces one random individual of the initial population; the paper's
     population is all random (``initial=None``). ``stop`` defaults to Table 1's criterion (200
@@ -260,7 +260,7 @@ def _coordinate_sum(prod: np.ndarray, out: np.ndarray) -> np.ndarray:
 
 
 class _PopulationObjective:
-    """f of paper 000 Eq. 5 for a coordinate-major population X (n, P, L) -> (P,): equal, bit for bit,
+    """f of Nascimento et al. 2020 Eq. 5 for a coordinate-major population X (n, P, L) -> (P,): equal, bit for bit,
     to ``coordinate_major_objective(X)`` (tests/test_smoothing_math.py)."""
 
     def __init__(self, n: int, P: int, L: int) -> None:

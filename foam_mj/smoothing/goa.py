@@ -1,7 +1,7 @@
 """The Grasshopper Optimisation Algorithm (Saremi et al. 2017) and its multi-objective version MGOA
-(paper 004, Eq. 1-7 and 14-17), vectorised over the swarm.
+(Elmi and Efe 2018, Eq. 1-7 and 14-17), vectorised over the swarm.
 
-Each iteration moves every grasshopper i of the swarm at once (paper 004 Eq. 6):
+Each iteration moves every grasshopper i of the swarm at once (Elmi and Efe 2018 Eq. 6):
 
     x_i^d <- c ( sum_(j != i) c (ub_d - lb_d) / 2  s(r_ij^d)  (x_j^d - x_i^d) / d_ij ) + T_d
 
@@ -21,7 +21,7 @@ Choices (the papers leave them open), all parameters:
   the repulsion zone. Pairs at the same point contribute nothing.
 * ``social``: "sum" is Eq. 6 as written (the social term grows with the swarm size N); "mean"
   divides it by N - 1 so that the step does not depend on N. See ``benchmarks/mgoa.py`` for both.
-* ``random_social``: paper 004 notes that "to introduce random behavior, it is possible to multiply
+* ``random_social``: Elmi and Efe 2018 notes that "to introduce random behavior, it is possible to multiply
   both terms in (6) with random variables"; with True the social term is multiplied by U[0, 1] per
   particle and coordinate (the target term is left alone: scaling a position by a random factor
   would pull it towards the origin of the coordinates). Off by default (Eq. 6 as written: GOA is
@@ -59,7 +59,7 @@ from foam_mj.smoothing.pareto import (
 #: Saremi et al.'s social force parameters: attraction intensity f and attractive length scale l.
 PAPER_F = 0.5
 PAPER_L = 1.5
-#: Paper 004 Table I.
+#: Elmi and Efe 2018 Table I.
 PAPER_SWARM = 500
 PAPER_ITERATIONS = 100
 PAPER_C_MAX = 1.0
@@ -69,7 +69,7 @@ _EPS = 1e-12
 
 
 def s_function(r: np.ndarray, f: float = PAPER_F, l: float = PAPER_L) -> np.ndarray:
-    """Social force strength, paper 004 Eq. 3: s(r) = f e^(-r/l) - e^(-r)."""
+    """Social force strength, Elmi and Efe 2018 Eq. 3: s(r) = f e^(-r/l) - e^(-r)."""
     r = np.asarray(r, dtype=float)
     return f * np.exp(-r / l) - np.exp(-r)
 
@@ -286,7 +286,7 @@ class GOA(GOAParams):
 
 @dataclass(frozen=True)
 class MGOA(GOAParams):
-    """Multi-objective GOA (paper 004): GOA whose target T is drawn each iteration from the bounded Pareto
+    """Multi-objective GOA (Elmi and Efe 2018): GOA whose target T is drawn each iteration from the bounded Pareto
     archive (``archive_size`` members, crowding pruning, roulette on 1 / niche count with
     ``niche_radius``). ``run(problem, seed, initial)`` -> :class:`ParetoRun`."""
 
@@ -326,7 +326,7 @@ class MGOA(GOAParams):
 
 @dataclass(frozen=True)
 class MGOASmoother(MGOA, ParetoSmoother):
-    """MGOA over a rosary's hatches, objectives (length, angle term of paper 000 Eq. 5).
+    """MGOA over a rosary's hatches, objectives (length, angle term of Nascimento et al. 2020 Eq. 5).
 
     ``front(rosary, initial, seed)`` -> :class:`~foam_mj.smoothing.pareto.ParetoResult`;
     ``smooth(rosary, initial, seed)`` -> the :class:`SmoothingResult` of the front member named by

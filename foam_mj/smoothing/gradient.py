@@ -1,6 +1,6 @@
-"""Gradient smoothing (paper 003 section 4.4, Eq. 9) and the analytic gradients of SV and TC.
+"""Gradient smoothing (Nascimento and Alsina 2021 section 4.4, Eq. 9) and the analytic gradients of SV and TC.
 
-Eq. 9 moves every interior vertex p_i of the path down the gradient of SV (paper 003 Eq. 7),
+Eq. 9 moves every interior vertex p_i of the path down the gradient of SV (Nascimento and Alsina 2021 Eq. 7),
 
     x_j^i <- x_j^i - eta dSV/dx_j^i,     eta = 0.005 (section 5.1),
 
@@ -45,7 +45,7 @@ _EPS = 1e-12
 
 
 def sv_and_gradient(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """SV (paper 003 Eq. 7) of paths (..., L, n) and its gradient with respect to every point (..., L, n).
+    """SV (Nascimento and Alsina 2021 Eq. 7) of paths (..., L, n) and its gradient with respect to every point (..., L, n).
 
     The gradient of the end points is returned too (callers keep them fixed). A vertex next to a
     zero-length segment has no defined turn: it contributes 0 to SV and to the gradient.
@@ -81,7 +81,7 @@ def sv_and_gradient(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def tc_and_gradient(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """TC (paper 003 Eq. 6) = |p_last - p_first| / length of paths (..., L, n), and dTC/dp for the
+    """TC (Nascimento and Alsina 2021 Eq. 6) = |p_last - p_first| / length of paths (..., L, n), and dTC/dp for the
     interior points (ends held fixed: their entries are 0). dTC/dp_i = -(D_e / D_cam^2) dD_cam/dp_i,
     dD_cam/dp_i = u_(i-1,i) - u_(i,i+1) (unit vectors of the adjacent segments)."""
     p = np.asarray(points, dtype=float)
@@ -160,7 +160,7 @@ class _RepeatedCoordSum:
 
 
 class _PathSV:
-    """SV (paper 003 Eq. 7) and its gradient for one coordinate-major path P (n, L), L = m + 2 >= 3.
+    """SV (Nascimento and Alsina 2021 Eq. 7) and its gradient for one coordinate-major path P (n, L), L = m + 2 >= 3.
 
     ``__call__(P)`` returns SV and the gradient with respect to the points, (n, L), in a buffer that the
     next call overwrites; its two end columns are junk (finite: the ends are fixed, their step is
@@ -349,7 +349,7 @@ class _LensProjection:
 
 @dataclass(frozen=True)
 class GradientSmoothing(Smoother):
-    """Projected gradient descent of SV over the waypoints (paper 003 Eq. 9, eta = 0.005).
+    """Projected gradient descent of SV over the waypoints (Nascimento and Alsina 2021 Eq. 9, eta = 0.005).
 
     ``initial`` defaults to the centre path's waypoints (the thesis smooths T into T_CA, and T_RA into
     T_RCA). ``stop`` applies to SV: by default the run stops once SV has fallen by less than 1e-5 over
@@ -431,7 +431,7 @@ class GradientSmoothing(Smoother):
 
 
 def center_path_result(rosary: Rosary, method: str = "centre") -> SmoothingResult:
-    """The centre path T (through the bubble centres, paper 003 Fig. 6) as a result record."""
+    """The centre path T (through the bubble centres, Nascimento and Alsina 2021 Fig. 6) as a result record."""
     t0 = time.perf_counter()
     w = rosary.center_waypoints()
     p = rosary.path(w)

@@ -1,6 +1,6 @@
-"""Harmony Search over the hatches (paper 000 section 2.1, Eq. 1; parameters of section 5.1).
+"""Harmony Search over the hatches (Nascimento et al. 2020 section 2.1, Eq. 1; parameters of section 5.1).
 
-A harmony is one set of waypoints sigma = {q'_1, ..., q'_(k-1)} (paper 000 Eq. 3); its decision
+A harmony is one set of waypoints sigma = {q'_1, ..., q'_(k-1)} (Nascimento et al. 2020 Eq. 3); its decision
 variables (the "instruments") are the waypoints, each confined to its hatch. The harmony memory holds
 HMS harmonies drawn uniformly in the hatches. Each improvisation builds a new harmony waypoint by
 waypoint:
@@ -10,7 +10,7 @@ waypoint:
   its own x ~ U[0, 1] and sign (i.e. h + BW U[-1, 1]^n);
 * otherwise random selection: a uniform point of hatch i.
 
-The new harmony replaces the worst in memory when its f (paper 000 Eq. 5) is lower.
+The new harmony replaces the worst in memory when its f (Nascimento et al. 2020 Eq. 5) is lower.
 
 Choices (the paper leaves them open):
 
@@ -65,11 +65,11 @@ MAX_BLOCK = 256
 
 @dataclass(frozen=True)
 class HarmonySearch(Smoother):
-    """Harmony Search with paper 000 section 5.1's parameters (HMS 50, HMCR 0.99, PAR 0.15, BW 0.01).
+    """Harmony Search with Nascimento et al. 2020 section 5.1's parameters (HMS 50, HMCR 0.99, PAR 0.15, BW 0.01).
 
     ``initial`` (optional) replaces one random harmony of the initial memory; the paper's memory is all
     random (``initial=None``). ``stop`` defaults to Table 1's criterion (200 improvisations without a
-    better mean) capped at paper 002's NI = 2 x 10^4.
+    better mean) capped at Nascimento et al. 2019's NI = 2 x 10^4.
     """
 
     HMS: int = 50

@@ -1,11 +1,11 @@
-"""The best path inside the rosary: a certified local optimum of the papers' objectives (issue 8).
+"""The best path inside the rosary: a certified local optimum of the papers' objectives.
 
     minimise   F(W) = w_len * L + w_angle * mean_i phi_i + w_sv * mean_i phi_i^2
     subject to |w_i - c_i| <= r_i - inset,  |w_i - c_(i+1)| <= r_(i+1) - inset     (w_i in hatch i)
 
-over the waypoints W = (q'_1 .. q'_(k-1)) of paper 000 Eq. 3 on the path [q_init, W, q_goal]; phi_i is
+over the waypoints W = (q'_1 .. q'_(k-1)) of Nascimento et al. 2020 Eq. 3 on the path [q_init, W, q_goal]; phi_i is
 the supplementary angle pi - theta_i of Eq. 4 at the k-1 interior vertices, L the length. Weights
-(1, 1, 0) give f of paper 000 Eq. 5, (0, 0, 1) SV of paper 003 Eq. 7 (with the same vertex count),
+(1, 1, 0) give f of Nascimento et al. 2020 Eq. 5, (0, 0, 1) SV of Nascimento and Alsina 2021 Eq. 7 (with the same vertex count),
 (1, 0, 0) the length; any non-negative weights give the user's trade-off.
 
 The method: sequential convex programming (prox-linear), each subproblem a second-order cone program
@@ -101,7 +101,7 @@ _S_MAX = 2.0 - 1e-9  # |v| = 2 sin(phi / 2) <= 2; h'(s) blows up at a U-turn
 # -- objective --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class ObjectiveWeights:
-    """F = length * L + angle * mean(phi) + sv * mean(phi^2). Paper 000's f is (1, 1, 0)."""
+    """F = length * L + angle * mean(phi) + sv * mean(phi^2). Nascimento et al. 2020's f is (1, 1, 0)."""
 
     length: float = 1.0
     angle: float = 1.0
@@ -782,7 +782,7 @@ class StartOutcome:
 class OptimalSmoother(Smoother):
     """Minimise f (or SV, or a weighted objective) over the hatches to a certified local optimum.
 
-    ``objective`` names a preset ("f": paper 000 Eq. 5, "sv": paper 003 Eq. 7, "length") unless
+    ``objective`` names a preset ("f": Nascimento et al. 2020 Eq. 5, "sv": Nascimento and Alsina 2021 Eq. 7, "length") unless
     ``weights`` is given. The first start is ``initial`` when given (e.g. an HS or GA result; a stack
     (S, k-1, n) gives S starts), else the
     convex reference's shortest path (for objectives with an SV term, also the midpoint of that path

@@ -1,4 +1,4 @@
-"""Pareto machinery for the multi-objective smoothers (issue 7; paper 004 Eq. 14-19).
+"""Pareto machinery for the multi-objective smoothers (Elmi and Efe 2018, Eq. 14-19).
 
 * Dominance (Eq. 14): ``a`` dominates ``b`` when a_i <= b_i for every objective and a_i < b_i for one.
   With constraints (the planar experiment's obstacles) the archive uses **constrained dominance**
@@ -18,8 +18,8 @@
 * Metrics: ER (Eq. 18, :func:`error_ratio`) against a reference front, SCM (Eq. 19,
   :func:`set_coverage`) with weak dominance, 2-D hypervolume and the knee.
 
-On a rosary (:class:`RosaryProblem`) the two objectives are the path length and the angle term of paper
-000 Eq. 5 (``paths.path_length`` and ``paths.angle_term``); their sum is Eq. 5's f. The result of a
+On a rosary (:class:`RosaryProblem`) the two objectives are the path length and the angle term of Nascimento
+et al. 2020 Eq. 5 (``paths.path_length`` and ``paths.angle_term``); their sum is Eq. 5's f. The result of a
 multi-objective smoother is a :class:`ParetoResult` (the front as arrays, its knee and its two
 extremes); :class:`ParetoSmoother` (base of ``MGOASmoother`` and ``MOPSOSmoother``) adapts it to the
 :class:`~foam_mj.smoothing.base.Smoother` interface: ``smooth()`` returns the knee's (or another selected
@@ -281,7 +281,7 @@ def _as_set(A, name: str) -> np.ndarray:
 
 
 def error_ratio(front: np.ndarray, reference: np.ndarray) -> float:
-    """ER of paper 004 Eq. 18: the share of ``front``'s solutions that are not members of the Pareto
+    """ER of Elmi and Efe 2018 Eq. 18: the share of ``front``'s solutions that are not members of the Pareto
     optimal set. The true set being unknown, ``reference`` stands for it (in the benchmark: the
     non-dominated union of every run's front): x_i = 1 when some reference point dominates solution i
     (Eq. 14), else 0 (a solution that no reference point dominates belongs to the reference front's
@@ -296,7 +296,7 @@ def error_ratio(front: np.ndarray, reference: np.ndarray) -> float:
 
 
 def set_coverage(A: np.ndarray, B: np.ndarray) -> float:
-    """SCM(A, B) of paper 004 Eq. 19 (Zitzler's C metric): the share of B weakly dominated by some member
+    """SCM(A, B) of Elmi and Efe 2018 Eq. 19 (Zitzler's C metric): the share of B weakly dominated by some member
     of A (a <= b in every objective). 1: A covers all of B; 0: none of it."""
     A, B = _as_set(A, "A"), _as_set(B, "B")
     if len(B) == 0:
@@ -441,7 +441,7 @@ def check_schedule_params(c_max: Any, c_min: Any) -> None:
 # -- the rosary problem ----------------------------------------------------------------------------------
 def length_and_angle(points: np.ndarray) -> np.ndarray:
     """(paths.path_length, paths.angle_term) of paths (P, k+1, n) in one pass -> (P, 2): the two terms of
-    paper 000 Eq. 5 (length; mean supplementary angle over the interior vertices, a vertex next to a
+    Nascimento et al. 2020 Eq. 5 (length; mean supplementary angle over the interior vertices, a vertex next to a
     zero-length segment counting as straight)."""
     p = np.asarray(points, dtype=float)
     seg = p[..., 1:, :] - p[..., :-1, :]
@@ -455,7 +455,7 @@ def length_and_angle(points: np.ndarray) -> np.ndarray:
 
 
 class RosaryProblem:
-    """The waypoints of a rosary (paper 000 Eq. 3) as a two-objective problem: minimise (length,
+    """The waypoints of a rosary (Nascimento et al. 2020 Eq. 3) as a two-objective problem: minimise (length,
     angle term) with waypoint i in hatch i.
 
     Decision vector: the k-1 waypoints flattened waypoint-major (D = (k-1) n). The search box is the
@@ -513,7 +513,7 @@ class ParetoResult:
 
     ``front_waypoints`` (F, k-1, n) and ``front_paths`` (F, k+1, n), ``front_objectives`` (F, 2) with
     columns ``objective_names`` = ("length", "angle_term") (paths.path_length and paths.angle_term;
-    their sum is paper 000 Eq. 5's f), sorted by length (so by decreasing angle term). ``knee`` indexes
+    their sum is Nascimento et al. 2020 Eq. 5's f), sorted by length (so by decreasing angle term). ``knee`` indexes
     the member closest to the ideal point (:func:`knee_index`); ``extremes`` = (shortest, smoothest).
     ``history`` per iteration (index 0 = initial swarm): archive_size, archive_feasible, best_length, best_angle_term,
     mean_length, mean_angle_term, feasible_share, hypervolume, best_f (lowest f = length + angle term
@@ -562,7 +562,7 @@ class ParetoResult:
 
     @property
     def f(self) -> np.ndarray:
-        """Paper 000 Eq. 5 of every member."""
+        """Nascimento et al. 2020 Eq. 5 of every member."""
         return self.front_objectives.sum(axis=1)
 
     def index(self, select: str) -> int:

@@ -1,4 +1,4 @@
-"""Particle Swarm Optimisation (paper 004 Eq. 8-9) and its multi-objective version MOPSO, vectorised.
+"""Particle Swarm Optimisation (Elmi and Efe 2018 Eq. 8-9) and its multi-objective version MOPSO, vectorised.
 
 Every particle i moves with (Eq. 9, then Eq. 8)
 
@@ -6,7 +6,7 @@ Every particle i moves with (Eq. 9, then Eq. 8)
 
 r1, r2 ~ U[0, 1] drawn per particle and coordinate. ``inertia`` is w, a constant or a pair (w_start,
 w_end) decreasing linearly over the iterations (w_l = w_start + (w_end - w_start) l / L); ``c1``, ``c2``
-are the individual and group learning rates. Paper 004 gives no values; defaults: Shi and Eberhart's
+are the individual and group learning rates. Elmi and Efe 2018 gives no values; defaults: Shi and Eberhart's
 inertia decreasing from 0.9 to 0.4 with Clerc and Kennedy's c1 = c2 = 1.49618 (the constant
 w = 0.7298 of Clerc and Kennedy, ``inertia=CLERC_W``, ends about twice as far from the convex length
 bound on the obstacle rosary and slightly worse on the planar maps).
@@ -204,7 +204,7 @@ class MOPSO(PSOParams):
 
 @dataclass(frozen=True)
 class MOPSOSmoother(MOPSO, ParetoSmoother):
-    """MOPSO over a rosary's hatches, objectives (length, angle term of paper 000 Eq. 5); the same
+    """MOPSO over a rosary's hatches, objectives (length, angle term of Nascimento et al. 2020 Eq. 5); the same
     interface as :class:`~foam_mj.smoothing.goa.MGOASmoother` (``front`` and ``smooth``). Positions are
     projected onto the hatches (shrunk by ``inset``) after each move. Defaults: a swarm of 100 for
     500 iterations (about 1 s on the obstacle rosary)."""

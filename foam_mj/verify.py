@@ -1,0 +1,293 @@
+"""``foam-mj verify RESULT.json``: an independent check of a saved result, with MuJoCo alone.
+
+None of the planner's code is used: only the JSON, numpy and MuJoCo (and foam_mj's error and
+fingerprint helpers, which use nothing else). For every path of the result:
+
+* its waypoints, a polyline in the configuration q, sampled so that consecutive samples are at most
+  ``step`` apart both in q (Euclidean) and in qpos (largest coordinate); q is mapped to qpos by the
+  result's own "configuration" map (``qpos = qpos0; qpos[qpos_index] = offset + scale * q``; q may be
+  normalized, e.g. the Ortholeg's hip slide);
+* its timed trajectory, the "qpos" rows, with linear samples between rows at the same step;
+
+and at every sample, ``mujoco.mj_geomDistance`` between every moving collision geom (on a body some
+joint moves) and every static one (contype or conaffinity non-zero), with no contype/conaffinity
+filtering: stricter than the planner. A sample is a *violation* when some pair is closer than the
+result's margin ("planner" / "delta").
+
+Speed: poses of all samples come from one ``mj_kinematics`` call each; a bounding-sphere lower bound
+(centre distance minus both ``geom_rbound``; for a plane, the signed distance of the other sphere)
+is computed for every (sample, pair) with numpy, and ``mj_geomDistance`` runs only where that bound is
+below max(margin, an upper bound of the minimum found from the most promising pairs). This is exact
+for both outputs: a pair skipped has a distance at least its bound, which is at least the margin and
+at least the smallest distance found.
+
+The scene is the result's "mjcf_relative" (resolved against the result's folder) or "mjcf", and must
+compile to the stored "model_hash" when there is one (otherwise it is refused: exit 2).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from foam_mj.errors import FoamError
+from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
+
+#: How many (sample, pair) candidates with the smallest lower bounds are evaluated first, to bound the minimum.
+_PROBES = 32
+
+
+@dataclass(frozen=True)
+class PathCheck:
+    """The check of one path: waypoint and trajectory samples, the smallest distance, the violations."""
+
+    name: str
+    waypoint_samples: int
+    trajectory_samples: int
+    min_clearance: float  # metres, over every sample and pair
+    violations: int  # samples closer than the margin
+    worst_pair: tuple[str, str]
+    exact_calls: int  # mj_geomDistance calls made
+
+
+@dataclass(frozen=True)
+class VerifyReport:
+    result: Path
+    mjcf: Path
+    margin: float
+    step: float
+    pairs: int
+    paths: tuple[PathCheck, ...] = field(default_factory=tuple)
+
+    @property
+    def violations(self) -> int:
+        return sum(p.violations for p in self.paths)
+
+    @property
+    def samples(self) -> int:
+        return sum(p.waypoint_samples + p.trajectory_samples for p in self.paths)
+
+    @property
+    def min_clearance(self) -> float:
+        return min((p.min_clearance for p in self.paths), default=float("inf"))
+
+
+def _fail(source: Path, msg: str) -> FoamError:
+    return FoamError(f"{source}: {msg}")
+
+
+def _load(source: Path) -> dict:
+    try:
+        doc = json.loads(source.read_text())
+    except FileNotFoundError:
+        raise FoamError(f"result file not found: {source}") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise _fail(source, f"not a readable JSON result: {' '.join(str(exc).split())}") from None
+    if not isinstance(doc, dict) or doc.get("format") != "foam-mj/result":
+        raise _fail(source, "not a foam-mj result (field 'format' should be 'foam-mj/result')")
+    if doc.get("version") != 1:
+        raise _fail(source, f"unknown format version {doc.get('version')!r} (verify reads version 1)")
+    return doc
+
+
+def _scene(doc: dict, source: Path) -> tuple[Path, mujoco.MjModel]:
+    candidates = []
+    if isinstance(doc.get("mjcf_relative"), str):
+        candidates.append(("mjcf_relative", (source.parent / doc["mjcf_relative"]).resolve()))
+    if isinstance(doc.get("mjcf"), str) and doc["mjcf"]:
+        candidates.append(("mjcf", Path(doc["mjcf"])))
+    existing = [(k, p) for k, p in candidates if p.is_file()]
+    if not existing:
+        raise _fail(source, "the scene file it was planned on is not found (" + (", ".join(f"{k} = {p}" for k, p in candidates) or "no 'mjcf' field") + ")")
+    stored = doc.get("model_hash")
+    chosen = None
+    for key, path in existing:
+        try:
+            m = mujoco.MjModel.from_xml_path(str(path))
+        except ValueError as exc:
+            raise _fail(source, f"field '{key}': could not load {path}: {' '.join(str(exc).split())}") from None
+        if isinstance(stored, dict):
+            diff = fingerprint_differences(stored, model_fingerprint(m))
+            if diff:
+                raise _fail(source, f"field '{key}' names {path}, which compiles to a different model than the one planned on ({', '.join(diff)} differ{'s' if len(diff) == 1 else ''}; model_hash {str(stored.get('sha256'))[:12]} in the result)")
+        chosen = chosen or (path, m)
+    return chosen
+
+
+def _moving(m: mujoco.MjModel, body: int) -> bool:
+    while body != 0:
+        if m.body_jntnum[body] > 0:
+            return True
+        body = int(m.body_parentid[body])
+    return False
+
+
+def collision_pairs(m: mujoco.MjModel) -> np.ndarray:
+    """(P, 2) geom ids: every moving collision geom against every static one."""
+    coll = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    moving = [g for g in coll if _moving(m, int(m.geom_bodyid[g]))]
+    static = [g for g in coll if not _moving(m, int(m.geom_bodyid[g]))]
+    return np.array([(a, b) for a in moving for b in static], dtype=int).reshape(-1, 2)
+
+
+def _configuration_map(doc: dict, m: mujoco.MjModel, source: Path):
+    cfg = doc.get("configuration") or {}
+    try:
+        idx = np.asarray(cfg["qpos_index"], dtype=int)
+        scale = np.asarray(cfg["scale"], dtype=float)
+        offset = np.asarray(cfg["offset"], dtype=float)
+        qpos0 = np.asarray(cfg["qpos0"], dtype=float)
+    except (KeyError, TypeError, ValueError):
+        raise _fail(source, "field 'configuration' lacks the q -> qpos map (qpos_index, scale, offset, qpos0): "
+                            "written by an older foam-mj; plan it again") from None
+    if qpos0.shape != (m.nq,) or not (idx.shape == scale.shape == offset.shape) or idx.ndim != 1 or np.any((idx < 0) | (idx >= m.nq)):
+        raise _fail(source, f"field 'configuration' does not fit the scene (nq = {m.nq})")
+    if np.any(scale == 0):
+        raise _fail(source, "field 'configuration': a scale is 0")
+    return idx, scale, offset, qpos0
+
+
+def _densify(points: np.ndarray, extra: np.ndarray, step: float) -> np.ndarray:
+    """Linear samples along a polyline of ``points`` (rows), consecutive ones at most ``step`` apart in
+    both the Euclidean norm of ``points`` and the max norm of ``extra`` (the same polyline in other units)."""
+    if len(points) == 1:
+        return extra.copy()
+    d_pts = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    d_ext = np.max(np.abs(np.diff(extra, axis=0)), axis=1)
+    counts = np.maximum(1, np.ceil(np.maximum(d_pts, d_ext) / step).astype(int))
+    seg = np.repeat(np.arange(len(counts)), counts)
+    t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(counts, counts)
+    out = extra[seg] + (extra[seg + 1] - extra[seg]) * t[:, None]
+    return np.vstack([out, extra[-1:]])
+
+
+class _Checker:
+    """Distances of every (sample, pair), exact where it matters (see the module docstring)."""
+
+    def __init__(self, m: mujoco.MjModel, pairs: np.ndarray) -> None:
+        self.m, self.d, self.pairs = m, mujoco.MjData(m), pairs
+        self.rb = np.asarray(m.geom_rbound, dtype=float)
+        plane = int(mujoco.mjtGeom.mjGEOM_PLANE)
+        self.plane_a = np.asarray(m.geom_type)[pairs[:, 0]] == plane
+        self.plane_b = np.asarray(m.geom_type)[pairs[:, 1]] == plane
+        self.calls = 0
+
+    def _poses(self, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        m, d = self.m, self.d
+        xpos = np.empty((len(qpos), m.ngeom, 3))
+        xnormal = np.empty((len(qpos), m.ngeom, 3))
+        for i, row in enumerate(qpos):
+            d.qpos[:] = row
+            mujoco.mj_kinematics(m, d)
+            xpos[i] = d.geom_xpos
+            xnormal[i] = d.geom_xmat.reshape(-1, 3, 3)[:, :, 2]
+        return xpos, xnormal
+
+    def _lower_bounds(self, xpos: np.ndarray, xnormal: np.ndarray) -> np.ndarray:
+        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        delta = xpos[:, b] - xpos[:, a]
+        lb = np.linalg.norm(delta, axis=2) - self.rb[a] - self.rb[b]
+        # A plane (rbound 0, infinite): signed distance of the other geom's centre, minus its sphere.
+        pa = np.einsum("spk,spk->sp", xnormal[:, a], delta) - self.rb[b]
+        pb = np.einsum("spk,spk->sp", xnormal[:, b], -delta) - self.rb[a]
+        lb = np.where(self.plane_a, pa, lb)
+        lb = np.where(self.plane_b, pb, lb)
+        lb = np.where(self.plane_a & self.plane_b, -np.inf, lb)
+        return lb
+
+    def _exact(self, qpos: np.ndarray, cand: np.ndarray, distmax: float) -> np.ndarray:
+        """mj_geomDistance at (sample, pair) indices ``cand`` (K, 2), grouped by sample."""
+        m, d = self.m, self.d
+        out = np.empty(len(cand))
+        order = np.argsort(cand[:, 0], kind="stable")
+        last = -1
+        for k in order:
+            s, p = int(cand[k, 0]), int(cand[k, 1])
+            if s != last:
+                d.qpos[:] = qpos[s]
+                mujoco.mj_kinematics(m, d)
+                last = s
+            out[k] = mujoco.mj_geomDistance(m, d, int(self.pairs[p, 0]), int(self.pairs[p, 1]), distmax, None)
+        self.calls += len(cand)
+        return out
+
+    def check(self, qpos: np.ndarray, margin: float) -> tuple[float, int, int]:
+        """(smallest distance, samples closer than margin, index of the closest pair) over the samples."""
+        xpos, xnormal = self._poses(qpos)
+        lb = self._lower_bounds(xpos, xnormal)
+        flat = lb.ravel()
+        probe = np.argsort(flat)[:_PROBES]
+        probe_idx = np.column_stack(np.unravel_index(probe, lb.shape))
+        upper = float(np.min(self._exact(qpos, probe_idx, np.inf))) if len(probe) else np.inf
+        threshold = max(margin, upper)
+        cand = np.column_stack(np.nonzero(lb < threshold))
+        dist = self._exact(qpos, cand, threshold + 1e-3) if len(cand) else np.empty(0)
+        if len(dist) == 0:
+            return upper, 0, int(probe_idx[0, 1]) if len(probe_idx) else -1
+        violating = np.unique(cand[dist < margin, 0])
+        k = int(np.argmin(dist))
+        return float(min(dist[k], upper)), len(violating), int(cand[k, 1])
+
+
+def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
+    """Check every path of a result densely with MuJoCo (see the module docstring)."""
+    source = Path(result)
+    if not (np.isfinite(step) and step > 0):
+        raise FoamError(f"--step must be a positive number, got {step}")
+    doc = _load(source)
+    mjcf, m = _scene(doc, source)
+    idx, scale, offset, qpos0 = _configuration_map(doc, m, source)
+    try:
+        margin = float(doc["planner"]["delta"])
+    except (KeyError, TypeError, ValueError):
+        raise _fail(source, "missing field 'planner.delta' (the safety margin)") from None
+    paths = doc.get("paths")
+    if not isinstance(paths, dict):
+        raise _fail(source, "field 'paths' must be an object")
+    pairs = collision_pairs(m)
+    if len(pairs) == 0:
+        raise _fail(source, f"the scene {mjcf} has no pair of moving and static collision geoms")
+    checker = _Checker(m, pairs)
+    names = lambda g: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"geom{int(g)}"  # noqa: E731
+    checks = []
+    for name, entry in paths.items():
+        try:
+            wp = np.asarray(entry["waypoints"], dtype=float)
+            rows = np.asarray(entry.get("qpos", []), dtype=float)
+        except (KeyError, TypeError, ValueError, AttributeError):
+            raise _fail(source, f"path '{name}': 'waypoints' and 'qpos' must be lists of numbers") from None
+        if wp.ndim != 2 or wp.shape[1] != len(idx) or len(wp) < 2 or not np.all(np.isfinite(wp)):
+            raise _fail(source, f"path '{name}': waypoints of shape {wp.shape}, expected (N >= 2, {len(idx)}) finite numbers")
+        wp_qpos = np.broadcast_to(qpos0, (len(wp), m.nq)).copy()
+        wp_qpos[:, idx] = offset + scale * wp
+        samples_wp = _densify(wp, wp_qpos, step)
+        if rows.size:
+            if rows.ndim != 2 or rows.shape[1] != m.nq or not np.all(np.isfinite(rows)):
+                raise _fail(source, f"path '{name}': qpos rows of shape {rows.shape}, expected (N, {m.nq}) finite numbers")
+            samples_tr = _densify((rows[:, idx] - offset) / scale, rows, step)
+        else:
+            samples_tr = np.empty((0, m.nq))
+        allq = np.vstack([samples_wp, samples_tr])
+        calls0 = checker.calls
+        dmin, bad, pair = checker.check(allq, margin)
+        checks.append(PathCheck(name, len(samples_wp), len(samples_tr), dmin, bad,
+                                (names(pairs[pair, 0]), names(pairs[pair, 1])) if pair >= 0 else ("", ""), checker.calls - calls0))
+    return VerifyReport(source, mjcf, margin, step, len(pairs), tuple(checks))
+
+
+def format_report(r: VerifyReport) -> str:
+    """The table ``foam-mj verify`` prints, and a last summary line."""
+    head = f"{'path':<20}{'waypoint samples':>17}{'trajectory samples':>20}{'min clear':>11}{'violations':>11}  closest pair"
+    lines = [f"verify {r.result} on {r.mjcf}: {r.pairs} moving/static geom pairs, step {r.step:g}, margin {r.margin * 1000:g} mm",
+             head, "-" * len(head)]
+    for p in r.paths:
+        lines.append(f"{p.name:<20}{p.waypoint_samples:>17,}{p.trajectory_samples:>20,}{p.min_clearance * 1000:>8.2f} mm"
+                     f"{p.violations:>11}  {p.worst_pair[0]} / {p.worst_pair[1]}")
+    verdict = "clean" if r.violations == 0 else f"UNSAFE: {r.violations} sample(s) closer than the margin"
+    lines.append(f"paths {len(r.paths)} samples {r.samples} min_clearance_mm {r.min_clearance * 1000:.2f} "
+                 f"violations {r.violations}: {verdict}")
+    return "\n".join(lines)

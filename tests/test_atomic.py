@@ -1,0 +1,87 @@
+"""Outputs are written atomically (complete or absent) and output locations are checked before any work."""
+
+from __future__ import annotations
+
+import errno
+import os
+
+import pytest
+
+from foam_mj import atomic
+from foam_mj.atomic import OutputError, atomic_path, atomic_write_text, check_output, check_output_dir
+
+
+def test_a_complete_write_renames_into_place_and_leaves_no_temporary(tmp_path):
+    target = tmp_path / "out.json"
+    target.write_text("old")
+    with atomic_path(target) as tmp:
+        assert tmp.parent == tmp_path and tmp.suffix == ".json" and tmp.name.startswith(".")
+        tmp.write_text("new")
+        assert target.read_text() == "old"  # the old file stays until the rename
+    assert target.read_text() == "new"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.json"]
+
+
+def test_a_failed_write_leaves_neither_file_nor_temporary(tmp_path):
+    target = tmp_path / "out.json"
+    with pytest.raises(OutputError, match=r"could not write .*out.json: No space left on device"):
+        with atomic_path(target) as tmp:
+            tmp.write_text("half")
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_path(target) as tmp:
+            tmp.write_text("half")
+            raise KeyboardInterrupt
+    with pytest.raises(OutputError, match="produced no file"):
+        with atomic_path(target):
+            pass
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_existing_file_survives_a_failed_write(tmp_path):
+    target = tmp_path / "keep.txt"
+    target.write_text("complete")
+    with pytest.raises(ValueError):
+        with atomic_path(target) as tmp:
+            tmp.write_text("partial")
+            raise ValueError("writer failed")
+    assert target.read_text() == "complete" and [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda d: "", "empty file name"),
+        (lambda d: d / "missing" / "x.json", "does not exist"),
+        (lambda d: d, "is a directory"),
+        (lambda d: d / ("a" * 300 + ".json"), "longer than this file system allows"),
+        (lambda d: "/proc/x.json", "cannot create a file in /proc"),
+        (lambda d: d / "x.txt", "must end in .rrd"),
+    ],
+)
+def test_check_output_refuses_what_cannot_be_written(tmp_path, make, message):
+    with pytest.raises(OutputError, match=message):
+        check_output(make(tmp_path), "--out", suffix=".rrd" if message == "must end in .rrd" else None)
+    assert list(tmp_path.iterdir()) == []  # the probe leaves nothing behind
+
+
+def test_check_output_refuses_a_full_file_system(tmp_path, monkeypatch):
+    free = os.statvfs(tmp_path).f_bavail * os.statvfs(tmp_path).f_frsize
+    monkeypatch.setattr(atomic, "MIN_FREE_BYTES", free + (1 << 40))
+    with pytest.raises(OutputError, match="no space left"):
+        check_output(tmp_path / "x.json", "--json")
+    assert check_output(tmp_path / "x.json", "--json", min_free=0) == tmp_path / "x.json"
+
+
+def test_check_output_dir_accepts_a_creatable_folder_only(tmp_path):
+    assert check_output_dir(tmp_path / "new", "--figures") == tmp_path / "new"
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(OutputError, match="is a file"):
+        check_output_dir(tmp_path / "file", "--figures")
+    with pytest.raises(OutputError, match="does not exist"):
+        check_output_dir(tmp_path / "a" / "b", "--figures")
+
+
+def test_atomic_write_text_is_complete(tmp_path):
+    p = atomic_write_text(tmp_path / "t.txt", "é" * 1000)
+    assert p.read_text(encoding="utf-8") == "é" * 1000

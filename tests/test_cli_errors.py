@@ -1,0 +1,288 @@
+"""The command line's contract: every bad input is one line on stderr and exit 2 (before any planning where
+it can be) or 3, never a traceback, never a file left behind; outputs are complete or absent; replay refuses
+a result that does not match its scene; the exit codes and flags are documented."""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import subprocess
+import sys
+import uuid
+from pathlib import Path
+
+import pytest
+
+from foam_mj import atomic
+from foam_mj.cli import EXIT_CODES, build_parser, main
+
+from conftest import MODELS
+
+ROOT = Path(__file__).resolve().parents[1]
+GOOD = "q_init = [0.2, 0.3, 0.08]\nq_goal = [0.45, 0.4536, 1.45]\n"
+
+
+def _toml(folder: Path, body: str, scene: str = str(MODELS / "obstacle.xml")) -> Path:
+    p = folder / f"s{uuid.uuid4().hex[:6]}.toml"
+    p.write_text(f'scene = "{scene}"\n{body}')
+    return p
+
+
+def _bad_inputs(d: Path) -> dict[str, tuple[list[str], str]]:
+    bad_xml = d / "bad.xml"
+    bad_xml.write_text('<mujoco><worldbody><geom type="box" size="1"/></worldbody></mujoco>')
+    (d / "folder").mkdir()
+    long_name = "a" * 300 + ".json"
+    return {
+        "q_goal == q_init": (["--scene", str(_toml(d, "q_init = [0.2, 0.3, 0.08]\nq_goal = [0.2, 0.3, 0.08]\n"))], "are equal"),
+        "huge K": (["--scene", str(_toml(d, GOOD + "[planner]\nK = 100000000\n"))], "candidates per bubble"),
+        "tiny r_min": (["--scene", str(_toml(d, GOOD + "[planner]\nr_min = 1e-7\n"))], "candidates per bubble"),
+        "seed -1": (["--seed", "-1"], "--seed"),
+        "seed 2**70": (["--seed", str(2**70)], "--seed"),
+        "seed not a number": (["--seed", "abc"], "--seed"),
+        "--json under /proc": (["--json", "/proc/foam.json"], "cannot create a file in /proc"),
+        "--rrd under /proc": (["--rrd", "/proc/foam.rrd"], "cannot create a file in /proc"),
+        "--json 300-char name": (["--json", str(d / long_name)], "longer than this file system allows"),
+        "--rrd 300-char name": (["--rrd", str(d / ("b" * 300 + ".rrd"))], "longer than this file system allows"),
+        "--json a directory": (["--json", str(d / "folder")], "is a directory"),
+        "--rrd not .rrd": (["--rrd", str(d / "x.txt")], "must end in .rrd"),
+        "--figures a file": (["--figures", str(bad_xml)], "is a file"),
+        "scenario name a/b": (["--scene", str(_toml(d, 'name = "a/b"\n' + GOOD))], "field 'name'"),
+        "--scene ''": (["--scene", ""], "empty scenario name"),
+        "--scene a directory": (["--scene", str(d / "folder")], "is a directory"),
+        "MJCF compile error": (["--scene", str(_toml(d, GOOD, str(bad_xml)))], "could not load MJCF"),
+        "--no-rrd with --rrd": (["--no-rrd", "--rrd", str(d / "x.rrd")], "not allowed with argument --no-rrd"),
+        "unknown smoother": (["--smoother", "fastest"], "unknown smoother"),
+        "unknown scene": (["--scene", "moon_walk"], "unknown scenario"),
+    }
+
+
+
+
+@pytest.fixture
+def inputs(tmp_path):
+    d = tmp_path / "in"
+    d.mkdir()
+    return _bad_inputs(d)
+
+
+NAMES = ["q_goal == q_init", "huge K", "tiny r_min", "seed -1", "seed 2**70", "seed not a number", "--json under /proc",
+         "--rrd under /proc", "--json 300-char name", "--rrd 300-char name", "--json a directory", "--rrd not .rrd",
+         "--figures a file", "scenario name a/b", "--scene ''", "--scene a directory", "MJCF compile error",
+         "--no-rrd with --rrd", "unknown smoother", "unknown scene"]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_every_bad_plan_input_is_one_line_exit_2_and_leaves_no_file(name, inputs, tmp_path, monkeypatch, capsys):
+    args, message = inputs[name]
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    before = sorted(p.name for p in (tmp_path / "in").iterdir())
+    code = main(["plan", *args])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert message in err, err
+    assert list(work.iterdir()) == [] and sorted(p.name for p in (tmp_path / "in").iterdir()) == before
+
+
+def test_bad_inputs_are_refused_before_planning(inputs, capsys):
+    """K = 1e8 used to end in a MemoryError after 80 s: now the bound is checked up front."""
+    import time
+
+    t0 = time.perf_counter()
+    for name in ("huge K", "tiny r_min", "q_goal == q_init"):
+        assert main(["plan", *inputs[name][0], "--no-rrd"]) == 2
+    assert time.perf_counter() - t0 < 30  # generous under load; planning would take minutes or fail
+    assert "planning" not in capsys.readouterr().err
+
+
+def test_bench_refuses_an_unwritable_json_before_any_work(capsys):
+    assert main(["bench", "--quick", "--json", "/proc/bench.json"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot create a file in /proc" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_write_failure_after_planning_leaves_no_file_and_exits_2(tmp_path, monkeypatch, capsys):
+    """A full disk at write time (an injected ENOSPC): no .rrd, no .json, no temporary file, exit 2."""
+
+    def full(fd):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(atomic.os, "fsync", full)
+    code = main(["plan", "--smoother", "none", "--no-replay", "--rrd", str(tmp_path / "r.rrd"), "--json", str(tmp_path / "r.json")])
+    err = capsys.readouterr().err
+    assert code == 2 and "No space left on device" in err and len(err.strip().splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture
+def small_tmpfs(tmp_path):
+    mnt = tmp_path / "tmpfs"
+    mnt.mkdir()
+    if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True).returncode:
+        pytest.skip("mounting a tmpfs needs root (the injected-ENOSPC test covers the same path)")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", str(mnt)], capture_output=True)
+
+
+def test_a_really_full_file_system_leaves_no_file(small_tmpfs, monkeypatch, capsys):
+    """On a 64 KiB tmpfs: refused before planning; with the free-space check off, the writes fail and leave nothing."""
+    rrd, js = small_tmpfs / "r.rrd", small_tmpfs / "r.json"
+    assert main(["plan", "--smoother", "none", "--no-replay", "--rrd", str(rrd), "--json", str(js)]) == 2
+    assert "no space left" in capsys.readouterr().err
+    monkeypatch.setattr(atomic, "MIN_FREE_BYTES", 0)
+    assert main(["plan", "--smoother", "none", "--no-replay", "--rrd", str(rrd), "--json", str(js)]) == 2
+    err = capsys.readouterr().err
+    assert "No space left on device" in err and len(err.strip().splitlines()) == 1
+    assert list(small_tmpfs.iterdir()) == []
+
+
+# -- replay refuses what does not match ----------------------------------------------------------------------
+def _edited(src: Path, folder: Path, edit) -> Path:
+    doc = json.loads(src.read_text())
+    edit(doc)
+    out = folder / "edited.json"
+    out.write_text(json.dumps(doc))
+    return out
+
+
+def test_the_result_names_its_scene_relative_to_itself_and_by_content_hash(planned_result):
+    doc = json.loads(planned_result.read_text())
+    assert (planned_result.parent / doc["mjcf_relative"]).resolve() == Path(doc["mjcf"]).resolve()
+    assert len(doc["model_hash"]["sha256"]) == 64 and set(doc["model_hash"]["parts"]) == {"kinematics", "geometry", "dynamics", "declarations"}
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda d: d.update(version=99), "unknown format version 99"),
+        (lambda d: (d.update(mjcf=str(MODELS / "step_up.xml")), d.pop("mjcf_relative")), "field 'mjcf' names"),
+        (lambda d: d.update(mjcf_relative=os.path.relpath(MODELS / "step_up.xml", d["_folder"])), "field 'mjcf_relative' names"),
+        (lambda d: d["model_hash"]["parts"].update(geometry="0" * 64), "geometry differs"),
+        (lambda d: d.update(mjcf="/nowhere/scene.xml", mjcf_relative="nowhere.xml"), "not found"),
+    ],
+)
+def test_replay_refuses_a_result_that_does_not_match_its_scene(planned_result, tmp_path, edit, message, capsys):
+    def with_folder(doc):
+        doc["_folder"] = str(tmp_path)
+        edit(doc)
+
+    bad = _edited(planned_result, tmp_path, with_folder)
+    assert main(["replay", str(bad), "--kinematic-only"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err
+    assert main(["verify", str(bad)]) == 2
+    assert message.split(" names")[0] in capsys.readouterr().err
+
+
+def test_a_result_moved_away_from_its_scene_still_replays_by_its_absolute_path(planned_result, tmp_path, capsys):
+    moved = tmp_path / "deep" / "er"
+    moved.mkdir(parents=True)
+    (moved / "r.json").write_text(planned_result.read_text())
+    assert main(["replay", str(moved / "r.json"), "--kinematic-only"]) == 0
+
+
+def test_replay_exits_4_when_its_replay_is_closer_than_the_margin(planned_result, tmp_path, capsys):
+    """The same result with a margin larger than its clearance (0.5 m): the replay is below the margin."""
+    bad = _edited(planned_result, tmp_path, lambda d: d["planner"].update(delta=0.5))
+    assert main(["replay", str(bad), "--kinematic-only"]) == 4
+    assert "below the margin 500 mm" in capsys.readouterr().err
+    assert main(["replay", str(planned_result), "--kinematic-only"]) == 0
+
+
+# -- view, version, documentation -----------------------------------------------------------------------------
+def test_view_without_a_display_says_what_to_do(tmp_path, monkeypatch, capsys):
+    rrd = tmp_path / "x.rrd"
+    rrd.write_bytes(b"")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr(sys, "platform", "linux")
+    assert main(["view", str(rrd)]) == 2
+    err = capsys.readouterr().err
+    assert "no display" in err and "--web" in err and "rerun rrd stats" in err
+
+
+def test_view_web_serves_on_localhost_only_and_prints_the_url(tmp_path):
+    from foam_mj.recording import Recording
+
+    rrd = tmp_path / "v.rrd"
+    with Recording(rrd) as rec:
+        rec.log_path("p", [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]])
+    exe = Path(sys.executable).with_name("foam-mj")
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "RERUN_ANALYTICS": "false"}
+    proc = subprocess.Popen([str(exe), "view", "--web", str(rrd), "--web-port", "0", "--grpc-port", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env)
+    try:
+        line = proc.stdout.readline()
+        assert "open http://127.0.0.1:" in line and "bound to 127.0.0.1" in line, line
+        web_port = int(line.split("open http://127.0.0.1:")[1].split("?")[0])
+        assert web_port > 0
+        # Only loopback listens: nothing of this viewer on 0.0.0.0.
+        import time
+        import urllib.request
+
+        for _ in range(60):
+            try:
+                assert urllib.request.urlopen(f"http://127.0.0.1:{web_port}/", timeout=2).status == 200
+                break
+            except OSError:
+                time.sleep(0.5)
+        else:
+            raise AssertionError("the web viewer did not answer")
+        import psutil  # a dependency of rerun-sdk
+
+        listening = [c.laddr.ip for child in psutil.Process(proc.pid).children(recursive=True)
+                     for c in child.net_connections(kind="inet") if c.status == psutil.CONN_LISTEN]
+        assert listening and set(listening) == {"127.0.0.1"}, listening
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+
+
+def test_version(capsys):
+    from foam_mj import __version__
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0 and capsys.readouterr().out.strip() == f"foam-mj {__version__}"
+def _options(parser) -> dict[str, list[str]]:
+    import argparse
+
+    out = {}
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                out[name] = [s for a in sub._actions for s in a.option_strings if s not in ("-h", "--help")]
+    return out
+
+
+def test_the_readme_documents_every_command_flag_and_exit_code():
+    readme = (ROOT / "README.md").read_text()
+    for command, flags in _options(build_parser()).items():
+        assert f"foam-mj {command}" in readme, command
+        for flag in flags:
+            assert flag in readme, f"{command} {flag}"
+    for flag in ("--quick", "--runs", "--json", "--no-progress", "FOAM_MJ_DEBUG", "--version"):
+        assert flag in readme, flag
+    for code, meaning in EXIT_CODES.items():
+        assert f"| {code} |" in readme, code
+
+
+def test_the_product_cites_papers_not_the_project_process():
+    import re
+
+    pattern = re.compile(r"issue [0-9]|shared/|paper 00[0-9]")
+    hits = []
+    for top in ("README.md", "foam_mj", "models", "scenarios"):
+        files = [ROOT / top] if (ROOT / top).is_file() else [p for p in (ROOT / top).rglob("*") if p.suffix in (".py", ".md", ".xml", ".toml")]
+        for f in files:
+            for i, line in enumerate(f.read_text().splitlines(), 1):
+                if pattern.search(line):
+                    hits.append(f"{f.relative_to(ROOT)}:{i}: {line.strip()[:80]}")
+    assert not hits, "\n".join(hits)
+    assert (ROOT / "docs" / "references.md").is_file()

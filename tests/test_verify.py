@@ -1,0 +1,132 @@
+"""`foam-mj verify`: the product's own independent check of a saved result (MuJoCo, numpy and the JSON only)."""
+
+from __future__ import annotations
+
+import ast
+import json
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from foam_mj.cli import main
+from foam_mj.verify import _Checker, _densify, collision_pairs, verify_result
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_a_clean_result_passes(planned_result, capsys):
+    assert main(["verify", str(planned_result)]) == 0
+    out = capsys.readouterr().out
+    last = out.strip().splitlines()[-1]
+    assert last.startswith("paths 2 samples ") and "violations 0: clean" in last
+    report = verify_result(planned_result)
+    doc = json.loads(planned_result.read_text())
+    for check in report.paths:
+        entry = doc["paths"][check.name]
+        # Dense: at least one sample per 1e-3 of path length in q, and every trajectory row.
+        assert check.waypoint_samples >= entry["metrics"]["length"] / 1e-3
+        assert check.trajectory_samples >= len(entry["qpos"])
+        assert check.min_clearance >= doc["planner"]["delta"]
+        # The planner's replay measured the same trajectory: verify's minimum is at most that (it samples more).
+        assert check.min_clearance <= entry["replay"]["min_clearance"] + 1e-9
+
+
+def _closest_colliding_q(doc) -> list[float]:
+    """A configuration in the obstacle box, found by MuJoCo alone on a grid of the bounds."""
+    m = mujoco.MjModel.from_xml_path(doc["mjcf"])
+    d = mujoco.MjData(m)
+    cfg = doc["configuration"]
+    pairs = collision_pairs(m)
+    grid = np.stack(np.meshgrid(*[np.linspace(lo, hi, 9) for lo, hi in zip(cfg["lower"], cfg["upper"])]), -1).reshape(-1, 3)
+    for q in grid:
+        d.qpos[:] = cfg["qpos0"]
+        d.qpos[cfg["qpos_index"]] = np.asarray(cfg["offset"]) + np.asarray(cfg["scale"]) * q
+        mujoco.mj_kinematics(m, d)
+        if min(mujoco.mj_geomDistance(m, d, a, b, 1.0, None) for a, b in pairs if "floor" not in (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, b) or "")) < -0.01:
+            return q.tolist()
+    raise AssertionError("no colliding configuration on the grid")
+
+
+def test_a_waypoint_moved_into_the_obstacle_fails(planned_result, tmp_path, capsys):
+    doc = json.loads(planned_result.read_text())
+    wp = doc["paths"]["optimal"]["waypoints"]
+    wp[len(wp) // 2] = _closest_colliding_q(doc)
+    bad = tmp_path / "moved.json"
+    bad.write_text(json.dumps(doc))
+    assert main(["verify", str(bad)]) == 4
+    out = capsys.readouterr().out
+    rows = {ln.split()[0]: ln for ln in out.splitlines()[3:-1]}
+    assert rows["centre"].split()[-4] == "0" and int(rows["optimal"].split()[-4]) > 0
+    assert "UNSAFE" in out.splitlines()[-1]
+    # A trajectory row moved into the obstacle is caught as well.
+    doc = json.loads(planned_result.read_text())
+    rows_q = doc["paths"]["centre"]["qpos"]
+    cfg = doc["configuration"]
+    qpos = np.asarray(cfg["qpos0"], float)
+    qpos[cfg["qpos_index"]] = np.asarray(cfg["offset"]) + np.asarray(cfg["scale"]) * _closest_colliding_q(doc)
+    rows_q[len(rows_q) // 2] = qpos.tolist()
+    bad.write_text(json.dumps(doc))
+    report = verify_result(bad)
+    assert {p.name: p.violations > 0 for p in report.paths} == {"centre": True, "optimal": False}
+
+
+def test_the_pruned_check_equals_the_brute_force_one(planned_result):
+    """The bounding-sphere pruning changes nothing: same minimum and violations as every pair at every sample."""
+    doc = json.loads(planned_result.read_text())
+    m = mujoco.MjModel.from_xml_path(doc["mjcf"])
+    d = mujoco.MjData(m)
+    pairs = collision_pairs(m)
+    rows = np.asarray(doc["paths"]["centre"]["qpos"])[::7]
+    rng = np.random.default_rng(3)
+    rows = np.vstack([rows, rows[rng.integers(len(rows), size=50)] + rng.normal(0, 0.15, (50, m.nq))])  # some in collision
+    brute = np.empty((len(rows), len(pairs)))
+    for i, row in enumerate(rows):
+        d.qpos[:] = row
+        mujoco.mj_kinematics(m, d)
+        brute[i] = [mujoco.mj_geomDistance(m, d, a, b, 10.0, None) for a, b in pairs]
+    for margin in (0.005, 0.05):
+        checker = _Checker(m, pairs)
+        dmin, bad, _ = checker.check(rows, margin)
+        assert dmin == pytest.approx(brute.min(), abs=1e-12)
+        assert bad == int(np.sum(brute.min(axis=1) < margin))
+        assert checker.calls < brute.size  # and it did prune
+
+
+def test_densify_keeps_every_step_small_in_both_units():
+    pts = np.array([[0.0, 0.0], [0.3, 0.0], [0.3, 0.0], [0.3, 0.05]])
+    extra = np.column_stack([pts[:, 0] * 2, pts[:, 1]])  # qpos: the first coordinate scaled by 2
+    s = _densify(pts, extra, 1e-3)
+    assert np.allclose(s[0], extra[0]) and np.allclose(s[-1], extra[-1])
+    assert np.max(np.abs(np.diff(s, axis=0))) <= 1e-3 + 1e-12
+
+
+def _imports(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text())
+    out = set()
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Import):
+            out |= {a.name for a in n.names}
+        elif isinstance(n, ast.ImportFrom):
+            out.add(n.module or "")
+    return out
+
+
+def test_verify_uses_none_of_the_planners_code():
+    assert _imports(ROOT / "foam_mj" / "verify.py") <= {
+        "__future__", "json", "dataclasses", "pathlib", "mujoco", "numpy", "foam_mj.errors", "foam_mj.fingerprint"}
+    assert _imports(ROOT / "foam_mj" / "fingerprint.py") <= {"__future__", "hashlib", "mujoco", "numpy"}
+    assert _imports(ROOT / "foam_mj" / "errors.py") <= {"__future__", "typing"}
+
+
+def test_verify_refuses_bad_input(tmp_path, planned_result, capsys):
+    assert main(["verify", str(tmp_path / "none.json")]) == 2
+    (tmp_path / "x.json").write_text("{")
+    assert main(["verify", str(tmp_path / "x.json")]) == 2
+    doc = json.loads(planned_result.read_text())
+    del doc["configuration"]["qpos_index"]
+    (tmp_path / "old.json").write_text(json.dumps(doc))
+    assert main(["verify", str(tmp_path / "old.json")]) == 2
+    assert "q -> qpos map" in capsys.readouterr().err
+    assert main(["verify", str(planned_result), "--step", "0"]) == 2
