@@ -190,13 +190,17 @@ class CoverageIndex:
                 d2 = np.sum((points[hit] - self._c[j]) ** 2, axis=1)
                 out[hit] = d2 < self._r[j] ** 2
         if self.n > self._n_tree:
+            # The recent balls, by brute force, for the points the tree did not already find covered.
+            rest = np.flatnonzero(~out)
+            if rest.size == 0:
+                return out
             c = self._c[self._n_tree : self.n]
             r = self._r[self._n_tree : self.n]
-            inside = _pairwise_sq_dist(points, c) < r[None, :] ** 2
-            own = exclude - self._n_tree
+            inside = _pairwise_sq_dist(points[rest], c) < r[None, :] ** 2
+            own = exclude[rest] - self._n_tree
             rows = np.flatnonzero((own >= 0) & (own < len(r)))
             inside[rows, own[rows]] = False
-            out |= inside.any(axis=1)
+            out[rest] = inside.any(axis=1)
         return out
 
 
