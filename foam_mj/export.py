@@ -30,8 +30,6 @@ from __future__ import annotations
 
 import io
 import json
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -160,23 +158,12 @@ def export_table(doc: dict, source: str | Path, path_name: str, hz: float = DEFA
 
 # -- writers ---------------------------------------------------------------------------------------------------
 def _atomic(out: Path, write) -> None:
-    """Call ``write(tmp_path)`` on a temporary file in ``out``'s folder, then rename it to ``out``."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name[:60]}.", suffix=".tmp", dir=out.parent if str(out.parent) else ".")
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 -> what a plain open() would have given
-        os.replace(tmp, out)
-    except BaseException as exc:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        if isinstance(exc, OSError):
-            raise FoamError(f"cannot write {out}: {exc.strerror or exc}") from None
-        raise
+    """Call ``write(tmp_path)`` on a temporary file in ``out``'s folder and rename it onto ``out``
+    (:func:`foam_mj.atomic.atomic_path`: nothing is left behind on failure, an OSError is exit 2)."""
+    from foam_mj.atomic import atomic_path
+
+    with atomic_path(out) as tmp:
+        write(tmp)
 
 
 def _csv_text(table: ExportTable) -> str:
