@@ -721,6 +721,10 @@ def _one_line(exc: BaseException) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    if argv is None:  # the `foam-mj` command itself (not a call from Python)
+        # It never renders with MuJoCo's OpenGL; without this, `import mujoco` also loads GLFW (a tenth
+        # of a second of start-up). A user's own MUJOCO_GL wins.
+        os.environ.setdefault("MUJOCO_GL", "disable")
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["bench"]:  # everything after `bench` belongs to the benchmark's own parser
         argv = ["bench", "--", *argv[1:]] if len(argv) > 1 else argv
