@@ -46,8 +46,9 @@ Infeasible limits
 -----------------
 No timing can help where gravity alone (sd = 0) needs more than a joint's limit: :class:`TimingInfeasible`
 names the joint, where along the path, and by how much. Where gravity fits but leaves so little margin
-that the timing would last more than :data:`MAX_SLOWDOWN` times the timing without torque limits, the
-path is reported the same way rather than slowed to an absurd duration.
+that the timing would last more than :data:`MAX_SLOWDOWN` times the same law's timing without torque
+limits, the path is reported the same way (the joint with the least margin over gravity, and where)
+rather than slowed to an absurd duration.
 """
 
 from __future__ import annotations
@@ -514,6 +515,10 @@ def _retime_own(robot, rosary, base: Trajectory, tmax, dt) -> Trajectory:
             return traj
         roots = [_smallest_positive_root(R, D, g - L), _smallest_positive_root(R, D, g + L)]
         x_max = min(x_max, float(np.min(np.minimum(*roots)))) * (1 - 1e-6)
+        if T0 / x_max > MAX_SLOWDOWN * T0:
+            _report_margin(robot, _Kinematics(robot, base.curve), tmax,
+                           f"the smooth timing would take {T0 / x_max:.1f} s, over {MAX_SLOWDOWN:g} times its "
+                           f"{T0:.2f} s without torque limits")
         T = _whole_steps(T0 / x_max, dt)
         law = type(base.time_law)(base.time_law.grid, base.time_law.weight, T)
         traj = _sample(robot, rosary, base.curve, law, T, dt, base.waypoint_times * T / T0)

@@ -148,3 +148,22 @@ def test_any_torque_limits_are_met_or_reported_with_the_joint(planned, hip, knee
     assert np.all(np.abs(tau) <= tmax * (1 + 1e-6))
     dist = np.linalg.norm(traj.q - res.rosary.centers[traj.bubble], axis=1)
     assert np.all(dist <= res.rosary.radii[traj.bubble] + 1e-9)
+
+
+@pytest.mark.parametrize("method", ["toppra", "own"])
+def test_a_limit_barely_above_gravity_is_reported_not_slowed_to_an_absurd_duration(planned, method):
+    robot, paths = planned
+    res, base = paths["convex"]
+    kin_q = robot.config.to_qpos(base.curve.evaluate(np.linspace(0, base.curve.length, 4001))[0])
+    m = robot.model
+    d = mujoco.MjData(m)
+    knee = m.jnt_dofadr[robot.config.joint_ids[1]]
+    g = []
+    for qpos in kin_q:
+        d.qpos[:], d.qvel[:], d.qacc[:] = qpos, 0.0, 0.0
+        mujoco.mj_inverse(m, d)
+        g.append(abs(d.qfrc_inverse[knee]))
+    limit = max(g) * (1 + 1e-4)  # gravity fits, with 0.01 % to spare
+    with pytest.raises(TimingInfeasible, match=r"torque limit of knee_flexion .* leaves only [0-9.]+ N m above gravity") as exc:
+        retime(robot, base, res.rosary, Limits(torque=(400.0, limit, 3000.0)), method)
+    assert exc.value.joint == "knee_flexion"
