@@ -148,7 +148,11 @@ def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker
         return {"ok": False, "outcome": getattr(st, "outcome", "failed"), "bubbles": getattr(st, "bubbles", None),
                 "queries": getattr(st, "distance_queries", None), "time": time.perf_counter() - t0}
     t_plan = time.perf_counter() - t0
-    sm = OptimalSmoother().smooth(res.rosary, seed=seed)
+    try:
+        sm = OptimalSmoother().smooth(res.rosary, seed=seed)
+    except Exception as exc:  # a smoother failure is a finding, not a reason to lose the whole run
+        return {"ok": False, "outcome": f"smoother error: {type(exc).__name__}: {exc}", "first": res.stats.time_to_first_path,
+                "bubbles": res.stats.bubbles, "queries": res.stats.distance_queries, "rosary": res.rosary.k, "time": t_plan}
     total = time.perf_counter() - t0
     path = sm.path
     m = metrics(path)
@@ -253,7 +257,12 @@ def summarize(runs: list[dict]) -> dict:
     for k in KEYS:
         vals = [r[k] for r in ok if r.get(k) is not None and np.isfinite(r[k])]
         med[k] = float(np.median(vals)) if vals else None
-    return {"ok": len(ok), "runs": len(runs), "median": med, "min_clearance": min((r["clearance"] for r in ok), default=None)}
+    failures: dict[str, int] = {}
+    for r in runs:
+        if not r.get("ok"):
+            failures[str(r.get("outcome"))] = failures.get(str(r.get("outcome")), 0) + 1
+    return {"ok": len(ok), "runs": len(runs), "median": med, "min_clearance": min((r["clearance"] for r in ok), default=None),
+            "failures": failures}
 
 
 def _fmt(v, scale=1.0, fmt="{:.0f}") -> str:
@@ -366,6 +375,9 @@ def main(argv: list[str] | None = None) -> dict:
     print(table(["problem", "planner", "ok", "first ms", "total ms", "bubbles", "queries", "len q", "len qpos", "f", "clear mm", "worst mm"], rows))
     print("total: planning + the default smoother (optimal) for ours; solve + simplify (RRTConnect) or the whole budget (RRT*) for OMPL.")
     print(f"clear mm: median over seeds of the smallest MuJoCo distance along the final path, checked every {CHECK_STEP * 1e3:g} mrad; worst mm: the smallest over seeds.")
+    failed = [(p, n, why, k) for p, v in out["problems"].items() for n, r in v["planners"].items() for why, k in r["summary"]["failures"].items()]
+    if failed:
+        print("\nfailed runs: " + "; ".join(f"{p} {n}: {k} x {why}" for p, n, why, k in failed))
     if use_ompl:
         print("\nratios ours / OMPL (medians)")
         print(table(["problem", "planner", "total time / RRTConnect", "len qpos / RRTConnect", "len qpos / RRT*", "clearance / RRTConnect"], ratio_rows))

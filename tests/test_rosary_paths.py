@@ -109,3 +109,54 @@ def test_rosary_rejects_bad_shapes():
         Rosary(np.zeros((3, 3)), np.ones(2), np.zeros(3), np.zeros(3))
     with pytest.raises(ValueError, match="> 0"):
         Rosary(np.zeros((2, 3)), np.array([1.0, -1.0]), np.zeros(3), np.zeros(3))
+
+
+# -- thin hatches: lens sampling ---------------------------------------------------------------------
+from foam_mj.rosary import uniform_in_lenses  # noqa: E402
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(2, 7), ra=st.floats(1e-3, 1.0), ratio=st.floats(0.2, 5.0), overlap=st.floats(1e-4, 0.99), seed=st.integers(0, 2**31 - 1))
+def test_lens_samples_lie_in_both_balls_however_thin_the_lens(n, ra, ratio, overlap, seed):
+    rng = np.random.default_rng(seed)
+    rb = ra * ratio
+    d = max(ra + rb - overlap * 2 * min(ra, rb), abs(ra - rb) * 0.5)
+    u = rng.standard_normal(n)
+    ca = rng.standard_normal(n)
+    cb = ca + d * u / np.linalg.norm(u)
+    pts = uniform_in_lenses(rng, np.tile(ca, (50, 1)), np.full(50, ra), np.tile(cb, (50, 1)), np.full(50, rb))
+    assert np.all(np.linalg.norm(pts - ca, axis=1) <= ra * (1 + 1e-12))
+    assert np.all(np.linalg.norm(pts - cb, axis=1) <= rb * (1 + 1e-12))
+
+
+def test_lens_samples_are_uniform_like_rejection_from_the_smaller_ball():
+    """Same distribution as plain rejection from the smaller ball on a lens both can sample: the mean and
+    spread along the axis and the mean distance from it agree."""
+    rng = np.random.default_rng(0)
+    n, N = 4, 40_000
+    ca, cb, ra, rb = np.zeros(n), np.r_[0.9, np.zeros(n - 1)], 0.6, 0.5
+    lens = uniform_in_lenses(rng, np.tile(ca, (N, 1)), np.full(N, ra), np.tile(cb, (N, 1)), np.full(N, rb))
+    g = rng.standard_normal((20 * N, n))
+    ball = cb + g / np.linalg.norm(g, axis=1, keepdims=True) * (rb * rng.random(20 * N) ** (1 / n))[:, None]
+    ref = ball[np.linalg.norm(ball - ca, axis=1) <= ra][:N]
+    assert len(ref) > 5000
+    assert abs(lens[:, 0].mean() - ref[:, 0].mean()) < 0.005
+    assert abs(lens[:, 0].std() - ref[:, 0].std()) < 0.005
+    assert abs(np.linalg.norm(lens[:, 1:], axis=1).mean() - np.linalg.norm(ref[:, 1:], axis=1).mean()) < 0.005
+
+
+def test_an_empty_lens_is_refused():
+    with pytest.raises(RuntimeError, match="empty or degenerate"):
+        uniform_in_lenses(np.random.default_rng(0), np.zeros((1, 3)), np.ones(1), np.full((1, 3), 2.0), np.ones(1))
+
+
+def test_hatch_sampling_succeeds_in_a_thin_5d_hatch():
+    """A hatch 0.5 % of the bubbles' diameter thick in 5-D (refined corridors make such hatches): both
+    hatch samplers used to give up there."""
+    from foam_mj.smoothing.base import Hatches
+
+    c = np.array([[0.0] * 5, [0.0199] + [0.0] * 4])
+    ros = Rosary(c, np.array([0.01, 0.01]), c[0], c[1], np.arange(2))
+    for pts in (ros.sample_hatches(np.random.default_rng(1), size=20)[:, 0], Hatches.of(ros).sample(np.random.default_rng(2), np.zeros(20, dtype=np.intp))):
+        assert np.all(np.linalg.norm(pts - c[0], axis=1) <= 0.01 + 1e-15)
+        assert np.all(np.linalg.norm(pts - c[1], axis=1) <= 0.01 + 1e-15)
