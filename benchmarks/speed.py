@@ -16,8 +16,8 @@ Rows (obstacle scenario, its default seed, unless named):
 * ``pfm foam growth``: bubbles per second of foam_mj.foam.plan over seeds 0..4;
 * ``foam-mj --help``, ``foam-mj plan --scene obstacle``: wall time of the console command in a new
   process (start-up included; plan writes its recording to a temporary folder);
-* ``walker replay``: trajectories, kinematic and dynamic replays of the walker scenes' paths (the
-  "replay" phase of ``foam-mj plan --scene walker_*``).
+* ``walker replay``: the "replay" phase of ``foam-mj plan --scene walker_*`` (time laws, joint loads,
+  kinematic and dynamic replays of its paths; ``--quick``: one run per scene).
 
 Every number is a median of ``--repeats`` runs (>= 5; ``--quick``: 3, and smaller GA/HS/MGOA runs). The
 JSON (``--json``) holds every row, the raw times, the machine's core count and load average at the start
@@ -181,7 +181,7 @@ def measure(quick: bool, repeats: int, log=print) -> dict:
     prob = PlanarPathProblem(paper_environment(1), 8)
     swarm, iters = (100, 20) if quick else (500, 100)
     for label, alg in (("MGOA", MGOA(swarm_size=swarm, iterations=iters)), ("MOPSO", MOPSO(swarm_size=swarm, iterations=iters))):
-        med, times, _ = _median(lambda: alg.run(prob, seed=0), max(1, repeats // 2) if not quick else 1)
+        med, times, _ = _median(lambda: alg.run(prob, seed=0), repeats if not quick else 1)
         name = f"{label} ({swarm} x {iters}, planar #1)"
         if name not in TARGETS:
             name = f"{label} ({swarm} x {iters}, planar #1, quick)"
@@ -190,24 +190,24 @@ def measure(quick: bool, repeats: int, log=print) -> dict:
     # -- replay of the walker scenes (pipeline phase "replay") and the raw cost of a simulation step
     import mujoco
 
-    from foam_mj.pipeline import SMOOTHERS, DEFAULT_SMOOTHER, plan_scenario, smooth_paths
-    from foam_mj.replay import replay_dynamic, replay_kinematic
-    from foam_mj.trajectory import make_trajectory
+    from foam_mj.pipeline import run
 
     steps, wall, cpu = 0, 0.0, 0.0
     for scene in ("walker_corridor", "walker_two_routes"):
-        # what `foam-mj plan --scene walker_*` does after smoothing (pipeline.run's "replay" phase)
+        # `foam-mj plan --scene walker_*`'s replay phase (pipeline.run's timings["replay"]: time laws, joint
+        # loads, kinematic and dynamic replays of every path); its CPU time from the first "replaying" report
         sc = load_scenario(scene)
-        smoothed = smooth_paths(sc, plan_scenario(sc, sc.seed).rosary, SMOOTHERS[DEFAULT_SMOOTHER], sc.seed)
-        t, c, n_steps = time.perf_counter(), time.process_time(), 0
-        for res in smoothed.values():
-            traj = make_trajectory(sc.robot, res.path, res.rosary)
-            replay_kinematic(sc.robot, traj)
-            replay_dynamic(sc.robot, traj)
-            n_steps += len(traj)
-        t, c = time.perf_counter() - t, time.process_time() - c
+        walls, cpus = [], []
+        for _ in range(1 if quick else repeats):
+            marks: list[float] = []
+            outcome = run(sc, report=lambda msg, marks=marks: marks.append(time.process_time())
+                          if msg.startswith("replaying") and not marks else None)
+            cpus.append(time.process_time() - marks[0])
+            walls.append(outcome.timings["replay"])
+        n_steps = sum(len(po.trajectory) for po in outcome.paths.values())
+        t, c = float(np.median(walls)), float(np.median(cpus))
         steps, wall, cpu = steps + n_steps, wall + t, cpu + c
-        row(f"{scene} replay", t, "s", None, cpu=c, simulated_steps=n_steps, paths=list(smoothed))
+        row(f"{scene} replay", t, "s", walls, cpu=c, simulated_steps=n_steps, paths=list(outcome.paths))
     robot = load_scenario("walker_corridor").robot
     m, d = robot.model, mujoco.MjData(robot.model)
     n_raw = 2000
