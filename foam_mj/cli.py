@@ -616,8 +616,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--planner",
         metavar="NAME",
         default=None,
-        help="the planner (default: the scenario's [planner] algorithm); another planner than the scenario's "
-        "runs with its default options and the scenario's margin and budgets. Names: foam_mj.planners.PLANNERS",
+        help="the planner: bubbletree (the default for scenarios that name none), pfm (the papers'), gbpf, rbpf, hpf "
+        "(default: the scenario's [planner] algorithm); another planner than the scenario's runs with its default "
+        "options and the scenario's margin and budgets; an unknown name is refused with the list",
     )
     rec = p.add_mutually_exclusive_group()
     rec.add_argument("--rrd", metavar="OUT.rrd", help="where to write the Rerun recording (default: foam-mj-<scenario>.rrd)")

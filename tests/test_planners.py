@@ -301,3 +301,13 @@ def test_the_default_plans_the_five_joint_leg():
 
     sm = OptimalSmoother().smooth(res.rosary, seed=0)
     assert res.rosary.all_in_hatches(sm.waypoints)
+
+
+def test_the_cli_help_names_every_planner(capsys):
+    from foam_mj.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["plan", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for name in PLANNERS:
+        assert name in text
