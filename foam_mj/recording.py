@@ -23,6 +23,7 @@ sanitized to it):
 ``world/leg/<name>/<body>/<geom>``          the body's geoms, static, with their pose in the body
 ``world/contacts/<name>``                   leg/obstacle contacts of a dynamic replay (if any), per frame
 ``cspace/axes``                             the configuration axes, labelled with the joint names
+                                            (for more than 3 joints, cspace shows the first three)
 ``cspace/foam``                             every bubble of the foam (Ellipsoids3D, equal half-sizes)
 ``cspace/rosary``                           the rosary's bubbles
 ``cspace/q_init``, ``cspace/q_goal``        start and goal configurations
@@ -114,15 +115,17 @@ def _xyzw(wxyz: np.ndarray) -> np.ndarray:
 
 
 def _points3(points, field: str) -> np.ndarray:
-    """Configuration points (..., n) as 3-D points: n = 3 as is, n = 2 padded with 0."""
+    """Configuration points (..., n) as 3-D points: n = 3 as is, n = 2 padded with 0, n > 3 projected on
+    the first three coordinates (the projection of an n-ball of radius r is a 3-ball of radius r, so the
+    bubbles are drawn faithfully in that projection)."""
     p = np.asarray(points, dtype=float)
-    if p.ndim < 1 or p.shape[-1] not in (2, 3):
-        raise ValueError(f"`{field}` must hold configurations of dimension 2 or 3 to draw, got shape {p.shape}")
+    if p.ndim < 1 or p.shape[-1] < 2:
+        raise ValueError(f"`{field}` must hold configurations of dimension 2 or more to draw, got shape {p.shape}")
     if not np.all(np.isfinite(p)):
         raise ValueError(f"`{field}` must be finite")
     if p.shape[-1] == 2:
         p = np.concatenate([p, np.zeros(p.shape[:-1] + (1,))], axis=-1)
-    return p
+    return p[..., :3]
 
 
 def geom_archetype(m: mujoco.MjModel, g: int, rgba=None) -> Any | None:
@@ -243,11 +246,12 @@ class Recording:
                 static=True,
             )
         n = robot.dim
-        if n in (2, 3):
+        if n >= 2:  # n > 3: the first three coordinates (a projection)
             span = float(np.max(robot.upper - robot.lower))
+            k = min(n, 3)
             rec.log(
                 "cspace/axes",
-                rr.Arrows3D(vectors=np.eye(3)[:n] * span, labels=list(robot.config.joint_names), colors=[[200, 60, 60], [60, 200, 60], [60, 60, 200]][:n]),
+                rr.Arrows3D(vectors=np.eye(3)[:k] * span, labels=list(robot.config.joint_names)[:k], colors=[[200, 60, 60], [60, 200, 60], [60, 60, 200]][:k]),
                 static=True,
             )
 
@@ -360,7 +364,7 @@ class Recording:
         values = trajectory.joint_positions
         for j, joint in enumerate(trajectory.joint_names):
             self._scalars(f"plots/joints/{name}/{_sanitize(joint)}", index, values[:, j], joint)
-        if trajectory.q.shape[1] in (2, 3):
+        if trajectory.q.shape[1] >= 2:
             q3 = _points3(trajectory.q, "trajectory.q")
             rec.log(f"cspace/trajectories/{name}", rr.LineStrips3D([q3], radii=[0.003], labels=[name]), static=True)
             rec.send_columns(f"cspace/trajectories/{name}/now", indexes=index, columns=rr.Points3D.columns(positions=q3))

@@ -210,8 +210,8 @@ def test_bad_calls_raise_clear_errors(tmp_path, run):
     try:
         with pytest.raises(ValueError, match="`name`"):
             rec.log_path("centre path", run["paths"]["centre"])
-        with pytest.raises(ValueError, match="dimension 2 or 3"):
-            rec.log_path("p4", np.zeros((5, 4)))
+        with pytest.raises(ValueError, match="dimension 2 or more"):
+            rec.log_path("p1", np.zeros((5, 1)))
         with pytest.raises(ValueError, match="same length"):
             rec.log_convergence("hs", [3.0, 2.0], [4.0])
         with pytest.raises(ValueError, match="`best`"):
@@ -237,3 +237,17 @@ def test_a_recording_reaches_its_file_only_complete(tmp_path, run):
         rec.log_path("centre", run["paths"]["centre"])
         raise RuntimeError("boom")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["open.rrd"]  # an error while logging leaves no file
+
+
+def test_more_than_three_joints_are_drawn_on_the_first_three(tmp_path):
+    """A bubble of a 5-joint robot projects to a ball of the same radius on any three coordinates."""
+    from foam_mj.foam import Foam
+
+    rng = np.random.default_rng(0)
+    c = rng.random((6, 5))
+    with Recording(tmp_path / "five.rrd") as rec:
+        rec.log_foam(Foam(c, np.full(6, 0.1), np.array([-1, 0, 1, 2, 3, 4]), c[0], c[-1]))
+        rec.log_path("p5", c)
+    centers = np.array(read_component(tmp_path / "five.rrd", "cspace/foam", "Ellipsoids3D:centers")[0])
+    np.testing.assert_allclose(centers, c[:, :3], rtol=1e-6)
+    assert read_recording(tmp_path / "five.rrd").get("cspace/paths/p5") == 1
