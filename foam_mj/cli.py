@@ -531,7 +531,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from foam_mj.sweep import WorkersDied, load_sweep
     from foam_mj.sweep_run import _pyarrow, run_sweep
 
+    from foam_mj.atomic import check_output_dir
+
     _pyarrow()  # the install hint before any work when pyarrow is missing
+    check_output_dir(args.out, "--out")
     sweep = load_sweep(args.sweep)  # every key and value checked: exit 2 naming it, before any plan
     engine = "local" if args.ray is None else "ray"
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # `kill` stops it like Ctrl-C: completed rows kept

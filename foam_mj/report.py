@@ -23,14 +23,13 @@ clearance) gets no figure. The knee figure is drawn when the rows carry a ``peak
 from __future__ import annotations
 
 import json
-import os
-import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
+from foam_mj.atomic import atomic_path, atomic_write_text, check_output_dir
 from foam_mj.errors import FoamError
 
 MAX_LEVELS = 12
@@ -231,10 +230,8 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
 
     manifest, table = load(out)
     _matplotlib()  # FoamError with the install hint when matplotlib is missing
-    figures_dir = Path(out) / "report" if figures_dir is None else Path(figures_dir)
-    if figures_dir.exists() and not figures_dir.is_dir():
-        raise FoamError(f"--figures {figures_dir} is a file, not a folder")
-    figures_dir.mkdir(parents=True, exist_ok=True)
+    figures_dir = check_output_dir(Path(out) / "report" if figures_dir is None else Path(figures_dir), "--figures")
+    figures_dir.mkdir(exist_ok=True)
     lines = summary(manifest, table)
     text = format_summary(lines)
     written = [_write_text(figures_dir / "summary.txt", text + "\n"), _write_text(figures_dir / "summary.json", json.dumps(lines, indent=1) + "\n")]
@@ -295,21 +292,11 @@ def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, formats
     out = []
     for fmt in formats:
         p = folder / f"{stem}.{fmt}"
-        tmp = folder / f".{p.name}.{uuid.uuid4().hex}.tmp"
-        try:
+        with atomic_path(p) as tmp:
             fig.savefig(tmp, format=fmt, dpi=dpi, metadata={"Creator": "foam-mj"} if fmt == "png" else {"Creator": "foam-mj", "Date": None})
-            os.replace(tmp, p)
-        finally:
-            tmp.unlink(missing_ok=True)
         out.append(p)
     return out
 
 
 def _write_text(path: Path, text: str) -> Path:
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+    return atomic_write_text(path, text)

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
+from foam_mj.atomic import atomic_write_bytes
 from foam_mj.sweep import FORMAT, Sweep, SweepError, Task, WorkersDied, run_task
 
 #: How many times a broken local pool is replaced before the sweep gives up.
@@ -61,17 +62,9 @@ def _pyarrow():
 # ------------------------------------------------------------------------------------------- the store
 
 
-def _atomic_write_bytes(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+def _row_files(folder: Path) -> list[Path]:
+    """The batches of a rows folder (hidden temporary files left out)."""
+    return sorted(f for f in folder.glob("*.parquet") if not f.name.startswith("."))
 
 
 def read_manifest(out: Path) -> dict | None:
@@ -129,7 +122,7 @@ class RowStore:
                         f"--out {self.out} holds rows of another sweep (its {what} differs: {json.dumps(old.get(field))[:120]}); "
                         "use another folder"
                     )
-        _atomic_write_bytes(self.out / MANIFEST, json.dumps(mine, indent=1).encode())
+        atomic_write_bytes(self.out / MANIFEST, json.dumps(mine, indent=1).encode())
         for stale in self.dir.glob(".*.tmp"):
             stale.unlink(missing_ok=True)
 
@@ -140,7 +133,7 @@ class RowStore:
 
     def done_keys(self) -> set[str]:
         """Keys of the rows already written."""
-        files = sorted(self.dir.glob("*.parquet"))
+        files = _row_files(self.dir)
         if not files:
             return set()
         import pyarrow.parquet as pq
@@ -180,6 +173,9 @@ class RowStore:
         table = pa.Table.from_pylist([{n: r.get(n) for n in names} for r in self.pending], schema=self.schema)
         name = f"part-{time.time_ns():016x}-{os.getpid()}-{self.files_written:05d}.parquet"
         final = self.dir / name
+        # Not foam_mj.atomic.atomic_path: its temporary name keeps the ".parquet" suffix, and DuckDB's
+        # 'DIR/rows/*.parquet' (like pathlib's glob) matches hidden files, so a batch cut short by a kill
+        # would break every query. Ours ends in ".tmp", and the next sweep on DIR removes it.
         tmp = self.dir / f".{name}.tmp"
         try:
             pq.write_table(table, tmp)
@@ -229,7 +225,7 @@ def read_rows(out: str | Path):
     pa = _pyarrow()
     import pyarrow.parquet as pq
 
-    files = sorted((Path(out) / ROWS).glob("*.parquet"))
+    files = _row_files(Path(out) / ROWS)
     if not files:
         raise SweepError(f"{out}: no rows (expected Parquet files in {Path(out) / ROWS})")
     return pa.concat_tables([pq.read_table(f) for f in files], promote_options="default")
