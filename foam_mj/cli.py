@@ -535,6 +535,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     _pyarrow()  # the install hint before any work when pyarrow is missing
     check_output_dir(args.out, "--out")
+    if args.ray is not None:
+        import importlib.util
+
+        if importlib.util.find_spec("ray") is None:
+            raise FoamError("--ray needs Ray, which is not installed: pip install 'foam-mj[cluster]'")
+    if args.workers is not None and args.workers < 1:
+        raise FoamError(f"--workers must be >= 1, got {args.workers}")
     sweep = load_sweep(args.sweep)  # every key and value checked: exit 2 naming it, before any plan
     engine = "local" if args.ray is None else "ray"
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # `kill` stops it like Ctrl-C: completed rows kept

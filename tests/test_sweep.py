@@ -359,3 +359,29 @@ replay = "none"
     assert {"success-centre.png", "f-centre.png", "summary.txt", "summary.json"} <= names
     assert "min_clearance-centre.png" not in names  # nothing replayed, nothing to draw
     assert re.search(r"centre\s+48\s+30 \(62%\)\s+18", text)
+
+
+def test_on_a_terminal_progress_is_a_live_bar_with_rate_and_eta(tmp_path):
+    import pty
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = 2\nsmoothers = "none"\nreplay = "none"\n')
+    master, slave = pty.openpty()
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]), "COLUMNS": "120"}
+    proc = subprocess.Popen([sys.executable, "-m", "foam_mj.cli", "sweep", str(spec), "--out", str(tmp_path / "out"), "--workers", "1"],
+                            env=env, stdout=subprocess.PIPE, stderr=slave, text=True)
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            data = os.read(master, 4096)
+        except OSError:  # the other end closed
+            break
+        if not data:
+            break
+        chunks.append(data)
+    proc.wait(timeout=300)
+    os.close(master)
+    assert proc.returncode == 0
+    screen = b"".join(chunks).decode(errors="replace")
+    assert "2/2" in screen and "plans/s" in screen and "ETA" in screen and "0 failed" in screen
+    assert "━" in screen  # rich's bar, not the plain lines
