@@ -59,11 +59,13 @@ Strictly inside: the balls are shrunk by ``inset`` (1e-6); each accepted step is
 shrunk hatches (a no-op up to the solver's 1e-9 feasibility) before ties are snapped, and the returned
 waypoints are checked to be at least inset/2 inside both balls.
 
-Speed. One Clarabel solver serves the whole run: between steps only the numbers change, so it is
-updated in place (``DefaultSolver.update``) while the sparsity pattern stays (a new tie or short segment
-changes it: then a new solver). A run ends as soon as a step's predicted decrease is below 1e-8 |F| and
-the point passes the certificate (objectives without SV; the last steps of the linearly converging SCP
-only polish F's ninth digit), else at the 1e-10 |F| test. Measured (``benchmarks/speed.py``, obstacle
+Speed. Clarabel runs without presolve (nothing to remove) and, for objectives without SV, without
+iterative refinement (a third of each solve; the same points to 1e-9 in F). A step whose subproblem
+has the previous sparsity pattern updates the previous solver in place (``DefaultSolver.update``);
+the short-segment rows change the pattern often (2 of 11 steps reuse it on the obstacle rosary). A
+run ends as soon as a step's predicted decrease is below 1e-8 |F| and the point passes the certificate
+(objectives without SV; the last steps of the linearly converging SCP only polish F's ninth digit),
+else at the 1e-10 |F| test. Measured (``benchmarks/speed.py``, obstacle
 rosary of 29 bubbles, a busy 2-core machine): f in about 50 ms of CPU time to a scaled KKT residual
 ~1e-8, 11 subproblems of about 3 ms (about 15 interior-point iterations each: the bulk) and two
 certificates; before these changes 15 subproblems and about 85 ms.
