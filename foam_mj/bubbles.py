@@ -60,6 +60,10 @@ Cauchy-Schwarz, sum_grp rho_(p,grp) ||x_grp|| <= ||rho_p||_2 ||x||_2, so the bal
 about q keeps at least delta of clearance on every pair (Nascimento and Alsina 2021 Eq. 4 applied per pair; with one
 pair, or one rho for all pairs, it is the paper's (d(q) - delta) / ||rho||_2). A pair whose distance
 no configuration joint can change has rho_p = 0 and drops out (``foam_mj.model`` leaves it out).
+Against a plane that no coordinate moves, d_p changes only by the points' motion along the normal n;
+a hinge about an axis parallel to n (or a slide perpendicular to n) whose upstream configuration
+hinges all turn about axes parallel to n moves every point parallel to the plane in every
+configuration, so its rho_p is 0 (a pan joint and the floor).
 
 Design choice (not in the papers): the radius is also capped by the distance from q to the boundary
 of the configuration bounds (the joint ranges), so that a bubble never holds a configuration the
@@ -257,10 +261,12 @@ def _slide_groups(m: mujoco.MjModel, d: mujoco.MjData, robot: RobotModel) -> lis
 
 
 class BubbleOracle:
-    """Certified bubble radius r(q) = min((d(q) - delta) / ||rho||_2, distance to the bounds), clipped at 0.
+    """Certified bubble radius r(q) = min(min_p (d_p(q) - delta) / ||rho_p||_2, distance to the bounds), clipped
+    at 0 (module docstring; one term per checked pair p of ``robot.pairs``).
 
     ``delta`` is the safety margin in metres: every configuration inside a bubble keeps at least delta
-    of workspace clearance. ``distmax`` caps the clearance MuJoCo reports (and so the radius).
+    of workspace clearance on every pair. ``distmax`` caps the distances MuJoCo reports (and so the
+    radius). ``pair_factor[p]`` is ||rho_p||_2, ``pair_rho[p]`` rho_p per coordinate.
     """
 
     def __init__(self, robot: RobotModel, delta: float = 0.005, distmax: float = 1.0) -> None:
@@ -270,10 +276,23 @@ class BubbleOracle:
         self.delta = float(delta)
         self.clearance = Clearance(robot, distmax=distmax)
         self.bound = DisplacementBound.from_model(robot)
-        self._factor = self.bound.ball_factor
+        self.pair_rho = pair_rho(robot, self.bound)
+        self.pair_factor = np.sqrt(np.sum(self.bound.group_weights(self.pair_rho) ** 2, axis=-1))
+        # A pair no coordinate moves has factor 0 (the model leaves such pairs out); a tiny floor keeps
+        # the division defined and the sign of (d_p - delta) decides.
+        self._inv = 1.0 / np.maximum(self.pair_factor, 1e-12)
+        self._factor = float(self.pair_factor.max())
+
+    def radius_from_distances(self, distances: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Radii for per-pair distances (..., P) at centres q (..., n): the per-pair bound."""
+        q = np.asarray(q, dtype=float)
+        to_bounds = np.minimum(q - self.robot.lower, self.robot.upper - q).min(axis=-1)
+        r = np.minimum(((np.asarray(distances) - self.delta) * self._inv).min(axis=-1), to_bounds)
+        return np.maximum(r, 0.0)
 
     def radius_from_clearance(self, clearance: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """Radii for clearances and centres (any matching leading shape)."""
+        """Radii from the overall clearance d(q) = min_p d_p(q) alone: (d - delta) / max_p ||rho_p||, the
+        paper's single bound. Certified, but smaller than :meth:`radii`, which keeps every pair's own rho."""
         q = np.asarray(q, dtype=float)
         to_bounds = np.minimum(q - self.robot.lower, self.robot.upper - q).min(axis=-1)
         r = np.minimum((np.asarray(clearance) - self.delta) / self._factor, to_bounds)
@@ -282,13 +301,59 @@ class BubbleOracle:
     def radius(self, q) -> float:
         """Certified radius at one configuration (validated: shape, finite, within bounds)."""
         q = self.robot.validate(q)
-        return float(self.radius_from_clearance(self.clearance(q), q))
+        return float(self.radius_from_distances(self.clearance.pair_distances(q), q))
 
     def radii(self, Q: np.ndarray) -> np.ndarray:
         """Certified radii for every row of Q (N, n), evaluated in one batch. Rows are not bounds-checked:
         a row outside the bounds gets radius 0."""
         Q = self.robot.validate_batch(Q)
-        return self.radius_from_clearance(self.clearance.batch(Q), Q)
+        return self.radius_from_distances(self.clearance.batch_pairs(Q), Q)
+
+    def explain(self, q) -> "BubbleReport":
+        """Everything behind the radius at q: per-pair distances and bounds, the pair that sets the radius."""
+        q = self.robot.validate(q)
+        dist = self.clearance.pair_distances(q)
+        terms = (dist - self.delta) * self._inv
+        k = int(np.argmin(terms))
+        to_bounds = float(np.minimum(q - self.robot.lower, self.robot.upper - q).min())
+        return BubbleReport(
+            q=q,
+            clearance=float(dist.min()),
+            closest_pair=self.robot.pair_name(int(np.argmin(dist))),
+            limiting_pair=self.robot.pair_name(k),
+            rho=self.pair_rho[k].copy(),
+            rho_norm=float(self.pair_factor[k]),
+            radius=float(max(min(terms[k], to_bounds), 0.0)),
+            to_bounds=to_bounds,
+            pair_distances=dist,
+            pair_radii=terms,
+        )
 
     def close(self) -> None:
         self.clearance.close()
+
+
+@dataclass(frozen=True)
+class BubbleReport:
+    """Why the bubble at q has its radius (:meth:`BubbleOracle.explain`)."""
+
+    q: np.ndarray
+    clearance: float  # min_p d_p(q), metres
+    closest_pair: tuple[str, str]  # the pair at that distance
+    limiting_pair: tuple[str, str]  # the pair whose (d_p - delta) / ||rho_p|| sets the radius
+    rho: np.ndarray  # rho_p of the limiting pair, per coordinate (metres per unit of q)
+    rho_norm: float  # ||rho_p||_2 over the groups
+    radius: float
+    to_bounds: float  # distance from q to the configuration bounds
+    pair_distances: np.ndarray  # (P,)
+    pair_radii: np.ndarray  # (P,) (d_p - delta) / ||rho_p||
+
+
+def pair_rho(robot: RobotModel, bound: DisplacementBound) -> np.ndarray:
+    """rho_p per coordinate for every checked pair (P, n): a coordinate that moves exactly one of the two
+    geoms (a joint on the kinematic path between their bodies) contributes that geom's rho; one that moves
+    both (above their common ancestor) or neither contributes nothing, nor one that cannot change the
+    distance to a plane (``foam_mj.model.pair_coordinates``; module docstring)."""
+    a, b = robot.pairs[:, 0], robot.pairs[:, 1]
+    ma, mb = robot.moves[a], robot.moves[b]
+    return (bound.rho[a] * (ma & ~mb) + bound.rho[b] * (mb & ~ma)) * robot.pair_active

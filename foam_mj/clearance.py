@@ -1,4 +1,5 @@
-"""Workspace clearance d(q): the minimum signed distance between the robot's and the obstacles' collision geoms.
+"""Workspace clearance d(q): the minimum signed distance over the checked geom pairs (``RobotModel.pairs``:
+robot/obstacle and robot/robot pairs MuJoCo lets collide), and each pair's distance d_p(q).
 
 Computed with MuJoCo's own distance queries, never with a C-obstacle map:
 
@@ -7,7 +8,9 @@ Computed with MuJoCo's own distance queries, never with a C-obstacle map:
   with :class:`mujoco.MjSpec`, evaluated by ``mujoco.rollout`` for the whole batch in one call
   (measured: about 4 us per configuration instead of about 10).
 
-Both return ``min(signed distance, distmax)``: negative under penetration, capped at ``distmax``
+``pair_distances`` and ``batch_pairs`` return every pair's distance (the bubble radius is taken per
+pair, ``foam_mj.bubbles``); ``__call__`` and ``batch`` their minimum. All return
+``min(signed distance, distmax)``: negative under penetration, capped at ``distmax``
 (MuJoCo's semantics: a separated pair farther than ``distmax`` reads ``distmax``).
 """
 
@@ -66,20 +69,31 @@ class Clearance:
         m, dm, gd = self._m, self.distmax, mujoco.mj_geomDistance
         return min([gd(m, d, g, o, dm, None) for g, o in self._pairs])
 
-    def pairwise(self, q: np.ndarray) -> dict[tuple[str, str], float]:
-        """Distance of every robot/obstacle pair at q, keyed by geom names (for reports and debugging)."""
+    def pair_distances(self, q: np.ndarray) -> np.ndarray:
+        """d_p(q) of every checked pair (shape (P,), in ``robot.pairs`` order)."""
         d = self._d
         d.qpos[:] = self.robot.config.to_qpos(q)
         mujoco.mj_kinematics(self._m, d)
+        self.calls += 1
+        m, dm, gd = self._m, self.distmax, mujoco.mj_geomDistance
+        return np.array([gd(m, d, g, o, dm, None) for g, o in self._pairs])
+
+    def pairwise(self, q: np.ndarray) -> dict[tuple[str, str], float]:
+        """Distance of every checked pair at q, keyed by geom names (for reports and debugging)."""
         name = self.robot.geom_name
-        return {(name(g), name(o)): mujoco.mj_geomDistance(self._m, d, g, o, self.distmax, None) for g, o in self._pairs}
+        return {(name(g), name(o)): float(v) for (g, o), v in zip(self._pairs, self.pair_distances(q))}
 
     def batch(self, Q: np.ndarray) -> np.ndarray:
         """d(q) for every row of Q (shape (N, n)), in one rollout call."""
+        D = self.batch_pairs(Q)
+        return D.min(axis=1) if len(D) else np.empty(0)
+
+    def batch_pairs(self, Q: np.ndarray) -> np.ndarray:
+        """d_p(q) for every row of Q (shape (N, n)) and every checked pair: shape (N, P), one rollout call."""
         Q = np.asarray(Q, dtype=float)
         n = len(Q)
         if n == 0:
-            return np.empty(0)
+            return np.empty((0, len(self._pairs)))
         self.calls += n
         m = self._batch_model
         state = np.zeros((n, self._nstate))
@@ -90,7 +104,7 @@ class Clearance:
             _, sensordata = self._runner_threads.rollout(m, self._batch_data, state, nstep=1, skip_checks=False)
         else:
             _, sensordata = self._runner_single.rollout(m, self._batch_data[0], state, nstep=1)
-        return sensordata[:, 0, :].min(axis=1)
+        return sensordata[:, 0, -len(self._pairs) :]  # our sensors come last, after any the model has
 
     def close(self) -> None:
         """Release the rollout thread pools."""

@@ -388,6 +388,51 @@ def _unsafe_paths(outcome, margin: float) -> list[str]:
     return bad
 
 
+def cmd_bubble(args: argparse.Namespace) -> int:
+    """The certified bubble at one configuration: clearance, closest pair, rho per joint, radius."""
+    import json
+
+    from foam_mj.atomic import check_output
+    from foam_mj.bubble_report import bubble_report, format_report
+    from foam_mj.scenarios import read_scenario_doc, scenario_from_dict
+
+    json_out = check_output(args.json, "--json", suffix=".json")
+    if (args.scene is None) == (args.mjcf is None):
+        raise FoamError("give one of --scene NAME or --mjcf FILE")
+    q = _parse_q(args.q, "--q")
+    if args.delta is not None and not (args.delta >= 0 and args.delta < float("inf")):
+        raise FoamError(f"--delta must be a margin >= 0 in metres, got {args.delta}")
+    if args.mjcf is not None:
+        mjcf = Path(args.mjcf)
+        if not mjcf.is_file():
+            raise FoamError(f"--mjcf: MJCF file not found: {mjcf}")
+        doc: dict = {"name": mjcf.stem, "scene": str(mjcf.resolve())}
+        base, source = Path.cwd(), None
+    else:
+        doc, source = read_scenario_doc(args.scene)
+        base = source.parent
+    doc = {**doc, "q_init": q, "q_goal": q}  # the scenario's own start and goal are not looked at
+    if args.joints is not None:
+        joints = [j.strip() for j in args.joints.split(",") if j.strip()]
+        if not joints:
+            raise FoamError("--joints must name joints separated by commas")
+        doc["joints"] = joints
+    if args.robot_root is not None:
+        doc["robot_root"] = args.robot_root
+    if args.no_self_collision:
+        doc["self_collision"] = False
+    scenario = scenario_from_dict(doc, base, source=source, check=False)
+    delta = scenario.params.delta if args.delta is None else args.delta
+    report = bubble_report(scenario.robot, q, delta, name="--q")
+    print("\n".join(format_report(report)))
+    if json_out is not None:
+        from foam_mj.atomic import atomic_write_text
+
+        atomic_write_text(json_out, json.dumps(report, indent=1) + "\n")
+        print(f"wrote {json_out}")
+    return EXIT_OK
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
     from foam_mj.atomic import check_output
     from foam_mj.results import outcome_from_result, read_result
@@ -645,6 +690,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--figures", metavar="DIR", help="also draw the paper-style figures into DIR (needs foam-mj[figures])")
     p.add_argument("--figure-format", nargs="+", default=["png"], choices=["png", "svg", "pdf"], help="figure file formats (default: png)")
     p.set_defaults(func=cmd_plan)
+    p = sub.add_parser(
+        "bubble",
+        help="look inside the certified bubble at one configuration",
+        description="Print the clearance at q, the closest geom pair, rho per joint (of the pair that sets the radius) "
+        "and the certified radius: every configuration within that distance of q keeps at least delta of clearance "
+        "on every checked pair.",
+        epilog="Exit codes: 0 success, 2 bad input (unknown scene, unreadable MJCF, q of the wrong length or outside "
+        "the joint bounds, unwritable --json).",
+    )
+    p.add_argument("--scene", default=None, help="a scenario name or TOML path (its scene, joints, margin and robot options)")
+    p.add_argument("--mjcf", metavar="ROBOT.xml", help="any MJCF scene instead of a scenario")
+    p.add_argument("--q", required=True, metavar='"q1 q2 ..."', help='the configuration, one number per configuration joint (write --q="-0.1 0.2" for a leading minus)')
+    p.add_argument("--joints", metavar="a,b,c", help="the configuration joints, in order (default: the scenario's or the MJCF's declaration, else every limited hinge/slide joint)")
+    p.add_argument("--delta", type=float, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
+    p.add_argument("--robot-root", metavar="BODY", help="the body whose subtree is the robot (other bodies are obstacles)")
+    p.add_argument("--no-self-collision", action="store_true", help="do not check robot/robot pairs")
+    p.add_argument("--json", metavar="OUT.json", help="also write the report as JSON (clearance, radius, rho, joints, closest_pair, every pair)")
+    p.set_defaults(func=cmd_bubble)
     p = sub.add_parser(
         "replay",
         help="replay a saved result",

@@ -13,7 +13,7 @@ fails (:class:`PlanningFailed`) when the queue empties or a budget (bubble count
 
 Implementation notes
 --------------------
-* The candidates of one parent are sized in one batch (``Clearance.batch``: MuJoCo distance sensors
+* The candidates of one parent are sized in one batch (``BubbleOracle.radii`` over ``Clearance.batch_pairs``: MuJoCo distance sensors
   evaluated by ``mujoco.rollout``). Candidates of one parent are then accepted in their drawn order,
   each checked against the siblings accepted before it, so the result is the same as drawing and
   testing them one by one.
@@ -303,7 +303,7 @@ def plan(
             f"q_goal {q_goal.tolist()} is too close to an obstacle: clearance {goal_clear:.4f} m <= margin {params.delta} m"
         )
     clear0 = oracle.clearance(q_init)
-    r0 = float(oracle.radius_from_clearance(clear0, q_init))
+    r0 = float(oracle.radius(q_init))
     if r0 < r_min:
         raise ConfigurationError(
             f"q_init {q_init.tolist()} admits a root bubble of radius {r0:.4f} < r_min = {r_min} "
@@ -381,7 +381,7 @@ def plan(
         cand, parent_of = cand[keep], parent_of[keep]
         if len(cand) == 0:
             continue
-        r = oracle.radius_from_clearance(oracle.clearance.batch(cand), cand)
+        r = oracle.radii(cand)
         big = r >= r_min
         stats.dropped_small += int((~big).sum())
         cand, parent_of, r = cand[big], parent_of[big], r[big]

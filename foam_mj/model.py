@@ -22,17 +22,31 @@ A scenario's ``[normalize]`` table gives the same numbers per joint and takes pr
 Unnamed geoms get the name ``geom<i>`` (``i`` their index in the model) when the model is loaded, so
 that the distance sensors of :mod:`foam_mj.clearance` can refer to them; an existing name is never changed.
 
-Robot and obstacle geoms
-------------------------
-A collision geom (``contype`` or ``conaffinity`` non-zero) is a *robot* geom when its body is moved by
-some joint (the body or one of its ancestors has a joint), and an *obstacle* geom otherwise. The
-clearance pairs are every robot/obstacle pair that MuJoCo's contype/conaffinity filter lets collide.
-This is the same rule the independent checker ``foam-mj verify`` (foam_mj/verify.py) uses.
+Robot and obstacle geoms, and the pairs that are checked
+--------------------------------------------------------
+A collision geom (``contype`` or ``conaffinity`` non-zero, or named in a ``<contact><pair>``) is a
+*robot* geom when it belongs to the robot: the subtree of the body named ``robot_root`` when one is
+given, otherwise every body some configuration joint moves. Every other collision geom is an
+*obstacle*, fixed where the model puts it: joints that are not configuration coordinates stay at their
+``qpos0`` (or at the pose of the keyframe named ``keyframe``), so a loose object with a free joint is an
+obstacle at its initial pose.
+
+The clearance pairs are the geom pairs MuJoCo's own collision detection would test
+(:func:`collision_pairs`: every ``<contact><pair>``, plus the pairs that pass the contype/conaffinity
+filter, are not on one body or welded together, are not parent and child (unless the model disables
+that filter), and are not named in a ``<contact><exclude>``) in which at least one geom is a robot
+geom: robot/obstacle pairs and, unless ``self_collision`` is off, robot/robot pairs. A pair whose
+distance no configuration joint can change (no configuration joint lies on the kinematic path between
+its two bodies: a shoulder capsule above the floor turned only by a vertical pan joint) is left out of
+the checked pairs and kept in ``fixed_pairs``: no motion can bring it closer.
+The independent checker ``foam-mj verify`` (foam_mj/verify.py) keeps its own, simpler rule
+(robot/obstacle pairs by contype/conaffinity).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -120,6 +134,49 @@ def body_is_moving(m: mujoco.MjModel, body: int) -> bool:
     return False
 
 
+def body_subtree(m: mujoco.MjModel, root: int) -> np.ndarray:
+    """Boolean mask over bodies: ``root`` and every body below it."""
+    inside = np.zeros(m.nbody, dtype=bool)
+    inside[root] = True
+    for b in range(1, m.nbody):  # MuJoCo numbers parents before children
+        if inside[int(m.body_parentid[b])]:
+            inside[b] = True
+    return inside
+
+
+def collision_pairs(m: mujoco.MjModel) -> list[tuple[int, int]]:
+    """Every geom pair (a < b) MuJoCo's ``mj_collision`` would test, whatever the configuration.
+
+    Explicit ``<contact><pair>`` elements always; other pairs when contype/conaffinity match
+    ((contype_a & conaffinity_b) or (contype_b & conaffinity_a)), the geoms are on different weld bodies
+    (bodies not welded together by the absence of joints), the weld bodies are not parent and child
+    unless one is the world or ``mjDSBL_FILTERPARENT`` is set, the body pair is not in a
+    ``<contact><exclude>``. ``tests/test_certificate.py`` checks this against mj_collision.
+    """
+    out: set[tuple[int, int]] = set()
+    for a, b in zip(m.pair_geom1, m.pair_geom2):
+        out.add((min(int(a), int(b)), max(int(a), int(b))))
+    weld, parent = m.body_weldid, m.body_parentid
+    filter_parent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
+    excluded = {int(s) for s in m.exclude_signature}
+    ct, ca, body = m.geom_contype, m.geom_conaffinity, m.geom_bodyid
+    live = [g for g in range(m.ngeom) if ct[g] or ca[g]]
+    for i, a in enumerate(live):
+        for b in live[i + 1 :]:
+            if not ((ct[a] & ca[b]) or (ct[b] & ca[a])):
+                continue
+            ba, bb = int(body[a]), int(body[b])
+            wa, wb = int(weld[ba]), int(weld[bb])
+            if wa == wb:
+                continue
+            if filter_parent and wa and wb and (wa == int(weld[parent[wb]]) or wb == int(weld[parent[wa]])):
+                continue
+            if ((min(ba, bb) << 16) + max(ba, bb)) in excluded:
+                continue
+            out.add((a, b))
+    return sorted(out)
+
+
 @dataclass(frozen=True)
 class ConfigurationMap:
     """Affine map between the planner's q (n,) and MuJoCo's qpos (nq,): qpos[index] = offset + scale * q."""
@@ -163,12 +220,33 @@ class RobotModel:
     _data: mujoco.MjData = field(repr=False, default=None)  # type: ignore[assignment]
     spec: mujoco.MjSpec | None = field(repr=False, default=None)  # what ``model`` was compiled from
     xml: str | None = field(repr=False, default=None)  # the edited scene's MJCF when it differs from ``path``
+    self_pair: np.ndarray = field(default=None)  # type: ignore[assignment]  # (P,) bool: both geoms are robot geoms
+    moves: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]  # (ngeom, n) bool: coordinate i moves geom g
+    fixed_pairs: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]  # (F, 2) pairs no coordinate can change
+    pair_active: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]  # (P, n) bool: coordinate i can change d_p
+    robot_root: str | None = None
+    self_collision: bool = True
 
     def __post_init__(self) -> None:
-        # Per-geom masks for in_collision, computed once rather than on every call.
-        ids = np.arange(self.model.ngeom)
+        # Per-geom masks and the checked-pair table for in_collision, computed once rather than on every call.
+        ng = self.model.ngeom
+        ids = np.arange(ng)
         self._is_robot = np.isin(ids, self.robot_geoms)
         self._is_obstacle = np.isin(ids, self.obstacle_geoms)
+        self.pairs = np.asarray(self.pairs, dtype=int).reshape(-1, 2)
+        if self.self_pair is None:
+            self.self_pair = np.zeros(len(self.pairs), dtype=bool)
+        if self.moves is None:
+            self.moves = geom_moved_by(self.model, self.config)
+        if self.pair_active is None:
+            self.pair_active = np.array(
+                [pair_coordinates(self.model, self.config, self.moves, a, b) for a, b in self.pairs], dtype=bool
+            ).reshape(-1, self.config.dim)
+        if self.fixed_pairs is None:
+            self.fixed_pairs = np.empty((0, 2), dtype=int)
+        self.pair_table = np.zeros((ng, ng), dtype=bool)
+        self.pair_table[self.pairs[:, 0], self.pairs[:, 1]] = True
+        self.pair_table |= self.pair_table.T
 
     @classmethod
     def from_xml(
@@ -176,14 +254,24 @@ class RobotModel:
         path: str | Path,
         joints: Sequence[str] | None = None,
         normalize: Mapping[str, Sequence[float]] | None = None,
+        *,
+        robot_root: str | None = None,
+        self_collision: bool = True,
+        keyframe: str | None = None,
     ) -> "RobotModel":
         """Load an MJCF scene and read its configuration (see the module docstring).
 
         ``joints`` and ``normalize`` (joint name -> [span] or [qpos_lo, qpos_hi, span]) override the MJCF's
-        declaration, as a scenario's ``joints = [...]`` and ``[normalize]`` do.
+        declaration, as a scenario's ``joints = [...]`` and ``[normalize]`` do. ``robot_root`` names the
+        body whose subtree is the robot (default: every body a configuration joint moves; without a joint
+        declaration, the robot's limited hinges and slides are the coordinates); ``self_collision`` adds
+        the robot/robot pairs MuJoCo lets collide; ``keyframe`` names the keyframe whose pose holds the
+        joints that are not configuration coordinates (default: qpos0).
         """
         p = Path(path).resolve()
-        return cls.from_spec(load_spec(p), p, joints, normalize)
+        return cls.from_spec(
+            load_spec(p), p, joints, normalize, robot_root=robot_root, self_collision=self_collision, keyframe=keyframe
+        )
 
     @classmethod
     def from_spec(
@@ -192,40 +280,101 @@ class RobotModel:
         path: str | Path,
         joints: Sequence[str] | None = None,
         normalize: Mapping[str, Sequence[float]] | None = None,
+        *,
+        robot_root: str | None = None,
+        self_collision: bool = True,
+        keyframe: str | None = None,
     ) -> "RobotModel":
         """Build from a (possibly edited) :class:`mujoco.MjSpec`; ``path`` names the source in messages.
 
         Unnamed geoms are named in ``spec`` (module docstring); the spec is kept (:meth:`spec_copy`).
+        Options as in :meth:`from_xml`.
         """
         p = Path(path)
         compile_spec(spec, p)
         name_unnamed_geoms(spec)
         m = compile_spec(spec, p)
+        root = None
+        if robot_root is not None:
+            root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, robot_root)
+            if root < 0:
+                known = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, m.nbody)]
+                raise ModelError(f"{p}: robot_root '{robot_root}' is not a body of the model (bodies: {known})")
+        if root is not None and joints is None and _custom_text(m, CONFIGURATION_FIELD) is None:
+            in_root = body_subtree(m, root)
+            joints = [
+                _joint_name(m, j)
+                for j in range(m.njnt)
+                if in_root[int(m.jnt_bodyid[j])] and int(m.jnt_type[j]) in _SUPPORTED_JOINTS and m.jnt_limited[j]
+            ]
+            if not joints:
+                raise ModelError(f"{p}: robot_root '{robot_root}' has no limited hinge or slide joint in its subtree")
         config = _configuration_map(m, p, joints, normalize)
-        robot, obstacles = [], []
-        for g in range(m.ngeom):
-            if not (m.geom_contype[g] or m.geom_conaffinity[g]):
-                continue
-            (robot if body_is_moving(m, int(m.geom_bodyid[g])) else obstacles).append(g)
+        if keyframe is not None:
+            k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, keyframe)
+            if k < 0:
+                known = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, i) for i in range(m.nkey)]
+                raise ModelError(f"{p}: keyframe '{keyframe}' is not in the model (keyframes: {known})")
+            config = dataclasses.replace(config, qpos0=np.array(m.key_qpos[k]))
+        moves = geom_moved_by(m, config)
+        if root is not None:
+            in_robot = body_subtree(m, root)
+            outside = [n for n, j in zip(config.joint_names, config.joint_ids) if not in_robot[int(m.jnt_bodyid[j])]]
+            if outside:
+                raise ModelError(f"{p}: configuration joint(s) {outside} are not in the subtree of robot_root '{robot_root}'")
+            is_robot = in_robot[m.geom_bodyid]
+        else:
+            is_robot = moves.any(axis=1)
+        all_pairs = collision_pairs(m)
+        live = sorted({g for pr in all_pairs for g in pr} | {g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]})
+        robot = [g for g in live if is_robot[g]]
+        obstacles = [g for g in live if not is_robot[g]]
         if not robot:
-            raise ModelError(f"{p}: no collision geom is attached to a moving body (the robot)")
-        if not obstacles:
-            raise ModelError(f"{p}: no collision geom is attached to a static body (the obstacles)")
-        pairs = [
-            (g, o)
-            for g in robot
-            for o in obstacles
-            if (m.geom_contype[g] & m.geom_conaffinity[o]) or (m.geom_contype[o] & m.geom_conaffinity[g])
-        ]
+            raise ModelError(f"{p}: no collision geom is attached to the robot (a body moved by a configuration joint)")
+        pairs, self_pair, fixed = [], [], []
+        for a, b in all_pairs:
+            if not (is_robot[a] or is_robot[b]):
+                continue
+            both = bool(is_robot[a] and is_robot[b])
+            if both and not self_collision:
+                continue
+            active = pair_coordinates(m, config, moves, a, b)
+            if not active.any():
+                fixed.append((a, b))
+                continue
+            pairs.append((a, b) if is_robot[a] else (b, a))
+            self_pair.append(both)
         if not pairs:
-            raise ModelError(f"{p}: contype/conaffinity let no robot geom collide with any obstacle geom")
-        nonzero = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or str(g) for g in robot + obstacles if m.geom_margin[g] != 0]
+            what = "any obstacle geom" + (" or with itself" if self_collision else "")
+            raise ModelError(
+                f"{p}: no robot geom can collide with {what} (no obstacles, or contype/conaffinity and "
+                "<contact><exclude> filter every pair, or no configuration joint moves the geoms of a pair)"
+            )
+        order = sorted(range(len(pairs)), key=lambda i: pairs[i])
+        pairs, self_pair = [pairs[i] for i in order], [self_pair[i] for i in order]
+        active = np.array([pair_coordinates(m, config, moves, a, b) for a, b in pairs], dtype=bool).reshape(-1, config.dim)
+        checked = sorted({g for pr in pairs for g in pr})
+        nonzero = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or str(g) for g in checked if m.geom_margin[g] != 0]
         if nonzero:
             raise ModelError(
                 f"{p}: collision geoms {nonzero} have a non-zero margin; mj_geomDistance subtracts margins, "
                 "so clearances would be wrong. Set margin=\"0\" on collision geoms."
             )
-        out = cls(p, m, config, np.array(robot), np.array(obstacles), np.array(pairs, dtype=int), mujoco.MjData(m))
+        out = cls(
+            p,
+            m,
+            config,
+            np.array(robot, dtype=int),
+            np.array(obstacles, dtype=int),
+            np.array(pairs, dtype=int),
+            mujoco.MjData(m),
+            self_pair=np.array(self_pair, dtype=bool),
+            pair_active=active,
+            moves=moves,
+            fixed_pairs=np.array(fixed, dtype=int).reshape(-1, 2),
+            robot_root=robot_root,
+            self_collision=self_collision,
+        )
         out.spec = spec
         return out
 
@@ -292,7 +441,8 @@ class RobotModel:
         return d
 
     def in_collision(self, q: np.ndarray, data: mujoco.MjData | None = None) -> bool:
-        """MuJoCo's own contact detection (``mj_collision``): True when any robot geom touches an obstacle.
+        """MuJoCo's own contact detection (``mj_collision``): True when a checked pair (robot/obstacle, or
+        robot/robot with self-collision on) touches.
 
         This is independent of the clearance code and is what tests use to check bubbles.
         """
@@ -302,9 +452,63 @@ class RobotModel:
         if len(g) == 0:
             return False
         hit = np.asarray(d.contact.dist[: d.ncon]) <= 0
-        leg, obs = self._is_robot, self._is_obstacle
-        return bool(np.any(hit & ((leg[g[:, 0]] & obs[g[:, 1]]) | (leg[g[:, 1]] & obs[g[:, 0]]))))
+        return bool(np.any(hit & self.pair_table[g[:, 0], g[:, 1]]))
 
+    def pair_name(self, p: int) -> tuple[str, str]:
+        """Geom names of checked pair p."""
+        a, b = self.pairs[p]
+        return self.geom_name(a), self.geom_name(b)
+
+
+def _reference_data(m: mujoco.MjModel, config: "ConfigurationMap") -> mujoco.MjData:
+    d = mujoco.MjData(m)
+    d.qpos[:] = config.qpos0
+    d.qpos[config.qpos_index] = m.qpos0[config.qpos_index]
+    mujoco.mj_kinematics(m, d)
+    return d
+
+
+_PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
+_HINGE_T = int(mujoco.mjtJoint.mjJNT_HINGE)
+
+
+def pair_coordinates(m: mujoco.MjModel, config: "ConfigurationMap", moves: np.ndarray, a: int, b: int) -> np.ndarray:
+    """(n,) bool: the coordinates that can change the distance between geoms a and b.
+
+    A coordinate whose joint moves exactly one of the two geoms (it lies on the kinematic path between
+    their bodies) can; one that moves both or neither cannot. Against a plane that no coordinate moves,
+    the distance changes only with the motion along the plane's normal n, so a hinge whose axis is
+    parallel to n or a slide perpendicular to it cannot change it either, provided every configuration
+    hinge above it also turns about an axis parallel to n (so that this holds in every configuration):
+    a vertical pan joint cannot bring a shoulder closer to the floor.
+    """
+    active = moves[a] ^ moves[b]
+    for plane, other in ((a, b), (b, a)):
+        if int(m.geom_type[plane]) != _PLANE or moves[plane].any():
+            continue
+        d = _reference_data(m, config)
+        normal = d.geom_xmat[plane].reshape(3, 3)[:, 2]
+        order = sorted(np.flatnonzero(moves[other]), key=lambda i: int(config.joint_ids[i]))  # root first
+        upstream_parallel = True
+        for i in order:
+            j = int(config.joint_ids[i])
+            axis = d.xaxis[j] / np.linalg.norm(d.xaxis[j])
+            hinge = int(m.jnt_type[j]) == _HINGE_T
+            parallel = np.linalg.norm(np.cross(axis, normal)) < 1e-9
+            if upstream_parallel and ((hinge and parallel) or (not hinge and abs(axis @ normal) < 1e-9)):
+                active[i] = False
+            if hinge and not parallel:
+                upstream_parallel = False
+    return active
+
+
+def geom_moved_by(m: mujoco.MjModel, config: "ConfigurationMap") -> np.ndarray:
+    """(ngeom, n) bool: configuration coordinate i moves geom g (its joint's body is g's body or above it)."""
+    out = np.zeros((m.ngeom, config.dim), dtype=bool)
+    for i, j in enumerate(config.joint_ids):
+        below = body_subtree(m, int(m.jnt_bodyid[int(j)]))
+        out[:, i] = below[m.geom_bodyid]
+    return out
 
 
 _JOINT_TYPE_NAMES = {

@@ -17,6 +17,7 @@ Layout (format "foam-mj/result", version 1)::
                         "qpos_index": [...], "scale": [...], "offset": [...], "qpos0": [...]},
       "q_init": [...], "q_goal": [...], "seed": 0,
       "planner": {"algorithm": "pfm", "delta": 0.005, "max_bubbles": ..., "time_limit": ..., "K": 10, "r_min": 0.07},  # + the algorithm's options
+      "robot": {"robot_root": null, "self_collision": true, "keyframe": null},  # what the robot is (foam_mj.model); replay rebuilds the same pairs
       "outcome": "reached" | "queue empty" | "bubble budget" | "time budget",
       "foam": {"stats": {"planner", "outcome", "bubbles", "distance_queries", "elapsed", "time_to_first_path", ...},
                "centers": [[...], ...], "radii": [...], "parents": [...]},   # every bubble
@@ -119,6 +120,7 @@ def _header(scenario, seed: int) -> dict:
         "q_goal": np.asarray(scenario.q_goal).tolist(),
         "seed": int(seed),
         "planner": scenario.params.as_dict(),
+        "robot": dict(getattr(scenario, "robot_options", {})),  # robot_root, self_collision, keyframe
     }
 
 
@@ -324,7 +326,10 @@ def outcome_robot(doc: dict, source: str | Path):
     """The compiled scene a result was planned on (a ModelError, exit 2, when it cannot be loaded)."""
     from foam_mj.model import RobotModel
 
-    return RobotModel.from_xml(resolve_model(doc, source))
+    options = doc.get("robot") or {}
+    if not isinstance(options, dict) or set(options) - {"robot_root", "self_collision", "keyframe"}:
+        raise FoamError(f"{source}: field 'robot' must hold only robot_root, self_collision and keyframe")
+    return RobotModel.from_xml(resolve_model(doc, source), **options)
 
 
 def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):

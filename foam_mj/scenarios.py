@@ -8,6 +8,12 @@ Format (every field is checked; an unknown or missing one is named in the error)
     q_init = [0.2, 0.3, 0.08]
     q_goal = [0.45, 0.4536, 1.45]
     seed = 0                               # optional, default 0
+    robot_root = "pelvis"                  # optional: the body whose subtree is the robot (default: every
+                                           # body a configuration joint moves); other bodies are obstacles
+    self_collision = true                  # optional, default true: also check robot/robot pairs MuJoCo
+                                           # lets collide (foam_mj.model)
+    keyframe = "home"                      # optional: pose of the joints that are not configuration
+                                           # coordinates (default: qpos0)
     [planner]                              # optional
     algorithm = "pfm"                      # a planner of foam_mj.planners.PLANNERS (see below)
     K = 10                                 # pfm's own options; other planners have others
@@ -82,7 +88,7 @@ MODEL_DIR = models_dir()
 #: A scenario's name: it names the default recording ``foam-mj-<name>.rrd`` and Rerun entities.
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_.\-]+$")
 
-_TOP_FIELDS = {"name", "description", "scene", "q_init", "q_goal", "seed", "planner", "joints", "normalize", "subject", "obstacle", "mesh", "limits"}
+_TOP_FIELDS = {"name", "description", "scene", "q_init", "q_goal", "seed", "planner", "joints", "normalize", "subject", "obstacle", "mesh", "limits", "robot_root", "self_collision", "keyframe"}
 _SUBJECT_FIELDS = {"height", "mass"}
 _OBSTACLE_FIELDS = {"size", "pos", "name"}
 _MESH_FIELDS = {"file", "pos", "euler", "scale", "name", "decompose", "threshold"}
@@ -105,6 +111,9 @@ class Scenario:
     params: PlannerConfig
     seed: int = 0
     source: Path | None = None
+    robot_root: str | None = None  # the robot's root body (foam_mj.model); None: every body a coordinate moves
+    self_collision: bool = True  # check robot/robot pairs too
+    keyframe: str | None = None  # pose of the non-configuration joints; None: qpos0
     _robot: RobotModel | None = field(default=None, repr=False)
     edits: SceneEdits = field(default_factory=SceneEdits)
     limits: Limits | None = None  # [limits]: the time law's joint limits (None: the model's)
@@ -114,8 +123,13 @@ class Scenario:
     def robot(self) -> RobotModel:
         """The compiled scene with the scenario's edits (loaded on first use)."""
         if self._robot is None:
-            self._robot = build_robot(self.scene, self.edits)
+            self._robot = build_robot(self.scene, self.edits, **self.robot_options)
         return self._robot
+
+    @property
+    def robot_options(self) -> dict:
+        """robot_root, self_collision and keyframe, as keyword arguments of RobotModel.from_xml."""
+        return {"robot_root": self.robot_root, "self_collision": self.self_collision, "keyframe": self.keyframe}
 
     def oracle(self) -> BubbleOracle:
         """A bubble oracle for this scene with the scenario's safety margin."""
@@ -308,6 +322,13 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     seed = raw.get("seed", 0)
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise ScenarioError(f"{path}: field 'seed' must be an integer >= 0, got {seed!r}")
+    robot_root, keyframe = raw.get("robot_root"), raw.get("keyframe")
+    for key, value in (("robot_root", robot_root), ("keyframe", keyframe)):
+        if value is not None and (not isinstance(value, str) or not value):
+            raise ScenarioError(f"{path}: field '{key}' must be a name (a non-empty string), got {value!r}")
+    self_collision = raw.get("self_collision", True)
+    if not isinstance(self_collision, bool):
+        raise ScenarioError(f"{path}: field 'self_collision' must be true or false, got {self_collision!r}")
     planner = raw.get("planner", {})
     if not isinstance(planner, dict):
         raise ScenarioError(f"{path}: [planner] must be a table")
@@ -339,7 +360,10 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     q_init = _number_list(raw["q_init"], f"{path}: field 'q_init'")
     q_goal = _number_list(raw["q_goal"], f"{path}: field 'q_goal'")
     edits = _scene_edits(raw, str(path), base_dir)
-    scenario = Scenario(name, description, scene, q_init, q_goal, params, seed, source, edits=edits)
+    scenario = Scenario(
+        name, description, scene, q_init, q_goal, params, seed, source,
+        robot_root=robot_root, self_collision=self_collision, keyframe=keyframe, edits=edits,
+    )
     scenario.limits, scenario.time_law = _limits(raw.get("limits"), path)
     if check:
         check_scenario(scenario)
@@ -374,7 +398,7 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None) -> None:
     where = scenario.source or scenario.name
     if robot is None:
         try:
-            robot = build_robot(scenario.scene, scenario.edits)
+            robot = build_robot(scenario.scene, scenario.edits, **scenario.robot_options)
         except FoamError as exc:
             raise ScenarioError(f"{where}: field 'scene': {exc}") from None
     if np.array_equal(scenario.q_init, scenario.q_goal):

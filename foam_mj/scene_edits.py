@@ -146,17 +146,18 @@ def scene_xml(spec: mujoco.MjSpec, scene: Path) -> str:
     return spec.to_xml()
 
 
-def build_robot(scene: Path, edits: SceneEdits | None = None) -> RobotModel:
-    """The scene as a :class:`RobotModel`, with ``edits`` applied (module docstring)."""
+def build_robot(scene: Path, edits: SceneEdits | None = None, **options) -> RobotModel:
+    """The scene as a :class:`RobotModel`, with ``edits`` applied (module docstring); ``options``
+    (robot_root, self_collision, keyframe) go to :meth:`RobotModel.from_spec`."""
     edits = edits or SceneEdits()
     if not edits.changes_scene:
-        return RobotModel.from_xml(scene)
+        return RobotModel.from_xml(scene, **options)
     from foam_mj.model import compile_spec, name_unnamed_geoms
 
     spec = edited_spec(scene, edits)
     compile_spec(spec, scene)
     name_unnamed_geoms(spec)
     xml = scene_xml(spec, scene)
-    robot = RobotModel.from_spec(mujoco.MjSpec.from_string(xml), scene)
+    robot = RobotModel.from_spec(mujoco.MjSpec.from_string(xml), scene, **options)
     robot.xml = xml
     return robot

@@ -297,12 +297,12 @@ _MAX_ROBOTS = 8
 def _robot_for(scenario):
     from foam_mj.scene_edits import build_robot
 
-    ident = f"{scenario.scene}|{scenario.edits!r}"
+    ident = f"{scenario.scene}|{scenario.edits!r}|{scenario.robot_options!r}"
     robot = _ROBOTS.get(ident)
     if robot is None:
         if len(_ROBOTS) >= _MAX_ROBOTS:
             _ROBOTS.pop(next(iter(_ROBOTS)))
-        robot = _ROBOTS[ident] = build_robot(scenario.scene, scenario.edits)
+        robot = _ROBOTS[ident] = build_robot(scenario.scene, scenario.edits, **scenario.robot_options)
     return robot
 
 

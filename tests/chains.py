@@ -87,5 +87,7 @@ def random_chain_xml(
             f'<geom name="obstacle{i}" type="box" size="{_vec(rng.uniform(0.05, 0.3, 3))}" pos="{_vec(centre)}" '
             f'euler="{_vec(rng.uniform(-np.pi, np.pi, 3))}" contype="2" conaffinity="1"/>'
         )
+    if rng.random() < 0.5:  # a floor below the chain (planes get their own rule for joints that cannot change d)
+        lines.append(f'<geom name="floor" type="plane" size="3 3 0.1" pos="0 0 {-rng.uniform(0.8, 1.2):.6g}" contype="2" conaffinity="1"/>')
     lines.append("</worldbody></mujoco>")
     return "\n".join(lines)

@@ -179,38 +179,40 @@ def test_a_slide_reach_is_measured_from_its_ref_pose(tmp_path):
 
 
 class _IndependentCheck:
-    """Clearance straight from MuJoCo: the pairs within ``reach`` come from mj_collision on a copy of the
-    model whose geoms carry that margin (MuJoCo's own filters and broad phase), their distances from
-    mj_geomDistance on the model itself. Shares no code with foam_mj's pair lists or clearance."""
+    """Clearance straight from MuJoCo, sharing no code with foam_mj's pair lists or clearance: the pairs are
+    those mj_collision reports on a copy of the model whose geoms are spheres inflated by a 100 m margin
+    (MuJoCo's own filters: contype/conaffinity, welds, parent/child, exclusions), their distances come
+    from mj_geomDistance on the model itself."""
 
-    def __init__(self, robot, reach: float = 0.3) -> None:
+    def __init__(self, robot) -> None:
         spec = mujoco.MjSpec.from_file(str(robot.path))
         for g in spec.geoms:
-            g.margin = reach
-        self.wide = spec.compile()
+            g.type, g.margin = mujoco.mjtGeom.mjGEOM_SPHERE, 100.0
+        wide = spec.compile()
+        dw = mujoco.MjData(wide)
+        mujoco.mj_forward(wide, dw)
+        self.pairs = sorted({tuple(sorted(map(int, g))) for g in dw.contact.geom[: dw.ncon]})
         self.m = robot.model
-        self.dw, self.d = mujoco.MjData(self.wide), mujoco.MjData(self.m)
+        self.d = mujoco.MjData(self.m)
         self.to_qpos = robot.config.to_qpos
 
     def clearance(self, q) -> float:
-        self.dw.qpos[:] = self.d.qpos[:] = self.to_qpos(q)
-        mujoco.mj_kinematics(self.wide, self.dw)
-        mujoco.mj_collision(self.wide, self.dw)
+        self.d.qpos[:] = self.to_qpos(q)
         mujoco.mj_kinematics(self.m, self.d)
-        pairs = {tuple(sorted(map(int, g))) for g in self.dw.contact.geom[: self.dw.ncon]}
-        return min((mujoco.mj_geomDistance(self.m, self.d, a, b, 1.0, None) for a, b in pairs), default=1.0)
+        return min((mujoco.mj_geomDistance(self.m, self.d, a, b, 1.0, None) for a, b in self.pairs), default=1.0)
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much])
-@given(seed=st.integers(0, 2**32 - 1), delta=st.sampled_from([0.0, 0.005, 0.02]))
-def test_random_chains_keep_the_margin_inside_every_bubble(tmp_path, seed, delta):
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much])
+@given(seed=st.integers(0, 2**32 - 1), delta=st.sampled_from([0.0, 0.005, 0.02]), self_collision=st.booleans())
+def test_random_chains_keep_the_margin_inside_every_bubble(tmp_path, seed, delta, self_collision):
     """Hinges and slides in random order on random axes with random ref, random primitive geoms and
-    obstacles: every configuration sampled inside a certified bubble, in the ball, on its sphere and along
-    segments between such points, keeps clearance >= delta by MuJoCo's own reckoning."""
+    obstacles, a floor half the time, robot geoms that collide with each other half the time: every
+    configuration sampled inside a certified bubble, in the ball, on its sphere and along segments between
+    such points, keeps clearance >= delta on every pair MuJoCo would collide, by MuJoCo's own reckoning."""
     from chains import random_chain_xml
 
     rng = np.random.default_rng(seed)
-    robot = _robot_from_xml(tmp_path, random_chain_xml(rng), f"chain{seed}.xml")
+    robot = _robot_from_xml(tmp_path, random_chain_xml(rng, self_collision=self_collision), f"chain{seed}.xml")
     oracle = BubbleOracle(robot, delta=delta)
     check = _IndependentCheck(robot)
     n = robot.dim
@@ -230,3 +232,47 @@ def test_random_chains_keep_the_margin_inside_every_bubble(tmp_path, seed, delta
         checked += 1
     oracle.close()
     assume(checked > 0)
+
+
+def _points_in_geom(m, d, g):
+    """Points of geom g (world frame): its centre and, just inside its surface, the ends of its local axes
+    (box corners for boxes)."""
+    pos, mat, size = d.geom_xpos[g], d.geom_xmat[g].reshape(3, 3), m.geom_size[g]
+    t = int(m.geom_type[g])
+    gt = mujoco.mjtGeom
+    if t == gt.mjGEOM_BOX:
+        local = np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)]) * size
+    elif t == gt.mjGEOM_SPHERE:
+        local = np.vstack([np.eye(3), -np.eye(3)]) * size[0]
+    elif t == gt.mjGEOM_CAPSULE:
+        local = np.vstack([s * np.array([0, 0, size[1]]) + size[0] * e for s in (-1, 1) for e in np.vstack([np.eye(3), -np.eye(3)])])
+    elif t == gt.mjGEOM_CYLINDER:
+        local = np.array([[x * size[0], y * size[0], z * size[1]] for x, y in ((1, 0), (-1, 0), (0, 1), (0, -1)) for z in (-1, 1)])
+    else:  # ellipsoid
+        local = np.vstack([np.eye(3), -np.eye(3)]) * size[:3]
+    return pos + 0.999 * np.vstack([np.zeros(3), local]) @ mat.T
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1))
+def test_no_point_of_a_random_chain_moves_farther_than_its_geoms_bound(tmp_path, seed):
+    """Paper 003 Eq. 4 per geom, on random chains: along q -> a no point of geom g moves farther than
+    sum_grp rho_(g,grp) ||a_grp - q_grp||, for moves across the whole range (slides to their ends)."""
+    from chains import random_chain_xml
+
+    rng = np.random.default_rng(seed)
+    robot = _robot_from_xml(tmp_path, random_chain_xml(rng), f"chain{seed}.xml")
+    bound = DisplacementBound.from_model(robot)
+    m, d = robot.model, mujoco.MjData(robot.model)
+    for _ in range(5):
+        q = rng.uniform(robot.lower, robot.upper)
+        a = np.where(rng.random(robot.dim) < 0.5, robot.lower, robot.upper)  # to the ends of the ranges
+        dq = a - q
+        allowed = {g: sum(w * np.linalg.norm(dq[list(grp)]) for w, grp in zip(bound.per_geom[g], bound.groups)) for g in robot.robot_geoms}
+        robot.set_configuration(q, d)
+        p0 = {g: _points_in_geom(m, d, g) for g in robot.robot_geoms}
+        for s in np.linspace(0, 1, 9)[1:]:
+            robot.set_configuration(q + s * dq, d)
+            for g in robot.robot_geoms:
+                moved = float(np.max(np.linalg.norm(_points_in_geom(m, d, g) - p0[g], axis=1)))
+                assert moved <= allowed[g] + 1e-9, f"geom {robot.geom_name(g)} moved {moved} > bound {allowed[g]}"

@@ -63,10 +63,11 @@ def test_pfm_grows_the_same_foam_as_the_foam_module(oracles, name, seed):
 
 
 def test_pfm_bubble_counts_of_the_paper_scenarios_are_unchanged(oracles):
-    """Seed 0's foam sizes as the README and the paper reproductions quote them."""
+    """Seed 0's foam sizes as the README quotes them (with per-pair radii; the paper's single bound gave
+    1,698 bubbles and a rosary of 29, benchmarks/certificate.py compares the two)."""
     s = load_scenario("obstacle")
     res = s.params.planner().plan(_problem(oracles["obstacle"], s), seed=0)
-    assert res.stats.bubbles == 1698 and res.rosary.k == 29
+    assert res.stats.bubbles == 1640 and res.rosary.k == 30
 
 
 def test_pfm_failure_carries_plan_stats_and_the_foam(oracles):

@@ -165,8 +165,10 @@ def test_no_walker_point_moves_farther_than_eq5(scenarios, seed):
 
 @pytest.mark.parametrize("name", MAPS)
 def test_the_radius_is_the_inscribed_ball_of_eq5(scenarios, oracles, checkers, name):
-    """r(q) = (d - delta) / sqrt(1 + r_robot^2) with d from mj_geomDistance (the checker, not foam_mj's
-    clearance) and r_robot by hand, except where the bounds cap it (or the oracle's distmax caps d)."""
+    """The paper's single bound r(q) = (d - delta) / sqrt(1 + r_robot^2), with d from mj_geomDistance (the
+    checker, not foam_mj's clearance) and r_robot by hand, except where the bounds cap it (or the oracle's
+    distmax caps d). The per-pair radius is never smaller: a geom nearer the axis than r_robot has its own,
+    smaller rho."""
     oracle, check, delta = oracles[name], checkers[name], scenarios[name].params.delta
     rng = np.random.default_rng(11)
     clearance_limited = 0
@@ -175,7 +177,8 @@ def test_the_radius_is_the_inscribed_ball_of_eq5(scenarios, oracles, checkers, n
         from_clearance = (min(d, oracle.clearance.distmax) - delta) / np.sqrt(1 + R_ROBOT**2)
         to_bounds = np.min(np.minimum(q - LOWER, UPPER - q))
         expected = max(min(from_clearance, to_bounds), 0.0)
-        assert oracle.radius(q) == pytest.approx(expected, abs=1e-9)
+        assert oracle.radius_from_clearance(min(d, oracle.clearance.distmax), q) == pytest.approx(expected, abs=1e-9)
+        assert oracle.radius(q) >= expected - 1e-9
         clearance_limited += bool(0 < from_clearance < to_bounds and d < oracle.clearance.distmax)
     assert clearance_limited >= 50
 

@@ -78,7 +78,7 @@ class PlanningProblem:
                 raise ConfigurationError(
                     f"{name} {q.tolist()} is {state}: clearance {d:.4f} m <= margin delta = {self.delta} m"
                 )
-            r = float(o.radius_from_clearance(d, q))
+            r = float(o.radius(q))  # per-pair bound (foam_mj.bubbles)
             if not r > 0:
                 raise ConfigurationError(f"{name} {q.tolist()} lies on the boundary of the joint bounds: no certified bubble fits")
             out.append(r)

@@ -130,7 +130,7 @@ class _Growth:
             if c <= params.delta:
                 state = "in collision" if c < 0 else "too close to an obstacle"
                 raise ConfigurationError(f"{name} {q.tolist()} is {state}: clearance {c:.4f} m <= margin delta = {params.delta} m")
-        r0 = float(oracle.radius_from_clearance(oracle.clearance(self.q_init), self.q_init))
+        r0 = float(oracle.radius(self.q_init))
         if r0 <= 0.0:
             raise ConfigurationError(f"q_init {self.q_init.tolist()} lies on the configuration bounds: its bubble has radius 0")
         cap = 1024
@@ -192,7 +192,7 @@ class _Growth:
         idx = idx[~cov]
         if idx.size == 0:
             return rejected, np.empty(0, dtype=np.int64)
-        r = self.oracle.radius_from_clearance(self.oracle.clearance.batch(cand[idx]), cand[idx])
+        r = self.oracle.radii(cand[idx])
         big = r >= self.params.r_min
         st.dropped_small += int((~big).sum())
         idx, r = idx[big], r[big]

@@ -1,0 +1,82 @@
+"""Look inside one bubble: what sets the certified radius at a configuration (``foam-mj bubble``).
+
+For a configuration q the report holds the clearance d(q) = min_p d_p(q) and its pair, every checked
+pair's distance d_p, bound rho_p (per coordinate) and term (d_p - delta) / ||rho_p||_2, the pair whose
+term is smallest (it sets the radius, :mod:`foam_mj.bubbles`), the distance to the joint bounds, and the
+radius. It makes the bound checkable from outside: move any coordinate set by at most the radius and
+no pair's distance drops below delta.
+
+JSON (``format`` "foam-mj/bubble", version 1)::
+
+    {"format": "foam-mj/bubble", "version": 1, "mjcf": "/abs/scene.xml", "joints": [...], "q": [...],
+     "delta": 0.005, "clearance": 0.1103, "closest_pair": ["foot_collision", "obstacle_box"],
+     "radius": 0.0878, "limiting_pair": [...], "rho": [...], "rho_norm": 1.1998, "to_bounds": 0.3,
+     "pairs": [{"geoms": [a, b], "self": false, "distance": d_p, "rho": [...], "rho_norm": ..., "radius": term}, ...],
+     "fixed_pairs": [[a, b], ...]}
+
+``rho`` is the limiting pair's rho_p in metres per unit of each coordinate (radians or the coordinate's
+normalized unit); ``fixed_pairs`` are the pairs no coordinate can change (left out of the bound).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from foam_mj.bubbles import BubbleOracle
+from foam_mj.model import RobotModel
+
+FORMAT = "foam-mj/bubble"
+VERSION = 1
+
+
+def bubble_report(robot: RobotModel, q, delta: float = 0.005, name: str = "q") -> dict:
+    """The report at q (validated: shape, finite, bounds; errors call it ``name``) as a JSON-able dict
+    (module docstring)."""
+    q = robot.validate(q, name)
+    oracle = BubbleOracle(robot, delta=delta)
+    try:
+        rep = oracle.explain(q)
+    finally:
+        oracle.close()
+    pairs = [
+        {
+            "geoms": list(robot.pair_name(i)),
+            "self": bool(robot.self_pair[i]),
+            "distance": float(rep.pair_distances[i]),
+            "rho": [float(v) for v in oracle.pair_rho[i]],
+            "rho_norm": float(oracle.pair_factor[i]),
+            "radius": float(rep.pair_radii[i]),
+        }
+        for i in range(len(robot.pairs))
+    ]
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "mjcf": str(robot.path),
+        "joints": list(robot.config.joint_names),
+        "q": [float(v) for v in q],
+        "delta": float(delta),
+        "clearance": rep.clearance,
+        "closest_pair": list(rep.closest_pair),
+        "radius": rep.radius,
+        "limiting_pair": list(rep.limiting_pair),
+        "rho": [float(v) for v in rep.rho],
+        "rho_norm": rep.rho_norm,
+        "to_bounds": rep.to_bounds,
+        "pairs": pairs,
+        "fixed_pairs": [[robot.geom_name(a), robot.geom_name(b)] for a, b in robot.fixed_pairs],
+    }
+
+
+def format_report(doc: dict) -> list[str]:
+    """The four lines ``foam-mj bubble`` prints: clearance, closest pair, rho per joint, radius."""
+    rho = ", ".join(f"{j} {v:.4f}" for j, v in zip(doc["joints"], doc["rho"]))
+    limit = " / ".join(doc["limiting_pair"])
+    bound = " (the joint bounds cap it)" if doc["radius"] >= doc["to_bounds"] - 1e-15 and doc["radius"] > 0 else ""
+    return [
+        f"clearance: {doc['clearance']:.6f} m",
+        f"closest pair: {' / '.join(doc['closest_pair'])}",
+        f"rho per joint (m per unit, pair {limit}): {rho}; ||rho||_2 = {doc['rho_norm']:.4f}",
+        f"certified radius: {doc['radius']:.6f} (delta {doc['delta']:g} m, set by {limit}{bound}; "
+        f"distance to the joint bounds {doc['to_bounds']:.6f})",
+    ]

@@ -1,0 +1,70 @@
+"""Tests for foam_mj.bubble_report and ``foam-mj bubble``: the bubble at one configuration, checkable from outside."""
+
+from __future__ import annotations
+
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+from foam_mj.cli import main
+
+from conftest import MujocoChecker
+from test_bubbles import REPRODUCER
+
+
+def test_the_reproducer_reports_the_sound_radius_and_it_holds(tmp_path, capsys):
+    """foam-mj bubble on the hinge + ref-offset slide: rho = (3.05, 1), and turning the hinge by the printed
+    radius (or moving anywhere on that sphere) keeps delta, by mj_geomDistance alone."""
+    scene, out = tmp_path / "reach.xml", tmp_path / "bubble.json"
+    scene.write_text(REPRODUCER)
+    assert main(["bubble", "--mjcf", str(scene), "--q=0 1.8", "--delta", "0.005", "--json", str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "clearance: 0.500000 m" and lines[1] == "closest pair: ball / wall"
+    assert "turn 3.0500, reach 1.0000" in lines[2] and lines[3].startswith("certified radius: 0.154218 ")
+    doc = json.loads(out.read_text())
+    assert doc["format"] == "foam-mj/bubble" and doc["joints"] == ["turn", "reach"]
+    assert doc["rho"] == pytest.approx([3.05, 1.0]) and doc["radius"] == pytest.approx(0.495 / np.hypot(3.05, 1.0))
+    assert doc["clearance"] == pytest.approx(0.5) and doc["closest_pair"] == ["ball", "wall"]
+    m = mujoco.MjModel.from_xml_path(str(scene))
+    d = mujoco.MjData(m)
+    ball, wall = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("ball", "wall"))
+    for phi in np.linspace(0, 2 * np.pi, 361):
+        d.qpos[:] = np.array(doc["q"]) + doc["radius"] * np.array([np.cos(phi), np.sin(phi)])
+        mujoco.mj_kinematics(m, d)
+        assert mujoco.mj_geomDistance(m, d, ball, wall, 1.0, None) >= doc["delta"] - 1e-9
+
+
+def test_a_scene_report_lists_every_pair_and_agrees_with_mujoco(tmp_path, capsys, obstacle_robot):
+    out = tmp_path / "b.json"
+    q = [0.2, 0.3, 0.08]
+    assert main(["bubble", "--scene", "obstacle", f"--q={q[0]} {q[1]} {q[2]}", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["joints"] == ["hip_flexion", "knee_flexion", "hip_displacement"] and doc["delta"] == 0.005
+    assert doc["clearance"] == pytest.approx(MujocoChecker(obstacle_robot).distance(np.array(q)), abs=1e-9)
+    assert len(doc["pairs"]) == 6 and doc["radius"] == pytest.approx(min(p["radius"] for p in doc["pairs"]))
+    limiting = min(doc["pairs"], key=lambda p: p["radius"])
+    assert limiting["geoms"] == doc["limiting_pair"] and limiting["rho"] == doc["rho"]
+    thigh_floor = next(p for p in doc["pairs"] if p["geoms"] == ["thigh_collision", "floor"])
+    assert thigh_floor["rho"][1:] == [0.0, 0.0]  # neither the knee nor the horizontal hip slide moves the thigh off the floor
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["bubble", "--q=0 0 0"], "give one of --scene NAME or --mjcf FILE"),
+        (["bubble", "--scene", "obstacle", "--mjcf", "x.xml", "--q=0 0 0"], "give one of"),
+        (["bubble", "--scene", "obstacle", "--q=0.2 0.3"], "--q must have shape (3,)"),
+        (["bubble", "--scene", "obstacle", "--q=0.2 0.3 9"], "--q[2] (hip_displacement) = 9 is outside its bounds"),
+        (["bubble", "--scene", "obstacle", "--q=a b c"], "--q must be numbers"),
+        (["bubble", "--scene", "nowhere", "--q=0 0 0"], "unknown scenario 'nowhere'"),
+        (["bubble", "--scene", "obstacle", "--q=0.2 0.3 0.08", "--delta", "-1"], "--delta must be a margin >= 0"),
+        (["bubble", "--scene", "obstacle", "--q=0.2 0.3 0.08", "--json", "/no/such/dir/b.json"], "does not exist"),
+        (["bubble", "--scene", "obstacle", "--q=0.2 0.3 0.08", "--robot-root", "nope"], "robot_root 'nope'"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(argv, message, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1 and "Traceback" not in err
