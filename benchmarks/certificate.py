@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/certificate.py [--samples 2000] [--seeds 10] [--json out.json] [--scenarios obstacle ...]
 
-Single bound (paper 003 Eq. 4, what foam-mj computed before): r = (d(q) - delta) / ||rho||_2 with
+Single bound (Nascimento and Alsina 2021, Eq. 4; what foam-mj computed before): r = (d(q) - delta) / ||rho||_2 with
 d(q) = min over pairs and one rho over every robot geom. Per pair (foam_mj.bubbles now):
 r = min_p (d_p(q) - delta) / ||rho_p||_2. Both are capped by the distance to the joint bounds. For each
 scenario: the mean radius over ``--samples`` configurations drawn uniformly in the bounds (those with a
