@@ -351,6 +351,12 @@ def cmd_plan(args: argparse.Namespace) -> int:
         f"({st.bubbles_per_second:,.0f} bubbles/s), rosary of {outcome.plan.rosary.k} bubbles, margin {scenario.params.delta * 1000:g} mm"
     )
     print(_summary_table(outcome))
+    skipped = [n for n in names if n in ("adjusted", "adjusted_gradient") and n not in outcome.paths]
+    if skipped:
+        print(
+            f"note: {', '.join(skipped)} left out: the rosary adjustment (T_RA) moves the centres of a foam's rosary "
+            f"(each bubble on its parent's surface); planner {scenario.params.algorithm}'s chain is not one (use --planner pfm)"
+        )
     _print_servo_note(outcome)
     loads = _loads_table(outcome)
     if loads:

@@ -172,12 +172,20 @@ def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], see
             # Nascimento and Alsina 2021 keeps every adjusted bubble at least r_min; a planner without r_min keeps the rosary's smallest.
             r_min = getattr(scenario.params.planner().options, "r_min", None) or float(np.min(rosary.radii))
             adj = RosaryAdjustment(r_min=r_min).adjust(rosary, oracle)
+        except ValueError as exc:
+            # T_RA moves the centres of a foam's rosary (each child on its parent's surface, radius >= r_min);
+            # a chain from another planner (bubbletree) is not one: those two paths are left out.
+            if "does not satisfy the adjustment's constraints" not in str(exc):
+                raise
+            adj = None
+            say(f"smoothing: rosary adjustment skipped ({exc})")
         finally:
             oracle.close()
-        out["adjusted"] = adj.path
-        if "adjusted_gradient" in names:
-            say("smoothing: adjusted + gradient (T_RCA)")
-            out["adjusted_gradient"] = GradientSmoothing().smooth(adj.rosary)
+        if adj is not None:
+            out["adjusted"] = adj.path
+            if "adjusted_gradient" in names:
+                say("smoothing: adjusted + gradient (T_RCA)")
+                out["adjusted_gradient"] = GradientSmoothing().smooth(adj.rosary)
     if "hs" in names:
         say("smoothing: harmony search")
         out["hs"] = HarmonySearch().smooth(rosary, seed=seed)

@@ -312,3 +312,12 @@ def test_the_cli_help_names_every_planner(capsys):
     text = " ".join(capsys.readouterr().out.split())
     for name in PLANNERS:
         assert name in text
+
+
+def test_the_rosary_adjustment_is_left_out_for_a_chain_that_is_not_a_foams(capsys):
+    from foam_mj.cli import main
+
+    args = ["plan", "--scene", "obstacle", "--planner", "bubbletree", "--smoother", "adjust", "--no-rrd", "--no-replay"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "note: adjusted, adjusted_gradient left out" in out and "centre (T)" in out
