@@ -378,15 +378,21 @@ def format_tables(res: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    from foam_mj.cli import Parser, UsageError  # one-line argument errors, exit 2
+
+    ap = Parser(prog="foam-mj bench", description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=None, help="runs per stochastic method (default 50, --quick 3)")
     ap.add_argument("--quick", action="store_true", help="a few runs, for CI")
     ap.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"where to write the JSON (default {DEFAULT_JSON})")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
-    args = ap.parse_args(argv)
-    runs = args.runs if args.runs is not None else (3 if args.quick else 50)
-    if runs < 1:
-        ap.error(f"--runs must be >= 1, got {runs}")
+    try:
+        args = ap.parse_args(argv)
+        runs = args.runs if args.runs is not None else (3 if args.quick else 50)
+        if runs < 1:
+            ap.error(f"--runs must be >= 1, got {runs}")
+    except UsageError as exc:
+        print(exc, file=sys.stderr)
+        return 2
     try:  # checked before any work: the default folder is created, anything else must exist and be writable
         if args.json == DEFAULT_JSON:
             args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -276,7 +277,7 @@ def _plan_scenario(args: argparse.Namespace):
         mjcf = Path(args.mjcf)
         if not mjcf.is_file():
             raise FoamError(f"--mjcf: MJCF file not found: {mjcf}")
-        doc: dict = {"name": mjcf.stem, "scene": str(mjcf.resolve()), "q_init": _parse_q(args.start, "--start"), "q_goal": _parse_q(args.goal, "--goal")}
+        doc: dict = {"name": re.sub(r"[^A-Za-z0-9_.\-]", "_", mjcf.stem), "scene": str(mjcf.resolve()), "q_init": _parse_q(args.start, "--start"), "q_goal": _parse_q(args.goal, "--goal")}
         base, source = Path.cwd(), None
     else:
         if args.start is not None or args.goal is not None:

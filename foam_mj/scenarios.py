@@ -305,7 +305,8 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     for req in ("scene", "q_init", "q_goal"):
         if req not in raw:
             raise ScenarioError(f"{path}: missing field '{req}'")
-    name = raw.get("name", source.stem if source is not None else "scenario")
+    # A name the user did not write (the file's stem) is made safe; a written one must already be.
+    name = raw.get("name", re.sub(r"[^A-Za-z0-9_.\-]", "_", source.stem) if source is not None else "scenario")
     description = raw.get("description", "")
     if not isinstance(name, str) or not NAME_PATTERN.match(name):
         raise ScenarioError(
