@@ -13,6 +13,8 @@ kinematic replay with joint torques unless ``--replay`` says otherwise) into a f
   its worker (the rows' ``task_time``): what the engine adds to each plan (pickling, scheduling, result
   transfer, Parquet), measured under the same load as the plans themselves.
 * ``start-up``: wall minus the steady part: spawning workers (and starting Ray).
+* ``driver CPU/task``: CPU time of this process (the driver: sending tasks, receiving rows, writing
+  Parquet, and for Ray its client) per plan; CPU time, unlike wall time, hardly grows with the load.
 
 On a machine shared with other work the wall times and the rates grow with the load (the load average
 is printed); the in-process CPU time per plan does not, and gives the second 1-million-plan estimate.
@@ -52,15 +54,16 @@ def measure(sweep, out: Path, engine: str, workers: int) -> dict:
         stamps.append(time.perf_counter())
         inside.append(rows[0]["task_time"])
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     s = run_sweep(sweep, out, engine=engine, workers=workers, progress=False, on_rows=got)
-    wall = time.perf_counter() - t0
+    wall, driver_cpu = time.perf_counter() - t0, time.process_time() - c0
     n = s.run
     steady = (n - 1) / (stamps[-1] - stamps[0]) if n > 1 and stamps[-1] > stamps[0] else float("nan")
     startup = wall - n / steady if np.isfinite(steady) else float("nan")
     return {"engine": engine, "workers": workers, "plans": n, "failed": s.failed, "wall_s": wall, "plans_per_s": n / wall,
             "steady_plans_per_s": steady, "startup_s": startup, "task_in_worker_s": float(np.mean(inside)),
-            "overhead_per_task_ms": 1000 * (workers / steady - float(np.mean(inside)))}
+            "overhead_per_task_ms": 1000 * (workers / steady - float(np.mean(inside))),
+            "driver_cpu_per_task_ms": 1000 * driver_cpu / max(n, 1)}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -87,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
         task_s, cpu_s = float(np.median(times)), float(np.median(cpu))
         results = [{"engine": "in-process", "workers": 1, "plans": len(tasks), "failed": 0, "wall_s": float(np.sum(times)),
                     "plans_per_s": 1 / task_s, "steady_plans_per_s": 1 / task_s, "startup_s": 0.0,
-                    "task_in_worker_s": float(np.mean(times)), "overhead_per_task_ms": 0.0}]
+                    "task_in_worker_s": float(np.mean(times)), "overhead_per_task_ms": 0.0, "driver_cpu_per_task_ms": 0.0}]
         runs = [("local", 1), ("local", 2)]
         if not (args.no_ray or args.quick):
             try:
@@ -102,9 +105,9 @@ def main(argv: list[str] | None = None) -> int:
     load = os.getloadavg()[0]
     print(f"obstacle scenario, convex smoother, {args.replay} replay; median plan in-process {task_s * 1000:.0f} ms wall, "
           f"{cpu_s * 1000:.0f} ms CPU; {os.cpu_count()} cores, load average {load:.1f} when done")
-    print(table(["engine", "workers", "plans", "wall s", "start-up s", "plans/s", "steady plans/s", "overhead/task ms"],
+    print(table(["engine", "workers", "plans", "wall s", "start-up s", "plans/s", "steady plans/s", "overhead/task ms", "driver CPU/task ms"],
                 [[r["engine"], r["workers"], r["plans"], r["wall_s"], r["startup_s"], r["plans_per_s"], r["steady_plans_per_s"],
-                  r["overhead_per_task_ms"]] for r in results], floatfmt=".3g"))
+                  r["overhead_per_task_ms"], r["driver_cpu_per_task_ms"]] for r in results], floatfmt=".3g"))
     one = next(r for r in results if r["engine"] == "local" and r["workers"] == 1)
     rates = {"measured": one["steady_plans_per_s"], "cpu": 1 / (cpu_s + max(one["overhead_per_task_ms"], 0.0) / 1000)}
     print(f"\n1,000,000 plans on N cores: at the 1-worker steady rate measured here ({rates['measured']:.2f} plans/s per core), "
