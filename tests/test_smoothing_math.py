@@ -320,3 +320,20 @@ def test_tc_step_equals_tc_and_gradient():
         tc2, step = _tc_and_step(p, 0.1)
         assert tc2 == float(tc)
         np.testing.assert_array_equal(step, 0.1 * g[1:-1])
+
+
+@pytest.mark.parametrize("gap", [1e-2, 1e-3, 1e-4])
+def test_hatch_sampling_reaches_thin_lenses_in_five_dimensions(gap):
+    """Two unit balls 2 - gap apart in 5-D: their lens holds a vanishing share of either ball (rejection in the smaller
+    ball alone gives up); the points are uniform in the lens, so symmetric about its middle."""
+    from foam_mj.rosary import Rosary
+
+    n = 5
+    q0, q1 = np.zeros(n), np.r_[2 - gap + 0.5, np.zeros(n - 1)]
+    ros = Rosary(np.array([np.zeros(n), np.r_[2 - gap, np.zeros(n - 1)]]), np.array([1.0, 1.0]), q0, q1)
+    h = Hatches.of(ros)
+    pts = h.sample(np.random.default_rng(0), np.zeros(500, dtype=int))
+    d0 = np.linalg.norm(pts, axis=1)
+    d1 = np.linalg.norm(pts - ros.centers[1], axis=1)
+    assert np.all(d0 <= 1 + 1e-12) and np.all(d1 <= 1 + 1e-12)
+    assert abs(pts[:, 0].mean() - (2 - gap) / 2) < 0.1 * gap + 1e-6

@@ -341,12 +341,15 @@ class Hatches:
         co = np.where(small_a[:, None], self.cb, self.ca)[flat]
         ro = np.where(small_a, self.rb, self.ra)[flat]
         todo = np.arange(flat.size)
-        for _ in range(max_rounds):
+        for round_ in range(max_rounds):
             if todo.size == 0:
                 break
-            g = rng.standard_normal((todo.size, n))
-            g /= np.linalg.norm(g, axis=1, keepdims=True)
-            pts = cs[todo] + g * (rs[todo] * rng.random(todo.size) ** (1.0 / n))[:, None]
+            if round_ < BALL_ROUNDS:
+                g = rng.standard_normal((todo.size, n))
+                g /= np.linalg.norm(g, axis=1, keepdims=True)
+                pts = cs[todo] + g * (rs[todo] * rng.random(todo.size) ** (1.0 / n))[:, None]
+            else:  # a thin lens holds a tiny share of the smaller ball (in 5-D and up): its bounding cylinder
+                pts = _lens_cylinder_points(rng, cs[todo], rs[todo], co[todo], ro[todo])
             ok = (np.sum((pts - co[todo]) ** 2, axis=1) <= ro[todo] ** 2) & (
                 np.sum((pts - cs[todo]) ** 2, axis=1) <= rs[todo] ** 2
             )
@@ -418,3 +421,33 @@ def coordinate_major_objective(X: np.ndarray) -> np.ndarray:
     n_ang = ang.shape[-1]
     angle = ang.sum(axis=-1) / n_ang if n_ang else np.zeros(ang.shape[:-1])
     return angle + length
+
+
+#: Rounds of rejection sampling in the smaller ball before :meth:`sample` switches to the lens's bounding
+#: cylinder (the ball proposal is kept first so that results drawn before the switch stay bit-identical).
+BALL_ROUNDS = 200
+
+
+def _lens_cylinder_points(rng: np.random.Generator, cs, rs, co, ro) -> np.ndarray:
+    """Uniform points in the cylinder bounding each lens ball(cs, rs) & ball(co, ro) (rows), to be accepted
+    by rejection. Along the axis u = (co - cs)/d the lens spans s in [max(-rs, d - ro), min(rs, d + ro)]
+    from cs; its cross-section radius min(sqrt(rs^2 - s^2), sqrt(ro^2 - (s - d)^2)) peaks at the radical
+    plane s = t or at a centre inside the other ball (s = 0 or s = d), the bound used. For a thin lens
+    the acceptance stays about constant where the smaller ball's falls as (thickness / rs)^((n+1)/2)."""
+    m, n = cs.shape
+    v = co - cs
+    d = np.maximum(np.linalg.norm(v, axis=1), _EPS)
+    u = v / d[:, None]
+    lo, hi = np.maximum(-rs, d - ro), np.minimum(rs, d + ro)
+    t = np.clip((d * d + rs * rs - ro * ro) / (2 * d), lo, hi)
+
+    def section(x):
+        return np.sqrt(np.maximum(np.minimum(rs * rs - x * x, ro * ro - (x - d) ** 2), 0.0))
+
+    rad = np.maximum.reduce([section(t), section(np.clip(0.0, lo, hi)), section(np.clip(d, lo, hi))])
+    along = lo + (hi - lo) * rng.random(m)
+    g = rng.standard_normal((m, n))
+    g -= np.einsum("ki,ki->k", g, u)[:, None] * u  # uniform direction normal to u
+    g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), _EPS)
+    radial = rad * rng.random(m) ** (1.0 / max(n - 1, 1))
+    return cs + along[:, None] * u + radial[:, None] * g
