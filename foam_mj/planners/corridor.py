@@ -246,25 +246,32 @@ def prune_chain(C: np.ndarray, R: np.ndarray, P: np.ndarray, pieces: int = 8) ->
     pos = np.arange(T)
     first_out = np.minimum.accumulate(np.where(inside, T, pos)[:, ::-1], axis=1)[:, ::-1]
     run = first_out - 1
-    # Consecutive bubbles must overlap with a hatch (see HATCH); deepen() makes the final hatches deep.
+    # Consecutive bubbles must overlap with a hatch; a deep one (DEEP) is preferred, so that deepen() has
+    # less to splice afterwards.
     d = np.linalg.norm(C[:, None, :] - C[None, :, :], axis=2)
-    deep = d <= R[:, None] + R[None, :] - HATCH * np.minimum(R[:, None], R[None, :])
+    small = np.minimum(R[:, None], R[None, :])
+    others = ~np.eye(k, dtype=bool)
+    tiers = (d <= R[:, None] + R[None, :] - DEEP * small) & others, (d <= R[:, None] + R[None, :] - HATCH * small) & others
     out = [int(np.argmax(run[:, 0]))]
     at = 0  # the sample where the current bubble takes over
-    others = ~np.eye(k, dtype=bool)
     while run[out[-1], at] < T - 1:
         prev = out[-1]
         end = int(run[prev, at])
-        ok = deep[prev] & others[prev]
-        for p_ in range(end, at - 1, -1):  # the latest hand-over point that makes progress
-            r_ = np.where(ok & inside[:, p_], run[:, p_], -1)
-            i = int(np.argmax(r_))
-            if r_[i] > end:
-                out.append(i)
-                at = p_
+        found = False
+        for ok_all in tiers:
+            ok = ok_all[prev]
+            for p_ in range(end, at - 1, -1):  # the latest hand-over point that makes progress
+                r_ = np.where(ok & inside[:, p_], run[:, p_], -1)
+                i = int(np.argmax(r_))
+                if r_[i] > end:
+                    out.append(i)
+                    at = p_
+                    found = True
+                    break
+            if found:
                 break
-        else:
-            return np.arange(k)  # no deep successor makes progress: keep the chain as it is
+        if not found:
+            return np.arange(k)  # no successor makes progress: keep the chain as it is
     return np.array(out, dtype=np.int64)
 
 
