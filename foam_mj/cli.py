@@ -446,6 +446,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
     rrd = check_output(args.rrd, "--rrd", suffix=".rrd")
     doc = read_result(args.result)
+    if not doc["paths"]:
+        raise FoamError(f"{args.result}: the result has no paths to replay (outcome: {doc.get('outcome', 'unknown')})")
     outcome = outcome_from_result(doc, args.result, dynamic=not args.kinematic_only)
     print(f"replayed {len(outcome.paths)} path(s) of {args.result} on {outcome.scenario.scene}")
     print(_summary_table(outcome))

@@ -245,9 +245,14 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         margin = float(doc["planner"]["delta"])
     except (KeyError, TypeError, ValueError):
         raise _fail(source, "missing field 'planner.delta' (the safety margin)") from None
+    if not (np.isfinite(margin) and margin >= 0):
+        # A negative or NaN margin would let every sample pass: refuse it rather than call the result clean.
+        raise _fail(source, f"field 'planner.delta' must be a margin >= 0 in metres, got {margin}")
     paths = doc.get("paths")
     if not isinstance(paths, dict):
         raise _fail(source, "field 'paths' must be an object")
+    if not paths:
+        raise _fail(source, "field 'paths' is empty: nothing to verify")
     pairs = collision_pairs(m)
     if len(pairs) == 0:
         raise _fail(source, f"the scene {mjcf} has no pair of moving and static collision geoms")

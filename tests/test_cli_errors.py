@@ -290,3 +290,11 @@ def test_the_product_cites_papers_not_the_project_process():
                     hits.append(f"{f.relative_to(ROOT)}:{i}: {line.strip()[:80]}")
     assert not hits, "\n".join(hits)
     assert (ROOT / "docs" / "references.md").is_file()
+
+
+def test_replay_of_a_result_without_paths_is_bad_input(planned_result, tmp_path, capsys):
+    """A failed plan's JSON (outcome 'queue empty', no paths) has nothing to replay: exit 2, one line."""
+    bad = _edited(planned_result, tmp_path, lambda d: (d.update(paths={}, outcome="queue empty"), d.pop("rosary", None)))
+    assert main(["replay", str(bad), "--kinematic-only"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "no paths to replay" in err and "queue empty" in err

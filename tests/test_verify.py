@@ -130,3 +130,20 @@ def test_verify_refuses_bad_input(tmp_path, planned_result, capsys):
     assert main(["verify", str(tmp_path / "old.json")]) == 2
     assert "q -> qpos map" in capsys.readouterr().err
     assert main(["verify", str(planned_result), "--step", "0"]) == 2
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda d: d["planner"].__setitem__("delta", -1.0), "planner.delta"),
+    (lambda d: d["planner"].__setitem__("delta", float("nan")), "planner.delta"),
+    (lambda d: d.__setitem__("paths", {}), "nothing to verify"),
+])
+def test_a_result_that_would_pass_vacuously_is_refused(tmp_path, planned_result, capsys, edit, words):
+    """A negative margin (every sample passes) or no path at all is bad input (2), never 'clean' (0)."""
+    doc = json.loads(planned_result.read_text())
+    edit(doc)
+    bad = planned_result.parent / "vacuous.json"   # beside the result: its mjcf_relative still resolves
+    bad.write_text(json.dumps(doc))
+    assert main(["verify", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and words in err
+
