@@ -385,3 +385,24 @@ def test_on_a_terminal_progress_is_a_live_bar_with_rate_and_eta(tmp_path):
     screen = b"".join(chunks).decode(errors="replace")
     assert "2/2" in screen and "plans/s" in screen and "ETA" in screen and "0 failed" in screen
     assert "━" in screen  # rich's bar, not the plain lines
+
+
+@pytest.mark.slow
+def test_ray_with_an_address_joins_that_cluster(study, tmp_path):
+    ray = pytest.importorskip("ray")
+    import logging
+
+    ray.init(num_cpus=2, include_dashboard=False, logging_level=logging.ERROR, log_to_driver=False)
+    try:
+        address = ray.get_runtime_context().gcs_address
+        spec = write(tmp_path, STUDY.replace("seeds = [1, 2, 3]", "seeds = [3]").replace("[0.005, 0.01]", "[0.005]")
+                     .replace(json.dumps(SIZES), json.dumps(SIZES[:1])))
+        proc = cli("sweep", str(spec), "--out", str(tmp_path / "joined"), "--ray", address, "--quiet")
+        stdout, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err
+        assert f"on Ray ({address})" in stdout  # ray.init(address=...) succeeded: it ran on this cluster
+    finally:
+        ray.shutdown()
+    rows = deterministic(check_folder(tmp_path / "joined"))
+    local = {r["key"]: r for r in deterministic(study["rows"])}
+    assert len(rows) == 2 and rows == [local[r["key"]] for r in rows]
