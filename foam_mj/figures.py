@@ -912,12 +912,12 @@ def write_figures(doc, out_dir, formats: Sequence[str] = ("png",), paths: Sequen
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise FoamError(f"figure folder {out} is a file")
+    robot = RobotModel.from_xml(doc["mjcf"])
+    sel = _read_paths(doc, robot, paths)   # an unknown path name is refused before the folder is made
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise FoamError(f"cannot create figure folder {out}: {exc}") from None
-    robot = RobotModel.from_xml(doc["mjcf"])
-    sel = _read_paths(doc, robot, paths)
     labels = _coord_labels(robot)
     matplotlib = mpl[0]
     written: list[Path] = []

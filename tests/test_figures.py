@@ -150,7 +150,8 @@ def test_bad_requests_are_foam_errors(planned, tmp_path):
     with pytest.raises(FoamError, match="unknown figure format"):
         write_figures(planned, tmp_path, formats=("bmp",))
     with pytest.raises(FoamError, match="no path named"):
-        write_figures(planned, tmp_path, paths=["nope"])
+        write_figures(planned, tmp_path / "unmade", paths=["nope"])
+    assert not (tmp_path / "unmade").exists()   # refused before the folder is created
     (tmp_path / "file").write_text("x")
     with pytest.raises(FoamError, match="is a file"):
         write_figures(planned, tmp_path / "file")
