@@ -56,7 +56,7 @@ from _common import progress, table  # noqa: E402
 
 from foam_mj.bubbles import BubbleOracle  # noqa: E402
 from foam_mj.data import models_dir  # noqa: E402
-from foam_mj.errors import PlanningFailed  # noqa: E402
+from foam_mj.errors import ConfigurationError, PlanningFailed  # noqa: E402
 from foam_mj.model import RobotModel  # noqa: E402
 from foam_mj.paths import metrics  # noqa: E402
 from foam_mj.planners import PLANNERS, PlanningProblem, get_planner  # noqa: E402
@@ -147,6 +147,8 @@ def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker
         st = exc.stats
         return {"ok": False, "outcome": getattr(st, "outcome", "failed"), "bubbles": getattr(st, "bubbles", None),
                 "queries": getattr(st, "distance_queries", None), "time": time.perf_counter() - t0}
+    except ConfigurationError as exc:  # a planner's own rule refuses the problem (pfm: root radius, Eq. 2's bound)
+        return {"ok": False, "outcome": f"refused: {exc}", "bubbles": 0, "queries": 0, "time": time.perf_counter() - t0}
     t_plan = time.perf_counter() - t0
     try:
         sm = OptimalSmoother().smooth(res.rosary, seed=seed)

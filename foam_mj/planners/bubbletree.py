@@ -239,7 +239,7 @@ class BubbleTreePlanner(Planner):
             r = np.zeros(len(flat))
             if inside.any():
                 q_in = flat[inside]
-                r[inside] = oracle.radius_from_clearance(oracle.clearance.batch(q_in), q_in)
+                r[inside] = oracle.radii(q_in)
             counters["candidates"] += int(inside.sum())
             r = r.reshape(s.shape)
             good = (r >= r_min) & (s <= B.r[P, None] + (1 - HATCH) * r)

@@ -177,7 +177,7 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
         ts.append(np.linspace(0.0, 1.0, m + 1))
     pts = [a + (b - a) * t[:, None] for a, b, t in zip(A, B, ts)]
     flat = np.concatenate(pts)
-    rflat = oracle.radius_from_clearance(oracle.clearance.batch(flat), flat)
+    rflat = oracle.radii(flat)
     rs = np.split(rflat, np.cumsum([len(t) for t in ts])[:-1])
     alive = [bool(np.all(r >= floor)) for r in rs]
     for _ in range(levels):
@@ -198,7 +198,7 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
         inb = np.all((newp >= lo) & (newp <= hi), axis=1)
         rn = np.zeros(len(newp))
         if inb.any():
-            rn[inb] = oracle.radius_from_clearance(oracle.clearance.batch(newp[inb]), newp[inb])
+            rn[inb] = oracle.radii(newp[inb])
         off = 0
         for k, g, tm in mids:
             rk = rn[off : off + len(tm)]
@@ -289,7 +289,7 @@ def deepen(oracle, C: np.ndarray, R: np.ndarray, ids: np.ndarray, new_ids) -> tu
     ca, cb, ra, rb, dd = C[thin], C[thin + 1], R[thin], R[thin + 1], d[thin]
     t = (dd**2 + ra**2 - rb**2) / (2 * dd)
     m = ca + (t / dd)[:, None] * (cb - ca)
-    rm = oracle.radius_from_clearance(oracle.clearance.batch(m), m)
+    rm = oracle.radii(m)
     good = rm > 2 * INSET
     thin, m, rm = thin[good], m[good], rm[good]
     nid = new_ids(len(rm))
@@ -307,7 +307,7 @@ def _press_bubbles(oracle, C, R, w, floor):
     if press.size == 0:
         return press, np.empty((0, w.shape[1])), np.empty(0)
     wp = w[press]
-    rp = oracle.radius_from_clearance(oracle.clearance.batch(wp), wp)
+    rp = oracle.radii(wp)
     # Outward: away from the centres of the pressed balls. r is 1-Lipschitz (the Cauchy-Schwarz ball of
     # Nascimento and Alsina 2021 Eq. 4), so a centre pushed by t r with t <= 1/2 still holds w.
     nrm = (wp - C[press]) * on_a[press, None] + (wp - C[press + 1]) * on_b[press, None]
@@ -317,7 +317,7 @@ def _press_bubbles(oracle, C, R, w, floor):
     okb = np.all((flat >= oracle.robot.lower) & (flat <= oracle.robot.upper), axis=1)
     rc = np.zeros(len(flat))
     if okb.any():
-        rc[okb] = oracle.radius_from_clearance(oracle.clearance.batch(flat[okb]), flat[okb])
+        rc[okb] = oracle.radii(flat[okb])
     rc = rc.reshape(len(press), len(PUSH))
     holds = rc * (1 - HATCH) > PUSH[None, :] * rp[:, None] + 2 * INSET  # holds w with a hatch of HATCH r
     reach = np.where(holds, PUSH[None, :] * rp[:, None] + rc, -np.inf)
