@@ -457,6 +457,9 @@ def load_sweep(path: str | Path) -> Sweep:
     grid_raw = raw.get("grid", {})
     if not isinstance(grid_raw, dict):
         raise SweepError(f"{where}: [grid] must be a table of \"dotted.key\" = [values]")
+    if "grid" in raw and not grid_raw:
+        # An empty table is a sweep whose variation was forgotten: say so (leave [grid] out to sweep only seeds).
+        raise SweepError(f"{where}: [grid] is empty: give at least one \"dotted.key\" = [values], or leave the table out")
     grid = []
     for key, values in grid_raw.items():
         if not isinstance(values, list) or not values:
@@ -465,6 +468,8 @@ def load_sweep(path: str | Path) -> Sweep:
     rnd = raw.get("random", {})
     if not isinstance(rnd, dict):
         raise SweepError(f"{where}: [random] must be a table")
+    if "random" in raw and not (rnd.get("uniform") or rnd.get("choice")):
+        raise SweepError(f"{where}: [random] has no key in [random.uniform] or [random.choice], or leave the table out")
     unknown = set(rnd) - _RANDOM_FIELDS
     if unknown:
         raise SweepError(f"{where}: unknown [random] field(s) {sorted(unknown)}; expected {sorted(_RANDOM_FIELDS)} (keys go in [random.uniform] or [random.choice])")

@@ -217,6 +217,8 @@ def test_bad_random_tables_and_fields_are_named(tmp_path):
         'grids = 1\n': "unknown field(s) ['grids']",
         'replay = "sometimes"\n': "'replay'",
         'smoothers = "best"\n': "unknown smoother 'best'",
+        '[grid]\n': "[grid] is empty",
+        '[random]\nsamples = 3\n': "[random] has no key",
     }
     for text, named in bad.items():
         top, _, rest = text.partition("[")
