@@ -9,9 +9,10 @@ fingerprint helpers, which use nothing else). For every path of the result:
   normalized, e.g. the Ortholeg's hip slide);
 * its timed trajectory, the "qpos" rows, with linear samples between rows at the same step;
 
-and at every sample, ``mujoco.mj_geomDistance`` between every moving collision geom (on a body some
-joint moves) and every static one (contype or conaffinity non-zero), with no contype/conaffinity
-filtering: stricter than the planner. A sample is a *violation* when some pair is closer than the
+and at every sample, ``mujoco.mj_geomDistance`` between every moving collision geom (on a body a
+configuration joint moves) and every other one (contype or conaffinity non-zero; a loose object on a
+joint that is not a configuration coordinate is an obstacle where the rows put it), with no
+contype/conaffinity filtering: stricter than the planner. A sample is a *violation* when some pair is closer than the
 result's margin ("planner" / "delta").
 
 Speed: poses of all samples come from one ``mj_kinematics`` call each; a bounding-sphere lower bound
@@ -118,19 +119,26 @@ def _scene(doc: dict, source: Path) -> tuple[Path, mujoco.MjModel]:
     return chosen
 
 
-def _moving(m: mujoco.MjModel, body: int) -> bool:
+def _moving(m: mujoco.MjModel, body: int, moved: np.ndarray | None = None) -> bool:
+    """Is ``body`` moved by a joint (by one whose qpos address is in ``moved``, when given)?"""
     while body != 0:
-        if m.body_jntnum[body] > 0:
-            return True
+        for j in range(m.body_jntadr[body], m.body_jntadr[body] + m.body_jntnum[body]):
+            if moved is None or int(m.jnt_qposadr[j]) in moved:
+                return True
         body = int(m.body_parentid[body])
     return False
 
 
-def collision_pairs(m: mujoco.MjModel) -> np.ndarray:
-    """(P, 2) geom ids: every moving collision geom against every static one."""
+def collision_pairs(m: mujoco.MjModel, qpos_index: np.ndarray | None = None) -> np.ndarray:
+    """(P, 2) geom ids: every moving collision geom against every static one.
+
+    With ``qpos_index`` (the result's configuration coordinates), *moving* means moved by one of those
+    joints; a body on any other joint (a loose box with a free joint) stays where the rows put it and is
+    checked as an obstacle, as the planner treats it. Without it, any joint makes a body moving."""
+    moved = None if qpos_index is None else {int(i) for i in qpos_index}
     coll = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
-    moving = [g for g in coll if _moving(m, int(m.geom_bodyid[g]))]
-    static = [g for g in coll if not _moving(m, int(m.geom_bodyid[g]))]
+    moving = [g for g in coll if _moving(m, int(m.geom_bodyid[g]), moved)]
+    static = [g for g in coll if not _moving(m, int(m.geom_bodyid[g]), moved)]
     return np.array([(a, b) for a in moving for b in static], dtype=int).reshape(-1, 2)
 
 
@@ -253,7 +261,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         raise _fail(source, "field 'paths' must be an object")
     if not paths:
         raise _fail(source, "field 'paths' is empty: nothing to verify")
-    pairs = collision_pairs(m)
+    pairs = collision_pairs(m, idx)
     if len(pairs) == 0:
         raise _fail(source, f"the scene {mjcf} has no pair of moving and static collision geoms")
     checker = _Checker(m, pairs)

@@ -147,3 +147,39 @@ def test_a_result_that_would_pass_vacuously_is_refused(tmp_path, planned_result,
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and words in err
 
+
+
+LOOSE_BOX_ARM = """<mujoco model="arm beside a loose box">
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <geom name="post" type="box" pos="0.45 0 0.125" size="0.04 0.2 0.125"/>
+    <body pos="0 0 0.5">
+      <joint name="shoulder" type="hinge" axis="0 1 0" range="-100 100"/>
+      <geom name="upper" type="capsule" fromto="0 0 0 0.35 0 0" size="0.03" mass="1.2"/>
+      <body pos="0.35 0 0">
+        <joint name="elbow" type="hinge" axis="0 1 0" range="-150 150"/>
+        <geom name="fore" type="capsule" fromto="0 0 0 0.3 0 0" size="0.025" mass="0.6"/>
+      </body>
+    </body>
+    <body name="loose" pos="-0.6 0 0.05"><freejoint/><geom name="loose_box" type="box" size="0.05 0.05 0.05"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_loose_object_resting_on_the_floor_is_an_obstacle_not_a_violation(tmp_path, capsys):
+    """A free-jointed box lying on the floor (distance 0) is no joint of the configuration: the planner
+    treats it as an obstacle at its qpos0, and so does verify; the arm is still checked against it."""
+    xml = tmp_path / "arm.xml"
+    xml.write_text(LOOSE_BOX_ARM)
+    out = tmp_path / "arm.json"
+    assert main(["plan", "--mjcf", str(xml), "--start", "0.3 2.0", "--goal", "0.1 0.6", "--smoother", "none",
+                 "--no-replay", "--no-rrd", "--json", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["verify", str(out)]) == 0
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    gid = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)  # noqa: E731
+    pairs = {tuple(p) for p in collision_pairs(m, np.array([0, 1])).tolist()}   # qpos 0, 1: shoulder, elbow
+    assert (gid("upper"), gid("loose_box")) in pairs and (gid("fore"), gid("loose_box")) in pairs
+    assert (gid("loose_box"), gid("floor")) not in pairs and len(pairs) == 6
