@@ -50,6 +50,11 @@ from foam_mj.planners.corridor import CorridorOptions, build_corridor, overlap_p
 
 #: Candidate centres per extension, at s r_p from the parent's centre along the direction to the target.
 STEPS = np.array([1.0, 2.0])
+#: The exploration after the first path counts at most this many iterations per unit of ``explore``
+#: (a hard 6-joint problem needs 40-90 iterations to its first path; doubling that is not worth it).
+EXPLORE_CAP = 20
+#: A bubble is extended toward the other tree at most this many times (then others nearby get their turn).
+MAX_TRIES = 3
 #: A hatch must be at least this fraction of the smaller radius deep (keeps hatches away from tangency).
 HATCH = 0.05
 
@@ -148,17 +153,19 @@ class BubbleTreePlanner(Planner):
         # gap[i]: the smallest |c_i - c_j| - r_i - r_j over bubbles j of the other tree; mate[i] that j.
         gap = np.full(1024, np.inf)
         mate = np.full(1024, -1, dtype=np.int64)
+        tries = np.zeros(1024, dtype=np.int64)  # times a bubble was extended toward the other tree
         counters = {"iterations": 0, "candidates": 0, "rejected_small": 0, "rejected_covered": 0}
 
         def update_gaps(new: np.ndarray) -> tuple[int, int] | None:
             """Refresh gaps with the new bubbles; return a connecting pair (a in tree 0, b in tree 1) if any."""
-            nonlocal gap, mate
+            nonlocal gap, mate, tries
             if len(gap) < B.n:
                 grow = len(gap)
                 while grow < B.n:
                     grow *= 2
                 gap = np.concatenate([gap, np.full(grow - len(gap), np.inf)])
                 mate = np.concatenate([mate, np.full(grow - len(mate), -1, dtype=np.int64)])
+                tries = np.concatenate([tries, np.zeros(grow - len(tries), dtype=np.int64)])
             idx = np.arange(B.n)
             best = None
             for t in (0, 1):
@@ -189,14 +196,15 @@ class BubbleTreePlanner(Planner):
             return PlanStats(self.name, outcome, B.n, oracle.clearance.calls - calls0, timer.elapsed(), t_first, details)
 
         link = update_gaps(np.array([0, 1]))
+        newest = [np.array([0]), np.array([1])]
         t_first: float | None = None
         it_first = 0
         foam_first = 0
         while True:
             if link is not None and t_first is None:
                 t_first, it_first, foam_first = timer.elapsed(), counters["iterations"], B.n
-            if t_first is not None and counters["iterations"] - it_first >= int(np.ceil(o.explore * it_first)):
-                break  # the first path, then `explore` x as many iterations again for other routes
+            if t_first is not None and counters["iterations"] - it_first >= int(np.ceil(o.explore * min(it_first, EXPLORE_CAP))):
+                break  # the first path, then `explore` x as many iterations again (at most EXPLORE_CAP) for other routes
             if timer.elapsed() > problem.time_limit or B.n >= problem.max_bubbles:
                 if t_first is not None:
                     break
@@ -217,12 +225,22 @@ class BubbleTreePlanner(Planner):
                 pw = _sq_dist(X, B.c[mine]) - B.r[mine][None, :] ** 2
                 parents.append(mine[np.argmin(pw, axis=1)])
                 targets.append(X)
-                # Goal-directed: the bubbles nearest to the other tree, toward their nearest bubble there.
+                # Goal-directed: the bubbles nearest to the other tree (each tried at most MAX_TRIES times),
+                # toward their nearest bubble there; and, as RRT-Connect, toward the other tree's newest bubbles.
                 if o.connect:
-                    k = min(o.connect, len(mine))
-                    near = mine[np.argpartition(gap[mine], k - 1)[:k]] if k < len(mine) else mine
-                    parents.append(near)
-                    targets.append(B.c[mate[near]])
+                    fresh = mine[tries[mine] < MAX_TRIES]
+                    if len(fresh):
+                        k = min(o.connect, len(fresh))
+                        near = fresh[np.argpartition(gap[fresh], k - 1)[:k]] if k < len(fresh) else fresh
+                        tries[near] += 1
+                        parents.append(near)
+                        targets.append(B.c[mate[near]])
+                    theirs = newest[1 - t]
+                    if len(theirs):
+                        pick = theirs[rng.permutation(len(theirs))[: o.connect]]
+                        pw = _sq_dist(B.c[pick], B.c[mine]) - B.r[mine][None, :] ** 2
+                        parents.append(mine[np.argmin(pw, axis=1)])
+                        targets.append(B.c[pick])
             P = np.concatenate(parents)
             T = np.concatenate(targets)
             v = T - B.c[P]
@@ -268,6 +286,7 @@ class BubbleTreePlanner(Planner):
             sel = np.flatnonzero(keep)[:room]
             new = B.add(cc[sel], cr[sel], cp[sel], ct[sel])
             met = update_gaps(new)
+            newest = [new[B.tree[new] == 0], new[B.tree[new] == 1]]
             link = link if link is not None else met
 
         corridor = build_corridor(
