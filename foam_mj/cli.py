@@ -522,8 +522,6 @@ def _rerun_executable() -> str:
 
 
 def cmd_view(args: argparse.Namespace) -> int:
-    import subprocess
-
     p = Path(args.recording)
     if not p.is_file():
         raise FoamError(f"recording not found: {p}" if not p.exists() else f"{p} is not a file")
@@ -536,7 +534,7 @@ def cmd_view(args: argparse.Namespace) -> int:
         )
     exe = _rerun_executable()
     if not args.web:
-        return subprocess.call([exe, str(p), "--bind", args.bind])
+        return _run_viewer([exe, str(p), "--bind", args.bind])
     from urllib.parse import quote
 
     host = "127.0.0.1" if args.bind in ("0.0.0.0", "::") else args.bind
@@ -545,7 +543,30 @@ def cmd_view(args: argparse.Namespace) -> int:
     url = f"http://{host}:{web_port}?url={quote(f'rerun+http://{host}:{grpc_port}/proxy', safe='')}"
     print(f"serving {p} in Rerun's web viewer (bound to {args.bind}; Ctrl-C stops it): open {url}", flush=True)
     cmd = [exe, str(p), "--serve-web", "--bind", args.bind, "--web-viewer-port", str(web_port), "--port", str(grpc_port)]
-    return subprocess.call(cmd)
+    return _run_viewer(cmd)
+
+
+def _run_viewer(cmd: list[str]) -> int:
+    """Run the Rerun viewer in its own process group; Ctrl-C or SIGTERM stops the whole group (the
+    ``rerun`` launcher starts the viewer binary as a child: it must not outlive us)."""
+    import signal
+    import subprocess
+
+    proc = subprocess.Popen(cmd, start_new_session=True)
+    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
+    try:
+        return proc.wait()
+    except KeyboardInterrupt:
+        for sig in (signal.SIGTERM, signal.SIGKILL):
+            try:
+                os.killpg(proc.pid, sig)
+                proc.wait(timeout=10)
+                break
+            except (ProcessLookupError, subprocess.TimeoutExpired):
+                continue
+        raise
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:

@@ -212,6 +212,11 @@ def test_view_without_a_display_says_what_to_do(tmp_path, monkeypatch, capsys):
 
 
 def test_view_web_serves_on_localhost_only_and_prints_the_url(tmp_path):
+    import time
+    import urllib.request
+
+    import psutil  # a dependency of rerun-sdk
+
     from foam_mj.recording import Recording
 
     rrd = tmp_path / "v.rrd"
@@ -221,16 +226,13 @@ def test_view_web_serves_on_localhost_only_and_prints_the_url(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT), "RERUN_ANALYTICS": "false"}
     proc = subprocess.Popen([str(exe), "view", "--web", str(rrd), "--web-port", "0", "--grpc-port", "0"],
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env)
+    viewers: list = []
     try:
         line = proc.stdout.readline()
         assert "open http://127.0.0.1:" in line and "bound to 127.0.0.1" in line, line
         web_port = int(line.split("open http://127.0.0.1:")[1].split("?")[0])
-        assert web_port > 0
-        # Only loopback listens: nothing of this viewer on 0.0.0.0.
-        import time
-        import urllib.request
-
         for _ in range(60):
+            viewers = psutil.Process(proc.pid).children(recursive=True)
             try:
                 assert urllib.request.urlopen(f"http://127.0.0.1:{web_port}/", timeout=2).status == 200
                 break
@@ -238,14 +240,17 @@ def test_view_web_serves_on_localhost_only_and_prints_the_url(tmp_path):
                 time.sleep(0.5)
         else:
             raise AssertionError("the web viewer did not answer")
-        import psutil  # a dependency of rerun-sdk
-
-        listening = [c.laddr.ip for child in psutil.Process(proc.pid).children(recursive=True)
-                     for c in child.net_connections(kind="inet") if c.status == psutil.CONN_LISTEN]
+        viewers = psutil.Process(proc.pid).children(recursive=True)
+        # Only loopback listens: nothing of this viewer on 0.0.0.0.
+        listening = [c.laddr.ip for v in viewers for c in v.net_connections(kind="inet") if c.status == psutil.CONN_LISTEN]
         assert listening and set(listening) == {"127.0.0.1"}, listening
     finally:
-        proc.terminate()
-        proc.wait(timeout=30)
+        proc.terminate()  # SIGTERM stops foam-mj and the viewer's whole process group
+        code = proc.wait(timeout=30)
+        gone, alive = psutil.wait_procs(viewers, timeout=15)
+        for p in alive:  # never leak a server, even when the test fails
+            p.kill()
+    assert code == 130 and not alive, alive
 
 
 def test_version(capsys):
@@ -254,6 +259,8 @@ def test_version(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
     assert exc.value.code == 0 and capsys.readouterr().out.strip() == f"foam-mj {__version__}"
+
+
 def _options(parser) -> dict[str, list[str]]:
     import argparse
 
