@@ -102,6 +102,31 @@ def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | Non
     return p
 
 
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        if a.exists() and b.exists():
+            return os.path.samefile(a, b)
+        return a.resolve() == b.resolve()
+    except OSError:
+        return False
+
+
+def check_distinct(outputs: "dict[str, Path | None]", inputs: "dict[str, str | os.PathLike | None]" = None) -> None:
+    """Refuse, before any work, an output that is the same file as an input or as another output
+    (``foam-mj export r.json --out r.json`` would replace the result with its table; ``plan --json x.rrd
+    --rrd x.rrd`` would keep only one of the two). Keys name the flag or the input, e.g. "--json", "the
+    scenario"; None values are skipped. Raises :class:`OutputError` naming both."""
+    outs = [(k, Path(v)) for k, v in outputs.items() if v is not None]
+    ins = [(k, Path(v)) for k, v in (inputs or {}).items() if v is not None]
+    for i, (what, out) in enumerate(outs):
+        for name, src in ins:
+            if _same_file(out, src):
+                raise OutputError(f"{what} output {out} is {name} ({src}): it would be overwritten; choose another name")
+        for other, out2 in outs[i + 1:]:
+            if _same_file(out, out2):
+                raise OutputError(f"{what} and {other} name the same file {out}; choose two names")
+
+
 def check_output_dir(path: str | os.PathLike | None, what: str) -> Path | None:
     """Check, before any work, that a folder for outputs exists and is writable, or can be created
     (its parent exists and is writable); return it as a Path (None passes through)."""

@@ -328,6 +328,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
         scenario = dataclasses.replace(scenario, params=scenario.params.with_algorithm(args.planner))
     if rrd is None and not args.no_rrd:
         rrd = check_output(f"foam-mj-{scenario.name}.rrd", "--rrd (default)", suffix=".rrd")
+    from foam_mj.atomic import check_distinct
+
+    check_distinct({"--json": json_out, "--rrd": rrd,
+                    "--json's scene file": json_out.with_name(json_out.stem + ".scene.xml") if json_out is not None and scenario.edits.changes_scene else None},
+                   {"the scenario file": scenario.source, "the scene (MJCF)": scenario.scene})
     seed = scenario.seed if args.seed is None else args.seed
     progress = Progress()
     t0 = time.perf_counter()
@@ -445,6 +450,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from foam_mj.results import outcome_from_result, read_result
 
     rrd = check_output(args.rrd, "--rrd", suffix=".rrd")
+    from foam_mj.atomic import check_distinct
+
+    check_distinct({"--rrd": rrd}, {"the result": args.result})
     doc = read_result(args.result)
     if not doc["paths"]:
         raise FoamError(f"{args.result}: the result has no paths to replay (outcome: {doc.get('outcome', 'unknown')})")
@@ -475,6 +483,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     from foam_mj.atomic import check_output
 
     out = check_output(args.out, "--out")
+    from foam_mj.atomic import check_distinct
+
+    check_distinct({"--out": out}, {"the result": args.result})
     if args.format == "parquet":
         require_pyarrow()
     doc = read_result(args.result)

@@ -305,3 +305,28 @@ def test_replay_of_a_result_without_paths_is_bad_input(planned_result, tmp_path,
     assert main(["replay", str(bad), "--kinematic-only"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "no paths to replay" in err and "queue empty" in err
+
+
+def test_an_output_never_overwrites_an_input_or_another_output(planned_result, tmp_path, capsys):
+    """Refused before any work (exit 2, one line, every file left as it was): the result as export's
+    --out or replay's --rrd, the scenario or the MJCF as plan's --json, --json and --rrd on one file."""
+    result = tmp_path / "r.json"
+    result.write_text(planned_result.read_text())
+    scenario = tmp_path / "s.toml"
+    scenario.write_text((ROOT / "scenarios" / "obstacle.toml").read_text().replace("../models/", f"{MODELS}/"))
+    arm = tmp_path / "arm.xml"
+    arm.write_text((ROOT / "examples" / "two_link_arm" / "arm.xml").read_text())
+    before = {p: p.read_bytes() for p in (result, scenario, arm)}
+    cases = [
+        (["export", str(result), "--format", "csv", "--out", str(result)], "is the result"),
+        (["replay", str(tmp_path / "x.rrd"), "--rrd", str(tmp_path / "x.rrd")], "is the result"),
+        (["plan", "--scene", str(scenario), "--no-rrd", "--json", str(scenario)], "is the scenario file"),
+        (["plan", "--mjcf", str(arm), "--start", "0.3 2", "--goal", "0.1 0.6", "--no-rrd", "--json", str(arm)], "is the scene (MJCF)"),
+        (["plan", "--scene", str(scenario), "--rrd", str(tmp_path / "o.rrd"), "--json", str(tmp_path / "o.rrd")], "name the same file"),
+    ]
+    for argv, words in cases:
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and words in err, (argv, err)
+    assert {p: p.read_bytes() for p in before} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["arm.xml", "r.json", "s.toml"]
