@@ -25,16 +25,20 @@ What is reconstructed, and why
 ------------------------------
 Only the paper's abstract was readable here (the full text was not in the sources available to this
 project), so the algorithms are rebuilt from the abstract (GBPF fast, HPF short paths, RBPF high
-clearance; RBPF and HPF new in that paper), the method names, and the authors' published 2-D GBPF
-script. The choices:
+clearance; RBPF and HPF new in that paper), the method names, the authors' published 2-D GBPF
+script, and two public third-party reimplementations that cite the paper (they agree on RBPF's roulette
+wheel over the radii and HPF's best-first f = g + h, and disagree on HPF's g). The algorithm and
+equation numbers used here (Algorithms 2-4, Eq. 6, Eq. 7) are theirs: they could not be checked
+against the paper's text. The choices:
 
 * GBPF's ``bias`` defaults to 0.25, the value in the authors' 2-D script; the nearest bubble is the
   nearest *centre* (Euclidean in q), as there.
 * RBPF's roulette weights are the radii themselves (Eq. 6 as p_i = r_i / sum r_j); an expanded
   bubble leaves the open list (each bubble is expanded once, as in PFM).
 * HPF's g adds the distance between consecutive centres, i.e. the parent's radius (a child sits on its
-  parent's surface), so g + h is a lower bound of the length of any centre path through b: the
-  natural A* reading of "heuristic-guided" for short paths. Ties go to the older bubble.
+  parent's surface), so g is the centre path's length and g + h a lower bound of any centre path
+  through b: the A* reading of "heuristic-guided" for short paths (one reimplementation adds the
+  child's radius instead, which is not a length). Ties go to the older bubble.
 * Every variant starts from a root bubble of *any* positive certified radius (pfm requires
   r >= r_min there): the root gets at least K candidates, since floor(r / r_min) = 0 would leave it
   none. A start or goal with clearance <= delta is refused (:class:`ConfigurationError`).
