@@ -19,7 +19,7 @@ import numpy as np
 
 from foam_mj import paths
 from foam_mj.paths import fill_index
-from foam_mj.rosary import Rosary, uniform_in_lenses
+from foam_mj.rosary import Rosary
 
 #: Nascimento et al. 2020 section 5.1/5.2's threshold f(sigma) < 0.38 (from Nascimento et al. 2019). Under Nascimento et al. 2020's own Eq. 5
 #: (length about 3.6) f never falls below it; see docs/references.md.
@@ -356,8 +356,8 @@ class Hatches:
             out[todo[ok]] = pts[ok]
             todo = todo[~ok]
         else:
-            if todo.size:  # thin hatches: sample their lenses directly (raises for an empty one)
-                out[todo] = uniform_in_lenses(rng, cs[todo], rs[todo], co[todo], ro[todo])
+            if todo.size:
+                raise RuntimeError("hatch sampling did not converge: a hatch is empty or degenerate")
         return out.reshape(idx.shape + (n,))
 
 
