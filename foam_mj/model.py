@@ -354,6 +354,13 @@ class RobotModel:
         pairs, self_pair = [pairs[i] for i in order], [self_pair[i] for i in order]
         active = np.array([pair_coordinates(m, config, moves, a, b) for a, b in pairs], dtype=bool).reshape(-1, config.dim)
         checked = sorted({g for pr in pairs for g in pr})
+        hfields = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in checked
+                   if int(m.geom_type[g]) == mujoco.mjtGeom.mjGEOM_HFIELD]
+        if hfields:
+            raise ModelError(
+                f"{p}: collision geom(s) {hfields} are height fields, which MuJoCo's distance queries "
+                "(mj_geomDistance) do not measure; model that terrain with boxes or a [[mesh]] obstacle"
+            )
         nonzero = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or str(g) for g in checked if m.geom_margin[g] != 0]
         if nonzero:
             raise ModelError(

@@ -119,3 +119,16 @@ def test_collision_geoms_with_a_margin_are_refused(tmp_path):
     )
     with pytest.raises(ModelError, match="margin"):
         RobotModel.from_xml(scene)
+
+
+def test_a_height_field_obstacle_is_refused_naming_it(tmp_path):
+    """mj_geomDistance cannot measure height fields: refused (ModelError, exit 2) before any distance query,
+    instead of MuJoCo's compile error for the distance sensors (an internal error, exit 1)."""
+    scene = tmp_path / "hfield.xml"
+    scene.write_text(
+        f'<mujoco><include file="{MODELS / "ortholeg.xml"}"/>'
+        '<asset><hfield name="terrain" nrow="3" ncol="3" elevation="0 0 0 0 1 0 0 0 0" size="0.5 0.5 0.1 0.05"/></asset>'
+        '<worldbody><geom name="hill" type="hfield" hfield="terrain" pos="0.6 0 0"/></worldbody></mujoco>'
+    )
+    with pytest.raises(ModelError, match=r"\['hill'\] are height fields"):
+        RobotModel.from_xml(scene)
