@@ -11,10 +11,12 @@ free C-space: a novel structure for path planning", ICRA 2016), with balls inste
 One iteration, for both trees at once, with one batched distance query (``Clearance.batch``):
 
 1. Targets. ``batch`` uniform samples of the configuration box per tree (exploration), plus, for the
-   ``connect`` bubbles of each tree nearest to the other tree (smallest gap |c_a - c_b| - r_a - r_b),
-   the centre of their nearest bubble in the other tree (goal-directed growth).
-2. Parents. For a sample, the tree's bubble of smallest power distance |x - c|^2 - r^2 (the bubble
-   whose surface is nearest in the Laguerre sense); for a connect target, the bubble itself.
+   ``connect`` bubbles of each tree nearest to the other tree (smallest gap |c_a - c_b| - r_a - r_b;
+   each bubble gets at most MAX_TRIES such turns), the centre of their nearest bubble in the other
+   tree, and, as RRT-Connect, up to ``connect`` of the other tree's newest bubbles (goal-directed growth).
+2. Parents. For a sample or a newest bubble, the tree's bubble of smallest power distance
+   |x - c|^2 - r^2 (the bubble whose surface is nearest in the Laguerre sense); for a nearest-pair
+   target, the bubble itself.
 3. Candidates. Along the unit direction u from the parent's centre c_p (radius r_p) to the target,
    centres c_p + s r_p u for s in :data:`STEPS` (but not beyond the target), all evaluated in the batch.
 4. Children. Per extension, the farthest candidate whose certified radius r is at least ``r_min``, that
