@@ -424,9 +424,11 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None) -> None:
             d = clearance(q)
             if d <= scenario.params.delta:
                 state = "in collision" if d < 0 else "too close to an obstacle"
+                a, b = robot.pairs[int(np.argmin(clearance.pair_distances(q)))]
                 raise ScenarioError(
                     f"{where}: field '{field_name}' = {q.tolist()} is {state}: clearance {d:.4f} m "
-                    f"(the safety margin delta is {scenario.params.delta} m)"
+                    f"between {robot.geom_name(int(a))} and {robot.geom_name(int(b))} "
+                    f"(the safety margin delta is {scenario.params.delta} m; `foam-mj bubble` shows more)"
                 )
     finally:
         clearance.close()

@@ -69,7 +69,7 @@ def test_a_scenario_file_loads(tmp_path):
         (lambda t: t.replace("[0.2, 0.3, 0.08]", "[0.2, 0.3]"), "q_init.*shape"),
         (lambda t: t.replace("[0.2, 0.3, 0.08]", '[0.2, "a", 0.08]'), "q_init' must be a list of numbers"),
         (lambda t: t.replace("[0.45, 0.4536, 1.45]", "[0.45, 0.4536, 3.0]"), "q_goal.*outside its bounds"),
-        (lambda t: t.replace("[0.45, 0.4536, 1.45]", "[0.0, 0.0, 1.1219973762820265]"), "q_goal.*in collision: clearance -0.0180"),
+        (lambda t: t.replace("[0.45, 0.4536, 1.45]", "[0.0, 0.0, 1.1219973762820265]"), "q_goal.*in collision: clearance -0.0180 m between foot_collision and obstacle_box"),
         (lambda t: t.replace("q_init =", "q_init = = "), "malformed TOML"),
         (lambda t: t.replace('scene = "', 'scene = "/nowhere/'), "scene.*not found"),
     ],
