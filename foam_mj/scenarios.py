@@ -424,11 +424,19 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None) -> None:
             d = clearance(q)
             if d <= scenario.params.delta:
                 state = "in collision" if d < 0 else "too close to an obstacle"
-                a, b = robot.pairs[int(np.argmin(clearance.pair_distances(q)))]
+                i = int(np.argmin(clearance.pair_distances(q)))
+                a, b = robot.pairs[i]
+                hint = ""
+                if bool(np.asarray(robot.self_pair)[i]):
+                    import mujoco
+
+                    bodies = [mujoco.mj_id2name(robot.model, mujoco.mjtObj.mjOBJ_BODY, int(robot.model.geom_bodyid[g])) or f"body {int(robot.model.geom_bodyid[g])}" for g in (a, b)]
+                    hint = (f"; a robot/robot pair: if these links overlap by design, add <contact><exclude body1=\"{bodies[0]}\" "
+                            f"body2=\"{bodies[1]}\"/> to the MJCF, or set self_collision = false in a scenario")
                 raise ScenarioError(
                     f"{where}: field '{field_name}' = {q.tolist()} is {state}: clearance {d:.4f} m "
                     f"between {robot.geom_name(int(a))} and {robot.geom_name(int(b))} "
-                    f"(the safety margin delta is {scenario.params.delta} m; `foam-mj bubble` shows more)"
+                    f"(the safety margin delta is {scenario.params.delta} m; `foam-mj bubble` shows more){hint}"
                 )
     finally:
         clearance.close()

@@ -134,3 +134,35 @@ def test_subject_flags_scale_the_leg_and_the_result_names_the_scaled_scene(tmp_p
     assert np.linalg.norm(m.body("shank").pos) == pytest.approx(segment_length("thigh", 1.62), abs=1e-6)
     for entry in doc["paths"].values():
         assert _independent_clearance(doc["mjcf"], np.asarray(entry["qpos"])) >= doc["planner"]["delta"] - 1e-9
+
+
+OVERLAPPING_LINKS = """<mujoco model="short wrist">
+  <compiler angle="radian"/>
+  <worldbody>
+    <geom name="post" type="box" pos="0.6 0 0.5" size="0.05 0.05 0.5"/>
+    <body name="upper" pos="0 0 0.5"><joint name="a" axis="0 0 1" range="-2 2"/>
+      <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.035"/>
+      <body name="wrist" pos="0.25 0 0"><joint name="b" axis="1 0 0" range="-2 2"/>
+        <geom type="capsule" fromto="0 0 0 0.05 0 0" size="0.03"/>
+        <body name="fore" pos="0.05 0 0"><joint name="c" axis="0 0 1" range="-2 2"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.03"/>
+        </body></body></body>
+  </worldbody>
+  {contact}
+</mujoco>
+"""
+
+
+def test_links_that_overlap_by_design_are_named_with_the_way_out(tmp_path, capsys):
+    """Capsules of a grandparent and a grandchild that overlap at every pose (MuJoCo filters only parent and
+    child): the start is refused (exit 2) naming the pair and how to exclude it; with that exclude it plans."""
+    xml = tmp_path / "arm.xml"
+    xml.write_text(OVERLAPPING_LINKS.replace("{contact}", ""))
+    argv = ["plan", "--mjcf", str(xml), "--start", "-0.5 0 0.3", "--goal", "0.5 0 0.3", "--smoother", "none",
+            "--no-replay", "--no-rrd"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "in collision" in err
+    assert 'robot/robot pair' in err and '<contact><exclude body1="upper" body2="fore"/>' in err
+    xml.write_text(OVERLAPPING_LINKS.replace("{contact}", '<contact><exclude body1="upper" body2="fore"/></contact>'))
+    assert main(argv) == 0
