@@ -587,6 +587,12 @@ def _configuration_map(
         dup = sorted({n for n in names if names.count(n) > 1})
         raise ModelError(f"{path}: configuration joint(s) {dup} listed more than once")
     normalize = dict(normalize or {})
+    joint_names = {_joint_name(m, k) for k in range(m.njnt)}
+    declared = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_NUMERIC, i) or "" for i in range(m.nnumeric)]
+    typos = sorted(n[len(NORMALIZE_PREFIX):] for n in declared
+                   if n.startswith(NORMALIZE_PREFIX) and n[len(NORMALIZE_PREFIX):] not in joint_names)
+    if typos:  # a [normalize] entry (or an MJCF field) for a joint the model does not have would be ignored
+        raise ModelError(f"{path}: normalization given for {typos}, which are not joints of the model {sorted(joint_names)}")
     unknown = set(normalize) - set(names)
     if unknown:
         raise ModelError(f"{path}: normalization given for {sorted(unknown)}, which are not configuration joints {names}")

@@ -321,8 +321,8 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     if not scene.is_file():
         raise ScenarioError(f"{path}: field 'scene': MJCF file not found: {scene}")
     seed = raw.get("seed", 0)
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        raise ScenarioError(f"{path}: field 'seed' must be an integer >= 0, got {seed!r}")
+    if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed <= 2**63 - 1:
+        raise ScenarioError(f"{path}: field 'seed' must be an integer in [0, 2**63 - 1], got {seed!r}")
     robot_root, keyframe = raw.get("robot_root"), raw.get("keyframe")
     for key, value in (("robot_root", robot_root), ("keyframe", keyframe)):
         if value is not None and (not isinstance(value, str) or not value):

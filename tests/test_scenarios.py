@@ -71,6 +71,8 @@ def test_a_scenario_file_loads(tmp_path):
         (lambda t: t.replace("[0.45, 0.4536, 1.45]", "[0.45, 0.4536, 3.0]"), "q_goal.*outside its bounds"),
         (lambda t: t.replace("[0.45, 0.4536, 1.45]", "[0.0, 0.0, 1.1219973762820265]"), "q_goal.*in collision: clearance -0.0180 m between foot_collision and obstacle_box"),
         (lambda t: t.replace("q_init =", "q_init = = "), "malformed TOML"),
+        (lambda t: "seed = 18446744073709551616\n" + t, r"'seed' must be an integer in \[0, 2\*\*63 - 1\]"),
+        (lambda t: t + "[normalize]\nhip_displacment = [0.0, 0.7, 1.5707963267948966]\n", r"normalization given for \['hip_displacment'\], which are not joints"),
         (lambda t: t.replace('scene = "', 'scene = "/nowhere/'), "scene.*not found"),
     ],
 )
