@@ -88,7 +88,7 @@ def problem(name: str) -> Problem:
         K, r_min = (int(s.params.K), float(s.params.r_min)) if name in QUICK_PROBLEMS else (10, 0.05)
         return Problem(name, Path(s.scene), s.q_init, s.q_goal, K, r_min)
     if name == "arm6":
-        # Mirror poses either side of the box (tool 0.35 m above the floor); the straight line cuts 42 mm into it.
+        # Mirror poses either side of the box, the tool low beside it; the straight line cuts 42 mm into the box.
         a = np.array([-0.7, 0.87, 1.12, -0.08, 0.0, 0.0])
         return Problem(name, models_dir() / "bench_arm6.xml", a, a * np.array([-1, 1, 1, 1, 1, 1]), 10, 0.05)
     if name == "shelf6":
