@@ -46,11 +46,17 @@ def deterministic(rows: list[dict]) -> list[dict]:
     return sorted(({k: v for k, v in r.items() if k not in TIMING_COLUMNS} for r in rows), key=lambda r: r["key"])
 
 
+def _default_sigint() -> None:
+    """Let the child see Ctrl-C even when this test runs in a background job (which inherits SIGINT ignored)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def cli(*args: str, **kw) -> subprocess.Popen:
     """`foam-mj ...` in a subprocess (its own process group, so that we can signal all of it), this checkout first."""
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
     return subprocess.Popen(
-        [sys.executable, "-m", "foam_mj.cli", *args], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True, **kw
+        [sys.executable, "-m", "foam_mj.cli", *args], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        preexec_fn=_default_sigint, **kw
     )
 
 
