@@ -265,8 +265,8 @@ def _parse_q(text: str, flag: str) -> list[float]:
 
 
 def _plan_scenario(args: argparse.Namespace):
-    """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta and
-    --subject-height/--subject-mass override the scenario's fields."""
+    """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta,
+    --subject-height/--subject-mass, --robot-root and --no-self-collision override the scenario's fields."""
     from foam_mj.scenarios import read_scenario_doc, scenario_from_dict
 
     if args.mjcf is not None:
@@ -294,6 +294,10 @@ def _plan_scenario(args: argparse.Namespace):
     for flag, key in (("subject_height", "height"), ("subject_mass", "mass")):
         if getattr(args, flag) is not None:
             doc["subject"] = {**doc.get("subject", {}), key: getattr(args, flag)}
+    if args.robot_root is not None:
+        doc["robot_root"] = args.robot_root
+    if args.no_self_collision:
+        doc["self_collision"] = False
     return scenario_from_dict(doc, base, source=source)
 
 
@@ -700,6 +704,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--delta", type=float, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
     p.add_argument("--subject-height", type=float, metavar="M", help="scale the leg to a subject this tall (m; Winter's segment fractions)")
     p.add_argument("--subject-mass", type=float, metavar="KG", help="scale the leg's segment masses to a subject this heavy (kg)")
+    p.add_argument("--robot-root", metavar="BODY", help="the body whose subtree is the robot (other moving bodies are fixed obstacles at their qpos0 pose)")
+    p.add_argument("--no-self-collision", action="store_true", help="do not check robot/robot pairs (the scenario's self_collision = false)")
     p.add_argument(
         "--smoother",
         default=DEFAULT_SMOOTHER,

@@ -166,3 +166,17 @@ def test_links_that_overlap_by_design_are_named_with_the_way_out(tmp_path, capsy
     assert 'robot/robot pair' in err and '<contact><exclude body1="upper" body2="fore"/>' in err
     xml.write_text(OVERLAPPING_LINKS.replace("{contact}", '<contact><exclude body1="upper" body2="fore"/></contact>'))
     assert main(argv) == 0
+
+
+def test_robot_flags_reach_the_plan_and_its_result(tmp_path, capsys):
+    js = tmp_path / "arm.json"
+    argv = ["plan", "--mjcf", str(ARM), "--start", START, "--goal", GOAL, "--no-self-collision", "--smoother", "none",
+            "--no-rrd", "--no-replay", "--json", str(js)]
+    assert main(argv) == 0
+    assert json.loads(js.read_text())["robot"]["self_collision"] is False
+    capsys.readouterr()
+    # a robot root that the model does not have is a one-line bad input, before any planning
+    assert main([*argv[:-2], "--robot-root", "no_such_body", "--json", str(tmp_path / "bad.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "no_such_body" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "bad.json").exists()
