@@ -264,6 +264,19 @@ def _parse_q(text: str, flag: str) -> list[float]:
     return values
 
 
+def _robot_overrides(doc: dict, args: argparse.Namespace) -> None:
+    """--joints, --robot-root and --no-self-collision (plan and bubble) into a scenario document."""
+    if args.joints is not None:
+        joints = [j.strip() for j in args.joints.split(",") if j.strip()]
+        if not joints:
+            raise FoamError("--joints must name joints separated by commas")
+        doc["joints"] = joints
+    if args.robot_root is not None:
+        doc["robot_root"] = args.robot_root
+    if args.no_self_collision:
+        doc["self_collision"] = False
+
+
 def _plan_scenario(args: argparse.Namespace):
     """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta,
     --subject-height/--subject-mass, --robot-root and --no-self-collision override the scenario's fields."""
@@ -284,20 +297,12 @@ def _plan_scenario(args: argparse.Namespace):
             raise FoamError("--start and --goal go with --mjcf (a scenario has its own q_init and q_goal)")
         doc, source = read_scenario_doc("obstacle" if args.scene is None else args.scene)
         base = source.parent
-    if args.joints is not None:
-        joints = [j.strip() for j in args.joints.split(",") if j.strip()]
-        if not joints:
-            raise FoamError("--joints must name joints separated by commas")
-        doc["joints"] = joints
+    _robot_overrides(doc, args)
     if args.delta is not None:
         doc["planner"] = {**doc.get("planner", {}), "delta": args.delta}
     for flag, key in (("subject_height", "height"), ("subject_mass", "mass")):
         if getattr(args, flag) is not None:
             doc["subject"] = {**doc.get("subject", {}), key: getattr(args, flag)}
-    if args.robot_root is not None:
-        doc["robot_root"] = args.robot_root
-    if args.no_self_collision:
-        doc["self_collision"] = False
     return scenario_from_dict(doc, base, source=source)
 
 
@@ -428,15 +433,7 @@ def cmd_bubble(args: argparse.Namespace) -> int:
         doc, source = read_scenario_doc(args.scene)
         base = source.parent
     doc = {**doc, "q_init": q, "q_goal": q}  # the scenario's own start and goal are not looked at
-    if args.joints is not None:
-        joints = [j.strip() for j in args.joints.split(",") if j.strip()]
-        if not joints:
-            raise FoamError("--joints must name joints separated by commas")
-        doc["joints"] = joints
-    if args.robot_root is not None:
-        doc["robot_root"] = args.robot_root
-    if args.no_self_collision:
-        doc["self_collision"] = False
+    _robot_overrides(doc, args)
     scenario = scenario_from_dict(doc, base, source=source, check=False)
     delta = scenario.params.delta if args.delta is None else args.delta
     report = bubble_report(scenario.robot, q, delta, name="--q")
