@@ -39,8 +39,8 @@ geom: robot/obstacle pairs and, unless ``self_collision`` is off, robot/robot pa
 distance no configuration joint can change (no configuration joint lies on the kinematic path between
 its two bodies: a shoulder capsule above the floor turned only by a vertical pan joint) is left out of
 the checked pairs and kept in ``fixed_pairs``: no motion can bring it closer.
-The independent checker ``foam-mj verify`` (foam_mj/verify.py) keeps its own, simpler rule
-(robot/obstacle pairs by contype/conaffinity).
+The independent checker ``foam-mj verify`` (foam_mj/verify.py) keeps its own rule, written apart from
+this one: every moving/static pair unfiltered, and robot/robot pairs by MuJoCo's filter.
 """
 
 from __future__ import annotations

@@ -12,8 +12,10 @@ fingerprint helpers, which use nothing else). For every path of the result:
 and at every sample, ``mujoco.mj_geomDistance`` between every moving collision geom (on a body a
 configuration joint moves) and every other one (contype or conaffinity non-zero; a loose object on a
 joint that is not a configuration coordinate is an obstacle where the rows put it), with no
-contype/conaffinity filtering: stricter than the planner. A sample is a *violation* when some pair is closer than the
-result's margin ("planner" / "delta").
+contype/conaffinity filtering: stricter than the planner; and, unless the result says the robot was planned
+with ``self_collision`` false, between the robot's own geoms, for the pairs MuJoCo's collision detection
+tests whose distance a configuration joint changes (:func:`collision_pairs`). A sample is a *violation*
+when some pair is closer than the result's margin ("planner" / "delta").
 
 Speed: poses of all samples come from one ``mj_kinematics`` call each; a bounding-sphere lower bound
 (centre distance minus both ``geom_rbound``; for a plane, the signed distance of the other sphere)
@@ -63,6 +65,7 @@ class VerifyReport:
     step: float
     pairs: int
     paths: tuple[PathCheck, ...] = field(default_factory=tuple)
+    self_pairs: int = 0  # robot/robot pairs checked besides the moving/static ones
 
     @property
     def violations(self) -> int:
@@ -119,27 +122,60 @@ def _scene(doc: dict, source: Path) -> tuple[Path, mujoco.MjModel]:
     return chosen
 
 
-def _moving(m: mujoco.MjModel, body: int, moved: np.ndarray | None = None) -> bool:
-    """Is ``body`` moved by a joint (by one whose qpos address is in ``moved``, when given)?"""
+def _moving_joints(m: mujoco.MjModel, body: int, moved: set[int] | None = None) -> frozenset[int]:
+    """The joints above ``body`` (its own included) that move it: those whose qpos address is in ``moved``,
+    when given, otherwise every joint."""
+    out = set()
     while body != 0:
         for j in range(m.body_jntadr[body], m.body_jntadr[body] + m.body_jntnum[body]):
             if moved is None or int(m.jnt_qposadr[j]) in moved:
-                return True
+                out.add(j)
         body = int(m.body_parentid[body])
-    return False
+    return frozenset(out)
 
 
-def collision_pairs(m: mujoco.MjModel, qpos_index: np.ndarray | None = None) -> np.ndarray:
-    """(P, 2) geom ids: every moving collision geom against every static one.
+def _mujoco_tests(m: mujoco.MjModel, a: int, b: int) -> bool:
+    """Would MuJoCo's collision detection test geoms a and b (no explicit pair)? Its documented filter:
+    contype/conaffinity match, different weld bodies, weld bodies not parent and child (unless the model
+    disables that filter or one is the world), body pair not in a ``<contact><exclude>``."""
+    ct, ca = m.geom_contype, m.geom_conaffinity
+    if not ((ct[a] & ca[b]) or (ct[b] & ca[a])):
+        return False
+    ba, bb = int(m.geom_bodyid[a]), int(m.geom_bodyid[b])
+    wa, wb = int(m.body_weldid[ba]), int(m.body_weldid[bb])
+    if wa == wb:
+        return False
+    filter_parent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
+    if filter_parent and wa and wb and (wa == int(m.body_weldid[m.body_parentid[wb]]) or wb == int(m.body_weldid[m.body_parentid[wa]])):
+        return False
+    return ((min(ba, bb) << 16) + max(ba, bb)) not in {int(x) for x in m.exclude_signature}
+
+
+def collision_pairs(m: mujoco.MjModel, qpos_index: np.ndarray | None = None, self_collision: bool = False) -> np.ndarray:
+    """(P, 2) geom ids: every moving collision geom against every static one, and with ``self_collision``
+    the robot/robot pairs.
 
     With ``qpos_index`` (the result's configuration coordinates), *moving* means moved by one of those
     joints; a body on any other joint (a loose box with a free joint) stays where the rows put it and is
-    checked as an obstacle, as the planner treats it. Without it, any joint makes a body moving."""
+    checked as an obstacle, as the planner treats it. Without it, any joint makes a body moving.
+    Moving/static pairs are checked with no contype/conaffinity filtering (stricter than the planner).
+    Robot/robot pairs cannot be checked unfiltered (a thigh touches its shank at the knee by design), so
+    they are the pairs MuJoCo's own collision detection tests (explicit ``<contact><pair>`` elements, and
+    :func:`_mujoco_tests`) whose distance some configuration joint can change (a joint moves one geom and
+    not the other)."""
     moved = None if qpos_index is None else {int(i) for i in qpos_index}
     coll = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
-    moving = [g for g in coll if _moving(m, int(m.geom_bodyid[g]), moved)]
-    static = [g for g in coll if not _moving(m, int(m.geom_bodyid[g]), moved)]
-    return np.array([(a, b) for a in moving for b in static], dtype=int).reshape(-1, 2)
+    joints = {g: _moving_joints(m, int(m.geom_bodyid[g]), moved) for g in coll}
+    moving = [g for g in coll if joints[g]]
+    static = [g for g in coll if not joints[g]]
+    out = [(a, b) for a in moving for b in static]
+    if self_collision:
+        explicit = {(min(int(a), int(b)), max(int(a), int(b))) for a, b in zip(m.pair_geom1, m.pair_geom2)}
+        for i, a in enumerate(moving):
+            for b in moving[i + 1:]:
+                if joints[a] != joints[b] and ((a, b) in explicit or _mujoco_tests(m, a, b)):
+                    out.append((a, b))
+    return np.array(out, dtype=int).reshape(-1, 2)
 
 
 def _configuration_map(doc: dict, m: mujoco.MjModel, source: Path):
@@ -261,7 +297,10 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         raise _fail(source, "field 'paths' must be an object")
     if not paths:
         raise _fail(source, "field 'paths' is empty: nothing to verify")
-    pairs = collision_pairs(m, idx)
+    robot = doc.get("robot")
+    self_collision = not (isinstance(robot, dict) and robot.get("self_collision") is False)
+    pairs = collision_pairs(m, idx, self_collision)
+    n_self = len(pairs) - len(collision_pairs(m, idx))
     if len(pairs) == 0:
         raise _fail(source, f"the scene {mjcf} has no pair of moving and static collision geoms")
     checker = _Checker(m, pairs)
@@ -289,13 +328,14 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         dmin, bad, pair = checker.check(allq, margin)
         checks.append(PathCheck(name, len(samples_wp), len(samples_tr), dmin, bad,
                                 (names(pairs[pair, 0]), names(pairs[pair, 1])) if pair >= 0 else ("", ""), checker.calls - calls0))
-    return VerifyReport(source, mjcf, margin, step, len(pairs), tuple(checks))
+    return VerifyReport(source, mjcf, margin, step, len(pairs) - n_self, tuple(checks), n_self)
 
 
 def format_report(r: VerifyReport) -> str:
     """The table ``foam-mj verify`` prints, and a last summary line."""
     head = f"{'path':<20}{'waypoint samples':>17}{'trajectory samples':>20}{'min clear':>11}{'violations':>11}  closest pair"
-    lines = [f"verify {r.result} on {r.mjcf}: {r.pairs} moving/static geom pairs, step {r.step:g}, margin {r.margin * 1000:g} mm",
+    lines = [f"verify {r.result} on {r.mjcf}: {r.pairs} moving/static geom pairs"
+             f"{f' and {r.self_pairs} robot/robot pairs' if r.self_pairs else ''}, step {r.step:g}, margin {r.margin * 1000:g} mm",
              head, "-" * len(head)]
     for p in r.paths:
         lines.append(f"{p.name:<20}{p.waypoint_samples:>17,}{p.trajectory_samples:>20,}{p.min_clearance * 1000:>8.2f} mm"

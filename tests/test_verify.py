@@ -183,3 +183,58 @@ def test_a_loose_object_resting_on_the_floor_is_an_obstacle_not_a_violation(tmp_
     pairs = {tuple(p) for p in collision_pairs(m, np.array([0, 1])).tolist()}   # qpos 0, 1: shoulder, elbow
     assert (gid("upper"), gid("loose_box")) in pairs and (gid("fore"), gid("loose_box")) in pairs
     assert (gid("loose_box"), gid("floor")) not in pairs and len(pairs) == 6
+
+
+FOLDING_ARM = """<mujoco model="three-link arm that can fold onto itself">
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body pos="0 0 1.0">
+      <joint name="j1" type="hinge" axis="0 1 0" range="-60 60"/>
+      <geom name="link1" type="capsule" fromto="0 0 0 0.4 0 0" size="0.03" mass="1"/>
+      <body pos="0.4 0 0">
+        <joint name="j2" type="hinge" axis="0 1 0" range="-170 170"/>
+        <geom name="link2" type="capsule" fromto="0 0 0 0.1 0 0" size="0.03" mass="1"/>
+        <body pos="0.1 0 0">
+          <joint name="j3" type="hinge" axis="0 1 0" range="-170 170"/>
+          <geom name="link3" type="capsule" fromto="0 0 0 0.35 0 0" size="0.03" mass="1"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_the_robot_touching_itself_is_a_violation_unless_planned_without_self_collision(tmp_path, capsys):
+    """link3 folded back onto link1 (two links apart: MuJoCo tests that pair) is unsafe; the planner checked
+    robot/robot pairs, and so does verify, with a rule of its own (MuJoCo's filter, not the planner's code)."""
+    xml = tmp_path / "arm.xml"
+    xml.write_text(FOLDING_ARM)
+    out = tmp_path / "arm.json"
+    assert main(["plan", "--mjcf", str(xml), "--start", "0 0 0", "--goal", "0.3 0.5 0.5", "--smoother", "none",
+                 "--no-replay", "--no-rrd", "--json", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["verify", str(out)]) == 0
+    assert "robot/robot pairs" in capsys.readouterr().out
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    gid = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)  # noqa: E731
+    pairs = {tuple(p) for p in collision_pairs(m, np.array([0, 1, 2]), self_collision=True).tolist()}
+    assert (gid("link1"), gid("link3")) in pairs                 # two links apart
+    assert (gid("link1"), gid("link2")) not in pairs and (gid("link2"), gid("link3")) not in pairs   # parent/child
+    doc = json.loads(out.read_text())
+    folded = [0.0, np.radians(170), np.radians(10)]               # link3 comes back along link1
+    d = mujoco.MjData(m)
+    d.qpos[:] = np.asarray(doc["configuration"]["offset"]) + np.asarray(doc["configuration"]["scale"]) * folded
+    mujoco.mj_kinematics(m, d)
+    assert mujoco.mj_geomDistance(m, d, gid("link1"), gid("link3"), 1.0, None) < 0
+    assert min(mujoco.mj_geomDistance(m, d, g, gid("floor"), 1.0, None) for g in (gid("link1"), gid("link2"), gid("link3"))) > 0.1
+    wp = doc["paths"]["centre"]["waypoints"]
+    wp.insert(len(wp) // 2, folded)
+    doc["paths"]["centre"]["qpos"] = []
+    bad = tmp_path / "folded.json"
+    bad.write_text(json.dumps(doc))
+    assert main(["verify", str(bad)]) == 4
+    assert "link1 / link3" in capsys.readouterr().out
+    doc["robot"]["self_collision"] = False                       # planned without robot/robot pairs: not checked
+    bad.write_text(json.dumps(doc))
+    assert main(["verify", str(bad)]) == 0
