@@ -146,13 +146,69 @@ class CircleMap:
             object.__setattr__(self, "_work_arrays", work)
         return work
 
-    def violation(self, points: np.ndarray, clearance: float = 0.0) -> np.ndarray:
-        """Summed penetration max(0, r + clearance - dist) over segments and circles: (..., m, 2) -> (...)."""
+    def violation(self, points: np.ndarray, clearance: float = 0.0, near: np.ndarray | None = None) -> np.ndarray:
+        """Summed penetration max(0, r + clearance - dist) over segments and circles: (..., m, 2) -> (...).
+
+        ``near`` (optional, bool (m-1, K)): a broad phase, the segment/circle pairs that may come closer than
+        r + clearance; the caller guarantees that every other pair stays farther (penetration 0) for these
+        polylines (:class:`PlanarPathProblem` derives it from its fixed waypoint stations). Only the near pairs
+        are computed, with the same operations, and the sum is taken in the dense order: the result is the
+        same, bit for bit."""
         if len(self.radii) == 0:
             return np.zeros(np.shape(points)[:-2])
+        if near is not None:
+            return self._violation_near(np.asarray(points, dtype=float), clearance, near)
         d = self.segment_distances(points)
         pen = np.subtract(self.radii + clearance, d, out=d)  # (r + clearance) - dist, as written above
         return np.maximum(pen, 0.0, out=pen).sum(axis=(-1, -2))
+
+    def _violation_near(self, p: np.ndarray, clearance: float, near: np.ndarray) -> np.ndarray:
+        """:meth:`violation` over the pairs of ``near`` only (see there)."""
+        lead, m = p.shape[:-2], p.shape[-2]
+        K = len(self.radii)
+        if near.shape != (m - 1, K):
+            raise ValueError(f"near must have shape {(m - 1, K)}, got {near.shape}")
+        seg, circ = np.nonzero(near)  # in the dense (segment, circle) order
+        q = p.reshape(-1, m, 2)
+        P = len(q)
+        # per segment, as segment_distances: a, b = next - a, den = max(|b|^2, eps); then gathered per pair
+        A = np.empty((5, P, m - 1))
+        ax, ay, bx, by, den = A
+        ax[...] = q[:, :-1, 0]
+        ay[...] = q[:, :-1, 1]
+        np.subtract(q[:, 1:, 0], ax, out=bx)
+        np.subtract(q[:, 1:, 1], ay, out=by)
+        np.maximum(bx * bx + by * by, _EPS, out=den)
+        G = np.take(A, seg, axis=2)  # (5, P, pairs)
+        ax, ay, bx, by, den = G
+        cx = np.subtract(self.centers[circ, 0], ax)
+        cy = np.subtract(self.centers[circ, 1], ay)
+        t = np.multiply(cx, bx)
+        tmp = np.multiply(cy, by)
+        t += tmp
+        t /= den
+        np.clip(t, 0.0, 1.0, out=t)
+        cx -= np.multiply(t, bx, out=tmp)
+        cy -= np.multiply(t, by, out=tmp)
+        cx *= cx
+        cy *= cy
+        cx += cy
+        d = np.sqrt(cx, out=cx)
+        pen = np.subtract((self.radii + clearance)[circ], d, out=d)
+        np.maximum(pen, 0.0, out=pen)
+        # The dense sum adds zeros everywhere else: a path with no penetration sums to 0, one with a single
+        # penetrating pair to that pair's value (exactly); the others are summed densely, as violation does.
+        hits = np.count_nonzero(pen, axis=1)
+        out = np.zeros(P)
+        one = hits == 1
+        if one.any():
+            out[one] = pen[one].max(axis=1)
+        many = np.flatnonzero(hits > 1)
+        if many.size:
+            dense = np.zeros((many.size, m - 1, K))
+            dense[:, seg, circ] = pen[many]
+            out[many] = dense.sum(axis=(-1, -2))
+        return out.reshape(lead)
 
     def collision_free(self, points: np.ndarray, clearance: float = 0.0) -> bool:
         """True when the polyline (m, 2) stays at least ``clearance`` from every circle and on the map."""
@@ -254,6 +310,21 @@ class PlanarPathProblem:
         else:
             self.lb = np.zeros(2 * self.n)
             self.ub = np.full(2 * self.n, cmap.size)
+        self._near = self._near_pairs()
+
+    def _near_pairs(self) -> np.ndarray | None:
+        """Broad phase of the collision check, "offsets" only: waypoint i always lies on the normal to SP -> TP
+        at the station x'_i = i |TP - SP| / (n + 1), so segment i spans [x'_i, x'_(i+1)] along the line and a
+        circle whose centre projects farther than its r + clearance outside that interval cannot touch it.
+        -> bool (n + 1, K) of the pairs to check (a margin of 1e-6 map sizes covers rounding), None for
+        "points"."""
+        if self.parametrization != "offsets" or len(self.map.radii) == 0:
+            return None
+        L = float(np.linalg.norm(self.map.target - self.map.start))
+        x = np.arange(self.n + 2) / (self.n + 1) * L
+        along = (self.map.centers - self.map.start) @ self.e
+        reach = self.map.radii + self.clearance + 1e-6 * self.map.size
+        return (along + reach >= x[:-1, None]) & (along - reach <= x[1:, None])
 
     @property
     def dim(self) -> int:
@@ -287,4 +358,7 @@ class PlanarPathProblem:
     def evaluate(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         p = self.paths(X)
         F = np.stack([path_length(p), smoothness(p, self.delta, self.mode)], axis=-1)
-        return F, self.map.violation(p, self.clearance)
+        # the broad phase holds for offsets within a few map sizes (rounding of the stations stays tiny)
+        X = np.asarray(X, dtype=float)
+        near = self._near if self._near is not None and X.size and np.abs(X).max() <= 4 * self.map.size else None
+        return F, self.map.violation(p, self.clearance, near)

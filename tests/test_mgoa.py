@@ -23,6 +23,7 @@ from foam_mj.smoothing.pareto import (
     ParetoResult,
     RosaryProblem,
     crowding_distance,
+    dominance_matrix,
     dominates,
     error_ratio,
     hypervolume_2d,
@@ -250,6 +251,21 @@ def test_prune_2d_matches_recomputing_loop(K, cap, seed):
     assert len(kept) == min(cap, K)
 
 
+@SETTINGS
+@given(arrays(np.float64, st.tuples(st.integers(1, 40), st.just(2)),
+              elements=st.one_of(st.integers(0, 6).map(float), st.floats(0, 10))),
+       st.one_of(st.none(), arrays(np.float64, 40, elements=st.sampled_from([0.0, 0.0, 0.5, 1.0, 2.0]))))
+def test_nondominated_mask_in_2d_is_the_dominance_matrix_rule(F, V):
+    # Two objectives are filtered by sorting; the rule is the K x K constrained-dominance matrix's, first of
+    # equal (objectives, violation) rows kept.
+    V = None if V is None else V[: len(F)]
+    want = ~dominance_matrix(F, V).any(axis=0)
+    key = F if V is None else np.column_stack([F, V])
+    first = np.zeros(len(F), dtype=bool)
+    first[np.unique(key, axis=0, return_index=True)[1]] = True
+    np.testing.assert_array_equal(nondominated_mask(F, V), want & first)
+
+
 def test_leader_selection_favours_sparse_regions():
     arch = Archive(100, niche_radius=0.1)
     crowd = np.column_stack([np.linspace(0.0, 0.05, 20), np.linspace(1.0, 0.95, 20)])
@@ -319,6 +335,20 @@ def test_planar_map_and_collision_geometry():
     through = np.array([c - [r + 5, 0], c + [r + 5, 0]])
     one = CircleMap(m1.centers[:1], m1.radii[:1], m1.start, m1.target)
     assert one.violation(through) == pytest.approx(r)
+
+
+@pytest.mark.parametrize("env,n,clearance", [(1, 8, 1.0), (2, 3, 0.0), (1, 15, 6.0)])
+def test_planar_broad_phase_gives_the_dense_violation_bit_for_bit(env, n, clearance):
+    # "offsets" checks only the segment/circle pairs its fixed stations allow; swarms from hugging the line to
+    # crossing many obstacles (paths with 0, 1 and many penetrating pairs) give the dense result exactly.
+    prob = PlanarPathProblem(paper_environment(env), n, clearance=clearance)
+    assert prob._near is not None and prob._near.mean() < 0.5
+    rng = np.random.default_rng(env)
+    for scale in (0.01, 0.2, 1.0):
+        X = prob.sample(rng, 200) * scale
+        dense = prob.map.violation(prob.paths(X), clearance)
+        assert np.count_nonzero(dense) > 0 or scale < 1
+        np.testing.assert_array_equal(prob.evaluate(X)[1], dense)
 
 
 def test_planar_problem_parametrizations_and_objectives():

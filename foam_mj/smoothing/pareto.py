@@ -108,12 +108,66 @@ def nondominated_mask(F: np.ndarray, violation: np.ndarray | None = None) -> np.
     K = len(F)
     if K == 0:
         return np.zeros(0, dtype=bool)
+    if F.shape[1] == 2:
+        fast = _nondominated_mask_2d(F, violation)
+        if fast is not None:
+            return fast
     keep = ~dominance_matrix(F, violation).any(axis=0)
     key = F if violation is None else np.column_stack([F, np.asarray(violation, dtype=float)])
     _, first = np.unique(key, axis=0, return_index=True)
     uniq = np.zeros(K, dtype=bool)
     uniq[first] = True
     return keep & uniq
+
+
+def _nondominated_mask_2d(F: np.ndarray, violation: np.ndarray | None) -> np.ndarray | None:
+    """:func:`nondominated_mask` for two objectives by sorting, O(K log K) instead of the K x K matrix; the same
+    mask (comparisons only). None where it does not apply (NaN objectives, feasible violations that differ:
+    then the dominance matrix decides)."""
+    K = len(F)
+    if violation is None:
+        cand = None
+    else:
+        v = np.asarray(violation, dtype=float)
+        if not np.isfinite(v).all():
+            return None
+        feas = v <= 0
+        # constrained dominance: any feasible member dominates every infeasible one; with none feasible, the
+        # smallest violations dominate the rest and no objective comparison is made
+        cand = feas if feas.any() else v == v.min()
+        vc = v[cand]
+        if not (vc == vc[0]).all():  # the duplicate test below compares objectives only
+            return None
+        if not feas.any():
+            return _first_of_duplicates(F, cand)
+    idx = np.arange(K) if cand is None else np.flatnonzero(cand)
+    f0, f1 = F[idx, 0], F[idx, 1]
+    if not (np.isfinite(f0).all() and np.isfinite(f1).all()):
+        return None
+    order = np.lexsort((f1, f0))  # by f0, then f1; stable: equal rows stay in index order
+    s0, s1 = f0[order], f1[order]
+    new0 = np.empty(len(order), dtype=bool)  # first of its group of equal f0
+    new0[0] = True
+    np.not_equal(s0[1:], s0[:-1], out=new0[1:])
+    start = np.maximum.accumulate(np.where(new0, np.arange(len(order)), 0))
+    # i is dominated by a member with a smaller f0 and f1 <= its f1, or by one with the same f0 and a smaller f1
+    prefix = np.minimum.accumulate(s1)
+    before = np.concatenate(([np.inf], prefix[:-1]))[start]  # lowest f1 of the smaller f0 values
+    keep = (s1 < before) & (s1 == s1[start])
+    # of equal objective vectors only the first (by index) stays
+    keep[1:] &= ~((s0[1:] == s0[:-1]) & (s1[1:] == s1[:-1]))
+    out = np.zeros(K, dtype=bool)
+    out[idx[order[keep]]] = True
+    return out
+
+
+def _first_of_duplicates(F: np.ndarray, cand: np.ndarray) -> np.ndarray:
+    """Members of ``cand`` whose objective vector no earlier member of ``cand`` has."""
+    idx = np.flatnonzero(cand)
+    _, first = np.unique(F[idx], axis=0, return_index=True)
+    out = np.zeros(len(F), dtype=bool)
+    out[idx[first]] = True
+    return out
 
 
 def nondominated(F: np.ndarray) -> np.ndarray:
