@@ -28,6 +28,22 @@ box |dW|_inf <= delta plus, on every segment shorter than delta / 0.5, |d(p_(j+1
 two points may still move together); the usual ratio test on the true F accepts a step (every
 accepted step decreases F), delta doubles after a good step and shrinks by 4 after a rejected one.
 
+Curvature (objectives without SV). Linearising v inside the norm drops v's own curvature, and the SCP
+then converges only linearly (the model underestimates F near straight vertices, steps are rejected and
+the trust region collapses). From the second step on, the model gets the curvature an SQP method would
+use: with y_i the multiplier of v_i (at a bent vertex y_i = w_angle/M h'(|v_i|) v_i/|v_i|, the gradient of
+the outer function; at a straight vertex the last subproblem's dual of the vertex cone, which is where the
+subdifferential's element is known), the Hessian of sum_i y_i . v_i(W) is, per segment a = p_(j+1) - p_j
+with u = a/|a|, G = (I - u u^T)/|a| and z_j = y_j - y_(j-1),
+
+    d^2 (z_j . u) / da^2 = -(u (G z_j)^T + (G z_j) u^T + (u . z_j) G) / |a|,
+
+whose negative eigenvalues are clipped (the subproblem must stay convex), put in P as the 2 x 2 block
+pattern [[H, -H], [-H, H]] over the segment's end points; and h''(s0)(s - s0)^2 / 2 for the convex outer
+function. P is then block-tridiagonal over the waypoints (a fixed pattern). On a rejected step the relative
+trust region of the short segments shrinks with delta (by 4; back up by 2 after a very good step, to at
+most 0.5), so that a step limited by a short segment's relative region is not retried unchanged.
+
 Repeated points (ties). The shortest path puts consecutive waypoints on the same corner wherever their
 hatches overlap there, and so does the optimum of f (a corner counts once, foam_mj.paths). Two points
 1e-9 apart are a numerical disaster (their angles depend on the direction of a segment of no length), so
@@ -40,7 +56,7 @@ path and the hatch centres is tried.
 
 Certificate. :func:`kkt_certificate` checks first-order optimality of the true objective on the
 merged polyline (exact repeats as one point, constrained by every hatch it stands for): at a straight
-vertex (|v| < 1e-4) the subdifferential of phi is {J_i^T g : |g| <= 1}; elsewhere phi is differentiable.
+vertex (|v| < 1e-3) the subdifferential of phi is {J_i^T g : |g| <= 1}; elsewhere phi is differentiable.
 The residual
 
     min  max_k ell_k || (grad F_smooth + sum_straight (w_angle / M) J_i^T g_i - sum_active lambda_j grad c_j)_k ||_inf
@@ -50,7 +66,9 @@ The residual
 (Clarabel). Why the scaling by ell_k: at two vertices 1e-4 apart the gradient is 1e4 times larger, and a
 residual of 1e-4 after a solve to 1e-9 is rounding, not a descent direction; ell_k |r_k| is F's first-order
 change when point k moves by its own neighbour distance, the quantity the trust region controls. The
-unscaled residual is reported too (``kkt_raw_stationarity``). Scaled stationarity and complementarity
+unscaled residual is reported too (``kkt_raw_stationarity``). During the SCP the last subproblem's duals
+(vertex cones -> g_i, ball cones -> lambda_j) are tried first as the multipliers: when their residual,
+computed exactly as above, already certifies, the SOCP is not solved. Scaled stationarity and complementarity
 (max lambda_j * slack_j) below ``KKT_TOL`` (1e-4) certify a local optimum; the angle is not convex, so
 ``multistart`` looks for better ones (random hatch points, or HS/GA results passed as ``initial``), and
 ``restarts`` random starts are tried while the best result is not certified.
@@ -60,15 +78,17 @@ shrunk hatches (a no-op up to the solver's 1e-9 feasibility) before ties are sna
 waypoints are checked to be at least inset/2 inside both balls.
 
 Speed. Clarabel runs without presolve (nothing to remove) and, for objectives without SV, without
-iterative refinement (a third of each solve; the same points to 1e-9 in F). A step whose subproblem
+iterative refinement (a third of each solve; the same points to 1e-9 in F) until a subproblem fails
+(ill-conditioned, e.g. 5-joint corridors of 110 bubbles): then it is solved again with refinement, which
+stays on for the run. A step whose subproblem
 has the previous sparsity pattern updates the previous solver in place (``DefaultSolver.update``);
 the short-segment rows change the pattern often (2 of 11 steps reuse it on the obstacle rosary). A
 run ends as soon as a step's predicted decrease is below 1e-8 |F| and the point passes the certificate
 (objectives without SV; the last steps of the linearly converging SCP only polish F's ninth digit),
-else at the 1e-10 |F| test. Measured (``benchmarks/speed.py``, obstacle
-rosary of 29 bubbles, a busy 2-core machine): f in about 50 ms of CPU time to a scaled KKT residual
-~1e-8, 11 subproblems of about 3 ms (about 15 interior-point iterations each: the bulk) and two
-certificates; before these changes 15 subproblems and about 85 ms.
+else at the 1e-10 |F| test. Measured (CPU time, obstacle rosary of 30 bubbles, 2-core machine): f in
+4 subproblems and about 32 ms to a scaled KKT residual ~4e-6 (8 subproblems and about 50 ms without the
+curvature and the dual certificate); on bubbletree corridors of 40-90 bubbles 3-6 subproblems and 35-100 ms
+(was 4-16 and 45-140 ms).
 """
 
 from __future__ import annotations
@@ -298,6 +318,12 @@ def _dh(s):
     return 1.0 / np.sqrt(np.maximum(1.0 - (np.minimum(s, _S_MAX) / 2.0) ** 2, 1e-18))
 
 
+def _ddh(s):
+    """h''(s) = (s / 4) (1 - s^2 / 4)^(-3/2) >= 0 (h is convex)."""
+    sc = np.minimum(s, _S_MAX)
+    return 0.25 * sc * np.maximum(1.0 - (sc / 2.0) ** 2, 1e-18) ** -1.5
+
+
 @dataclass
 class _Structure:
     """The parts of the subproblem that do not change between iterations."""
@@ -308,6 +334,36 @@ class _Structure:
     nt: int
     M: int
     n: int
+    P_pattern: tuple | None = None  # (indptr, indices, diag rows, super rows, tail) of the block-tridiagonal P
+
+    def p_pattern(self) -> tuple:
+        """The upper triangle of a block-tridiagonal P over W (n x n blocks: waypoint k with itself and with
+        k + 1) and a diagonal over [t, s], as CSC arrays, and where each block's entries sit in ``data``."""
+        if self.P_pattern is None:
+            m, n, nw = self.M, self.n, self.nw
+            nx = nw + self.nt + self.M
+            rows, cols = [], []
+            a, b = np.triu_indices(n)
+            for k in range(m):  # diagonal blocks (upper triangles)
+                rows.append(k * n + a)
+                cols.append(k * n + b)
+            aa, bb = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+            for k in range(m - 1):  # blocks (k, k + 1), full
+                rows.append(k * n + aa.ravel())
+                cols.append((k + 1) * n + bb.ravel())
+            tail = np.arange(nw, nx)
+            rows.append(tail)
+            cols.append(tail)
+            r, c = np.concatenate(rows), np.concatenate(cols)
+            order = np.lexsort((r, c))
+            pos = np.empty_like(order)
+            pos[order] = np.arange(order.size)
+            nd, nu = m * a.size, (m - 1) * n * n
+            indptr = np.r_[0, np.cumsum(np.bincount(c, minlength=nx))].astype(np.int64)
+            # positions in data of: diag block k entry (a, b); super block k entry (aa, bb); the tail
+            self.P_pattern = (indptr, r[order].astype(np.int64), pos[:nd].reshape(m, -1), pos[nd:nd + nu].reshape(max(m - 1, 0), n, n),
+                              pos[nd + nu:], (a, b))
+        return self.P_pattern
 
 
 def _structure(rosary: Rosary, inset: float) -> _Structure:
@@ -316,7 +372,33 @@ def _structure(rosary: Rosary, inset: float) -> _Structure:
     return _Structure(A0.tocoo(), b0, nw, m + 1, m, rosary.dim)
 
 
-def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta: float, vx: _Vertices):
+def _segment_curvature(Q: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """PSD part of the Hessian of sum_i y_i . v_i with respect to each segment of the polyline Q, where
+    v_i = u_i - u_(i+1) at interior vertex i and y (Mv, n) are fixed multipliers -> (segments, n, n).
+
+    Segment j enters as +u_j in v_j and -u_j in v_(j-1), so the term is z_j . u(a) with z_j = y_j - y_(j-1)
+    and a = Q_(j+1) - Q_j; with u = a/|a| and G = (I - u u^T)/|a| (= du/da),
+
+        d^2 (z . u) / da^2 = -(u (G z)^T + (G z) u^T + (u . z) G) / |a|,
+
+    indefinite in general; its negative eigenvalues are clipped (the model must stay convex)."""
+    seg = np.diff(Q, axis=0)
+    r = np.maximum(np.linalg.norm(seg, axis=1), paths._EPS)
+    u = seg / r[:, None]
+    n = Q.shape[1]
+    z = np.zeros((len(seg), n))
+    z[:-1] += y
+    z[1:] -= y
+    G = (np.eye(n) - u[:, :, None] * u[:, None, :]) / r[:, None, None]
+    Gz = np.einsum("jde,je->jd", G, z)
+    uz = np.einsum("jd,jd->j", u, z)
+    H = -(u[:, :, None] * Gz[:, None, :] + Gz[:, :, None] * u[:, None, :] + uz[:, None, None] * G) / r[:, None, None]
+    lam, V = np.linalg.eigh(H)
+    return np.einsum("jdk,jk,jek->jde", V, np.maximum(lam, 0.0), V)
+
+
+def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta: float, vx: _Vertices,
+                y: np.ndarray | None = None, rel: float = RELATIVE):
     """Clarabel data for one step. Variables x = [W (m n), t (m + 1), s (M)]; cones in the order
     ties (zero cone), trust region (box), segment and ball cones, vertex cones."""
     n, nw, nt, M = st.n, st.nw, st.nt, st.M
@@ -358,7 +440,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     seg = np.diff(p, axis=0)
     lens = np.linalg.norm(seg, axis=1)
     tied_seg = vx.rep[1:] == vx.rep[:-1]
-    short = np.flatnonzero((RELATIVE * lens < delta) & ~tied_seg & (m > 0))
+    short = np.flatnonzero((rel * lens < delta) & ~tied_seg & (m > 0))
     n_rel = 0
     if short.size:
         r = (np.arange(short.size)[:, None] * n + dd).ravel()
@@ -376,13 +458,14 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         pw[0] = 0.0
         pw[-1] = 0.0
         dw0 = pw[short + 1] - pw[short]  # D W0 (only the free points)
-        rad = np.repeat(RELATIVE * lens[short], n)
+        rad = np.repeat(rel * lens[short], n)
         b += [dw0.ravel() + rad, -dw0.ravel() + rad]
         n_rel = 2 * r.size
         off += n_rel
     cones.append(clarabel.NonnegativeConeT(2 * nw + n_rel))
     # Segment and ball cones (constant).
     A0 = st.A0
+    a0_row = off
     rows.append(off + A0.row)
     cols.append(A0.col)
     vals.append(A0.data)
@@ -424,10 +507,43 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         Pdiag[nw + nt:] = 1.0
     b = np.concatenate(b)
     A = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(len(b), nx))
-    # P is diagonal: built as CSC directly (every diagonal entry stored, zeros too, so that the pattern is
-    # the same at every step; sp.diags costs more than the rest of this function)
-    ix = np.arange(nx + 1, dtype=np.int32)
-    return sp.csc_matrix((Pdiag, ix[:-1], ix), shape=(nx, nx)), q, A, b, cones
+    if y is None:
+        # P is diagonal: built as CSC directly (every diagonal entry stored, zeros too, so that the pattern is
+        # the same at every step; sp.diags costs more than the rest of this function)
+        ix = np.arange(nx + 1, dtype=np.int32)
+        return sp.csc_matrix((Pdiag, ix[:-1], ix), shape=(nx, nx)), q, A, b, cones, None, a0_row
+    # Curvature (SQP): 1/2 dW^T H dW with H the PSD part of sum_i y_i . d^2 v_i (see _segment_curvature), and
+    # 1/2 h''(s0) (s - s0)^2 for the angle's outer function; the segment of the merged polyline from group g
+    # to group g + 1 is put on the adjacent waypoints (last of group g, first of group g + 1), which the tie
+    # equalities make equal to the group's point.
+    indptr, indices, dpos, upos, tpos, (ta, tb) = st.p_pattern()
+    Hs = _segment_curvature(p[vx.D], y)
+    first = np.flatnonzero(np.r_[True, vx.rep[1:] != vx.rep[:-1]])
+    kb = first[1:] - 1  # waypoint index of each segment's b end (point first[j + 1])
+    ka = kb - 1
+    Dblk = np.zeros((m, n, n))
+    Sblk = np.zeros((max(m - 1, 0), n, n))
+    fa, fb = (ka >= 0) & (ka < m), (kb >= 0) & (kb < m)
+    np.add.at(Dblk, ka[fa], Hs[fa])
+    np.add.at(Dblk, kb[fb], Hs[fb])
+    both = fa & fb
+    np.add.at(Sblk, ka[both], -Hs[both])
+    W0 = p[vx.rep[1:-1]]  # the model's centre: every tied point at its group's point
+    PW0 = np.einsum("kde,ke->kd", Dblk, W0)
+    if m > 1:
+        PW0[:-1] += np.einsum("kde,ke->kd", Sblk, W0[1:])
+        PW0[1:] += np.einsum("kde,kd->ke", Sblk, W0[:-1])
+    q[:nw] -= PW0.ravel()
+    if Mv and weights.angle:
+        sc = np.minimum(vx.s0, _S_MAX)
+        hpp = weights.angle * _ddh(sc) / M
+        Pdiag[nw + nt:nw + nt + Mv] += hpp
+        q[nw + nt:nw + nt + Mv] -= hpp * sc
+    data = np.empty(indices.size)
+    data[dpos] = Dblk[:, ta, tb]
+    data[upos] = Sblk
+    data[tpos] = Pdiag[nw:]
+    return sp.csc_matrix((data, indices, indptr), shape=(nx, nx)), q, A, b, cones, (Dblk, Sblk, Pdiag[nw + nt:nw + nt + Mv]), a0_row
 
 
 def _kappa(sc: np.ndarray) -> np.ndarray:
@@ -435,8 +551,9 @@ def _kappa(sc: np.ndarray) -> np.ndarray:
     return np.where(sc > 1e-8, _h(sc) * _dh(sc) / np.maximum(sc, 1e-8), 1.0)
 
 
-def _model_value(x: np.ndarray, st: _Structure, weights: ObjectiveWeights, vx: _Vertices) -> float:
-    """The subproblem's model of F at its solution x (equals F at the current point when x = x0)."""
+def _model_value(x: np.ndarray, st: _Structure, weights: ObjectiveWeights, vx: _Vertices, p: np.ndarray | None = None,
+                 curv: tuple | None = None) -> float:
+    """The subproblem's model of F at its solution x (equals F at the current point p when x = x0)."""
     nw, nt, M = st.nw, st.nt, st.M
     value = weights.length * float(x[nw:nw + nt].sum())
     Mv = len(vx.s0)
@@ -446,6 +563,14 @@ def _model_value(x: np.ndarray, st: _Structure, weights: ObjectiveWeights, vx: _
         h0, dh0 = _h(sc), _dh(sc)
         value += weights.angle * float(np.sum(h0 + dh0 * (s - sc))) / M
         value += weights.sv * float(np.sum(h0**2 + _kappa(sc) * (s**2 - sc**2))) / M
+        if curv is not None:
+            value += 0.5 * float(np.sum(curv[2] * (x[nw + nt:nw + nt + Mv] - sc) ** 2))
+    if curv is not None:
+        Dblk, Sblk = curv[0], curv[1]
+        dW = x[:nw].reshape(p[1:-1].shape) - p[vx.rep[1:-1]]
+        value += 0.5 * float(np.einsum("kd,kde,ke->", dW, Dblk, dW))
+        if len(Sblk):
+            value += float(np.einsum("kd,kde,ke->", dW[:-1], Sblk, dW[1:]))
     return value
 
 
@@ -531,7 +656,7 @@ def sequential_convex(
     stall: int = 4,
     tie: float | None = None,
     structure: _Structure | None = None,
-    certify: Callable[[np.ndarray], bool] | None = None,
+    certify: Callable[[np.ndarray, tuple], bool] | None = None,
     certify_tol: float = 1e-8,
 ) -> tuple[np.ndarray, SCPTrace]:
     """Trust-region SCP from ``w0`` (inside the shrunk hatches) -> (waypoints, trace).
@@ -555,10 +680,14 @@ def sequential_convex(
     F = _true_value(p, weights)
     trace = SCPTrace(values=[F])
     delta = delta0
-    solver = _Solver(_settings(refine=weights.sv > 0))
+    refine = weights.sv > 0
+    solver = _Solver(_settings(refine=refine))
     trace.stop_reason = "max_iter"
     rejected = 0
     refused = np.zeros(len(p) - 1, dtype=bool)
+    curvature = weights.sv == 0 and weights.angle > 0
+    y_pt = np.zeros_like(p)
+    rel = RELATIVE
     for it in range(max_iter):
         trace.iterations = it + 1
         p_snap = _snap(p, h, inset, tie)
@@ -571,17 +700,37 @@ def sequential_convex(
         lens = np.linalg.norm(np.diff(p, axis=0), axis=1)
         close = ((lens < tie) & ~refused) | (lens <= paths._EPS)
         vx = _vertex_data(p, close)
-        P, q, A, b, cones = _subproblem(st, p, weights, delta, vx)
+        y = None
+        if curvature and it > 0:
+            # Multipliers of v_i: exact at bent vertices (w_angle/M h'(|v|) v/|v|), the last subproblem's
+            # dual at straight ones (where the subdifferential is a ball); keyed by point index.
+            Mv = len(vx.s0)
+            y = y_pt[vx.D[1:-1]]
+            bent = vx.s0 >= STRAIGHT
+            sc = np.minimum(vx.s0[bent], _S_MAX)
+            y[bent] = (weights.angle * _dh(sc) / st.M / sc)[:, None] * vx.v[bent]
+        P, q, A, b, cones, curv, a0_row = _subproblem(st, p, weights, delta, vx, y, rel)
         sol = solver.solve(P, q, A, b, cones)
         status = str(sol.status).rsplit(".", 1)[-1]
         if status in ("Solved", "AlmostSolved"):
             x = np.asarray(sol.x)
-            pred = F - _model_value(x, st, weights, vx)
+            pred = F - _model_value(x, st, weights, vx, p, curv)
+            z, cd, Mv = np.asarray(sol.z), st.n + 1, len(vx.s0)
+            if Mv and weights.angle:
+                # y_i = -(the v part of vertex cone i's dual): Clarabel's dual z of the cone (s_i, v_i + J_i dW)
+                # enters the Lagrangian as -z . (s_i, v_i + ...), so y_i multiplies v_i as in F's Lagrangian.
+                y_pt[:] = 0.0
+                y_pt[vx.D[1:-1]] = -z[len(b) - Mv * cd:].reshape(Mv, cd)[:, 1:]
             if pred <= tol * abs(F) + 1e-15:
                 trace.stop_reason = "converged"
                 break
             if certify is not None and pred <= certify_tol * abs(F):
-                if certify(w):
+                # The subproblem's duals as the certificate's first guess of its multipliers: y for the
+                # straight vertices, and z0 / (2 R) for the balls (the cone (R, w - c) against the
+                # certificate's R^2 - |w - c|^2 >= 0, whose gradient is -2 (w - c) = -2 R (w - c)/|w - c|).
+                z0 = z[a0_row + (st.nt + np.arange(2 * st.M)) * cd].reshape(st.M, 2)
+                lam = z0 / (2.0 * (np.stack([h.ra, h.rb], axis=1) - inset))
+                if certify(w, (y_pt.copy(), lam)):
                     trace.stop_reason = "certified"
                     break
                 certify_tol *= 0.1
@@ -592,6 +741,10 @@ def sequential_convex(
             F_new = _true_value(p_new, weights)
             rho = (F - F_new) / pred
         else:
+            if not refine:  # ill-conditioned: iterative refinement from now on, and the same step again
+                refine = True
+                solver = _Solver(_settings(refine=True))
+                continue
             unsnapped = close & (lens > paths._EPS)
             if unsnapped.any():  # a tie the hatches (or the trust region) do not allow: refuse it, retry
                 refused |= unsnapped
@@ -604,12 +757,15 @@ def sequential_convex(
             rejected = 0
             if rho >= 0.75:
                 delta = min(2.0 * delta, 1.0)
+                rel = min(2.0 * rel, RELATIVE)
         else:
             rejected = rejected + 1 if np.isfinite(rho) and pred < 1e-7 * abs(F) else 0
             if rejected >= stall:
                 trace.stop_reason = "converged (solver accuracy)"
                 break
             delta *= 0.25
+            if curvature:
+                rel *= 0.25
             if delta < 1e-12:
                 trace.stop_reason = "trust region collapsed" if status in ("Solved", "AlmostSolved") else f"subproblem {status}"
                 break
@@ -617,6 +773,7 @@ def sequential_convex(
 
 
 # -- the certificate --------------------------------------------------------------------------------
+KKT_TOL = 1e-4  # scaled stationarity and complementarity below this: certified (see Certificate)
 STRAIGHT = 1e-3  # |v| below this: a straight vertex, where the angle's subdifferential is a ball
 ACTIVE = 1e-6  # a ball constraint whose slack (in configuration units) is below this is active
 
@@ -654,13 +811,19 @@ class Certificate:
         }
 
 
-def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWeights, inset: float = 0.0) -> Certificate:
+def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWeights, inset: float = 0.0,
+                    multipliers: tuple[np.ndarray, np.ndarray] | None = None, tol: float = KKT_TOL) -> Certificate:
     """The KKT residual of ``waypoints`` for min F subject to the hatch balls shrunk by ``inset``.
 
     Coincident waypoints (closer than 1e-12, as foam_mj.paths) are one point: the variables are the
     distinct free points of the merged polyline, each constrained by the balls of every hatch it stands
     for. Constraints c_j = (r_j - inset)^2 - |x - c_j|^2 >= 0; active when the point is within ``ACTIVE``
     of the shrunk sphere.
+
+    ``multipliers`` (y (points, n), lambda (waypoints, 2)): a guess, e.g. the duals of the SCP's last
+    subproblem: g_i = y_i M / w_angle at the straight vertex on point i (scaled into |g_i| <= 1) and
+    lambda for the two balls of every waypoint. When the residual of these multipliers (computed exactly,
+    as for the solver's) certifies at ``tol``, that certificate is returned without solving the SOCP.
     """
     h = Hatches.of(rosary)
     n, m = rosary.dim, h.m
@@ -709,18 +872,41 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     # SOCP in z = [t, lambda (na), g (ns n)]: min t, |grad + B g - C lambda|_inf <= t, lambda >= 0, |g_i| <= 1.
     nz = 1 + na + ns * n
     Gm = np.zeros((nv, nz))
-    for a_i, j in enumerate(active):
-        c = col[own[j]]
-        Gm[c * n:(c + 1) * n, 1 + a_i] = 2.0 * (xx[j] - centres[j])  # -grad c_j
-    for s_i, vtx in enumerate(st_idx):
-        for j in range(3):
-            c = col[vtx + j]
-            if c >= 0:
-                Gm[c * n:(c + 1) * n, 1 + na + s_i * n:1 + na + (s_i + 1) * n] = weights.angle / M * vx.J[vtx, j].T
+    dd = np.arange(n)
+    if na:  # -grad c_j in lambda_j's column, at the rows of its point
+        Gm[(col[own[active]] * n)[:, None] + dd, (1 + np.arange(na))[:, None]] = 2.0 * (xx[active] - centres[active])
+    for j in range(3):
+        c = col[st_idx + j]
+        ok = c >= 0
+        r = (c[ok] * n)[:, None, None] + dd[None, :, None]
+        cc = (1 + na + np.flatnonzero(ok) * n)[:, None, None] + dd[None, None, :]
+        Gm[r, cc] = weights.angle / M * np.swapaxes(vx.J[st_idx[ok], j], 1, 2)
     # Row scaling: the residual at a point times its neighbour distance ell (<= 1), see Certificate.
     qlens = np.linalg.norm(np.diff(Q, axis=0), axis=1)
     ell = np.minimum(1.0, np.minimum(np.r_[np.inf, qlens], np.r_[qlens, np.inf]))[free]
     scale = np.repeat(ell, n)
+
+    def certificate(lam_v: np.ndarray, g: np.ndarray) -> Certificate:
+        # The residual of given multipliers (lambda >= 0, |g_i| <= 1), computed exactly.
+        resid = grad + Gm[:, 1:] @ np.r_[lam_v, g.ravel()]
+        return Certificate(
+            stationarity=float(np.max(np.abs(resid * scale))) if nv else 0.0,
+            raw_stationarity=float(np.max(np.abs(resid))) if nv else 0.0,
+            complementarity=float(np.max(lam_v * np.maximum(slack[active], 0.0))) if na else 0.0,
+            gradient_norm=float(np.max(np.abs(grad))) if nv else 0.0,
+            straight_vertices=int(ns),
+            active_constraints=int(na),
+            tied_waypoints=int(np.sum(vx.rep[1:-1] != np.arange(1, m + 1))),
+        )
+
+    if multipliers is not None:
+        y_pt, lam_ball = multipliers
+        g = y_pt[vx.D[st_idx + 1]] * (M / weights.angle) if ns else np.zeros((0, n))
+        g = g / np.maximum(np.linalg.norm(g, axis=1), 1.0)[:, None]
+        lam_v = np.maximum(np.concatenate([lam_ball[:, 0], lam_ball[:, 1]])[active], 0.0)
+        cert = certificate(lam_v, g)
+        if cert.certified(tol):
+            return cert
     Gs, grad_s = Gm[:, 1:] * scale[:, None], grad * scale
     ones = np.ones((nv, 1))
     A_rows = [np.hstack([-ones, Gs]), np.hstack([-ones, -Gs])]
@@ -749,20 +935,10 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     g = z[1 + na:].reshape(ns, n) if ns else np.zeros((0, n))
     norms = np.linalg.norm(g, axis=1)
     g = g / np.maximum(norms, 1.0)[:, None]
-    resid = grad + Gm[:, 1:] @ np.r_[lam_v, g.ravel()]
-    return Certificate(
-        stationarity=float(np.max(np.abs(resid * scale))) if nv else 0.0,
-        raw_stationarity=float(np.max(np.abs(resid))) if nv else 0.0,
-        complementarity=float(np.max(lam_v * np.maximum(slack[active], 0.0))) if na else 0.0,
-        gradient_norm=float(np.max(np.abs(grad))) if nv else 0.0,
-        straight_vertices=int(ns),
-        active_constraints=int(na),
-        tied_waypoints=int(np.sum(vx.rep[1:-1] != np.arange(1, m + 1))),
-    )
+    return certificate(lam_v, g)
 
 
 # -- the smoother -----------------------------------------------------------------------------------
-KKT_TOL = 1e-4  # scaled stationarity and complementarity below this: certified (see Certificate)
 
 
 @dataclass(frozen=True)
@@ -863,8 +1039,8 @@ class OptimalSmoother(Smoother):
             nonlocal best, iterations
             checked: dict = {}
 
-            def certify(wc: np.ndarray) -> bool:
-                checked["w"], checked["cert"] = wc.copy(), kkt_certificate(rosary, wc, weights, self.inset)
+            def certify(wc: np.ndarray, multipliers: tuple | None = None) -> bool:
+                checked["w"], checked["cert"] = wc.copy(), kkt_certificate(rosary, wc, weights, self.inset, multipliers, self.kkt_tol)
                 return checked["cert"].certified(self.kkt_tol)
 
             w, trace = sequential_convex(rosary, h, w0, weights, self.inset, max_iter=self.max_iter, structure=st,
