@@ -24,7 +24,10 @@ Columns (medians over the successful seeds; ``ok`` counts them):
 * ``bubbles``, ``queries``: bubbles grown and configurations whose clearance MuJoCo evaluated
   (for OMPL: states checked by the validity checker, counted in the checker).
 * ``len q``, ``len qpos``: the final path's length in the planner's coordinates q and in MuJoCo's qpos
-  (radians and metres: the leg's normalized hip displacement counted in metres).
+  (radians and metres: the leg's normalized hip displacement counted in metres). Our final path is the
+  default smoother's optimum of f (length in q + mean turning angle), not the shortest path.
+* ``sp qpos``: for our planners, the length in qpos of the shortest path through the rosary's hatches
+  (the cone program with qpos weights: our shortest certified path); "-" for OMPL.
 * ``f``: Nascimento et al. 2020 Eq. 5 (mean turning angle + length in q) of the final path.
 * ``clear mm``: the smallest MuJoCo distance between robot and obstacle geoms along the final path,
   sampled every 1 mrad (max-norm in q) by this script's own mj_geomDistance loop (independent of
@@ -61,6 +64,7 @@ from foam_mj.model import RobotModel  # noqa: E402
 from foam_mj.paths import metrics  # noqa: E402
 from foam_mj.planners import PLANNERS, PlanningProblem, get_planner  # noqa: E402
 from foam_mj.planners.base import option_names  # noqa: E402
+from foam_mj.planners.corridor import shortest_path  # noqa: E402
 from foam_mj.scenarios import load_scenario  # noqa: E402
 from foam_mj.smoothing import OptimalSmoother  # noqa: E402
 
@@ -158,10 +162,12 @@ def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker
     total = time.perf_counter() - t0
     path = sm.path
     m = metrics(path)
+    ros = res.rosary
+    _, len_sp = shortest_path(ros.centers, ros.radii, ros.q_init, ros.q_goal, oracle.robot.config.scale)
     return {
         "ok": True, "outcome": res.stats.outcome, "first": res.stats.time_to_first_path or t_plan, "plan": t_plan, "total": total,
         "bubbles": res.stats.bubbles, "queries": res.stats.distance_queries, "rosary": res.rosary.k,
-        "len_q": m.length, "len_qpos": qpos_length(oracle.robot, path), "f": m.f, "clearance": checker.min_clearance(path),
+        "len_q": m.length, "len_qpos": qpos_length(oracle.robot, path), "len_sp": len_sp, "f": m.f, "clearance": checker.min_clearance(path),
         "certified": bool(sm.info.get("certified", False)),
     }
 
@@ -250,7 +256,7 @@ def have_ompl() -> bool:
     return True
 
 
-KEYS = ("first", "total", "bubbles", "queries", "len_q", "len_qpos", "f", "clearance")
+KEYS = ("first", "total", "bubbles", "queries", "len_q", "len_qpos", "len_sp", "f", "clearance")
 
 
 def summarize(runs: list[dict]) -> dict:
@@ -358,7 +364,8 @@ def main(argv: list[str] | None = None) -> dict:
             m, sm = r["summary"]["median"], r["summary"]
             rows.append([
                 pname, name, f"{sm['ok']}/{sm['runs']}", _fmt(m["first"], 1e3), _fmt(m["total"], 1e3), _fmt(m["bubbles"], 1, "{:,.0f}"),
-                _fmt(m["queries"], 1, "{:,.0f}"), _fmt(m["len_q"], 1, "{:.3f}"), _fmt(m["len_qpos"], 1, "{:.3f}"), _fmt(m["f"], 1, "{:.3f}"),
+                _fmt(m["queries"], 1, "{:,.0f}"), _fmt(m["len_q"], 1, "{:.3f}"), _fmt(m["len_qpos"], 1, "{:.3f}"), _fmt(m["len_sp"], 1, "{:.3f}"),
+                _fmt(m["f"], 1, "{:.3f}"),
                 _fmt(m["clearance"], 1e3, "{:.1f}"), _fmt(sm["min_clearance"], 1e3, "{:.1f}"),
             ])
         if use_ompl:
@@ -371,10 +378,11 @@ def main(argv: list[str] | None = None) -> dict:
                     return f"{a / b:.2f}" if a is not None and b else "-"
 
                 ratio_rows.append([pname, name, ratio(m["total"], peer["total"]), ratio(m["len_qpos"], peer["len_qpos"]),
-                                   ratio(m["len_qpos"], star["len_qpos"]), ratio(m["clearance"], peer["clearance"])])
+                                   ratio(m["len_qpos"], star["len_qpos"]), ratio(m["len_sp"], star["len_qpos"]),
+                                   ratio(m["clearance"], peer["clearance"])])
     out["elapsed"] = time.perf_counter() - t_start
     print(f"\nmedians over {seeds} seeds (successful runs), delta = {DELTA * 1e3:.0f} mm, time limit {args.time_limit:g} s per run")
-    print(table(["problem", "planner", "ok", "first ms", "total ms", "bubbles", "queries", "len q", "len qpos", "f", "clear mm", "worst mm"], rows))
+    print(table(["problem", "planner", "ok", "first ms", "total ms", "bubbles", "queries", "len q", "len qpos", "sp qpos", "f", "clear mm", "worst mm"], rows))
     print("total: planning + the default smoother (optimal) for ours; solve + simplify (RRTConnect) or the whole budget (RRT*) for OMPL.")
     print(f"clear mm: median over seeds of the smallest MuJoCo distance along the final path, checked every {CHECK_STEP * 1e3:g} mrad; worst mm: the smallest over seeds.")
     failed = [(p, n, why, k) for p, v in out["problems"].items() for n, r in v["planners"].items() for why, k in r["summary"]["failures"].items()]
@@ -382,7 +390,7 @@ def main(argv: list[str] | None = None) -> dict:
         print("\nfailed runs: " + "; ".join(f"{p} {n}: {k} x {why}" for p, n, why, k in failed))
     if use_ompl:
         print("\nratios ours / OMPL (medians)")
-        print(table(["problem", "planner", "total time / RRTConnect", "len qpos / RRTConnect", "len qpos / RRT*", "clearance / RRTConnect"], ratio_rows))
+        print(table(["problem", "planner", "total time / RRTConnect", "len qpos / RRTConnect", "len qpos / RRT*", "sp qpos / RRT*", "clearance / RRTConnect"], ratio_rows))
     elif not args.no_ompl:
         print("\nOMPL is not installed (pip install -e \".[peers]\"): no peer rows")
     print(f"benchmark time {out['elapsed']:.1f} s")

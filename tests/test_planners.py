@@ -253,7 +253,8 @@ def test_the_corridor_is_the_shortest_chain_and_refinement_only_shortens_it(orac
     d = fine.stats.details
     assert rough.stats.details["length_first"] == pytest.approx(d["length_first"])
     assert d["length"] <= d["length_first"] and d["refine_rounds"] >= 1
-    w, length = shortest_path(fine.rosary.centers, fine.rosary.radii, s.q_init, s.q_goal)
+    # The corridor's length is measured in qpos (the default metric).
+    w, length = shortest_path(fine.rosary.centers, fine.rosary.radii, s.q_init, s.q_goal, s.robot.config.scale)
     assert length == pytest.approx(d["length"], rel=1e-6)
     # Every refinement bubble is in the foam and certified.
     assert np.all(fine.foam.radii <= oracle.radii(fine.foam.centers) + 1e-9)
@@ -273,6 +274,35 @@ def test_pruning_keeps_the_path_inside_a_shorter_chain():
     assert len(keep) < 10 and np.all(np.diff(keep) > 0)
     w2, L2 = shortest_path(C[keep], R[keep], q0, q1)
     assert L2 <= L + 1e-9 and L2 == pytest.approx(1.0, abs=1e-5)
+
+
+def test_informed_samples_lie_where_a_shorter_path_can_pass_and_fill_that_set():
+    from foam_mj.planners.bubbletree import informed_samples
+
+    q0, q1 = np.array([0.0, 0.0, 0.0]), np.array([1.0, 1.0, 0.5])
+    metric = np.array([1.0, 1.0, 0.4])
+    rng = np.random.default_rng(0)
+    for m in (None, metric):
+        s = np.ones(3) if m is None else m
+        X = informed_samples(rng, 4000, q0, q1, 2.0, m)
+        through = np.linalg.norm((X - q0) * s, axis=1) + np.linalg.norm((X - q1) * s, axis=1)
+        assert np.all(through <= 2.0 + 1e-9)
+        # Uniform in the spheroid: about half of the volume lies beyond 0.5^(1/3) of the way to its surface.
+        assert 0.35 < np.mean(through > 2.0 * 0.85) < 0.75
+        np.testing.assert_allclose(X.mean(axis=0), 0.5 * (q0 + q1), atol=0.03)
+
+
+def test_the_corridor_metric_weights_each_coordinate():
+    from foam_mj.planners.corridor import shortest_path
+
+    # One ball holds both ends: the path is the straight segment, its length weighted per coordinate.
+    C, R = np.array([[0.5, 0.5], [0.6, 0.5]]), np.array([1.0, 1.0])
+    q0, q1 = np.array([0.0, 0.0]), np.array([1.0, 1.0])
+    _, Lq = shortest_path(C, R, q0, q1)
+    _, Ls = shortest_path(C, R, q0, q1, np.array([1.0, 0.5]))
+    assert Lq == pytest.approx(np.sqrt(2), abs=1e-6) and Ls == pytest.approx(np.sqrt(1.25), abs=1e-6)
+    with pytest.raises(PlannerError, match="`metric` must be"):
+        get_planner("bubbletree", metric="joint")
 
 
 def test_overlap_graph_brute_force_and_kd_tree_agree(monkeypatch):

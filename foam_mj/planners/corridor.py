@@ -56,6 +56,8 @@ class CorridorOptions:
     chords: int = 8
     time_limit: float = 1.0
     prune: bool = True
+    #: Per-coordinate length weights (None: Euclidean in q); see :func:`shortest_path`.
+    metric: np.ndarray | None = None
 
 
 @dataclass
@@ -116,17 +118,21 @@ def overlap_pairs(centers: np.ndarray, radii: np.ndarray, hatch: float = HATCH) 
 BRUTE_FORCE = 4096
 
 
-def shortest_chain(centers: np.ndarray, radii: np.ndarray, q_init: np.ndarray, q_goal: np.ndarray) -> np.ndarray | None:
-    """Bubble indices of the shortest chain q_init -> q_goal through the overlap graph, or None."""
+def shortest_chain(
+    centers: np.ndarray, radii: np.ndarray, q_init: np.ndarray, q_goal: np.ndarray, metric: np.ndarray | None = None
+) -> np.ndarray | None:
+    """Bubble indices of the shortest chain q_init -> q_goal through the overlap graph, or None
+    (edge weights: distances between centres, weighted by ``metric`` as :func:`shortest_path`)."""
     n = len(radii)
+    s = 1.0 if metric is None else np.asarray(metric, dtype=float)
     i, j = overlap_pairs(centers, radii)
-    w = np.linalg.norm(centers[i] - centers[j], axis=1)
+    w = np.linalg.norm((centers[i] - centers[j]) * s, axis=1)
     S, G = n, n + 1
     hs = np.flatnonzero(np.linalg.norm(centers - q_init, axis=1) <= radii)
     hg = np.flatnonzero(np.linalg.norm(centers - q_goal, axis=1) <= radii)
     rows = np.concatenate([i, j, np.full(len(hs), S), hg])
     cols = np.concatenate([j, i, hs, np.full(len(hg), G)])
-    vals = np.concatenate([w, w, np.linalg.norm(centers[hs] - q_init, axis=1), np.linalg.norm(centers[hg] - q_goal, axis=1)])
+    vals = np.concatenate([w, w, np.linalg.norm((centers[hs] - q_init) * s, axis=1), np.linalg.norm((centers[hg] - q_goal) * s, axis=1)])
     vals = np.maximum(vals, 1e-12)  # an explicit zero would read as "no edge"
     g = sp.csr_matrix((vals, (rows, cols)), shape=(n + 2, n + 2))
     dist, pred = dijkstra(g, directed=True, indices=S, return_predecessors=True)
@@ -140,24 +146,40 @@ def shortest_chain(centers: np.ndarray, radii: np.ndarray, q_init: np.ndarray, q
     return np.array(out[::-1], dtype=np.int64)
 
 
-def shortest_path(centers: np.ndarray, radii: np.ndarray, q_init: np.ndarray, q_goal: np.ndarray) -> tuple[np.ndarray, float]:
-    """Waypoints (k-1, n) of the shortest polyline through the chain's hatches, and its length."""
+def shortest_path(
+    centers: np.ndarray, radii: np.ndarray, q_init: np.ndarray, q_goal: np.ndarray, metric: np.ndarray | None = None
+) -> tuple[np.ndarray, float]:
+    """Waypoints (k-1, n) of the shortest polyline through the chain's hatches, and its length.
+
+    ``metric``: per-coordinate weights s (length sum_j |s * (p_(j+1) - p_j)|, e.g. the configuration map's
+    qpos units per q unit: the length in MuJoCo's qpos); None is the Euclidean length in q. The balls stay
+    balls in q (the weights scale only the segment cones' rows), so the program stays a small SOCP."""
     ros = Rosary(centers, radii, q_init, q_goal)
+    s = None if metric is None else np.asarray(metric, dtype=float)
     if ros.n_hatches == 0:
-        return np.empty((0, ros.dim)), float(np.linalg.norm(q_goal - q_init))
+        return np.empty((0, ros.dim)), float(np.linalg.norm((q_goal - q_init) * (1.0 if s is None else s)))
     P, q, A, b, cones, nw = build_socp(ros, 0.0, INSET)
+    if s is not None:
+        # Segment cone j occupies rows j (n + 1) .. j (n + 1) + n: (t_j, p_(j+1) - p_j); scale its vector rows.
+        n = ros.dim
+        row_w = np.ones(A.shape[0])
+        seg_rows = (np.arange(ros.n_hatches + 1)[:, None] * (n + 1) + 1 + np.arange(n)).ravel()
+        row_w[seg_rows] = np.tile(s, ros.n_hatches + 1)
+        A = sp.diags(row_w) @ A
+        A = A.tocsc()
+        b = b * row_w
     settings = clarabel.DefaultSettings()
     settings.verbose = False
     settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-9
     sol = clarabel.DefaultSolver(P, q, A, b, cones, settings).solve()
     w = np.asarray(sol.x[:nw]).reshape(ros.n_hatches, ros.dim)
     pts = ros.path(w)
-    return w, float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+    return w, float(np.sum(np.linalg.norm(np.diff(pts, axis=0) * (1.0 if s is None else s), axis=1)))
 
 
-def _arc_points(P: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Points of the polyline P at arc lengths x, and the segment index of each."""
-    seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
+def _arc_points(P: np.ndarray, x: np.ndarray, metric: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Points of the polyline P at arc lengths x (weighted by ``metric``), and the segment index of each."""
+    seg = np.linalg.norm(np.diff(P, axis=0) * (1.0 if metric is None else metric), axis=1)
     cum = np.concatenate([[0.0], np.cumsum(seg)])
     j = np.clip(np.searchsorted(cum, x, side="right") - 1, 0, len(seg) - 1)
     f = np.clip((x - cum[j]) / np.where(seg[j] > 0, seg[j], 1.0), 0.0, 1.0)
@@ -343,13 +365,14 @@ def build_corridor(
     rng = rng if rng is not None else np.random.default_rng(0)
     q0, q1 = problem.q_init, problem.q_goal
     n_base = len(radii)
-    ids = shortest_chain(centers, radii, q0, q1)
+    M = options.metric
+    ids = shortest_chain(centers, radii, q0, q1, M)
     if ids is None:  # pragma: no cover - the trees met, so a chain exists
         raise RuntimeError("no chain of overlapping bubbles joins q_init and q_goal")
     C, R = centers[ids], radii[ids]
     added_c: list[np.ndarray] = []
     added_r: list[np.ndarray] = []
-    w, length = shortest_path(C, R, q0, q1)
+    w, length = shortest_path(C, R, q0, q1, M)
     stats = {"chain_first": int(len(ids)), "length_first": length, "refine_rounds": 0, "refine_added": 0, "shortcuts": 0}
 
     def new_ids(count: int) -> np.ndarray:
@@ -369,10 +392,10 @@ def build_corridor(
             #    replace the bubbles between their ends: C[:ja+1] + chord + C[jb:] (segment j lies in bubble j).
             splices: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
             if options.chords:
-                x = np.sort(rng.random((options.chords, 2)) * np.sum(np.linalg.norm(np.diff(P, axis=0), axis=1)), axis=1)
-                A, ja = _arc_points(P, x[:, 0])
-                B, jb = _arc_points(P, x[:, 1])
-                gain = (x[:, 1] - x[:, 0]) - np.linalg.norm(B - A, axis=1)
+                x = np.sort(rng.random((options.chords, 2)) * np.sum(np.linalg.norm(np.diff(P, axis=0) * (1.0 if M is None else M), axis=1)), axis=1)
+                A, ja = _arc_points(P, x[:, 0], M)
+                B, jb = _arc_points(P, x[:, 1], M)
+                gain = (x[:, 1] - x[:, 0]) - np.linalg.norm((B - A) * (1.0 if M is None else M), axis=1)
                 cand = np.flatnonzero((jb > ja) & (gain > 1e-3 * length))
                 if cand.size:
                     res = certify_chords(oracle, A[cand], B[cand], floor, max(float(np.median(R)), floor))
@@ -413,13 +436,13 @@ def build_corridor(
                     parts_i.append(nid)
             C2, R2, ids2 = np.concatenate(parts_c), np.concatenate(parts_r), np.concatenate(parts_i)
             stats["shortcuts"] += len(splices)
-            w2, length2 = shortest_path(C2, R2, q0, q1)
+            w2, length2 = shortest_path(C2, R2, q0, q1, M)
             # 3. Drop the bubbles the path no longer needs.
             if options.prune:
                 keep_pos = prune_chain(C2, R2, np.concatenate([[q0], w2, [q1]]))
                 if len(keep_pos) < len(R2):
                     C2, R2, ids2 = C2[keep_pos], R2[keep_pos], ids2[keep_pos]
-                    w2, length2 = shortest_path(C2, R2, q0, q1)
+                    w2, length2 = shortest_path(C2, R2, q0, q1, M)
             stats["refine_rounds"] += 1
             stats["refine_added"] = sum(len(x) for x in added_r)
             gain = (length - length2) / length if length > 0 else 0.0
@@ -434,7 +457,7 @@ def build_corridor(
     if len(extra_r):
         added_c.append(extra_c)
         added_r.append(extra_r)
-        w, length = shortest_path(C, R, q0, q1)
+        w, length = shortest_path(C, R, q0, q1, M)
         stats["deepened"] = int(len(extra_r))
     stats.update(chain=int(len(ids)), length=length)
     n = centers.shape[1]
