@@ -168,21 +168,28 @@ class CircleMap:
         K = len(self.radii)
         if near.shape != (m - 1, K):
             raise ValueError(f"near must have shape {(m - 1, K)}, got {near.shape}")
-        seg, circ = np.nonzero(near)  # in the dense (segment, circle) order
         q = p.reshape(-1, m, 2)
         P = len(q)
-        # per segment, as segment_distances: a, b = next - a, den = max(|b|^2, eps); then gathered per pair
-        A = np.empty((5, P, m - 1))
+        work = self.__dict__.get("_near_work")
+        if work is None or work[0] is not near or work[1].shape[0] != P:
+            seg, circ = np.nonzero(near)  # in the dense (segment, circle) order
+            # dense (P, segments x circles) penetrations: zero where not near, the near columns rewritten per call
+            work = (near, np.zeros((P, (m - 1) * K)), seg, seg * K + circ, self.centers[circ, 0, None],
+                    self.centers[circ, 1, None], np.empty((5, m - 1, P)))
+            object.__setattr__(self, "_near_work", work)
+        _, dense, seg, flat, ccx, ccy, A = work
+        R = (self.radii + clearance)[flat % K, None]
+        # per segment (segment-major, (m - 1, P)), as segment_distances: a, b = next - a, den = max(|b|^2, eps);
+        # then gathered per pair (pairs, P) and the same operations as there
         ax, ay, bx, by, den = A
-        ax[...] = q[:, :-1, 0]
-        ay[...] = q[:, :-1, 1]
-        np.subtract(q[:, 1:, 0], ax, out=bx)
-        np.subtract(q[:, 1:, 1], ay, out=by)
+        ax[...] = q[:, :-1, 0].T
+        ay[...] = q[:, :-1, 1].T
+        np.subtract(q[:, 1:, 0].T, ax, out=bx)
+        np.subtract(q[:, 1:, 1].T, ay, out=by)
         np.maximum(bx * bx + by * by, _EPS, out=den)
-        G = np.take(A, seg, axis=2)  # (5, P, pairs)
-        ax, ay, bx, by, den = G
-        cx = np.subtract(self.centers[circ, 0], ax)
-        cy = np.subtract(self.centers[circ, 1], ay)
+        ax, ay, bx, by, den = np.take(A, seg, axis=1)
+        cx = np.subtract(ccx, ax)
+        cy = np.subtract(ccy, ay)
         t = np.multiply(cx, bx)
         tmp = np.multiply(cy, by)
         t += tmp
@@ -194,21 +201,10 @@ class CircleMap:
         cy *= cy
         cx += cy
         d = np.sqrt(cx, out=cx)
-        pen = np.subtract((self.radii + clearance)[circ], d, out=d)
+        pen = np.subtract(R, d, out=d)
         np.maximum(pen, 0.0, out=pen)
-        # The dense sum adds zeros everywhere else: a path with no penetration sums to 0, one with a single
-        # penetrating pair to that pair's value (exactly); the others are summed densely, as violation does.
-        hits = np.count_nonzero(pen, axis=1)
-        out = np.zeros(P)
-        one = hits == 1
-        if one.any():
-            out[one] = pen[one].max(axis=1)
-        many = np.flatnonzero(hits > 1)
-        if many.size:
-            dense = np.zeros((many.size, m - 1, K))
-            dense[:, seg, circ] = pen[many]
-            out[many] = dense.sum(axis=(-1, -2))
-        return out.reshape(lead)
+        dense[:, flat] = pen.T  # summed in the dense order, zeros elsewhere: the same sum as violation's
+        return dense.reshape(P, m - 1, K).sum(axis=(-1, -2)).reshape(lead)
 
     def collision_free(self, points: np.ndarray, clearance: float = 0.0) -> bool:
         """True when the polyline (m, 2) stays at least ``clearance`` from every circle and on the map."""

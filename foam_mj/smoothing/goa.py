@@ -82,10 +82,10 @@ def c_schedule(c_max: float, c_min: float, iterations: int) -> np.ndarray:
     return c_max - l * (c_max - c_min) / iterations
 
 
-def _s_in_place(r: np.ndarray, f: float, l: float, inv_l: float) -> np.ndarray:
-    """s(r) of Eq. 3, overwriting r. e^(-r) = (e^(-r/l))^l: for the usual l = 1.5 it is E sqrt(E), which
-    saves the second (and slowest) exponential."""
-    E = np.multiply(r, -inv_l)
+def _s_in_place(r: np.ndarray, f: float, l: float, inv_l: float, out: np.ndarray | None = None) -> np.ndarray:
+    """s(r) of Eq. 3 (into ``out`` if given), overwriting r. e^(-r) = (e^(-r/l))^l: for the usual l = 1.5 it
+    is E sqrt(E), which saves the second (and slowest) exponential."""
+    E = np.multiply(r, -inv_l, out=out)
     np.exp(E, out=E)
     if l == 1.5:
         np.sqrt(E, out=r)
@@ -129,15 +129,21 @@ def social_interaction(
     S = np.zeros((D, N))
     rows = max(1, int(block_elements) // max(N * D, 1))
     inv_l = 1.0 / float(l)
+    # work buffers for the largest block, reused (each block's arrays are contiguous (D, B, N - i0) views)
+    size = D * min(rows, N) * N
+    buf_u, buf_r, buf_e, buf_d = np.empty(size), np.empty(size), np.empty(size), np.empty(min(rows, N) * N)
     for i0 in range(0, N, rows):
         i1 = min(N, i0 + rows)
-        dU = UT[:, None, i0:] - UT[:, i0:i1, None]  # (D, B, N - i0): u_j - u_i
-        d = np.sqrt(np.einsum("dbn,dbn->bn", dU, dU))
+        shape = (D, i1 - i0, N - i0)
+        count = shape[0] * shape[1] * shape[2]
+        dU = np.subtract(UT[:, None, i0:], UT[:, i0:i1, None], out=buf_u[:count].reshape(shape))  # u_j - u_i
+        d = np.einsum("dbn,dbn->bn", dU, dU, out=buf_d[: count // D].reshape(shape[1:]))
+        np.sqrt(d, out=d)
         np.maximum(d, _EPS, out=d)
-        r = np.abs(dU)
+        r = np.abs(dU, out=buf_r[:count].reshape(shape))
         r *= b - a
         r += a
-        s = _s_in_place(r, f, l, inv_l)
+        s = _s_in_place(r, f, l, inv_l, buf_e[:count].reshape(shape))
         s *= dU
         s /= d
         S[:, i0:i1] += s.sum(axis=-1)
