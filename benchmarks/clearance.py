@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/clearance.py [--json out.json]
 
 Single: one configuration per call (mj_kinematics + mj_geomDistance over the 6 leg/obstacle pairs).
-Batch: ``Clearance.batch`` on N configurations (distance sensors through mujoco.rollout).
+Batch: ``Clearance.batch`` on N configurations (distance sensors evaluated by mujoco.batch.Batch, position stage only).
 Radii: ``BubbleOracle.radii`` on N configurations (batch clearance plus the radius formula).
 """
 

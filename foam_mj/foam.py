@@ -14,7 +14,7 @@ fails (:class:`PlanningFailed`) when the queue empties or a budget (bubble count
 Implementation notes
 --------------------
 * The candidates of one parent are sized in one batch (``BubbleOracle.radii`` over ``Clearance.batch_pairs``: MuJoCo distance sensors
-  evaluated by ``mujoco.rollout``). Candidates of one parent are then accepted in their drawn order,
+  evaluated in one ``mujoco.batch.Batch`` call). Candidates of one parent are then accepted in their drawn order,
   each checked against the siblings accepted before it, so the result is the same as drawing and
   testing them one by one.
 * "Inside an existing bubble" is strict (``|c - c_i| < r_i``, Nascimento and Alsina 2021 Eq. 1's open ball).

@@ -72,6 +72,18 @@ def test_batch_clearance_equals_single_clearance(obstacle_robot):
     assert c.batch(np.empty((0, 3))).shape == (0,)
 
 
+def test_batch_pair_distances_are_every_pairs_distance_and_survive_later_calls(obstacle_robot):
+    c = Clearance(obstacle_robot)
+    rng = np.random.default_rng(2)
+    sizes = (3, 100, 40, 700, 1, 300)  # small and threaded batches, growing past the batch's capacity and back
+    batches = [rng.uniform(obstacle_robot.lower, obstacle_robot.upper, size=(n, 3)) for n in sizes]
+    results = [c.batch_pairs(Q) for Q in batches]  # every result is kept while later calls run
+    for Q, D in zip(batches, results):
+        assert D.shape == (len(Q), len(obstacle_robot.pairs))
+        np.testing.assert_allclose(D[:5], [c.pair_distances(q) for q in Q[:5]], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(D[-1], c.pair_distances(Q[-1]), rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize(
     "q, message",
     [
