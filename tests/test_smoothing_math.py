@@ -299,6 +299,11 @@ def test_population_objective_kernel_equals_coordinate_major_objective(pop, repe
     want = coordinate_major_objective(X)
     np.testing.assert_allclose(kernel(X), want, **TIGHT)
     np.testing.assert_allclose(kernel(X), want, **TIGHT)  # buffers reused
+    # sized for more paths (Harmony Search's blocks): any number up to that, in any order
+    big = _PopulationObjective(n, P + 3, L)
+    for b in (P, 1, P, max(P - 1, 1)):
+        Xb = np.ascontiguousarray(X[:, :b])
+        np.testing.assert_allclose(big(Xb), want[:b], **TIGHT)
 
 
 @SETTINGS
@@ -307,9 +312,12 @@ def test_outside_hatches_kernel_equals_outside_cm(args, P):
     ros, trials, _ = args
     h = Hatches.of(ros)
     X = np.ascontiguousarray(ros.path(trials[:P]).transpose(2, 0, 1))  # (n, P, L)
-    got = _OutsideHatches(h, P, ros.q_init, ros.q_goal)(X)
-    np.testing.assert_array_equal(got[:, 1:-1], h.outside_cm(X[:, :, 1:-1]))
-    assert not got[:, [0, -1]].any()
+    kernel = _OutsideHatches(h, P + 2, ros.q_init, ros.q_goal)  # sized for more paths: any number up to that
+    for b in (P, 1, P):
+        Xb = np.ascontiguousarray(X[:, :b])
+        got = kernel(Xb)
+        np.testing.assert_array_equal(got[:, 1:-1], h.outside_cm(Xb[:, :, 1:-1]))
+        assert not got[:, [0, -1]].any()
 
 
 def test_tc_step_equals_tc_and_gradient():

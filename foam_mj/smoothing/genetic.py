@@ -260,50 +260,65 @@ def _coordinate_sum(prod: np.ndarray, out: np.ndarray) -> np.ndarray:
 
 
 class _PopulationObjective:
-    """f of Nascimento et al. 2020 Eq. 5 for a coordinate-major population X (n, P, L) -> (P,): equal, bit for bit,
-    to ``coordinate_major_objective(X)`` (tests/test_smoothing_math.py)."""
+    """f of Nascimento et al. 2020 Eq. 5 for a coordinate-major population X (n, b, L) -> (b,), any b <= P paths
+    (contiguous X): equal, bit for bit, to ``coordinate_major_objective(X)`` (tests/test_smoothing_math.py).
+    The buffers are sized for P paths; the views for b paths are made once (Harmony Search evaluates
+    blocks of varying size with it)."""
 
     def __init__(self, n: int, P: int, L: int) -> None:
-        N, PL = n * P * L, P * L
-        self.n_ang = L - 2
-        self._seg = np.zeros(N + 1)  # seg[k] = x[k + 1] - x[k] (flat), the last two elements unused
-        # prod[i] = [seg_i^2, seg_i[k] seg_i[k + 1]] (2, P L) for every coordinate i
-        self._pairs = (_strided(self._seg, (n, 2, PL), (PL, 0, 1)), _strided(self._seg, (n, 2, PL), (PL, 1, 1)))
-        self._prod = np.empty((n, 2, PL))
-        self._q = np.empty((2, PL))  # [|seg|^2, dot of consecutive segments]
+        PL = P * L
+        self.n, self.L, self.n_ang = n, L, L - 2
+        self._seg = np.zeros(n * PL + 1)  # seg[k] = x[k + 1] - x[k] (flat), the last two elements unused
+        self._prod = np.empty(2 * n * PL)
+        self._q = np.empty(2 * PL)
         self._lens = np.empty(PL + 1)
-        self._lens[PL] = 1.0
         self._den = np.empty(PL)
         self._eps = np.full(PL, _EPS * _EPS)
         self._ones, self._minus_ones = np.ones(PL), -np.ones(PL)
         self._ang = np.empty(PL)
-        # per path: the L - 2 angles and the L - 1 segment lengths (the rest is junk)
-        self._ang_rows = self._ang.reshape(P, L)[:, : L - 2]
-        self._len_rows = self._lens[:PL].reshape(P, L)[:, : L - 1]
+        self._views: dict[int, tuple] = {}
+
+    def _views_for(self, b: int) -> tuple:
+        v = self._views.get(b)
+        if v is None:
+            n, L, bL = self.n, self.L, b * self.L
+            ang, lens = self._ang[:bL], self._lens[: bL + 1]
+            v = (
+                # prod[i] = [seg_i^2, seg_i[k] seg_i[k + 1]] (2, b L) for every coordinate i
+                (_strided(self._seg, (n, 2, bL), (bL, 0, 1)), _strided(self._seg, (n, 2, bL), (bL, 1, 1))),
+                self._prod[: 2 * n * bL].reshape(n, 2, bL),
+                self._q[: 2 * bL].reshape(2, bL),  # [|seg|^2, dot of consecutive segments]
+                lens, self._den[:bL], ang, self._eps[:bL], self._ones[:bL], self._minus_ones[:bL],
+                # per path: the L - 2 angles and the L - 1 segment lengths (the rest is junk)
+                ang.reshape(b, L)[:, : L - 2], lens[:bL].reshape(b, L)[:, : L - 1],
+            )
+            self._views[b] = v
+        return v
 
     def __call__(self, X: np.ndarray) -> np.ndarray:
         x = X.reshape(-1)
-        q, lens, den, ang = self._q, self._lens, self._den, self._ang
+        pairs, prod, q, lens, den, ang, eps, ones, minus_ones, ang_rows, len_rows = self._views_for(X.shape[1])
         np.subtract(x[1:], x[:-1], self._seg[: x.size - 1])
-        np.multiply(*self._pairs, self._prod)
-        _coordinate_sum(self._prod, q)
+        np.multiply(*pairs, prod)
+        _coordinate_sum(prod, q)
+        lens[-1] = 1.0  # the last path's junk segment times 1
         np.sqrt(q[0], lens[:-1])
         np.multiply(lens[:-1], lens[1:], den)
         dot = q[1]
-        if np.minimum.reduce(self._len_rows, axis=None) <= _EPS:  # repeated points (rare): the reference code
+        if np.minimum.reduce(len_rows, axis=None) <= _EPS:  # repeated points (rare): the reference code
             return coordinate_major_objective(X)
-        np.maximum(den, self._eps, out=den)
+        np.maximum(den, eps, out=den)
         np.divide(dot, den, ang)
-        np.minimum(ang, self._ones, out=ang)
-        np.maximum(ang, self._minus_ones, out=ang)
+        np.minimum(ang, ones, out=ang)
+        np.maximum(ang, minus_ones, out=ang)
         np.arccos(ang, ang)
-        angle = np.add.reduce(self._ang_rows, axis=-1) / self.n_ang
-        return angle + np.add.reduce(self._len_rows, axis=-1)
+        angle = np.add.reduce(ang_rows, axis=-1) / self.n_ang
+        return angle + np.add.reduce(len_rows, axis=-1)
 
 
 class _OutsideHatches:
-    """Which waypoints of a coordinate-major population X (n, P, L) lie outside their hatch: bool (P, L),
-    False at the ends; the same test as ``Hatches.outside_cm(X[:, :, 1:-1])``."""
+    """Which waypoints of a coordinate-major population X (n, b, L), b <= P, lie outside their hatch: bool
+    (b, L), False at the ends; the same test as ``Hatches.outside_cm(X[:, :, 1:-1])``."""
 
     def __init__(self, h: Hatches, P: int, q_init: np.ndarray, q_goal: np.ndarray) -> None:
         m, n = h.ca.shape
@@ -323,14 +338,21 @@ class _OutsideHatches:
         self._d = np.empty((n, 2, P * L))
         self._q = np.empty((2, P * L))
         self._out = np.empty((2, P * L), dtype=bool)
-        self._shape = (P, L)
+        self._L = L
+        self._views: dict[int, tuple] = {}
 
     def __call__(self, X: np.ndarray) -> np.ndarray:
-        d, out = self._d, self._out
-        np.subtract(X.reshape(X.shape[0], 1, -1), self._c, d)
+        b = X.shape[1]
+        v = self._views.get(b)
+        if v is None:
+            bL = b * self._L
+            v = self._views[b] = (self._c[:, :, :bL], self._r2[:, :bL], self._d[:, :, :bL], self._q[:, :bL],
+                                  self._out[:, :bL], (X.shape[0], 1, bL), (b, self._L))
+        c, r2, d, q, out, xshape, shape = v
+        np.subtract(X.reshape(xshape), c, d)
         np.multiply(d, d, d)
-        np.greater(_coordinate_sum(d, self._q), self._r2, out)
-        return np.logical_or(out[0], out[1], out[0]).reshape(self._shape)
+        np.greater(_coordinate_sum(d, q), r2, out)
+        return np.logical_or(out[0], out[1], out[0]).reshape(shape)
 
 
 def _strided(buf: np.ndarray, shape: tuple[int, ...], strides: tuple[int, ...]) -> np.ndarray:

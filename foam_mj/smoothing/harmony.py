@@ -29,7 +29,10 @@ evaluated **speculatively** in blocks: B harmonies are improvised from the curre
 random numbers of iterations t..t+B-1 and evaluated in one vectorized call; the first that beats the
 worst harmony is accepted and the later ones discarded. Since the memory does not change until that
 replacement, this is exactly the sequential algorithm (same seed, same result, whatever the block
-size); the block size adapts to the observed replacement rate.
+size); the block size adapts to the observed replacement rate. A block is evaluated by the GA's
+preallocated kernels (:mod:`foam_mj.smoothing.genetic`: the same floating-point operations as
+``coordinate_major_objective`` and ``Hatches.outside_cm``, so the same results bit for bit, with fewer
+numpy calls).
 """
 
 from __future__ import annotations
@@ -56,6 +59,7 @@ from foam_mj.smoothing.base import (
     coordinate_major_objective,
     trivial_result,
 )
+from foam_mj.smoothing.genetic import _OutsideHatches, _PopulationObjective
 
 #: Improvisations whose random numbers are drawn in one batch (fixed, so results do not depend on the cap).
 CHUNK = 1024
@@ -109,11 +113,19 @@ class HarmonySearch(Smoother):
         if init is not None:
             mem0[0] = init
         pool[:, :hms] = mem0.transpose(2, 0, 1)
-        buf = np.empty((n, max(hms, MAX_BLOCK), m + 2))
-        buf[:, :, 0] = rosary.q_init[:, None]
-        buf[:, :, -1] = rosary.q_goal[:, None]
-        buf[:, :hms, 1:-1] = pool[:, :hms]
-        fit = coordinate_major_objective(buf[:, :hms])
+        # A block of b candidates is the contiguous (n, b, k+1) head of one flat buffer (its ends rewritten
+        # when b changes), evaluated by the GA's preallocated kernels (the same operations as
+        # coordinate_major_objective and Hatches.outside_cm, bit for bit).
+        L, most = m + 2, max(hms, MAX_BLOCK)
+        flat = np.empty(n * most * L)
+        objective = _PopulationObjective(n, most, L)
+        outside = _OutsideHatches(h, most, rosary.q_init, rosary.q_goal)
+        q_ends = np.stack([rosary.q_init, rosary.q_goal], axis=1)[:, None, :]  # (n, 1, 2)
+        mem = flat[: n * hms * L].reshape(n, hms, L)
+        mem[:, :, [0, -1]] = q_ends
+        mem[:, :, 1:-1] = pool[:, :hms]
+        fit = coordinate_major_objective(mem)
+        ends_b = hms
         worst = int(np.argmax(fit))
         best = float(fit.min())
         total = float(fit.sum())
@@ -133,10 +145,14 @@ class HarmonySearch(Smoother):
             b = min(block, CHUNK - cpos, cap - t, stall_cap - stall.count)
             g = gidx[cpos : cpos + b]
             base = pool[:, g, cols]  # (n, b, m)
-            cand = buf[:, :b, 1:-1]
+            blk = flat[: n * b * L].reshape(n, b, L)
+            if b != ends_b:
+                blk[:, :, ::L - 1] = q_ends
+                ends_b = b
+            cand = blk[:, :, 1:-1]
             np.add(base, offset[:, cpos : cpos + b], out=cand)  # pitch adjustment (offset 0 elsewhere)
-            np.copyto(cand, base, where=h.outside_cm(cand))  # revert infeasible adjustments
-            f = coordinate_major_objective(buf[:, :b])
+            np.copyto(cand, base, where=outside(blk)[:, 1:-1])  # revert infeasible adjustments
+            f = objective(blk)
             spec_evals += b
             # Walk the block in order. A replacement of slot w invalidates the later harmonies that took a
             # waypoint from w (``limit``); those before it were improvised from the right memory.
