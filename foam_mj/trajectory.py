@@ -65,8 +65,6 @@ from math import comb
 
 import mujoco
 import numpy as np
-from scipy.interpolate import CubicSpline
-from scipy.ndimage import maximum_filter1d, uniform_filter1d
 
 from foam_mj.model import RobotModel, _custom_numeric
 from foam_mj.rosary import MEMBERSHIP_TOL, Rosary, in_ball
@@ -324,8 +322,7 @@ def safe_curve(path, rosary: Rosary) -> SafeCurve:
         t0 = np.repeat((w[1:] - w[:1]) / h[0], 2, axis=0)
         k0 = np.zeros_like(w)
     else:
-        spline = CubicSpline(knots, w, bc_type="natural")
-        t0, k0 = spline(knots, 1), spline(knots, 2)
+        t0, k0 = _natural_spline_derivatives(knots, w)
     c_in = np.concatenate([c[:1], c])
     r_in = np.concatenate([r[:1], r])
     c_out = np.concatenate([c, c[-1:]])
@@ -361,6 +358,73 @@ def _with_linear(curve: SafeCurve, segments: np.ndarray) -> SafeCurve:
         if j + 1 < len(cp):
             cp[j + 1, 1:3] = b
     return SafeCurve(curve.knots, cp, curve.centers, curve.radii, curve.bubble, curve.point_index, linear)
+
+
+
+# -- numerical helpers (numpy; the same numbers as scipy's, without importing scipy.interpolate/ndimage) --------
+def _natural_spline_derivatives(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First and second derivatives at the knots ``x`` (m >= 3) of the natural C2 cubic spline through ``y``
+    (m, n): the slopes s solve the tridiagonal system h_i s_(i-1) + 2 (h_(i-1) + h_i) s_i + h_(i-1) s_(i+1)
+    = 3 (h_i m_(i-1) + h_(i-1) m_i) (m_i the chord slopes; rows 0 and m-1 encode zero curvature), then the
+    Hermite cubic of each interval is differentiated at its left end (at the right end for the last knot).
+
+    The same operations, in the same order, as ``scipy.interpolate.CubicSpline(x, y, bc_type="natural")``
+    evaluated with ``(x, 1)`` and ``(x, 2)`` (LAPACK's banded solve included), so the numbers are bit for bit
+    those of scipy (tests/test_trajectory.py checks it) without the cost of importing scipy.interpolate.
+    """
+    from scipy.linalg import solve_banded  # already loaded with scipy.spatial (the planners' k-d trees)
+
+    m = len(x)
+    dx = np.diff(x)
+    dxr = dx[:, None]
+    slope = np.diff(y, axis=0) / dxr
+    A = np.zeros((3, m))  # banded storage: superdiagonal, diagonal, subdiagonal
+    A[1, 1:-1] = 2 * (dx[:-1] + dx[1:])
+    A[0, 2:] = dx[:-1]
+    A[-1, :-2] = dx[1:]
+    A[1, 0], A[0, 1] = 2 * dx[0], dx[0]
+    A[1, -1], A[-1, -2] = 2 * dx[-1], dx[-1]
+    b = np.empty_like(y, dtype=float)
+    b[1:-1] = 3 * (dxr[1:] * slope[:-1] + dxr[:-1] * slope[1:])
+    b[0] = 3 * (y[1] - y[0])
+    b[-1] = 0.0 + 3 * (y[-1] - y[-2])  # 0.0 + as scipy (its zero end curvature term): no -0.0
+    s = solve_banded((1, 1), A, b, overwrite_ab=True, overwrite_b=True, check_finite=False)
+    t = (s[:-1] + s[1:] - 2 * slope) / dxr
+    c0, c1, c2 = t / dxr, (slope - s[:-1]) / dxr - t, s[:-1]  # p(z) = c0 z^3 + c1 z^2 + c2 z + y_i
+    i = np.minimum(np.arange(m), m - 2)
+    z = np.zeros((m, 1))
+    z[-1] = x[-1] - x[-2]
+    d1 = 0.0 + c2[i] + c1[i] * z * 2.0 + c0[i] * (z * z) * 3.0
+    d2 = 0.0 + c1[i] * 2.0 + c0[i] * z * 6.0
+    return d1, d2
+
+
+def _edge_padded(x: np.ndarray, size: int) -> np.ndarray:
+    """``x`` extended by its end values for a centred window of ``size`` (odd) samples."""
+    r = size // 2
+    return np.concatenate([np.full(r, x[0]), x, np.full(size - 1 - r, x[-1])])
+
+
+def _max_filter(x: np.ndarray, size: int) -> np.ndarray:
+    """Running maximum over a centred window of ``size`` (odd) samples, ends extended by their values
+    (``scipy.ndimage.maximum_filter1d(x, size, mode="nearest")``): van Herk's block prefix/suffix maxima, O(len)."""
+    n = len(x)
+    p = _edge_padded(x, size)
+    blocks = -(-len(p) // size)
+    p = np.concatenate([p, np.full(blocks * size - len(p), p[-1])]).reshape(blocks, size)
+    prefix = np.maximum.accumulate(p, axis=1).ravel()
+    suffix = np.maximum.accumulate(p[:, ::-1], axis=1)[:, ::-1].ravel()
+    return np.maximum(suffix[:n], prefix[size - 1:size - 1 + n])
+
+
+def _mean_filter(x: np.ndarray, size: int) -> np.ndarray:
+    """Running mean over a centred window of ``size`` (odd) samples, ends extended by their values: a running
+    sum updated sample by sample and divided by ``size``, as ``scipy.ndimage.uniform_filter1d(x, size,
+    mode="nearest")`` computes it (cumsum adds in order, so the numbers are bit for bit scipy's)."""
+    n = len(x)
+    p = _edge_padded(x, size)
+    steps = np.concatenate([np.cumsum(p[:size])[-1:], p[size:size + n - 1] - p[:n - 1]])
+    return np.cumsum(steps) / size
 
 
 # -- the time law ---------------------------------------------------------------------------------------------
@@ -445,9 +509,9 @@ def _time_law(curve: SafeCurve, scale: np.ndarray, vmax: np.ndarray, amax: np.nd
     wa = np.max(np.sqrt(np.abs(quu) * scale / (0.5 * amax)), axis=1)
     w = np.maximum(wv, wa)
     half = max(1, int(round(0.5 * SPEED_WINDOW / du)))
-    w = maximum_filter1d(w, size=4 * half + 1, mode="nearest")
+    w = _max_filter(w, 4 * half + 1)
     for _ in range(2):
-        w = uniform_filter1d(w, size=2 * half + 1, mode="nearest")
+        w = _mean_filter(w, 2 * half + 1)
     floor = 1e-9 * max(float(w.max()), 1e-300)
     law = TimeLaw(grid, np.maximum(w, floor), 1.0)
 
@@ -460,8 +524,8 @@ def _time_law(curve: SafeCurve, scale: np.ndarray, vmax: np.ndarray, amax: np.nd
         if T < best_T:
             best, best_T = law, T
         eta = np.interp(grid, u, need / T)
-        eta = maximum_filter1d(eta, size=2 * h2 + 1, mode="nearest")
-        w = uniform_filter1d(law.weight * np.clip(eta, 0.3, 1.0) ** 0.7, size=2 * h2 + 1, mode="nearest")
+        eta = _max_filter(eta, 2 * h2 + 1)
+        w = _mean_filter(law.weight * np.clip(eta, 0.3, 1.0) ** 0.7, 2 * h2 + 1)
         law = TimeLaw(grid, np.maximum(w, floor), 1.0)
     return best, best_T
 

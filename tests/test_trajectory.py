@@ -6,13 +6,15 @@ from foam_mj.data import model_path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.clearance import Clearance
 from foam_mj.foam import FoamParams, plan
 from foam_mj.model import RobotModel
 from foam_mj.rosary import Rosary
-from foam_mj.trajectory import JointLimits, Trajectory, make_trajectory, safe_curve
+from foam_mj.trajectory import JointLimits, Trajectory, _max_filter, _mean_filter, _natural_spline_derivatives, make_trajectory, safe_curve
 
 Q_INIT = [0.2, 0.3, 0.08]
 Q_GOAL = [0.45, 0.4536, 1.45]
@@ -263,3 +265,39 @@ def test_trajectory_dataclass_validates_its_fields():
     assert tr.joint_names == ("a", "b") and tr.duration == pytest.approx(0.2)
     with pytest.raises(ValueError, match="no `curve`"):
         tr.evaluate(0.1)
+
+
+# -- the numpy helpers give scipy's numbers bit for bit (scipy.interpolate/ndimage stay out of `plan`'s start-up) --
+@settings(max_examples=60, deadline=None)
+@given(st.integers(3, 40), st.integers(1, 6), st.integers(0, 2**32 - 1))
+def test_natural_spline_derivatives_are_scipys_bit_for_bit(m, n, seed):
+    from scipy.interpolate import CubicSpline
+
+    rng = np.random.default_rng(seed)
+    h = rng.random(m - 1) ** 3 * 10 ** rng.uniform(-3, 1) + 1e-9  # uneven steps, some tiny
+    x = np.concatenate([[0.0], np.cumsum(h)])
+    y = rng.normal(size=(m, n)) * 10 ** rng.uniform(-3, 2)
+    spline = CubicSpline(x, y, bc_type="natural")
+    d1, d2 = _natural_spline_derivatives(x, y)
+    assert np.array_equal(d1, spline(x, 1)) and np.array_equal(d2, spline(x, 2))
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(1, 3000), st.integers(0, 200), st.integers(0, 2**32 - 1))
+def test_window_filters_are_scipys_bit_for_bit(length, half, seed):
+    from scipy.ndimage import maximum_filter1d, uniform_filter1d
+
+    rng = np.random.default_rng(seed)
+    x = np.abs(np.cumsum(rng.normal(size=length))) * 10 ** rng.uniform(-6, 3)  # windows longer than x included
+    size = 2 * half + 1
+    assert np.array_equal(_max_filter(x, size), maximum_filter1d(x, size, mode="nearest"))
+    assert np.array_equal(_mean_filter(x, size), uniform_filter1d(x, size, mode="nearest"))
+
+
+def test_importing_trajectories_loads_no_scipy_interpolate_or_ndimage():
+    import subprocess
+    import sys
+
+    code = "import sys, foam_mj.trajectory; print(sorted(m for m in ('scipy.interpolate', 'scipy.ndimage') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
