@@ -51,6 +51,7 @@ Eq. 4 on this model), so that narrow passages down to a few delta of clearance a
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -187,6 +188,7 @@ class BubbleTreePlanner(Planner):
         robot = oracle.robot
         rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         timer = Timer(progress)
+        cpu0 = time.process_time()
         calls0 = oracle.clearance.calls
         n = robot.dim
         lo, hi = robot.lower, robot.upper
@@ -265,6 +267,7 @@ class BubbleTreePlanner(Planner):
         while True:
             if link is not None and t_first is None:
                 t_first, it_first, foam_first = timer.elapsed(), counters["iterations"], B.n
+                cpu_first = time.process_time() - cpu0
                 if o.informed:
                     c_best = chain_length(link)
             if t_first is not None and counters["iterations"] - it_first >= int(np.ceil(o.explore * min(it_first, EXPLORE_CAP))):
@@ -356,6 +359,7 @@ class BubbleTreePlanner(Planner):
             newest = [new[B.tree[new] == 0], new[B.tree[new] == 1]]
             link = link if link is not None else met
 
+        cpu_tree = time.process_time() - cpu0
         corridor = build_corridor(
             problem, B.c[: B.n], B.r[: B.n], link,
             CorridorOptions(refine=o.refine, refine_tol=o.refine_tol, refine_rounds=o.refine_rounds, time_limit=o.refine_time,
@@ -363,6 +367,7 @@ class BubbleTreePlanner(Planner):
         )
         if len(corridor.added_centers):
             B.add(corridor.added_centers, corridor.added_radii, corridor.added_parents, np.full(len(corridor.added_radii), 2, dtype=np.int8))
+        corridor.stats["cpu_ms"] = {"first": round(1e3 * cpu_first, 2), "explore": round(1e3 * (cpu_tree - cpu_first), 2), **corridor.stats["cpu_ms"]}
         st = stats("reached", t_first, {"bubbles_at_first_path": foam_first, **corridor.stats})
         foam = B.foam(q0, q1)
         return PlanResult(foam, corridor.rosary(problem.q_init, problem.q_goal), st)
