@@ -261,6 +261,42 @@ def _pairwise_sq_dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
+def _accept_in_order(cand: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Candidates taken one by one in order: ``accepted[i]`` is False when centre i lies strictly inside the
+    bubble of an accepted j < i (|c_i - c_j|^2 < r_j^2, the squares summed coordinate by coordinate as in
+    :func:`_pairwise_sq_dist`), True otherwise.
+
+    Only pairs closer than the largest radius can hold one in the other; a k-d tree lists them (a pair
+    within rounding of that radius is kept: the exact test above decides). The one-by-one rule is then
+    solved without a loop over the candidates: accepted = not any(accepted[j] for the pairs (i, j)) is
+    iterated from all-accepted. Since every j < i, the rule has exactly one solution (fixed by induction
+    on i), the iteration stops only there, and it gets there after at most (longest chain of pairs) + 1
+    rounds.
+    """
+    m = len(cand)
+    accepted = np.ones(m, dtype=bool)
+    if m < 2:
+        return accepted
+    pairs = cKDTree(cand).query_pairs(float(r.max()) * (1.0 + 1e-9), output_type="ndarray")  # (j, i), j < i
+    if len(pairs) == 0:
+        return accepted
+    j, i = pairs[:, 0], pairs[:, 1]
+    d = cand[i, 0] - cand[j, 0]
+    d2 = d * d
+    for k in range(1, cand.shape[1]):
+        d = cand[i, k] - cand[j, k]
+        d2 += d * d
+    inside = d2 < r[j] ** 2  # i lies in j's bubble
+    i, j = i[inside], j[inside]
+    while i.size:
+        blocked = np.zeros(m, dtype=bool)
+        blocked[i[accepted[j]]] = True
+        if np.array_equal(blocked, ~accepted):
+            break
+        accepted = ~blocked
+    return accepted
+
+
 def _unit_sphere(rng: np.random.Generator, count: int, dim: int) -> np.ndarray:
     u = rng.standard_normal((count, dim))
     return u / np.linalg.norm(u, axis=1, keepdims=True)
@@ -388,14 +424,8 @@ def plan(
         if len(cand) == 0:
             continue
         # Candidates of this batch covered by a bubble accepted earlier in the same batch are dropped.
-        inside = _pairwise_sq_dist(cand, cand) < r[None, :] ** 2  # inside[i, j]: candidate i lies in candidate j's bubble
+        accepted = _accept_in_order(cand, r)
         reach = np.sum((cand - q_goal) ** 2, axis=1) <= (r + MEMBERSHIP_TOL) ** 2
-        rows, cols = np.nonzero(np.tril(inside, -1))  # pairs (i, j), j < i, sorted by i
-        acc = [True] * len(cand)
-        for i, j in zip(rows.tolist(), cols.tolist()):  # every j < i is settled before row i is read
-            if acc[j]:
-                acc[i] = False
-        accepted = np.array(acc, dtype=bool)
         stats.dropped_covered += int((~accepted).sum())
         # Stop at the first accepted bubble that holds the goal, and at the bubble budget.
         order = np.flatnonzero(accepted)[: params.max_bubbles - count]

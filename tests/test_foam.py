@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, PlanningFailed
-from foam_mj.foam import CoverageIndex, FoamParams, plan
+from foam_mj.foam import CoverageIndex, FoamParams, _accept_in_order, plan
 from foam_mj.model import RobotModel
 from foam_mj.scenarios import load_scenario
 
@@ -164,3 +164,19 @@ def test_coverage_index_agrees_with_brute_force(seed, n_balls):
     rows = np.flatnonzero(exclude >= 0)
     inside[rows, exclude[rows]] = False
     np.testing.assert_array_equal(idx.covered(pts, exclude), inside.any(axis=1))
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), m=st.integers(0, 300), dim=st.integers(1, 5), chain=st.booleans())
+def test_siblings_are_accepted_exactly_as_one_by_one(seed, m, dim, chain):
+    rng = np.random.default_rng(seed)
+    if chain:  # long chains of overlaps: centres along a line, each just inside the previous one's bubble
+        cand = np.cumsum(rng.uniform(0.05, 0.1, (m, 1)) * np.ones((1, dim)), axis=0)
+        r = np.full(m, 0.1 * np.sqrt(dim) * 1.01)
+    else:
+        cand = rng.uniform(0, 1, (m, dim))
+        r = rng.uniform(0.01, 0.4, m)
+    accepted = []
+    for i in range(m):  # the rule, one candidate at a time
+        accepted.append(not any(np.sum((cand[i] - cand[j]) ** 2) < r[j] ** 2 for j in range(i) if accepted[j]))
+    np.testing.assert_array_equal(_accept_in_order(cand, r), np.array(accepted, dtype=bool))
