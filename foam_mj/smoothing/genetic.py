@@ -141,45 +141,52 @@ class GeneticAlgorithm(Smoother):
         t = 0
         reason = stop.reason(0, best, 0)
         cpos = CHUNK
+        add_reduce, take, subtract, multiply, add, copyto = np.add.reduce, np.take, np.subtract, np.multiply, np.add, np.copyto
+        inverse, rank = self.selection == "inverse", self.selection == "rank"
         while reason is None:
             if cpos >= CHUNK:
                 sel_u, no_cross, beta, mut_gen, mut_pos, mut_alpha = self._draw(rng, P, m)
-                mut_bounds = np.searchsorted(mut_gen, np.arange(CHUNK + 1)).tolist()
+                nc_mask = np.zeros((CHUNK, P), dtype=bool)
+                nc_mask[np.repeat(np.arange(CHUNK), [len(r) for r in no_cross]), np.concatenate(no_cross)] = True
+                nc_any = [len(r) > 0 for r in no_cross]
+                # u * total < total for every u of the chunk (u < 1 - 2^-40): no index past the wheel's end
+                clip = float(sel_u.max()) >= 1.0 - 2.0**-40
+                muts: list[list] = [[] for _ in range(CHUNK)]
+                for g, flat, alpha in zip(mut_gen.tolist(), mut_pos.tolist(), mut_alpha.tolist()):
+                    ind, wp = divmod(flat, m)
+                    muts[g].append((ind, wp + 1, alpha, ca[wp], ra2[wp], cb[wp], rb2[wp]))
                 cpos = 0
             # 1. roulette selection
-            if self.selection == "rank":
-                order = np.argsort(fit, kind="stable")
-                parents = order[np.minimum(np.searchsorted(cum_rank, sel_u[cpos], side="right"), P - 1)]
+            if rank:  # cum_rank ends at 1.0 > u: no index past the end
+                pairs = np.argsort(fit, kind="stable")[np.searchsorted(cum_rank, sel_u[cpos], side="right")]
             else:
-                w = 1.0 / np.maximum(fit, 1e-300) if self.selection == "inverse" else fit.max() - fit + 1e-12
+                w = 1.0 / np.maximum(fit, 1e-300) if inverse else fit.max() - fit + 1e-12
                 cw = np.add.accumulate(w)  # np.cumsum
-                parents = np.minimum(cw.searchsorted(sel_u[cpos] * cw[-1], side="right"), P - 1)
-            a, b = parents[:P], parents[P:]
-            fp = fit[parents]
-            a_better = fp[:P] <= fp[P:]
-            p12 = np.concatenate((np.where(a_better, a, b), np.where(a_better, b, a)))
+                pairs = cw.searchsorted(sel_u[cpos] * cw[-1], side="right")
+                if clip:
+                    np.minimum(pairs, P - 1, out=pairs)
+            pairs = pairs.reshape(2, P)  # [first selected parents a; second selected parents b]
+            # A child without crossover is a copy of its first parent a: taken as the crossover of a with
+            # itself (a + beta (a - a) = a, bit for bit but for the sign of a zero coordinate, which f does
+            # not see), so that one code path makes every child.
+            if nc_any[cpos]:
+                copyto(pairs[1], pairs[0], where=nc_mask[cpos])
+            fp = fit[pairs]
+            # parent 1 (the better; a on a tie) and parent 2 of every child
+            take(pop, np.where(fp[0] <= fp[1], pairs, pairs[::-1]).reshape(-1), axis=1, out=parents12)
             # 2. heuristic crossover (Eq. 6): child = x1 + beta (x1 - x2); a waypoint leaving its hatch
             # reverts to parent 1's
-            np.take(pop, p12, axis=1, out=parents12)
-            np.subtract(x1, x2, diff)
-            np.multiply(beta[cpos], diff, diff)
-            np.add(x1, diff, child)
-            bi, bw = outside(child).nonzero()  # few (about 1%): revert them sparsely
-            if bi.size:
-                child[:, bi, bw] = x1[:, bi, bw]
-            nc = no_cross[cpos]
-            if nc.size:
-                child[:, nc] = pop[:, a[nc]]
+            subtract(x1, x2, diff)
+            multiply(beta[cpos], diff, diff)
+            add(x1, diff, child)
+            copyto(child, x1, where=outside(child))
             # 3. mutation q' <- alpha q', reverted when it leaves the hatch (about one allele a generation:
             # plain float arithmetic, the same operations as on arrays)
-            lo, hi = mut_bounds[cpos], mut_bounds[cpos + 1]
-            if hi > lo:
-                for flat, alpha in zip(mut_pos[lo:hi].tolist(), mut_alpha[lo:hi].tolist()):
-                    ind, wp = divmod(flat, m)
-                    allele = child[:, ind, wp + 1]
-                    q = [v * alpha for v in allele.tolist()]
-                    if _sq_dist(q, ca[wp]) <= ra2[wp] and _sq_dist(q, cb[wp]) <= rb2[wp]:
-                        allele[:] = q
+            for ind, col, alpha, c_a, r_a2, c_b, r_b2 in muts[cpos]:
+                allele = child[:, ind, col]
+                q = [v * alpha for v in allele.tolist()]
+                if _sq_dist(q, c_a) <= r_a2 and _sq_dist(q, c_b) <= r_b2:
+                    allele[:] = q
             f = objective(child)
             # 4. elitism: the previous best replaces the worst child
             if self.elitism:
@@ -189,7 +196,7 @@ class GeneticAlgorithm(Smoother):
             pop, child, fit = child, pop, f
             i_best = int(fit.argmin())
             best = float(fit[i_best])
-            mean = float(fit.sum()) / P
+            mean = float(add_reduce(fit)) / P
             stall.update(mean)
             hist_best.append(best)
             hist_mean.append(mean)
