@@ -463,3 +463,26 @@ def test_rosary_adjustment_makes_the_reference_steps(smoothing_setup, rosary):
     np.testing.assert_array_equal(got.path.history_mean, want.path.history_mean)
     assert got.path.iterations == want.path.iterations == 40
     assert got.oracle_calls < want.oracle_calls  # radii fetched only when a decision needs them
+
+
+def test_rosary_adjustment_survives_a_wrong_lipschitz_bound(smoothing_setup, rosary, monkeypatch):
+    """The radius bounds that spare MuJoCo calls are checked: with every reference radius overstated (so
+    that links are wrongly taken to hold), the returned chain still carries the radii MuJoCo gives at its
+    centres and is the chain of fetching every radius (the run is redone)."""
+    import foam_mj.smoothing.adjust as adjust_module
+
+    _, oracle, _ = smoothing_setup
+    stop = StopCriteria(max_iterations=40, stall_iterations=None)
+    want = ReferenceAdjustment(r_min=R_MIN, stop=stop).adjust(rosary, oracle)
+
+    class Overstated(adjust_module._RadiusMemory):
+        def __init__(self, c, cert, margin=adjust_module._LIPSCHITZ_MARGIN, exact=False):
+            super().__init__(c, cert, margin, exact)
+            if np.isfinite(self.margin):
+                self.r = self.r + 1.0
+
+    monkeypatch.setattr(adjust_module, "_RadiusMemory", Overstated)
+    got = RosaryAdjustment(r_min=R_MIN, stop=stop).adjust(rosary, oracle)
+    np.testing.assert_array_equal(got.certified_radii, oracle.radii(got.rosary.centers))
+    np.testing.assert_array_equal(got.rosary.centers, want.rosary.centers)
+    np.testing.assert_array_equal(got.path.history_mean, want.path.history_mean)

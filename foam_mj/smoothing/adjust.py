@@ -18,6 +18,14 @@ R at its centre, every adjusted bubble is free space with clearance >= delta, an
 valid: consecutive bubbles overlap (each child centre lies on its parent's surface), q_init is the
 first centre and q_goal lies in the last bubble.
 
+R is 1-Lipschitz: each pair's distance changes by at most ||rho_p|| |x - y| between two configurations
+(the bound of :mod:`foam_mj.bubbles`, which holds both ways), so (d_p - delta) / ||rho_p|| changes by at
+most |x - y|, and so do the minimum over the pairs, the distance to the joint bounds and max(., 0).
+Many decisions are therefore taken from a radius known nearby, widened by :data:`_LIPSCHITZ_MARGIN`
+for MuJoCo's numerical tolerance, without asking MuJoCo; the radii of the returned chain are fetched
+afresh, and should that chain break a constraint with them (the margin exceeded), the run is redone
+fetching every radius a decision needs.
+
 Choices (the thesis does not say): all centres move at once (the gradient at the current chain);
 a centre whose move breaks a constraint it takes part in has its step halved (up to
 ``max_halvings`` times) and is then left where it was for this iteration. The run stops on the
@@ -80,10 +88,12 @@ class RosaryAdjustment:
             raise ValueError(f"stop must be a StopCriteria, got {self.stop!r}")
 
     def adjust(self, rosary: Rosary, oracle: BubbleOracle) -> AdjustmentResult:
-        t_start = time.perf_counter()
         if rosary.dim != oracle.robot.dim:
             raise ValueError(f"rosary dimension {rosary.dim} does not match the robot's {oracle.robot.dim}")
-        calls0 = oracle.clearance.calls
+        return self._adjust(rosary, oracle, lipschitz=True, t_start=time.perf_counter(),
+                            calls0=oracle.clearance.calls)
+
+    def _adjust(self, rosary: Rosary, oracle: BubbleOracle, lipschitz: bool, t_start: float, calls0: int):
         if rosary.k < 2:  # the root holds q_goal: nothing to move
             cert = oracle.radii(rosary.centers)
             cert.setflags(write=False)
@@ -105,9 +115,9 @@ class RosaryAdjustment:
         hist_now: list[float] = []
         stall = MeanStall(-tc0, self.stop.stall_tol)
         t, reason = 0, self.stop.reason(0, -tc, 0)
-        hint: set[tuple[int, int]] = set()  # the trials the last step needed (halving level, centre)
+        memory = _RadiusMemory(c, cert, margin=_LIPSCHITZ_MARGIN if lipschitz else np.inf)
         while reason is None:
-            new_c, new_cert, moved = self._constrained_step(c, cert, step, q_goal, r_min, oracle, hint)
+            new_c, new_cert, moved = self._constrained_step(c, cert, step, q_goal, r_min, oracle, memory)
             t += 1
             if not moved:
                 reason = "no feasible move"
@@ -124,7 +134,17 @@ class RosaryAdjustment:
             stall.update(-tc)
             reason = self.stop.reason(t, -best, stall.count)
 
-        c, cert = best_c, best_cert
+        c, cert = best_c, best_cert.copy()
+        if lipschitz:
+            # The returned radii are MuJoCo's at the returned centres, fetched afresh; should the chain
+            # break a constraint with them (MuJoCo's distances broke the Lipschitz bound by more than the
+            # margin), the run is redone deciding on fetched radii only.
+            cert = oracle.radii(c)
+            if not self._feasible(c, cert, q_goal, r_min)[0]:
+                return self._adjust(rosary, oracle, lipschitz=False, t_start=t_start, calls0=calls0)
+        unknown = np.flatnonzero(np.isnan(cert))
+        if unknown.size:
+            cert[unknown] = oracle.radii(c[unknown])
         radii = np.empty(rosary.k)
         radii[:-1] = np.linalg.norm(np.diff(c, axis=0), axis=1)
         radii[-1] = cert[-1]
@@ -163,100 +183,126 @@ class RosaryAdjustment:
         then leaving them in place; returns (centres, certified radii, whether any centre moved).
 
         Round r tries every centre i at its level h_i (position c_i + step_i / 2^h_i, level 0 first);
-        the centres taking part in a broken constraint (:meth:`_bad_centres`) go one level down, and
-        after ``max_halvings`` halvings back to where they were, until no constraint is broken.
+        the centres taking part in a broken constraint go one level down, and after ``max_halvings``
+        halvings back to where they were, until no constraint is broken.
 
         The implementation tabulates the link lengths for every pair of levels once (numpy), decides
         the rounds in plain Python, and fetches the certified radius of a trial position from MuJoCo
-        only when a decision depends on it: a centre is bad as soon as one of its constraints is known
-        to be broken (a link shorter than r_min needs no radius), good when all are known to hold, and
-        only when neither can be told are the unknown radii of its constraints fetched (merged, in one
-        batch, with ``hint``: the trials the previous step needed, updated in place; and, for a centre
-        being halved, its deeper levels). A step then usually takes one MuJoCo call, and the decisions,
-        hence the result, are those of fetching every trial's radius (the oracle is deterministic).
+        only when a decision depends on it. A centre is bad as soon as one of its constraints is known
+        to be broken (a link shorter than r_min needs no radius), good when all are known to hold. The
+        certified radius R is 1-Lipschitz (module docstring), so its value known exactly at one position
+        of a centre (``hint``, a :class:`_RadiusMemory`) bounds it at the others: a link no longer than
+        the lower bound holds, one longer than the upper bound is broken. Only when neither can be told
+        is a radius fetched, for every level of that centre at once (a centre halved once is usually
+        halved again) and, in a step's first batch, of the centres that needed radii in the previous
+        step: usually one batch per step. The decisions, hence the result, are those of fetching every
+        trial's radius (the oracle is deterministic). ``cert`` holds NaN for a centre whose radius at c
+        is not known exactly; so does the returned array.
         """
         k, n = c.shape
         m, H = k - 1, self.max_halvings
         back, nl = H + 1, H + 2  # level "back": the centre stays where it was
+        mem = hint if isinstance(hint, _RadiusMemory) else _RadiusMemory(c, cert, exact=True)
         # pos[h, i]: centre i at level h (the same floating-point operations as scaling the step by 1/2
         # h times and adding it); centre 0 never moves.
         pos = np.empty((nl, k, n))
         pos[:, 0] = c[0]
-        np.add(c[1:], (0.5 ** np.arange(H + 1))[:, None, None] * step, out=pos[: H + 1, 1:])
+        np.add(c[1:], mem.scale(H)[:, None, None] * step, out=pos[: H + 1, 1:])
         pos[back, 1:] = c[1:]
         # dist[j][h1 * nl + h2] = |pos[h2, j + 1] - pos[h1, j]| (as np.linalg.norm over the last axis)
         seg = pos[None, :, 1:] - pos[:, None, :-1]
-        dist = np.sqrt(np.add.reduce(seg * seg, axis=-1)).reshape(nl * nl, m).T.tolist()
-        # rad[h][i]: certified radius at pos[h, i], None until fetched
-        cert_l = cert.tolist()
-        rad: list[list] = [[cert_l[0]] + [None] * m for _ in range(nl)]
-        rad[back] = cert_l
+        dist_a = np.sqrt(np.add.reduce(seg * seg, axis=-1))
+        dist = dist_a.reshape(nl * nl, m).T.tolist()
+        # lo[h][i] <= R(pos[h, i]) <= hi[h][i]: Lipschitz bounds from the centre's reference position, and
+        # lo = hi = R where it is known (at the reference itself: the oracle is deterministic; ``cert``)
+        off = pos - mem.p
+        dref = np.sqrt(np.add.reduce(off * off, axis=-1))
+        at_ref = dref == 0.0
+        dref += mem.margin
+        lo_a, hi_a = mem.r - dref, mem.r + dref
+        np.copyto(lo_a, mem.r, where=at_ref)
+        np.copyto(hi_a, mem.r, where=at_ref)
+        known = cert == cert  # not NaN
+        np.copyto(lo_a[back], cert, where=known)
+        np.copyto(hi_a[back], cert, where=known)
+        lo_a[:, 0] = hi_a[:, 0] = cert[0]
+        lo, hi = lo_a.tolist(), hi_a.tolist()
         goal_dist: list = [None] * nl
         level = [0] * k  # level of every centre (centre 0: 0, it never moves)
-        used: set[tuple[int, int]] = set()  # the trials below level 0 whose radius decided a round
-        prefetch = set(hint) if hint else set()
+        first = [True]
 
-        def fetch(pairs) -> None:
+        def fetch(centres) -> None:
+            mem.needed |= centres
+            if first[0]:
+                # with the centres that needed radii in the last step, those with a link at some pair of
+                # moving levels that the bounds leave open: one batch per step, mostly
+                d = dist_a[: H + 1]
+                open_ = ((d >= r_min) & (d > lo_a[: H + 1, None, :m]) & (d <= hi_a[: H + 1, None, :m])).any(axis=(0, 1))
+                centres = centres | mem.hint | set(np.flatnonzero(open_).tolist())
+                first[0] = False
             hs, cs = [], []
-            for h, i in pairs:
-                if rad[h][i] is None:
-                    hs.append(h)
-                    cs.append(i)
-            for h, i, r in zip(hs, cs, oracle.radii(pos[hs, cs]).tolist()):
-                rad[h][i] = r
+            for i in centres:
+                for h in (*range(H + 1), back) if level[i] == back else range(H + 1):
+                    if lo[h][i] != hi[h][i]:
+                        hs.append(h)
+                        cs.append(i)
+            if hs:
+                r = oracle.radii(pos[hs, cs])
+                mem.fetched.append((np.array(hs), np.array(cs), r))
+                for h, i, x in zip(hs, cs, r.tolist()):
+                    lo[h][i] = hi[h][i] = x
+
+        def link_state(j: int):
+            """Link j (the goal for j = m): True broken, False kept, None not known yet."""
+            lv = level
+            h1 = lv[j]
+            if j == m:
+                g = goal_dist[h1]
+                if g is None:
+                    g = goal_dist[h1] = float(np.linalg.norm(q_goal - pos[h1, -1]))
+                u = hi[h1][m]
+                if u < r_min or g > u:
+                    return True
+                low = lo[h1][m]
+                return False if (low >= r_min and g <= low) else None
+            d = dist[j][h1 * nl + lv[j + 1]]
+            if d < r_min or d > hi[h1][j]:
+                return True
+            return False if d <= lo[h1][j] else None
 
         def bad_centres() -> list[int]:
             """The moving centres taking part in a broken constraint (links i - 1 and i; the goal for
-            centre k - 1), fetching the radii that cannot be done without; records in ``used`` the
-            radii below level 0 that decided (the next step likely needs them too)."""
+            centre k - 1), fetching the radii that cannot be done without."""
             lv = level
+            # per link j, then the goal (j = m): True broken, False kept, None not known yet (inlined
+            # ``link_state``)
+            state: list = [None] * m
+            for j in range(m):
+                h1 = lv[j]
+                d = dist[j][h1 * nl + lv[j + 1]]
+                if d < r_min or d > hi[h1][j]:
+                    state[j] = True
+                elif d <= lo[h1][j]:
+                    state[j] = False
+            state.append(link_state(m))
             while True:
-                # per link j, then the goal: True broken, False kept, None unknown; lo: broken by r_min
-                state = [None] * k
-                lo = [False] * k
-                for j in range(m):
-                    h1 = lv[j]
-                    d = dist[j][h1 * nl + lv[j + 1]]
-                    if d < r_min:
-                        state[j] = lo[j] = True
-                    else:
-                        r = rad[h1][j]
-                        if r is not None:
-                            state[j] = d > r
-                hg = lv[m]
-                r = rad[hg][m]
-                if r is not None:
-                    if goal_dist[hg] is None:
-                        goal_dist[hg] = float(np.linalg.norm(q_goal - pos[hg, -1]))
-                    state[m] = r < r_min or goal_dist[hg] > r
-                bad, need, dec = [], [], []
+                bad, need = [], set()
                 for i in range(1, k):
-                    h = lv[i]
-                    if h > H:
+                    if lv[i] > H:
                         continue
                     before, after = state[i - 1], state[i]  # link i - 1; link i (the goal for i = k - 1)
-                    if before is None or after is None:
-                        if before is not True and after is not True:
-                            if before is None:
-                                need.append((lv[i - 1], i - 1))
-                            if after is None:
-                                need.append((h, i))
-                            continue
-                    if after is not True and not lo[i - 1] and lv[i - 1]:
-                        dec.append((lv[i - 1], i - 1))
-                    if before is not True and not lo[i] and h:
-                        dec.append((h, i))
                     if before or after:
                         bad.append(i)
+                    elif before is None or after is None:
+                        if before is None:
+                            need.add(i - 1)
+                        if after is None:
+                            need.add(i)
                 if not need:
-                    used.update(dec)
                     return bad
-                pairs = set(need) | prefetch
-                prefetch.clear()
-                for h, i in need:  # ahead: a centre halved once is usually halved again
-                    if h > 0:
-                        pairs.update((g, i) for g in range(h + 1, H + 1))
-                fetch(pairs)
+                fetch(need)
+                for j in need:
+                    state[j] = link_state(j)
 
         moved = True
         for rnd in range(H + 1):
@@ -276,14 +322,14 @@ class RosaryAdjustment:
                 if not bad:
                     break
             moved = any(h <= H for h in level[1:])
-        if hint is not None:  # the trials below level 0 that this step's decisions needed
-            hint.clear()
-            hint.update(used)
+        idx = np.arange(k)
+        lv = np.array(level)
+        new_c = pos[lv, idx]
+        new_cert = np.array([lo[h][i] if lo[h][i] == hi[h][i] else np.nan for i, h in enumerate(level)])
+        mem.update(pos, lv, new_c, new_cert)
         if not moved:
             return c, cert, False
-        idx = np.arange(k)
-        new_cert = np.array([rad[h][i] for i, h in enumerate(level)], dtype=float)
-        return pos[level, idx], new_cert, True
+        return new_c, new_cert, True
 
     def _bad_centres(self, c, cert, q_goal, r_min) -> np.ndarray:
         """Movable centres 1..k-1 taking part in a broken constraint -> bool (k-1,)."""
@@ -294,6 +340,48 @@ class RosaryAdjustment:
         bad[1:] |= bad_link
         bad[-1] |= bad_goal
         return bad[1:]
+
+
+#: Slack (configuration units) added to the Lipschitz bounds |R(x) - R(y)| <= |x - y| of the certified
+#: radius, for MuJoCo's distance being computed to a tolerance (its default ``ccd_tolerance`` is 1e-6 m,
+#: and ||rho_p|| is at least a few centimetres per unit of q for any joint that moves a geom).
+_LIPSCHITZ_MARGIN = 1e-4
+
+
+class _RadiusMemory:
+    """Per centre, one position where its certified radius is known exactly (p, r): the source of the
+    Lipschitz bounds of :meth:`RosaryAdjustment._constrained_step`, which ``margin`` widens (inf: every
+    decision fetches its radius); and the centres whose radii the last step needed (``hint``)."""
+
+    def __init__(self, c: np.ndarray, cert: np.ndarray, margin: float = _LIPSCHITZ_MARGIN, exact: bool = False) -> None:
+        self.p = c.copy()
+        self.r = np.asarray(cert, dtype=float).copy()
+        self.margin = np.inf if exact else float(margin)
+        self.fetched: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # this step's (levels, centres, radii)
+        self.hint: set[int] = set()
+        self.needed: set[int] = set()
+        self._scale: np.ndarray | None = None
+
+    def scale(self, H: int) -> np.ndarray:
+        """1, 1/2, ..., 1/2^H."""
+        if self._scale is None or len(self._scale) != H + 1:
+            self._scale = 0.5 ** np.arange(H + 1)
+        return self._scale
+
+    def update(self, pos: np.ndarray, lv: np.ndarray, new_c: np.ndarray, new_cert: np.ndarray) -> None:
+        """After a step: a centre whose radius is known at its new position takes it as reference; one left
+        in place without it, its trial nearest to it (the deepest level) if that was fetched."""
+        self.hint, self.needed = self.needed, set()
+        known = new_cert == new_cert
+        self.p[known] = new_c[known]
+        self.r[known] = new_cert[known]
+        for hs, cs, r in self.fetched:
+            deepest = (hs == len(pos) - 2) & ~known[cs]
+            if deepest.any():
+                i = cs[deepest]
+                self.p[i] = pos[-2, i]
+                self.r[i] = r[deepest]
+        self.fetched.clear()
 
 
 def _tc_and_step(p: np.ndarray, eta: float) -> tuple[float, np.ndarray]:
