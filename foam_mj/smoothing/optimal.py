@@ -226,6 +226,8 @@ def _unit_segments(seg: np.ndarray, lens: np.ndarray) -> np.ndarray:
 
 
 RELATIVE = 0.5  # a segment's vector may change by at most this fraction of its length in one step
+STEP_CAP = 8.0  # after a very good step (curvature model), delta <= this times the step's |dW|_inf
+EARLY = 1e-7  # an accepted step predicted to gain less than this * |F| asks its own duals for a certificate
 TIE = 1e-5  # points closer than this are one point (a tie) in the next subproblem
 
 
@@ -366,10 +368,29 @@ class _Structure:
         return self.P_pattern
 
 
-def _structure(rosary: Rosary, inset: float) -> _Structure:
-    _, _, A0, b0, _, nw = build_socp(rosary, 0.0, inset)
+def _structure(rosary: Rosary, inset: float, socp: tuple | None = None) -> _Structure:
+    _, _, A0, b0, _, nw = socp or build_socp(rosary, 0.0, inset)
     m = rosary.n_hatches
     return _Structure(A0.tocoo(), b0, nw, m + 1, m, rosary.dim)
+
+
+def _shortest_start(rosary: Rosary, h: Hatches, inset: float) -> tuple[np.ndarray, _Structure]:
+    """The shortest path through the shrunk hatches (foam_mj.smoothing.convex's program, whose segment
+    and ball cones the subproblems reuse), solved to 1e-8 without presolve: a start for the SCP, whose
+    first step moves it by far more than that; projected onto the shrunk hatches."""
+    socp = build_socp(rosary, 0.0, inset)
+    P, q, A, b, cones, nw = socp
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.presolve_enable = False
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-8
+    sol = clarabel.DefaultSolver(P, q, A, b, cones, settings).solve()
+    status = str(sol.status).rsplit(".", 1)[-1]
+    if status not in ("Solved", "AlmostSolved"):  # pragma: no cover - the program is always feasible
+        w = np.array(ConvexShortestPath(inset=inset).smooth(rosary).waypoints)
+    else:
+        w = h.project(np.asarray(sol.x[:nw]).reshape(h.m, rosary.dim), inset)
+    return w, _structure(rosary, inset, socp)
 
 
 def _segment_curvature(Q: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -398,7 +419,7 @@ def _segment_curvature(Q: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta: float, vx: _Vertices,
-                y: np.ndarray | None = None, rel: float = RELATIVE):
+                y: np.ndarray | None = None, rel: float = RELATIVE, keep: np.ndarray | None = None):
     """Clarabel data for one step. Variables x = [W (m n), t (m + 1), s (M)]; cones in the order
     ties (zero cone), trust region (box), segment and ball cones, vertex cones."""
     n, nw, nt, M = st.n, st.nw, st.nt, st.M
@@ -463,15 +484,28 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         n_rel = 2 * r.size
         off += n_rel
     cones.append(clarabel.NonnegativeConeT(2 * nw + n_rel))
-    # Segment and ball cones (constant).
+    # Segment and ball cones (constant), without the balls that no point of the trust region reaches.
     A0 = st.A0
     a0_row = off
-    rows.append(off + A0.row)
-    cols.append(A0.col)
-    vals.append(A0.data)
-    b.append(st.b0)
-    cones += [clarabel.SecondOrderConeT(n + 1)] * (nt + 2 * m)
-    off += A0.shape[0]
+    if keep is None or keep.all():
+        rows.append(off + A0.row)
+        cols.append(A0.col)
+        vals.append(A0.data)
+        b.append(st.b0)
+        n_cones = nt + 2 * m
+    else:
+        cd = n + 1
+        cone_keep = np.r_[np.ones(nt, dtype=bool), keep.ravel()]
+        new_cone = np.cumsum(cone_keep) - 1
+        cone = A0.row // cd
+        e = cone_keep[cone]
+        rows.append(off + new_cone[cone[e]] * cd + A0.row[e] % cd)
+        cols.append(A0.col[e])
+        vals.append(A0.data[e])
+        b.append(st.b0.reshape(-1, cd)[cone_keep].ravel())
+        n_cones = int(cone_keep.sum())
+    cones += [clarabel.SecondOrderConeT(n + 1)] * n_cones
+    off += n_cones * (n + 1)
     q = np.zeros(nx)
     q[nw:nw + nt] = weights.length
     Pdiag = np.ones(nx) * 0.0
@@ -668,10 +702,16 @@ def sequential_convex(
     predicted decrease is below 1e-7 |F| (the subproblem is solved to a relative 1e-9, so such
     predictions are rounding: "converged (solver accuracy)"), or delta falls below 1e-12.
 
-    With ``certify`` (waypoints -> certified?), a prediction below ``certify_tol`` * |F| (coarser than
-    ``tol``) asks it first, and a certified point ends the run ("certified"): the last few subproblems of
-    a linearly converging SCP only polish F in its ninth digit. When the answer is no, the next question
-    waits until the prediction is 10 times smaller.
+    With ``certify`` (waypoints, multiplier guess, solve the SOCP? -> certified?), a prediction below
+    ``certify_tol`` * |F| (coarser than ``tol``) asks it first, and a certified point ends the run
+    ("certified"): the last few subproblems only polish F in its ninth digit. When the answer is no, the
+    next question waits until the prediction is 10 times smaller. With the curvature model (objectives
+    without SV) an accepted step predicted to gain less than ``EARLY`` * |F| also asks, with the step's
+    own duals and without the SOCP, whether its end point is certified (which saves the last subproblem).
+
+    With the curvature model, a very good step (rho >= 0.75) sets delta to at most ``STEP_CAP`` times the
+    step's |dW|_inf (not below 1e-4): near the optimum the steps shrink fast, and the balls farther from a
+    point than the box reaches are left out of the subproblem (about 40 % fewer rows).
     """
     st = structure or _structure(rosary, inset)
     tie = default_tie(weights) if tie is None else tie
@@ -709,7 +749,14 @@ def sequential_convex(
             bent = vx.s0 >= STRAIGHT
             sc = np.minimum(vx.s0[bent], _S_MAX)
             y[bent] = (weights.angle * _dh(sc) / st.M / sc)[:, None] * vx.v[bent]
-        P, q, A, b, cones, curv, a0_row = _subproblem(st, p, weights, delta, vx, y, rel)
+        keep = None
+        if curvature:
+            # A ball whose sphere is farther from the point than the box's half-diagonal (plus the 1e-5 a tie
+            # may move it) cannot be active in this subproblem: left out.
+            reach = np.sqrt(st.n) * delta + 2 * tie
+            keep = (np.stack([h.ra, h.rb], axis=1) - inset - np.stack([np.linalg.norm(p[1:-1] - h.ca, axis=1),
+                    np.linalg.norm(p[1:-1] - h.cb, axis=1)], axis=1)) <= reach
+        P, q, A, b, cones, curv, a0_row = _subproblem(st, p, weights, delta, vx, y, rel, keep)
         sol = solver.solve(P, q, A, b, cones)
         status = str(sol.status).rsplit(".", 1)[-1]
         if status in ("Solved", "AlmostSolved"):
@@ -724,13 +771,16 @@ def sequential_convex(
             if pred <= tol * abs(F) + 1e-15:
                 trace.stop_reason = "converged"
                 break
-            if certify is not None and pred <= certify_tol * abs(F):
+            if certify is not None:
                 # The subproblem's duals as the certificate's first guess of its multipliers: y for the
                 # straight vertices, and z0 / (2 R) for the balls (the cone (R, w - c) against the
                 # certificate's R^2 - |w - c|^2 >= 0, whose gradient is -2 (w - c) = -2 R (w - c)/|w - c|).
-                z0 = z[a0_row + (st.nt + np.arange(2 * st.M)) * cd].reshape(st.M, 2)
-                lam = z0 / (2.0 * (np.stack([h.ra, h.rb], axis=1) - inset))
-                if certify(w, (y_pt.copy(), lam)):
+                z0 = np.zeros((st.M, 2))
+                kept = np.ones((st.M, 2), dtype=bool) if keep is None else keep
+                z0[kept] = z[a0_row + (st.nt + np.arange(int(kept.sum()))) * cd]
+                guess = (y_pt.copy(), z0 / (2.0 * (np.stack([h.ra, h.rb], axis=1) - inset)))
+            if certify is not None and pred <= certify_tol * abs(F):
+                if certify(w, guess):
                     trace.stop_reason = "certified"
                     break
                 certify_tol *= 0.1
@@ -751,12 +801,20 @@ def sequential_convex(
                 continue
             rho = -np.inf  # a failed subproblem: shrink the region and retry
         if rho >= 0.1:
+            w_old = w
             w, p, F = w_new, p_new, F_new
             trace.values.append(F)
             trace.accepted += 1
+            if certify is not None and curvature and pred <= EARLY * abs(F) and certify(w, guess, False):
+                # The step's own duals certify its end point (no SOCP for this check): the model is
+                # second order, so the next step would only polish F far below the certificate's reach.
+                trace.stop_reason = "certified"
+                break
             rejected = 0
             if rho >= 0.75:
                 delta = min(2.0 * delta, 1.0)
+                if curvature:
+                    delta = min(delta, max(STEP_CAP * float(np.max(np.abs(w_new - w_old))), 1e-4))
                 rel = min(2.0 * rel, RELATIVE)
         else:
             rejected = rejected + 1 if np.isfinite(rho) and pred < 1e-7 * abs(F) else 0
@@ -812,7 +870,8 @@ class Certificate:
 
 
 def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWeights, inset: float = 0.0,
-                    multipliers: tuple[np.ndarray, np.ndarray] | None = None, tol: float = KKT_TOL) -> Certificate:
+                    multipliers: tuple[np.ndarray, np.ndarray] | None = None, tol: float = KKT_TOL,
+                    solve: bool = True) -> Certificate:
     """The KKT residual of ``waypoints`` for min F subject to the hatch balls shrunk by ``inset``.
 
     Coincident waypoints (closer than 1e-12, as foam_mj.paths) are one point: the variables are the
@@ -823,7 +882,8 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     ``multipliers`` (y (points, n), lambda (waypoints, 2)): a guess, e.g. the duals of the SCP's last
     subproblem: g_i = y_i M / w_angle at the straight vertex on point i (scaled into |g_i| <= 1) and
     lambda for the two balls of every waypoint. When the residual of these multipliers (computed exactly,
-    as for the solver's) certifies at ``tol``, that certificate is returned without solving the SOCP.
+    as for the solver's) certifies at ``tol``, that certificate is returned without solving the SOCP; so it
+    is when ``solve`` is False (a quick check: the SOCP is only solved when it is True).
     """
     h = Hatches.of(rosary)
     n, m = rosary.dim, h.m
@@ -905,7 +965,7 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
         g = g / np.maximum(np.linalg.norm(g, axis=1), 1.0)[:, None]
         lam_v = np.maximum(np.concatenate([lam_ball[:, 0], lam_ball[:, 1]])[active], 0.0)
         cert = certificate(lam_v, g)
-        if cert.certified(tol):
+        if cert.certified(tol) or not solve:
             return cert
     Gs, grad_s = Gm[:, 1:] * scale[:, None], grad * scale
     ones = np.ones((nv, 1))
@@ -1023,6 +1083,9 @@ class OptimalSmoother(Smoother):
         starts: list[tuple[str, np.ndarray]] = []
         if given is not None:
             starts += [("initial" if len(given) == 1 else f"initial {j}", h.project(w, self.inset)) for j, w in enumerate(given)]
+        elif weights.sv == 0 and weights.angle > 0:  # (for the length alone, the convex program is the answer)
+            convex, st = _shortest_start(rosary, h, self.inset)
+            starts.append(("convex", convex))
         else:
             convex = np.array(ConvexShortestPath(inset=self.inset).smooth(rosary).waypoints)
             starts.append(("convex", convex))
@@ -1031,7 +1094,8 @@ class OptimalSmoother(Smoother):
                 starts.append(("convex/centre", 0.5 * (convex + centres)))
         for j in range(self.multistart):
             starts.append((f"random {j}", h.project(h.sample(rng, np.arange(h.m)), self.inset)))
-        st = _structure(rosary, self.inset)
+        if given is not None or weights.sv > 0 or weights.angle == 0:
+            st = _structure(rosary, self.inset)
         best = None
         outcomes: list[StartOutcome] = []
         iterations = 0
@@ -1039,8 +1103,9 @@ class OptimalSmoother(Smoother):
             nonlocal best, iterations
             checked: dict = {}
 
-            def certify(wc: np.ndarray, multipliers: tuple | None = None) -> bool:
-                checked["w"], checked["cert"] = wc.copy(), kkt_certificate(rosary, wc, weights, self.inset, multipliers, self.kkt_tol)
+            def certify(wc: np.ndarray, multipliers: tuple | None = None, solve: bool = True) -> bool:
+                checked["w"], checked["cert"] = wc.copy(), kkt_certificate(rosary, wc, weights, self.inset, multipliers,
+                                                                            self.kkt_tol, solve)
                 return checked["cert"].certified(self.kkt_tol)
 
             w, trace = sequential_convex(rosary, h, w0, weights, self.inset, max_iter=self.max_iter, structure=st,
