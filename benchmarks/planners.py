@@ -21,6 +21,9 @@ Columns (medians over the successful seeds; ``ok`` counts them):
   for OMPL, the time to its first solution.
 * ``total ms``: planning plus the default smoother (``optimal``, the certified optimum of f in the
   rosary's hatches); for OMPL, solve plus simplification (RRTConnect) or the whole budget (RRT*).
+* ``plan ms``: the planner alone (wall); ``cpu ms``: planning plus the smoother in CPU time of this
+  process (comparable across loads on a shared machine, unlike wall times); ``chain``: the rosary's
+  bubble count (the smoother's time grows with it).
 * ``bubbles``, ``queries``: bubbles grown and configurations whose clearance MuJoCo evaluated
   (for OMPL: states checked by the validity checker, counted in the checker).
 * ``len q``, ``len qpos``: the final path's length in the planner's coordinates q and in MuJoCo's qpos
@@ -144,7 +147,7 @@ def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker
     opts = {k: getattr(pb, k) for k in ("K", "r_min") if name in FOAM_FAMILY and k in option_names(cls)}
     planner = get_planner(name, **opts)
     prob = PlanningProblem(oracle, pb.q_init, pb.q_goal, delta=DELTA, time_limit=time_limit)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
         res = planner.plan(prob, seed=seed)
     except PlanningFailed as exc:
@@ -159,13 +162,13 @@ def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker
     except Exception as exc:  # a smoother failure is a finding, not a reason to lose the whole run
         return {"ok": False, "outcome": f"smoother error: {type(exc).__name__}: {exc}", "first": res.stats.time_to_first_path,
                 "bubbles": res.stats.bubbles, "queries": res.stats.distance_queries, "rosary": res.rosary.k, "time": t_plan}
-    total = time.perf_counter() - t0
+    total, total_cpu = time.perf_counter() - t0, time.process_time() - c0
     path = sm.path
     m = metrics(path)
     ros = res.rosary
     _, len_sp = shortest_path(ros.centers, ros.radii, ros.q_init, ros.q_goal, oracle.robot.config.scale)
     return {
-        "ok": True, "outcome": res.stats.outcome, "first": res.stats.time_to_first_path or t_plan, "plan": t_plan, "total": total,
+        "ok": True, "outcome": res.stats.outcome, "first": res.stats.time_to_first_path or t_plan, "plan": t_plan, "total": total, "total_cpu": total_cpu,
         "bubbles": res.stats.bubbles, "queries": res.stats.distance_queries, "rosary": res.rosary.k,
         "len_q": m.length, "len_qpos": qpos_length(oracle.robot, path), "len_sp": len_sp, "f": m.f, "clearance": checker.min_clearance(path),
         "certified": bool(sm.info.get("certified", False)),
@@ -216,15 +219,15 @@ class OMPLRunner:
         si = ss.getSpaceInformation()
         ss.setPlanner(self.og.RRTConnect(si))
         self.checks = 0
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         solved = ss.solve(time_limit)
         first = time.perf_counter() - t0
         if not ss.haveExactSolutionPath():
             return {"ok": False, "outcome": str(solved), "time": first}
         p = ss.getSolutionPath()
         self.og.PathSimplifier(si).simplifyMax(p)
-        total = time.perf_counter() - t0
-        return {"ok": True, "first": first, "total": total, "queries": self.checks, "path": self._path(p)}
+        total, total_cpu = time.perf_counter() - t0, time.process_time() - c0
+        return {"ok": True, "first": first, "total": total, "total_cpu": total_cpu, "queries": self.checks, "path": self._path(p)}
 
     def optimizing(self, budget: float, which: str = "rrtstar") -> dict:
         ss = self._setup()
@@ -256,7 +259,7 @@ def have_ompl() -> bool:
     return True
 
 
-KEYS = ("first", "total", "bubbles", "queries", "len_q", "len_qpos", "len_sp", "f", "clearance")
+KEYS = ("first", "plan", "total", "total_cpu", "rosary", "bubbles", "queries", "len_q", "len_qpos", "len_sp", "f", "clearance")
 
 
 def summarize(runs: list[dict]) -> dict:
@@ -363,7 +366,8 @@ def main(argv: list[str] | None = None) -> dict:
         for name, r in res.items():
             m, sm = r["summary"]["median"], r["summary"]
             rows.append([
-                pname, name, f"{sm['ok']}/{sm['runs']}", _fmt(m["first"], 1e3), _fmt(m["total"], 1e3), _fmt(m["bubbles"], 1, "{:,.0f}"),
+                pname, name, f"{sm['ok']}/{sm['runs']}", _fmt(m["first"], 1e3), _fmt(m["plan"], 1e3), _fmt(m["total"], 1e3),
+                _fmt(m["total_cpu"], 1e3), _fmt(m["rosary"], 1, "{:.0f}"), _fmt(m["bubbles"], 1, "{:,.0f}"),
                 _fmt(m["queries"], 1, "{:,.0f}"), _fmt(m["len_q"], 1, "{:.3f}"), _fmt(m["len_qpos"], 1, "{:.3f}"), _fmt(m["len_sp"], 1, "{:.3f}"),
                 _fmt(m["f"], 1, "{:.3f}"),
                 _fmt(m["clearance"], 1e3, "{:.1f}"), _fmt(sm["min_clearance"], 1e3, "{:.1f}"),
@@ -382,7 +386,7 @@ def main(argv: list[str] | None = None) -> dict:
                                    ratio(m["clearance"], peer["clearance"])])
     out["elapsed"] = time.perf_counter() - t_start
     print(f"\nmedians over {seeds} seeds (successful runs), delta = {DELTA * 1e3:.0f} mm, time limit {args.time_limit:g} s per run")
-    print(table(["problem", "planner", "ok", "first ms", "total ms", "bubbles", "queries", "len q", "len qpos", "sp qpos", "f", "clear mm", "worst mm"], rows))
+    print(table(["problem", "planner", "ok", "first ms", "plan ms", "total ms", "cpu ms", "chain", "bubbles", "queries", "len q", "len qpos", "sp qpos", "f", "clear mm", "worst mm"], rows))
     print("total: planning + the default smoother (optimal) for ours; solve + simplify (RRTConnect) or the whole budget (RRT*) for OMPL.")
     print(f"clear mm: median over seeds of the smallest MuJoCo distance along the final path, checked every {CHECK_STEP * 1e3:g} mrad; worst mm: the smallest over seeds.")
     failed = [(p, n, why, k) for p, v in out["problems"].items() for n, r in v["planners"].items() for why, k in r["summary"]["failures"].items()]

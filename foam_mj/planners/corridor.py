@@ -48,6 +48,7 @@ INSET = 1e-6
 #: A round's pruned chain is solved again only if it drops more than this share of the bubbles (else the
 #: unpruned chain goes on: one cone program fewer); the last chain is always pruned.
 PRUNE_GAIN = 0.85
+PRUNE_ROUNDS = True
 #: Clarabel's gap and feasibility tolerances for the corridor's cone programs (far below INSET).
 SOLVER_TOL = 1e-8
 
@@ -473,7 +474,7 @@ def build_corridor(
             w2, length2 = shortest_path(C2, R2, q0, q1, M)
             clock.lap("socp")
             # 3. Drop the bubbles the path no longer needs.
-            if options.prune:
+            if options.prune and PRUNE_ROUNDS:
                 keep_pos = prune_chain(C2, R2, np.concatenate([[q0], w2, [q1]]))
                 clock.lap("prune")
                 if len(keep_pos) < PRUNE_GAIN * len(R2):
