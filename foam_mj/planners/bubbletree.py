@@ -91,7 +91,7 @@ class BubbleTreeOptions:
     refine_tol: float = 0.005
     refine_rounds: int = 30
     refine_time: float = 1.0
-    refine_floor: float = 2.0
+    refine_floor: float = 3.0
     explore: float = 1.0
     informed: bool = True
     metric: str = "qpos"
