@@ -172,8 +172,10 @@ class GeneticAlgorithm(Smoother):
             if nc_any[cpos]:
                 copyto(pairs[1], pairs[0], where=nc_mask[cpos])
             fp = fit[pairs]
-            # parent 1 (the better; a on a tie) and parent 2 of every child
-            take(pop, np.where(fp[0] <= fp[1], pairs, pairs[::-1]).reshape(-1), axis=1, out=parents12)
+            # parent 1 (the better; a on a tie) and parent 2 of every child ("clip": the indices are valid, and
+            # numpy's default mode buffers the output)
+            p12 = np.where(fp[0] <= fp[1], pairs, pairs[::-1]).reshape(-1)
+            take(pop, p12, axis=1, out=parents12, mode="clip")
             # 2. heuristic crossover (Eq. 6): child = x1 + beta (x1 - x2); a waypoint leaving its hatch
             # reverts to parent 1's
             subtract(x1, x2, diff)

@@ -132,6 +132,8 @@ class HarmonySearch(Smoother):
         stall = MeanStall(total / hms, stop.stall_tol)
 
         cols = np.arange(m)
+        pool_planes = pool.reshape(n, -1)
+        base_flat = np.empty(n * MAX_BLOCK * m)
         runs: list[tuple[float, float, int]] = []  # (best, mean, iterations) runs of the history
         t = 0  # improvisations done
         spec_evals = 0
@@ -141,10 +143,12 @@ class HarmonySearch(Smoother):
         while reason is None:
             if cpos >= CHUNK:
                 gidx, offset = self._draw(rng, h, pool, hms, m, n)
+                gflat = gidx * m + cols  # positions in a coordinate's (pool rows x m) plane
                 cpos = 0
             b = min(block, CHUNK - cpos, cap - t, stall_cap - stall.count)
             g = gidx[cpos : cpos + b]
-            base = pool[:, g, cols]  # (n, b, m)
+            base = np.take(pool_planes, gflat[cpos : cpos + b], axis=1, mode="clip",
+                           out=base_flat[: n * b * m].reshape(n, b, m))  # pool[:, g, cols]
             blk = flat[: n * b * L].reshape(n, b, L)
             if b != ends_b:
                 blk[:, :, ::L - 1] = q_ends
