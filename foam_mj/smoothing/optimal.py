@@ -117,6 +117,7 @@ from foam_mj.smoothing.convex import ConvexShortestPath, build_socp
 
 _TINY = 1e-300
 SOLVER_TOL = 1e-9
+LOOSE_TOL = 1e-7  # curvature model: a subproblem is solved to min(this, max(SOLVER_TOL, 1e-3 pred_last / |F|))
 _S_MAX = 2.0 - 1e-9  # |v| = 2 sin(phi / 2) <= 2; h'(s) blows up at a U-turn
 
 
@@ -621,7 +622,7 @@ def _true_value(p: np.ndarray, weights: ObjectiveWeights) -> float:
     return value
 
 
-def _settings(refine: bool = True) -> clarabel.DefaultSettings:
+def _settings(refine: bool = True, tol: float = SOLVER_TOL) -> clarabel.DefaultSettings:
     """Clarabel's settings for the subproblems. ``refine=False`` turns off iterative refinement of the
     linear solves, about a third of each solve's time: the f subproblems reach 1e-9 without it in the
     same number of interior-point iterations and the SCP the same points (to 1e-9 in F); the SV
@@ -629,7 +630,7 @@ def _settings(refine: bool = True) -> clarabel.DefaultSettings:
     times as many subproblems on the six built-in scenes."""
     settings = clarabel.DefaultSettings()
     settings.verbose = False
-    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = SOLVER_TOL
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = tol
     settings.iterative_refinement_enable = refine
     for key, value in _EXTRA.items():
         setattr(settings, key, value)
@@ -647,22 +648,22 @@ class _Solver:
     in the same solver (``DefaultSolver.update``), which keeps the symbolic factorisation and the
     workspace; otherwise a new solver is made."""
 
-    def __init__(self, settings: clarabel.DefaultSettings) -> None:
-        self.settings = settings
+    def __init__(self, refine: bool) -> None:
+        self.refine = refine
         self._solver = None
         self._key = None
         self.reused = 0
 
-    def solve(self, P: sp.csc_matrix, q: np.ndarray, A: sp.csc_matrix, b: np.ndarray, cones: list):
+    def solve(self, P: sp.csc_matrix, q: np.ndarray, A: sp.csc_matrix, b: np.ndarray, cones: list, tol: float = SOLVER_TOL):
         # The cones are the zero cone of the ties (if any), the trust region's, then second-order cones of
         # one size: their count and the first two fix them all.
         key = (A.shape, len(cones), tuple((type(c).__name__, c.dim) for c in cones[:2]), A.indptr.tobytes(),
-               A.indices.tobytes(), P.indptr.tobytes(), P.indices.tobytes())
+               A.indices.tobytes(), P.indptr.tobytes(), P.indices.tobytes(), tol)
         if self._solver is not None and key == self._key and self._solver.is_data_update_allowed():
             self._solver.update(P=P.data, q=q, A=A.data, b=b)
             self.reused += 1
         else:
-            self._solver = clarabel.DefaultSolver(P, q, A, b, cones, self.settings)
+            self._solver = clarabel.DefaultSolver(P, q, A, b, cones, _settings(self.refine, tol))
             self._key = key
         return self._solver.solve()
 
@@ -721,7 +722,8 @@ def sequential_convex(
     trace = SCPTrace(values=[F])
     delta = delta0
     refine = weights.sv > 0
-    solver = _Solver(_settings(refine=refine))
+    solver = _Solver(refine)
+    pred_last = np.inf
     trace.stop_reason = "max_iter"
     rejected = 0
     refused = np.zeros(len(p) - 1, dtype=bool)
@@ -757,11 +759,15 @@ def sequential_convex(
             keep = (np.stack([h.ra, h.rb], axis=1) - inset - np.stack([np.linalg.norm(p[1:-1] - h.ca, axis=1),
                     np.linalg.norm(p[1:-1] - h.cb, axis=1)], axis=1)) <= reach
         P, q, A, b, cones, curv, a0_row = _subproblem(st, p, weights, delta, vx, y, rel, keep)
-        sol = solver.solve(P, q, A, b, cones)
+        sub_tol = SOLVER_TOL
+        if curvature:  # far from the optimum the step needs fewer digits than the solver's 1e-9
+            sub_tol = min(LOOSE_TOL, max(SOLVER_TOL, 1e-3 * pred_last / max(abs(F), 1e-300)))
+        sol = solver.solve(P, q, A, b, cones, sub_tol)
         status = str(sol.status).rsplit(".", 1)[-1]
         if status in ("Solved", "AlmostSolved"):
             x = np.asarray(sol.x)
             pred = F - _model_value(x, st, weights, vx, p, curv)
+            pred_last = pred
             z, cd, Mv = np.asarray(sol.z), st.n + 1, len(vx.s0)
             if Mv and weights.angle:
                 # y_i = -(the v part of vertex cone i's dual): Clarabel's dual z of the cone (s_i, v_i + J_i dW)
@@ -793,7 +799,7 @@ def sequential_convex(
         else:
             if not refine:  # ill-conditioned: iterative refinement from now on, and the same step again
                 refine = True
-                solver = _Solver(_settings(refine=True))
+                solver = _Solver(True)
                 continue
             unsnapped = close & (lens > paths._EPS)
             if unsnapped.any():  # a tie the hatches (or the trust region) do not allow: refuse it, retry
