@@ -353,9 +353,9 @@ class _OutsideHatches:
 
         ca, ra2 = full(h.ca, h.ra)
         cb, rb2 = full(h.cb, h.rb)
-        self._c = np.ascontiguousarray(np.stack([ca, cb], axis=1))  # (n, 2, P L): ball a and ball b
+        self._c = np.ascontiguousarray(np.stack([ca, cb]))  # (2, n, P L): ball a and ball b
         self._r2 = np.ascontiguousarray(np.stack([ra2, rb2]))
-        self._d = np.empty((n, 2, P * L))
+        self._d = np.empty((2, n, P * L))
         self._q = np.empty((2, P * L))
         self._out = np.empty((2, P * L), dtype=bool)
         self._L = L
@@ -367,10 +367,10 @@ class _OutsideHatches:
         if v is None:
             bL = b * self._L
             v = self._views[b] = (self._c[:, :, :bL], self._r2[:, :bL], self._d[:, :, :bL], self._q[:, :bL],
-                                  self._out[:, :bL], (X.shape[0], 1, bL), (b, self._L))
+                                  self._out[:, :bL], (X.shape[0], bL), (b, self._L))
         c, r2, d, q, out, xshape, shape = v
         np.subtract(X.reshape(xshape), c, d)
-        _einsum("ikj,ikj->kj", d, d, out=q)  # |x - c|^2 for both balls, as Hatches.outside_cm's einsum
+        _einsum("kij,kij->kj", d, d, out=q)  # |x - c|^2 for both balls, as Hatches.outside_cm's einsum
         np.greater(q, r2, out)
         return np.logical_or(out[0], out[1], out[0]).reshape(shape)
 
