@@ -67,8 +67,9 @@ PRUNE_ROUNDS = True
 #: (a chord that grazes an obstacle over its length would need a long chain of small bubbles).
 CHORD_FLOOR = 1.0 / 3.0
 CHORD_GROWTH = 2.0
-#: Clarabel's gap and feasibility tolerances for the corridor's cone programs (far below INSET).
-SOLVER_TOL = 1e-8
+#: Clarabel's gap and feasibility tolerances for the refinement rounds' cone programs (the last program
+#: is solved to 1e-8): 15 % fewer interior-point iterations, waypoints still 0.9 INSET inside their balls.
+ROUND_TOL = 1e-7
 
 
 @dataclass(frozen=True)
@@ -113,15 +114,19 @@ def overlap_pairs(centers: np.ndarray, radii: np.ndarray, hatch: float = HATCH) 
         return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
     I, J = [], []
     if n <= BRUTE_FORCE:
+        # Squared distances against a squared bound (the bound r_i + r_j - hatch min(r_i, r_j) is positive),
+        # rows against the later columns only.
         sq = np.einsum("ij,ij->i", centers, centers)
-        for s0 in range(0, n, 1024):
-            blk = slice(s0, min(n, s0 + 1024))
-            d2 = sq[blk, None] + sq[None, :] - 2.0 * centers[blk] @ centers.T
-            d = np.sqrt(np.maximum(d2, 0.0))
-            rb = radii[blk, None]
-            ok = d <= rb + radii[None, :] - hatch * np.minimum(rb, radii[None, :])
+        for s0 in range(0, n, 256):
+            s1 = min(n, s0 + 256)
+            rest = slice(s0, n)
+            d2 = sq[s0:s1, None] + sq[None, rest] - 2.0 * centers[s0:s1] @ centers[rest].T
+            rb, rr = radii[s0:s1, None], radii[None, rest]
+            bound = rb + rr - hatch * np.minimum(rb, rr)
+            ok = d2 <= bound * bound
             i, j = np.nonzero(ok)
             i = i + s0
+            j = j + s0
             up = j > i
             I.append(i[up])
             J.append(j[up])
@@ -171,7 +176,8 @@ def shortest_chain(
 
 
 def shortest_path(
-    centers: np.ndarray, radii: np.ndarray, q_init: np.ndarray, q_goal: np.ndarray, metric: np.ndarray | None = None
+    centers: np.ndarray, radii: np.ndarray, q_init: np.ndarray, q_goal: np.ndarray, metric: np.ndarray | None = None,
+    tol: float = 1e-8,
 ) -> tuple[np.ndarray, float]:
     """Waypoints (k-1, n) of the shortest polyline through the chain's hatches, and its length.
 
@@ -197,7 +203,7 @@ def shortest_path(
     # Without presolve (nothing to remove) and iterative refinement: 40 % less time for the same path to 1e-8.
     settings.presolve_enable = False
     settings.iterative_refinement_enable = False
-    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = SOLVER_TOL
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = tol
     sol = clarabel.DefaultSolver(P, q, A, b, cones, settings).solve()
     w = np.asarray(sol.x[:nw]).reshape(ros.n_hatches, ros.dim)
     pts = ros.path(w)
@@ -489,7 +495,7 @@ def build_corridor(
             C2, R2, ids2 = np.concatenate(parts_c), np.concatenate(parts_r), np.concatenate(parts_i)
             stats["shortcuts"] += len(splices)
             clock.lap("other")
-            w2, length2 = shortest_path(C2, R2, q0, q1, M)
+            w2, length2 = shortest_path(C2, R2, q0, q1, M, tol=ROUND_TOL)
             clock.lap("socp")
             # 3. Drop the bubbles the path no longer needs.
             if options.prune and PRUNE_ROUNDS:
@@ -497,7 +503,7 @@ def build_corridor(
                 clock.lap("prune")
                 if len(keep_pos) < PRUNE_GAIN * len(R2):
                     C2, R2, ids2 = C2[keep_pos], R2[keep_pos], ids2[keep_pos]
-                    w2, length2 = shortest_path(C2, R2, q0, q1, M)
+                    w2, length2 = shortest_path(C2, R2, q0, q1, M, tol=ROUND_TOL)
                     clock.lap("socp")
             stats["refine_rounds"] += 1
             stats["refine_added"] = sum(len(x) for x in added_r)
