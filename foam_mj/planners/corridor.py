@@ -60,7 +60,6 @@ INSET = 1e-6
 #: A round's pruned chain is solved again only if it drops more than this share of the bubbles (else the
 #: unpruned chain goes on: one cone program fewer); the last chain is always pruned.
 PRUNE_GAIN = 0.85
-PRUNE_ROUNDS = True
 #: Chords may use bubbles down to this fraction of the floor (a chord that passes one obstacle closely
 #: needs a few small bubbles only there; step_up's straight line passes 7.7 mm from the step), but a chord
 #: is spliced in only if its chain has at most CHORD_GROWTH x as many bubbles as the stretch it replaces
@@ -498,7 +497,7 @@ def build_corridor(
             w2, length2 = shortest_path(C2, R2, q0, q1, M, tol=ROUND_TOL)
             clock.lap("socp")
             # 3. Drop the bubbles the path no longer needs.
-            if options.prune and PRUNE_ROUNDS:
+            if options.prune:
                 keep_pos = prune_chain(C2, R2, np.concatenate([[q0], w2, [q1]]))
                 clock.lap("prune")
                 if len(keep_pos) < PRUNE_GAIN * len(R2):
