@@ -163,7 +163,7 @@ class CoverageIndex:
         c, r = self._c[: self.n], self._r[: self.n]
         self._R = float(r.max())
         lifted = np.hstack([c, np.sqrt(np.maximum(self._R**2 - r**2, 0.0))[:, None]])
-        self._tree = cKDTree(lifted)
+        self._tree = cKDTree(lifted, leafsize=TREE_LEAFSIZE)
         self._n_tree = self.n
 
     def covered(self, points: np.ndarray, exclude: np.ndarray) -> np.ndarray:
@@ -208,6 +208,9 @@ class CoverageIndex:
 #: bubbles wait in the brute-force buffer.
 REBUILD_MIN = 64
 REBUILD_FRACTION = 16
+#: Points per leaf of the coverage tree: 32 instead of scipy's 16 makes both the build and the queries about
+#: 20% faster on foams of 1,000-3,000 bubbles (the neighbours found are the same, up to exact ties in distance).
+TREE_LEAFSIZE = 32
 
 #: The most candidates one bubble may get. Eq. 2's N = K floor(r / r_min)^(n-1) grows without bound as
 #: r_min shrinks or K grows (K = 1e8 or r_min = 1e-7 asked for terabytes and ended in a MemoryError after
