@@ -270,11 +270,12 @@ def _accept_in_order(cand: np.ndarray, r: np.ndarray) -> np.ndarray:
     :func:`_pairwise_sq_dist`), True otherwise.
 
     Only pairs closer than the largest radius can hold one in the other; a k-d tree lists them (a pair
-    within rounding of that radius is kept: the exact test above decides). The one-by-one rule is then
-    solved without a loop over the candidates: accepted = not any(accepted[j] for the pairs (i, j)) is
-    iterated from all-accepted. Since every j < i, the rule has exactly one solution (fixed by induction
-    on i), the iteration stops only there, and it gets there after at most (longest chain of pairs) + 1
-    rounds.
+    within rounding of that radius is kept: the exact test above decides). The one-by-one rule,
+    accepted[i] = not any(accepted[j] for the pairs (i, j)), is then settled in rounds without a loop
+    over the candidates: a candidate none of whose pairs is open is accepted, one paired with an accepted
+    j is dropped, and pairs whose i is settled or whose j was dropped close. Every j < i, so the first
+    unsettled candidate has all its j settled and is settled in the next round: the rounds end, with the
+    one-by-one result.
     """
     m = len(cand)
     accepted = np.ones(m, dtype=bool)
@@ -291,12 +292,17 @@ def _accept_in_order(cand: np.ndarray, r: np.ndarray) -> np.ndarray:
         d2 += d * d
     inside = d2 < r[j] ** 2  # i lies in j's bubble
     i, j = i[inside], j[inside]
+    open_ = np.zeros(m, dtype=bool)  # not settled yet: has pairs whose j is not settled
+    open_[i] = True
     while i.size:
-        blocked = np.zeros(m, dtype=bool)
-        blocked[i[accepted[j]]] = True
-        if np.array_equal(blocked, ~accepted):
-            break
-        accepted = ~blocked
+        dropped = i[~open_[j] & accepted[j]]  # paired with a settled, accepted j
+        accepted[dropped] = False
+        open_[dropped] = False
+        keep = open_[i] & open_[j]  # a settled j no longer matters: accepted ones have dropped their i
+        i, j = i[keep], j[keep]
+        still = np.zeros(m, dtype=bool)
+        still[i] = True
+        open_ &= still  # open candidates left without pairs: every j was dropped, so accepted
     return accepted
 
 
