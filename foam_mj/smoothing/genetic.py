@@ -143,6 +143,7 @@ class GeneticAlgorithm(Smoother):
         cpos = CHUNK
         add_reduce, take, subtract, multiply, add, copyto = np.add.reduce, np.take, np.subtract, np.multiply, np.add, np.copyto
         inverse, rank = self.selection == "inverse", self.selection == "rank"
+        cw, u = np.empty(P), np.empty(2 * P)  # roulette weights (cumulated in place), scaled draws
         while reason is None:
             if cpos >= CHUNK:
                 sel_u, no_cross, beta, mut_gen, mut_pos, mut_alpha = self._draw(rng, P, m)
@@ -160,9 +161,12 @@ class GeneticAlgorithm(Smoother):
             if rank:  # cum_rank ends at 1.0 > u: no index past the end
                 pairs = np.argsort(fit, kind="stable")[np.searchsorted(cum_rank, sel_u[cpos], side="right")]
             else:
-                w = 1.0 / np.maximum(fit, 1e-300) if inverse else fit.max() - fit + 1e-12
-                cw = np.add.accumulate(w)  # np.cumsum
-                pairs = cw.searchsorted(sel_u[cpos] * cw[-1], side="right")
+                if inverse:  # 1 / max(f, 1e-300)
+                    np.divide(1.0, np.maximum(fit, 1e-300, out=cw), out=cw)
+                else:
+                    np.add(fit.max() - fit, 1e-12, out=cw)
+                np.add.accumulate(cw, out=cw)  # np.cumsum
+                pairs = cw.searchsorted(np.multiply(sel_u[cpos], cw[-1], out=u), "right")
                 if clip:
                     np.minimum(pairs, P - 1, out=pairs)
             pairs = pairs.reshape(2, P)  # [first selected parents a; second selected parents b]
