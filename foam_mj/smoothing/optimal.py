@@ -40,9 +40,16 @@ with u = a/|a|, G = (I - u u^T)/|a| and z_j = y_j - y_(j-1),
 
 whose negative eigenvalues are clipped (the subproblem must stay convex), put in P as the 2 x 2 block
 pattern [[H, -H], [-H, H]] over the segment's end points; and h''(s0)(s - s0)^2 / 2 for the convex outer
-function. P is then block-tridiagonal over the waypoints (a fixed pattern). On a rejected step the relative
+function. A segment longer than 4 times the box's half-diagonal (its direction barely moves in one step)
+leaves its cone: its length enters as w_len (|a| + u . da) plus w_len da^T G da / 2 added to that segment's
+block before the clip (the length's curvature across the segment offsets much of the indefinite part, so
+less is clipped), and the subproblem has fewer rows. P is then block-tridiagonal over the waypoints (a
+fixed pattern). On a rejected step the relative
 trust region of the short segments shrinks with delta (by 4; back up by 2 after a very good step, to at
-most 0.5), so that a step limited by a short segment's relative region is not retried unchanged.
+most 0.5), so that a step limited by a short segment's relative region is not retried unchanged. A
+segment shorter than 1e-3 that more than halved in an accepted step is collapsing onto a corner, which the
+relative region lets happen only by halves: the tie is tried at once (kept when feasible, which for f never
+increases F).
 
 Repeated points (ties). The shortest path puts consecutive waypoints on the same corner wherever their
 hatches overlap there, and so does the optimum of f (a corner counts once, foam_mj.paths). Two points
@@ -229,6 +236,8 @@ def _unit_segments(seg: np.ndarray, lens: np.ndarray) -> np.ndarray:
 RELATIVE = 0.5  # a segment's vector may change by at most this fraction of its length in one step
 STEP_CAP = 8.0  # after a very good step (curvature model), delta <= this times the step's |dW|_inf
 EARLY = 1e-7  # an accepted step predicted to gain less than this * |F| asks its own duals for a certificate
+LONG = 4.0  # curvature model: a segment longer than this times the box's half-diagonal has its length in P
+COLLAPSE = 1e-3  # curvature model: a segment shorter than this that more than halved in a step is tried as a tie
 TIE = 1e-5  # points closer than this are one point (a tie) in the next subproblem
 
 
@@ -394,7 +403,7 @@ def _shortest_start(rosary: Rosary, h: Hatches, inset: float) -> tuple[np.ndarra
     return w, _structure(rosary, inset, socp)
 
 
-def _segment_curvature(Q: np.ndarray, y: np.ndarray) -> np.ndarray:
+def _segment_curvature(Q: np.ndarray, y: np.ndarray, length: np.ndarray | float = 0.0) -> np.ndarray:
     """PSD part of the Hessian of sum_i y_i . v_i with respect to each segment of the polyline Q, where
     v_i = u_i - u_(i+1) at interior vertex i and y (Mv, n) are fixed multipliers -> (segments, n, n).
 
@@ -415,12 +424,14 @@ def _segment_curvature(Q: np.ndarray, y: np.ndarray) -> np.ndarray:
     Gz = np.einsum("jde,je->jd", G, z)
     uz = np.einsum("jd,jd->j", u, z)
     H = -(u[:, :, None] * Gz[:, None, :] + Gz[:, :, None] * u[:, None, :] + uz[:, None, None] * G) / r[:, None, None]
+    H += np.reshape(length, (-1, 1, 1)) * G  # the length's own curvature where it is modelled here
     lam, V = np.linalg.eigh(H)
     return np.einsum("jdk,jk,jek->jde", V, np.maximum(lam, 0.0), V)
 
 
 def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta: float, vx: _Vertices,
-                y: np.ndarray | None = None, rel: float = RELATIVE, keep: np.ndarray | None = None):
+                y: np.ndarray | None = None, rel: float = RELATIVE, keep: np.ndarray | None = None,
+                long_seg: np.ndarray | None = None):
     """Clarabel data for one step. Variables x = [W (m n), t (m + 1), s (M)]; cones in the order
     ties (zero cone), trust region (box), segment and ball cones, vertex cones."""
     n, nw, nt, M = st.n, st.nw, st.nt, st.M
@@ -488,7 +499,8 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     # Segment and ball cones (constant), without the balls that no point of the trust region reaches.
     A0 = st.A0
     a0_row = off
-    if keep is None or keep.all():
+    seg_keep = np.ones(nt, dtype=bool) if long_seg is None or y is None else ~long_seg
+    if (keep is None or keep.all()) and seg_keep.all():
         rows.append(off + A0.row)
         cols.append(A0.col)
         vals.append(A0.data)
@@ -496,7 +508,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         n_cones = nt + 2 * m
     else:
         cd = n + 1
-        cone_keep = np.r_[np.ones(nt, dtype=bool), keep.ravel()]
+        cone_keep = np.r_[seg_keep, np.ones(2 * m, dtype=bool) if keep is None else keep.ravel()]
         new_cone = np.cumsum(cone_keep) - 1
         cone = A0.row // cd
         e = cone_keep[cone]
@@ -507,9 +519,10 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         n_cones = int(cone_keep.sum())
     cones += [clarabel.SecondOrderConeT(n + 1)] * n_cones
     off += n_cones * (n + 1)
+    ball_row = a0_row + int(seg_keep.sum()) * (n + 1)  # the first ball cone's row
     q = np.zeros(nx)
-    q[nw:nw + nt] = weights.length
-    Pdiag = np.ones(nx) * 0.0
+    q[nw:nw + nt] = weights.length * seg_keep
+    Pdiag = np.where(np.r_[np.zeros(nw, dtype=bool), ~seg_keep, np.zeros(M, dtype=bool)], 1.0, 0.0)  # pins a t without cone
     Mv = len(vx.s0)
     Pdiag[nw + nt + Mv:] = 1.0  # pins the unused s at 0
     if Mv and (weights.angle or weights.sv):
@@ -546,19 +559,31 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         # P is diagonal: built as CSC directly (every diagonal entry stored, zeros too, so that the pattern is
         # the same at every step; sp.diags costs more than the rest of this function)
         ix = np.arange(nx + 1, dtype=np.int32)
-        return sp.csc_matrix((Pdiag, ix[:-1], ix), shape=(nx, nx)), q, A, b, cones, None, a0_row
+        return sp.csc_matrix((Pdiag, ix[:-1], ix), shape=(nx, nx)), q, A, b, cones, None, ball_row
     # Curvature (SQP): 1/2 dW^T H dW with H the PSD part of sum_i y_i . d^2 v_i (see _segment_curvature), and
     # 1/2 h''(s0) (s - s0)^2 for the angle's outer function; the segment of the merged polyline from group g
     # to group g + 1 is put on the adjacent waypoints (last of group g, first of group g + 1), which the tie
     # equalities make equal to the group's point.
     indptr, indices, dpos, upos, tpos, (ta, tb) = st.p_pattern()
-    Hs = _segment_curvature(p[vx.D], y)
     first = np.flatnonzero(np.r_[True, vx.rep[1:] != vx.rep[:-1]])
-    kb = first[1:] - 1  # waypoint index of each segment's b end (point first[j + 1])
+    kb = first[1:] - 1  # waypoint index of each segment's b end (point first[j + 1]); also the path segment's index
     ka = kb - 1
+    Q = p[vx.D]
+    lin = ~seg_keep[kb]  # merged segments whose length is modelled to second order (no cone)
+    Hs = _segment_curvature(Q, y, weights.length * lin)
+    fa, fb = (ka >= 0) & (ka < m), (kb >= 0) & (kb < m)
+    qW = np.zeros((m, n))
+    lin_const = 0.0
+    if lin.any():
+        # Length of a long segment: w_len (|a| + u . da) + w_len da^T G da / 2 (the last in Hs, before the clip).
+        a = np.diff(Q, axis=0)[lin]
+        r = np.linalg.norm(a, axis=1)
+        wu = weights.length * a / r[:, None]
+        np.add.at(qW, kb[lin & fb], wu[fb[lin]])
+        np.subtract.at(qW, ka[lin & fa], wu[fa[lin]])
+        lin_const = weights.length * float(r.sum())
     Dblk = np.zeros((m, n, n))
     Sblk = np.zeros((max(m - 1, 0), n, n))
-    fa, fb = (ka >= 0) & (ka < m), (kb >= 0) & (kb < m)
     np.add.at(Dblk, ka[fa], Hs[fa])
     np.add.at(Dblk, kb[fb], Hs[fb])
     both = fa & fb
@@ -568,7 +593,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     if m > 1:
         PW0[:-1] += np.einsum("kde,ke->kd", Sblk, W0[1:])
         PW0[1:] += np.einsum("kde,kd->ke", Sblk, W0[:-1])
-    q[:nw] -= PW0.ravel()
+    q[:nw] += qW.ravel() - PW0.ravel()
     if Mv and weights.angle:
         sc = np.minimum(vx.s0, _S_MAX)
         hpp = weights.angle * _ddh(sc) / M
@@ -578,7 +603,8 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     data[dpos] = Dblk[:, ta, tb]
     data[upos] = Sblk
     data[tpos] = Pdiag[nw:]
-    return sp.csc_matrix((data, indices, indptr), shape=(nx, nx)), q, A, b, cones, (Dblk, Sblk, Pdiag[nw + nt:nw + nt + Mv]), a0_row
+    return (sp.csc_matrix((data, indices, indptr), shape=(nx, nx)), q, A, b, cones,
+            (Dblk, Sblk, Pdiag[nw + nt:nw + nt + Mv], lin_const, qW), ball_row)
 
 
 def _kappa(sc: np.ndarray) -> np.ndarray:
@@ -603,6 +629,7 @@ def _model_value(x: np.ndarray, st: _Structure, weights: ObjectiveWeights, vx: _
     if curv is not None:
         Dblk, Sblk = curv[0], curv[1]
         dW = x[:nw].reshape(p[1:-1].shape) - p[vx.rep[1:-1]]
+        value += curv[3] + float(np.sum(curv[4] * dW))  # long segments' lengths to first order
         value += 0.5 * float(np.einsum("kd,kde,ke->", dW, Dblk, dW))
         if len(Sblk):
             value += float(np.einsum("kd,kde,ke->", dW[:-1], Sblk, dW[1:]))
@@ -751,14 +778,16 @@ def sequential_convex(
             bent = vx.s0 >= STRAIGHT
             sc = np.minimum(vx.s0[bent], _S_MAX)
             y[bent] = (weights.angle * _dh(sc) / st.M / sc)[:, None] * vx.v[bent]
-        keep = None
+        keep = long_seg = None
         if curvature:
             # A ball whose sphere is farther from the point than the box's half-diagonal (plus the 1e-5 a tie
             # may move it) cannot be active in this subproblem: left out.
             reach = np.sqrt(st.n) * delta + 2 * tie
             keep = (np.stack([h.ra, h.rb], axis=1) - inset - np.stack([np.linalg.norm(p[1:-1] - h.ca, axis=1),
                     np.linalg.norm(p[1:-1] - h.cb, axis=1)], axis=1)) <= reach
-        P, q, A, b, cones, curv, a0_row = _subproblem(st, p, weights, delta, vx, y, rel, keep)
+            # Segments much longer than the box's reach: their length to second order in P (no cone).
+            long_seg = (lens >= LONG * np.sqrt(st.n) * delta) & (vx.rep[1:] != vx.rep[:-1])
+        P, q, A, b, cones, curv, ball_row = _subproblem(st, p, weights, delta, vx, y, rel, keep, long_seg)
         sub_tol = SOLVER_TOL
         if curvature:  # far from the optimum the step needs fewer digits than the solver's 1e-9
             sub_tol = min(LOOSE_TOL, max(SOLVER_TOL, 1e-3 * pred_last / max(abs(F), 1e-300)))
@@ -783,7 +812,7 @@ def sequential_convex(
                 # certificate's R^2 - |w - c|^2 >= 0, whose gradient is -2 (w - c) = -2 R (w - c)/|w - c|).
                 z0 = np.zeros((st.M, 2))
                 kept = np.ones((st.M, 2), dtype=bool) if keep is None else keep
-                z0[kept] = z[a0_row + (st.nt + np.arange(int(kept.sum()))) * cd]
+                z0[kept] = z[ball_row + np.arange(int(kept.sum())) * cd]
                 guess = (y_pt.copy(), z0 / (2.0 * (np.stack([h.ra, h.rb], axis=1) - inset)))
             if certify is not None and pred <= certify_tol * abs(F):
                 if certify(w, guess):
@@ -807,6 +836,19 @@ def sequential_convex(
                 continue
             rho = -np.inf  # a failed subproblem: shrink the region and retry
         if rho >= 0.1:
+            if curvature:
+                # A short segment that more than halved in this step is collapsing onto a corner (the
+                # relative trust region lets it only halve per step): try the tie now. For f a tie never
+                # increases F (the triangle inequality for the length and for the angles), so it is kept
+                # when feasible; from then on the two points are one.
+                lens_new = np.linalg.norm(np.diff(p_new, axis=0), axis=1)
+                shrinking = (lens_new < COLLAPSE) & (lens_new < 0.5 * lens) & (lens_new > paths._EPS)
+                if shrinking.any():
+                    p_try = _snap(p_new, h, inset, np.where(shrinking, 1.5 * lens_new, tie))
+                    if p_try is not p_new:
+                        F_try = _true_value(p_try, weights)
+                        if F_try <= F_new:
+                            p_new, w_new, F_new = p_try, p_try[1:-1].copy(), F_try
             w_old = w
             w, p, F = w_new, p_new, F_new
             trace.values.append(F)
