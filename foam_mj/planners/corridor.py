@@ -223,55 +223,50 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
     with a hatch and every radius >= floor (a certified chain that holds the chord), or None.
 
     Centres start ``spacing`` apart; a gap between two neighbours that do not overlap gets its midpoint,
-    all chords' midpoints in one batch per level (at most ``levels``)."""
+    all chords' midpoints in one batch per level (at most ``levels``). The chords' points live in flat
+    arrays sorted by (chord, position): no Python loop over chords."""
     lo, hi = oracle.robot.lower, oracle.robot.upper
-    ts = []
-    for a, b in zip(A, B):
-        m = max(1, int(np.ceil(np.linalg.norm(b - a) / spacing)))
-        ts.append(np.linspace(0.0, 1.0, m + 1))
-    pts = [a + (b - a) * t[:, None] for a, b, t in zip(A, B, ts)]
-    flat = np.concatenate(pts)
-    rflat = oracle.radii(flat)
-    rs = np.split(rflat, np.cumsum([len(t) for t in ts])[:-1])
-    alive = [bool(np.all(r >= floor)) for r in rs]
+    K = len(A)
+    if K == 0:
+        return []
+    V = B - A
+    m = np.maximum(1, np.ceil(np.linalg.norm(V, axis=1) / spacing).astype(np.int64))
+    cid = np.repeat(np.arange(K), m + 1)
+    start = np.repeat(np.cumsum(m + 1) - (m + 1), m + 1)
+    t = (np.arange(len(cid)) - start) / m[cid]
+    pts = A[cid] + V[cid] * t[:, None]
+    r = oracle.radii(pts)
+    alive = np.ones(K, dtype=bool)
+    alive[cid[r < floor]] = False
+
+    def gaps() -> np.ndarray:
+        same = cid[:-1] == cid[1:]
+        d = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        return np.flatnonzero(same & alive[cid[:-1]] & (d > r[:-1] + r[1:] - DEEP * np.minimum(r[:-1], r[1:])))
+
     for _ in range(levels):
-        mids, owners = [], []
-        for k in range(len(ts)):
-            if not alive[k]:
-                continue
-            p, r = pts[k], rs[k]
-            d = np.linalg.norm(np.diff(p, axis=0), axis=1)
-            gap = d > r[:-1] + r[1:] - DEEP * np.minimum(r[:-1], r[1:])
-            if gap.any():
-                g = np.flatnonzero(gap)
-                tm = 0.5 * (ts[k][g] + ts[k][g + 1])
-                mids.append((k, g, tm))
-        if not mids:
+        keep = alive[cid]  # drop the dead chords' points
+        cid, t, pts, r = cid[keep], t[keep], pts[keep], r[keep]
+        g = gaps()
+        if g.size == 0:
             break
-        newp = np.concatenate([A[k] + (B[k] - A[k]) * tm[:, None] for k, _, tm in mids])
+        cm = cid[g]
+        tm = 0.5 * (t[g] + t[g + 1])
+        newp = A[cm] + V[cm] * tm[:, None]
         inb = np.all((newp >= lo) & (newp <= hi), axis=1)
         rn = np.zeros(len(newp))
         if inb.any():
             rn[inb] = oracle.radii(newp[inb])
-        off = 0
-        for k, g, tm in mids:
-            rk = rn[off : off + len(tm)]
-            pk = newp[off : off + len(tm)]
-            off += len(tm)
-            if np.any(rk < floor):
-                alive[k] = False
-                continue
-            ts[k] = np.insert(ts[k], g + 1, tm)
-            pts[k] = np.insert(pts[k], g + 1, pk, axis=0)
-            rs[k] = np.insert(rs[k], g + 1, rk)
-    out: list[tuple[np.ndarray, np.ndarray] | None] = []
-    for k in range(len(ts)):
-        if alive[k]:
-            p, r = pts[k], rs[k]
-            d = np.linalg.norm(np.diff(p, axis=0), axis=1)
-            if np.any(d > r[:-1] + r[1:] - DEEP * np.minimum(r[:-1], r[1:])):
-                alive[k] = False
-        out.append((pts[k], rs[k]) if alive[k] else None)
+        alive[cm[rn < floor]] = False
+        cid, t = np.concatenate([cid, cm]), np.concatenate([t, tm])
+        pts, r = np.concatenate([pts, newp]), np.concatenate([r, rn])
+        order = np.lexsort((t, cid))
+        cid, t, pts, r = cid[order], t[order], pts[order], r[order]
+    alive[cid[gaps()]] = False  # still a gap after the last level
+    out: list[tuple[np.ndarray, np.ndarray] | None] = [None] * K
+    for k in np.flatnonzero(alive):
+        sel = cid == k
+        out[int(k)] = (pts[sel], r[sel])
     return out
 
 
