@@ -282,7 +282,9 @@ def prune_chain(C: np.ndarray, R: np.ndarray, P: np.ndarray, pieces: int = 8) ->
     k = len(R)
     t = np.arange(pieces) / pieces
     D = np.concatenate([(P[:-1, None, :] + (P[1:] - P[:-1])[:, None, :] * t[None, :, None]).reshape(-1, P.shape[1]), P[-1:]])
-    inside = np.linalg.norm(D[None, :, :] - C[:, None, :], axis=2) <= (R - 1.5 * INSET)[:, None]
+    d2 = np.einsum("ij,ij->i", C, C)[:, None] + np.einsum("ij,ij->i", D, D)[None, :] - 2.0 * (C @ D.T)
+    rs = np.maximum(R - 1.5 * INSET, 0.0)
+    inside = d2 <= (rs * rs)[:, None]
     # The segment a sample point belongs to always holds it (it was solved inside the shrunk ball).
     seg = np.minimum(np.arange(len(D)) // pieces, k - 1)
     inside[seg, np.arange(len(D))] = True
@@ -297,7 +299,8 @@ def prune_chain(C: np.ndarray, R: np.ndarray, P: np.ndarray, pieces: int = 8) ->
     run = first_out - 1
     # Consecutive bubbles must overlap with a hatch; a deep one (DEEP) is preferred, so that deepen() has
     # less to splice afterwards.
-    d = np.linalg.norm(C[:, None, :] - C[None, :, :], axis=2)
+    sq = np.einsum("ij,ij->i", C, C)
+    d = np.sqrt(np.maximum(sq[:, None] + sq[None, :] - 2.0 * (C @ C.T), 0.0))
     small = np.minimum(R[:, None], R[None, :])
     others = ~np.eye(k, dtype=bool)
     tiers = (d <= R[:, None] + R[None, :] - DEEP * small) & others, (d <= R[:, None] + R[None, :] - HATCH * small) & others
