@@ -20,6 +20,7 @@ in :func:`build_parser` with ``p.set_defaults(func=cmd_<name>)``. Check outputs 
 Start-up is kept short: this module imports only the standard library at load time; numpy, MuJoCo, the
 pipeline, Rerun and matplotlib are imported inside the command that uses them, so ``foam-mj --help``
 and argument errors answer at once (benchmarks/speed.py measures it).
+``plan`` loads Rerun in a helper process beside the planning (:mod:`foam_mj.recorder`).
 """
 
 from __future__ import annotations
@@ -225,31 +226,15 @@ def _print_certificates(outcome) -> None:
         )
 
 
-def _record(path: Path, outcome=None, *, scenario=None, foam=None) -> None:
-    from foam_mj.recording import Recording
+def _record(path: Path, outcome=None, *, scenario=None, foam=None, recorder=None) -> None:
+    """Write the recording of ``outcome`` (or of the foam grown so far) to ``path``: by ``recorder``
+    (a foam_mj.recorder.RecorderProcess, which has Rerun loaded already) when given and it succeeds,
+    else here."""
+    from foam_mj.recorder import outcome_job
 
-    scenario = outcome.scenario if outcome is not None else scenario
-    robot = scenario.robot
-    with Recording(path, recording_id=f"foam-mj-{scenario.name}") as rec:
-        rec.log_scene(robot)
-        if outcome is None:
-            rec.log_foam(foam)
-            return
-        rec.log_foam(outcome.plan.foam, outcome.plan.rosary)
-        for name, po in outcome.paths.items():
-            rec.log_path(name, po.result.path)
-            if po.trajectory is not None:
-                rec.log_joint_trajectory(name, po.trajectory)
-            if getattr(po, "loads", None) is not None:
-                rec.log_joint_loads(name, po.loads)
-            replay = po.dynamic if po.dynamic is not None else po.kinematic
-            if replay is not None:
-                rec.log_replay(name, robot, replay)
-            if name in ("hs", "ga") or len(po.result.history_best) > 1:
-                rec.log_convergence(name, po.result.history_best, po.result.history_mean)
-            front = po.result.info.get("front") if po.result.info else None
-            if front is not None:
-                rec.log_pareto_front(name, front["objectives"], front["paths"], front.get("knee"), tuple(front.get("objective_names", ("length", "angle term"))))
+    job = outcome_job(path, outcome, scenario=scenario, foam=foam)
+    if recorder is None or not recorder.write(job):
+        job.write()
 
 
 def _parse_q(text: str, flag: str) -> list[float]:
@@ -317,6 +302,19 @@ def _check_figures_dir(path: str | None) -> Path | None:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
+    recorder = None
+    if not args.no_rrd:  # loads Rerun in a second process while this one plans (foam_mj.recorder)
+        from foam_mj.recorder import RecorderProcess
+
+        recorder = RecorderProcess.start()
+    try:
+        return _plan(args, recorder)
+    finally:
+        if recorder is not None:
+            recorder.close()  # no recording sent (an error, Ctrl-C): the helper is stopped, nothing written
+
+
+def _plan(args: argparse.Namespace, recorder) -> int:
     from foam_mj.atomic import check_output
     from foam_mj.pipeline import parse_smoothers, run
     from foam_mj.results import write_failure, write_outcome
@@ -352,7 +350,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         print(f"foam-mj: planning failed: {' '.join(str(exc).split())}", file=sys.stderr)
         if exc.foam is not None:
             if rrd is not None:
-                _record(rrd, scenario=scenario, foam=exc.foam)
+                _record(rrd, scenario=scenario, foam=exc.foam, recorder=recorder)
                 print(f"wrote the foam so far to {rrd}", file=sys.stderr)
             if json_out is not None:
                 write_failure(json_out, scenario, exc, seed)
@@ -380,7 +378,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     _print_certificates(outcome)
     if rrd is not None:
         progress("recording")
-        _record(rrd, outcome)
+        _record(rrd, outcome, recorder=recorder)
         progress.done()
         print(f"wrote {rrd} (view it with: foam-mj view {rrd})")
     if json_out is not None:
@@ -838,17 +836,45 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split())
 
 
+#: Commands after which the ``foam-mj`` process ends with ``os._exit`` once its output is flushed, skipping
+#: the interpreter's teardown (0.1-0.5 s with Rerun, MuJoCo and scipy loaded, a quarter of ``plan``'s
+#: wall time): every file they write is complete and closed before they return, and they start nothing
+#: that needs an exit handler (no Ray, no temporary folders; the recording helper is ended).
+FAST_EXIT_COMMANDS = ("plan",)
+
+
 def main(argv: list[str] | None = None) -> int:
-    if argv is None:  # the `foam-mj` command itself (not a call from Python)
+    command = argv is None  # the `foam-mj` command itself (not a call from Python)
+    if command:
         # It never renders with MuJoCo's OpenGL; without this, `import mujoco` also loads GLFW (a tenth
         # of a second of start-up). A user's own MUJOCO_GL wins.
         os.environ.setdefault("MUJOCO_GL", "disable")
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["bench"]:  # everything after `bench` belongs to the benchmark's own parser
         argv = ["bench", "--", *argv[1:]] if len(argv) > 1 else argv
+    ran: list[str] = []
+    code = _main(argv, ran)
+    if command and ran and ran[0] in FAST_EXIT_COMMANDS:
+        _exit_now(code)
+    return code
+
+
+def _exit_now(code: int) -> None:
+    """End the process with ``code`` at once, its standard streams flushed (:data:`FAST_EXIT_COMMANDS`)."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe (`| head`) or a closed stream: nothing more to show
+            pass
+    os._exit(code)
+
+
+def _main(argv: list[str], ran: list[str]) -> int:
+    """Parse ``argv`` and run its command (its name appended to ``ran``); errors become exit codes."""
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
+        ran.append(getattr(args, "command", None) or args.func.__name__.removeprefix("cmd_"))
         return args.func(args)
     except PlanningFailed as exc:  # e.g. a saved path that no timing fits the limits (replay, export)
         print(f"foam-mj: planning failed: {_one_line(exc)}", file=sys.stderr)

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -56,11 +56,13 @@ import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
 from foam_mj.atomic import atomic_write_bytes
-from foam_mj.foam import Foam
 from foam_mj.model import RobotModel, body_is_moving
 from foam_mj.replay import DynamicReplay, KinematicReplay
 from foam_mj.rosary import Rosary
 from foam_mj.trajectory import Trajectory
+
+if TYPE_CHECKING:  # imported where used: a recording needs no k-d tree (foam_mj.foam loads scipy.spatial)
+    from foam_mj.foam import Foam
 
 #: Names given to the log_* methods become entity path parts: letters, digits, '_', '-', '.'.
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_.\-]+$")
@@ -301,12 +303,22 @@ class Recording:
     # -- configuration space ---------------------------------------------------------------------------
     def log_foam(self, foam: Foam, rosary: Rosary | None = None) -> None:
         """Every bubble of ``foam`` as a sphere; the rosary (default: the foam's own, if it reached the
-        goal) highlighted; q_init and q_goal."""
-        rec = self._check_open()
+        goal) highlighted; q_init and q_goal (:meth:`log_bubbles` with the foam's arrays)."""
+        from foam_mj.foam import Foam
+
+        self._check_open()
         if not isinstance(foam, Foam):
             raise ValueError(f"`foam` must be a Foam, got {type(foam).__name__}")
-        centers = _points3(foam.centers, "foam.centers")
-        radii = np.asarray(foam.radii, dtype=float)
+        if rosary is None and foam.goal_bubble is not None:
+            rosary = foam.rosary()
+        self.log_bubbles(foam.centers, foam.radii, foam.q_init, foam.q_goal, rosary)
+
+    def log_bubbles(self, centers, radii, q_init, q_goal, rosary: Rosary | None = None) -> None:
+        """Bubbles given by their centres (m, n) and radii (m,) as spheres at ``cspace/foam``, ``rosary``
+        (if any) highlighted, and the configurations q_init and q_goal."""
+        rec = self._check_open()
+        centers = _points3(centers, "foam.centers")
+        radii = np.asarray(radii, dtype=float)
         if radii.shape != (len(centers),):
             raise ValueError(f"`foam.radii` must have shape ({len(centers)},), got {radii.shape}")
         rec.log(
@@ -314,8 +326,6 @@ class Recording:
             rr.Ellipsoids3D(centers=centers, half_sizes=np.repeat(radii[:, None], 3, axis=1), colors=[_rgba(_FOAM_RGBA)], fill_mode="majorwireframe"),
             static=True,
         )
-        if rosary is None and foam.goal_bubble is not None:
-            rosary = foam.rosary()
         if rosary is not None:
             rc = _points3(rosary.centers, "rosary.centers")
             rec.log(
@@ -323,7 +333,7 @@ class Recording:
                 rr.Ellipsoids3D(centers=rc, half_sizes=np.repeat(rosary.radii[:, None], 3, axis=1), colors=[_rgba(_ROSARY_RGBA)], fill_mode="solid"),
                 static=True,
             )
-        for key, q, color in (("q_init", foam.q_init, (0.1, 0.8, 0.1, 1.0)), ("q_goal", foam.q_goal, (0.9, 0.1, 0.1, 1.0))):
+        for key, q, color in (("q_init", q_init, (0.1, 0.8, 0.1, 1.0)), ("q_goal", q_goal, (0.9, 0.1, 0.1, 1.0))):
             rec.log(f"cspace/{key}", rr.Points3D([_points3(q, f"foam.{key}")], radii=[0.02], colors=[_rgba(color)], labels=[key]), static=True)
 
     def log_path(self, name: str, points) -> None:

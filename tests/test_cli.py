@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -225,9 +226,15 @@ def test_replay_refuses_a_tampered_result(planned, tmp_path, capsys):
 
 def test_the_console_script_runs(tmp_path):
     exe = Path(sys.executable).with_name("foam-mj")
-    run = subprocess.run([str(exe), "plan", "--smoother", "convex", "--no-rrd"], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    # The recording through the helper process (foam_mj.recorder); the command ends with os._exit once
+    # its output is flushed (FAST_EXIT_COMMANDS): every line is there, the file complete.
+    env = {**os.environ, "FOAM_MJ_RECORDER": "process"}
+    run = subprocess.run([str(exe), "plan", "--smoother", "convex", "--rrd", "o.rrd"], capture_output=True, text=True, cwd=tmp_path, env=env, timeout=300)
     assert run.returncode == 0, run.stderr
     assert "convex shortest" in run.stdout
+    assert run.stdout.splitlines()[-2:][0].startswith("wrote o.rrd") and run.stdout.splitlines()[-1].startswith("total ")
+    assert read_recording(tmp_path / "o.rrd")["cspace/foam"] == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o.rrd"]  # no temporary file left behind
     for cmd in (["--help"], ["plan", "--help"], ["replay", "--help"], ["view", "--help"], ["bench", "--help"], ["scenes", "--help"]):
         assert subprocess.run([str(exe), *cmd], capture_output=True, timeout=60).returncode == 0
 

@@ -1,0 +1,117 @@
+"""Tests foam_mj.recorder: the recording written by the helper process is the one written in-process,
+and the helper never changes what the command reports (its failures fall back to the in-process path)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from foam_mj.cli import main
+from foam_mj.pipeline import run
+from foam_mj.recorder import MODE_ENV, RecorderProcess, RecordingJob, outcome_job, recorder_mode
+from foam_mj.recording import _store_chunks, read_recording
+from foam_mj.scenarios import load_scenario
+
+
+@pytest.fixture(scope="module")
+def outcome():
+    """The obstacle scene with the convex smoother: every kind of log call (scene, foam, rosary, paths,
+    trajectories, joint loads, dynamic replays)."""
+    return run(load_scenario("obstacle"), None, ("convex",))
+
+
+def _content(path) -> list[tuple]:
+    """Every chunk of the recording store as (entity, static, column names) and its Arrow batch without the
+    row ids (unique per write), in a canonical order (stable: file order within an entity)."""
+    out = []
+    for ch in _store_chunks(path):
+        batch = ch.to_record_batch()
+        batch = batch.drop_columns([c for c in batch.schema.names if c == "rerun.controls.RowId"])
+        out.append(((str(ch.entity_path), bool(ch.is_static), tuple(batch.schema.names)), batch))
+    return sorted(out, key=lambda kb: kb[0])
+
+
+def _same(a, b) -> bool:
+    return len(a) == len(b) and all(ka == kb and ba.equals(bb) for (ka, ba), (kb, bb) in zip(a, b))
+
+
+def test_the_helper_writes_the_same_recording_as_the_command_itself(outcome, tmp_path):
+    inline, helper = tmp_path / "inline.rrd", tmp_path / "helper.rrd"
+    outcome_job(inline, outcome).write()
+    recorder = RecorderProcess.start("process")
+    assert recorder is not None
+    assert recorder.write(outcome_job(helper, outcome)) is True
+    rows = read_recording(helper)
+    assert rows["cspace/foam"] == 1 and rows["cspace/rosary"] == 1
+    assert {"cspace/paths/centre", "cspace/paths/convex", "world/leg/convex/thigh", "plots/torque/convex/knee_flexion"} <= set(rows)
+    assert _same(_content(helper), _content(inline))
+    assert not list(tmp_path.glob(".*"))  # no temporary file left behind
+
+
+def test_the_foam_of_a_failed_plan_is_recorded_the_same_way(outcome, tmp_path):
+    # `plan` records the foam grown so far when planning fails: scene, bubbles, q_init and q_goal.
+    scenario, foam = outcome.scenario, outcome.plan.foam
+    inline, helper = tmp_path / "inline.rrd", tmp_path / "helper.rrd"
+    outcome_job(inline, scenario=scenario, foam=foam).write()
+    assert RecorderProcess.start("process").write(outcome_job(helper, scenario=scenario, foam=foam)) is True
+    rows = read_recording(helper)
+    assert rows["cspace/foam"] == 1 and "cspace/q_goal" in rows and not any(e.startswith("cspace/paths") for e in rows)
+    assert _same(_content(helper), _content(inline))
+
+
+def test_a_failing_helper_leaves_the_job_to_the_command(outcome, tmp_path):
+    # The helper cannot write into a folder that does not exist: it reports failure and writes nothing;
+    # the command's own Recording then raises its usual error.
+    job = outcome_job(tmp_path / "missing" / "run.rrd", outcome)
+    recorder = RecorderProcess.start("process")
+    assert recorder.write(job) is False
+    assert not (tmp_path / "missing").exists()
+    with pytest.raises(ValueError, match="folder does not exist"):
+        job.write()
+
+
+def test_a_helper_sent_no_job_is_stopped_and_writes_nothing(tmp_path):
+    recorder = RecorderProcess.start("process")
+    proc = recorder._proc
+    recorder.close()
+    assert proc.returncode is not None  # ended, not left running
+    recorder.close()  # idempotent
+    assert recorder.write(RecordingJob(tmp_path / "late.rrd", "late")) is False  # stopped: the caller writes it
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_modes_from_the_environment(monkeypatch):
+    monkeypatch.delenv(MODE_ENV, raising=False)
+    assert recorder_mode() == "auto"
+    monkeypatch.setenv(MODE_ENV, "inline")
+    assert recorder_mode() == "inline" and RecorderProcess.start() is None
+    monkeypatch.setenv(MODE_ENV, "Process ")
+    assert recorder_mode() == "process"
+    monkeypatch.setenv(MODE_ENV, "thread")
+    with pytest.raises(Exception, match="FOAM_MJ_RECORDER must be one of auto, process, inline, got 'thread'"):
+        recorder_mode()
+
+
+def test_plan_with_a_bad_recorder_mode_exits_2_in_one_line(monkeypatch, tmp_path, capsys):
+    monkeypatch.setenv(MODE_ENV, "thread")
+    assert main(["plan", "--scene", "obstacle", "--smoother", "convex", "--rrd", str(tmp_path / "o.rrd")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "FOAM_MJ_RECORDER" in err[0]
+    assert not (tmp_path / "o.rrd").exists()
+
+
+def test_plan_through_the_helper_writes_a_complete_recording(monkeypatch, tmp_path, capsys):
+    monkeypatch.setenv(MODE_ENV, "process")
+    rrd = tmp_path / "o.rrd"
+    assert main(["plan", "--scene", "obstacle", "--smoother", "convex", "--no-replay", "--rrd", str(rrd)]) == 0
+    assert f"wrote {rrd}" in capsys.readouterr().out
+    rows = read_recording(rrd)
+    assert rows["cspace/foam"] == 1 and "cspace/paths/convex" in rows
+
+
+def test_importing_the_recorder_loads_neither_rerun_nor_numpy():
+    code = "import sys, foam_mj.recorder; print(sorted(m for m in ('numpy', 'rerun', 'mujoco') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
