@@ -804,6 +804,9 @@ def sequential_convex(
                 y_pt[:] = 0.0
                 y_pt[vx.D[1:-1]] = -z[len(b) - Mv * cd:].reshape(Mv, cd)[:, 1:]
             if pred <= tol * abs(F) + 1e-15:
+                if curvature:  # only the plain model may say so (a clipped curvature can stall short of it)
+                    curvature, delta, rel, rejected = False, delta0, RELATIVE, 0
+                    continue
                 trace.stop_reason = "converged"
                 break
             if certify is not None:
@@ -866,14 +869,17 @@ def sequential_convex(
                 rel = min(2.0 * rel, RELATIVE)
         else:
             rejected = rejected + 1 if np.isfinite(rho) and pred < 1e-7 * abs(F) else 0
-            if rejected >= stall:
-                trace.stop_reason = "converged (solver accuracy)"
-                break
             delta *= 0.25
             if curvature:
                 rel *= 0.25
-            if delta < 1e-12:
-                trace.stop_reason = "trust region collapsed" if status in ("Solved", "AlmostSolved") else f"subproblem {status}"
+            if rejected >= stall or delta < 1e-12:
+                if curvature:  # the plain model from here (see "converged" above)
+                    curvature, delta, rel, rejected = False, delta0, RELATIVE, 0
+                    continue
+                if rejected >= stall:
+                    trace.stop_reason = "converged (solver accuracy)"
+                else:
+                    trace.stop_reason = "trust region collapsed" if status in ("Solved", "AlmostSolved") else f"subproblem {status}"
                 break
     return w, trace
 
