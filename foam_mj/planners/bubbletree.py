@@ -68,6 +68,10 @@ STEPS = np.array([1.0, 2.0])
 EXPLORE_CAP = 20
 #: A bubble is extended toward the other tree at most this many times (then others nearby get their turn).
 MAX_TRIES = 3
+#: ``refine_chain = 0``: refinement starts no new round once the chain holds this many bubbles per joint
+#: (on the 3-joint obstacle scene 60 bubbles cut plan + optimal smoother by ~13 % CPU at the same median
+#: length; on the 5-joint leg a cap of 60 cost 6 % of length, 100 costs nothing).
+CHAIN_PER_JOINT = 20
 #: A hatch must be at least this fraction of the smaller radius deep (keeps hatches away from tangency).
 HATCH = 0.05
 
@@ -82,7 +86,8 @@ class BubbleTreeOptions:
     refinement (the first path is never lost: refinement only shortens it); ``informed``: after the first path,
     explore only where a shorter path can pass (the informed set); ``metric``: the length the corridor
     minimises, ``"qpos"`` (MuJoCo's joint units: radians and metres, through the configuration map's scale)
-    or ``"q"`` (the planner's coordinates; the same unless a joint is normalized)."""
+    or ``"q"`` (the planner's coordinates; the same unless a joint is normalized); ``refine_chain``: no new
+    refinement round once the chain holds this many bubbles (0: 20 per joint)."""
 
     batch: int = 24
     connect: int = 4
@@ -94,10 +99,11 @@ class BubbleTreeOptions:
     refine_floor: float = 3.0
     explore: float = 1.0
     informed: bool = True
+    refine_chain: int = 0
     metric: str = "qpos"
 
     def __post_init__(self) -> None:
-        for name in ("batch", "connect", "refine_rounds"):
+        for name in ("batch", "connect", "refine_rounds", "refine_chain"):
             v = getattr(self, name)
             if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= (1 if name == "batch" else 0)):
                 raise ValueError(f"`{name}` must be an integer >= {1 if name == 'batch' else 0}, got {v!r}")
@@ -363,7 +369,7 @@ class BubbleTreePlanner(Planner):
         corridor = build_corridor(
             problem, B.c[: B.n], B.r[: B.n], link,
             CorridorOptions(refine=o.refine, refine_tol=o.refine_tol, refine_rounds=o.refine_rounds, time_limit=o.refine_time,
-                            floor_factor=o.refine_floor, metric=metric), rng,
+                            floor_factor=o.refine_floor, metric=metric, max_chain=o.refine_chain or CHAIN_PER_JOINT * n), rng,
         )
         if len(corridor.added_centers):
             B.add(corridor.added_centers, corridor.added_radii, corridor.added_parents, np.full(len(corridor.added_radii), 2, dtype=np.int8))

@@ -82,6 +82,9 @@ class CorridorOptions:
     prune: bool = True
     #: Per-coordinate length weights (None: Euclidean in q); see :func:`shortest_path`.
     metric: np.ndarray | None = None
+    #: No new round once the chain holds this many bubbles (the smoothers' time grows with it; the last
+    #: rounds of a path sliding along an obstacle add many bubbles for a per cent or two).
+    max_chain: int = 10**9
 
 
 @dataclass
@@ -509,7 +512,7 @@ def build_corridor(
                 print(f"round: chain {len(R2)} length {length:.4f} -> {length2:.4f}")
             if length2 <= length:
                 C, R, ids, w, length = C2, R2, ids2, w2, length2
-            if gain <= options.refine_tol:
+            if gain <= options.refine_tol or len(R) >= options.max_chain:
                 break
     # 4. The last chain pruned (rounds skip a prune that drops few bubbles), then every hatch made deep enough
     #    to sample from: the smaller ball's centre inside the larger ball. One cone program for both.
