@@ -30,7 +30,9 @@ obstacles); the violation is the summed penetration depth max(0, r + clearance -
 the archive and personal bests compare solutions by **constrained dominance** (a collision-free path
 dominates a colliding one; of two colliding ones the smaller violation wins; see
 :mod:`foam_mj.smoothing.pareto`). No penalty weight to tune, and a front made of collision-free paths
-whenever the swarm has found one.
+whenever the swarm has found one. With "offsets" each segment stays between two fixed stations along
+SP -> TP, so only the circles that reach that stretch are checked (a broad phase, about 1 pair in 7 on
+the paper's maps; the same violation bit for bit).
 """
 
 from __future__ import annotations

@@ -5,6 +5,8 @@
   (Deb 2000): a feasible solution (violation 0) dominates an infeasible one, of two infeasible ones
   the smaller violation dominates, and two feasible ones compare by Eq. 14. On a rosary every
   solution is feasible (the waypoints are projected onto their hatches) and this is plain Eq. 14.
+* Filtering (:func:`nondominated_mask`): the K x K dominance matrix; for two objectives the same rule
+  by sorting (O(K log K), the same mask: comparisons only), which the archives of MGOA and MOPSO use.
 * :class:`Archive` (Eq. 15-16): the non-dominated solutions found so far, bounded in size. Pruning
   rule: while over capacity, drop the member with the smallest **crowding distance** (NSGA-II,
   recomputed after every removal; exact and O(K log K) for two objectives via a heap). The two
