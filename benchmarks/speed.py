@@ -15,7 +15,8 @@ Rows (obstacle scenario, its default seed, unless named):
   adjustment (Eq. 8) to their stop criteria;
 * ``pfm foam growth``: bubbles per second of foam_mj.foam.plan over seeds 0..4;
 * ``foam-mj --help``, ``foam-mj plan --scene obstacle``: wall time of the console command in a new
-  process (start-up included; plan writes its recording to a temporary folder);
+  process (start-up included; plan writes its recording to a temporary folder, through its helper
+  process when a core is free for it (foam_mj.recorder): the CPU column then includes the helper's);
 * ``walker replay``: the "replay" phase of ``foam-mj plan --scene walker_*`` (time laws, joint loads,
   kinematic and dynamic replays of its paths; ``--quick``: one run per scene).
 
