@@ -115,3 +115,45 @@ def test_importing_the_recorder_loads_neither_rerun_nor_numpy():
     code = "import sys, foam_mj.recorder; print(sorted(m for m in ('numpy', 'rerun', 'mujoco') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def _default_sigint() -> None:
+    """Let the child see Ctrl-C even when this test runs in a background job (which inherits SIGINT ignored)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def test_ctrl_c_stops_the_command_and_its_helper_and_writes_nothing(tmp_path):
+    import os
+    import signal
+    import time
+
+    import psutil  # a dependency of rerun-sdk
+
+    env = {**os.environ, MODE_ENV: "process"}
+    rrd = tmp_path / "w.rrd"
+    proc = subprocess.Popen([sys.executable, "-m", "foam_mj.cli", "plan", "--scene", "walker_two_routes", "--rrd", str(rrd)],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=_default_sigint)
+    helpers: list = []
+    try:
+        for _ in range(200):  # the helper starts first thing
+            helpers = psutil.Process(proc.pid).children()
+            if helpers:
+                break
+            time.sleep(0.05)
+        assert helpers, "no helper process was started"
+        time.sleep(0.5)
+        os.killpg(proc.pid, signal.SIGINT)  # as a terminal does: the whole process group
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        gone, alive = psutil.wait_procs(helpers, timeout=30)
+        for p in alive:
+            p.kill()
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    assert not alive
+    assert list(tmp_path.iterdir()) == []  # no recording, no temporary file
