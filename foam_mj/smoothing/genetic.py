@@ -147,9 +147,7 @@ class GeneticAlgorithm(Smoother):
         while reason is None:
             if cpos >= CHUNK:
                 sel_u, no_cross, beta, mut_gen, mut_pos, mut_alpha = self._draw(rng, P, m)
-                nc_mask = np.zeros((CHUNK, P), dtype=bool)
-                nc_mask[np.repeat(np.arange(CHUNK), [len(r) for r in no_cross]), np.concatenate(no_cross)] = True
-                nc_any = [len(r) > 0 for r in no_cross]
+                nc_any = no_cross.any(axis=1).tolist()
                 # u * total < total for every u of the chunk (u < 1 - 2^-40): no index past the wheel's end
                 clip = float(sel_u.max()) >= 1.0 - 2.0**-40
                 muts: list[list] = [[] for _ in range(CHUNK)]
@@ -174,7 +172,7 @@ class GeneticAlgorithm(Smoother):
             # itself (a + beta (a - a) = a, bit for bit but for the sign of a zero coordinate, which f does
             # not see), so that one code path makes every child.
             if nc_any[cpos]:
-                copyto(pairs[1], pairs[0], where=nc_mask[cpos])
+                copyto(pairs[1], pairs[0], where=no_cross[cpos])
             fp = fit[pairs]
             # parent 1 (the better; a on a tie) and parent 2 of every child ("clip": the indices are valid, and
             # numpy's default mode buffers the output)
@@ -228,10 +226,11 @@ class GeneticAlgorithm(Smoother):
         )
 
     def _draw(self, rng: np.random.Generator, P: int, m: int):
-        """Random numbers for CHUNK generations: selection uniforms (CHUNK, 2P), crossover flags and betas
-        (CHUNK, P), and the mutated alleles as sorted flat positions with their generation and alpha."""
+        """Random numbers for CHUNK generations: selection uniforms (CHUNK, 2P), "no crossover" flags (bool)
+        and betas (CHUNK, P), and the mutated alleles as sorted flat positions with their generation and
+        alpha."""
         sel_u = rng.random((CHUNK, 2 * P))
-        no_cross = [np.flatnonzero(row) for row in rng.random((CHUNK, P)) >= self.cross_prob]
+        no_cross = rng.random((CHUNK, P)) >= self.cross_prob
         if self.beta is None:
             beta = rng.random((CHUNK, P))[:, :, None]  # broadcasts over (n, P, k+1) as (P, 1)
         else:
