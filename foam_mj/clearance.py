@@ -98,7 +98,9 @@ class Clearance:
             return np.empty((0, P))
         self.calls += n
         batch, qpos, sensordata, ids = self._batch(n, 2 if n >= THREADED_BATCH else 1)
-        qpos[:n] = self.robot.config.to_qpos(Q)
+        cfg = self.robot.config
+        qpos[:n] = cfg.qpos0  # as ConfigurationMap.to_qpos, written straight into the batch's rows
+        qpos[:n, cfg.qpos_index] = cfg.offset + cfg.scale * Q
         batch.forward(None if n == batch.nsim else ids[:n], _STAGE_POS)
         return sensordata[:n, sensordata.shape[1] - P :].copy()  # our sensors come last, after any the model has
 
