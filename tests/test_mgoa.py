@@ -13,7 +13,7 @@ from hypothesis.extra.numpy import arrays
 
 from foam_mj import paths
 from foam_mj.foam import plan
-from foam_mj.planar2d import CircleMap, PlanarPathProblem, paper_environment, smoothness
+from foam_mj.planar2d import CircleMap, PlanarPathProblem, paper_environment, path_length, smoothness
 from foam_mj.scenarios import load_scenario
 from foam_mj.smoothing.base import SmoothingResult
 from foam_mj.smoothing.convex import ConvexShortestPath
@@ -349,6 +349,18 @@ def test_planar_broad_phase_gives_the_dense_violation_bit_for_bit(env, n, cleara
         dense = prob.map.violation(prob.paths(X), clearance)
         assert np.count_nonzero(dense) > 0 or scale < 1
         np.testing.assert_array_equal(prob.evaluate(X)[1], dense)
+
+
+@pytest.mark.parametrize("delta", [0.0, 0.5])
+def test_planar_objectives_equal_path_length_and_smoothness_bit_for_bit(delta):
+    # evaluate() computes F1, F2 per coordinate; the public functions reduce over (x, y): the same numbers
+    prob = PlanarPathProblem(paper_environment(2), 6, delta=delta)
+    X = prob.sample(np.random.default_rng(3), 100)
+    X[:3] = X[3]  # duplicates
+    X[4] = 0.0  # the straight line: every turning angle 0
+    P = prob.paths(X)
+    want = np.stack([path_length(P), smoothness(P, delta)], axis=-1)
+    np.testing.assert_array_equal(prob.evaluate(X)[0], want)
 
 
 def test_planar_problem_parametrizations_and_objectives():
