@@ -369,19 +369,25 @@ def plan(
     centers = np.empty((cap, n))
     radii = np.empty(cap)
     parents = np.empty(cap, dtype=np.int64)
+    cum = np.zeros(cap + 1, dtype=np.int64)  # cum[i]: candidates of bubbles 0..i-1 (Eq. 2)
     index = CoverageIndex(n)
     count = 0
 
     def add(c: np.ndarray, r: np.ndarray, parent: np.ndarray) -> None:
         """Append bubbles (k, n), radii (k,), parents (k,) to the preallocated arrays (doubled when full)."""
-        nonlocal centers, radii, parents, count
+        nonlocal centers, radii, parents, cum, count
         k = len(r)
         if count + k > len(radii):
             size = max(2 * len(radii), count + k)
             centers = np.concatenate([centers[:count], np.empty((size - count, n))])
             radii = np.concatenate([radii[:count], np.empty(size - count)])
             parents = np.concatenate([parents[:count], np.empty(size - count, dtype=np.int64)])
+            cum = np.concatenate([cum[: count + 1], np.empty(size - count, dtype=np.int64)])
         centers[count : count + k], radii[count : count + k], parents[count : count + k] = c, r, parent
+        # Eq. 2's N for each new bubble, summed into the running totals that batch the queue.
+        n_cand = (params.K * np.floor(np.minimum(r, diag) / r_min) ** (n - 1)).astype(np.int64)
+        np.cumsum(n_cand, out=cum[count + 1 : count + k + 1])
+        cum[count + 1 : count + k + 1] += cum[count]
         index.add(c, r)
         count += k
 
@@ -415,14 +421,14 @@ def plan(
             next_report = now + 0.5
         # A batch of queued parents, taken in FIFO order. Their candidates are drawn in parent order from
         # the one generator and accepted in that order below, exactly as one-by-one processing would.
-        counts_all = (params.K * np.floor(np.minimum(radii[head:count], diag) / r_min) ** (n - 1)).astype(np.int64)
-        stop = head + int(np.searchsorted(np.cumsum(counts_all), MAX_BATCH_CANDIDATES, side="right"))
+        # The longest run of parents whose candidates number at most MAX_BATCH_CANDIDATES (at least one parent).
+        stop = head + int(np.searchsorted(cum[head + 1 : count + 1], cum[head] + MAX_BATCH_CANDIDATES, side="right"))
         stop = min(max(stop, head + 1), count)
         batch = np.arange(head, stop)
+        counts = np.diff(cum[head : stop + 1])
+        total = int(cum[stop] - cum[head])
         head = stop
-        counts = counts_all[: len(batch)]
         stats.parents_expanded += len(batch)
-        total = int(counts.sum())
         if total == 0:
             continue
         parent_of = np.repeat(batch, counts)
@@ -453,16 +459,16 @@ def plan(
             continue
         # Candidates of this batch covered by a bubble accepted earlier in the same batch are dropped.
         accepted = _accept_in_order(cand, r)
-        reach = np.sum((cand - q_goal) ** 2, axis=1) <= (r + MEMBERSHIP_TOL) ** 2
         stats.dropped_covered += int((~accepted).sum())
         # Stop at the first accepted bubble that holds the goal, and at the bubble budget.
         order = np.flatnonzero(accepted)[: params.max_bubbles - count]
-        hits = np.flatnonzero(reach[order])
+        reach = np.sum((cand[order] - q_goal) ** 2, axis=1) <= (r[order] + MEMBERSHIP_TOL) ** 2
+        hits = np.flatnonzero(reach)
         if hits.size:
             order = order[: hits[0] + 1]
         # The accepted bubbles join in their drawn order; only the last can hold the goal (order ends there).
         add(cand[order], r[order], parent_of[order])
-        if order.size and reach[order[-1]]:
+        if hits.size:
             goal = count - 1
     if goal is None:
         foam = foam_now()
