@@ -49,7 +49,11 @@ trust region of the short segments shrinks with delta (by 4; back up by 2 after 
 most 0.5), so that a step limited by a short segment's relative region is not retried unchanged. A
 segment shorter than 1e-3 that more than halved in an accepted step is collapsing onto a corner, which the
 relative region lets happen only by halves: the tie is tried at once (kept when feasible, which for f never
-increases F).
+increases F). The clipped curvature may predict too little decrease near some points (folded chains), so
+it never ends a run by itself: a run stops on a certificate with residual <= 1e-5 (``POLISH_TOL``, ten
+times tighter than the certificate's, so that F is polished as without curvature); a prediction of no
+decrease, a stall, a collapsed trust region or a certificate between 1e-5 and 1e-4 hand the run to the
+plain model above, which then ends it as before.
 
 Repeated points (ties). The shortest path puts consecutive waypoints on the same corner wherever their
 hatches overlap there, and so does the optimum of f (a corner counts once, foam_mj.paths). Two points
@@ -236,6 +240,7 @@ def _unit_segments(seg: np.ndarray, lens: np.ndarray) -> np.ndarray:
 RELATIVE = 0.5  # a segment's vector may change by at most this fraction of its length in one step
 STEP_CAP = 8.0  # after a very good step (curvature model), delta <= this times the step's |dW|_inf
 EARLY = 1e-7  # an accepted step predicted to gain less than this * |F| asks its own duals for a certificate
+POLISH_TOL = 1e-5  # curvature model: a run stops on a certificate this tight (else the plain model polishes on)
 LONG = 4.0  # curvature model: a segment longer than this times the box's half-diagonal has its length in P
 COLLAPSE = 1e-3  # curvature model: a segment shorter than this that more than halved in a step is tried as a tie
 TIE = 1e-5  # points closer than this are one point (a tie) in the next subproblem
@@ -718,8 +723,9 @@ def sequential_convex(
     stall: int = 4,
     tie: float | None = None,
     structure: _Structure | None = None,
-    certify: Callable[[np.ndarray, tuple], bool] | None = None,
+    certify: Callable[[np.ndarray, tuple], "Certificate"] | None = None,
     certify_tol: float = 1e-8,
+    kkt_tol: float = 1e-4,
 ) -> tuple[np.ndarray, SCPTrace]:
     """Trust-region SCP from ``w0`` (inside the shrunk hatches) -> (waypoints, trace).
 
@@ -730,12 +736,14 @@ def sequential_convex(
     predicted decrease is below 1e-7 |F| (the subproblem is solved to a relative 1e-9, so such
     predictions are rounding: "converged (solver accuracy)"), or delta falls below 1e-12.
 
-    With ``certify`` (waypoints, multiplier guess, solve the SOCP? -> certified?), a prediction below
+    With ``certify`` (waypoints, multiplier guess, solve the SOCP? -> Certificate), a prediction below
     ``certify_tol`` * |F| (coarser than ``tol``) asks it first, and a certified point ends the run
     ("certified"): the last few subproblems only polish F in its ninth digit. When the answer is no, the
     next question waits until the prediction is 10 times smaller. With the curvature model (objectives
     without SV) an accepted step predicted to gain less than ``EARLY`` * |F| also asks, with the step's
-    own duals and without the SOCP, whether its end point is certified (which saves the last subproblem).
+    own duals and without the SOCP, whether its end point is certified (which saves the last subproblem);
+    with it a run ends only on a certificate within ``POLISH_TOL`` (``kkt_tol`` otherwise), and every
+    other stop hands the run to the plain model (module docstring).
 
     With the curvature model, a very good step (rho >= 0.75) sets delta to at most ``STEP_CAP`` times the
     step's |dW|_inf (not below 1e-4): near the optimum the steps shrink fast, and the balls farther from a
@@ -818,9 +826,15 @@ def sequential_convex(
                 z0[kept] = z[ball_row + np.arange(int(kept.sum())) * cd]
                 guess = (y_pt.copy(), z0 / (2.0 * (np.stack([h.ra, h.rb], axis=1) - inset)))
             if certify is not None and pred <= certify_tol * abs(F):
-                if certify(w, guess):
+                cert = certify(w, guess)
+                if cert.certified(POLISH_TOL if curvature else kkt_tol):
                     trace.stop_reason = "certified"
                     break
+                if curvature and cert.certified(kkt_tol):
+                    # Certified but not polished: the clipped curvature can predict too little near such a
+                    # point; the plain model takes it from here (as without curvature).
+                    curvature, delta, rel, rejected = False, delta0, RELATIVE, 0
+                    continue
                 certify_tol *= 0.1
             p_new = p.copy()
             p_new[1:-1] = x[: st.nw].reshape(w.shape)
@@ -856,7 +870,7 @@ def sequential_convex(
             w, p, F = w_new, p_new, F_new
             trace.values.append(F)
             trace.accepted += 1
-            if certify is not None and curvature and pred <= EARLY * abs(F) and certify(w, guess, False):
+            if certify is not None and curvature and pred <= EARLY * abs(F) and certify(w, guess, False).certified(POLISH_TOL):
                 # The step's own duals certify its end point (no SOCP for this check): the model is
                 # second order, so the next step would only polish F far below the certificate's reach.
                 trace.stop_reason = "certified"
@@ -925,7 +939,7 @@ class Certificate:
 
 def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWeights, inset: float = 0.0,
                     multipliers: tuple[np.ndarray, np.ndarray] | None = None, tol: float = KKT_TOL,
-                    solve: bool = True) -> Certificate:
+                    solve: bool = True, guess_tol: float | None = None) -> Certificate:
     """The KKT residual of ``waypoints`` for min F subject to the hatch balls shrunk by ``inset``.
 
     Coincident waypoints (closer than 1e-12, as foam_mj.paths) are one point: the variables are the
@@ -936,8 +950,8 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     ``multipliers`` (y (points, n), lambda (waypoints, 2)): a guess, e.g. the duals of the SCP's last
     subproblem: g_i = y_i M / w_angle at the straight vertex on point i (scaled into |g_i| <= 1) and
     lambda for the two balls of every waypoint. When the residual of these multipliers (computed exactly,
-    as for the solver's) certifies at ``tol``, that certificate is returned without solving the SOCP; so it
-    is when ``solve`` is False (a quick check: the SOCP is only solved when it is True).
+    as for the solver's) is below ``guess_tol`` (default ``tol``), that certificate is returned without
+    solving the SOCP; so it is when ``solve`` is False (a quick check: the SOCP is only solved when it is True).
     """
     h = Hatches.of(rosary)
     n, m = rosary.dim, h.m
@@ -1019,7 +1033,7 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
         g = g / np.maximum(np.linalg.norm(g, axis=1), 1.0)[:, None]
         lam_v = np.maximum(np.concatenate([lam_ball[:, 0], lam_ball[:, 1]])[active], 0.0)
         cert = certificate(lam_v, g)
-        if cert.certified(tol) or not solve:
+        if cert.certified(tol if guess_tol is None else min(tol, guess_tol)) or not solve:
             return cert
     Gs, grad_s = Gm[:, 1:] * scale[:, None], grad * scale
     ones = np.ones((nv, 1))
@@ -1159,11 +1173,11 @@ class OptimalSmoother(Smoother):
 
             def certify(wc: np.ndarray, multipliers: tuple | None = None, solve: bool = True) -> bool:
                 checked["w"], checked["cert"] = wc.copy(), kkt_certificate(rosary, wc, weights, self.inset, multipliers,
-                                                                            self.kkt_tol, solve)
-                return checked["cert"].certified(self.kkt_tol)
+                                                                            self.kkt_tol, solve, POLISH_TOL)
+                return checked["cert"]
 
             w, trace = sequential_convex(rosary, h, w0, weights, self.inset, max_iter=self.max_iter, structure=st,
-                                         certify=certify if weights.sv == 0 else None)  # SV's optimum is flat: polish it
+                                         certify=certify if weights.sv == 0 else None, kkt_tol=self.kkt_tol)  # SV's optimum is flat: polish it
             iterations += trace.iterations
             value = objective_value(rosary.path(w), weights)
             if "w" in checked and np.array_equal(checked["w"], w):
