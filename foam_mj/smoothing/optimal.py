@@ -46,14 +46,12 @@ block before the clip (the length's curvature across the segment offsets much of
 less is clipped), and the subproblem has fewer rows. P is then block-tridiagonal over the waypoints (a
 fixed pattern). On a rejected step the relative
 trust region of the short segments shrinks with delta (by 4; back up by 2 after a very good step, to at
-most 0.5), so that a step limited by a short segment's relative region is not retried unchanged. A
-segment shorter than 1e-3 that more than halved in an accepted step is collapsing onto a corner, which the
-relative region lets happen only by halves: the tie is tried at once (kept when feasible, which for f never
-increases F). The clipped curvature may predict too little decrease near some points (folded chains), so
+most 0.5), so that a step limited by a short segment's relative region is not retried unchanged. The clipped curvature may predict too little decrease near some points (folded chains), so
 it never ends a run by itself: a run stops on a certificate with residual <= 1e-5 (``POLISH_TOL``, ten
 times tighter than the certificate's, so that F is polished as without curvature); a prediction of no
 decrease, a stall, a collapsed trust region or a certificate between 1e-5 and 1e-4 hand the run to the
-plain model above, which then ends it as before.
+plain model above, which then ends it as before; a start that still ends uncertified is run again from
+the start with the plain model alone.
 
 Repeated points (ties). The shortest path puts consecutive waypoints on the same corner wherever their
 hatches overlap there, and so does the optimum of f (a corner counts once, foam_mj.paths). Two points
@@ -242,7 +240,6 @@ STEP_CAP = 8.0  # after a very good step (curvature model), delta <= this times 
 EARLY = 1e-7  # an accepted step predicted to gain less than this * |F| asks its own duals for a certificate
 POLISH_TOL = 1e-5  # curvature model: a run stops on a certificate this tight (else the plain model polishes on)
 LONG = 4.0  # curvature model: a segment longer than this times the box's half-diagonal has its length in P
-COLLAPSE = 1e-3  # curvature model: a segment shorter than this that more than halved in a step is tried as a tie
 TIE = 1e-5  # points closer than this are one point (a tie) in the next subproblem
 
 
@@ -726,6 +723,7 @@ def sequential_convex(
     certify: Callable[[np.ndarray, tuple], "Certificate"] | None = None,
     certify_tol: float = 1e-8,
     kkt_tol: float = 1e-4,
+    curvature: bool = True,
 ) -> tuple[np.ndarray, SCPTrace]:
     """Trust-region SCP from ``w0`` (inside the shrunk hatches) -> (waypoints, trace).
 
@@ -762,7 +760,7 @@ def sequential_convex(
     trace.stop_reason = "max_iter"
     rejected = 0
     refused = np.zeros(len(p) - 1, dtype=bool)
-    curvature = weights.sv == 0 and weights.angle > 0
+    curvature = curvature and weights.sv == 0 and weights.angle > 0
     y_pt = np.zeros_like(p)
     rel = RELATIVE
     for it in range(max_iter):
@@ -853,19 +851,6 @@ def sequential_convex(
                 continue
             rho = -np.inf  # a failed subproblem: shrink the region and retry
         if rho >= 0.1:
-            if curvature:
-                # A short segment that more than halved in this step is collapsing onto a corner (the
-                # relative trust region lets it only halve per step): try the tie now. For f a tie never
-                # increases F (the triangle inequality for the length and for the angles), so it is kept
-                # when feasible; from then on the two points are one.
-                lens_new = np.linalg.norm(np.diff(p_new, axis=0), axis=1)
-                shrinking = (lens_new < COLLAPSE) & (lens_new < 0.5 * lens) & (lens_new > paths._EPS)
-                if shrinking.any():
-                    p_try = _snap(p_new, h, inset, np.where(shrinking, 1.5 * lens_new, tie))
-                    if p_try is not p_new:
-                        F_try = _true_value(p_try, weights)
-                        if F_try <= F_new:
-                            p_new, w_new, F_new = p_try, p_try[1:-1].copy(), F_try
             w_old = w
             w, p, F = w_new, p_new, F_new
             trace.values.append(F)
@@ -1171,23 +1156,30 @@ class OptimalSmoother(Smoother):
             nonlocal best, iterations
             checked: dict = {}
 
-            def certify(wc: np.ndarray, multipliers: tuple | None = None, solve: bool = True) -> bool:
+            def certify(wc: np.ndarray, multipliers: tuple | None = None, solve: bool = True) -> Certificate:
                 checked["w"], checked["cert"] = wc.copy(), kkt_certificate(rosary, wc, weights, self.inset, multipliers,
                                                                             self.kkt_tol, solve, POLISH_TOL)
                 return checked["cert"]
 
-            w, trace = sequential_convex(rosary, h, w0, weights, self.inset, max_iter=self.max_iter, structure=st,
-                                         certify=certify if weights.sv == 0 else None, kkt_tol=self.kkt_tol)  # SV's optimum is flat: polish it
-            iterations += trace.iterations
-            value = objective_value(rosary.path(w), weights)
-            if "w" in checked and np.array_equal(checked["w"], w):
-                cert = checked["cert"]
-            else:
-                cert = kkt_certificate(rosary, w, weights, self.inset)
-            outcomes.append(StartOutcome(label, value, cert, trace.iterations, trace.stop_reason))
-            key = (value, not cert.certified(self.kkt_tol))
-            if best is None or key < best[0]:
-                best = (key, w, trace, cert, value, label)
+            # With the curvature model first; a start it leaves uncertified is run again without it (the plain
+            # SCP, slower but never misled by a clipped curvature).
+            for curvature in (True, False) if weights.sv == 0 and weights.angle > 0 else (False,):
+                w, trace = sequential_convex(rosary, h, w0, weights, self.inset, max_iter=self.max_iter, structure=st,
+                                             certify=certify if weights.sv == 0 else None,  # SV's optimum is flat: polish it
+                                             kkt_tol=self.kkt_tol, curvature=curvature)
+                iterations += trace.iterations
+                value = objective_value(rosary.path(w), weights)
+                if "w" in checked and np.array_equal(checked["w"], w):
+                    cert = checked["cert"]
+                else:
+                    cert = kkt_certificate(rosary, w, weights, self.inset)
+                outcomes.append(StartOutcome(label if curvature or len(outcomes) == 0 or outcomes[-1].label != label
+                                             else f"{label} (plain)", value, cert, trace.iterations, trace.stop_reason))
+                key = (value, not cert.certified(self.kkt_tol))
+                if best is None or key < best[0]:
+                    best = (key, w, trace, cert, value, outcomes[-1].label)
+                if cert.certified(self.kkt_tol):
+                    break
 
         for label, w0 in starts:
             run(label, w0)
