@@ -123,8 +123,7 @@ class GeneticAlgorithm(Smoother):
         fit = coordinate_major_objective(pop)
         objective = _PopulationObjective(n, P, L)
         outside = _OutsideHatches(h, P, rosary.q_init, rosary.q_goal)
-        parents12 = np.empty((n, 2 * P, L))  # [parent 1 of every child, parent 2 of every child]
-        x1, x2 = parents12[:, :P], parents12[:, P:]
+        x1, x2 = np.empty((n, P, L)), np.empty((n, P, L))  # parent 1 and parent 2 of every child (contiguous)
         diff = np.empty((n, P, L))
         # hatch balls as Python floats, for the few mutated alleles of a generation
         ca, cb = h.ca.tolist(), h.cb.tolist()
@@ -176,8 +175,9 @@ class GeneticAlgorithm(Smoother):
             fp = fit[pairs]
             # parent 1 (the better; a on a tie) and parent 2 of every child ("clip": the indices are valid, and
             # numpy's default mode buffers the output)
-            p12 = np.where(fp[0] <= fp[1], pairs, pairs[::-1]).reshape(-1)
-            take(pop, p12, axis=1, out=parents12, mode="clip")
+            p1, p2 = np.where(fp[0] <= fp[1], pairs, pairs[::-1])
+            take(pop, p1, axis=1, out=x1, mode="clip")
+            take(pop, p2, axis=1, out=x2, mode="clip")
             # 2. heuristic crossover (Eq. 6): child = x1 + beta (x1 - x2); a waypoint leaving its hatch
             # reverts to parent 1's
             subtract(x1, x2, diff)
