@@ -17,9 +17,15 @@ Implementation notes
   evaluated in one ``mujoco.batch.Batch`` call). Candidates of one parent are then accepted in their drawn order,
   each checked against the siblings accepted before it, so the result is the same as drawing and
   testing them one by one.
-* "Inside an existing bubble" is strict (``|c - c_i| < r_i``, Nascimento and Alsina 2021 Eq. 1's open ball).
-  Coverage is tested with :class:`CoverageIndex`: a k-d tree on lifted points plus a brute-force
-  buffer of recent bubbles, so no Python loop runs over the bubbles.
+* "Inside an existing bubble" is strict (``|c - c_i| < r_i``, Nascimento and Alsina 2021 Eq. 1's open ball),
+  the squares summed coordinate by coordinate in every test. A candidate is first tested against its
+  grandparent (the parent sits on the grandparent's surface, so about a quarter of the candidates lie
+  in it), then with :class:`CoverageIndex`: a k-d tree on lifted points plus a brute-force buffer of
+  recent bubbles, so no Python loop runs over the bubbles. Siblings of one batch are settled from
+  the pairs a k-d tree lists (:func:`_accept_in_order`).
+* Where the work goes (obstacle scene, about 20 candidates and 6 MuJoCo configurations per bubble):
+  roughly a third MuJoCo's distance sensors (2.5-3.5 us of CPU per configuration), a third the
+  coverage tree's queries (about 0.6 us per candidate), the rest numpy bookkeeping per batch.
 * Deterministic for a given seed: all randomness comes from one ``numpy.random.Generator``.
 """
 
