@@ -356,19 +356,13 @@ class _Structure:
         if self.P_pattern is None:
             m, n, nw = self.M, self.n, self.nw
             nx = nw + self.nt + self.M
-            rows, cols = [], []
             a, b = np.triu_indices(n)
-            for k in range(m):  # diagonal blocks (upper triangles)
-                rows.append(k * n + a)
-                cols.append(k * n + b)
             aa, bb = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-            for k in range(m - 1):  # blocks (k, k + 1), full
-                rows.append(k * n + aa.ravel())
-                cols.append((k + 1) * n + bb.ravel())
+            k, k1 = np.arange(m)[:, None] * n, np.arange(m - 1)[:, None] * n
             tail = np.arange(nw, nx)
-            rows.append(tail)
-            cols.append(tail)
-            r, c = np.concatenate(rows), np.concatenate(cols)
+            # diagonal blocks (upper triangles), blocks (k, k + 1) (full), the diagonal over [t, s]
+            r = np.concatenate([(k + a).ravel(), (k1 + aa.ravel()).ravel(), tail])
+            c = np.concatenate([(k + b).ravel(), (k1 + n + bb.ravel()).ravel(), tail])
             order = np.lexsort((r, c))
             pos = np.empty_like(order)
             pos[order] = np.arange(order.size)
