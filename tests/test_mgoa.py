@@ -117,6 +117,8 @@ def test_social_interaction_is_eq6_in_any_block_size(l):
     for block in (1, 7, 100, 1 << 16):
         S = social_interaction(X, lb, ub, l=l, block_elements=block)
         np.testing.assert_allclose(S, ref, atol=1e-12)
+        # blocks computed by threads, their sums added in block order: the same numbers
+        np.testing.assert_array_equal(social_interaction(X, lb, ub, l=l, block_elements=block, threads=3), S)
     np.testing.assert_allclose(social_interaction(X, lb, ub, l=l, mean=True), ref / 22, atol=1e-12)
     # Two grasshoppers push each other apart or pull together by opposite forces.
     S2 = social_interaction(X[:2], lb, ub, l=l)
@@ -163,7 +165,7 @@ def test_pso_inertia_schedule_and_validation():
     for kwargs, name in [({"c_min": 2.0}, "c_min"), ({"c_max": 0.0}, "c_max"), ({"l": 0.0}, "l"),
                          ({"distance_range": (4.0, 1.0)}, "distance_range"), ({"social": "avg"}, "social"),
                          ({"swarm_size": 1}, "swarm_size"), ({"niche_radius": -1.0}, "niche_radius"),
-                         ({"random_social": 1}, "random_social")]:
+                         ({"random_social": 1}, "random_social"), ({"threads": 0}, "threads")]:
         with pytest.raises(ValueError, match=name):
             MGOA(**kwargs)
     with pytest.raises(ValueError, match="select"):
