@@ -89,15 +89,18 @@ waypoints are checked to be at least inset/2 inside both balls.
 Speed. Clarabel runs without presolve (nothing to remove) and, for objectives without SV, without
 iterative refinement (a third of each solve; the same points to 1e-9 in F) until a subproblem fails
 (ill-conditioned, e.g. 5-joint corridors of 110 bubbles): then it is solved again with refinement, which
-stays on for the run. A step whose subproblem
-has the previous sparsity pattern updates the previous solver in place (``DefaultSolver.update``);
-the short-segment rows change the pattern often (2 of 11 steps reuse it on the obstacle rosary). A
-run ends as soon as a step's predicted decrease is below 1e-8 |F| and the point passes the certificate
-(objectives without SV; the last steps of the linearly converging SCP only polish F's ninth digit),
-else at the 1e-10 |F| test. Measured (CPU time, obstacle rosary of 30 bubbles, 2-core machine): f in
-4 subproblems and about 32 ms to a scaled KKT residual ~4e-6 (8 subproblems and about 50 ms without the
-curvature and the dual certificate); on bubbletree corridors of 40-90 bubbles 3-6 subproblems and 35-100 ms
-(was 4-16 and 45-140 ms).
+stays on for the run. A step whose subproblem has the previous sparsity pattern updates the previous
+solver in place (``DefaultSolver.update``; rare now that the rows follow the trust region). The start
+(the shortest path) is solved to 1e-8 with the segment and ball cones the subproblems reuse; curvature
+subproblems are solved to 1e-7 while the last prediction is large (1e-3 of it relative to |F|, down to
+1e-9). A run ends as soon as a step's predicted decrease is below 1e-8 |F| and the point passes the
+certificate (objectives without SV), else at the 1e-10 |F| test. Measured (CPU time, a shared 2-core
+machine at load 2-3, same minutes; before = the plain SCP with its SOCP certificate): obstacle rosary
+of 30 bubbles, f in 3 subproblems and about 15-19 ms (8 and 42 ms before), scaled KKT residual 3e-6;
+step_up / step_down / walker scenes 4-6 subproblems, 14-21 ms (6-13, 29-44 ms); bubbletree corridors of
+38-88 bubbles (3-joint leg) 2-6 subproblems and 19-53 ms (4-16, 35-171 ms); F the same to 1e-8
+relative on all of them. obstacle_thesis gains little (15 subproblems, 63 ms against 75: the curvature
+model is certified there only to 2e-5, and the plain model polishes on).
 """
 
 from __future__ import annotations
