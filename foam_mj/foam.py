@@ -139,9 +139,18 @@ class CoverageIndex:
 
     Each ball (c, r) is lifted to the point (c, sqrt(R^2 - r^2)) in n+1 dimensions, R >= every radius;
     a query point p lifts to (p, 0). Then |lift(p) - lift(c)|^2 = |p - c|^2 + R^2 - r^2, which is
-    below R^2 exactly when |p - c| < r: containment becomes a nearest-neighbour query in a k-d tree.
-    Balls added since the last rebuild are tested by brute force; the tree is rebuilt when that
-    buffer outgrows a fraction of the tree (amortised O(log N) per ball).
+    below R^2 exactly when |p - c| < r: containment becomes a nearest-neighbour query in a k-d tree,
+    confirmed by the exact test |p - c|^2 < r^2. Balls added since the last rebuild are tested by brute
+    force; the tree is rebuilt when that buffer outgrows a fraction of the tree (amortised O(log N) per
+    ball). The BIG_BALLS largest balls stay out of the tree and are tested by brute force too: the tree's
+    search reaches every node within lifted distance R, and a few large balls (the root, early bubbles)
+    would set R for all.
+
+    The excluded ball ``exclude[i]`` is usually the parent of a point on its surface, at lifted distance R
+    up to rounding: the tree is first asked for the nearest ball closer than R (1 - 1e-12), which leaves
+    the parent out without a second neighbour; only points whose nearest is their excluded ball are asked
+    again for two. A point less than 1e-12 R^2 / (2 r) inside a sphere (an exact tie, for random points)
+    may be reported outside it.
     """
 
     def __init__(self, dim: int, capacity: int = 4096) -> None:
@@ -149,6 +158,8 @@ class CoverageIndex:
         self._r = np.empty(capacity)
         self.n = 0
         self._tree: cKDTree | None = None
+        self._tree_ids = np.empty(0, dtype=np.intp)  # tree point -> ball, and -1 for "none found"
+        self._big = np.empty(0, dtype=np.intp)  # balls kept out of the tree
         self._n_tree = 0
         self._R = 0.0
 
@@ -164,13 +175,22 @@ class CoverageIndex:
         self._r[self.n : self.n + k] = radii
         self.n += k
 
-
     def _rebuild(self) -> None:
-        c, r = self._c[: self.n], self._r[: self.n]
-        self._R = float(r.max())
-        lifted = np.hstack([c, np.sqrt(np.maximum(self._R**2 - r**2, 0.0))[:, None]])
+        n = self.n
+        c, r = self._c[:n], self._r[:n]
+        if n > 4 * BIG_BALLS:
+            thr = np.partition(r, n - BIG_BALLS - 1)[n - BIG_BALLS - 1]  # the (BIG_BALLS + 1)-th largest radius
+            small, self._big = np.flatnonzero(r <= thr), np.flatnonzero(r > thr)
+        else:
+            small, self._big = np.arange(n), np.empty(0, dtype=np.intp)
+        rs = r[small]
+        self._R = R = float(rs.max())
+        lifted = np.empty((len(small), c.shape[1] + 1))
+        lifted[:, :-1] = c[small]
+        lifted[:, -1] = np.sqrt(np.maximum(R * R - rs * rs, 0.0))
         self._tree = cKDTree(lifted, leafsize=TREE_LEAFSIZE)
-        self._n_tree = self.n
+        self._tree_ids = np.append(small, -1)
+        self._n_tree = n
 
     def covered(self, points: np.ndarray, exclude: np.ndarray) -> np.ndarray:
         """For each point (m, n): is it strictly inside a stored ball other than ``exclude[i]``?"""
@@ -178,34 +198,39 @@ class CoverageIndex:
         out = np.zeros(m, dtype=bool)
         if m == 0 or self.n == 0:
             return out
+        exclude = np.asarray(exclude)
         if self.n - self._n_tree > max(REBUILD_MIN, self._n_tree // REBUILD_FRACTION):
             self._rebuild()
         if self._n_tree:
-            lifted = np.hstack([points, np.zeros((m, 1))])
+            R = self._R
+            lifted = np.empty((m, points.shape[1] + 1))
+            lifted[:, :-1] = points
+            lifted[:, -1] = 0.0
             # Only balls within lifted distance R can contain a point: the bound prunes the search (a
-            # missing neighbour comes back as (inf, n_tree), which the tests below reject).
-            dist, idx = self._tree.query(lifted, k=2, distance_upper_bound=self._R * (1.0 + 1e-9))
-            # The nearest may be the excluded parent (its surface points sit at lifted distance ~R).
-            own = idx[:, 0] == exclude
-            first = np.where(own, dist[:, 1], dist[:, 0])
-            first_idx = np.where(own, idx[:, 1], idx[:, 0])
-            hit = np.flatnonzero((first < self._R) & (first_idx < self._n_tree))
+            # missing neighbour comes back as (inf, n_tree), that is ball -1).
+            dist, idx = self._tree.query(lifted, k=1, distance_upper_bound=R * (1.0 - 1e-12))
+            j = self._tree_ids[idx]
+            own = np.flatnonzero((j >= 0) & (j == exclude))
+            if own.size:  # the nearest is the excluded ball: take the next one
+                d2, i2 = self._tree.query(lifted[own], k=2, distance_upper_bound=R * (1.0 + 1e-9))
+                g = self._tree_ids[i2]
+                second = g[:, 0] == exclude[own]
+                dist[own] = np.where(second, d2[:, 1], d2[:, 0])
+                j[own] = np.where(second, g[:, 1], g[:, 0])
+            hit = np.flatnonzero((dist < R) & (j >= 0))
             if hit.size:
                 # Exact confirmation of the lifted test (guards against rounding near the boundary).
-                j = first_idx[hit]
-                d2 = np.sum((points[hit] - self._c[j]) ** 2, axis=1)
-                out[hit] = d2 < self._r[j] ** 2
-        if self.n > self._n_tree:
-            # The recent balls, by brute force, for the points the tree did not already find covered.
+                j = j[hit]
+                out[hit] = np.sum((points[hit] - self._c[j]) ** 2, axis=1) < self._r[j] ** 2
+        # The balls outside the tree (the largest, and those added since the rebuild), by brute force, for
+        # the points the tree did not already find covered.
+        rest_balls = self._big if self.n == self._n_tree else np.concatenate([self._big, np.arange(self._n_tree, self.n)])
+        if rest_balls.size:
             rest = np.flatnonzero(~out)
             if rest.size == 0:
                 return out
-            c = self._c[self._n_tree : self.n]
-            r = self._r[self._n_tree : self.n]
-            inside = _pairwise_sq_dist(points[rest], c) < r[None, :] ** 2
-            own = exclude[rest] - self._n_tree
-            rows = np.flatnonzero((own >= 0) & (own < len(r)))
-            inside[rows, own[rows]] = False
+            inside = _pairwise_sq_dist(points[rest], self._c[rest_balls]) < self._r[rest_balls][None, :] ** 2
+            inside &= exclude[rest][:, None] != rest_balls[None, :]
             out[rest] = inside.any(axis=1)
         return out
 
@@ -217,6 +242,8 @@ REBUILD_FRACTION = 16
 #: Points per leaf of the coverage tree: 32 instead of scipy's 16 makes both the build and the queries about
 #: 20% faster on foams of 1,000-3,000 bubbles (the neighbours found are the same, up to exact ties in distance).
 TREE_LEAFSIZE = 32
+#: The largest balls kept out of the coverage tree (tested by brute force; see :class:`CoverageIndex`).
+BIG_BALLS = 16
 
 #: The most candidates one bubble may get. Eq. 2's N = K floor(r / r_min)^(n-1) grows without bound as
 #: r_min shrinks or K grows (K = 1e8 or r_min = 1e-7 asked for terabytes and ended in a MemoryError after

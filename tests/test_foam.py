@@ -180,3 +180,25 @@ def test_siblings_are_accepted_exactly_as_one_by_one(seed, m, dim, chain):
     for i in range(m):  # the rule, one candidate at a time
         accepted.append(not any(np.sum((cand[i] - cand[j]) ** 2) < r[j] ** 2 for j in range(i) if accepted[j]))
     np.testing.assert_array_equal(_accept_in_order(cand, r), np.array(accepted, dtype=bool))
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), rounds=st.integers(1, 12), dim=st.integers(2, 5))
+def test_coverage_index_agrees_with_brute_force_as_the_foam_queries_it(seed, rounds, dim):
+    """Balls added in batches between queries (tree, recent buffer and the largest balls all in play), each
+    query point on the surface of the ball it excludes, as a candidate on its parent's surface."""
+    rng = np.random.default_rng(seed)
+    idx = CoverageIndex(dim, capacity=16)
+    centers, radii = np.empty((0, dim)), np.empty(0)
+    for _ in range(rounds):
+        k = int(rng.integers(1, 120))
+        c = rng.uniform(0, 1, (k, dim))
+        r = np.where(rng.random(k) < 0.05, rng.uniform(0.2, 0.5, k), rng.uniform(0.02, 0.1, k))
+        idx.add(c, r)
+        centers, radii = np.vstack([centers, c]), np.concatenate([radii, r])
+        parent = rng.integers(0, len(radii), 400)
+        u = rng.standard_normal((400, dim))
+        pts = centers[parent] + radii[parent, None] * (u / np.linalg.norm(u, axis=1, keepdims=True))
+        inside = np.sum((pts[:, None] - centers[None]) ** 2, axis=2) < radii[None] ** 2
+        inside[np.arange(400), parent] = False
+        np.testing.assert_array_equal(idx.covered(pts, parent), inside.any(axis=1))
