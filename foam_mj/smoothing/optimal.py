@@ -760,9 +760,11 @@ def sequential_convex(
     curvature = curvature and weights.sv == 0 and weights.angle > 0
     y_pt = np.zeros_like(p)
     rel = RELATIVE
+    snapped = False
     for it in range(max_iter):
         trace.iterations = it + 1
-        p_snap = _snap(p, h, inset, tie)
+        p_snap = p if snapped else _snap(p, h, inset, tie)  # (an accepted point comes snapped)
+        snapped = curvature
         if p_snap is not p:
             # For f this never increases F (the triangle inequality for the length and for the angles
             # on the sphere), and the subproblem's box is then centred on the tie.
