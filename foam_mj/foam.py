@@ -221,7 +221,7 @@ class CoverageIndex:
             if hit.size:
                 # Exact confirmation of the lifted test (guards against rounding near the boundary).
                 j = j[hit]
-                out[hit] = np.sum((points[hit] - self._c[j]) ** 2, axis=1) < self._r[j] ** 2
+                out[hit] = _row_sq_sums(points[hit] - self._c[j]) < self._r[j] ** 2
         # The balls outside the tree (the largest, and those added since the rebuild), by brute force, for
         # the points the tree did not already find covered.
         rest_balls = self._big if self.n == self._n_tree else np.concatenate([self._big, np.arange(self._n_tree, self.n)])
@@ -351,7 +351,19 @@ def _inside(points: np.ndarray, centers: np.ndarray, radii: np.ndarray) -> np.nd
 
 def _unit_sphere(rng: np.random.Generator, count: int, dim: int) -> np.ndarray:
     u = rng.standard_normal((count, dim))
-    return u / np.linalg.norm(u, axis=1, keepdims=True)
+    return u / np.sqrt(_row_sq_sums(u))[:, None]
+
+
+def _row_sq_sums(d: np.ndarray) -> np.ndarray:
+    """``np.sum(d * d, axis=1)`` (what ``np.linalg.norm(d, axis=1)`` squares), the same floats: below 8 columns
+    numpy adds a row left to right, as the column-by-column sum here, which avoids numpy's slow reduction
+    over a short last axis; from 8 columns on numpy sums pairwise, so numpy is called."""
+    if d.shape[1] >= 8:
+        return np.sum(d * d, axis=1)
+    out = d[:, 0] * d[:, 0]
+    for k in range(1, d.shape[1]):
+        out += d[:, k] * d[:, k]
+    return out
 
 
 def plan(
@@ -465,9 +477,11 @@ def plan(
         if total == 0:
             continue
         parent_of = np.repeat(batch, counts)
-        cand = centers[parent_of] + radii[parent_of, None] * _unit_sphere(rng, total, n)
+        cand = np.repeat(centers[batch], counts, axis=0) + np.repeat(radii[batch], counts)[:, None] * _unit_sphere(rng, total, n)
         stats.candidates += total
-        keep = np.all((cand >= lo) & (cand <= hi), axis=1)
+        keep = (cand[:, 0] >= lo[0]) & (cand[:, 0] <= hi[0])  # inside the bounds, column by column
+        for k in range(1, n):
+            keep &= (cand[:, k] >= lo[k]) & (cand[:, k] <= hi[k])
         stats.dropped_out_of_bounds += int(total - keep.sum())
         live = np.flatnonzero(keep)
         # A child often lies in its grandparent (the parent sits on the grandparent's surface): that test is one
