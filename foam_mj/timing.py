@@ -75,6 +75,10 @@ REFINE_ROUNDS = 8
 #: them at its grid points only; samples between grid points overshoot the acceleration by up to about 1 %
 #: (measured on the shipped scenes); a sample still over its limit starts another round.
 V_MARGIN, A_MARGIN = 2e-3, 1.2e-2
+#: A torque limit a sample overshot is lowered by 1.2 x the overshoot, and by at least this fraction of the
+#: limit: an overshoot of 1e-8 of the limit would otherwise shrink only a few times per round and never
+#: reach zero within REFINE_ROUNDS (seen on a 6-joint arm: exit 3 on a feasible timing).
+T_MARGIN = 1e-3
 #: A torque-limited timing longer than this multiple of the unlimited one is reported as infeasible.
 MAX_SLOWDOWN = 10.0
 
@@ -460,6 +464,7 @@ def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Tra
     grid = _grid(curve)
     x_v = _speed_bound(kin, grid, vmax)
     x0, best = x_v, None
+    last_over = (np.zeros_like(vmax), np.zeros_like(vmax), np.zeros_like(vmax))
     for round_ in range(REFINE_ROUNDS):
         try:
             law = _toppra_law(kin, v_eff, a_eff, t_eff, x0)
@@ -491,12 +496,19 @@ def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Tra
             break  # the torque limits do not bind: a tighter damping bound would change nothing
         v_eff = np.where(over_v > 1, v_eff / over_v * (1 - V_MARGIN), v_eff)
         a_eff = np.where(over_a > 1, a_eff / over_a * (1 - A_MARGIN), a_eff)
-        t_eff = np.where(over_t > 1, t_eff - (pt - tmax) * 1.2, t_eff)
+        t_eff = np.where(over_t > 1, t_eff - np.maximum((pt - tmax) * 1.2, T_MARGIN * tmax), t_eff)
+        last_over = (over_v, over_a, over_t)
         x0 = np.maximum(law.sd**2, 1e-9 * float(x_v.max()))
     if best is not None:
         return best
+    # Name the joint and the limit that stayed exceeded (the worst ratio of the last round).
+    kinds = (("velocity", vmax), ("acceleration", amax), ("torque", tmax))
+    k, j = max(((k, int(np.argmax(o))) for k, o in enumerate(last_over)), key=lambda kj: last_over[kj[0]][kj[1]])
+    name, ratio = robot.config.joint_names[j], float(last_over[k][j])
     raise TimingInfeasible(  # pragma: no cover - has not happened on the shipped scenes
-        f"toppra's timing still exceeds the limits after {REFINE_ROUNDS} refinements"
+        f"toppra's timing still exceeds the {kinds[k][0]} limit of {name} by {100 * (ratio - 1):.2g}% "
+        f"after {REFINE_ROUNDS} refinements (try --time-law own)",
+        joint=name, excess=float((ratio - 1) * kinds[k][1][j]),
     )
 
 
