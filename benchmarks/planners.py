@@ -66,7 +66,7 @@ from foam_mj.errors import ConfigurationError, PlanningFailed  # noqa: E402
 from foam_mj.model import RobotModel  # noqa: E402
 from foam_mj.paths import metrics  # noqa: E402
 from foam_mj.planners import PLANNERS, PlanningProblem, get_planner  # noqa: E402
-from foam_mj.planners.base import option_names  # noqa: E402
+from foam_mj.planners.base import option_names, smoother_start  # noqa: E402
 from foam_mj.planners.corridor import shortest_path  # noqa: E402
 from foam_mj.scenarios import load_scenario  # noqa: E402
 from foam_mj.smoothing import OptimalSmoother  # noqa: E402
@@ -158,7 +158,7 @@ def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker
         return {"ok": False, "outcome": f"refused: {exc}", "bubbles": 0, "queries": 0, "time": time.perf_counter() - t0}
     t_plan = time.perf_counter() - t0
     try:
-        sm = OptimalSmoother().smooth(res.rosary, seed=seed)
+        sm = OptimalSmoother().smooth(res.rosary, initial=smoother_start(res.rosary, res.waypoints), seed=seed)
     except Exception as exc:  # a smoother failure is a finding, not a reason to lose the whole run
         return {"ok": False, "outcome": f"smoother error: {type(exc).__name__}: {exc}", "first": res.stats.time_to_first_path,
                 "bubbles": res.stats.bubbles, "queries": res.stats.distance_queries, "rosary": res.rosary.k, "time": t_plan}

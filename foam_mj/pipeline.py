@@ -42,6 +42,7 @@ import numpy as np
 
 from foam_mj.errors import FoamError
 from foam_mj.planners import PlanResult
+from foam_mj.planners.base import smoother_start
 from foam_mj.paths import PathMetrics, metrics
 from foam_mj.replay import DynamicReplay, KinematicReplay, replay_dynamic, replay_kinematic
 from foam_mj.rosary import Rosary
@@ -158,8 +159,11 @@ def plan_scenario(scenario: Scenario, seed: int, report: Report | None = None) -
         oracle.close()
 
 
-def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], seed: int, report: Report | None = None) -> dict[str, SmoothingResult]:
-    """Run the smoothers that produce ``names`` (the centre path always comes first)."""
+def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], seed: int, report: Report | None = None,
+                 start: np.ndarray | None = None) -> dict[str, SmoothingResult]:
+    """Run the smoothers that produce ``names`` (the centre path always comes first). ``start``: the
+    planner's shortest path through the rosary (``PlanResult.waypoints``), the ``optimal`` smoother's start
+    when valid (it saves that smoother's own start program)."""
     out: dict[str, SmoothingResult] = {"centre": center_path_result(rosary, "centre")}
     say = report or (lambda _s: None)
     if "gradient" in names:
@@ -197,7 +201,7 @@ def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], see
         out["convex"] = ConvexShortestPath().smooth(rosary)
     if "optimal" in names:
         say("smoothing: optimal f (sequential convex programming)")
-        out["optimal"] = OptimalSmoother().smooth(rosary, seed=seed)
+        out["optimal"] = OptimalSmoother().smooth(rosary, initial=smoother_start(rosary, start), seed=seed)
     if "mgoa" in names:
         say("smoothing: multi-objective grasshopper optimisation (MGOA)")
         out["mgoa"] = MGOASmoother().smooth(rosary, seed=seed)
@@ -234,7 +238,7 @@ def run(
     outcome = Outcome(scenario, seed, result, limits=lim, time_law=time_law)
     outcome.timings["plan"] = time.perf_counter() - t0
     t1 = time.perf_counter()
-    smoothed = smooth_paths(scenario, result.rosary, smoothers, seed, report)
+    smoothed = smooth_paths(scenario, result.rosary, smoothers, seed, report, start=result.waypoints)
     outcome.timings["smooth"] = time.perf_counter() - t1
     robot = scenario.robot
     t2 = time.perf_counter()

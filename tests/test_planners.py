@@ -262,6 +262,22 @@ def test_the_corridor_is_the_shortest_chain_and_refinement_only_shortens_it(orac
     np.testing.assert_array_equal(fine.foam.radii[fine.rosary.bubble_ids], fine.rosary.radii)
 
 
+def test_the_corridors_shortest_path_starts_the_optimal_smoother_at_the_same_optimum(oracles, checkers):
+    from foam_mj.planners.base import smoother_start
+    from foam_mj.smoothing import OptimalSmoother
+
+    s = load_scenario("step_down")
+    oracle = oracles["step_down"]
+    res = get_planner("bubbletree").plan(_problem(oracle, s), seed=1)
+    start = smoother_start(res.rosary, res.waypoints)
+    assert start is not None and np.all(res.rosary.in_hatches(start))
+    assert smoother_start(res.rosary, res.waypoints[:-1]) is None  # a start of the wrong shape is not used
+    given = OptimalSmoother().smooth(res.rosary, initial=start, seed=1)
+    own = OptimalSmoother().smooth(res.rosary, seed=1)
+    assert given.info["certified"] and own.info["certified"]
+    assert given.f == pytest.approx(own.f, rel=1e-5)
+
+
 def test_the_corridor_comes_near_the_straight_line_when_it_is_free(oracles):
     """step_up's straight line q_init -> q_goal is free (7.7 mm from the step at its closest): the refined
     corridor's shortest path (qpos) is within 0.5 % of it on every seed, certified all the way."""

@@ -119,11 +119,25 @@ class PlanStats:
 
 @dataclass(frozen=True)
 class PlanResult:
-    """Every bubble grown (``foam``), the certified chain q_init -> q_goal (``rosary``), and statistics."""
+    """Every bubble grown (``foam``), the certified chain q_init -> q_goal (``rosary``), and statistics;
+    ``waypoints``: the planner's shortest path through the rosary's hatches when it solved one (bubbletree's
+    corridor, in the qpos metric), handed to the ``optimal`` smoother as its start (:func:`smoother_start`)."""
 
     foam: Foam
     rosary: Rosary
     stats: PlanStats
+    waypoints: np.ndarray | None = None
+
+
+def smoother_start(rosary: Rosary, waypoints: np.ndarray | None) -> np.ndarray | None:
+    """``waypoints`` if they are a valid start for a smoother on ``rosary`` (shape (k-1, n), finite, every
+    waypoint in its hatch), else None (the smoother then solves its own start)."""
+    if waypoints is None:
+        return None
+    w = np.asarray(waypoints, dtype=float)
+    if w.shape != (rosary.n_hatches, rosary.dim) or not np.all(np.isfinite(w)) or not np.all(rosary.in_hatches(w)):
+        return None
+    return w
 
 
 @dataclass(frozen=True)

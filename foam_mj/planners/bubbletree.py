@@ -376,7 +376,7 @@ class BubbleTreePlanner(Planner):
         corridor.stats["cpu_ms"] = {"first": round(1e3 * cpu_first, 2), "explore": round(1e3 * (cpu_tree - cpu_first), 2), **corridor.stats["cpu_ms"]}
         st = stats("reached", t_first, {"bubbles_at_first_path": foam_first, **corridor.stats})
         foam = B.foam(q0, q1)
-        return PlanResult(foam, corridor.rosary(problem.q_init, problem.q_goal), st)
+        return PlanResult(foam, corridor.rosary(problem.q_init, problem.q_goal), st, corridor.waypoints)
 
 
 __all__ = ["BubbleTreeOptions", "BubbleTreePlanner", "overlap_pairs"]
