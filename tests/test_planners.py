@@ -3,6 +3,8 @@ registered planner's paths checked collision-free by MuJoCo independently."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -381,3 +383,24 @@ def test_the_rosary_adjustment_is_left_out_for_a_chain_that_is_not_a_foams(capsy
     assert main(args) == 0
     out = capsys.readouterr().out
     assert "note: adjusted, adjusted_gradient left out" in out and "centre (T)" in out
+
+
+@pytest.mark.parametrize("option, value, words", [
+    ("batch", 10**8, "`batch` must be at most 10000"),          # one MuJoCo batch of 10^8 candidates: tens of GB
+    ("connect", 2**63 - 1, "`connect` must be at most 10000"),
+    ("explore", float("inf"), "`explore` must be in [0, 100]"),  # iterations after the first path: no end
+    ("explore", 1e300, "`explore` must be in [0, 100]"),
+])
+def test_bubbletree_options_that_would_exhaust_memory_or_time_are_refused(option, value, words):
+    with pytest.raises(PlannerError, match=re.escape(words)):
+        get_planner("bubbletree", **{option: value})
+
+
+def test_an_r_min_no_bubble_can_have_is_refused_at_once(obstacle_robot):
+    """r_min is a resolution, not a precondition, but one above half the joint box's diagonal could never keep a
+    child: the planner says so instead of spending its whole budget on two bubbles."""
+    s = load_scenario("obstacle")
+    problem = _problem(s.oracle(), s, time_limit=60.0)
+    with pytest.raises(ConfigurationError, match="`r_min` = 10 is not below half the joint box's diagonal"):
+        get_planner("bubbletree", r_min=10.0).plan(problem, seed=0)
+

@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from foam_mj.errors import PlanningFailed
+from foam_mj.errors import ConfigurationError, PlanningFailed
 from foam_mj.foam import Foam
 from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer
 from foam_mj.planners.corridor import CorridorOptions, build_corridor, overlap_pairs
@@ -72,6 +72,9 @@ MAX_TRIES = 3
 #: (on the 3-joint obstacle scene 60 bubbles cut plan + optimal smoother by ~13 % CPU at the same median
 #: length; on the 5-joint leg a cap of 60 cost 6 % of length, 100 costs nothing).
 CHAIN_PER_JOINT = 20
+#: Upper bounds of ``batch``/``connect`` and of ``explore`` (beyond them memory or time explode, nothing improves).
+MAX_EXTENSIONS = 10_000
+MAX_EXPLORE = 100.0
 #: A hatch must be at least this fraction of the smaller radius deep (keeps hatches away from tangency).
 HATCH = 0.05
 
@@ -83,7 +86,9 @@ class BubbleTreeOptions:
     ``refine``: build the near-shortest corridor after the first path; ``refine_tol``: stop refining when a
     round shortens the path by less than this fraction; ``refine_rounds``: at most this many rounds; ``explore``: iterations of growth after the trees meet,
     per iteration before; ``refine_floor``: refinement bubbles' smallest radius, in delta / ||rho||_2; ``refine_time``: no new round after this many seconds of
-    refinement (the first path is never lost: refinement only shortens it); ``informed``: after the first path,
+    refinement, in process CPU time (the first path is never lost: refinement only shortens it; a cap for
+    pathological problems, far above what refinement takes (0.03-0.2 s): counted in CPU time and not wall
+    time, so that a loaded machine gives the same path for the same seed); ``informed``: after the first path,
     explore only where a shorter path can pass (the informed set); ``metric``: the length the corridor
     minimises, ``"qpos"`` (MuJoCo's joint units: radians and metres, through the configuration map's scale)
     or ``"q"`` (the planner's coordinates; the same unless a joint is normalized); ``refine_chain``: no new
@@ -95,7 +100,7 @@ class BubbleTreeOptions:
     refine: bool = True
     refine_tol: float = 0.005
     refine_rounds: int = 30
-    refine_time: float = 1.0
+    refine_time: float = 10.0
     refine_floor: float = 3.0
     explore: float = 1.0
     informed: bool = True
@@ -107,14 +112,17 @@ class BubbleTreeOptions:
             v = getattr(self, name)
             if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= (1 if name == "batch" else 0)):
                 raise ValueError(f"`{name}` must be an integer >= {1 if name == 'batch' else 0}, got {v!r}")
+        for name in ("batch", "connect"):  # candidates are sized in one MuJoCo batch: memory grows with them
+            if getattr(self, name) > MAX_EXTENSIONS:
+                raise ValueError(f"`{name}` must be at most {MAX_EXTENSIONS} extensions per tree per iteration, got {getattr(self, name)!r}")
         if not (isinstance(self.r_min, (int, float)) and np.isfinite(self.r_min) and self.r_min >= 0):
             raise ValueError(f"`r_min` must be >= 0 (0: derived from delta), got {self.r_min!r}")
         if not isinstance(self.refine, bool):
             raise ValueError(f"`refine` must be true or false, got {self.refine!r}")
         if not (isinstance(self.refine_time, (int, float)) and self.refine_time > 0):
             raise ValueError(f"`refine_time` must be > 0 seconds, got {self.refine_time!r}")
-        if not (isinstance(self.explore, (int, float)) and self.explore >= 0):
-            raise ValueError(f"`explore` must be >= 0 (iterations after the first path, per iteration before it), got {self.explore!r}")
+        if not (isinstance(self.explore, (int, float)) and 0 <= self.explore <= MAX_EXPLORE):
+            raise ValueError(f"`explore` must be in [0, {MAX_EXPLORE:g}] (iterations after the first path, per iteration before it), got {self.explore!r}")
         if not (isinstance(self.refine_floor, (int, float)) and self.refine_floor > 0):
             raise ValueError(f"`refine_floor` must be > 0 (a multiple of delta / ||rho||), got {self.refine_floor!r}")
         if self.metric not in ("q", "qpos"):
@@ -200,6 +208,10 @@ class BubbleTreePlanner(Planner):
         lo, hi = robot.lower, robot.upper
         factor = oracle.bound.ball_factor
         r_min = o.r_min if o.r_min > 0 else problem.delta / factor / 2 if problem.delta > 0 else 1e-4
+        half_span = 0.5 * float(np.linalg.norm(hi - lo))
+        if r_min >= half_span:  # a resolution coarser than the joint box: no child could ever be kept
+            raise ConfigurationError(f"bubbletree option `r_min` = {r_min:g} is not below half the joint box's diagonal "
+                                     f"({half_span:.3g}); use a smaller one (0: derived from delta)")
         q0, q1 = problem.q_init, problem.q_goal
         r0, r1 = problem.endpoint_radii()
         metric = robot.config.scale if o.metric == "qpos" else np.ones(n)
