@@ -496,7 +496,8 @@ def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Tra
             break  # the torque limits do not bind: a tighter damping bound would change nothing
         v_eff = np.where(over_v > 1, v_eff / over_v * (1 - V_MARGIN), v_eff)
         a_eff = np.where(over_a > 1, a_eff / over_a * (1 - A_MARGIN), a_eff)
-        t_eff = np.where(over_t > 1, t_eff - np.maximum((pt - tmax) * 1.2, T_MARGIN * tmax), t_eff)
+        with np.errstate(invalid="ignore"):  # an unlimited joint (inf) is never over; np.where evaluates both sides
+            t_eff = np.where(over_t > 1, t_eff - np.maximum((pt - tmax) * 1.2, T_MARGIN * tmax), t_eff)
         last_over = (over_v, over_a, over_t)
         x0 = np.maximum(law.sd**2, 1e-9 * float(x_v.max()))
     if best is not None:

@@ -189,3 +189,21 @@ def test_a_torque_overshoot_of_a_billionth_does_not_fail_a_feasible_timing():
 
     example = Path(__file__).resolve().parents[1] / "examples" / "industrial_arm" / "reach_shelf.toml"
     assert main(["plan", "--scene", str(example), "--seed", "2", "--no-rrd", "--smoother", "none"]) == 0
+
+
+def test_one_joint_with_a_torque_limit_and_one_without_times_silently(tmp_path):
+    """Only the shoulder has an actuator force range: the elbow's limit is infinite, which no arithmetic of
+    the refinement may turn into a NaN or a RuntimeWarning."""
+    import warnings
+    from pathlib import Path
+
+    from foam_mj.cli import main
+
+    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
+    xml = xml.replace("</worldbody>", '</worldbody>\n  <actuator><position joint="shoulder" kp="200" kv="5" '
+                      'forcelimited="true" forcerange="-8 8"/></actuator>')
+    (tmp_path / "arm.xml").write_text(xml)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["plan", "--mjcf", str(tmp_path / "arm.xml"), "--start", "0.3 2.0", "--goal", "0.1 0.6",
+                     "--no-rrd", "--smoother", "none"]) == 0
