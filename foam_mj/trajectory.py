@@ -399,6 +399,11 @@ def _natural_spline_derivatives(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarra
     return d1, d2
 
 
+#: A running mean over a window wider than this (samples) and than twice the array is taken in closed form
+#: (:func:`_mean_filter`); narrower ones keep scipy's running sum bit for bit.
+_WIDE_WINDOW = 1 << 20
+
+
 def _edge_padded(x: np.ndarray, size: int) -> np.ndarray:
     """``x`` extended by its end values for a centred window of ``size`` (odd) samples."""
     r = size // 2
@@ -409,6 +414,8 @@ def _max_filter(x: np.ndarray, size: int) -> np.ndarray:
     """Running maximum over a centred window of ``size`` (odd) samples, ends extended by their values
     (``scipy.ndimage.maximum_filter1d(x, size, mode="nearest")``): van Herk's block prefix/suffix maxima, O(len)."""
     n = len(x)
+    if size >= 2 * n - 1:  # every window holds the whole array (a path far shorter than the window): exact
+        return np.full(n, x.max())
     p = _edge_padded(x, size)
     blocks = -(-len(p) // size)
     p = np.concatenate([p, np.full(blocks * size - len(p), p[-1])]).reshape(blocks, size)
@@ -422,6 +429,12 @@ def _mean_filter(x: np.ndarray, size: int) -> np.ndarray:
     sum updated sample by sample and divided by ``size``, as ``scipy.ndimage.uniform_filter1d(x, size,
     mode="nearest")`` computes it (cumsum adds in order, so the numbers are bit for bit scipy's)."""
     n = len(x)
+    if size > max(2 * n + 1, _WIDE_WINDOW):
+        # Every window holds the whole array plus copies of its end values: the sums in closed form, without
+        # materialising a padded array of `size` samples (a path of 1e-7 rad has windows of 1e9 samples).
+        j = np.arange(n)
+        r = size // 2
+        return ((r - j) * x[0] + x.sum() + (size - r - n + j) * x[-1]) / size
     p = _edge_padded(x, size)
     steps = np.concatenate([np.cumsum(p[:size])[-1:], p[size:size + n - 1] - p[:n - 1]])
     return np.cumsum(steps) / size

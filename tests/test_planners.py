@@ -386,8 +386,8 @@ def test_the_rosary_adjustment_is_left_out_for_a_chain_that_is_not_a_foams(capsy
 
 
 @pytest.mark.parametrize("option, value, words", [
-    ("batch", 10**8, "`batch` must be at most 10000"),          # one MuJoCo batch of 10^8 candidates: tens of GB
-    ("connect", 2**63 - 1, "`connect` must be at most 10000"),
+    ("batch", 10**8, "`batch` must be at most 1000"),          # one MuJoCo batch of 10^8 candidates: tens of GB
+    ("connect", 2**63 - 1, "`connect` must be at most 1000"),
     ("explore", float("inf"), "`explore` must be in [0, 100]"),  # iterations after the first path: no end
     ("explore", 1e300, "`explore` must be in [0, 100]"),
 ])

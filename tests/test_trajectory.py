@@ -301,3 +301,29 @@ def test_importing_trajectories_loads_no_scipy_interpolate_or_ndimage():
     code = "import sys, foam_mj.trajectory; print(sorted(m for m in ('scipy.interpolate', 'scipy.ndimage') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_windows_far_wider_than_the_path_take_no_memory_and_keep_their_values(monkeypatch):
+    """A move of 1e-7 rad has smoothing windows of 1e9 samples: the filters must not materialise them."""
+    from scipy.ndimage import maximum_filter1d, uniform_filter1d
+
+    import foam_mj.trajectory as trajectory
+
+    rng = np.random.default_rng(5)
+    x = rng.random(40)
+    for size in (81, 101, 1001):                       # wider than twice the array: the closed forms
+        monkeypatch.setattr(trajectory, "_WIDE_WINDOW", 0)
+        assert np.array_equal(_max_filter(x, size), maximum_filter1d(x, size, mode="nearest"))
+        assert np.allclose(_mean_filter(x, size), uniform_filter1d(x, size, mode="nearest"), rtol=1e-13, atol=0)
+    assert _mean_filter(x, 2_000_000_001).shape == (40,)  # a 16 GB window, evaluated in closed form
+    assert np.all(_max_filter(x, 2_000_000_001) == x.max())
+
+
+def test_a_goal_a_tenth_of_a_microradian_from_the_start_plans():
+    """A legitimate tiny move (only q_goal == q_init is refused) plans, instead of a MemoryError."""
+    from pathlib import Path
+
+    from foam_mj.cli import main
+
+    arm = Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml"
+    assert main(["plan", "--mjcf", str(arm), "--start", "0.3 2.0", "--goal", "0.3 2.0000001", "--no-rrd"]) == 0

@@ -73,7 +73,7 @@ MAX_TRIES = 3
 #: length; on the 5-joint leg a cap of 60 cost 6 % of length, 100 costs nothing).
 CHAIN_PER_JOINT = 20
 #: Upper bounds of ``batch``/``connect`` and of ``explore`` (beyond them memory or time explode, nothing improves).
-MAX_EXTENSIONS = 10_000
+MAX_EXTENSIONS = 1_000
 MAX_EXPLORE = 100.0
 #: A hatch must be at least this fraction of the smaller radius deep (keeps hatches away from tangency).
 HATCH = 0.05
