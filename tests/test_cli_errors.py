@@ -116,6 +116,9 @@ def test_a_write_failure_after_planning_leaves_no_file_and_exits_2(tmp_path, mon
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
     monkeypatch.setattr(atomic.os, "fsync", full)
+    # The failure is injected into this process only: the recording helper process (used when a core is free)
+    # would write the .rrd fine. A really full disk fails it too (the tmpfs test below).
+    monkeypatch.setenv("FOAM_MJ_RECORDER", "inline")
     code = main(["plan", "--smoother", "none", "--no-replay", "--rrd", str(tmp_path / "r.rrd"), "--json", str(tmp_path / "r.json")])
     err = capsys.readouterr().err
     assert code == 2 and "No space left on device" in err and len(err.strip().splitlines()) == 1
