@@ -56,6 +56,22 @@ SMOOTHNESS = ("turning", "target")
 _EPS = 1e-12
 
 
+def _distance_to_segments(cx, cy, bx, by, den, t, tmp) -> np.ndarray:
+    """|c - t b| with t = clip((c . b) / den, 0, 1): the distance of points c (relative to a segment's start,
+    coordinates ``cx``, ``cy``) to segments of direction b (``den`` = max(|b|^2, eps)). In place: the result is
+    ``cx``; ``cy``, ``t`` and ``tmp`` (arrays of c's shape) are overwritten."""
+    np.multiply(cx, bx, out=t)
+    t += np.multiply(cy, by, out=tmp)
+    t /= den
+    np.clip(t, 0.0, 1.0, out=t)
+    cx -= np.multiply(t, bx, out=tmp)
+    cy -= np.multiply(t, by, out=tmp)
+    cx *= cx
+    cy *= cy
+    cx += cy
+    return np.sqrt(cx, out=cx)
+
+
 @dataclass(frozen=True)
 class CircleMap:
     """A square map [0, size]^2 with circular obstacles (centres (K, 2), radii (K,)), a start and a target."""
@@ -128,16 +144,7 @@ class CircleMap:
         np.subtract(self.centers[:, 0], ax, out=cx)  # (..., m-1, K)
         np.subtract(self.centers[:, 1], ay, out=cy)
         den = np.maximum(bx * bx + by * by, _EPS)
-        np.multiply(cx, bx, out=t)
-        t += np.multiply(cy, by, out=tmp)
-        t /= den
-        np.clip(t, 0.0, 1.0, out=t)
-        cx -= np.multiply(t, bx, out=tmp)
-        cy -= np.multiply(t, by, out=tmp)
-        cx *= cx
-        cy *= cy
-        cx += cy
-        return np.sqrt(cx, out=cx)
+        return _distance_to_segments(cx, cy, bx, by, den, t, tmp)
 
     def _work(self, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Three work arrays of ``shape`` for :meth:`segment_distances`, kept for the next call of the same
@@ -192,17 +199,7 @@ class CircleMap:
         ax, ay, bx, by, den = np.take(A, seg, axis=1)
         cx = np.subtract(ccx, ax)
         cy = np.subtract(ccy, ay)
-        t = np.multiply(cx, bx)
-        tmp = np.multiply(cy, by)
-        t += tmp
-        t /= den
-        np.clip(t, 0.0, 1.0, out=t)
-        cx -= np.multiply(t, bx, out=tmp)
-        cy -= np.multiply(t, by, out=tmp)
-        cx *= cx
-        cy *= cy
-        cx += cy
-        d = np.sqrt(cx, out=cx)
+        d = _distance_to_segments(cx, cy, bx, by, den, np.empty_like(cx), np.empty_like(cx))
         pen = np.subtract(R, d, out=d)
         np.maximum(pen, 0.0, out=pen)
         dense[:, flat] = pen.T  # summed in the dense order, zeros elsewhere: the same sum as violation's
