@@ -120,6 +120,17 @@ def test_every_planner_solves_the_shipped_scenes(oracles, checkers, name, scene)
     _check_paths(checkers[scene], oracles[scene], res, 0.005)
 
 
+@pytest.mark.parametrize("name", sorted(PLANNERS))
+def test_the_same_seed_grows_the_same_foam_and_path(oracles, name):
+    s = load_scenario("obstacle")
+    planner = s.params.planner() if name == s.params.algorithm else get_planner(name)
+    a, b = (planner.plan(_problem(oracles["obstacle"], s, time_limit=30.0), seed=3) for _ in range(2))
+    assert np.array_equal(a.foam.centers, b.foam.centers) and np.array_equal(a.foam.radii, b.foam.radii)
+    assert np.array_equal(a.rosary.centers, b.rosary.centers) and a.stats.distance_queries == b.stats.distance_queries
+    if a.waypoints is not None:
+        assert np.array_equal(a.waypoints, b.waypoints)
+
+
 # -- the scenario's [planner] table and the --planner flag -------------------------------------------
 def _toml(tmp_path, planner_table: str):
     from conftest import MODELS

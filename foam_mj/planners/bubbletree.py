@@ -134,61 +134,81 @@ class BubbleTreeOptions:
 
 
 class _Bubbles:
-    """Growing arrays of bubbles: centre, radius, parent (-1 for a root), tree (0: start, 1: goal)."""
+    """Growing arrays of bubbles: centre, radius, parent (-1 for a root), tree (0: start, 1: goal), |c|^2 and the
+    power weight |c|^2 - r^2 (the power distance |x - c|^2 - r^2 is |x|^2 - 2 x.c + that weight); the
+    members of trees 0 and 1 in order of creation, and each bubble's position among its tree's members."""
 
     def __init__(self, dim: int, cap: int = 1024) -> None:
         self.c = np.empty((cap, dim))
         self.r = np.empty(cap)
+        self.sq = np.empty(cap)
+        self.w = np.empty(cap)
         self.parent = np.empty(cap, dtype=np.int64)
         self.tree = np.empty(cap, dtype=np.int8)
+        self.pos = np.empty(cap, dtype=np.int64)
+        self.members = [np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)]
         self.n = 0
 
     def add(self, c: np.ndarray, r: np.ndarray, parent: np.ndarray, tree: np.ndarray) -> np.ndarray:
         m = len(r)
         while self.n + m > len(self.r):
-            self.c = np.concatenate([self.c, np.empty_like(self.c)])
-            self.r = np.concatenate([self.r, np.empty_like(self.r)])
-            self.parent = np.concatenate([self.parent, np.empty_like(self.parent)])
-            self.tree = np.concatenate([self.tree, np.empty_like(self.tree)])
+            for name in ("c", "r", "sq", "w", "parent", "tree", "pos"):
+                a = getattr(self, name)
+                setattr(self, name, np.concatenate([a, np.empty_like(a)]))
         s = slice(self.n, self.n + m)
         self.c[s], self.r[s], self.parent[s], self.tree[s] = c, r, parent, tree
+        self.sq[s] = np.einsum("ij,ij->i", self.c[s], self.c[s])
+        self.w[s] = self.sq[s] - self.r[s] ** 2
+        new = np.arange(s.start, s.stop)
+        for t in (0, 1):
+            mine = new[self.tree[s] == t]
+            if len(mine):
+                self.pos[mine] = len(self.members[t]) + np.arange(len(mine))
+                self.members[t] = np.concatenate([self.members[t], mine])
         self.n += m
-        return np.arange(s.start, s.stop)
+        return new
 
     def foam(self, q_init: np.ndarray, q_goal: np.ndarray) -> Foam:
         n = self.n
         return Foam(self.c[:n].copy(), self.r[:n].copy(), self.parent[:n].copy(), q_init, q_goal)
 
 
+class InformedSampler:
+    """Uniform samples of the prolate hyperspheroid {x : |S(x - q0)| + |S(x - q1)| <= c_best} (Gammell,
+    Srinivasa and Barfoot, "Informed RRT*", IROS 2014, Eq. 8-10; S = diag(metric), default identity):
+    the only points through which a path shorter than c_best (in that metric) can pass. The rotation and
+    the axes are computed once; :meth:`sample` draws."""
+
+    def __init__(self, q0: np.ndarray, q1: np.ndarray, c_best: float, metric: np.ndarray | None = None) -> None:
+        self.scale = None if metric is None else np.asarray(metric, dtype=float)
+        if self.scale is not None:
+            q0, q1 = q0 * self.scale, q1 * self.scale
+        n = self.n = len(q0)
+        c_min = float(np.linalg.norm(q1 - q0))
+        c_best = max(c_best, c_min * (1 + 1e-9))
+        self.radii = np.full(n, np.sqrt(c_best**2 - c_min**2) / 2)
+        self.radii[0] = c_best / 2
+        a1 = (q1 - q0) / max(c_min, 1e-300)
+        # An orthonormal basis whose first vector is a1 (Householder reflection of e1 onto a1).
+        e1 = np.zeros(n)
+        e1[0] = 1.0
+        v = e1 - a1
+        nv = float(v @ v)
+        self.HT = (np.eye(n) - 2.0 * np.outer(v, v) / nv if nv > 1e-24 else np.eye(n)).T
+        self.centre = 0.5 * (q0 + q1)
+
+    def sample(self, rng: np.random.Generator, m: int) -> np.ndarray:
+        x = rng.standard_normal((m, self.n))
+        x *= (rng.random(m) ** (1.0 / self.n) / np.linalg.norm(x, axis=1))[:, None]  # uniform in the unit ball
+        X = self.centre + (x * self.radii) @ self.HT
+        return X if self.scale is None else X / self.scale
+
+
 def informed_samples(
     rng: np.random.Generator, m: int, q0: np.ndarray, q1: np.ndarray, c_best: float, metric: np.ndarray | None = None
 ) -> np.ndarray:
-    """m uniform samples of the prolate hyperspheroid {x : |S(x - q0)| + |S(x - q1)| <= c_best} (Gammell,
-    Srinivasa and Barfoot, "Informed RRT*", IROS 2014, Eq. 8-10; S = diag(metric), default identity):
-    the only points through which a path shorter than c_best (in that metric) can pass."""
-    if metric is not None:
-        s = np.asarray(metric, dtype=float)
-        return informed_samples(rng, m, q0 * s, q1 * s, c_best) / s
-    n = len(q0)
-    c_min = float(np.linalg.norm(q1 - q0))
-    c_best = max(c_best, c_min * (1 + 1e-9))
-    x = rng.standard_normal((m, n))
-    x *= (rng.random(m) ** (1.0 / n) / np.linalg.norm(x, axis=1))[:, None]  # uniform in the unit ball
-    radii = np.full(n, np.sqrt(c_best**2 - c_min**2) / 2)
-    radii[0] = c_best / 2
-    a1 = (q1 - q0) / max(c_min, 1e-300)
-    # An orthonormal basis whose first vector is a1 (Householder reflection of e1 onto a1).
-    e1 = np.zeros(n)
-    e1[0] = 1.0
-    v = e1 - a1
-    nv = float(v @ v)
-    H = np.eye(n) - 2.0 * np.outer(v, v) / nv if nv > 1e-24 else np.eye(n)
-    return 0.5 * (q0 + q1) + (x * radii) @ H.T
-
-
-def _sq_dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    d2 = np.einsum("ij,ij->i", a, a)[:, None] + np.einsum("ij,ij->i", b, b)[None, :] - 2.0 * (a @ b.T)
-    return np.maximum(d2, 0.0)
+    """m samples of :class:`InformedSampler` (q0, q1, c_best, metric)."""
+    return InformedSampler(q0, q1, c_best, metric).sample(rng, m)
 
 
 class BubbleTreePlanner(Planner):
@@ -225,38 +245,41 @@ class BubbleTreePlanner(Planner):
         counters = {"iterations": 0, "candidates": 0, "rejected_small": 0, "rejected_covered": 0}
 
         def update_gaps(new: np.ndarray) -> tuple[int, int] | None:
-            """Refresh gaps with the new bubbles; return a connecting pair (a in tree 0, b in tree 1) if any."""
+            """Refresh gaps with the new bubbles; return a connecting pair (a in tree 0, b in tree 1) if any.
+            One distance matrix, new bubbles x all bubbles, with pairs of the same tree masked out."""
             nonlocal gap, mate, tries
-            if len(gap) < B.n:
+            nb = B.n
+            if len(gap) < nb:
                 grow = len(gap)
-                while grow < B.n:
+                while grow < nb:
                     grow *= 2
                 gap = np.concatenate([gap, np.full(grow - len(gap), np.inf)])
                 mate = np.concatenate([mate, np.full(grow - len(mate), -1, dtype=np.int64)])
                 tries = np.concatenate([tries, np.zeros(grow - len(tries), dtype=np.int64)])
-            idx = np.arange(B.n)
-            best = None
-            for t in (0, 1):
-                new_t = new[B.tree[new] == t]
-                other = idx[B.tree[: B.n] == 1 - t]
-                if len(new_t) == 0 or len(other) == 0:
-                    continue
-                D = np.sqrt(_sq_dist(B.c[new_t], B.c[other])) - B.r[new_t, None] - B.r[None, other]
-                j = np.argmin(D, axis=1)
-                g = D[np.arange(len(new_t)), j]
-                better = g < gap[new_t]
-                gap[new_t[better]], mate[new_t[better]] = g[better], other[j[better]]
-                i = np.argmin(D, axis=0)  # the other tree's bubbles may now be nearer to a new one
-                g2 = D[i, np.arange(len(other))]
-                better = g2 < gap[other]
-                gap[other[better]], mate[other[better]] = g2[better], new_t[i[better]]
-                # A connection: overlap with a hatch of HATCH * the smaller radius.
-                hatch = HATCH * np.minimum(B.r[new_t, None], B.r[None, other])
-                hit = np.argwhere(D <= -hatch)
-                if hit.size and best is None:
-                    a, b = int(new_t[hit[0, 0]]), int(other[hit[0, 1]])
-                    best = (a, b) if t == 0 else (b, a)
-            return best
+            d2 = B.sq[new, None] + B.sq[None, :nb] - 2.0 * (B.c[new] @ B.c[:nb].T)
+            D = np.sqrt(np.maximum(d2, 0.0, out=d2), out=d2)
+            D -= B.r[new, None]
+            D -= B.r[None, :nb]
+            D[B.tree[new, None] == B.tree[None, :nb]] = np.inf
+            rows = np.arange(len(new))
+            j = np.argmin(D, axis=1)
+            g = D[rows, j]
+            better = g < gap[new]
+            gap[new[better]], mate[new[better]] = g[better], j[better]
+            i = np.argmin(D, axis=0)  # the other tree's bubbles may now be nearer to a new one
+            g2 = D[i, np.arange(nb)]
+            better = np.flatnonzero(g2 < gap[:nb])
+            gap[better], mate[better] = g2[better], new[i[better]]
+            # A connection: overlap with a hatch of HATCH * the smaller radius (only rows that overlap at all).
+            over = np.flatnonzero(g < 0)
+            if over.size == 0:
+                return None
+            hit = np.argwhere(D[over] <= -HATCH * np.minimum(B.r[new[over], None], B.r[None, :nb]))
+            if hit.size == 0:
+                return None
+            first = hit[np.argmax(B.tree[new[over[hit[:, 0]]]] == 0)]  # a new bubble of the start tree first
+            a, b = int(new[over[first[0]]]), int(first[1])
+            return (a, b) if B.tree[a] == 0 else (b, a)
 
         def stats(outcome: str, t_first: float | None, extra: dict | None = None) -> PlanStats:
             details = dict(counters, r_min=r_min, tree_start=int(np.sum(B.tree[: B.n] == 0)), tree_goal=int(np.sum(B.tree[: B.n] == 1)))
@@ -276,7 +299,7 @@ class BubbleTreePlanner(Planner):
             P = np.array([q0] + pts[0][::-1] + pts[1] + [q1])
             return float(np.sum(np.linalg.norm(np.diff(P, axis=0) * metric, axis=1)))
 
-        c_best: float | None = None
+        sampler: InformedSampler | None = None
         link = update_gaps(np.array([0, 1]))
         newest = [np.array([0]), np.array([1])]
         t_first: float | None = None
@@ -287,7 +310,7 @@ class BubbleTreePlanner(Planner):
                 t_first, it_first, foam_first = timer.elapsed(), counters["iterations"], B.n
                 cpu_first = time.process_time() - cpu0
                 if o.informed:
-                    c_best = chain_length(link)
+                    sampler = InformedSampler(q0, q1, chain_length(link), metric)
             if t_first is not None and counters["iterations"] - it_first >= int(np.ceil(o.explore * min(it_first, EXPLORE_CAP))):
                 break  # the first path, then `explore` x as many iterations again (at most EXPLORE_CAP) for other routes
             if timer.elapsed() > problem.time_limit or B.n >= problem.max_bubbles:
@@ -300,78 +323,85 @@ class BubbleTreePlanner(Planner):
                 )
             timer.report(B.n)
             counters["iterations"] += 1
-            nb = B.n
-            idx = np.arange(nb)
-            parents, targets = [], []
+            parents, targets, trees = [], [], []
             for t in (0, 1):
-                mine = idx[B.tree[:nb] == t]
-                # Exploration: uniform samples, each from the bubble of smallest power distance.
-                if c_best is None:
+                mine = B.members[t]
+                Cm, wm = B.c[mine], B.w[mine]
+                trees.append((Cm, wm))
+                # Exploration: uniform samples (after the first path: only where a shorter path can pass).
+                if sampler is None:
                     X = lo + (hi - lo) * rng.random((o.batch, n))
-                else:  # after the first path: only where a shorter path can pass
-                    X = np.clip(informed_samples(rng, o.batch, q0, q1, c_best, metric), lo, hi)
-                pw = _sq_dist(X, B.c[mine]) - B.r[mine][None, :] ** 2
-                parents.append(mine[np.argmin(pw, axis=1)])
-                targets.append(X)
+                else:
+                    X = np.clip(sampler.sample(rng, o.batch), lo, hi)
                 # Goal-directed: the bubbles nearest to the other tree (each tried at most MAX_TRIES times),
                 # toward their nearest bubble there; and, as RRT-Connect, toward the other tree's newest bubbles.
+                near = pick = None
                 if o.connect:
                     fresh = mine[tries[mine] < MAX_TRIES]
                     if len(fresh):
                         k = min(o.connect, len(fresh))
                         near = fresh[np.argpartition(gap[fresh], k - 1)[:k]] if k < len(fresh) else fresh
                         tries[near] += 1
-                        parents.append(near)
-                        targets.append(B.c[mate[near]])
                     theirs = newest[1 - t]
                     if len(theirs):
                         pick = theirs[rng.permutation(len(theirs))[: o.connect]]
-                        pw = _sq_dist(B.c[pick], B.c[mine]) - B.r[mine][None, :] ** 2
-                        parents.append(mine[np.argmin(pw, axis=1)])
-                        targets.append(B.c[pick])
-            P = np.concatenate(parents)
-            T = np.concatenate(targets)
-            v = T - B.c[P]
-            dist = np.linalg.norm(v, axis=1)
+                # Samples and newest bubbles extend the bubble of smallest power distance |x - c|^2 - r^2.
+                Y = X if pick is None else np.concatenate([X, B.c[pick]])
+                par = mine[np.argmin(wm[None, :] - 2.0 * (Y @ Cm.T), axis=1)]
+                parents.append(par[: len(X)])
+                targets.append(X)
+                if near is not None:
+                    parents.append(near)
+                    targets.append(B.c[mate[near]])
+                if pick is not None:
+                    parents.append(par[len(X):])
+                    targets.append(B.c[pick])
+            P = np.concatenate(parents)  # the start tree's extensions first, then the goal tree's
+            v = np.concatenate(targets) - B.c[P]
+            dist = np.sqrt(np.einsum("ij,ij->i", v, v))
             ok = dist > B.r[P] * (1 + 1e-9)  # a target inside its parent adds nothing
-            P, v, dist = P[ok], v[ok], dist[ok]
-            if len(P) == 0:
+            if not ok.all():
+                P, v, dist = P[ok], v[ok], dist[ok]
+            m = len(P)
+            if m == 0:
                 continue
-            u = v / dist[:, None]
-            s = np.minimum(STEPS[None, :] * B.r[P, None], dist[:, None])  # (m, S) distances from the parent's centre
-            cand = B.c[P, None, :] + s[..., None] * u[:, None, :]  # (m, S, n)
-            flat = cand.reshape(-1, n)
-            inside = np.all((flat >= lo) & (flat <= hi), axis=1)
-            r = np.zeros(len(flat))
-            if inside.any():
-                q_in = flat[inside]
-                r[inside] = oracle.radii(q_in)
-            counters["candidates"] += int(inside.sum())
-            r = r.reshape(s.shape)
-            good = (r >= r_min) & (s <= B.r[P, None] + (1 - HATCH) * r)
-            counters["rejected_small"] += int(np.sum(~good))
+            rP = B.r[P]
+            s = np.minimum(STEPS[None, :] * rP[:, None], dist[:, None])  # (m, S) distances from the parent's centre
+            cand = B.c[P, None, :] + (s / dist[:, None])[..., None] * v[:, None, :]  # (m, S, n)
+            query = np.all((cand >= lo) & (cand <= hi), axis=2)
+            r = np.zeros(s.shape)
+            nq = int(np.count_nonzero(query))
+            if nq:
+                r[query] = oracle.radii(cand[query])
+            counters["candidates"] += nq
+            good = query & (r >= r_min) & (s <= rP[:, None] + (1 - HATCH) * r)
+            counters["rejected_small"] += nq - int(np.count_nonzero(good))
             # The farthest good candidate of each extension.
-            has = good.any(axis=1)
-            pick = s.shape[1] - 1 - np.argmax(good[:, ::-1], axis=1)
-            rows = np.flatnonzero(has)
+            rows = np.flatnonzero(good.any(axis=1))
             if rows.size == 0:
                 continue
-            cc = cand[rows, pick[rows]]
-            cr = r[rows, pick[rows]]
-            cp = P[rows]
+            pick = STEPS.size - 1 - np.argmax(good[rows, ::-1], axis=1)
+            cc, cr, cp = cand[rows, pick], r[rows, pick], P[rows]
             ct = B.tree[cp]
-            # Not inside another bubble of the same tree (other than the parent), nor inside an earlier sibling.
-            d2 = _sq_dist(cc, B.c[:nb])
-            within = (d2 < B.r[None, :nb] ** 2) & (B.tree[None, :nb] == ct[:, None])
-            within[np.arange(len(cp)), cp] = False
-            sib = (_sq_dist(cc, cc) < cr[None, :] ** 2) & (ct[:, None] == ct[None, :])
-            sib = np.tril(sib, -1)
-            keep = ~within.any(axis=1) & ~sib.any(axis=1)
-            counters["rejected_covered"] += int(np.sum(~keep))
-            if not keep.any():
-                continue
+            # Not inside another bubble of its tree (power distance < 0, the parent excluded), nor inside an
+            # earlier sibling of this batch; per tree (the start tree's extensions come first).
+            xx = np.einsum("ij,ij->i", cc, cc)
+            keep = np.empty(len(rows), dtype=bool)
+            k0 = int(np.count_nonzero(ct == 0))
+            for t, sl in ((0, slice(0, k0)), (1, slice(k0, len(rows)))):
+                X = cc[sl]
+                if len(X) == 0:
+                    continue
+                Cm, wm = trees[t]
+                pw = wm[None, :] - 2.0 * (X @ Cm.T)
+                pw[np.arange(len(X)), B.pos[cp[sl]]] = np.inf
+                d2 = xx[sl, None] + xx[None, sl] - 2.0 * (X @ X.T)
+                keep[sl] = (pw.min(axis=1) >= -xx[sl]) & ~np.tril(d2 < cr[None, sl] ** 2, -1).any(axis=1)
+            counters["rejected_covered"] += int(np.count_nonzero(~keep))
             room = problem.max_bubbles - B.n
             sel = np.flatnonzero(keep)[:room]
+            if sel.size == 0:
+                continue
             new = B.add(cc[sel], cr[sel], cp[sel], ct[sel])
             met = update_gaps(new)
             newest = [new[B.tree[new] == 0], new[B.tree[new] == 1]]
