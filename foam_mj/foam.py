@@ -22,7 +22,7 @@ Implementation notes
   grandparent (the parent sits on the grandparent's surface, so about a quarter of the candidates lie
   in it), then with :class:`CoverageIndex`: a k-d tree on lifted points plus a brute-force buffer of
   recent bubbles, so no Python loop runs over the bubbles. Siblings of one batch are settled from
-  the pairs a k-d tree lists (:func:`_accept_in_order`).
+  the pairs a k-d tree lists (:func:`accept_in_order`).
 * Where the work goes (obstacle scene, about 20 candidates and 6 MuJoCo configurations per bubble):
   roughly a third MuJoCo's distance sensors (2.5-3.5 us of CPU per configuration), a third the
   coverage tree's queries (about 0.6 us per candidate), the rest numpy bookkeeping per batch.
@@ -297,7 +297,7 @@ def _pairwise_sq_dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def _accept_in_order(cand: np.ndarray, r: np.ndarray) -> np.ndarray:
+def accept_in_order(cand: np.ndarray, r: np.ndarray) -> np.ndarray:
     """Candidates taken one by one in order: ``accepted[i]`` is False when centre i lies strictly inside the
     bubble of an accepted j < i (|c_i - c_j|^2 < r_j^2, the squares summed coordinate by coordinate as in
     :func:`_pairwise_sq_dist`), True otherwise.
@@ -505,7 +505,7 @@ def plan(
         if len(cand) == 0:
             continue
         # Candidates of this batch covered by a bubble accepted earlier in the same batch are dropped.
-        accepted = _accept_in_order(cand, r)
+        accepted = accept_in_order(cand, r)
         stats.dropped_covered += int((~accepted).sum())
         # Stop at the first accepted bubble that holds the goal, and at the bubble budget.
         order = np.flatnonzero(accepted)[: params.max_bubbles - count]

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, PlanningFailed
-from foam_mj.foam import CoverageIndex, FoamParams, _accept_in_order, plan
+from foam_mj.foam import CoverageIndex, FoamParams, accept_in_order, plan
 from foam_mj.model import RobotModel
 from foam_mj.scenarios import load_scenario
 
@@ -179,7 +179,7 @@ def test_siblings_are_accepted_exactly_as_one_by_one(seed, m, dim, chain):
     accepted = []
     for i in range(m):  # the rule, one candidate at a time
         accepted.append(not any(np.sum((cand[i] - cand[j]) ** 2) < r[j] ** 2 for j in range(i) if accepted[j]))
-    np.testing.assert_array_equal(_accept_in_order(cand, r), np.array(accepted, dtype=bool))
+    np.testing.assert_array_equal(accept_in_order(cand, r), np.array(accepted, dtype=bool))
 
 
 @settings(max_examples=25, deadline=None)

@@ -66,7 +66,7 @@ from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, PlanningFailed
-from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult
+from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order
 from foam_mj.rosary import MEMBERSHIP_TOL
 
 #: Citation used in docstrings, the README and docs/references.md.
@@ -93,21 +93,6 @@ class GoalBias:
 def _unit(rng: np.random.Generator, count: int, dim: int) -> np.ndarray:
     u = rng.standard_normal((count, dim))
     return u / np.linalg.norm(u, axis=1, keepdims=True)
-
-
-def _accept_in_order(cand: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Mask of candidates kept when taken in order, each dropped if strictly inside an earlier kept one."""
-    m = len(cand)
-    if m <= 1:
-        return np.ones(m, dtype=bool)
-    d2 = np.einsum("ij,ij->i", cand, cand)[:, None] + np.einsum("ij,ij->i", cand, cand)[None, :] - 2.0 * cand @ cand.T
-    inside = np.tril(np.maximum(d2, 0.0) < r[None, :] ** 2, -1)  # inside[i, j], j < i: i lies in j's bubble
-    if not inside.any():
-        return np.ones(m, dtype=bool)
-    acc = np.ones(m, dtype=bool)
-    for i in np.flatnonzero(inside.any(axis=1)).tolist():
-        acc[i] = not np.any(acc[:i] & inside[i, :i])
-    return acc
 
 
 class _Growth:
@@ -200,7 +185,7 @@ class _Growth:
         big = r >= self.params.r_min
         st.dropped_small += int((~big).sum())
         idx, r = idx[big], r[big]
-        acc = _accept_in_order(cand[idx], r)
+        acc = accept_in_order(cand[idx], r)
         st.dropped_covered += int((~acc).sum())
         idx, r = idx[acc], r[acc]
         idx, r = idx[: self.params.max_bubbles - self.count], r[: self.params.max_bubbles - self.count]
