@@ -77,7 +77,7 @@ class CorridorOptions:
     refine_tol: float = 0.005
     refine_rounds: int = 30
     floor_factor: float = 0.1
-    chords: int = 8
+    chords: int = 24
     time_limit: float = 10.0  # process CPU seconds
     prune: bool = True
     #: Per-coordinate length weights (None: Euclidean in q); see :func:`shortest_path`.
@@ -273,63 +273,95 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
     return out
 
 
-def prune_chain(C: np.ndarray, R: np.ndarray, P: np.ndarray, pieces: int = 8) -> np.ndarray:
-    """Positions (into the chain) of a shortest sub-chain that still holds the polyline P.
+THIN = True
+RECOVER = 4
+CHORD_SPACING = 2.0
 
-    P's segment j lies in bubble j. Walking along P (sampled ``pieces`` times per segment), take the
-    bubble that holds the current point and the longest stretch after it, and move to that stretch's
-    end (a point in both bubbles: a hatch point). The polyline through those hatch points keeps each
-    piece inside one bubble (balls are convex) and is no longer than P (triangle inequality), so the
-    shortest path through the pruned chain is no longer either. "Holds" is tested with the balls shrunk
-    by 1.5 INSET so that the cone program stays feasible."""
-    k = len(R)
+
+def thin_line_chain(pts: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The fewest of a chord's bubbles (centres in order along the chord) that still hold it: from each kept
+    bubble, the farthest later one that overlaps it with a deep hatch (DEEP). Two balls centred on a
+    segment that overlap cover the segment between their centres, so the kept chain holds the chord."""
+    m = len(r)
+    if m <= 2:
+        return pts, r
+    d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
+    ok = d <= r[:, None] + r[None, :] - DEEP * np.minimum(r[:, None], r[None, :])
+    # Consecutive bubbles overlap deeply by construction (certify_chords bisects until they do).
+    far = m - 1 - np.argmax(ok[:, ::-1], axis=1)  # the last bubble each one overlaps deeply
+    keep = [0]
+    while keep[-1] < m - 1:
+        keep.append(max(far[keep[-1]], keep[-1] + 1))
+    keep = np.array(keep)
+    return pts[keep], r[keep]
+
+
+def path_samples(P: np.ndarray, pieces: int) -> np.ndarray:
+    """The polyline P sampled ``pieces`` times per segment: sample j * pieces is P[j]; the last is P[-1]."""
     t = np.arange(pieces) / pieces
-    D = np.concatenate([(P[:-1, None, :] + (P[1:] - P[:-1])[:, None, :] * t[None, :, None]).reshape(-1, P.shape[1]), P[-1:]])
-    d2 = np.einsum("ij,ij->i", C, C)[:, None] + np.einsum("ij,ij->i", D, D)[None, :] - 2.0 * (C @ D.T)
-    rs = np.maximum(R - 1.5 * INSET, 0.0)
-    inside = d2 <= (rs * rs)[:, None]
-    # The segment a sample point belongs to always holds it (it was solved inside the shrunk ball).
-    seg = np.minimum(np.arange(len(D)) // pieces, k - 1)
-    inside[seg, np.arange(len(D))] = True
-    # Waypoint j (sample j * pieces) lies in the hatch of bubbles j - 1 and j.
-    v = np.arange(1, k) * pieces
-    inside[np.arange(k - 1), v] = True
-    # run[i, p]: last index of the contiguous stretch of samples from p held by bubble i (p - 1 if none):
-    # the first sample at or after p that bubble i does not hold, minus one.
+    return np.concatenate([(P[:-1, None, :] + (P[1:] - P[:-1])[:, None, :] * t[None, :, None]).reshape(-1, P.shape[1]), P[-1:]])
+
+
+#: prune_chain looks for a bubble's held samples at most this many samples beyond its home interval.
+PRUNE_BAND = 24
+
+
+def prune_chain(
+    C: np.ndarray, R: np.ndarray, P: np.ndarray, pieces: int = 8, extra: tuple[np.ndarray, np.ndarray] | None = None
+) -> np.ndarray:
+    """Positions (into the chain, then into ``extra``) of a short chain of bubbles that still holds the polyline P.
+
+    P's segment j lies in bubble j. ``extra`` = (sample indices, certified radii): further bubbles centred at
+    samples of P (:func:`path_samples` with ``pieces``) that may be used. Each bubble holds an interval of samples
+    around its home (segment j's samples j*pieces .. (j+1)*pieces for chain bubble j, its centre's sample for an
+    extra one; looked for at most PRUNE_BAND samples beyond). Greedily, from the bubble that holds the first
+    sample, take the bubble whose interval starts inside the current one and reaches farthest, among those that
+    overlap the current one with a deep hatch (DEEP; else any hatch, HATCH). The polyline through one shared
+    sample per hand-over keeps each piece inside one bubble (balls are convex) and is no longer than P (triangle
+    inequality), so the shortest path through the new chain is no longer either. "Holds" is tested with the
+    balls shrunk by 1.5 INSET so that the cone program stays feasible."""
+    k = len(R)
+    D = path_samples(P, pieces)
     T = len(D)
-    pos = np.arange(T)
-    first_out = np.minimum.accumulate(np.where(inside, T, pos)[:, ::-1], axis=1)[:, ::-1]
-    run = first_out - 1
-    # Consecutive bubbles must overlap with a hatch; a deep one (DEEP) is preferred, so that deepen() has
-    # less to splice afterwards.
-    sq = np.einsum("ij,ij->i", C, C)
-    d = np.sqrt(np.maximum(sq[:, None] + sq[None, :] - 2.0 * (C @ C.T), 0.0))
-    small = np.minimum(R[:, None], R[None, :])
-    others = ~np.eye(k, dtype=bool)
-    tiers = (d <= R[:, None] + R[None, :] - DEEP * small) & others, (d <= R[:, None] + R[None, :] - HATCH * small) & others
-    out = [int(np.argmax(run[:, 0]))]
-    at = 0  # the sample where the current bubble takes over
-    while run[out[-1], at] < T - 1:
+    h0 = np.arange(k) * pieces
+    h1 = h0 + pieces
+    if extra is not None and len(extra[1]):
+        idx = np.asarray(extra[0], dtype=np.int64)
+        C, R = np.concatenate([C, D[idx]]), np.concatenate([R, extra[1]])
+        h0, h1 = np.concatenate([h0, idx]), np.concatenate([h1, idx])
+    nb = len(R)
+    rs2 = np.maximum(R - 1.5 * INSET, 0.0) ** 2
+    # Held samples after the home interval (offsets 1..PRUNE_BAND) and before it; the home interval itself is
+    # held (the segment and both waypoints were solved inside the shrunk balls, to the solver's tolerance).
+    off = np.arange(1, PRUNE_BAND + 1)
+    after = h1[:, None] + off
+    before = h0[:, None] - off
+    ina = (after < T) & (np.einsum("ijk,ijk->ij", *(2 * [D[np.minimum(after, T - 1)] - C[:, None, :]])) <= rs2[:, None])
+    inb = (before >= 0) & (np.einsum("ijk,ijk->ij", *(2 * [D[np.maximum(before, 0)] - C[:, None, :]])) <= rs2[:, None])
+    # Length of the run of held samples next to the home interval (all of the band if it never breaks).
+    na = np.where(ina.all(axis=1), PRUNE_BAND, np.argmin(ina, axis=1))
+    nbf = np.where(inb.all(axis=1), PRUNE_BAND, np.argmin(inb, axis=1))
+    e = np.minimum(h1 + na, T - 1)
+    s_ = np.maximum(h0 - nbf, 0)
+    start = np.flatnonzero(s_ == 0)
+    out = [int(start[np.argmax(e[start])])]
+    while e[out[-1]] < T - 1:
         prev = out[-1]
-        end = int(run[prev, at])
-        found = False
-        for ok_all in tiers:
-            # The latest hand-over point p_ in [at, end] from which some allowed successor holds beyond `end`.
-            ok = ok_all[prev]
-            cand = np.flatnonzero(ok)
-            if cand.size == 0:
-                continue
-            span = np.where(inside[cand, at : end + 1], run[cand, at : end + 1], -1)  # (candidates, points)
-            reach = span.max(axis=0)
-            good = np.flatnonzero(reach > end)
-            if good.size:
-                col = int(good[-1])
-                out.append(int(cand[int(np.argmax(span[:, col]))]))
-                at = at + col
-                found = True
+        cand = np.flatnonzero((s_ <= e[prev]) & (e > e[prev]))
+        if cand.size == 0:  # pragma: no cover - chain bubble j + 1 always makes progress
+            return np.arange(k)
+        d = np.linalg.norm(C[cand] - C[prev], axis=1)
+        slack = R[cand] + R[prev] - d
+        small = np.minimum(R[cand], R[prev])
+        pick = -1
+        for depth in (DEEP, HATCH):
+            ok = slack >= depth * small
+            if ok.any():
+                pick = int(cand[ok][np.argmax(e[cand[ok]])])
                 break
-        if not found:
-            return np.arange(k)  # no successor makes progress: keep the chain as it is
+        if pick < 0:
+            return np.arange(k)  # no overlapping bubble makes progress: keep the chain as it is
+        out.append(pick)
     return np.array(out, dtype=np.int64)
 
 
@@ -454,13 +486,18 @@ def build_corridor(
                 gain = (x[:, 1] - x[:, 0]) - np.linalg.norm((B - A) * (1.0 if M is None else M), axis=1)
                 cand = np.flatnonzero((jb > ja) & (gain > 1e-3 * length))
                 if cand.size:
-                    res = certify_chords(oracle, A[cand], B[cand], floor * CHORD_FLOOR, max(float(np.median(R)), floor))
+                    res = certify_chords(oracle, A[cand], B[cand], floor * CHORD_FLOOR, max(CHORD_SPACING * float(np.median(R)), floor))
                     used = np.zeros(k + 1, dtype=bool)
-                    for c_ in sorted((c_ for c_ in range(len(cand)) if res[c_] is not None and len(res[c_][1]) <= CHORD_GROWTH * (jb[cand[c_]] - ja[cand[c_]] + 1)), key=lambda c_: -gain[cand[c_]]):
+                    # The certified chords by gain; each is thinned to its fewest bubbles, and spliced if it has at
+                    # most CHORD_GROWTH x as many as the stretch it replaces and is disjoint from those taken.
+                    for c_ in sorted((c_ for c_ in range(len(cand)) if res[c_] is not None), key=lambda c_: -gain[cand[c_]]):
                         i = cand[c_]
-                        if not used[ja[i] : jb[i] + 1].any():
+                        if used[ja[i] : jb[i] + 1].any():
+                            continue
+                        ch = thin_line_chain(*res[c_]) if THIN else res[c_]
+                        if len(ch[1]) <= CHORD_GROWTH * (jb[i] - ja[i] + 1):
                             used[ja[i] : jb[i] + 1] = True
-                            splices[int(ja[i])] = (int(jb[i]), *res[c_])
+                            splices[int(ja[i])] = (int(jb[i]), *ch)
             clock.lap("chords")
             # 2. Bubbles where the path presses on a boundary, spliced in place (hatch p: bubbles p, p + 1),
             #    except inside a chord's span.
@@ -509,7 +546,7 @@ def build_corridor(
             stats["refine_added"] = sum(len(x) for x in added_r)
             gain = (length - length2) / length if length > 0 else 0.0
             if DEBUG:
-                print(f"round: chain {len(R2)} length {length:.4f} -> {length2:.4f}")
+                print(f"round: k {k} press {len(press)} chords {len(splices)} (+{sum(len(v[2]) for v in splices.values())} -{sum(v[0]-a for a, v in splices.items())}) chain {len(R2)} length {length:.4f} -> {length2:.4f}")
             if length2 <= length:
                 C, R, ids, w, length = C2, R2, ids2, w2, length2
             if gain <= options.refine_tol or len(R) >= options.max_chain:
@@ -519,9 +556,28 @@ def build_corridor(
     clock.lap("other")
     changed = False
     if options.refine and options.prune and len(R) > 2:
-        keep_pos = prune_chain(C, R, np.concatenate([[q0], w, [q1]]))
-        if len(keep_pos) < len(R):
-            C, R, ids, changed = C[keep_pos], R[keep_pos], ids[keep_pos], True
+        P = np.concatenate([[q0], w, [q1]])
+        extra = None
+        if RECOVER:
+            D = path_samples(P, 8)
+            at = np.arange(0, len(D), 8 // RECOVER)
+            rE = oracle.radii(D[at])
+            ok = rE > 4 * INSET
+            extra = (at[ok], rE[ok])
+            clock.lap("recover")
+        keep_pos = prune_chain(C, R, P, extra=extra)
+        if len(keep_pos) < len(R) or np.any(keep_pos >= len(R)):
+            new = keep_pos >= len(R)
+            if new.any():
+                j = keep_pos[new] - len(R)
+                ids = np.concatenate([ids, np.full(len(extra[1]), -1)])
+                ids[keep_pos[new]] = new_ids(int(new.sum()))
+                added_c.append(D[extra[0][j]])
+                added_r.append(extra[1][j])
+                C, R = np.concatenate([C, D[extra[0]]]), np.concatenate([R, extra[1]])
+                stats["recovered"] = int(new.sum())
+            C, R, ids = C[keep_pos], R[keep_pos], ids[keep_pos]
+            changed = True
         clock.lap("prune")
     C, R, ids, extra_c, extra_r = deepen(oracle, C, R, ids, lambda m: new_ids(m))
     if len(extra_r):
