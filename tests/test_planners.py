@@ -319,6 +319,53 @@ def test_pruning_keeps_the_path_inside_a_shorter_chain():
     assert L2 <= L + 1e-9 and L2 == pytest.approx(1.0, abs=1e-5)
 
 
+def test_pruning_with_bubbles_centred_on_the_path_holds_it_with_fewer():
+    """A chain of small balls along a zigzag, and larger balls centred at points of its shortest path: the
+    re-covered chain uses the larger ones, has fewer bubbles, consecutive ones overlap with a hatch, and
+    its own shortest path is no longer (the old path, cut at one shared sample per hand-over, still fits)."""
+    from foam_mj.planners.corridor import HATCH, path_samples, prune_chain, shortest_path
+
+    rng = np.random.default_rng(3)
+    x = np.linspace(0.0, 2.0, 41)
+    C = np.stack([x, 0.05 * np.sin(3 * x)], axis=1)
+    R = 0.06 + 0.01 * rng.random(41)
+    q0, q1 = C[0], C[-1]
+    w, L = shortest_path(C, R, q0, q1)
+    P = np.concatenate([[q0], w, [q1]])
+    D = path_samples(P, 8)
+    at = np.arange(0, len(D), 2)
+    r_extra = np.full(len(at), 0.15)
+    keep = prune_chain(C, R, P, extra=(at, r_extra))
+    Cn = np.concatenate([C, D[at]])[keep]
+    Rn = np.concatenate([R, r_extra])[keep]
+    assert np.any(keep >= len(R)) and len(keep) < prune_chain(C, R, P).size
+    d = np.linalg.norm(np.diff(Cn, axis=0), axis=1)
+    assert np.all(d <= Rn[:-1] + Rn[1:] - HATCH * np.minimum(Rn[:-1], Rn[1:]))
+    _, L2 = shortest_path(Cn, Rn, q0, q1)
+    assert L2 <= L + 1e-6
+
+
+def test_a_chords_chain_is_thinned_to_fewer_bubbles_that_still_hold_it():
+    from foam_mj.planners.corridor import DEEP, thin_line_chain
+
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        m = int(rng.integers(3, 30))
+        A, B = rng.random(3), rng.random(3)
+        t = np.linspace(0.0, 1.0, m)
+        pts = A + t[:, None] * (B - A)
+        step = np.linalg.norm(B - A) / (m - 1)
+        r = step * (0.7 + 2.0 * rng.random(m))  # consecutive ones overlap deeply
+        p2, r2 = thin_line_chain(pts, r)
+        assert len(r2) <= m
+        np.testing.assert_array_equal(p2[[0, -1]], pts[[0, -1]])
+        d = np.linalg.norm(np.diff(p2, axis=0), axis=1)
+        assert np.all(d <= r2[:-1] + r2[1:] - DEEP * np.minimum(r2[:-1], r2[1:]) + 1e-12)
+        # Every point of the chord lies in a kept ball.
+        s = A + np.linspace(0.0, 1.0, 200)[:, None] * (B - A)
+        assert np.all(np.min(np.linalg.norm(s[:, None] - p2[None], axis=2) - r2[None], axis=1) <= 1e-12)
+
+
 def test_informed_samples_lie_where_a_shorter_path_can_pass_and_fill_that_set():
     from foam_mj.planners.bubbletree import informed_samples
 
