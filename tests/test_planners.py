@@ -395,6 +395,26 @@ def test_the_corridor_metric_weights_each_coordinate():
         get_planner("bubbletree", metric="joint")
 
 
+def test_the_corridors_cone_program_is_the_convex_smoothers_for_any_chain():
+    """shortest_path keeps the bubble-independent part of the program per chain length; for chains of
+    several lengths and dimensions, in any order, its length is the convex smoother's optimum (same inset;
+    the waypoints themselves may slide along straight stretches) and its waypoints lie in the hatches."""
+    from foam_mj.planners.corridor import INSET, shortest_path
+    from foam_mj.rosary import Rosary
+
+    rng = np.random.default_rng(5)
+    for k, n in [(5, 3), (12, 2), (5, 3), (30, 6), (12, 2), (2, 4)]:
+        C = np.cumsum(rng.normal(0.0, 0.1, (k, n)), axis=0)
+        R = np.concatenate([np.linalg.norm(np.diff(C, axis=0), axis=1), [0.1]]) * 0.8 + 0.05
+        q0, q1 = C[0] + 0.01, C[-1] - 0.01
+        ros = Rosary(C, R, q0, q1)
+        w, L = shortest_path(C, R, q0, q1)
+        ref = ConvexShortestPath(inset=INSET, tol=1e-8).smooth(ros)
+        assert L == pytest.approx(ref.length, rel=1e-6)
+        assert np.all(ros.in_hatches(w))
+        assert L == pytest.approx(float(np.sum(np.linalg.norm(np.diff(np.concatenate([[q0], w, [q1]]), axis=0), axis=1))))
+
+
 def test_overlap_graph_brute_force_and_kd_tree_agree(monkeypatch):
     import foam_mj.planners.corridor as corridor
 
