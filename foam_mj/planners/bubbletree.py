@@ -133,40 +133,77 @@ class BubbleTreeOptions:
             raise ValueError(f"`refine_tol` must be in (0, 1), got {self.refine_tol!r}")
 
 
+def _lifted(Y: np.ndarray) -> np.ndarray:
+    """The rows [y, 1, |y|^2] of points y (see :class:`_Tree`)."""
+    L = np.empty((len(Y), Y.shape[1] + 2))
+    L[:, :-2] = Y
+    L[:, -2] = 1.0
+    L[:, -1] = np.einsum("ij,ij->i", Y, Y)
+    return L
+
+
+class _Tree:
+    """One tree's bubbles in order of creation: their indices ``idx`` among all bubbles, radii ``r``, and the
+    rows ``pw = [-2c, |c|^2 - r^2, 1]`` and ``d2 = [-2c, |c|^2, 1]``, so that for the lifted rows
+    [y, 1, |y|^2] of points y (:func:`_lifted`) one matrix product gives the power distances
+    |y - c|^2 - r^2 (``L @ pw.T``) or the squared distances |y - c|^2 (``L @ d2.T``) to every bubble."""
+
+    def __init__(self, dim: int, cap: int = 512) -> None:
+        self.idx = np.empty(cap, dtype=np.int64)
+        self.r = np.empty(cap)
+        self.pw = np.empty((cap, dim + 2))
+        self.d2 = np.empty((cap, dim + 2))
+        self.n = 0
+
+    def add(self, idx: np.ndarray, c: np.ndarray, r: np.ndarray) -> None:
+        m, n = len(idx), c.shape[1]
+        while self.n + m > len(self.r):
+            for name in ("idx", "r", "pw", "d2"):
+                a = getattr(self, name)
+                setattr(self, name, np.concatenate([a, np.empty_like(a)]))
+        s = slice(self.n, self.n + m)
+        self.idx[s], self.r[s] = idx, r
+        d2 = self.d2[s]
+        d2[:, :n] = -2.0 * c
+        d2[:, n] = np.einsum("ij,ij->i", c, c)
+        d2[:, n + 1] = 1.0
+        self.pw[s] = d2
+        self.pw[s, n] -= r**2
+        self.n += m
+
+
 class _Bubbles:
-    """Growing arrays of bubbles: centre, radius, parent (-1 for a root), tree (0: start, 1: goal), |c|^2 and the
-    power weight |c|^2 - r^2 (the power distance |x - c|^2 - r^2 is |x|^2 - 2 x.c + that weight); the
-    members of trees 0 and 1 in order of creation, and each bubble's position among its tree's members."""
+    """Growing arrays of bubbles: centre, radius, parent (-1 for a root), tree (0: start, 1: goal) and position
+    among its tree's bubbles; the two trees (:class:`_Tree`)."""
 
     def __init__(self, dim: int, cap: int = 1024) -> None:
         self.c = np.empty((cap, dim))
         self.r = np.empty(cap)
-        self.sq = np.empty(cap)
-        self.w = np.empty(cap)
         self.parent = np.empty(cap, dtype=np.int64)
         self.tree = np.empty(cap, dtype=np.int8)
         self.pos = np.empty(cap, dtype=np.int64)
-        self.members = [np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)]
+        self.trees = (_Tree(dim), _Tree(dim))
         self.n = 0
 
-    def add(self, c: np.ndarray, r: np.ndarray, parent: np.ndarray, tree: np.ndarray) -> np.ndarray:
+    def add(self, c: np.ndarray, r: np.ndarray, parent: np.ndarray, tree: np.ndarray) -> list[np.ndarray]:
+        """Append bubbles; return the indices of the new ones of tree 0 and of tree 1."""
         m = len(r)
         while self.n + m > len(self.r):
-            for name in ("c", "r", "sq", "w", "parent", "tree", "pos"):
+            for name in ("c", "r", "parent", "tree", "pos"):
                 a = getattr(self, name)
                 setattr(self, name, np.concatenate([a, np.empty_like(a)]))
         s = slice(self.n, self.n + m)
         self.c[s], self.r[s], self.parent[s], self.tree[s] = c, r, parent, tree
-        self.sq[s] = np.einsum("ij,ij->i", self.c[s], self.c[s])
-        self.w[s] = self.sq[s] - self.r[s] ** 2
-        new = np.arange(s.start, s.stop)
+        out = []
         for t in (0, 1):
-            mine = new[self.tree[s] == t]
+            mine = np.flatnonzero(tree == t)
+            out.append(mine + self.n)
             if len(mine):
-                self.pos[mine] = len(self.members[t]) + np.arange(len(mine))
-                self.members[t] = np.concatenate([self.members[t], mine])
+                T = self.trees[t]
+                self.pos[out[t]] = T.n + np.arange(len(mine))
+                T.add(out[t], c[mine], r[mine])
         self.n += m
-        return new
+        return out
 
     def foam(self, q_init: np.ndarray, q_goal: np.ndarray) -> Foam:
         n = self.n
@@ -237,49 +274,48 @@ class BubbleTreePlanner(Planner):
         metric = robot.config.scale if o.metric == "qpos" else np.ones(n)
 
         B = _Bubbles(n)
-        B.add(np.stack([q0, q1]), np.array([r0, r1]), np.array([-1, -1]), np.array([0, 1], dtype=np.int8))
         # gap[i]: the smallest |c_i - c_j| - r_i - r_j over bubbles j of the other tree; mate[i] that j.
         gap = np.full(1024, np.inf)
         mate = np.full(1024, -1, dtype=np.int64)
         tries = np.zeros(1024, dtype=np.int64)  # times a bubble was extended toward the other tree
         counters = {"iterations": 0, "candidates": 0, "rejected_small": 0, "rejected_covered": 0}
 
-        def update_gaps(new: np.ndarray) -> tuple[int, int] | None:
-            """Refresh gaps with the new bubbles; return a connecting pair (a in tree 0, b in tree 1) if any.
-            One distance matrix, new bubbles x all bubbles, with pairs of the same tree masked out."""
+        def update_gaps(new: list[np.ndarray]) -> tuple[int, int] | None:
+            """Refresh gaps with the new bubbles of each tree; return a connecting pair (a in tree 0, b in tree 1)
+            if any (the first found, the start tree's new bubbles first)."""
             nonlocal gap, mate, tries
-            nb = B.n
-            if len(gap) < nb:
+            if len(gap) < B.n:
                 grow = len(gap)
-                while grow < nb:
+                while grow < B.n:
                     grow *= 2
                 gap = np.concatenate([gap, np.full(grow - len(gap), np.inf)])
                 mate = np.concatenate([mate, np.full(grow - len(mate), -1, dtype=np.int64)])
                 tries = np.concatenate([tries, np.zeros(grow - len(tries), dtype=np.int64)])
-            d2 = B.sq[new, None] + B.sq[None, :nb] - 2.0 * (B.c[new] @ B.c[:nb].T)
-            D = np.sqrt(np.maximum(d2, 0.0, out=d2), out=d2)
-            D -= B.r[new, None]
-            D -= B.r[None, :nb]
-            D[B.tree[new, None] == B.tree[None, :nb]] = np.inf
-            rows = np.arange(len(new))
-            j = np.argmin(D, axis=1)
-            g = D[rows, j]
-            better = g < gap[new]
-            gap[new[better]], mate[new[better]] = g[better], j[better]
-            i = np.argmin(D, axis=0)  # the other tree's bubbles may now be nearer to a new one
-            g2 = D[i, np.arange(nb)]
-            better = np.flatnonzero(g2 < gap[:nb])
-            gap[better], mate[better] = g2[better], new[i[better]]
-            # A connection: overlap with a hatch of HATCH * the smaller radius (only rows that overlap at all).
-            over = np.flatnonzero(g < 0)
-            if over.size == 0:
-                return None
-            hit = np.argwhere(D[over] <= -HATCH * np.minimum(B.r[new[over], None], B.r[None, :nb]))
-            if hit.size == 0:
-                return None
-            first = hit[np.argmax(B.tree[new[over[hit[:, 0]]]] == 0)]  # a new bubble of the start tree first
-            a, b = int(new[over[first[0]]]), int(first[1])
-            return (a, b) if B.tree[a] == 0 else (b, a)
+            best = None
+            for t in (0, 1):
+                nt = new[t]
+                O = B.trees[1 - t]
+                if len(nt) == 0 or O.n == 0:
+                    continue
+                D = _lifted(B.c[nt]) @ O.d2[: O.n].T
+                np.sqrt(np.maximum(D, 0.0, out=D), out=D)
+                D -= B.r[nt, None]
+                D -= O.r[None, : O.n]
+                j = np.argmin(D, axis=1)
+                g = D[np.arange(len(nt)), j]
+                better = g < gap[nt]
+                gap[nt[better]], mate[nt[better]] = g[better], O.idx[j[better]]
+                i = np.argmin(D, axis=0)  # the other tree's bubbles may now be nearer to a new one
+                g2 = D[i, np.arange(O.n)]
+                better = np.flatnonzero(g2 < gap[O.idx[: O.n]])
+                gap[O.idx[better]], mate[O.idx[better]] = g2[better], nt[i[better]]
+                over = np.flatnonzero(g < 0)  # a connection: overlap with a hatch of HATCH * the smaller radius
+                if best is None and over.size:
+                    hit = np.argwhere(D[over] <= -HATCH * np.minimum(B.r[nt[over], None], O.r[None, : O.n]))
+                    if hit.size:
+                        a, b = int(nt[over[hit[0, 0]]]), int(O.idx[hit[0, 1]])
+                        best = (a, b) if t == 0 else (b, a)
+            return best
 
         def stats(outcome: str, t_first: float | None, extra: dict | None = None) -> PlanStats:
             details = dict(counters, r_min=r_min, tree_start=int(np.sum(B.tree[: B.n] == 0)), tree_goal=int(np.sum(B.tree[: B.n] == 1)))
@@ -300,8 +336,10 @@ class BubbleTreePlanner(Planner):
             return float(np.sum(np.linalg.norm(np.diff(P, axis=0) * metric, axis=1)))
 
         sampler: InformedSampler | None = None
-        link = update_gaps(np.array([0, 1]))
-        newest = [np.array([0]), np.array([1])]
+        k_max = o.batch + 2 * o.connect  # extensions per tree per iteration
+        later = ~np.tri(k_max, k_max, -1, dtype=bool)  # later[i, j]: sibling j is not earlier than i
+        newest = B.add(np.stack([q0, q1]), np.array([r0, r1]), np.array([-1, -1]), np.array([0, 1], dtype=np.int8))
+        link = update_gaps(newest)
         t_first: float | None = None
         it_first = 0
         foam_first = 0
@@ -323,11 +361,10 @@ class BubbleTreePlanner(Planner):
                 )
             timer.report(B.n)
             counters["iterations"] += 1
-            parents, targets, trees = [], [], []
+            parents, targets = [], []
             for t in (0, 1):
-                mine = B.members[t]
-                Cm, wm = B.c[mine], B.w[mine]
-                trees.append((Cm, wm))
+                T = B.trees[t]
+                mine = T.idx[: T.n]
                 # Exploration: uniform samples (after the first path: only where a shorter path can pass).
                 if sampler is None:
                     X = lo + (hi - lo) * rng.random((o.batch, n))
@@ -347,7 +384,7 @@ class BubbleTreePlanner(Planner):
                         pick = theirs[rng.permutation(len(theirs))[: o.connect]]
                 # Samples and newest bubbles extend the bubble of smallest power distance |x - c|^2 - r^2.
                 Y = X if pick is None else np.concatenate([X, B.c[pick]])
-                par = mine[np.argmin(wm[None, :] - 2.0 * (Y @ Cm.T), axis=1)]
+                par = mine[np.argmin(_lifted(Y) @ T.pw[: T.n].T, axis=1)]
                 parents.append(par[: len(X)])
                 targets.append(X)
                 if near is not None:
@@ -368,14 +405,13 @@ class BubbleTreePlanner(Planner):
             rP = B.r[P]
             s = np.minimum(STEPS[None, :] * rP[:, None], dist[:, None])  # (m, S) distances from the parent's centre
             cand = B.c[P, None, :] + (s / dist[:, None])[..., None] * v[:, None, :]  # (m, S, n)
-            query = np.all((cand >= lo) & (cand <= hi), axis=2)
-            r = np.zeros(s.shape)
-            nq = int(np.count_nonzero(query))
-            if nq:
-                r[query] = oracle.radii(cand[query])
-            counters["candidates"] += nq
-            good = query & (r >= r_min) & (s <= rP[:, None] + (1 - HATCH) * r)
-            counters["rejected_small"] += nq - int(np.count_nonzero(good))
+            # Every candidate lies on the segment from its parent's centre to its target, both in the joint box
+            # (convex): all are sized (one a rounding error outside gets radius 0, never kept).
+            flat = cand.reshape(-1, n)
+            r = oracle.radius_from_distances(oracle.clearance.batch_pairs(flat), flat).reshape(s.shape)
+            counters["candidates"] += len(flat)
+            good = (r >= r_min) & (s <= rP[:, None] + (1 - HATCH) * r)
+            counters["rejected_small"] += len(flat) - int(np.count_nonzero(good))
             # The farthest good candidate of each extension.
             rows = np.flatnonzero(good.any(axis=1))
             if rows.size == 0:
@@ -383,28 +419,32 @@ class BubbleTreePlanner(Planner):
             pick = STEPS.size - 1 - np.argmax(good[rows, ::-1], axis=1)
             cc, cr, cp = cand[rows, pick], r[rows, pick], P[rows]
             ct = B.tree[cp]
-            # Not inside another bubble of its tree (power distance < 0, the parent excluded), nor inside an
-            # earlier sibling of this batch; per tree (the start tree's extensions come first).
-            xx = np.einsum("ij,ij->i", cc, cc)
+            # Not inside another bubble of its tree (the parent excluded), nor inside an earlier sibling of this
+            # batch: per tree (the start tree's extensions come first), power distances < 0 to the tree's
+            # bubbles and to the siblings' balls, in one product.
             keep = np.empty(len(rows), dtype=bool)
             k0 = int(np.count_nonzero(ct == 0))
             for t, sl in ((0, slice(0, k0)), (1, slice(k0, len(rows)))):
-                X = cc[sl]
-                if len(X) == 0:
+                k = sl.stop - sl.start
+                if k == 0:
                     continue
-                Cm, wm = trees[t]
-                pw = wm[None, :] - 2.0 * (X @ Cm.T)
-                pw[np.arange(len(X)), B.pos[cp[sl]]] = np.inf
-                d2 = xx[sl, None] + xx[None, sl] - 2.0 * (X @ X.T)
-                keep[sl] = (pw.min(axis=1) >= -xx[sl]) & ~np.tril(d2 < cr[None, sl] ** 2, -1).any(axis=1)
+                T = B.trees[t]
+                L = _lifted(cc[sl])
+                sib = np.empty((k, n + 2))
+                sib[:, :n] = -2.0 * cc[sl]
+                sib[:, n] = L[:, -1] - cr[sl] ** 2
+                sib[:, n + 1] = 1.0
+                pw = L @ np.concatenate([T.pw[: T.n], sib]).T
+                pw[np.arange(k), B.pos[cp[sl]]] = np.inf
+                pw[:, T.n :][later[:k, :k]] = np.inf
+                keep[sl] = pw.min(axis=1) >= 0.0
             counters["rejected_covered"] += int(np.count_nonzero(~keep))
             room = problem.max_bubbles - B.n
             sel = np.flatnonzero(keep)[:room]
             if sel.size == 0:
                 continue
-            new = B.add(cc[sel], cr[sel], cp[sel], ct[sel])
-            met = update_gaps(new)
-            newest = [new[B.tree[new] == 0], new[B.tree[new] == 1]]
+            newest = B.add(cc[sel], cr[sel], cp[sel], ct[sel])
+            met = update_gaps(newest)
             link = link if link is not None else met
 
         cpu_tree = time.process_time() - cpu0
