@@ -93,6 +93,8 @@ CHORD_SPACING = 2.0
 CHORD_BATCH = 6
 #: certify_chords queries every COARSE-th point of the chords first (a chord through an obstacle dies there).
 COARSE = 4
+SPLIT = 1.4
+GAP_POINTS = 8
 #: The last chain is re-covered with bubbles centred at RECOVER points per segment of its shortest path, as
 #: well as its own (see :func:`prune_chain`); 0: pruned with its own bubbles only.
 RECOVER = 4
@@ -317,8 +319,14 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
         g = gaps()
         if g.size == 0:
             break
-        cm = cid[g]
-        tm = 0.5 * (t[g] + t[g + 1])
+        # Each gap gets evenly spaced points, as many as its ends' smaller radius suggests (SPLIT x that radius
+        # apart: deep overlaps if the radius holds in between), at most GAP_POINTS; one if GAP_POINTS is 1.
+        dg = np.linalg.norm(pts[g + 1] - pts[g], axis=1)
+        cnt = np.clip(np.ceil(dg / (SPLIT * np.maximum(np.minimum(r[g], r[g + 1]), 1e-12))).astype(np.int64) - 1, 1, GAP_POINTS)
+        gi = np.repeat(g, cnt)
+        frac = (np.arange(len(gi)) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1) / np.repeat(cnt + 1, cnt)
+        cm = cid[gi]
+        tm = t[gi] + frac * (t[gi + 1] - t[gi])
         newp = A[cm] + V[cm] * tm[:, None]
         inb = np.all((newp >= lo) & (newp <= hi), axis=1)
         rn = np.zeros(len(newp))
@@ -365,6 +373,8 @@ def path_samples(P: np.ndarray, pieces: int) -> np.ndarray:
 
 #: prune_chain looks for a bubble's held samples at most this many samples beyond its home interval.
 PRUNE_BAND = 24
+#: prune_chain compares all pairs of bubbles up to this many bubbles, else only pairs of touching intervals.
+DENSE_SUCC = 128
 
 
 def prune_chain(
@@ -405,17 +415,41 @@ def prune_chain(
     e = np.minimum(h1 + na, T - 1)
     s_ = np.maximum(h0 - nbf, 0)
     # The successor of each bubble (it depends on that bubble only): among the bubbles whose interval starts
-    # inside its own and reaches farther, the farthest-reaching one with a deep hatch, else with any hatch.
-    sq = np.einsum("ij,ij->i", C, C)
-    dist = np.sqrt(np.maximum(sq[:, None] + sq[None, :] - 2.0 * (C @ C.T), 0.0))
-    slack = R[:, None] + R[None, :] - dist
-    small = np.minimum(R[:, None], R[None, :])
-    reach = (s_[None, :] <= e[:, None]) & (e[None, :] > e[:, None])
+    # inside its own and reaches farther, the farthest-reaching one (the first such index) with a deep hatch,
+    # else with any hatch. Such a bubble holds the sample after the interval's end; for many bubbles the
+    # candidates are read from the samples' lists of the bubbles that hold them (pairs of intervals that
+    # touch, not all pairs).
     succ = np.full(nb, -1)
-    for depth in (HATCH, DEEP):  # the deep tier last: it overrides where it has a candidate
-        score = np.where(reach & (slack >= depth * small), e[None, :], -1)
-        best = np.argmax(score, axis=1)
-        succ = np.where(score[np.arange(nb), best] >= 0, best, succ)
+    if nb <= DENSE_SUCC:
+        sq = np.einsum("ij,ij->i", C, C)
+        slack = R[:, None] + R[None, :] - np.sqrt(np.maximum(sq[:, None] + sq[None, :] - 2.0 * (C @ C.T), 0.0))
+        small = np.minimum(R[:, None], R[None, :])
+        reach = (s_[None, :] <= e[:, None]) & (e[None, :] > e[:, None])
+        for depth in (HATCH, DEEP):  # the deep tier last: it overrides where it has a candidate
+            score = np.where(reach & (slack >= depth * small), e[None, :], -1)
+            best = np.argmax(score, axis=1)
+            succ = np.where(score[np.arange(nb), best] >= 0, best, succ)
+    else:
+        L = e - s_ + 1
+        jj = np.repeat(np.arange(nb), L)
+        pp = np.repeat(s_, L) + (np.arange(int(L.sum())) - np.repeat(np.cumsum(L) - L, L))
+        order = np.argsort(pp, kind="stable")
+        jj, pp = jj[order], pp[order]
+        lo_ = np.searchsorted(pp, e + 1, side="left")
+        cnt = np.searchsorted(pp, e + 1, side="right") - lo_
+        ii = np.repeat(np.arange(nb), cnt)
+        cj = jj[np.repeat(lo_, cnt) + (np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt))]
+        ok = s_[cj] <= e[ii]
+        ii, cj = ii[ok], cj[ok]
+        slack = R[ii] + R[cj] - np.linalg.norm(C[ii] - C[cj], axis=1)
+        small = np.minimum(R[ii], R[cj])
+        for depth in (HATCH, DEEP):
+            sel = slack >= depth * small
+            a_, b_ = ii[sel], cj[sel]
+            o = np.lexsort((-b_, e[b_], a_))  # by bubble, reach, then index down: a run's last is the pick
+            a_, b_ = a_[o], b_[o]
+            last = np.flatnonzero(np.r_[a_[1:] != a_[:-1], True]) if len(a_) else np.empty(0, dtype=np.int64)
+            succ[a_[last]] = b_[last]
     start = np.flatnonzero(s_ == 0)
     out = [int(start[np.argmax(e[start])])]
     while e[out[-1]] < T - 1:
