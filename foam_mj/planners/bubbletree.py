@@ -143,30 +143,36 @@ def _lifted(Y: np.ndarray) -> np.ndarray:
 
 
 class _Tree:
-    """One tree's bubbles in order of creation: their indices ``idx`` among all bubbles, radii ``r``, and the
-    rows ``pw = [-2c, |c|^2 - r^2, 1]`` and ``d2 = [-2c, |c|^2, 1]``, so that for the lifted rows
-    [y, 1, |y|^2] of points y (:func:`_lifted`) one matrix product gives the power distances
-    |y - c|^2 - r^2 (``L @ pw.T``) or the squared distances |y - c|^2 (``L @ d2.T``) to every bubble."""
+    """One tree's bubbles in order of creation: their indices ``idx`` among all bubbles, radii ``r``, the rows
+    ``pw = [-2c, |c|^2 - r^2, 1]``, ``d2 = [-2c, |c|^2, 1]`` and ``lift = [c, 1, |c|^2]``, so that for the lifted
+    rows L = [y, 1, |y|^2] of points y (:func:`_lifted`) one matrix product gives the power distances
+    |y - c|^2 - r^2 (``L @ pw.T``) or the squared distances |y - c|^2 (``L @ d2.T``) to every bubble; and per
+    bubble ``gap``, the smallest |c - c'| - r - r' over bubbles c' of the other tree, ``mate`` that bubble's
+    index, and ``tries``, the times the bubble was extended toward the other tree."""
 
     def __init__(self, dim: int, cap: int = 512) -> None:
         self.idx = np.empty(cap, dtype=np.int64)
         self.r = np.empty(cap)
         self.pw = np.empty((cap, dim + 2))
         self.d2 = np.empty((cap, dim + 2))
+        self.lift = np.empty((cap, dim + 2))
+        self.gap = np.empty(cap)
+        self.mate = np.empty(cap, dtype=np.int64)
+        self.tries = np.empty(cap, dtype=np.int64)
         self.n = 0
 
     def add(self, idx: np.ndarray, c: np.ndarray, r: np.ndarray) -> None:
         m, n = len(idx), c.shape[1]
         while self.n + m > len(self.r):
-            for name in ("idx", "r", "pw", "d2"):
+            for name in ("idx", "r", "pw", "d2", "lift", "gap", "mate", "tries"):
                 a = getattr(self, name)
                 setattr(self, name, np.concatenate([a, np.empty_like(a)]))
         s = slice(self.n, self.n + m)
-        self.idx[s], self.r[s] = idx, r
-        d2 = self.d2[s]
-        d2[:, :n] = -2.0 * c
-        d2[:, n] = np.einsum("ij,ij->i", c, c)
-        d2[:, n + 1] = 1.0
+        self.idx[s], self.r[s], self.gap[s], self.mate[s], self.tries[s] = idx, r, np.inf, -1, 0
+        sq = np.einsum("ij,ij->i", c, c)
+        lift, d2 = self.lift[s], self.d2[s]
+        lift[:, :n], lift[:, n], lift[:, n + 1] = c, 1.0, sq
+        d2[:, :n], d2[:, n], d2[:, n + 1] = -2.0 * c, sq, 1.0
         self.pw[s] = d2
         self.pw[s, n] -= r**2
         self.n += m
@@ -274,46 +280,35 @@ class BubbleTreePlanner(Planner):
         metric = robot.config.scale if o.metric == "qpos" else np.ones(n)
 
         B = _Bubbles(n)
-        # gap[i]: the smallest |c_i - c_j| - r_i - r_j over bubbles j of the other tree; mate[i] that j.
-        gap = np.full(1024, np.inf)
-        mate = np.full(1024, -1, dtype=np.int64)
-        tries = np.zeros(1024, dtype=np.int64)  # times a bubble was extended toward the other tree
         counters = {"iterations": 0, "candidates": 0, "rejected_small": 0, "rejected_covered": 0}
 
         def update_gaps(new: list[np.ndarray]) -> tuple[int, int] | None:
-            """Refresh gaps with the new bubbles of each tree; return a connecting pair (a in tree 0, b in tree 1)
-            if any (the first found, the start tree's new bubbles first)."""
-            nonlocal gap, mate, tries
-            if len(gap) < B.n:
-                grow = len(gap)
-                while grow < B.n:
-                    grow *= 2
-                gap = np.concatenate([gap, np.full(grow - len(gap), np.inf)])
-                mate = np.concatenate([mate, np.full(grow - len(mate), -1, dtype=np.int64)])
-                tries = np.concatenate([tries, np.zeros(grow - len(tries), dtype=np.int64)])
+            """Refresh the gaps with the new bubbles of each tree (the last of their tree); return a connecting
+            pair (a in tree 0, b in tree 1) if any (the first found, the start tree's new bubbles first)."""
             best = None
             for t in (0, 1):
-                nt = new[t]
-                O = B.trees[1 - t]
-                if len(nt) == 0 or O.n == 0:
+                T, O = B.trees[t], B.trees[1 - t]
+                k = len(new[t])
+                if k == 0 or O.n == 0:
                     continue
-                D = _lifted(B.c[nt]) @ O.d2[: O.n].T
+                sl = slice(T.n - k, T.n)
+                D = T.lift[sl] @ O.d2[: O.n].T
                 np.sqrt(np.maximum(D, 0.0, out=D), out=D)
-                D -= B.r[nt, None]
+                D -= T.r[sl, None]
                 D -= O.r[None, : O.n]
                 j = np.argmin(D, axis=1)
-                g = D[np.arange(len(nt)), j]
-                better = g < gap[nt]
-                gap[nt[better]], mate[nt[better]] = g[better], O.idx[j[better]]
+                g = D[np.arange(k), j]
+                better = g < T.gap[sl]
+                T.gap[sl][better], T.mate[sl][better] = g[better], O.idx[j[better]]
                 i = np.argmin(D, axis=0)  # the other tree's bubbles may now be nearer to a new one
                 g2 = D[i, np.arange(O.n)]
-                better = np.flatnonzero(g2 < gap[O.idx[: O.n]])
-                gap[O.idx[better]], mate[O.idx[better]] = g2[better], nt[i[better]]
+                better = np.flatnonzero(g2 < O.gap[: O.n])
+                O.gap[better], O.mate[better] = g2[better], new[t][i[better]]
                 over = np.flatnonzero(g < 0)  # a connection: overlap with a hatch of HATCH * the smaller radius
                 if best is None and over.size:
-                    hit = np.argwhere(D[over] <= -HATCH * np.minimum(B.r[nt[over], None], O.r[None, : O.n]))
+                    hit = np.argwhere(D[over] <= -HATCH * np.minimum(T.r[sl][over, None], O.r[None, : O.n]))
                     if hit.size:
-                        a, b = int(nt[over[hit[0, 0]]]), int(O.idx[hit[0, 1]])
+                        a, b = int(new[t][over[hit[0, 0]]]), int(O.idx[hit[0, 1]])
                         best = (a, b) if t == 0 else (b, a)
             return best
 
@@ -374,11 +369,13 @@ class BubbleTreePlanner(Planner):
                 # toward their nearest bubble there; and, as RRT-Connect, toward the other tree's newest bubbles.
                 near = pick = None
                 if o.connect:
-                    fresh = mine[tries[mine] < MAX_TRIES]
+                    fresh = np.flatnonzero(T.tries[: T.n] < MAX_TRIES)  # positions in the tree
                     if len(fresh):
                         k = min(o.connect, len(fresh))
-                        near = fresh[np.argpartition(gap[fresh], k - 1)[:k]] if k < len(fresh) else fresh
-                        tries[near] += 1
+                        near = fresh[np.argpartition(T.gap[fresh], k - 1)[:k]] if k < len(fresh) else fresh
+                        T.tries[near] += 1
+                        toward = B.c[T.mate[near]]
+                        near = mine[near]
                     theirs = newest[1 - t]
                     if len(theirs):
                         pick = theirs[rng.permutation(len(theirs))[: o.connect]]
@@ -389,7 +386,7 @@ class BubbleTreePlanner(Planner):
                 targets.append(X)
                 if near is not None:
                     parents.append(near)
-                    targets.append(B.c[mate[near]])
+                    targets.append(toward)
                 if pick is not None:
                     parents.append(par[len(X):])
                     targets.append(B.c[pick])
