@@ -38,15 +38,20 @@ Design choice: splicing (rather than re-running Dijkstra after each round) keeps
 a superset of the previous path's corridor, so the length is monotone and each round costs one batch of
 distance queries and one cone program.
 
-Why 24 thinned chords and the re-cover (measured on the three leg scenes, seeds 0-9, against 8 unthinned
-chords and no re-cover; lengths in qpos after the default optimal smoother): the chords do most of a
-round's shortening, so more of them per round (one batch) and thinner chord chains (smaller cone
-programs, more chords under CHORD_GROWTH) need fewer rounds: cone programs per plan 9 / 7.5 / 9 -> 6 /
-5.5 / 6.5 (obstacle / step_up / step_down, medians). The re-cover shrinks the final chain by 15-20 %
-(median 68.5 / 43.5 / 58 -> 58 / 37.5 / 48 bubbles), which the smoothers' time follows. Median lengths
-0.8672 / 0.8798 / 1.756 -> 0.8095 / 0.8792 / 1.755. Bubbles pushed off the path, away from the obstacle,
-were tried for the re-cover and do not help: the certified radius grows only 0.2-0.4 x as fast as the
-centre moves away (the bound is conservative), so such a bubble holds a shorter stretch of the path.
+Why 24 thinned chords and the re-cover (measured on the three leg scenes obstacle / step_up / step_down,
+seeds 0-9, medians, against 8 unthinned chords and no re-cover; lengths in qpos after the default
+optimal smoother): the chords do most of a round's shortening, so more of them per round and thinner
+chord chains (smaller cone programs, more chords under CHORD_GROWTH) need fewer rounds: cone programs
+per plan 9 / 7.5 / 9 -> 6.5 / 5.5 / 6.5. The re-cover shrinks the final chain by 15-20 %: 68.5 / 43.5 /
+58 -> 63.5 / 37 / 45.5 bubbles. Lengths 0.8672 / 0.8798 / 1.756 -> 0.8173 / 0.8792 / 1.751. With the
+cached cone program, chord gaps filled in one batch and the interval prune, the corridor's CPU time on
+obstacle fell from about 35 to 24 ms (plan + optimal smoother 80-84 -> 62-66 ms; step_up 47-49 -> 35-36,
+step_down 70-75 -> 54-56; one loaded 2-core machine, best of 3 per seed). Bubbles pushed off the path,
+away from the obstacle, were tried for the re-cover and do not help: the certified radius grows only
+0.2-0.4 x as fast as the centre moves away (the bound is conservative), so such a bubble holds a shorter
+stretch of the path. Tried and not kept: chords in end-to-end tilings (no fewer rounds), no pruning
+inside the rounds, or a chain cap lowered to 0.7-0.8 (fewer rounds, but step_down 0.5-1 % longer), a
+looser tolerance for the rounds' programs (1e-6: one iteration fewer, waypoints only 0.64 INSET inside).
 """
 
 from __future__ import annotations
@@ -93,6 +98,8 @@ CHORD_SPACING = 2.0
 CHORD_BATCH = 6
 #: certify_chords queries every COARSE-th point of the chords first (a chord through an obstacle dies there).
 COARSE = 4
+#: A gap between two chord points that do not overlap deeply gets ceil(d / (SPLIT x the smaller radius)) - 1
+#: evenly spaced points at once (at most GAP_POINTS): fewer bisection levels (one batch of queries each).
 SPLIT = 1.4
 GAP_POINTS = 8
 #: The last chain is re-covered with bubbles centred at RECOVER points per segment of its shortest path, as
