@@ -366,6 +366,41 @@ def test_a_chords_chain_is_thinned_to_fewer_bubbles_that_still_hold_it():
         assert np.all(np.min(np.linalg.norm(s[:, None] - p2[None], axis=2) - r2[None], axis=1) <= 1e-12)
 
 
+def test_splicing_a_chord_and_a_pressing_bubble_keeps_a_polyline_held_segment_by_segment():
+    """splice_chain: after a chord (balls centred on it, consecutive ones overlapping) replaces a stretch of
+    the chain and a pressing bubble goes into a hatch, segment j of the new polyline lies in bubble j, the
+    polyline is no longer than the old one, and the new bubbles get consecutive new ids."""
+    from foam_mj.planners.corridor import shortest_path, splice_chain
+
+    rng = np.random.default_rng(7)
+    for _ in range(10):
+        # A zigzag chain of balls and its shortest path.
+        k = 12
+        C = np.stack([np.arange(k) * 0.1, 0.03 * (-1.0) ** np.arange(k)], axis=1)
+        R = np.full(k, 0.08)
+        q0, q1 = C[0], C[-1]
+        w, _ = shortest_path(C, R, q0, q1)
+        P = np.concatenate([[q0], w, [q1]])
+        ja, jb = int(rng.integers(0, 4)), int(rng.integers(7, k))
+        A = P[ja] + rng.random() * (P[ja + 1] - P[ja])
+        B = P[jb] + rng.random() * (P[jb + 1] - P[jb])
+        m = int(rng.integers(2, 9))
+        pts = A + np.linspace(0.0, 1.0, m)[:, None] * (B - A)
+        step = np.linalg.norm(B - A) / (m - 1)
+        r = step * (0.6 + rng.random(m))  # consecutive ones overlap
+        pp = int(rng.integers(jb, k - 1)) if jb < k - 1 else None
+        press = {pp: (P[pp + 1] + 0.001, 0.05)} if pp is not None else {}  # a bubble that holds P[pp + 1]
+        ids = np.arange(k)
+        C2, R2, ids2, P2, nc, nr = splice_chain(C, R, ids, P, {ja: (jb, pts, r)}, press, 100)
+        assert len(P2) == len(R2) + 1 and len(R2) == len(ids2)
+        assert np.all(np.linalg.norm(P2[:-1] - C2, axis=1) <= R2 + 1e-9)
+        assert np.all(np.linalg.norm(P2[1:] - C2, axis=1) <= R2 + 1e-9)
+        L = lambda X: float(np.sum(np.linalg.norm(np.diff(X, axis=0), axis=1)))  # noqa: E731
+        assert L(P2) <= L(P) + 1e-12
+        n_new = sum(len(x) for x in nr)
+        assert sorted(ids2[ids2 >= 100].tolist()) == list(range(100, 100 + n_new))
+
+
 def test_informed_samples_lie_where_a_shorter_path_can_pass_and_fill_that_set():
     from foam_mj.planners.bubbletree import informed_samples
 

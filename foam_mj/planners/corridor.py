@@ -18,7 +18,11 @@
    of points of the path (chains of overlapping bubbles along the straight shortcut, down to CHORD_FLOOR x
    the floor, thinned to the fewest that still hold it (:func:`thin_line_chain`), at most CHORD_GROWTH x as
    many bubbles as the stretch they replace) and prunes the chain to a short sub-chain that holds the path
-   (:func:`prune_chain`).
+   (:func:`prune_chain`). A round takes up to CHORD_STEPS (3) steps of chords before its cone program:
+   after a step, the polyline itself is updated (:func:`splice_chain`: the old path up to the chord's
+   start, points on the chord in consecutive chord bubbles, the old path after its end), so the next
+   step's chords are drawn and certified on it with no program in between; the later steps take only
+   chords that win more than ``refine_tol`` each and stop once the chain holds ``max_chain`` bubbles.
 4. **Re-cover.** The last chain is pruned once more with, besides its own bubbles, certified bubbles
    centred at RECOVER points per segment of its shortest path (one batch of distance queries): where
    the path slides along an obstacle, bubbles centred on the path hold it with fewer bubbles than the
@@ -38,20 +42,24 @@ Design choice: splicing (rather than re-running Dijkstra after each round) keeps
 a superset of the previous path's corridor, so the length is monotone and each round costs one batch of
 distance queries and one cone program.
 
-Why 24 thinned chords and the re-cover (measured on the three leg scenes obstacle / step_up / step_down,
-seeds 0-9, medians, against 8 unthinned chords and no re-cover; lengths in qpos after the default
-optimal smoother): the chords do most of a round's shortening, so more of them per round and thinner
-chord chains (smaller cone programs, more chords under CHORD_GROWTH) need fewer rounds: cone programs
-per plan 9 / 7.5 / 9 -> 6.5 / 5.5 / 6.5. The re-cover shrinks the final chain by 15-20 %: 68.5 / 43.5 /
-58 -> 63.5 / 37 / 45.5 bubbles. Lengths 0.8672 / 0.8798 / 1.756 -> 0.8173 / 0.8792 / 1.751. With the
-cached cone program, chord gaps filled in one batch and the interval prune, the corridor's CPU time on
-obstacle fell from about 35 to 24 ms (plan + optimal smoother 80-84 -> 62-66 ms; step_up 47-49 -> 35-36,
-step_down 70-75 -> 54-56; one loaded 2-core machine, best of 3 per seed). Bubbles pushed off the path,
-away from the obstacle, were tried for the re-cover and do not help: the certified radius grows only
-0.2-0.4 x as fast as the centre moves away (the bound is conservative), so such a bubble holds a shorter
-stretch of the path. Tried and not kept: chords in end-to-end tilings (no fewer rounds), no pruning
-inside the rounds, or a chain cap lowered to 0.7-0.8 (fewer rounds, but step_down 0.5-1 % longer), a
-looser tolerance for the rounds' programs (1e-6: one iteration fewer, waypoints only 0.64 INSET inside).
+Why 24 thinned chords, 3 chord steps per round and the re-cover (measured on the three leg scenes obstacle /
+step_up / step_down, seeds 0-9, medians, against 8 unthinned chords, one step and no re-cover; lengths in
+qpos after the default optimal smoother): the chords do most of a round's shortening, so more of them per
+round, thinner chord chains (smaller cone programs, more chords under CHORD_GROWTH) and several chord steps
+per program need fewer rounds: cone programs per plan 9 / 7.5 / 9 -> 3 / 4 / 4. The re-cover shrinks the
+final chain by 15-20 % (68.5 / 43.5 / 58 before it -> 69.5 / 36 / 47 now, with the longer chords). Lengths
+0.8672 / 0.8798 / 1.756 -> 0.8264 / 0.8795 / 1.756 (seeds 10-19: 0.8779 / 0.8798 / 1.7571 -> 0.8613 / 0.8794
+/ 1.7411). With the cached cone program, chord gaps filled in one batch and the interval prune, the
+corridor's CPU time on obstacle fell from about 34 to 19 ms (plan + optimal smoother 80-84 -> 57-65 ms;
+step_up 47-49 -> 34-39, step_down 70-75 -> 47-53; obstacle5 210-236 -> 182-184 ms, arm6 159 -> 155-159;
+one loaded 2-core machine, best of 3 per seed). The smoother's time per seed (19-50 ms on obstacle) does not
+follow the chain's size closely, so a changed trajectory moves its 10-seed median by a few ms either way.
+Bubbles pushed off the path, away from the obstacle, were tried for the re-cover and do not help: the
+certified radius grows only 0.2-0.4 x as fast as the centre moves away (the bound is conservative), so
+such a bubble holds a shorter stretch of the path. Tried and not kept: chords in end-to-end tilings (no
+fewer rounds), no pruning inside the rounds, or a chain cap lowered to 0.7-0.8 (fewer rounds, but step_down
+0.5-1 % longer), a looser tolerance for the rounds' programs (1e-6: waypoints only 0.64 INSET inside; 1e-4
+with a projection onto the lenses: -20 % program time, but the smoother's median rose 5 ms).
 """
 
 from __future__ import annotations
@@ -102,6 +110,10 @@ COARSE = 4
 #: evenly spaced points at once (at most GAP_POINTS): fewer bisection levels (one batch of queries each).
 SPLIT = 1.4
 GAP_POINTS = 8
+#: Steps of chords per round (one cone program per round); the later steps take chords that win more than
+#: STEP_GAIN x refine_tol of the length each (small wins there only lengthened the chain: arm6 60 -> 56).
+CHORD_STEPS = 3
+STEP_GAIN = 1.0
 #: The last chain is re-covered with bubbles centred at RECOVER points per segment of its shortest path, as
 #: well as its own (see :func:`prune_chain`); 0: pruned with its own bubbles only.
 RECOVER = 4
@@ -526,6 +538,54 @@ def _press_bubbles(oracle, C, R, w, floor):
     return press[useful], pc[useful], pr[useful]
 
 
+def splice_chain(C: np.ndarray, R: np.ndarray, ids: np.ndarray, P: np.ndarray, splices: dict, press: dict, first_id: int) -> tuple:
+    """The chain with chords and pressing bubbles spliced in, a polyline whose segment j lies in its bubble j,
+    and the new bubbles (centres, radii).
+
+    ``P``: a polyline whose segment j lies in bubble j of (C, R). ``splices``: {ja: (jb, centres, radii)}, a
+    chord's chain from A (on segment ja) to B (on segment jb), centres on the chord in order, consecutive ones
+    overlapping; it replaces bubbles ja + 1 .. jb - 1. ``press``: {p: (centre, radius)}, a bubble that holds
+    P[p + 1], spliced between bubbles p and p + 1. The new polyline is P up to A, then through one point of
+    each pair of consecutive chord bubbles (on the chord, in both: the middle of where both balls meet the
+    chord) to B, then P on; a pressing bubble gets a segment of no length at P[p + 1]. It is no longer than P
+    (the chord replaces the stretch A .. B of P). The new bubbles get the ids first_id, first_id + 1, ... in
+    the order returned."""
+    k = len(R)
+    removed = np.zeros(k + 1, dtype=int)
+    for a_, (b_, _, _) in splices.items():
+        removed[a_ + 1] += 1
+        removed[b_] -= 1
+    inside_span = np.cumsum(removed)[:k] > 0  # bubbles a_+1 .. b_-1 of a chord
+    parts_c, parts_r, parts_i, verts, new_c, new_r = [], [], [], [P[:1]], [], []
+    for j in range(k):
+        if inside_span[j]:
+            continue
+        parts_c.append(C[j : j + 1])
+        parts_r.append(R[j : j + 1])
+        parts_i.append(ids[j : j + 1])
+        extra = splices[j][1:] if j in splices else (press[j][0][None, :], np.array([press[j][1]])) if j in press else None
+        if j in splices:
+            pc_, pr_ = extra
+            a0 = pc_[0]
+            dv = pc_[-1] - a0
+            uv = dv / max(float(np.linalg.norm(dv)), 1e-300)
+            sc = (pc_ - a0) @ uv
+            lo_ = np.maximum(sc[1:] - pr_[1:], sc[:-1])
+            hi_ = np.minimum(sc[:-1] + pr_[:-1], sc[1:])
+            verts += [pc_[:1], a0 + (0.5 * (lo_ + hi_))[:, None] * uv, pc_[-1:]]
+        elif j in press:
+            verts += [P[j + 1 : j + 2], P[j + 1 : j + 2]]
+        else:
+            verts.append(P[j + 1 : j + 2])
+        if extra is not None:
+            parts_c.append(extra[0])
+            parts_r.append(extra[1])
+            parts_i.append(first_id + sum(len(x) for x in new_r) + np.arange(len(extra[1])))
+            new_c.append(extra[0])
+            new_r.append(extra[1])
+    return np.concatenate(parts_c), np.concatenate(parts_r), np.concatenate(parts_i), np.concatenate(verts), new_c, new_r
+
+
 class _Clock:
     """CPU time (``time.process_time``) per phase, for the statistics."""
 
@@ -571,6 +631,44 @@ def build_corridor(
     if options.refine and len(ids) > 1:
         floor = options.floor_factor * max(problem.delta, 1e-4) / oracle.bound.ball_factor
         t_end = time.process_time() + options.time_limit  # CPU time: the same rounds on a loaded machine
+
+        def pick_chords(P: np.ndarray, R: np.ndarray, min_gain: float = 1e-3) -> dict[int, tuple[int, np.ndarray, np.ndarray]]:
+            """The chords to splice into the chain whose segment j of P lies in bubble j (R: its radii), each
+            shorter than the stretch of P it replaces by more than ``min_gain`` x the length."""
+            splices: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
+            if not options.chords:
+                return splices
+            k = len(R)
+            u = np.sort(rng.random((options.chords, 2)), axis=1)
+            x = u * np.sum(np.linalg.norm(np.diff(P, axis=0) * (1.0 if M is None else M), axis=1))
+            A, ja = _arc_points(P, x[:, 0], M)
+            B, jb = _arc_points(P, x[:, 1], M)
+            gain = (x[:, 1] - x[:, 0]) - np.linalg.norm((B - A) * (1.0 if M is None else M), axis=1)
+            cand = np.flatnonzero((jb > ja) & (gain > min_gain * length))
+            # The chords by gain, certified in batches of CHORD_BATCH (one batch of distance queries each),
+            # each batch the best ones disjoint from those taken; a certified chord is thinned to its fewest
+            # bubbles and spliced if it has at most CHORD_GROWTH x as many as the stretch it replaces. The
+            # result is that of certifying all at once (the same chords taken), with fewer queries: most
+            # chords overlap the best one.
+            pending = cand[np.argsort(-gain[cand], kind="stable")]
+            used = np.zeros(k + 1, dtype=bool)
+            spacing = max(CHORD_SPACING * float(np.median(R)), floor)
+            while pending.size:
+                free = np.array([not used[ja[i] : jb[i] + 1].any() for i in pending], dtype=bool)
+                pending = pending[free]
+                todo, pending = pending[:CHORD_BATCH], pending[CHORD_BATCH:]
+                if todo.size == 0:
+                    break
+                res = certify_chords(oracle, A[todo], B[todo], floor * CHORD_FLOOR, spacing)
+                for i, ch in zip(todo, res):
+                    if ch is None or used[ja[i] : jb[i] + 1].any():
+                        continue
+                    ch = thin_line_chain(*ch)
+                    if len(ch[1]) <= CHORD_GROWTH * (jb[i] - ja[i] + 1):
+                        used[ja[i] : jb[i] + 1] = True
+                        splices[int(ja[i])] = (int(jb[i]), *ch)
+            return splices
+
         for _ in range(options.refine_rounds):
             if time.process_time() > t_end:
                 stats["refine_stopped"] = "time"
@@ -580,70 +678,34 @@ def build_corridor(
             # 1. Shortcuts: certified chords between random points of the path; the best disjoint ones
             #    replace the bubbles between their ends: C[:ja+1] + chord + C[jb:] (segment j lies in bubble j).
             clock.lap("other")
-            splices: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
-            if options.chords:
-                u = np.sort(rng.random((options.chords, 2)), axis=1)
-                x = u * np.sum(np.linalg.norm(np.diff(P, axis=0) * (1.0 if M is None else M), axis=1))
-                A, ja = _arc_points(P, x[:, 0], M)
-                B, jb = _arc_points(P, x[:, 1], M)
-                gain = (x[:, 1] - x[:, 0]) - np.linalg.norm((B - A) * (1.0 if M is None else M), axis=1)
-                cand = np.flatnonzero((jb > ja) & (gain > 1e-3 * length))
-                # The chords by gain, certified in batches of CHORD_BATCH (one batch of distance queries each),
-                # each batch the best ones disjoint from those taken; a certified chord is thinned to its fewest
-                # bubbles and spliced if it has at most CHORD_GROWTH x as many as the stretch it replaces. The
-                # result is that of certifying all at once (the same chords taken), with fewer queries: most
-                # chords overlap the best one.
-                pending = cand[np.argsort(-gain[cand], kind="stable")]
-                used = np.zeros(k + 1, dtype=bool)
-                spacing = max(CHORD_SPACING * float(np.median(R)), floor)
-                while pending.size:
-                    free = np.array([not used[ja[i] : jb[i] + 1].any() for i in pending], dtype=bool)
-                    pending = pending[free]
-                    todo, pending = pending[:CHORD_BATCH], pending[CHORD_BATCH:]
-                    if todo.size == 0:
-                        break
-                    res = certify_chords(oracle, A[todo], B[todo], floor * CHORD_FLOOR, spacing)
-                    for i, ch in zip(todo, res):
-                        if ch is None or used[ja[i] : jb[i] + 1].any():
-                            continue
-                        ch = thin_line_chain(*ch)
-                        if len(ch[1]) <= CHORD_GROWTH * (jb[i] - ja[i] + 1):
-                            used[ja[i] : jb[i] + 1] = True
-                            splices[int(ja[i])] = (int(jb[i]), *ch)
+            splices = pick_chords(P, R)
             clock.lap("chords")
             # 2. Bubbles where the path presses on a boundary, spliced in place (hatch p: bubbles p, p + 1),
             #    except inside a chord's span.
             sp_, pc, pr = _press_bubbles(oracle, C, R, w, floor)
             clock.lap("press")
-            removed = np.zeros(k + 1, dtype=int)
-            for a_, (b_, _, _) in splices.items():
-                removed[a_ + 1] += 1
-                removed[b_] -= 1
-            inside_span = np.cumsum(removed)[:k] > 0  # bubbles a_+1 .. b_-1 of a chord
             conflict = np.zeros(k, dtype=bool)
             for a_, (b_, _, _) in splices.items():
                 conflict[a_:b_] = True
             press = {int(p_): (c_, r_) for p_, c_, r_ in zip(sp_, pc, pr) if not conflict[p_]}
             if not splices and not press:
                 break
-            parts_c, parts_r, parts_i = [], [], []
-            for j in range(k):
-                if inside_span[j]:
-                    continue
-                parts_c.append(C[j : j + 1])
-                parts_r.append(R[j : j + 1])
-                parts_i.append(ids[j : j + 1])
-                extra = splices[j][1:] if j in splices else (press[j][0][None, :], np.array([press[j][1]])) if j in press else None
-                if extra is not None:
-                    nid = new_ids(len(extra[1]))
-                    added_c.append(extra[0])
-                    added_r.append(extra[1])
-                    parts_c.append(extra[0])
-                    parts_r.append(extra[1])
-                    parts_i.append(nid)
-            C2, R2, ids2 = np.concatenate(parts_c), np.concatenate(parts_r), np.concatenate(parts_i)
+            C2, R2, ids2, P2, nc_, nr_ = splice_chain(C, R, ids, P, splices, press, n_base + sum(len(x) for x in added_r))
+            added_c += nc_
+            added_r += nr_
             stats["shortcuts"] += len(splices)
-            clock.lap("other")
+            # 3. Further chords on the spliced polyline (no cone program in between).
+            for _step in range(CHORD_STEPS - 1):
+                if len(R2) >= options.max_chain:
+                    break
+                more = pick_chords(P2, R2, STEP_GAIN * options.refine_tol)
+                if not more:
+                    break
+                C2, R2, ids2, P2, nc_, nr_ = splice_chain(C2, R2, ids2, P2, more, {}, n_base + sum(len(x) for x in added_r))
+                added_c += nc_
+                added_r += nr_
+                stats["shortcuts"] += len(more)
+            clock.lap("chords")
             w2, length2 = shortest_path(C2, R2, q0, q1, M, tol=ROUND_TOL)
             clock.lap("socp")
             # 3. Drop the bubbles the path no longer needs.
