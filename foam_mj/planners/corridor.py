@@ -16,10 +16,10 @@
    such a bubble's centre has a clearance below (1 + floor_factor) delta, and the length it could win is
    of the order of its radius. Each round also tries certified chords between ``chords`` (24) random pairs
    of points of the path (chains of overlapping bubbles along the straight shortcut, down to CHORD_FLOOR x
-   the floor, thinned to the fewest that still hold it (:func:`thin_line_chain`), at most CHORD_GROWTH x as
+   the floor, thinned to the fewest that still hold it (:func:`foam_mj.planners.chains.thin_line_chain`), at most CHORD_GROWTH x as
    many bubbles as the stretch they replace) and prunes the chain to a short sub-chain that holds the path
-   (:func:`prune_chain`). A round takes up to CHORD_STEPS (3) steps of chords before its cone program:
-   after a step, the polyline itself is updated (:func:`splice_chain`: the old path up to the chord's
+   (:func:`foam_mj.planners.chains.prune_chain`). A round takes up to CHORD_STEPS (3) steps of chords before its cone program:
+   after a step, the polyline itself is updated (:func:`foam_mj.planners.chains.splice_chain`: the old path up to the chord's
    start, points on the chord in consecutive chord bubbles, the old path after its end), so the next
    step's chords are drawn and certified on it with no program in between; the later steps take only
    chords that win more than ``refine_tol`` each and stop once the chain holds ``max_chain`` bubbles.
@@ -27,7 +27,7 @@
    centred at RECOVER points per segment of its shortest path (one batch of distance queries): where
    the path slides along an obstacle, bubbles centred on the path hold it with fewer bubbles than the
    pressing and chord bubbles the rounds left there. The new chain still holds that path (so its own
-   shortest path is no longer), and every hatch is then made deep (:func:`deepen`).
+   shortest path is no longer), and every hatch is then made deep (:func:`foam_mj.planners.chains.deepen`).
 
 Lengths are measured with per-coordinate weights (``metric``: the configuration map's qpos units per
 q unit by default, see :func:`shortest_path`); the bubbles are balls in q throughout.
@@ -74,19 +74,22 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
+from foam_mj.planners.chains import (
+    HATCH,
+    INSET,
+    arc_points,
+    certify_chords,
+    deepen,
+    path_samples,
+    press_bubbles,
+    prune_chain,
+    splice_chain,
+    thin_line_chain,
+)
 from foam_mj.rosary import Rosary
 from foam_mj.smoothing.convex import build_socp
 
-#: A hatch must be at least this fraction of the smaller radius deep.
-HATCH = 0.05
 DEBUG = False
-#: The final rosary's hatches are at least this fraction of the smaller radius deep (hatch sampling by
-#: rejection from the smaller ball then accepts a few per cent of draws even in 6-D).
-DEEP = 0.5
-#: Outward pushes of a refinement bubble's centre, in units of the radius at the pressing waypoint.
-PUSH = np.array([0.0, 0.5, 0.75, 0.9])
-#: Ball inset of the cone program (configuration units), as the convex smoother's default.
-INSET = 1e-6
 #: A round's pruned chain is solved again only if it drops more than this share of the bubbles (else the
 #: unpruned chain goes on: one cone program fewer); the last chain is always pruned.
 PRUNE_GAIN = 0.85
@@ -104,18 +107,12 @@ ROUND_TOL = 1e-7
 CHORD_SPACING = 2.0
 #: Chords certified per batch (by gain, those disjoint from the chords already taken).
 CHORD_BATCH = 6
-#: certify_chords queries every COARSE-th point of the chords first (a chord through an obstacle dies there).
-COARSE = 4
-#: A gap between two chord points that do not overlap deeply gets ceil(d / (SPLIT x the smaller radius)) - 1
-#: evenly spaced points at once (at most GAP_POINTS): fewer bisection levels (one batch of queries each).
-SPLIT = 1.4
-GAP_POINTS = 8
 #: Steps of chords per round (one cone program per round); the later steps take chords that win more than
 #: STEP_GAIN x refine_tol of the length each (small wins there only lengthened the chain: arm6 60 -> 56).
 CHORD_STEPS = 3
 STEP_GAIN = 1.0
 #: The last chain is re-covered with bubbles centred at RECOVER points per segment of its shortest path, as
-#: well as its own (see :func:`prune_chain`); 0: pruned with its own bubbles only.
+#: well as its own (see :func:`foam_mj.planners.chains.prune_chain`); 0: pruned with its own bubbles only.
 RECOVER = 4
 
 
@@ -290,302 +287,6 @@ def shortest_path(
     return w, float(np.sum(np.linalg.norm(np.diff(pts, axis=0) * sw, axis=1)))
 
 
-def _arc_points(P: np.ndarray, x: np.ndarray, metric: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Points of the polyline P at arc lengths x (weighted by ``metric``), and the segment index of each."""
-    seg = np.linalg.norm(np.diff(P, axis=0) * (1.0 if metric is None else metric), axis=1)
-    cum = np.concatenate([[0.0], np.cumsum(seg)])
-    j = np.clip(np.searchsorted(cum, x, side="right") - 1, 0, len(seg) - 1)
-    f = np.clip((x - cum[j]) / np.where(seg[j] > 0, seg[j], 1.0), 0.0, 1.0)
-    return P[j] + f[:, None] * (P[j + 1] - P[j]), j
-
-
-def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: float, levels: int = 10) -> list[tuple[np.ndarray, np.ndarray] | None]:
-    """For each straight chord A[k] -> B[k]: bubble centres along it, every two consecutive overlapping
-    with a hatch and every radius >= floor (a certified chain that holds the chord), or None.
-
-    Centres start ``spacing`` apart; a gap between two neighbours that do not overlap gets its midpoint,
-    all chords' midpoints in one batch per level (at most ``levels``). The chords' points live in flat
-    arrays sorted by (chord, position): no Python loop over chords."""
-    lo, hi = oracle.robot.lower, oracle.robot.upper
-    K = len(A)
-    if K == 0:
-        return []
-    V = B - A
-    m = np.maximum(1, np.ceil(np.linalg.norm(V, axis=1) / spacing).astype(np.int64))
-    cid = np.repeat(np.arange(K), m + 1)
-    start = np.repeat(np.cumsum(m + 1) - (m + 1), m + 1)
-    t = (np.arange(len(cid)) - start) / m[cid]
-    pts = A[cid] + V[cid] * t[:, None]
-    alive = np.ones(K, dtype=bool)
-    r = np.zeros(len(pts))
-    # A chord through an obstacle dies on any point: every COARSE-th point first, the others of the survivors after.
-    coarse = (np.arange(len(cid)) - start) % COARSE == COARSE // 2 if COARSE > 1 else np.ones(len(cid), dtype=bool)
-    r[coarse] = oracle.radii(pts[coarse])
-    alive[cid[coarse & (r < floor)]] = False
-    rest = ~coarse & alive[cid]
-    if rest.any():
-        r[rest] = oracle.radii(pts[rest])
-        alive[cid[rest & (r < floor)]] = False
-
-    def gaps() -> np.ndarray:
-        same = cid[:-1] == cid[1:]
-        d = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        return np.flatnonzero(same & alive[cid[:-1]] & (d > r[:-1] + r[1:] - DEEP * np.minimum(r[:-1], r[1:])))
-
-    for _ in range(levels):
-        keep = alive[cid]  # drop the dead chords' points
-        cid, t, pts, r = cid[keep], t[keep], pts[keep], r[keep]
-        g = gaps()
-        if g.size == 0:
-            break
-        # Each gap gets evenly spaced points, as many as its ends' smaller radius suggests (SPLIT x that radius
-        # apart: deep overlaps if the radius holds in between), at most GAP_POINTS; one if GAP_POINTS is 1.
-        dg = np.linalg.norm(pts[g + 1] - pts[g], axis=1)
-        cnt = np.clip(np.ceil(dg / (SPLIT * np.maximum(np.minimum(r[g], r[g + 1]), 1e-12))).astype(np.int64) - 1, 1, GAP_POINTS)
-        gi = np.repeat(g, cnt)
-        frac = (np.arange(len(gi)) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1) / np.repeat(cnt + 1, cnt)
-        cm = cid[gi]
-        tm = t[gi] + frac * (t[gi + 1] - t[gi])
-        newp = A[cm] + V[cm] * tm[:, None]
-        inb = np.all((newp >= lo) & (newp <= hi), axis=1)
-        rn = np.zeros(len(newp))
-        if inb.any():
-            rn[inb] = oracle.radii(newp[inb])
-        alive[cm[rn < floor]] = False
-        cid, t = np.concatenate([cid, cm]), np.concatenate([t, tm])
-        pts, r = np.concatenate([pts, newp]), np.concatenate([r, rn])
-        order = np.lexsort((t, cid))
-        cid, t, pts, r = cid[order], t[order], pts[order], r[order]
-    alive[cid[gaps()]] = False  # still a gap after the last level
-    out: list[tuple[np.ndarray, np.ndarray] | None] = [None] * K
-    for k in np.flatnonzero(alive):
-        sel = cid == k
-        out[int(k)] = (pts[sel], r[sel])
-    return out
-
-
-
-
-def thin_line_chain(pts: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The fewest of a chord's bubbles (centres in order along the chord) that still hold it: from each kept
-    bubble, the farthest later one that overlaps it with a deep hatch (DEEP). Two balls centred on a
-    segment that overlap cover the segment between their centres, so the kept chain holds the chord."""
-    m = len(r)
-    if m <= 2:
-        return pts, r
-    d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
-    ok = d <= r[:, None] + r[None, :] - DEEP * np.minimum(r[:, None], r[None, :])
-    # Consecutive bubbles overlap deeply by construction (certify_chords bisects until they do).
-    far = m - 1 - np.argmax(ok[:, ::-1], axis=1)  # the last bubble each one overlaps deeply
-    keep = [0]
-    while keep[-1] < m - 1:
-        keep.append(max(far[keep[-1]], keep[-1] + 1))
-    keep = np.array(keep)
-    return pts[keep], r[keep]
-
-
-def path_samples(P: np.ndarray, pieces: int) -> np.ndarray:
-    """The polyline P sampled ``pieces`` times per segment: sample j * pieces is P[j]; the last is P[-1]."""
-    t = np.arange(pieces) / pieces
-    return np.concatenate([(P[:-1, None, :] + (P[1:] - P[:-1])[:, None, :] * t[None, :, None]).reshape(-1, P.shape[1]), P[-1:]])
-
-
-#: prune_chain looks for a bubble's held samples at most this many samples beyond its home interval.
-PRUNE_BAND = 24
-#: prune_chain compares all pairs of bubbles up to this many bubbles, else only pairs of touching intervals.
-DENSE_SUCC = 128
-
-
-def prune_chain(
-    C: np.ndarray, R: np.ndarray, P: np.ndarray, pieces: int = 8, extra: tuple[np.ndarray, np.ndarray] | None = None
-) -> np.ndarray:
-    """Positions (into the chain, then into ``extra``) of a short chain of bubbles that still holds the polyline P.
-
-    P's segment j lies in bubble j. ``extra`` = (sample indices, certified radii): further bubbles centred at
-    samples of P (:func:`path_samples` with ``pieces``) that may be used. Each bubble holds an interval of samples
-    around its home (segment j's samples j*pieces .. (j+1)*pieces for chain bubble j, its centre's sample for an
-    extra one; looked for at most PRUNE_BAND samples beyond). Greedily, from the bubble that holds the first
-    sample, take the bubble whose interval starts inside the current one and reaches farthest, among those that
-    overlap the current one with a deep hatch (DEEP; else any hatch, HATCH). The polyline through one shared
-    sample per hand-over keeps each piece inside one bubble (balls are convex) and is no longer than P (triangle
-    inequality), so the shortest path through the new chain is no longer either. "Holds" is tested with the
-    balls shrunk by 1.5 INSET so that the cone program stays feasible."""
-    k = len(R)
-    D = path_samples(P, pieces)
-    T = len(D)
-    h0 = np.arange(k) * pieces
-    h1 = h0 + pieces
-    if extra is not None and len(extra[1]):
-        idx = np.asarray(extra[0], dtype=np.int64)
-        C, R = np.concatenate([C, D[idx]]), np.concatenate([R, extra[1]])
-        h0, h1 = np.concatenate([h0, idx]), np.concatenate([h1, idx])
-    nb = len(R)
-    rs2 = np.maximum(R - 1.5 * INSET, 0.0) ** 2
-    # Held samples after the home interval (offsets 1..PRUNE_BAND) and before it; the home interval itself is
-    # held (the segment and both waypoints were solved inside the shrunk balls, to the solver's tolerance).
-    off = np.arange(1, PRUNE_BAND + 1)
-    after = h1[:, None] + off
-    before = h0[:, None] - off
-    ina = (after < T) & (np.einsum("ijk,ijk->ij", *(2 * [D[np.minimum(after, T - 1)] - C[:, None, :]])) <= rs2[:, None])
-    inb = (before >= 0) & (np.einsum("ijk,ijk->ij", *(2 * [D[np.maximum(before, 0)] - C[:, None, :]])) <= rs2[:, None])
-    # Length of the run of held samples next to the home interval (all of the band if it never breaks).
-    na = np.where(ina.all(axis=1), PRUNE_BAND, np.argmin(ina, axis=1))
-    nbf = np.where(inb.all(axis=1), PRUNE_BAND, np.argmin(inb, axis=1))
-    e = np.minimum(h1 + na, T - 1)
-    s_ = np.maximum(h0 - nbf, 0)
-    # The successor of each bubble (it depends on that bubble only): among the bubbles whose interval starts
-    # inside its own and reaches farther, the farthest-reaching one (the first such index) with a deep hatch,
-    # else with any hatch. Such a bubble holds the sample after the interval's end; for many bubbles the
-    # candidates are read from the samples' lists of the bubbles that hold them (pairs of intervals that
-    # touch, not all pairs).
-    succ = np.full(nb, -1)
-    if nb <= DENSE_SUCC:
-        sq = np.einsum("ij,ij->i", C, C)
-        slack = R[:, None] + R[None, :] - np.sqrt(np.maximum(sq[:, None] + sq[None, :] - 2.0 * (C @ C.T), 0.0))
-        small = np.minimum(R[:, None], R[None, :])
-        reach = (s_[None, :] <= e[:, None]) & (e[None, :] > e[:, None])
-        for depth in (HATCH, DEEP):  # the deep tier last: it overrides where it has a candidate
-            score = np.where(reach & (slack >= depth * small), e[None, :], -1)
-            best = np.argmax(score, axis=1)
-            succ = np.where(score[np.arange(nb), best] >= 0, best, succ)
-    else:
-        L = e - s_ + 1
-        jj = np.repeat(np.arange(nb), L)
-        pp = np.repeat(s_, L) + (np.arange(int(L.sum())) - np.repeat(np.cumsum(L) - L, L))
-        order = np.argsort(pp, kind="stable")
-        jj, pp = jj[order], pp[order]
-        lo_ = np.searchsorted(pp, e + 1, side="left")
-        cnt = np.searchsorted(pp, e + 1, side="right") - lo_
-        ii = np.repeat(np.arange(nb), cnt)
-        cj = jj[np.repeat(lo_, cnt) + (np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt))]
-        ok = s_[cj] <= e[ii]
-        ii, cj = ii[ok], cj[ok]
-        slack = R[ii] + R[cj] - np.linalg.norm(C[ii] - C[cj], axis=1)
-        small = np.minimum(R[ii], R[cj])
-        for depth in (HATCH, DEEP):
-            sel = slack >= depth * small
-            a_, b_ = ii[sel], cj[sel]
-            o = np.lexsort((-b_, e[b_], a_))  # by bubble, reach, then index down: a run's last is the pick
-            a_, b_ = a_[o], b_[o]
-            last = np.flatnonzero(np.r_[a_[1:] != a_[:-1], True]) if len(a_) else np.empty(0, dtype=np.int64)
-            succ[a_[last]] = b_[last]
-    start = np.flatnonzero(s_ == 0)
-    out = [int(start[np.argmax(e[start])])]
-    while e[out[-1]] < T - 1:
-        nxt = int(succ[out[-1]])
-        if nxt < 0:
-            return np.arange(k)  # no overlapping bubble makes progress: keep the chain as it is
-        out.append(nxt)
-    return np.array(out, dtype=np.int64)
-
-
-def deepen(oracle, C: np.ndarray, R: np.ndarray, ids: np.ndarray, new_ids) -> tuple:
-    """Make every hatch deep: where consecutive bubbles a, b overlap by less than DEEP x the smaller radius
-    (a thin lens, which the smoothers' rejection sampling of hatches cannot fill), splice a certified
-    bubble centred at their portal centre m. m lies in both balls, so r(m) > 0 (r is 1-Lipschitz), and
-    each new hatch is more than r(m) deep: |c_a - m| < r_a gives r_a + r(m) - |c_a - m| > r(m) >= min(r_a, r(m)).
-    Returns the new chain and the added bubbles."""
-    d = np.linalg.norm(np.diff(C, axis=0), axis=1)
-    thin = np.flatnonzero(d > R[:-1] + R[1:] - DEEP * np.minimum(R[:-1], R[1:]))
-    n = C.shape[1]
-    if thin.size == 0:
-        return C, R, ids, np.empty((0, n)), np.empty(0)
-    ca, cb, ra, rb, dd = C[thin], C[thin + 1], R[thin], R[thin + 1], d[thin]
-    t = (dd**2 + ra**2 - rb**2) / (2 * dd)
-    m = ca + (t / dd)[:, None] * (cb - ca)
-    rm = oracle.radii(m)
-    good = rm > 2 * INSET
-    thin, m, rm = thin[good], m[good], rm[good]
-    nid = new_ids(len(rm))
-    return np.insert(C, thin + 1, m, axis=0), np.insert(R, thin + 1, rm), np.insert(ids, thin + 1, nid), m, rm
-
-
-def _press_bubbles(oracle, C, R, w, floor):
-    """Certified bubbles for the waypoints that press on a ball's boundary, pushed outward (see PUSH):
-    (positions in the chain after which each goes, centres, radii)."""
-    da = np.linalg.norm(w - C[:-1], axis=1)
-    db = np.linalg.norm(w - C[1:], axis=1)
-    tol = 1e-3 * np.minimum(R[:-1], R[1:]) + 4 * INSET
-    on_a, on_b = da >= R[:-1] - tol, db >= R[1:] - tol
-    press = np.flatnonzero(on_a | on_b)
-    if press.size == 0:
-        return press, np.empty((0, w.shape[1])), np.empty(0)
-    wp = w[press]
-    rp = oracle.radii(wp)
-    # Outward: away from the centres of the pressed balls. r is 1-Lipschitz (the Cauchy-Schwarz ball of
-    # Nascimento and Alsina 2021 Eq. 4), so a centre pushed by t r with t <= 1/2 still holds w.
-    nrm = (wp - C[press]) * on_a[press, None] + (wp - C[press + 1]) * on_b[press, None]
-    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
-    cands = wp[:, None, :] + (PUSH[None, :, None] * rp[:, None, None]) * nrm[:, None, :]
-    flat = cands.reshape(-1, wp.shape[1])
-    okb = np.all((flat >= oracle.robot.lower) & (flat <= oracle.robot.upper), axis=1)
-    rc = np.zeros(len(flat))
-    if okb.any():
-        rc[okb] = oracle.radii(flat[okb])
-    rc = rc.reshape(len(press), len(PUSH))
-    holds = rc * (1 - HATCH) > PUSH[None, :] * rp[:, None] + 2 * INSET  # holds w with a hatch of HATCH r
-    reach = np.where(holds, PUSH[None, :] * rp[:, None] + rc, -np.inf)
-    best = np.argmax(reach, axis=1)
-    row = np.arange(len(press))
-    has = np.isfinite(reach[row, best])
-    pc = np.where(has[:, None], cands[row, best], wp)
-    pr = np.where(has, rc[row, best], rp)
-    useful = (
-        (pr >= floor)
-        & (np.linalg.norm(pc - C[press], axis=1) + pr > R[press] * (1 + 1e-6))
-        & (np.linalg.norm(pc - C[press + 1], axis=1) + pr > R[press + 1] * (1 + 1e-6))
-    )
-    return press[useful], pc[useful], pr[useful]
-
-
-def splice_chain(C: np.ndarray, R: np.ndarray, ids: np.ndarray, P: np.ndarray, splices: dict, press: dict, first_id: int) -> tuple:
-    """The chain with chords and pressing bubbles spliced in, a polyline whose segment j lies in its bubble j,
-    and the new bubbles (centres, radii).
-
-    ``P``: a polyline whose segment j lies in bubble j of (C, R). ``splices``: {ja: (jb, centres, radii)}, a
-    chord's chain from A (on segment ja) to B (on segment jb), centres on the chord in order, consecutive ones
-    overlapping; it replaces bubbles ja + 1 .. jb - 1. ``press``: {p: (centre, radius)}, a bubble that holds
-    P[p + 1], spliced between bubbles p and p + 1. The new polyline is P up to A, then through one point of
-    each pair of consecutive chord bubbles (on the chord, in both: the middle of where both balls meet the
-    chord) to B, then P on; a pressing bubble gets a segment of no length at P[p + 1]. It is no longer than P
-    (the chord replaces the stretch A .. B of P). The new bubbles get the ids first_id, first_id + 1, ... in
-    the order returned."""
-    k = len(R)
-    removed = np.zeros(k + 1, dtype=int)
-    for a_, (b_, _, _) in splices.items():
-        removed[a_ + 1] += 1
-        removed[b_] -= 1
-    inside_span = np.cumsum(removed)[:k] > 0  # bubbles a_+1 .. b_-1 of a chord
-    parts_c, parts_r, parts_i, verts, new_c, new_r = [], [], [], [P[:1]], [], []
-    for j in range(k):
-        if inside_span[j]:
-            continue
-        parts_c.append(C[j : j + 1])
-        parts_r.append(R[j : j + 1])
-        parts_i.append(ids[j : j + 1])
-        extra = splices[j][1:] if j in splices else (press[j][0][None, :], np.array([press[j][1]])) if j in press else None
-        if j in splices:
-            pc_, pr_ = extra
-            a0 = pc_[0]
-            dv = pc_[-1] - a0
-            uv = dv / max(float(np.linalg.norm(dv)), 1e-300)
-            sc = (pc_ - a0) @ uv
-            lo_ = np.maximum(sc[1:] - pr_[1:], sc[:-1])
-            hi_ = np.minimum(sc[:-1] + pr_[:-1], sc[1:])
-            verts += [pc_[:1], a0 + (0.5 * (lo_ + hi_))[:, None] * uv, pc_[-1:]]
-        elif j in press:
-            verts += [P[j + 1 : j + 2], P[j + 1 : j + 2]]
-        else:
-            verts.append(P[j + 1 : j + 2])
-        if extra is not None:
-            parts_c.append(extra[0])
-            parts_r.append(extra[1])
-            parts_i.append(first_id + sum(len(x) for x in new_r) + np.arange(len(extra[1])))
-            new_c.append(extra[0])
-            new_r.append(extra[1])
-    return np.concatenate(parts_c), np.concatenate(parts_r), np.concatenate(parts_i), np.concatenate(verts), new_c, new_r
-
-
 class _Clock:
     """CPU time (``time.process_time``) per phase, for the statistics."""
 
@@ -641,8 +342,8 @@ def build_corridor(
             k = len(R)
             u = np.sort(rng.random((options.chords, 2)), axis=1)
             x = u * np.sum(np.linalg.norm(np.diff(P, axis=0) * (1.0 if M is None else M), axis=1))
-            A, ja = _arc_points(P, x[:, 0], M)
-            B, jb = _arc_points(P, x[:, 1], M)
+            A, ja = arc_points(P, x[:, 0], M)
+            B, jb = arc_points(P, x[:, 1], M)
             gain = (x[:, 1] - x[:, 0]) - np.linalg.norm((B - A) * (1.0 if M is None else M), axis=1)
             cand = np.flatnonzero((jb > ja) & (gain > min_gain * length))
             # The chords by gain, certified in batches of CHORD_BATCH (one batch of distance queries each),
@@ -682,7 +383,7 @@ def build_corridor(
             clock.lap("chords")
             # 2. Bubbles where the path presses on a boundary, spliced in place (hatch p: bubbles p, p + 1),
             #    except inside a chord's span.
-            sp_, pc, pr = _press_bubbles(oracle, C, R, w, floor)
+            sp_, pc, pr = press_bubbles(oracle, C, R, w, floor)
             clock.lap("press")
             conflict = np.zeros(k, dtype=bool)
             for a_, (b_, _, _) in splices.items():

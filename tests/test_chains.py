@@ -1,0 +1,107 @@
+"""Tests for foam_mj.planners.chains: the chain surgery of the corridor (pruning and re-covering a chain along a
+path, thinning a chord's chain, splicing chords and pressing bubbles into a chain). Each operation must leave a
+polyline that the new chain holds segment by segment, no longer than before."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+
+def test_pruning_keeps_the_path_inside_a_shorter_chain():
+    from foam_mj.planners.chains import prune_chain
+    from foam_mj.planners.corridor import shortest_path
+
+    # Ten overlapping balls on a straight line, q_init and q_goal at the ends: two balls suffice.
+    C = np.stack([np.linspace(0, 1, 10), np.zeros(10)], axis=1)
+    R = np.full(10, 0.3)
+    q0, q1 = np.array([0.0, 0.0]), np.array([1.0, 0.0])
+    w, L = shortest_path(C, R, q0, q1)
+    keep = prune_chain(C, R, np.concatenate([[q0], w, [q1]]))
+    assert len(keep) < 10 and np.all(np.diff(keep) > 0)
+    w2, L2 = shortest_path(C[keep], R[keep], q0, q1)
+    assert L2 <= L + 1e-9 and L2 == pytest.approx(1.0, abs=1e-5)
+
+
+def test_pruning_with_bubbles_centred_on_the_path_holds_it_with_fewer():
+    """A chain of small balls along a zigzag, and larger balls centred at points of its shortest path: the
+    re-covered chain uses the larger ones, has fewer bubbles, consecutive ones overlap with a hatch, and
+    its own shortest path is no longer (the old path, cut at one shared sample per hand-over, still fits)."""
+    from foam_mj.planners.chains import HATCH, path_samples, prune_chain
+    from foam_mj.planners.corridor import shortest_path
+
+    rng = np.random.default_rng(3)
+    x = np.linspace(0.0, 2.0, 41)
+    C = np.stack([x, 0.05 * np.sin(3 * x)], axis=1)
+    R = 0.06 + 0.01 * rng.random(41)
+    q0, q1 = C[0], C[-1]
+    w, L = shortest_path(C, R, q0, q1)
+    P = np.concatenate([[q0], w, [q1]])
+    D = path_samples(P, 8)
+    at = np.arange(0, len(D), 2)
+    r_extra = np.full(len(at), 0.15)
+    keep = prune_chain(C, R, P, extra=(at, r_extra))
+    Cn = np.concatenate([C, D[at]])[keep]
+    Rn = np.concatenate([R, r_extra])[keep]
+    assert np.any(keep >= len(R)) and len(keep) < prune_chain(C, R, P).size
+    d = np.linalg.norm(np.diff(Cn, axis=0), axis=1)
+    assert np.all(d <= Rn[:-1] + Rn[1:] - HATCH * np.minimum(Rn[:-1], Rn[1:]))
+    _, L2 = shortest_path(Cn, Rn, q0, q1)
+    assert L2 <= L + 1e-6
+
+
+def test_a_chords_chain_is_thinned_to_fewer_bubbles_that_still_hold_it():
+    from foam_mj.planners.chains import DEEP, thin_line_chain
+
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        m = int(rng.integers(3, 30))
+        A, B = rng.random(3), rng.random(3)
+        t = np.linspace(0.0, 1.0, m)
+        pts = A + t[:, None] * (B - A)
+        step = np.linalg.norm(B - A) / (m - 1)
+        r = step * (0.7 + 2.0 * rng.random(m))  # consecutive ones overlap deeply
+        p2, r2 = thin_line_chain(pts, r)
+        assert len(r2) <= m
+        np.testing.assert_array_equal(p2[[0, -1]], pts[[0, -1]])
+        d = np.linalg.norm(np.diff(p2, axis=0), axis=1)
+        assert np.all(d <= r2[:-1] + r2[1:] - DEEP * np.minimum(r2[:-1], r2[1:]) + 1e-12)
+        # Every point of the chord lies in a kept ball.
+        s = A + np.linspace(0.0, 1.0, 200)[:, None] * (B - A)
+        assert np.all(np.min(np.linalg.norm(s[:, None] - p2[None], axis=2) - r2[None], axis=1) <= 1e-12)
+
+
+def test_splicing_a_chord_and_a_pressing_bubble_keeps_a_polyline_held_segment_by_segment():
+    """splice_chain: after a chord (balls centred on it, consecutive ones overlapping) replaces a stretch of
+    the chain and a pressing bubble goes into a hatch, segment j of the new polyline lies in bubble j, the
+    polyline is no longer than the old one, and the new bubbles get consecutive new ids."""
+    from foam_mj.planners.chains import splice_chain
+    from foam_mj.planners.corridor import shortest_path
+
+    rng = np.random.default_rng(7)
+    for _ in range(10):
+        # A zigzag chain of balls and its shortest path.
+        k = 12
+        C = np.stack([np.arange(k) * 0.1, 0.03 * (-1.0) ** np.arange(k)], axis=1)
+        R = np.full(k, 0.08)
+        q0, q1 = C[0], C[-1]
+        w, _ = shortest_path(C, R, q0, q1)
+        P = np.concatenate([[q0], w, [q1]])
+        ja, jb = int(rng.integers(0, 4)), int(rng.integers(7, k))
+        A = P[ja] + rng.random() * (P[ja + 1] - P[ja])
+        B = P[jb] + rng.random() * (P[jb + 1] - P[jb])
+        m = int(rng.integers(2, 9))
+        pts = A + np.linspace(0.0, 1.0, m)[:, None] * (B - A)
+        step = np.linalg.norm(B - A) / (m - 1)
+        r = step * (0.6 + rng.random(m))  # consecutive ones overlap
+        pp = int(rng.integers(jb, k - 1)) if jb < k - 1 else None
+        press = {pp: (P[pp + 1] + 0.001, 0.05)} if pp is not None else {}  # a bubble that holds P[pp + 1]
+        ids = np.arange(k)
+        C2, R2, ids2, P2, nc, nr = splice_chain(C, R, ids, P, {ja: (jb, pts, r)}, press, 100)
+        assert len(P2) == len(R2) + 1 and len(R2) == len(ids2)
+        assert np.all(np.linalg.norm(P2[:-1] - C2, axis=1) <= R2 + 1e-9)
+        assert np.all(np.linalg.norm(P2[1:] - C2, axis=1) <= R2 + 1e-9)
+        L = lambda X: float(np.sum(np.linalg.norm(np.diff(X, axis=0), axis=1)))  # noqa: E731
+        assert L(P2) <= L(P) + 1e-12
+        n_new = sum(len(x) for x in nr)
+        assert sorted(ids2[ids2 >= 100].tolist()) == list(range(100, 100 + n_new))
