@@ -46,13 +46,15 @@ Why 24 thinned chords, 3 chord steps per round and the re-cover (measured on the
 step_up / step_down, seeds 0-9, medians, against 8 unthinned chords, one step and no re-cover; lengths in
 qpos after the default optimal smoother): the chords do most of a round's shortening, so more of them per
 round, thinner chord chains (smaller cone programs, more chords under CHORD_GROWTH) and several chord steps
-per program need fewer rounds: cone programs per plan 9 / 7.5 / 9 -> 3 / 4 / 4. The re-cover shrinks the
-final chain by 15-20 % (68.5 / 43.5 / 58 before it -> 69.5 / 36 / 47 now, with the longer chords). Lengths
+per program need fewer rounds: cone programs per plan 9 / 7.5 / 9 -> 3 / 4 / 4. The re-cover takes 15-20 %
+off the chain the rounds leave (final chains 68.5 / 43.5 / 58 -> 69.5 / 36 / 47: the longer chords leave
+longer chains on obstacle). Lengths
 0.8672 / 0.8798 / 1.756 -> 0.8264 / 0.8795 / 1.756 (seeds 10-19: 0.8779 / 0.8798 / 1.7571 -> 0.8613 / 0.8794
 / 1.7411). With the cached cone program, chord gaps filled in one batch and the interval prune, the
-corridor's CPU time on obstacle fell from about 34 to 19 ms (plan + optimal smoother 80-84 -> 57-65 ms;
-step_up 47-49 -> 34-39, step_down 70-75 -> 47-53; obstacle5 210-236 -> 182-184 ms, arm6 159 -> 155-159;
-one loaded 2-core machine, best of 3 per seed). The smoother's time per seed (19-50 ms on obstacle) does not
+corridor's CPU time fell by a third (obstacle 29-30 -> 20-21 ms, step_up 20.5-21 -> 13.5-14, step_down 29 ->
+18-19, obstacle5 80-84 -> 47-49, arm6 50-51 -> 31; plan + optimal smoother 68.5-69 -> 59-61 ms, 45.5-46 ->
+35-37, 71-74 -> 50-52, 205-206 -> 169, 149-150 -> 147-150; one 2-core machine shared with other work, CPU
+time, best of 3 per seed, two interleaved runs). The smoother's time per seed (19-50 ms on obstacle) does not
 follow the chain's size closely, so a changed trajectory moves its 10-seed median by a few ms either way.
 Bubbles pushed off the path, away from the obstacle, were tried for the re-cover and do not help: the
 certified radius grows only 0.2-0.4 x as fast as the centre moves away (the bound is conservative), so
