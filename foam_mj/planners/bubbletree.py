@@ -75,6 +75,7 @@ import numpy as np
 from foam_mj.errors import ConfigurationError, PlanningFailed
 from foam_mj.foam import Foam
 from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer
+from foam_mj.planners.chains import HATCH
 from foam_mj.planners.corridor import CorridorOptions, build_corridor, overlap_pairs
 
 #: Candidate centres per extension, at s r_p from the parent's centre along the direction to the target.
@@ -91,8 +92,6 @@ CHAIN_PER_JOINT = 20
 #: Upper bounds of ``batch``/``connect`` and of ``explore`` (beyond them memory or time explode, nothing improves).
 MAX_EXTENSIONS = 1_000
 MAX_EXPLORE = 100.0
-#: A hatch must be at least this fraction of the smaller radius deep (keeps hatches away from tangency).
-HATCH = 0.05
 
 
 @dataclass(frozen=True)
@@ -149,6 +148,14 @@ class BubbleTreeOptions:
             raise ValueError(f"`refine_tol` must be in (0, 1), got {self.refine_tol!r}")
 
 
+def _grow(obj, names: tuple[str, ...], size: int) -> None:
+    """Double the arrays ``obj.<name>`` (first axis) until they hold ``size`` rows."""
+    while size > len(getattr(obj, names[0])):
+        for name in names:
+            a = getattr(obj, name)
+            setattr(obj, name, np.concatenate([a, np.empty_like(a)]))
+
+
 def _lifted(Y: np.ndarray) -> np.ndarray:
     """The rows [y, 1, |y|^2] of points y (see :class:`_Tree`)."""
     L = np.empty((len(Y), Y.shape[1] + 2))
@@ -179,10 +186,7 @@ class _Tree:
 
     def add(self, idx: np.ndarray, c: np.ndarray, r: np.ndarray) -> None:
         m, n = len(idx), c.shape[1]
-        while self.n + m > len(self.r):
-            for name in ("idx", "r", "pw", "d2", "lift", "gap", "mate", "tries"):
-                a = getattr(self, name)
-                setattr(self, name, np.concatenate([a, np.empty_like(a)]))
+        _grow(self, ("idx", "r", "pw", "d2", "lift", "gap", "mate", "tries"), self.n + m)
         s = slice(self.n, self.n + m)
         self.idx[s], self.r[s], self.gap[s], self.mate[s], self.tries[s] = idx, r, np.inf, -1, 0
         sq = np.einsum("ij,ij->i", c, c)
@@ -210,10 +214,7 @@ class _Bubbles:
     def add(self, c: np.ndarray, r: np.ndarray, parent: np.ndarray, tree: np.ndarray) -> list[np.ndarray]:
         """Append bubbles; return the indices of the new ones of tree 0 and of tree 1."""
         m = len(r)
-        while self.n + m > len(self.r):
-            for name in ("c", "r", "parent", "tree", "pos"):
-                a = getattr(self, name)
-                setattr(self, name, np.concatenate([a, np.empty_like(a)]))
+        _grow(self, ("c", "r", "parent", "tree", "pos"), self.n + m)
         s = slice(self.n, self.n + m)
         self.c[s], self.r[s], self.parent[s], self.tree[s] = c, r, parent, tree
         out = []

@@ -41,8 +41,9 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
     """For each straight chord A[k] -> B[k]: bubble centres along it, every two consecutive overlapping
     with a hatch and every radius >= floor (a certified chain that holds the chord), or None.
 
-    Centres start ``spacing`` apart; a gap between two neighbours that do not overlap gets its midpoint,
-    all chords' midpoints in one batch per level (at most ``levels``). The chords' points live in flat
+    Centres start ``spacing`` apart (every COARSE-th point queried first); a gap between two neighbours that do
+    not overlap deeply gets evenly spaced points (see SPLIT, GAP_POINTS), all chords' new points in one batch
+    per level (at most ``levels``). The chords' points live in flat
     arrays sorted by (chord, position): no Python loop over chords."""
     lo, hi = oracle.robot.lower, oracle.robot.upper
     K = len(A)
@@ -102,8 +103,6 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
     return out
 
 
-
-
 def thin_line_chain(pts: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The fewest of a chord's bubbles (centres in order along the chord) that still hold it: from each kept
     bubble, the farthest later one that overlaps it with a deep hatch (DEEP). Two balls centred on a
@@ -128,6 +127,8 @@ def path_samples(P: np.ndarray, pieces: int) -> np.ndarray:
     return np.concatenate([(P[:-1, None, :] + (P[1:] - P[:-1])[:, None, :] * t[None, :, None]).reshape(-1, P.shape[1]), P[-1:]])
 
 
+#: Samples per segment of a path in prune_chain (and of the re-cover's bubbles' centres, which index them).
+PIECES = 8
 #: prune_chain looks for a bubble's held samples at most this many samples beyond its home interval.
 PRUNE_BAND = 24
 #: prune_chain compares all pairs of bubbles up to this many bubbles, else only pairs of touching intervals.
@@ -135,7 +136,7 @@ DENSE_SUCC = 128
 
 
 def prune_chain(
-    C: np.ndarray, R: np.ndarray, P: np.ndarray, pieces: int = 8, extra: tuple[np.ndarray, np.ndarray] | None = None
+    C: np.ndarray, R: np.ndarray, P: np.ndarray, pieces: int = PIECES, extra: tuple[np.ndarray, np.ndarray] | None = None
 ) -> np.ndarray:
     """Positions (into the chain, then into ``extra``) of a short chain of bubbles that still holds the polyline P.
 

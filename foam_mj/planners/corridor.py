@@ -79,6 +79,7 @@ from scipy.spatial import cKDTree
 from foam_mj.planners.chains import (
     HATCH,
     INSET,
+    PIECES,
     arc_points,
     certify_chords,
     deepen,
@@ -269,7 +270,7 @@ def shortest_path(
     m = k - 1
     if m == 0:
         return np.empty((0, n)), float(np.linalg.norm((q_goal - q_init) * sw))
-    P, q, A, cones, first, last, bbase, brow, row_w = _socp_template(m, n, None if metric is None else tuple(np.asarray(metric, dtype=float).tolist()))
+    P, q, A, cones, first, last, bbase, brow, row_w = _socp_template(m, n, None if metric is None else tuple(sw.tolist()))
     b = np.zeros(A.shape[0])
     b[first] = -q_init
     b[last] = q_goal
@@ -327,8 +328,12 @@ def build_corridor(
     clock.lap("socp")
     stats = {"chain_first": int(len(ids)), "length_first": length, "refine_rounds": 0, "refine_added": 0, "shortcuts": 0}
 
+    def next_id() -> int:
+        """The id of the next bubble the refinement adds (after the planner's and those added so far)."""
+        return n_base + sum(len(x) for x in added_r)
+
     def new_ids(count: int) -> np.ndarray:
-        start = n_base + sum(len(x) for x in added_r)
+        start = next_id()
         return np.arange(start, start + count)
 
     if options.refine and len(ids) > 1:
@@ -393,7 +398,7 @@ def build_corridor(
             press = {int(p_): (c_, r_) for p_, c_, r_ in zip(sp_, pc, pr) if not conflict[p_]}
             if not splices and not press:
                 break
-            C2, R2, ids2, P2, nc_, nr_ = splice_chain(C, R, ids, P, splices, press, n_base + sum(len(x) for x in added_r))
+            C2, R2, ids2, P2, nc_, nr_ = splice_chain(C, R, ids, P, splices, press, next_id())
             added_c += nc_
             added_r += nr_
             stats["shortcuts"] += len(splices)
@@ -404,7 +409,7 @@ def build_corridor(
                 more = pick_chords(P2, R2, STEP_GAIN * options.refine_tol)
                 if not more:
                     break
-                C2, R2, ids2, P2, nc_, nr_ = splice_chain(C2, R2, ids2, P2, more, {}, n_base + sum(len(x) for x in added_r))
+                C2, R2, ids2, P2, nc_, nr_ = splice_chain(C2, R2, ids2, P2, more, {}, next_id())
                 added_c += nc_
                 added_r += nr_
                 stats["shortcuts"] += len(more)
@@ -436,8 +441,8 @@ def build_corridor(
         P = np.concatenate([[q0], w, [q1]])
         extra = None
         if RECOVER:
-            D = path_samples(P, 8)
-            at = np.arange(0, len(D), 8 // RECOVER)
+            D = path_samples(P, PIECES)
+            at = np.arange(0, len(D), PIECES // RECOVER)
             rE = oracle.radii(D[at])
             ok = rE > 4 * INSET
             extra = (at[ok], rE[ok])
@@ -456,7 +461,7 @@ def build_corridor(
             C, R, ids = C[keep_pos], R[keep_pos], ids[keep_pos]
             changed = True
         clock.lap("prune")
-    C, R, ids, extra_c, extra_r = deepen(oracle, C, R, ids, lambda m: new_ids(m))
+    C, R, ids, extra_c, extra_r = deepen(oracle, C, R, ids, new_ids)
     if len(extra_r):
         added_c.append(extra_c)
         added_r.append(extra_r)
