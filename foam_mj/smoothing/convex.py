@@ -111,11 +111,37 @@ def build_socp(rosary: Rosary, smoothness: float = 0.0, inset: float = 0.0):
     min 1/2 x'Px + q'x subject to Ax + s = b, s in the cones; each cone here is a second-order cone
     (t, v) with |v| <= t, of dimension n + 1: m + 1 segment cones, then two ball cones per waypoint.
     """
+    rows, cols, vals, b, nw = socp_cones(rosary, inset)
+    m, n = rosary.n_hatches, rosary.dim
+    nt = m + 1
+    nv = nw + nt
+    cd = n + 1  # cone dimension
+    A = sp.csc_matrix((vals, (rows, cols)), shape=(len(b), nv))
+
+    q = np.concatenate([np.zeros(nw), np.ones(nt)])
+    if smoothness > 0:
+        # Second differences at the interior points: D w + e, D = tridiag(1, -2, 1) (x) I_n.
+        D1 = sp.diags([np.ones(m - 1), -2.0 * np.ones(m), np.ones(m - 1)], [-1, 0, 1], shape=(m, m))
+        D = sp.kron(D1, sp.identity(n), format="csc")
+        e = np.zeros((m, n))
+        e[0] += rosary.q_init
+        e[-1] += rosary.q_goal
+        Pw = 2.0 * smoothness * (D.T @ D)
+        q[:nw] += 2.0 * smoothness * (D.T @ e.ravel())
+        P = sp.block_diag([Pw, sp.csc_matrix((nt, nt))], format="csc")
+    else:
+        P = sp.csc_matrix((nv, nv))
+    P = sp.triu(P, format="csc")
+    cones = [clarabel.SecondOrderConeT(cd)] * (m + 1 + 2 * m)
+    return P, q, A, b, cones, nw
+
+
+def socp_cones(rosary: Rosary, inset: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """The segment and ball cones of :func:`build_socp` as (rows, cols, values) of A, b and the number of
+    waypoint variables (the smoother's subproblems reuse them without building A)."""
     h = Hatches.of(rosary)
     m, n = h.m, rosary.dim
     nw = m * n
-    nt = m + 1
-    nv = nw + nt
     cd = n + 1  # cone dimension
     d = np.arange(n)
 
@@ -153,22 +179,4 @@ def build_socp(rosary: Rosary, smoothness: float = 0.0, inset: float = 0.0):
     vals.append(np.full(brow.size, -1.0))
     b[brow] = -centres.ravel()
 
-    A = sp.csc_matrix(
-        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(len(b), nv)
-    )
-    q = np.concatenate([np.zeros(nw), np.ones(nt)])
-    if smoothness > 0:
-        # Second differences at the interior points: D w + e, D = tridiag(1, -2, 1) (x) I_n.
-        D1 = sp.diags([np.ones(m - 1), -2.0 * np.ones(m), np.ones(m - 1)], [-1, 0, 1], shape=(m, m))
-        D = sp.kron(D1, sp.identity(n), format="csc")
-        e = np.zeros((m, n))
-        e[0] += rosary.q_init
-        e[-1] += rosary.q_goal
-        Pw = 2.0 * smoothness * (D.T @ D)
-        q[:nw] += 2.0 * smoothness * (D.T @ e.ravel())
-        P = sp.block_diag([Pw, sp.csc_matrix((nt, nt))], format="csc")
-    else:
-        P = sp.csc_matrix((nv, nv))
-    P = sp.triu(P, format="csc")
-    cones = [clarabel.SecondOrderConeT(cd)] * (m + 1 + 2 * m)
-    return P, q, A, b, cones, nw
+    return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), b, nw
