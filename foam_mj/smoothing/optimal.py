@@ -39,11 +39,14 @@ worse ratios, 5 subproblems instead of 3-4); so every subproblem for an objectiv
 more subproblems), which the step's predicted decrease leaves out. SV keeps the rows (its optimum is
 flat and moved by up to 4e-6 of F without them, for no gain). The same holds for the hatch balls: the
 subproblem keeps every ball that the trust region reaches (nearly all of them: the hatches are small),
-but at the steps with curvature only the balls within ``NEAR`` sqrt(n) times the last step's |dW|_inf
-(+ 2 ``TIE``) of the point (the active ones, 15-20 % of them on obstacle) enter the first solve; a
-solution that leaves a ball left out is solved again with it (1 of 120 subproblems on the 36 corridors;
-none with NEAR = 0.03, 9 with 0), and one that meets them all is the subproblem's solution (the rows
-left out are 40 % of a second step's, 45 % of a third's).
+but while the curvature model is on only the balls within ``NEAR`` sqrt(n) times the last step's
+|dW|_inf (+ 2 ``TIE``; before the first step, delta0 / 10 stands for it) of the point enter the first
+solve (near the optimum, the active ones: 15-20 % of them on obstacle); a solution that leaves a ball
+left out is solved again with it (1 of 108 subproblems on the 36 corridors; none with NEAR = 0.03
+after the first step, 9 with 0; 5 with delta0 / 25 before it), and one that meets them all is the
+subproblem's solution (the rows left out are 40 % of a second step's, 45 % of a third's; CPU of the
+smoother -5 % on obstacle, step_up and step_down from the first step's, where delta0 / 50 gave -7 %
+there but +27 % on arm6).
 
 Curvature (objectives without SV). Linearising v inside the norm drops v's own curvature, and the SCP
 then converges only linearly (the model underestimates F near straight vertices, steps are rejected and
@@ -816,7 +819,7 @@ def sequential_convex(
     refine = weights.sv > 0
     solver, relaxed = _Solver(refine), _Solver(refine)
     radii = np.stack([h.ra, h.rb], axis=1) - inset
-    step_last = delta0
+    step_last = 0.1 * delta0  # (the first steps moved 2e-3 to 5e-3 on the 36 bubbletree corridors)
     try_relaxed = weights.sv == 0  # (SV: no faster, and its flat optimum moves with the rows)
     pred_last = np.inf
     trace.stop_reason = "max_iter"
@@ -866,7 +869,7 @@ def sequential_convex(
         status = ""
         if try_relaxed:
             near = keep
-            if y is not None and keep is not None:
+            if keep is not None:
                 near = keep & (slack <= NEAR * np.sqrt(st.n) * step_last + 2 * tie)
             while True:
                 P, q, A, b, cones, curv, ball_row = _subproblem(st, p, weights, delta, vx, y, rel, near, long_seg, trust=False)
