@@ -479,10 +479,11 @@ def sequential_convex(
                     break
                 near = near | out
                 trace.ball_solves += 1
-            if status in ("Solved", "AlmostSolved") and not _within_trust(np.asarray(sol.x), p, vx, delta, rel):
-                try_relaxed, status = False, ""
-            elif keep is not None:
-                keep = near
+            if status in ("Solved", "AlmostSolved"):
+                if not _within_trust(np.asarray(sol.x), p, vx, delta, rel):
+                    try_relaxed, status = False, ""
+                elif keep is not None:
+                    keep = near  # (the balls of the problem solved: its duals are the certificate's guess)
         if status not in ("Solved", "AlmostSolved"):
             P, q, A, b, cones, curv, ball_row = _subproblem(st, p, weights, delta, vx, y, rel, keep, long_seg)
             sol = solver.solve(P, q, A, b, cones, sub_tol)
