@@ -459,9 +459,11 @@ def sequential_convex(
         sub_tol = SOLVER_TOL
         if curvature:  # far from the optimum the step needs fewer digits than the solver's 1e-9
             sub_tol = min(LOOSE_TOL, max(SOLVER_TOL, 1e-3 * pred_last / max(abs(F), 1e-300)))
-        # First without the trust region's rows (module docstring, Speed): a solution inside the region is the
-        # subproblem's solution; otherwise (or if that fails) the subproblem with the region.
-        # Once a step reached the region's edge, the rest of the run keeps the rows (the plain model's steps do).
+        # First without the trust region's rows and, with the curvature model, with only the balls near the point
+        # (module docstring, Speed): a solution inside the region and all the balls is the subproblem's; one
+        # outside a ball left out is solved again with it; one outside the region (or a failed solve) gives way
+        # to the subproblem with the region, whose rows the rest of the run keeps (the plain model's steps end
+        # on the region's edge).
         status = ""
         if try_relaxed:
             near = keep
