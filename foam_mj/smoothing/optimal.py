@@ -125,10 +125,11 @@ iterations about half, building the solvers a sixth); the subproblems are made s
   (objectives without SV), else at the 1e-10 |F| test. The certificate's SOCP, when the duals do not
   certify, is assembled sparse (obstacle seed 0: 12 ms, 21 before), and asked once per point.
 
-Smoother CPU medians, before (the plain trust region, every ball, EARLY 1e-7) -> now: obstacle 29.7 ->
-19.7 ms (-34 %; per-seed ratio median 0.65), step_up 14.6 -> 7.3, step_down 19.7 -> 11.6, obstacle5 150
--> 121, arm6 75 -> 38 ms; all certified, F from -1.5e-8 to +8.4e-8 relative (a different rounding on the
-way; the largest where a step now stops one subproblem earlier, certified). On the scenario rosaries of
+Smoother CPU medians, before (the trust region's rows and every reachable ball in every solve, EARLY
+1e-7) -> now, best of 5: obstacle 24.6 -> 16.2 ms (-34 %; per-seed ratio median 0.66), step_up 12.8 ->
+6.3, step_down 17.7 -> 10.5, obstacle5 101 -> 93, arm6 69 -> 26 ms; all certified, F from -1.5e-8 to
++8.4e-8 relative (a different rounding on the way; the largest where a run now stops a subproblem
+earlier, certified; step_down seed 3 takes 6 subproblems instead of 4). On the scenario rosaries of
 foam_mj.benchmark (convex start) obstacle 22.5 -> 18.6 ms, step_up 22.2 -> 17.3, step_down 21.0 -> 20.3,
 obstacle_thesis 90 -> 84 ms (13 subproblems against 15: the curvature model is certified there only to
 2e-5, and the plain model polishes on); F within 3.2e-8.
