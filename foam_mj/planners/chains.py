@@ -110,7 +110,10 @@ def thin_line_chain(pts: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndar
     m = len(r)
     if m <= 2:
         return pts, r
-    d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
+    # The centres lie on one line: distances are those of their positions along it (no (m, m, n) array).
+    u = pts[-1] - pts[0]
+    s = (pts - pts[0]) @ (u / max(float(np.linalg.norm(u)), 1e-300))
+    d = np.abs(s[:, None] - s[None, :])
     ok = d <= r[:, None] + r[None, :] - DEEP * np.minimum(r[:, None], r[None, :])
     # Consecutive bubbles overlap deeply by construction (certify_chords bisects until they do).
     far = m - 1 - np.argmax(ok[:, ::-1], axis=1)  # the last bubble each one overlaps deeply
