@@ -70,18 +70,20 @@ class PlanningProblem:
         """Certified radii at q_init and q_goal; :class:`ConfigurationError` naming the clearance when
         either is closer than delta to an obstacle (or has no room inside the joint bounds)."""
         o = self.oracle
+        Q = np.stack([self.q_init, self.q_goal])
+        D = o.clearance.batch_pairs(Q)  # both ends in one batch of distance queries
+        radii = o.radius_from_distances(D, Q)  # per-pair bound (foam_mj.bubbles)
         out = []
-        for name, q in (("q_init", self.q_init), ("q_goal", self.q_goal)):
-            d = float(o.clearance(q))
+        for name, q, dp, r in zip(("q_init", "q_goal"), Q, D, radii):
+            d = float(dp.min())
             if d <= self.delta:
                 state = "in collision" if d < 0 else "too close to an obstacle"
                 raise ConfigurationError(
                     f"{name} {q.tolist()} is {state}: clearance {d:.4f} m <= margin delta = {self.delta} m"
                 )
-            r = float(o.radius(q))  # per-pair bound (foam_mj.bubbles)
             if not r > 0:
                 raise ConfigurationError(f"{name} {q.tolist()} lies on the boundary of the joint bounds: no certified bubble fits")
-            out.append(r)
+            out.append(float(r))
         return out[0], out[1]
 
 

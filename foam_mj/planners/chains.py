@@ -206,11 +206,12 @@ def prune_chain(
         small = np.minimum(R[ii], R[cj])
         for depth in (HATCH, DEEP):
             sel = slack >= depth * small
-            a_, b_ = ii[sel], cj[sel]
-            o = np.lexsort((-b_, e[b_], a_))  # by bubble, reach, then index down: a run's last is the pick
-            a_, b_ = a_[o], b_[o]
-            last = np.flatnonzero(np.r_[a_[1:] != a_[:-1], True]) if len(a_) else np.empty(0, dtype=np.int64)
-            succ[a_[last]] = b_[last]
+            a_, b_ = ii[sel], cj[sel]  # a_ ascending
+            if len(a_):
+                # Per bubble the candidate of farthest reach, then smallest index: the largest key.
+                key = e[b_] * nb + (nb - 1 - b_)
+                first = np.flatnonzero(np.r_[True, a_[1:] != a_[:-1]])
+                succ[a_[first]] = nb - 1 - np.maximum.reduceat(key, first) % nb
     start = np.flatnonzero(s_ == 0)
     out = [int(start[np.argmax(e[start])])]
     while e[out[-1]] < T - 1:

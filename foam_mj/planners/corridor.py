@@ -368,7 +368,8 @@ def build_corridor(
             used = np.zeros(k + 1, dtype=bool)
             spacing = max(CHORD_SPACING * float(np.median(R)), floor)
             while pending.size:
-                free = np.array([not used[ja[i] : jb[i] + 1].any() for i in pending], dtype=bool)
+                cu = np.concatenate([[0], np.cumsum(used)])  # used segments before each index
+                free = cu[jb[pending] + 1] == cu[ja[pending]]
                 pending = pending[free]
                 todo, pending = pending[:CHORD_BATCH], pending[CHORD_BATCH:]
                 if todo.size == 0:
