@@ -65,6 +65,12 @@ with a projection onto the lenses: -20 % program time, but the smoother's median
 program cannot be saved by handing the smoother the old path (the re-covered chain still holds it; a sample
 of it in each new hatch): plan -2.5 ms, but the smoother's median doubled (26.7 -> 52.3 ms on obstacle, it
 starts farther from its optimum); solving it to 1e-7 or 1e-6 instead of 1e-8 saved nothing measurable.
+Also left out (obstacle / step_down / step_up, seeds 0-9, medians; lengths in qpos after the optimal smoother):
+RECOVER 2 (obstacle 0.8264 -> 0.8298, smoother +13 ms) or 8 (plan +3 ms, total no better), CHORD_STEPS 2
+(obstacle 0.849, smoother +13 ms), CHORD_SPACING 3 (smoother +6 to +13 ms), 16 chords a round (obstacle 0.846,
+step_down 1.765), the rounds' programs without equilibration (no measurable gain). The chords certified do
+not depend on COARSE; 4 is within 0.4 % of the fewest distance queries per plan on obstacle and step_down
+(2-12 tried; arm6: 2 % fewer at 8).
 """
 
 from __future__ import annotations
