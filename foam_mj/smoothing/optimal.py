@@ -62,8 +62,8 @@ HS or GA starts it stopped up to 3e-6 of F above the polished value (relative), 
 1e-4: after steps with rho 1.3 to 3.2 (the linear regime), after steps cut by the trust region (delta
 shrunk by rejections: the prediction is small because delta is; rho 1.00, +1.1e-6) and after one with rho
 0.41 (+5.3e-7). With both, F ends within 1.9e-7 of the polished value on the 36 bubbletree corridors and
-6 scenario rosaries below, and on their multistarts (3-4 random starts each, HS and GA starts), all
-certified.
+6 scenario rosaries below, on multistarts (3 random starts on obstacle, step_up, step_down and arm6 seeds
+0-2, 4 on the scenario rosaries) and from HS and GA results (three scenario rosaries), all certified.
 
 Repeated points (ties). The shortest path puts consecutive waypoints on the same corner wherever their
 hatches overlap there, and so does the optimum of f (a corner counts once, foam_mj.paths). Two points
