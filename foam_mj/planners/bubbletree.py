@@ -187,15 +187,15 @@ class _Tree:
         self.tries = np.empty(cap, dtype=np.int64)
         self.n = 0
 
-    def add(self, idx: np.ndarray, c: np.ndarray, r: np.ndarray) -> None:
-        m, n = len(idx), c.shape[1]
+    def add(self, idx: np.ndarray, lift: np.ndarray, r: np.ndarray) -> None:
+        """Append bubbles given by their indices, lifted centres [c, 1, |c|^2] (:func:`_lifted`) and radii."""
+        m, n = len(idx), lift.shape[1] - 2
         _grow(self, ("idx", "r", "pw", "d2", "lift", "gap", "mate", "tries"), self.n + m)
         s = slice(self.n, self.n + m)
         self.idx[s], self.r[s], self.gap[s], self.mate[s], self.tries[s] = idx, r, np.inf, -1, 0
-        sq = np.einsum("ij,ij->i", c, c)
-        lift, d2 = self.lift[s], self.d2[s]
-        lift[:, :n], lift[:, n], lift[:, n + 1] = c, 1.0, sq
-        d2[:, :n], d2[:, n], d2[:, n + 1] = -2.0 * c, sq, 1.0
+        self.lift[s] = lift
+        d2 = self.d2[s]
+        d2[:, :n], d2[:, n], d2[:, n + 1] = -2.0 * lift[:, :n], lift[:, n + 1], 1.0
         self.pw[s] = d2
         self.pw[s, n] -= r**2
         self.n += m
@@ -214,20 +214,24 @@ class _Bubbles:
         self.trees = (_Tree(dim), _Tree(dim))
         self.n = 0
 
-    def add(self, c: np.ndarray, r: np.ndarray, parent: np.ndarray, tree: np.ndarray) -> list[np.ndarray]:
-        """Append bubbles; return the indices of the new ones of tree 0 and of tree 1."""
+    def add(self, c: np.ndarray, r: np.ndarray, parent: np.ndarray, tree: np.ndarray, lift: np.ndarray | None = None) -> list[np.ndarray]:
+        """Append bubbles, ``tree`` in non-decreasing order (the start tree's first, then the goal tree's, then
+        any of neither; ``lift``: their rows :func:`_lifted` (c) if already computed); return the indices of
+        the new ones of tree 0 and of tree 1."""
         m = len(r)
         _grow(self, ("c", "r", "parent", "tree", "pos"), self.n + m)
         s = slice(self.n, self.n + m)
         self.c[s], self.r[s], self.parent[s], self.tree[s] = c, r, parent, tree
+        ends = np.searchsorted(tree, (0, 1), side="right").tolist()
+        if lift is None and ends[1]:
+            lift = _lifted(c)
         out = []
-        for t in (0, 1):
-            mine = np.flatnonzero(tree == t)
-            out.append(mine + self.n)
-            if len(mine):
+        for t, (a, b) in enumerate(((0, ends[0]), (ends[0], ends[1]))):
+            out.append(np.arange(self.n + a, self.n + b))
+            if b > a:
                 T = self.trees[t]
-                self.pos[out[t]] = T.n + np.arange(len(mine))
-                T.add(out[t], c[mine], r[mine])
+                self.pos[self.n + a : self.n + b] = np.arange(T.n, T.n + b - a)
+                T.add(out[t], lift[a:b], r[a:b])
         self.n += m
         return out
 
@@ -262,7 +266,7 @@ class InformedSampler:
 
     def sample(self, rng: np.random.Generator, m: int) -> np.ndarray:
         x = rng.standard_normal((m, self.n))
-        x *= (rng.random(m) ** (1.0 / self.n) / np.linalg.norm(x, axis=1))[:, None]  # uniform in the unit ball
+        x *= (rng.random(m) ** (1.0 / self.n) / np.sqrt(np.add.reduce(x * x, axis=1)))[:, None]  # uniform in the unit ball
         X = self.centre + (x * self.radii) @ self.HT
         return X if self.scale is None else X / self.scale
 
@@ -316,15 +320,14 @@ class BubbleTreePlanner(Planner):
                 np.sqrt(np.maximum(D, 0.0, out=D), out=D)
                 D -= T.r[sl, None]
                 D -= O.r[None, : O.n]
-                j = np.argmin(D, axis=1)
-                g = D[np.arange(k), j]
+                j = D.argmin(axis=1)
+                g = D.min(axis=1)
                 better = g < T.gap[sl]
                 T.gap[sl][better], T.mate[sl][better] = g[better], O.idx[j[better]]
-                i = np.argmin(D, axis=0)  # the other tree's bubbles may now be nearer to a new one
-                g2 = D[i, np.arange(O.n)]
-                better = np.flatnonzero(g2 < O.gap[: O.n])
-                O.gap[better], O.mate[better] = g2[better], new[t][i[better]]
-                over = np.flatnonzero(g < 0)  # a connection: overlap with a hatch of HATCH * the smaller radius
+                g2 = D.min(axis=0)  # the other tree's bubbles may now be nearer to a new one
+                better = (g2 < O.gap[: O.n]).nonzero()[0]
+                O.gap[better], O.mate[better] = g2[better], new[t][D[:, better].argmin(axis=0)]
+                over = (g < 0).nonzero()[0]  # a connection: overlap with a hatch of HATCH * the smaller radius
                 if best is None and over.size:
                     hit = np.argwhere(D[over] <= -HATCH * np.minimum(T.r[sl][over, None], O.r[None, : O.n]))
                     if hit.size:
@@ -384,15 +387,15 @@ class BubbleTreePlanner(Planner):
                 if sampler is None:
                     X = lo + (hi - lo) * rng.random((o.batch, n))
                 else:
-                    X = np.clip(sampler.sample(rng, o.batch), lo, hi)
+                    X = np.minimum(np.maximum(sampler.sample(rng, o.batch), lo), hi)
                 # Goal-directed: the bubbles nearest to the other tree (each tried at most MAX_TRIES times),
                 # toward their nearest bubble there; and, as RRT-Connect, toward the other tree's newest bubbles.
                 near = pick = None
                 if o.connect:
-                    fresh = np.flatnonzero(T.tries[: T.n] < MAX_TRIES)  # positions in the tree
+                    fresh = (T.tries[: T.n] < MAX_TRIES).nonzero()[0]  # positions in the tree
                     if len(fresh):
                         k = min(o.connect, len(fresh))
-                        near = fresh[np.argpartition(T.gap[fresh], k - 1)[:k]] if k < len(fresh) else fresh
+                        near = fresh[T.gap[fresh].argpartition(k - 1)[:k]] if k < len(fresh) else fresh
                         T.tries[near] += 1
                         toward = B.c[T.mate[near]]
                         near = mine[near]
@@ -401,7 +404,7 @@ class BubbleTreePlanner(Planner):
                         pick = theirs[rng.permutation(len(theirs))[: o.connect]]
                 # Samples and newest bubbles extend the bubble of smallest power distance |x - c|^2 - r^2.
                 Y = X if pick is None else np.concatenate([X, B.c[pick]])
-                par = mine[np.argmin(_lifted(Y) @ T.pw[: T.n].T, axis=1)]
+                par = mine[(_lifted(Y) @ T.pw[: T.n].T).argmin(axis=1)]
                 parents.append(par[: len(X)])
                 targets.append(X)
                 if near is not None:
@@ -430,10 +433,10 @@ class BubbleTreePlanner(Planner):
             good = (r >= r_min) & (s <= rP[:, None] + (1 - HATCH) * r)
             counters["rejected_small"] += len(flat) - int(np.count_nonzero(good))
             # The farthest good candidate of each extension.
-            rows = np.flatnonzero(good.any(axis=1))
+            rows = np.logical_or.reduce(good, axis=1).nonzero()[0]
             if rows.size == 0:
                 continue
-            pick = STEPS.size - 1 - np.argmax(good[rows, ::-1], axis=1)
+            pick = STEPS.size - 1 - good[rows, ::-1].argmax(axis=1)
             cc, cr, cp = cand[rows, pick], r[rows, pick], P[rows]
             ct = B.tree[cp]
             # Not inside another bubble of its tree (the parent excluded), nor inside an earlier sibling of this
@@ -441,26 +444,27 @@ class BubbleTreePlanner(Planner):
             # bubbles and to the siblings' balls, in one product.
             keep = np.empty(len(rows), dtype=bool)
             k0 = int(np.count_nonzero(ct == 0))
+            L = _lifted(cc)
             for t, sl in ((0, slice(0, k0)), (1, slice(k0, len(rows)))):
                 k = sl.stop - sl.start
                 if k == 0:
                     continue
                 T = B.trees[t]
-                L = _lifted(cc[sl])
-                sib = np.empty((k, n + 2))
+                _grow(T, ("pw",), T.n + k)  # the siblings' rows [-2c, |c|^2 - r^2, 1] go after the tree's own
+                sib = T.pw[T.n : T.n + k]
                 sib[:, :n] = -2.0 * cc[sl]
-                sib[:, n] = L[:, -1] - cr[sl] ** 2
+                sib[:, n] = L[sl, -1] - cr[sl] ** 2
                 sib[:, n + 1] = 1.0
-                pw = L @ np.concatenate([T.pw[: T.n], sib]).T
+                pw = L[sl] @ T.pw[: T.n + k].T
                 pw[np.arange(k), B.pos[cp[sl]]] = np.inf
                 pw[:, T.n :][later[:k, :k]] = np.inf
                 keep[sl] = pw.min(axis=1) >= 0.0
             counters["rejected_covered"] += int(np.count_nonzero(~keep))
             room = problem.max_bubbles - B.n
-            sel = np.flatnonzero(keep)[:room]
+            sel = keep.nonzero()[0][:room]
             if sel.size == 0:
                 continue
-            newest = B.add(cc[sel], cr[sel], cp[sel], ct[sel])
+            newest = B.add(cc[sel], cr[sel], cp[sel], ct[sel], L[sel])
             met = update_gaps(newest)
             link = link if link is not None else met
 
