@@ -84,6 +84,32 @@ def test_batch_pair_distances_are_every_pairs_distance_and_survive_later_calls(o
         np.testing.assert_allclose(D[-1], c.pair_distances(Q[-1]), rtol=0, atol=1e-12)
 
 
+def test_the_lean_sensor_model_gives_the_full_models_distances_bit_for_bit(obstacle_robot):
+    c = Clearance(obstacle_robot)
+    full = Clearance(obstacle_robot)
+    full._batch_model = full._compile(lean=False)
+    full._batch_model.opt.disableflags = c._batch_model.opt.disableflags
+    assert c._batch_model.ngeom < full._batch_model.ngeom and c._batch_model.nu == 0
+    Q = np.random.default_rng(3).uniform(obstacle_robot.lower, obstacle_robot.upper, size=(500, 3))
+    assert np.array_equal(c.batch_pairs(Q), full.batch_pairs(Q))
+
+
+def test_a_model_that_needs_its_other_geoms_keeps_them_in_the_sensor_model(tmp_path):
+    # The tip's only geom collides with nothing: without it the tip, which moves, would have no mass.
+    (tmp_path / "r.xml").write_text("""<mujoco><worldbody>
+      <geom name="floor" type="plane" size="2 2 0.1"/><geom name="wall" type="box" pos="0.5 0 0.3" size="0.05 0.3 0.3"/>
+      <body name="link1" pos="0 0 0.3"><joint name="j1" type="hinge" axis="0 0 1" range="-1 1"/>
+        <geom name="arm" type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+        <body name="tip" pos="0.3 0 0"><joint name="j2" type="hinge" axis="0 0 1" range="-1 1"/>
+          <geom name="marker" type="sphere" size="0.01" contype="0" conaffinity="0"/></body></body>
+    </worldbody></mujoco>""")
+    robot = RobotModel.from_xml(tmp_path / "r.xml")
+    c = Clearance(robot)
+    assert c._batch_model.ngeom == robot.model.ngeom
+    Q = np.array([[0.0, 0.0], [0.9, -0.5]])
+    np.testing.assert_allclose(c.batch_pairs(Q)[:, 0], [c.pair_distances(q)[0] for q in Q], rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize(
     "q, message",
     [
