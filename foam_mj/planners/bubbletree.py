@@ -177,25 +177,34 @@ class _Tree:
     index, and ``tries``, the times the bubble was extended toward the other tree."""
 
     def __init__(self, dim: int, cap: int = 512) -> None:
-        self.idx = np.empty(cap, dtype=np.int64)
-        self.r = np.empty(cap)
-        self.pw = np.empty((cap, dim + 2))
-        self.d2 = np.empty((cap, dim + 2))
-        self.lift = np.empty((cap, dim + 2))
-        self.gap = np.empty(cap)
-        self.mate = np.empty(cap, dtype=np.int64)
-        self.tries = np.empty(cap, dtype=np.int64)
+        self.dim = dim
+        for name, blank in self._blank(cap).items():
+            setattr(self, name, blank)
         self.n = 0
+
+    def _blank(self, cap: int) -> dict[str, np.ndarray]:
+        """Rows for ``cap`` more bubbles, their constants already in place (a new bubble has no gap, mate or
+        try yet; the last entry of a ``pw`` or ``d2`` row is 1), so that :meth:`add` writes only the rest."""
+        pw, d2 = np.empty((cap, self.dim + 2)), np.empty((cap, self.dim + 2))
+        pw[:, -1] = d2[:, -1] = 1.0
+        return dict(idx=np.empty(cap, dtype=np.int64), r=np.empty(cap), pw=pw, d2=d2, lift=np.empty((cap, self.dim + 2)),
+                    gap=np.full(cap, np.inf), mate=np.full(cap, -1, dtype=np.int64), tries=np.zeros(cap, dtype=np.int64))
+
+    def reserve(self, size: int) -> None:
+        """Double the rows until they hold ``size`` bubbles."""
+        while size > len(self.idx):
+            for name, blank in self._blank(len(self.idx)).items():
+                setattr(self, name, np.concatenate([getattr(self, name), blank]))
 
     def add(self, idx: np.ndarray, lift: np.ndarray, r: np.ndarray) -> None:
         """Append bubbles given by their indices, lifted centres [c, 1, |c|^2] (:func:`_lifted`) and radii."""
-        m, n = len(idx), lift.shape[1] - 2
-        _grow(self, ("idx", "r", "pw", "d2", "lift", "gap", "mate", "tries"), self.n + m)
+        m, n = len(idx), self.dim
+        self.reserve(self.n + m)
         s = slice(self.n, self.n + m)
-        self.idx[s], self.r[s], self.gap[s], self.mate[s], self.tries[s] = idx, r, np.inf, -1, 0
-        self.lift[s] = lift
+        self.idx[s], self.r[s], self.lift[s] = idx, r, lift
         d2 = self.d2[s]
-        d2[:, :n], d2[:, n], d2[:, n + 1] = -2.0 * lift[:, :n], lift[:, n + 1], 1.0
+        np.multiply(lift[:, :n], -2.0, out=d2[:, :n])
+        d2[:, n] = lift[:, n + 1]
         self.pw[s] = d2
         self.pw[s, n] -= r**2
         self.n += m
@@ -450,11 +459,10 @@ class BubbleTreePlanner(Planner):
                 if k == 0:
                     continue
                 T = B.trees[t]
-                _grow(T, ("pw",), T.n + k)  # the siblings' rows [-2c, |c|^2 - r^2, 1] go after the tree's own
+                T.reserve(T.n + k)  # the siblings' rows [-2c, |c|^2 - r^2, 1] go after the tree's own
                 sib = T.pw[T.n : T.n + k]
-                sib[:, :n] = -2.0 * cc[sl]
+                np.multiply(cc[sl], -2.0, out=sib[:, :n])
                 sib[:, n] = L[sl, -1] - cr[sl] ** 2
-                sib[:, n + 1] = 1.0
                 pw = L[sl] @ T.pw[: T.n + k].T
                 pw[np.arange(k), B.pos[cp[sl]]] = np.inf
                 pw[:, T.n :][later[:k, :k]] = np.inf
