@@ -65,7 +65,8 @@ class Clearance:
         names = [(self.robot.geom_name(g), self.robot.geom_name(o)) for g, o in self._pairs]
         if lean:
             used = {name for pair in names for name in pair}
-            for obj in [g for g in spec.geoms if g.name not in used] + [*spec.lights, *spec.actuators, *spec.keys, *spec.pairs, *spec.sensors]:
+            unused = [g for g in spec.geoms if g.name not in used]
+            for obj in [*unused, *spec.lights, *spec.actuators, *spec.keys, *spec.pairs, *spec.sensors]:
                 spec.delete(obj)
         for g, o in names:
             s = spec.add_sensor()
