@@ -78,6 +78,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from functools import lru_cache
+from types import SimpleNamespace
 
 import clarabel
 import numpy as np
@@ -242,7 +243,7 @@ def _socp_template(m: int, n: int, metric: tuple[float, ...] | None):
     """The parts of :func:`foam_mj.smoothing.convex.build_socp`'s program for m waypoints in R^n that do not depend
     on the bubbles (P, q, A with the segment rows weighted by ``metric``, the cones), and where b takes the
     bubbles and the end points: (P, q, A, cones, rows of q_init, rows of q_goal, ball radius rows, ball centre
-    rows, row weights or None)."""
+    rows, row weights or None). P, q and A are held as Python lists (:func:`_lists`) for Clarabel's constructor."""
     ros = Rosary(np.zeros((m + 1, n)), np.ones(m + 1), np.zeros(n), np.zeros(n))
     P, q, A, _, cones, _ = build_socp(ros, 0.0, 0.0)
     cd = n + 1
@@ -259,7 +260,15 @@ def _socp_template(m: int, n: int, metric: tuple[float, ...] | None):
         row_w[seg_rows] = np.tile(np.asarray(metric), m + 1)
         A = A.copy()
         A.data *= row_w[A.indices]  # CSC: indices are row indices
-    return P, q, A, cones, first, last, bbase.ravel(), brow.ravel(), row_w
+    return _lists(P), q.tolist(), _lists(A), cones, first, last, bbase.ravel(), brow.ravel(), row_w
+
+
+def _lists(M: sp.csc_matrix) -> SimpleNamespace:
+    """M with its arrays as Python lists: Clarabel's constructor reads a matrix (data, indices, indptr, nnz, shape,
+    has_canonical_format) element by element, faster from lists than from numpy arrays (see
+    :func:`foam_mj.smoothing.subproblem._lists`; the same solutions)."""
+    return SimpleNamespace(data=M.data.tolist(), indices=M.indices.tolist(), indptr=M.indptr.tolist(), nnz=M.nnz,
+                           shape=M.shape, has_canonical_format=M.has_canonical_format)
 
 
 def shortest_path(
@@ -296,7 +305,7 @@ def shortest_path(
     settings.presolve_enable = False
     settings.iterative_refinement_enable = False
     settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = tol
-    sol = clarabel.DefaultSolver(P, q, A, b, cones, settings).solve()
+    sol = clarabel.DefaultSolver(P, q, A, b.tolist(), cones, settings).solve()
     w = np.asarray(sol.x[: m * n]).reshape(m, n)
     pts = np.concatenate([[q_init], w, [q_goal]])
     return w, float(np.sum(np.linalg.norm(np.diff(pts, axis=0) * sw, axis=1)))
