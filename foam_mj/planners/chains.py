@@ -97,9 +97,9 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
         cid, t, pts, r = cid[order], t[order], pts[order], r[order]
     alive[cid[gaps()]] = False  # still a gap after the last level
     out: list[tuple[np.ndarray, np.ndarray] | None] = [None] * K
-    for k in np.flatnonzero(alive):
-        sel = cid == k
-        out[int(k)] = (pts[sel], r[sel])
+    ks = np.flatnonzero(alive)  # cid is sorted: each chord's points are one run
+    for k, a, b in zip(ks.tolist(), np.searchsorted(cid, ks).tolist(), np.searchsorted(cid, ks, side="right").tolist()):
+        out[k] = (pts[a:b], r[a:b])
     return out
 
 
@@ -116,11 +116,10 @@ def thin_line_chain(pts: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndar
     d = np.abs(s[:, None] - s[None, :])
     ok = d <= r[:, None] + r[None, :] - DEEP * np.minimum(r[:, None], r[None, :])
     # Consecutive bubbles overlap deeply by construction (certify_chords bisects until they do).
-    far = m - 1 - np.argmax(ok[:, ::-1], axis=1)  # the last bubble each one overlaps deeply
+    far = (m - 1 - np.argmax(ok[:, ::-1], axis=1)).tolist()  # the last bubble each one overlaps deeply
     keep = [0]
     while keep[-1] < m - 1:
         keep.append(max(far[keep[-1]], keep[-1] + 1))
-    keep = np.array(keep)
     return pts[keep], r[keep]
 
 
