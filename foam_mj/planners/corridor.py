@@ -226,7 +226,11 @@ def shortest_chain(
     cols = np.concatenate([j, i, hs, np.full(len(hg), G)])
     vals = np.concatenate([w, w, np.linalg.norm((centers[hs] - q_init) * s, axis=1), np.linalg.norm((centers[hg] - q_goal) * s, axis=1)])
     vals = np.maximum(vals, 1e-12)  # an explicit zero would read as "no edge"
-    g = sp.csr_matrix((vals, (rows, cols)), shape=(n + 2, n + 2))
+    # The CSR arrays directly (no two equal (row, column) pairs): entries by row, then column, as scipy's
+    # COO -> CSR conversion orders them, for a fifth of its time.
+    order = np.argsort(rows * (n + 2) + cols)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n + 2))])
+    g = sp.csr_matrix((vals[order], cols[order], indptr), shape=(n + 2, n + 2))
     dist, pred = dijkstra(g, directed=True, indices=S, return_predecessors=True)
     if not np.isfinite(dist[G]):
         return None
