@@ -167,8 +167,14 @@ def prune_chain(
     off = np.arange(1, PRUNE_BAND + 1)
     after = h1[:, None] + off
     before = h0[:, None] - off
-    ina = (after < T) & (np.einsum("ijk,ijk->ij", *(2 * [D[np.minimum(after, T - 1)] - C[:, None, :]])) <= rs2[:, None])
-    inb = (before >= 0) & (np.einsum("ijk,ijk->ij", *(2 * [D[np.maximum(before, 0)] - C[:, None, :]])) <= rs2[:, None])
+    # Both bands in one gather (np.take: a third of the time of fancy indexing), the centres subtracted on rows
+    # of B n values (not a broadcast over n-long rows: a sixth of its time), the same squared distances.
+    X = np.take(D, np.concatenate([np.minimum(after, T - 1), np.maximum(before, 0)], axis=1), axis=0)
+    Xr = X.reshape(nb, -1)
+    Xr -= np.tile(C, 2 * PRUNE_BAND)
+    held = np.einsum("ijk,ijk->ij", X, X) <= rs2[:, None]
+    ina = (after < T) & held[:, :PRUNE_BAND]
+    inb = (before >= 0) & held[:, PRUNE_BAND:]
     # Length of the run of held samples next to the home interval (all of the band if it never breaks).
     na = np.where(ina.all(axis=1), PRUNE_BAND, np.argmin(ina, axis=1))
     nbf = np.where(inb.all(axis=1), PRUNE_BAND, np.argmin(inb, axis=1))
@@ -201,7 +207,7 @@ def prune_chain(
         cj = jj[np.repeat(lo_, cnt) + (np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt))]
         ok = s_[cj] <= e[ii]
         ii, cj = ii[ok], cj[ok]
-        slack = R[ii] + R[cj] - np.linalg.norm(C[ii] - C[cj], axis=1)
+        slack = R[ii] + R[cj] - np.linalg.norm(np.take(C, ii, axis=0) - np.take(C, cj, axis=0), axis=1)
         small = np.minimum(R[ii], R[cj])
         for depth in (HATCH, DEEP):
             sel = slack >= depth * small
@@ -209,12 +215,13 @@ def prune_chain(
             if len(a_):
                 # Per bubble the candidate of farthest reach, then smallest index: the largest key.
                 key = e[b_] * nb + (nb - 1 - b_)
-                first = np.flatnonzero(np.r_[True, a_[1:] != a_[:-1]])
+                first = np.flatnonzero(np.concatenate([[True], a_[1:] != a_[:-1]]))
                 succ[a_[first]] = nb - 1 - np.maximum.reduceat(key, first) % nb
     start = np.flatnonzero(s_ == 0)
     out = [int(start[np.argmax(e[start])])]
+    e, succ = e.tolist(), succ.tolist()  # the walk on Python ints
     while e[out[-1]] < T - 1:
-        nxt = int(succ[out[-1]])
+        nxt = succ[out[-1]]
         if nxt < 0:
             return np.arange(k)  # no overlapping bubble makes progress: keep the chain as it is
         out.append(nxt)
