@@ -95,7 +95,8 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
         pts, r = np.concatenate([pts, newp]), np.concatenate([r, rn])
         order = np.lexsort((t, cid))
         cid, t, pts, r = cid[order], t[order], pts[order], r[order]
-    alive[cid[gaps()]] = False  # still a gap after the last level
+    else:
+        alive[cid[gaps()]] = False  # still a gap after the last level
     out: list[tuple[np.ndarray, np.ndarray] | None] = [None] * K
     ks = np.flatnonzero(alive)  # cid is sorted: each chord's points are one run
     for k, a, b in zip(ks.tolist(), np.searchsorted(cid, ks).tolist(), np.searchsorted(cid, ks, side="right").tolist()):
