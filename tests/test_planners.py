@@ -354,6 +354,36 @@ def test_the_corridors_cone_program_is_the_convex_smoothers_for_any_chain():
         assert L == pytest.approx(float(np.sum(np.linalg.norm(np.diff(np.concatenate([[q0], w, [q1]]), axis=0), axis=1))))
 
 
+def test_the_corridors_cone_program_template_is_build_socps_program():
+    """_socp_template writes the CSC arrays of build_socp's program directly: the same P, q, A (segment rows
+    weighted by the metric), cones and b rows, entry for entry."""
+    from foam_mj.planners.corridor import _socp_template
+    from foam_mj.rosary import Rosary
+    from foam_mj.smoothing.convex import build_socp
+
+    rng = np.random.default_rng(2)
+    for m, n in [(1, 2), (4, 3), (17, 3), (9, 6), (30, 7)]:
+        for metric in (None, tuple(rng.uniform(0.2, 2.0, n).tolist())):
+            C, R = rng.normal(size=(m + 1, n)), rng.uniform(0.5, 1.0, m + 1)
+            q0, q1 = rng.normal(size=n), rng.normal(size=n)
+            P0, q0_, A0, b0, cones0, _ = build_socp(Rosary(C, R, q0, q1), 0.0, 0.0)
+            P, q, A, cones, first, last, bbase, brow, row_w = _socp_template(m, n, metric)
+            w = np.ones(A0.shape[0]) if row_w is None else row_w
+            if metric is not None:
+                seg = (np.arange(m + 1)[:, None] * (n + 1) + 1 + np.arange(n)).ravel()
+                assert np.array_equal(w[seg], np.tile(metric, m + 1))
+            A0 = A0.copy()
+            A0.data *= w[A0.indices]
+            assert (A.data, A.indices, A.indptr, tuple(A.shape)) == (A0.data.tolist(), A0.indices.tolist(), A0.indptr.tolist(), A0.shape)
+            assert (P.data, P.indices, P.indptr, tuple(P.shape)) == (P0.data.tolist(), P0.indices.tolist(), P0.indptr.tolist(), P0.shape)
+            assert q == q0_.tolist() and [c.dim for c in cones] == [c.dim for c in cones0]
+            b = np.zeros(A0.shape[0])
+            b[first], b[last] = -q0, q1
+            b[bbase] = np.stack([R[:-1], R[1:]], axis=1).ravel()
+            b[brow] = -np.stack([C[:-1], C[1:]], axis=1).ravel()
+            assert np.array_equal(b, b0)
+
+
 def test_overlap_graph_brute_force_and_kd_tree_agree(monkeypatch):
     import foam_mj.planners.corridor as corridor
 
