@@ -56,6 +56,11 @@ corridor's CPU time fell by a third (obstacle 29-30 -> 20-21 ms, step_up 20.5-21
 35-37, 71-74 -> 50-52, 205-206 -> 169, 149-150 -> 147-150; one 2-core machine shared with other work, CPU
 time, best of 3 per seed, two interleaved runs). The smoother's time per seed (19-50 ms on obstacle) does not
 follow the chain's size closely, so a changed trajectory moves its 10-seed median by a few ms either way.
+The cone program's template written in CSC form and handed to Clarabel as lists, the overlap graph's CSR arrays
+written directly and fewer array passes in the prune and the chords (the same plans, bit for bit) took the corridor's
+CPU time on obstacle from 22.1 to 20.7 ms (32.4 -> 30.2 in a slower spell; per-seed ratio 0.95-0.96), and from 24.9 to
+22.0 ms (ratio 0.89) when every chain length's template is built afresh, as in a run that plans each seed once
+(step_down 0.87, arm6 0.93; base and new alternated in one process, best of 3 per seed, seeds 0-9).
 Bubbles pushed off the path, away from the obstacle, were tried for the re-cover and do not help: the
 certified radius grows only 0.2-0.4 x as fast as the centre moves away (the bound is conservative), so
 such a bubble holds a shorter stretch of the path. Tried and not kept: chords in end-to-end tilings (no
