@@ -257,9 +257,10 @@ def _socp_template(m: int, n: int, metric: tuple[float, ...] | None):
 
     A is written in CSC form directly, the arrays build_socp's COO -> CSC conversion gives (the same entries in
     the same order) in a fifth of the time of building the program on a rosary of zeros (0.83-0.86 -> 0.18 ms per
-    chain length, m 10-109, n 3; each length's first program pays it, in a benchmark most programs). With cone dimension d = n + 1 and the ball cones from row (m + 1) d, the
-    column of coordinate c of waypoint i holds -s_c in segment i's row i d + 1 + c, +s_c in segment i + 1's,
-    then -1 in both of its balls' rows (s: ``metric``, else 1); the column of t_j holds -1 in row j d."""
+    chain length, m 10-109, n 3; each length's first program pays it, in a benchmark most programs). With cone
+    dimension d = n + 1 and the ball cones from row (m + 1) d, the column of coordinate c of waypoint i holds -s_c
+    in segment i's row i d + 1 + c, +s_c in segment i + 1's, then -1 in both of its balls' rows (s: ``metric``,
+    else 1); the column of t_j holds -1 in row j d."""
     cd = n + 1
     d = np.arange(n)
     nw, nt = m * n, m + 1
@@ -267,7 +268,8 @@ def _socp_template(m: int, n: int, metric: tuple[float, ...] | None):
     i = np.repeat(np.arange(m), n)
     c = np.tile(d, m)
     s = np.ones(n) if metric is None else np.asarray(metric, dtype=float)
-    w_rows = np.stack([i * cd + 1 + c, (i + 1) * cd + 1 + c, off + 2 * i * cd + 1 + c, off + (2 * i + 1) * cd + 1 + c], axis=1)
+    w_rows = np.stack([i * cd + 1 + c, (i + 1) * cd + 1 + c, off + 2 * i * cd + 1 + c, off + (2 * i + 1) * cd + 1 + c],
+                      axis=1)
     w_vals = np.stack([-1.0 * s[c], 1.0 * s[c], np.full(nw, -1.0), np.full(nw, -1.0)], axis=1)
     rows = np.concatenate([w_rows.ravel(), np.arange(nt) * cd])
     vals = np.concatenate([w_vals.ravel(), np.full(nt, -1.0)])
