@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -207,7 +207,7 @@ def test_stop_criteria_order_and_reasons():
 # short axis in another order.
 from foam_mj.smoothing.adjust import _tc_and_step  # noqa: E402
 from foam_mj.smoothing.genetic import _OutsideHatches, _PopulationObjective  # noqa: E402
-from foam_mj.smoothing.gradient import _LensProjection, _PathSV  # noqa: E402
+from foam_mj.smoothing.gradient import _EPS, _LensProjection, _PathSV  # noqa: E402
 
 TIGHT = dict(rtol=1e-12, atol=1e-14)
 
@@ -233,14 +233,27 @@ def single_paths(draw):
 @given(single_paths())
 def test_path_sv_kernel_equals_sv_and_gradient(p):
     L, n = p.shape
+    seg = np.diff(p, axis=0)
+    ls = np.sqrt(np.einsum("ij,ij->i", seg, seg))
+    den = ls[:-1] * ls[1:]
+    # |a||b| within a factor 4 of the zero-segment threshold: the kernel's |a||b| (other summation order)
+    # may fall on the other side of it and take the other branch (a vertex counted or not): not a
+    # property of the kernel.
+    assume(not np.any((den > _EPS / 4) & (den < 4 * _EPS)))
+    turn = den > _EPS
+    cos = np.einsum("ij,ij->i", seg[:-1], seg[1:]) / np.where(turn, den, 1.0)
+    reversal = bool(np.any(turn & (cos < -1 + 1e-9)))
     sv, g = sv_and_gradient(p)
     kernel = _PathSV(L - 2, n)
     for _ in range(2):  # the buffers are reused: a second call gives the same
         sv2, g2 = kernel(np.ascontiguousarray(p.T))
-        # At a full reversal arccos is ill-conditioned (cos = -1 +- 1e-16 moves the angle ~1.5e-8).
+        # At a full reversal arccos is ill-conditioned (cos = -1 +- 1e-16 moves the angle ~1.5e-8), and
+        # theta / sin(theta) with it; elsewhere the two differ by rounding only (the kernel's coordinate
+        # sums, or the generic code on a transposed view where a segment has zero length: hypothesis
+        # found 6e-13 of the gradient's scale next to a repeated point).
         assert sv2 == pytest.approx(float(sv), rel=1e-12, abs=1e-7)
         scale = max(1.0, float(np.abs(g).max()))
-        np.testing.assert_allclose(g2[:, 1:-1].T, g[1:-1], rtol=1e-12, atol=1e-14 * scale)
+        np.testing.assert_allclose(g2[:, 1:-1].T, g[1:-1], rtol=1e-12, atol=(1e-7 if reversal else 1e-12) * scale)
 
 
 @st.composite
