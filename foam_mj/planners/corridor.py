@@ -83,7 +83,6 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from functools import lru_cache
-from types import SimpleNamespace
 
 import clarabel
 import numpy as np
@@ -105,6 +104,7 @@ from foam_mj.planners.chains import (
     thin_line_chain,
 )
 from foam_mj.rosary import Rosary
+from foam_mj.smoothing.convex import csc_lists, socp_pattern
 
 DEBUG = False
 #: A round's pruned chain is solved again only if it drops more than this share of the bubbles (else the
@@ -251,45 +251,35 @@ def _socp_template(m: int, n: int, metric: tuple[float, ...] | None):
     """The parts of :func:`foam_mj.smoothing.convex.build_socp`'s program for m waypoints in R^n that do not depend
     on the bubbles (P, q, A with the segment rows weighted by ``metric``, the cones), and where b takes the
     bubbles and the end points: (P, q, A, cones, rows of q_init, rows of q_goal, ball radius rows, ball centre
-    rows, row weights or None). P, q and A are held as Python lists: Clarabel's constructor reads them element by
-    element, faster from lists than from numpy arrays (as :func:`foam_mj.smoothing.subproblem._lists`; the same
-    solutions).
+    rows, row weights or None). P, q and A are held as Python lists for Clarabel's constructor
+    (:func:`foam_mj.smoothing.convex.csc_lists`; the same solutions).
 
-    A is written in CSC form directly, the arrays build_socp's COO -> CSC conversion gives (the same entries in
-    the same order) in a fifth of the time of building the program on a rosary of zeros (0.83-0.86 -> 0.18 ms per
-    chain length, m 10-109, n 3; each length's first program pays it, in a benchmark most programs). With cone
-    dimension d = n + 1 and the ball cones from row (m + 1) d, the column of coordinate c of waypoint i holds -s_c
-    in segment i's row i d + 1 + c, +s_c in segment i + 1's, then -1 in both of its balls' rows (s: ``metric``,
-    else 1); the column of t_j holds -1 in row j d."""
+    A is build_socp's own entries (:func:`foam_mj.smoothing.convex.socp_pattern`), put in CSC order by one sort
+    (by column, then row: what scipy's COO -> CSC conversion gives, entry for entry) rather than by building the
+    program on a rosary of zeros (0.83-0.86 ms per chain length, m 10-109, n 3; each length's first program pays
+    it, in a benchmark most programs); the vector rows of segment cone j, j (n + 1) + 1 .. j (n + 1) + n, are
+    weighted by ``metric``."""
     cd = n + 1
     d = np.arange(n)
     nw, nt = m * n, m + 1
     off = nt * cd
-    i = np.repeat(np.arange(m), n)
-    c = np.tile(d, m)
-    s = np.ones(n) if metric is None else np.asarray(metric, dtype=float)
-    w_rows = np.stack([i * cd + 1 + c, (i + 1) * cd + 1 + c, off + 2 * i * cd + 1 + c, off + (2 * i + 1) * cd + 1 + c],
-                      axis=1)
-    w_vals = np.stack([-1.0 * s[c], 1.0 * s[c], np.full(nw, -1.0), np.full(nw, -1.0)], axis=1)
-    rows = np.concatenate([w_rows.ravel(), np.arange(nt) * cd])
-    vals = np.concatenate([w_vals.ravel(), np.full(nt, -1.0)])
-    indptr = np.concatenate([np.arange(nw + 1) * 4, 4 * nw + 1 + np.arange(nt)])
     nrow = (nt + 2 * m) * cd
-    A = SimpleNamespace(data=vals.tolist(), indices=rows.tolist(), indptr=indptr.tolist(), nnz=len(vals),
-                        shape=(nrow, nw + nt), has_canonical_format=True)
-    P = SimpleNamespace(data=[], indices=[], indptr=[0] * (nw + nt + 1), nnz=0, shape=(nw + nt, nw + nt),
-                        has_canonical_format=True)
+    rows, cols, vals = socp_pattern(m, n)
+    row_w = None
+    if metric is not None:
+        row_w = np.ones(nrow)
+        row_w[(np.arange(nt)[:, None] * cd + 1 + d).ravel()] = np.tile(np.asarray(metric, dtype=float), nt)
+        vals = vals * row_w[rows]
+    order = np.lexsort((rows, cols))
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(cols, minlength=nw + nt))])
+    A = csc_lists(vals[order], rows[order], indptr, (nrow, nw + nt))
+    P = csc_lists([], [], [0] * (nw + nt + 1), (nw + nt, nw + nt))
     q = [0.0] * nw + [1.0] * nt
     cones = [clarabel.SecondOrderConeT(cd)] * (nt + 2 * m)
     first = 1 + d  # segment 0: (t_0, w_1 - q_init)
     last = m * cd + 1 + d  # segment m: (t_m, q_goal - w_m)
     bbase = off + (np.arange(m)[:, None] * 2 + np.arange(2)) * cd  # (m, 2): both balls of each waypoint
     brow = bbase[..., None] + 1 + d  # (m, 2, n)
-    row_w = None
-    if metric is not None:
-        # Segment cone j occupies rows j (n + 1) .. j (n + 1) + n: (t_j, p_(j+1) - p_j); its vector rows are weighted.
-        row_w = np.ones(nrow)
-        row_w[(np.arange(nt)[:, None] * cd + 1 + d).ravel()] = np.tile(s, nt)
     return P, q, A, cones, first, last, bbase.ravel(), brow.ravel(), row_w
 
 

@@ -16,7 +16,7 @@ import scipy.sparse as sp
 from foam_mj import paths
 from foam_mj.rosary import Rosary
 from foam_mj.smoothing.base import Hatches
-from foam_mj.smoothing.convex import ConvexShortestPath, build_socp, socp_cones
+from foam_mj.smoothing.convex import ConvexShortestPath, build_socp, csc_lists, socp_cones
 
 if TYPE_CHECKING:
     from foam_mj.smoothing.optimal import ObjectiveWeights
@@ -423,12 +423,8 @@ _EXTRA: dict = {"presolve_enable": False}
 
 
 def _lists(M: sp.csc_matrix) -> SimpleNamespace:
-    """M with its arrays as Python lists, for Clarabel's constructor: it reads a matrix (data, indices, indptr,
-    nnz, shape, has_canonical_format) element by element, which costs a fifth of the build from numpy arrays
-    (a numpy scalar per element) and less from lists (obstacle subproblems: 0.75-1.15 ms -> 0.55-0.90 ms,
-    the same solutions)."""
-    return SimpleNamespace(data=M.data.tolist(), indices=M.indices.tolist(), indptr=M.indptr.tolist(), nnz=M.nnz,
-                           shape=M.shape, has_canonical_format=M.has_canonical_format)
+    """M for Clarabel's constructor, its arrays as Python lists (:func:`foam_mj.smoothing.convex.csc_lists`)."""
+    return csc_lists(M.data, M.indices, M.indptr, M.shape, M.has_canonical_format)
 
 
 class _Solver:
