@@ -700,7 +700,6 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     xx = np.concatenate([x, x])
     own = np.concatenate([owner, owner])
     slack = radii - np.linalg.norm(xx - centres, axis=1)
-    cval = radii**2 - np.sum((xx - centres) ** 2, axis=1)
     active = np.flatnonzero((slack <= ACTIVE) & (col[own] >= 0))
     na = active.size
     st_idx = np.flatnonzero(straight)
