@@ -253,6 +253,10 @@ class Hatches:
         ra, rb = self.ra - inset, self.rb - inset
         return (np.einsum("...i,...i->...", da, da) <= ra * ra) & (np.einsum("...i,...i->...", db, db) <= rb * rb)
 
+    def centre_distances(self, w: np.ndarray) -> np.ndarray:
+        """Waypoints (m, n) -> (m, 2): each one's distance from the centres of its hatch's two balls."""
+        return np.stack([np.linalg.norm(w - self.ca, axis=1), np.linalg.norm(w - self.cb, axis=1)], axis=1)
+
     def outside_cm(self, W: np.ndarray) -> np.ndarray:
         """Waypoints stored coordinate-major, W (n, P, m) -> bool (P, m): outside either closed ball."""
         da = W - self.ca.T[:, None, :]

@@ -478,7 +478,7 @@ def sequential_convex(
             # A ball whose sphere is farther from the point than the box's half-diagonal (plus the 1e-5 a tie
             # may move it) cannot be active in this subproblem: left out.
             reach = np.sqrt(st.n) * delta + 2 * tie
-            slack = radii - np.stack([np.linalg.norm(p[1:-1] - h.ca, axis=1), np.linalg.norm(p[1:-1] - h.cb, axis=1)], axis=1)
+            slack = radii - h.centre_distances(p[1:-1])
             keep = slack <= reach
             # Segments much longer than the box's reach: their length to second order in P (no cone).
             long_seg = (lens >= LONG * np.sqrt(st.n) * delta) & (vx.rep[1:] != vx.rep[:-1])
@@ -502,7 +502,7 @@ def sequential_convex(
                 if status not in ("Solved", "AlmostSolved") or near is keep:
                     break
                 wx = np.asarray(sol.x)[:st.nw].reshape(w.shape)
-                out = keep & ~near & (np.stack([np.linalg.norm(wx - h.ca, axis=1), np.linalg.norm(wx - h.cb, axis=1)], axis=1) > radii)
+                out = keep & ~near & (h.centre_distances(wx) > radii)
                 if not out.any():
                     break
                 near = near | out
