@@ -39,6 +39,10 @@ Columns (medians over the successful seeds; ``ok`` counts them):
 OMPL 2.0.1 is an optional peer (``pip install -e ".[peers]"``): without it the OMPL rows are skipped.
 ``--quick`` runs 3 seeds of the 3-joint scenes and finishes in well under a minute (CI runs it).
 Timings are wall times on whatever machine runs it; on a shared 2-core machine they vary by 2x.
+The planners and OMPL are single-threaded, so the script sets ``OMP_NUM_THREADS`` and ``OPENBLAS_NUM_THREADS``
+to 1 unless they are set already: otherwise a BLAS product of the checks between runs leaves OpenBLAS threads
+spinning into the next timed run (measured: ``cpu ms`` 78-87 against a wall ``total ms`` of 51-54 on obstacle;
+with one thread both 51-54).
 Exit status 1 when a path of ours comes closer than delta to an obstacle under the dense check (a
 safety failure), 2 for bad arguments.
 """
@@ -54,8 +58,11 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import mujoco
-import numpy as np
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):  # before numpy loads its BLAS (module docstring)
+    os.environ.setdefault(_var, "1")
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import progress, table  # noqa: E402
