@@ -260,17 +260,6 @@ def _slide_groups(m: mujoco.MjModel, d: mujoco.MjData, robot: RobotModel) -> lis
     return [tuple(g) for g in groups]
 
 
-def _min_last(a: np.ndarray) -> np.ndarray:
-    """``a.min(axis=-1)`` (the same values, NaN included), taken column by column: numpy's reduction over a short
-    last axis of many rows costs far more than a few element-wise minima over the columns."""
-    if a.ndim < 2:
-        return a.min(axis=-1)
-    out = a[..., 0].copy()
-    for k in range(1, a.shape[-1]):
-        np.minimum(out, a[..., k], out=out)
-    return out
-
-
 class BubbleOracle:
     """Certified bubble radius r(q) = min(min_p (d_p(q) - delta) / ||rho_p||_2, distance to the bounds), clipped
     at 0 (module docstring; one term per checked pair p of ``robot.pairs``).
@@ -295,11 +284,21 @@ class BubbleOracle:
         self._factor = float(self.pair_factor.max())
 
     def radius_from_distances(self, distances: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """Radii for per-pair distances (..., P) at centres q (..., n): the per-pair bound."""
+        """Radii for per-pair distances (..., P) at centres q (..., n): the per-pair bound, the least of the P
+        pair terms and the 2n distances to the bounds, written as the rows of one (P + 2n, ...) array and reduced
+        over its first axis (numpy reduces a short last axis of many rows far slower than it takes element-wise
+        minima along a long one: 9-13 us per call against 12-37 for 10-300 configurations of the 3-joint leg)."""
         q = np.asarray(q, dtype=float)
-        to_bounds = _min_last(np.minimum(q - self.robot.lower, self.robot.upper - q))
-        r = np.minimum(_min_last((np.asarray(distances) - self.delta) * self._inv), to_bounds)
-        return np.maximum(r, 0.0)
+        d = np.asarray(distances)
+        P, n = d.shape[-1], q.shape[-1]
+        column = (P,) + (1,) * (q.ndim - 1), (n,) + (1,) * (q.ndim - 1)
+        dT, qT = d.T, q.T
+        M = np.empty((P + 2 * n,) + dT.shape[1:])
+        np.subtract(dT, self.delta, out=M[:P])
+        np.multiply(M[:P], self._inv.reshape(column[0]), out=M[:P])
+        np.subtract(qT, self.robot.lower.reshape(column[1]), out=M[P : P + n])
+        np.subtract(self.robot.upper.reshape(column[1]), qT, out=M[P + n :])
+        return np.maximum(np.minimum.reduce(M, axis=0), 0.0).T
 
     def radius_from_clearance(self, clearance: np.ndarray, q: np.ndarray) -> np.ndarray:
         """Radii from the overall clearance d(q) = min_p d_p(q) alone: (d - delta) / max_p ||rho_p||, the
