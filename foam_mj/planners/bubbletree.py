@@ -318,9 +318,9 @@ class BubbleTreePlanner(Planner):
         B = _Bubbles(n)
         counters = {"iterations": 0, "candidates": 0, "rejected_small": 0, "rejected_covered": 0}
 
-        def update_gaps(new: list[np.ndarray]) -> tuple[int, int] | None:
-            """Refresh the gaps with the new bubbles of each tree (the last of their tree); return a connecting
-            pair (a in tree 0, b in tree 1) if any (the first found, the start tree's new bubbles first)."""
+        def update_gaps(new: list[np.ndarray], find: bool = True) -> tuple[int, int] | None:
+            """Refresh the gaps with the new bubbles of each tree (the last of their tree); if ``find``, return a
+            connecting pair (a in tree 0, b in tree 1) if any (the first found, the start tree's new bubbles first)."""
             best = None
             for t in (0, 1):
                 T, O = B.trees[t], B.trees[1 - t]
@@ -335,16 +335,19 @@ class BubbleTreePlanner(Planner):
                 j = D.argmin(axis=1)
                 g = D[np.arange(k), j]
                 better = g < T.gap[sl]
-                T.gap[sl][better], T.mate[sl][better] = g[better], O.idx[j[better]]
+                np.copyto(T.gap[sl], g, where=better)
+                np.copyto(T.mate[sl], O.idx[j], where=better)
                 g2 = D.min(axis=0)  # the other tree's bubbles may now be nearer to a new one
-                better = (g2 < O.gap[: O.n]).nonzero()[0]
-                O.gap[better], O.mate[better] = g2[better], new[t][D[:, better].argmin(axis=0)]
-                over = (g < 0).nonzero()[0]  # a connection: overlap with a hatch of HATCH * the smaller radius
-                if best is None and over.size:
-                    hit = np.argwhere(D[over] <= -HATCH * np.minimum(T.r[sl][over, None], O.r[None, : O.n]))
-                    if hit.size:
-                        a, b = int(new[t][over[hit[0, 0]]]), int(O.idx[hit[0, 1]])
-                        best = (a, b) if t == 0 else (b, a)
+                better = g2 < O.gap[: O.n]
+                np.copyto(O.gap[: O.n], g2, where=better)
+                O.mate[: O.n][better] = new[t][D[:, better].argmin(axis=0)]
+                if find and best is None:  # a connection: overlap with a hatch of HATCH * the smaller radius
+                    over = (g < 0).nonzero()[0]
+                    if over.size:
+                        hit = np.argwhere(D[over] <= -HATCH * np.minimum(T.r[sl][over, None], O.r[None, : O.n]))
+                        if hit.size:
+                            a, b = int(new[t][over[hit[0, 0]]]), int(O.idx[hit[0, 1]])
+                            best = (a, b) if t == 0 else (b, a)
             return best
 
         def stats(outcome: str, t_first: float | None, extra: dict | None = None) -> PlanStats:
@@ -476,7 +479,7 @@ class BubbleTreePlanner(Planner):
             if sel.size == 0:
                 continue
             newest = B.add(cc[sel], cr[sel], cp[sel], ct[sel], L[sel])
-            met = update_gaps(newest)
+            met = update_gaps(newest, link is None)
             link = link if link is not None else met
 
         cpu_tree = time.process_time() - cpu0
