@@ -305,6 +305,7 @@ class BubbleTreePlanner(Planner):
         calls0 = oracle.clearance.calls
         n = robot.dim
         lo, hi = robot.lower, robot.upper
+        lo_col, hi_col = lo[:, None], hi[:, None]
         factor = oracle.bound.ball_factor
         r_min = o.r_min if o.r_min > 0 else problem.delta / factor / 2 if problem.delta > 0 else 1e-4
         half_span = 0.5 * float(np.linalg.norm(hi - lo))
@@ -441,11 +442,21 @@ class BubbleTreePlanner(Planner):
             s = np.minimum(STEPS[None, :] * rP[:, None], dist[:, None])  # (m, S) distances from the parent's centre
             cand = B.c[P, None, :] + (s / dist[:, None])[..., None] * v[:, None, :]  # (m, S, n)
             # Every candidate lies on the segment from its parent's centre to its target, both in the joint box
-            # (convex): all are sized (one a rounding error outside gets radius 0, never kept).
+            # (convex). A radius is at most the distance to the bounds: a candidate too near them for a good
+            # radius (below) is not sized (radius 0, never kept: 12 % of them on the obstacle scene, nearly all
+            # at s = 2); the rest are, in one batch.
             flat = cand.reshape(-1, n)
-            r = oracle.radius_from_distances(oracle.clearance.batch_pairs(flat), flat).reshape(s.shape)
+            W = np.empty((2 * n, len(flat)))  # the distances to the bounds, per coordinate (rows) and candidate
+            np.subtract(flat.T, lo_col, out=W[:n])
+            np.subtract(hi_col, flat.T, out=W[n:])
+            wall = np.minimum.reduce(W, axis=0).reshape(s.shape)
+            reach = rP[:, None]
+            ask = np.flatnonzero((wall >= r_min) & (s <= reach + (1 - HATCH) * wall))
+            flat = flat.take(ask, axis=0)
+            r = np.zeros(s.shape)
+            r.put(ask, oracle.radius_from_distances(oracle.clearance.batch_pairs(flat), flat))
             counters["candidates"] += len(flat)
-            good = (r >= r_min) & (s <= rP[:, None] + (1 - HATCH) * r)
+            good = (r >= r_min) & (s <= reach + (1 - HATCH) * r)
             counters["rejected_small"] += len(flat) - int(np.count_nonzero(good))
             # The farthest good candidate of each extension.
             rows = np.logical_or.reduce(good, axis=1).nonzero()[0]
