@@ -213,6 +213,9 @@ class _Tree:
         self.n += m
 
 
+_TREES = np.array([0, 1], dtype=np.int8)  # the start and the goal tree's labels, for _Bubbles.add
+
+
 class _Bubbles:
     """Growing arrays of bubbles: centre, radius, parent (-1 for a root), tree (0: start, 1: goal) and position
     among its tree's bubbles; the two trees (:class:`_Tree`)."""
@@ -234,7 +237,7 @@ class _Bubbles:
         _grow(self, ("c", "r", "parent", "tree", "pos"), self.n + m)
         s = slice(self.n, self.n + m)
         self.c[s], self.r[s], self.parent[s], self.tree[s] = c, r, parent, tree
-        ends = np.searchsorted(tree, (0, 1), side="right").tolist()
+        ends = tree.searchsorted(_TREES, side="right").tolist()
         if lift is None and ends[1]:
             lift = _lifted(c)
         out = []
@@ -308,7 +311,8 @@ class BubbleTreePlanner(Planner):
         lo_col, hi_col = lo[:, None], hi[:, None]
         factor = oracle.bound.ball_factor
         r_min = o.r_min if o.r_min > 0 else problem.delta / factor / 2 if problem.delta > 0 else 1e-4
-        half_span = 0.5 * float(np.linalg.norm(hi - lo))
+        span = hi - lo
+        half_span = 0.5 * float(np.linalg.norm(span))
         if r_min >= half_span:  # a resolution coarser than the joint box: no child could ever be kept
             raise ConfigurationError(f"bubbletree option `r_min` = {r_min:g} is not below half the joint box's diagonal "
                                      f"({half_span:.3g}); use a smaller one (0: derived from delta)")
@@ -401,7 +405,7 @@ class BubbleTreePlanner(Planner):
                 mine = T.idx[: T.n]
                 # Exploration: uniform samples (after the first path: only where a shorter path can pass).
                 if sampler is None:
-                    X = lo + (hi - lo) * rng.random((o.batch, n))
+                    X = lo + span * rng.random((o.batch, n))
                 else:
                     X = np.minimum(np.maximum(sampler.sample(rng, o.batch), lo), hi)
                 # Goal-directed: the bubbles nearest to the other tree (each tried at most MAX_TRIES times),
@@ -417,9 +421,9 @@ class BubbleTreePlanner(Planner):
                         near = mine[near]
                     theirs = newest[1 - t]
                     if len(theirs):
-                        pick = theirs[rng.permutation(len(theirs))[: o.connect]]
+                        pick = B.c[theirs[rng.permutation(len(theirs))[: o.connect]]]
                 # Samples and newest bubbles extend the bubble of smallest power distance |x - c|^2 - r^2.
-                Y = X if pick is None else np.concatenate([X, B.c[pick]])
+                Y = X if pick is None else np.concatenate([X, pick])
                 par = mine[(_lifted(Y) @ T.pw[: T.n].T).argmin(axis=1)]
                 parents.append(par[: len(X)])
                 targets.append(X)
@@ -428,19 +432,19 @@ class BubbleTreePlanner(Planner):
                     targets.append(toward)
                 if pick is not None:
                     parents.append(par[len(X):])
-                    targets.append(B.c[pick])
+                    targets.append(pick)
             P = np.concatenate(parents)  # the start tree's extensions first, then the goal tree's
-            v = np.concatenate(targets) - B.c[P]
+            cP, rP = B.c[P], B.r[P]
+            v = np.concatenate(targets) - cP
             dist = np.sqrt(np.einsum("ij,ij->i", v, v))
-            ok = dist > B.r[P] * (1 + 1e-9)  # a target inside its parent adds nothing
+            ok = dist > rP * (1 + 1e-9)  # a target inside its parent adds nothing
             if not ok.all():
-                P, v, dist = P[ok], v[ok], dist[ok]
+                P, cP, rP, v, dist = P[ok], cP[ok], rP[ok], v[ok], dist[ok]
             m = len(P)
             if m == 0:
                 continue
-            rP = B.r[P]
             s = np.minimum(STEPS[None, :] * rP[:, None], dist[:, None])  # (m, S) distances from the parent's centre
-            cand = B.c[P, None, :] + (s / dist[:, None])[..., None] * v[:, None, :]  # (m, S, n)
+            cand = cP[:, None, :] + (s / dist[:, None])[..., None] * v[:, None, :]  # (m, S, n)
             # Every candidate lies on the segment from its parent's centre to its target, both in the joint box
             # (convex). A radius is at most the distance to the bounds: a candidate too near them for a good
             # radius (below) is not sized (radius 0, never kept: 12 % of them on the obstacle scene, nearly all
