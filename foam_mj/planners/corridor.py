@@ -384,8 +384,8 @@ def build_corridor(
             k = len(R)
             u = np.sort(rng.random((options.chords, 2)), axis=1)
             x = u * np.sum(np.linalg.norm(np.diff(P, axis=0) * (1.0 if M is None else M), axis=1))
-            A, ja = arc_points(P, x[:, 0], M)
-            B, jb = arc_points(P, x[:, 1], M)
+            AB, jab = arc_points(P, x.T.ravel(), M)  # both ends in one call
+            A, B, ja, jb = AB[: options.chords], AB[options.chords :], jab[: options.chords], jab[options.chords :]
             gain = (x[:, 1] - x[:, 0]) - np.linalg.norm((B - A) * (1.0 if M is None else M), axis=1)
             cand = np.flatnonzero((jb > ja) & (gain > min_gain * length))
             # The chords by gain, certified in batches of CHORD_BATCH (one batch of distance queries each),
