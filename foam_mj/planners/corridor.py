@@ -452,8 +452,10 @@ def build_corridor(
             clock.lap("chords")
             w2, length2 = shortest_path(C2, R2, q0, q1, M, tol=ROUND_TOL)
             clock.lap("socp")
-            # 3. Drop the bubbles the path no longer needs.
-            if options.prune:
+            # 3. Drop the bubbles the path no longer needs (not from a chain of max_chain bubbles: that ends the
+            #    rounds, and the re-cover below prunes it; over obstacle, step_up and step_down seeds 0-19, this prune
+            #    dropped more than PRUNE_GAIN of such a chain in 1 round of 37).
+            if options.prune and len(R2) < options.max_chain:
                 keep_pos = prune_chain(C2, R2, np.concatenate([[q0], w2, [q1]]))
                 clock.lap("prune")
                 if len(keep_pos) < PRUNE_GAIN * len(R2):
