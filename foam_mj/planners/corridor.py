@@ -76,6 +76,17 @@ RECOVER 2 (obstacle 0.8264 -> 0.8298, smoother +13 ms) or 8 (plan +3 ms, total n
 step_down 1.765), the rounds' programs without equilibration (no measurable gain). The chords certified do
 not depend on COARSE; 4 is within 0.4 % of the fewest distance queries per plan on obstacle and step_down
 (2-12 tried; arm6: 2 % fewer at 8).
+Also measured and left out (obstacle, seeds 0-9, CPU medians): the rounds' and the last program solved first with
+only the near-active balls (15-22 % of the ball cones are active at the optimum; with exactly those, Clarabel's
+constructor and solve take 1.6-1.9 instead of 3.7 ms), because the program is degenerate -- waypoints on a straight
+stretch slide along it, out of the balls left out (every program, even with the exact active set) -- and the
+previous path's bends recall only 14-30 % of the last program's active balls; skipping the last round's program
+(re-cover and prune along the spliced polyline, one program after): plan -5.4 ms, but obstacle's length +2.3 %
+(0.8264 -> 0.8456), and with no re-cover +5.8 %; chord batches of mutually disjoint chords (fewer wasted
+queries, but batches of one: 24.6 certify calls per plan instead of 6.5, plan +6.6 ms); CHORD_BATCH 3 or 12 (the
+same plans, no faster); the fewest bubbles that hold the path with deep hatches (a shortest path over the prune's
+intervals) instead of the greedy walk: 0-3 bubbles fewer per chain (obstacle 70 -> 69.5 median); PRUNE_BAND 48
+(the same chains).
 """
 
 from __future__ import annotations
