@@ -66,20 +66,23 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
         r[rest] = oracle.radii(pts[rest])
         alive[cid[rest & (r < floor)]] = False
 
-    def gaps() -> np.ndarray:
-        same = cid[:-1] == cid[1:]
-        d = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        return np.flatnonzero(same & alive[cid[:-1]] & (d > r[:-1] + r[1:] - DEEP * np.minimum(r[:-1], r[1:])))
+    def gaps() -> tuple[np.ndarray, np.ndarray]:
+        """Whether each two consecutive points (of one chord) do not overlap deeply, and their distances."""
+        d = pts[1:] - pts[:-1]
+        d = np.sqrt((d * d).sum(axis=1))  # np.linalg.norm's own sum, without its overhead
+        return (cid[:-1] == cid[1:]) & (d > r[:-1] + r[1:] - DEEP * np.minimum(r[:-1], r[1:])), d
 
     for _ in range(levels):
-        keep = alive[cid]  # drop the dead chords' points
-        cid, t, pts, r = cid[keep], t[keep], pts[keep], r[keep]
-        g = gaps()
+        keep = alive[cid]
+        if not keep.all():  # drop the dead chords' points (all points left are alive)
+            cid, t, pts, r = cid[keep], t[keep], pts[keep], r[keep]
+        gap, d = gaps()
+        g = np.flatnonzero(gap)
         if g.size == 0:
             break
         # Each gap gets evenly spaced points, as many as its ends' smaller radius suggests (SPLIT x that radius
         # apart: deep overlaps if the radius holds in between), at most GAP_POINTS; one if GAP_POINTS is 1.
-        dg = np.linalg.norm(pts[g + 1] - pts[g], axis=1)
+        dg = d[g]
         cnt = np.clip(np.ceil(dg / (SPLIT * np.maximum(np.minimum(r[g], r[g + 1]), 1e-12))).astype(np.int64) - 1, 1, GAP_POINTS)
         gi = np.repeat(g, cnt)
         frac = (np.arange(len(gi)) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1) / np.repeat(cnt + 1, cnt)
@@ -87,16 +90,19 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
         tm = t[gi] + frac * (t[gi + 1] - t[gi])
         newp = A[cm] + V[cm] * tm[:, None]
         inb = np.all((newp >= lo) & (newp <= hi), axis=1)
-        rn = np.zeros(len(newp))
-        if inb.any():
-            rn[inb] = oracle.radii(newp[inb])
+        if inb.all():
+            rn = oracle.radii(newp)
+        else:
+            rn = np.zeros(len(newp))
+            if inb.any():
+                rn[inb] = oracle.radii(newp[inb])
         alive[cm[rn < floor]] = False
         cid, t = np.concatenate([cid, cm]), np.concatenate([t, tm])
         pts, r = np.concatenate([pts, newp]), np.concatenate([r, rn])
         order = np.lexsort((t, cid))
         cid, t, pts, r = cid[order], t[order], pts[order], r[order]
     else:
-        alive[cid[gaps()]] = False  # still a gap after the last level
+        alive[cid[np.flatnonzero(gaps()[0] & alive[cid[:-1]])]] = False  # still a gap after the last level
     out: list[tuple[np.ndarray, np.ndarray] | None] = [None] * K
     ks = np.flatnonzero(alive)  # cid is sorted: each chord's points are one run
     for k, a, b in zip(ks.tolist(), np.searchsorted(cid, ks).tolist(), np.searchsorted(cid, ks, side="right").tolist()):
