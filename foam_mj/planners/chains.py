@@ -140,6 +140,8 @@ def path_samples(P: np.ndarray, pieces: int) -> np.ndarray:
 PIECES = 8
 #: prune_chain looks for a bubble's held samples at most this many samples beyond its home interval.
 PRUNE_BAND = 24
+#: prune_chain looks at the first PRUNE_FIRST samples of the band for every bubble, further only where all are held.
+PRUNE_FIRST = 8
 #: prune_chain compares all pairs of bubbles up to this many bubbles, else only pairs of touching intervals.
 DENSE_SUCC = 128
 
@@ -171,20 +173,31 @@ def prune_chain(
     rs2 = np.maximum(R - 1.5 * INSET, 0.0) ** 2
     # Held samples after the home interval (offsets 1..PRUNE_BAND) and before it; the home interval itself is
     # held (the segment and both waypoints were solved inside the shrunk balls, to the solver's tolerance).
-    off = np.arange(1, PRUNE_BAND + 1)
-    after = h1[:, None] + off
-    before = h0[:, None] - off
-    # Both bands in one gather (np.take: a third of the time of fancy indexing), the centres subtracted on rows
-    # of B n values (not a broadcast over n-long rows: a sixth of its time), the same squared distances.
-    X = np.take(D, np.concatenate([np.minimum(after, T - 1), np.maximum(before, 0)], axis=1), axis=0)
-    Xr = X.reshape(nb, -1)
-    Xr -= np.tile(C, 2 * PRUNE_BAND)
-    held = np.einsum("ijk,ijk->ij", X, X) <= rs2[:, None]
-    ina = (after < T) & held[:, :PRUNE_BAND]
-    inb = (before >= 0) & held[:, PRUNE_BAND:]
-    # Length of the run of held samples next to the home interval (all of the band if it never breaks).
-    na = np.where(ina.all(axis=1), PRUNE_BAND, np.argmin(ina, axis=1))
-    nbf = np.where(inb.all(axis=1), PRUNE_BAND, np.argmin(inb, axis=1))
+
+    def runs(rows: np.ndarray | slice, off: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For the bubbles ``rows``: how many of the samples at offsets ``off`` after the home interval, and
+        before it, are held in a run next to it (all of them if the run never breaks)."""
+        after = h1[rows, None] + off
+        before = h0[rows, None] - off
+        w = len(off)
+        # Both bands in one gather (np.take: a third of the time of fancy indexing), the centres subtracted on
+        # rows of 2 w n values (not a broadcast over n-long rows: a sixth of its time).
+        X = np.take(D, np.concatenate([np.minimum(after, T - 1), np.maximum(before, 0)], axis=1), axis=0)
+        Xr = X.reshape(len(after), -1)
+        Xr -= np.tile(C[rows], 2 * w)
+        held = np.einsum("ijk,ijk->ij", X, X) <= rs2[rows, None]
+        ina = (after < T) & held[:, :w]
+        inb = (before >= 0) & held[:, w:]
+        return np.where(ina.all(axis=1), w, np.argmin(ina, axis=1)), np.where(inb.all(axis=1), w, np.argmin(inb, axis=1))
+
+    # The first PRUNE_FIRST offsets for every bubble, the rest of the band only for those whose run reaches
+    # that far (about a tenth on obstacle): the same squared distances, a third of the work.
+    na, nbf = runs(slice(None), np.arange(1, PRUNE_FIRST + 1))
+    more = np.flatnonzero((na == PRUNE_FIRST) | (nbf == PRUNE_FIRST))
+    if len(more) and PRUNE_BAND > PRUNE_FIRST:
+        ma, mb = runs(more, np.arange(PRUNE_FIRST + 1, PRUNE_BAND + 1))
+        na[more] += np.where(na[more] == PRUNE_FIRST, ma, 0)
+        nbf[more] += np.where(nbf[more] == PRUNE_FIRST, mb, 0)
     e = np.minimum(h1 + na, T - 1)
     s_ = np.maximum(h0 - nbf, 0)
     # The successor of each bubble (it depends on that bubble only): among the bubbles whose interval starts
