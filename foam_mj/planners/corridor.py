@@ -98,6 +98,7 @@ from functools import lru_cache
 import clarabel
 import numpy as np
 import scipy.sparse as sp
+from numpy.lib.stride_tricks import as_strided
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
@@ -320,8 +321,9 @@ def shortest_path(
     b = np.zeros(A.shape[0])
     b[first] = -q_init
     b[last] = q_goal
-    b[bbase] = np.stack([radii[:-1], radii[1:]], axis=1).ravel() - INSET
-    b[brow] = -np.stack([centers[:-1], centers[1:]], axis=1).ravel()
+    # Both balls of each waypoint, (r_i, r_(i+1)) and (c_i, c_(i+1)): overlapping windows of the arrays (views).
+    b[bbase] = as_strided(radii, (m, 2), (radii.strides[0],) * 2).ravel() - INSET
+    b[brow] = -as_strided(centers, (m, 2, n), (centers.strides[0], *centers.strides)).ravel()
     if row_w is not None:
         b *= row_w
     settings = clarabel.DefaultSettings()
@@ -331,9 +333,10 @@ def shortest_path(
     settings.iterative_refinement_enable = False
     settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = tol
     sol = clarabel.DefaultSolver(P, q, A, b.tolist(), cones, settings).solve()
-    w = np.asarray(sol.x[: m * n]).reshape(m, n)
-    pts = np.concatenate([[q_init], w, [q_goal]])
-    return w, float(np.sum(np.linalg.norm(np.diff(pts, axis=0) * sw, axis=1)))
+    pts = np.empty((m + 2, n))
+    pts[0], pts[1:-1], pts[-1] = q_init, np.reshape(sol.x[: m * n], (m, n)), q_goal
+    d = (pts[1:] - pts[:-1]) * sw
+    return pts[1:-1], float(np.sum(np.sqrt((d * d).sum(axis=1))))  # np.linalg.norm's own sum
 
 
 class _Clock:
