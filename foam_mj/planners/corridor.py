@@ -18,7 +18,7 @@
    of points of the path (chains of overlapping bubbles along the straight shortcut, down to CHORD_FLOOR x
    the floor, thinned to the fewest that still hold it (:func:`foam_mj.planners.chains.thin_line_chain`), at most CHORD_GROWTH x as
    many bubbles as the stretch they replace) and prunes the chain to a short sub-chain that holds the path
-   (:func:`foam_mj.planners.chains.prune_chain`). A round takes up to CHORD_STEPS (3) steps of chords before its cone program:
+   (:func:`foam_mj.planners.chains.prune_chain`; not a chain of ``max_chain`` bubbles, which ends the rounds). A round takes up to CHORD_STEPS (3) steps of chords before its cone program:
    after a step, the polyline itself is updated (:func:`foam_mj.planners.chains.splice_chain`: the old path up to the chord's
    start, points on the chord in consecutive chord bubbles, the old path after its end), so the next
    step's chords are drawn and certified on it with no program in between; the later steps take only
@@ -61,6 +61,11 @@ written directly and fewer array passes in the prune and the chords (the same pl
 CPU time on obstacle from 22.1 to 20.7 ms (32.4 -> 30.2 in a slower spell; per-seed ratio 0.95-0.96), and from 24.9 to
 22.0 ms (ratio 0.89) when every chain length's template is built afresh, as in a run that plans each seed once
 (step_down 0.87, arm6 0.93; base and new alternated in one process, best of 3 per seed, seeds 0-9).
+The overlap graph's pairs from flat indices, no round prune of a chain that has reached ``max_chain`` (the re-cover
+prunes it), fewer array passes in the chords, the prune's sample bands and the cone program's b (the same plans on
+obstacle and step_up) took it a further 5 % down (per-seed ratio 0.946 obstacle, 0.955 step_up, 0.948 step_down;
+obstacle 26.3 -> 24.0 ms in a slow spell, dijkstra 1.96 -> 1.38, prune 2.21 -> 1.42; every chain length's template
+built afresh, best of 5 per seed).
 Bubbles pushed off the path, away from the obstacle, were tried for the re-cover and do not help: the
 certified radius grows only 0.2-0.4 x as fast as the centre moves away (the bound is conservative), so
 such a bubble holds a shorter stretch of the path. Tried and not kept: chords in end-to-end tilings (no
