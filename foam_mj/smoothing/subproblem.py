@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING
 
 import clarabel
 import numpy as np
-import scipy.sparse as sp
 
 from foam_mj import paths
 from foam_mj.rosary import Rosary
@@ -26,6 +25,26 @@ SOLVER_TOL = 1e-9
 _S_MAX = 2.0 - 1e-9  # |v| = 2 sin(phi / 2) <= 2; h'(s) blows up at a U-turn
 RELATIVE = 0.5  # a segment's vector may change by at most this fraction of its length in one step
 PROX = 1e-2  # (PROX max(weights) / 2) |dW|^2 in every subproblem: picks the nearest of equally good steps
+
+
+@dataclass
+class _CSC:
+    """A matrix in canonical CSC form (row indices sorted in each column, no duplicates), as Clarabel reads it:
+    the subproblems are built as these arrays directly (scipy's constructors check and convert their input,
+    0.1-0.2 ms a matrix, a sixth of the build)."""
+
+    data: np.ndarray
+    indices: np.ndarray
+    indptr: np.ndarray
+    shape: tuple[int, int]
+
+
+def _csc(rows: np.ndarray, cols: np.ndarray, vals: np.ndarray, shape: tuple[int, int]) -> _CSC:
+    """The CSC form of entries (rows, cols, vals) that name every (row, column) at most once."""
+    order = np.argsort(cols * shape[0] + rows, kind="stable")  # (the entries come in runs: half the time of quicksort)
+    indptr = np.zeros(shape[1] + 1, dtype=np.int64)
+    np.cumsum(np.bincount(cols, minlength=shape[1]), out=indptr[1:])
+    return _CSC(vals[order], rows[order], indptr, shape)
 
 
 @dataclass
@@ -82,7 +101,7 @@ def _ddh(s):
 class _Structure:
     """The parts of the subproblem that do not change between iterations."""
 
-    A0: sp.coo_matrix  # segment and ball cones over x = [W, t]
+    A0: tuple[np.ndarray, np.ndarray, np.ndarray]  # (rows, cols, values): segment and ball cones over x = [W, t]
     b0: np.ndarray
     nw: int
     nt: int
@@ -97,20 +116,22 @@ class _Structure:
             m, n, nw = self.M, self.n, self.nw
             nx = nw + self.nt + self.M
             a, b = np.triu_indices(n)
-            aa, bb = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-            k, k1 = np.arange(m)[:, None] * n, np.arange(m - 1)[:, None] * n
-            tail = np.arange(nw, nx)
-            # diagonal blocks (upper triangles), blocks (k, k + 1) (full), the diagonal over [t, s]
-            r = np.concatenate([(k + a).ravel(), (k1 + aa.ravel()).ravel(), tail])
-            c = np.concatenate([(k + b).ravel(), (k1 + n + bb.ravel()).ravel(), tail])
-            order = np.lexsort((r, c))
-            pos = np.empty_like(order)
-            pos[order] = np.arange(order.size)
-            nd, nu = m * a.size, (m - 1) * n * n
-            indptr = np.r_[0, np.cumsum(np.bincount(c, minlength=nx))].astype(np.int64)
-            # positions in data of: diag block k entry (a, b); super block k entry (aa, bb); the tail
-            self.P_pattern = (indptr, r[order].astype(np.int64), pos[:nd].reshape(m, -1), pos[nd:nd + nu].reshape(max(m - 1, 0), n, n),
-                              pos[nd + nu:], (a, b))
+            # Column (k, e) of W holds block (k - 1, k)'s column e (rows (k - 1) n .. k n - 1; none for k = 0),
+            # then diagonal block k's rows k n .. k n + e; each column of [t, s] its diagonal entry.
+            count = np.ones(nx, dtype=np.int64)
+            count[:nw] = (np.arange(n) + 1 + n * (np.arange(m) > 0)[:, None]).ravel()
+            indptr = np.zeros(nx + 1, dtype=np.int64)
+            np.cumsum(count, out=indptr[1:])
+            start = indptr[:nw].reshape(m, n)
+            k = np.arange(m)[:, None]
+            upos = start[1:, None, :] + np.arange(n)[:, None]  # (m - 1, n, n): entry (aa, bb) of block (k, k + 1)
+            dpos = start[:, b] + n * (k > 0) + a  # (m, n (n + 1) / 2): entry (a, b) of diagonal block k
+            tpos = indptr[nw:nx]
+            indices = np.empty(indptr[-1], dtype=np.int64)
+            indices[upos] = k[:-1, :, None] * n + np.arange(n)[:, None]
+            indices[dpos] = k * n + a
+            indices[tpos] = np.arange(nw, nx)
+            self.P_pattern = (indptr, indices, dpos, upos, tpos, (a, b))
         return self.P_pattern
 
 
@@ -118,11 +139,11 @@ def _structure(rosary: Rosary, inset: float, socp: tuple | None = None) -> _Stru
     m = rosary.n_hatches
     if socp is None:
         rows, cols, vals, b0, nw = socp_cones(rosary, inset)
-        A0 = sp.coo_matrix((vals, (rows, cols)), shape=(len(b0), nw + m + 1))
     else:
         _, _, A, b0, _, nw = socp
-        A0 = A.tocoo()
-    return _Structure(A0, b0, nw, m + 1, m, rosary.dim)
+        A = A.tocoo()
+        rows, cols, vals = A.row, A.col, A.data
+    return _Structure((rows, cols, vals), b0, nw, m + 1, m, rosary.dim)
 
 
 def _shortest_start(rosary: Rosary, h: Hatches, inset: float) -> tuple[np.ndarray, _Structure]:
@@ -262,24 +283,24 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         cones.append(clarabel.NonnegativeConeT(2 * nw + n_rel))
     # Segment and ball cones (constant), only the balls in ``keep`` (the others are out of reach, or left out
     # of a first solve: foam_mj.smoothing.optimal, Speed).
-    A0 = st.A0
+    a0_rows, a0_cols, a0_vals = st.A0
     a0_row = off
     seg_keep = np.ones(nt, dtype=bool) if long_seg is None or y is None else ~long_seg
     if (keep is None or keep.all()) and seg_keep.all():
-        rows.append(off + A0.row)
-        cols.append(A0.col)
-        vals.append(A0.data)
+        rows.append(off + a0_rows)
+        cols.append(a0_cols)
+        vals.append(a0_vals)
         b.append(st.b0)
         n_cones = nt + 2 * m
     else:
         cd = n + 1
         cone_keep = np.r_[seg_keep, np.ones(2 * m, dtype=bool) if keep is None else keep.ravel()]
         new_cone = np.cumsum(cone_keep) - 1
-        cone = A0.row // cd
+        cone = a0_rows // cd
         e = cone_keep[cone]
-        rows.append(off + new_cone[cone[e]] * cd + A0.row[e] % cd)
-        cols.append(A0.col[e])
-        vals.append(A0.data[e])
+        rows.append(off + new_cone[cone[e]] * cd + a0_rows[e] % cd)
+        cols.append(a0_cols[e])
+        vals.append(a0_vals[e])
         b.append(st.b0.reshape(-1, cd)[cone_keep].ravel())
         n_cones = int(cone_keep.sum())
     cones += [clarabel.SecondOrderConeT(n + 1)] * n_cones
@@ -317,14 +338,13 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     else:
         Pdiag[nw + nt:] = 1.0
     b = np.concatenate(b)
-    A = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(len(b), nx))
+    A = _csc(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), (len(b), nx))
     if y is None:
-        # P is diagonal: built as CSC directly (every diagonal entry stored, zeros too, so that the pattern is
-        # the same at every step; sp.diags costs more than the rest of this function)
-        ix = np.arange(nx + 1, dtype=np.int32)
+        # P is diagonal (every diagonal entry stored, zeros too, so that the pattern is the same at every step)
+        ix = np.arange(nx + 1)
         Pdiag[:nw] = prox
         q[:nw] -= prox * p[vx.rep[1:-1]].ravel()
-        return sp.csc_matrix((Pdiag, ix[:-1], ix), shape=(nx, nx)), q, A, b, cones, None, ball_row
+        return _CSC(Pdiag, ix[:-1], ix, (nx, nx)), q, A, b, cones, None, ball_row
     # Curvature (SQP): 1/2 dW^T H dW with H the PSD part of sum_i y_i . d^2 v_i (see _segment_curvature), and
     # 1/2 h''(s0) (s - s0)^2 for the angle's outer function; the segment of the merged polyline from group g
     # to group g + 1 is put on the adjacent waypoints (last of group g, first of group g + 1), which the tie
@@ -369,7 +389,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     q[:nw] -= prox * W0.ravel()
     data[upos] = Sblk
     data[tpos] = Pdiag[nw:]
-    return (sp.csc_matrix((data, indices, indptr), shape=(nx, nx)), q, A, b, cones,
+    return (_CSC(data, indices, indptr, (nx, nx)), q, A, b, cones,
             (Dblk, Sblk, Pdiag[nw + nt:nw + nt + Mv], lin_const, qW), ball_row)
 
 
@@ -422,9 +442,9 @@ def _settings(refine: bool = True, tol: float = SOLVER_TOL) -> clarabel.DefaultS
 _EXTRA: dict = {"presolve_enable": False}
 
 
-def _lists(M: sp.csc_matrix) -> SimpleNamespace:
+def _lists(M: _CSC) -> SimpleNamespace:
     """M for Clarabel's constructor, its arrays as Python lists (:func:`foam_mj.smoothing.convex.csc_lists`)."""
-    return csc_lists(M.data, M.indices, M.indptr, M.shape, M.has_canonical_format)
+    return csc_lists(M.data, M.indices, M.indptr, M.shape)
 
 
 class _Solver:
@@ -439,7 +459,7 @@ class _Solver:
         self._key = None
         self.reused = 0
 
-    def solve(self, P: sp.csc_matrix, q: np.ndarray, A: sp.csc_matrix, b: np.ndarray, cones: list, tol: float = SOLVER_TOL):
+    def solve(self, P: _CSC, q: np.ndarray, A: _CSC, b: np.ndarray, cones: list, tol: float = SOLVER_TOL):
         # The cones are the zero cone of the ties (if any), the trust region's, then second-order cones of
         # one size: their count and the first two fix them all.
         key = (A.shape, len(cones), tuple((type(c).__name__, c.dim) for c in cones[:2]), A.indptr.tobytes(),
