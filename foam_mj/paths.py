@@ -29,6 +29,12 @@ import numpy as np
 _EPS = 1e-12
 
 
+def row_norms(x: np.ndarray) -> np.ndarray:
+    """Euclidean norms along the last axis of a float array: np.linalg.norm(x, axis=-1)'s numbers without its
+    argument checks (a microsecond less a call; the optimal smoother makes some 60 calls a run)."""
+    return np.sqrt(np.add.reduce(x * x, axis=-1))
+
+
 def segment_lengths(points: np.ndarray) -> np.ndarray:
     """(..., m, n) -> (..., m-1)."""
     return np.linalg.norm(np.diff(points, axis=-2), axis=-1)

@@ -18,7 +18,7 @@ from typing import Any, ClassVar, Mapping
 import numpy as np
 
 from foam_mj import paths
-from foam_mj.paths import fill_index
+from foam_mj.paths import fill_index, row_norms
 from foam_mj.rosary import Rosary
 
 #: Nascimento et al. 2020 section 5.1/5.2's threshold f(sigma) < 0.38 (from Nascimento et al. 2019). Under Nascimento et al. 2020's own Eq. 5
@@ -255,7 +255,10 @@ class Hatches:
 
     def centre_distances(self, w: np.ndarray) -> np.ndarray:
         """Waypoints (m, n) -> (m, 2): each one's distance from the centres of its hatch's two balls."""
-        return np.stack([np.linalg.norm(w - self.ca, axis=1), np.linalg.norm(w - self.cb, axis=1)], axis=1)
+        out = np.empty((len(w), 2))
+        out[:, 0] = row_norms(w - self.ca)
+        out[:, 1] = row_norms(w - self.cb)
+        return out
 
     def outside_cm(self, W: np.ndarray) -> np.ndarray:
         """Waypoints stored coordinate-major, W (n, P, m) -> bool (P, m): outside either closed ball."""

@@ -322,7 +322,7 @@ def tie_mask(p: np.ndarray, h: Hatches | None = None, inset: float = 0.0, tie: f
     point after the segment may stand on the point before it (that point is inside the shrunk hatch of
     the waypoint after it; at the end of the path the waypoint stands on q_goal, which must then be in
     its hatch). Exactly repeated points (<= 1e-12 apart) always form a tie."""
-    lens = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    lens = paths.row_norms(p[1:] - p[:-1])
     close = lens < tie
     exact = lens <= paths._EPS  # already one point (foam_mj.paths merges them too): always a tie
     if h is not None and (close & ~exact).any():
@@ -343,7 +343,7 @@ def _snap(p: np.ndarray, h: Hatches, inset: float, tie: float) -> np.ndarray:
     1e-10 apart are two vertices whose angles depend on the direction of a segment of no length.
     Returns p itself when nothing moves."""
     snappable = tie_mask(p, h, inset / 2, tie)
-    lens = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    lens = paths.row_norms(p[1:] - p[:-1])
     if not np.any(snappable & (lens > 0)):
         return p
     q = p[_vertex_data(p, snappable).rep]
@@ -364,12 +364,12 @@ def default_tie(weights: ObjectiveWeights) -> float:
 def _true_value(p: np.ndarray, weights: ObjectiveWeights) -> float:
     """F with the angles from h(|v|) (arccos of the cosine, better conditioned near 0) and repeated
     points as in foam_mj.paths."""
-    seg = np.diff(p, axis=0)
-    lens = np.linalg.norm(seg, axis=1)
+    seg = p[1:] - p[:-1]
+    lens = paths.row_norms(seg)
     value = weights.length * float(lens.sum())
     if len(p) > 2 and (weights.angle or weights.sv):
         u = _unit_segments(seg, lens)
-        phi = _h(np.linalg.norm(u[:-1] - u[1:], axis=1))
+        phi = _h(paths.row_norms(u[:-1] - u[1:]))
         value += weights.angle * float(phi.mean()) + weights.sv * float(np.mean(phi**2))
     return value
 
@@ -462,7 +462,7 @@ def sequential_convex(
             p, w, F = p_snap, p_snap[1:-1].copy(), _true_value(p_snap, weights)
         # The other close pairs are tied too, unless refused before: the subproblem brings them together
         # (the model counts their corner once, which the snap after the step makes true).
-        lens = np.linalg.norm(np.diff(p, axis=0), axis=1)
+        lens = paths.row_norms(p[1:] - p[:-1])
         close = ((lens < tie) & ~refused) | (lens <= paths._EPS)
         vx = _vertex_data(p, close)
         y = None

@@ -5,7 +5,7 @@ solution, the vertex data the model is built from, and the solver that solves a 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import SimpleNamespace
 from typing import TYPE_CHECKING
 
@@ -59,28 +59,36 @@ class _Vertices:
     v: np.ndarray
     J: np.ndarray
     s0: np.ndarray
+    first: np.ndarray  # the first point of each run
 
 
 def _vertex_data(p: np.ndarray, close: np.ndarray) -> _Vertices:
     """The merged polyline of p (L, n) where ``close`` marks the segments whose end points are one point."""
     L, n = p.shape
-    group = np.r_[0, np.cumsum(~close)]
-    first = np.flatnonzero(np.r_[True, ~close])
-    rep_of_group = first.copy()
-    if close[-1] and len(first) > 1:
-        rep_of_group[-1] = L - 1  # a run that ends at q_goal stands on q_goal
-    rep = rep_of_group[group]
-    D = rep_of_group
-    Q = p[D]
-    seg = np.diff(Q, axis=0)
-    lens = np.maximum(np.linalg.norm(seg, axis=1), paths._EPS)
+    if not close.any():  # every point its own run (the usual case)
+        rep = D = first = np.arange(L)
+        Q = p
+    else:
+        group = np.concatenate(([0], np.cumsum(~close)))
+        first = np.flatnonzero(np.concatenate(([True], ~close)))
+        rep_of_group = first.copy()
+        if close[-1] and len(first) > 1:
+            rep_of_group[-1] = L - 1  # a run that ends at q_goal stands on q_goal
+        rep = rep_of_group[group]
+        D = rep_of_group
+        Q = p[D]
+    seg = Q[1:] - Q[:-1]
+    lens = np.maximum(paths.row_norms(seg), paths._EPS)
     u = seg / lens[:, None]
     G = (np.eye(n) - u[:, :, None] * u[:, None, :]) / lens[:, None, None]  # d u / d seg
     Ga, Gb = G[:-1], G[1:]
     v = u[:-1] - u[1:]
     # dv/dQ_i = -Ga, dv/dQ_(i+1) = Ga + Gb, dv/dQ_(i+2) = -Gb
-    J = np.stack([-Ga, Ga + Gb, -Gb], axis=1)
-    return _Vertices(rep, D, v, J, np.linalg.norm(v, axis=1))
+    J = np.empty((len(v), 3, n, n))
+    J[:, 0] = -Ga
+    J[:, 1] = Ga + Gb
+    J[:, 2] = -Gb
+    return _Vertices(rep, D, v, J, paths.row_norms(v), first)
 
 
 def _h(s):
@@ -108,6 +116,12 @@ class _Structure:
     M: int
     n: int
     P_pattern: tuple | None = None  # (indptr, indices, diag rows, super rows, tail) of the block-tridiagonal P
+    vertex_pattern: tuple | None = None  # (vx.D, and the vertex cones' entries for it: see _subproblem)
+    a0_cone: np.ndarray = field(init=False)  # the cone of each entry of A0
+    a0_within: np.ndarray = field(init=False)  # ... and its row in that cone
+
+    def __post_init__(self) -> None:
+        self.a0_cone, self.a0_within = np.divmod(self.A0[0], self.n + 1)
 
     def p_pattern(self) -> tuple:
         """The upper triangle of a block-tridiagonal P over W (n x n blocks: waypoint k with itself and with
@@ -180,8 +194,8 @@ def _segment_curvature(Q: np.ndarray, y: np.ndarray, length: np.ndarray | float 
     alpha on the directions normal to u and e, and [[0, beta], [beta, alpha]] on (u, e), whose eigenvalues are
     (alpha -+ sqrt(alpha^2 + 4 beta^2)) / 2 with the eigenvector beta u + lambda e; so the clip is in closed
     form (a third of the time of a batched eigh on 70 segments)."""
-    seg = np.diff(Q, axis=0)
-    r = np.maximum(np.linalg.norm(seg, axis=1), paths._EPS)
+    seg = Q[1:] - Q[:-1]
+    r = np.maximum(paths.row_norms(seg), paths._EPS)
     u = seg / r[:, None]
     n = Q.shape[1]
     z = np.zeros((len(seg), n))
@@ -189,7 +203,7 @@ def _segment_curvature(Q: np.ndarray, y: np.ndarray, length: np.ndarray | float 
     z[1:] -= y
     uz = np.einsum("jd,jd->j", u, z)
     Gz = (z - uz[:, None] * u) / r[:, None]
-    g = np.linalg.norm(Gz, axis=1)
+    g = paths.row_norms(Gz)
     e = Gz / np.maximum(g, _TINY)[:, None]
     alpha = (np.asarray(length, dtype=float) - uz / r) / r
     beta = -g / r
@@ -202,7 +216,7 @@ def _segment_curvature(Q: np.ndarray, y: np.ndarray, length: np.ndarray | float 
 
 def _short_segments(p: np.ndarray, vx: _Vertices, delta: float, rel: float) -> tuple[np.ndarray, np.ndarray]:
     """The segments under the relative trust region (shorter than delta / rel, not tied) and all lengths."""
-    lens = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    lens = paths.row_norms(p[1:] - p[:-1])
     tied_seg = vx.rep[1:] == vx.rep[:-1]
     return np.flatnonzero((rel * lens < delta) & ~tied_seg & (len(p) > 2)), lens
 
@@ -294,11 +308,11 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         n_cones = nt + 2 * m
     else:
         cd = n + 1
-        cone_keep = np.r_[seg_keep, np.ones(2 * m, dtype=bool) if keep is None else keep.ravel()]
+        cone_keep = np.concatenate((seg_keep, np.ones(2 * m, dtype=bool) if keep is None else keep.ravel()))
         new_cone = np.cumsum(cone_keep) - 1
-        cone = a0_rows // cd
+        cone = st.a0_cone
         e = cone_keep[cone]
-        rows.append(off + new_cone[cone[e]] * cd + a0_rows[e] % cd)
+        rows.append(off + new_cone[cone[e]] * cd + st.a0_within[e])
         cols.append(a0_cols[e])
         vals.append(a0_vals[e])
         b.append(st.b0.reshape(-1, cd)[cone_keep].ravel())
@@ -308,24 +322,26 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     ball_row = a0_row + int(seg_keep.sum()) * (n + 1)  # the first ball cone's row
     q = np.zeros(nx)
     q[nw:nw + nt] = weights.length * seg_keep
-    Pdiag = np.where(np.r_[np.zeros(nw, dtype=bool), ~seg_keep, np.zeros(M, dtype=bool)], 1.0, 0.0)  # pins a t without cone
+    Pdiag = np.zeros(nx)
+    Pdiag[nw:nw + nt][~seg_keep] = 1.0  # pins a t without cone
     Mv = len(vx.s0)
     Pdiag[nw + nt + Mv:] = 1.0  # pins the unused s at 0
     if Mv and (weights.angle or weights.sv):
         # Vertex cones (s_i, v_i + sum_j J_ij (Q_(i+j) - Q0_(i+j))) for the waypoints among the three points.
-        i = np.arange(Mv)
-        cone_base = off + i * (n + 1)
-        rows.append(cone_base)
-        cols.append(nw + nt + i)
-        vals.append(np.full(Mv, -1.0))
-        point = vx.D[i[:, None] + np.arange(3)]  # (Mv, 3): the vertex's three points
-        free = (point >= 1) & (point <= m)  # the waypoints among them
-        fi, fj = np.nonzero(free)
-        Jk = vx.J[fi, fj]  # (F, n, n): rows d, cols e
-        shape = Jk.shape
-        rows.append(np.broadcast_to((cone_base[fi] + 1)[:, None, None] + dd[None, :, None], shape).ravel())
-        cols.append(np.broadcast_to(((point[fi, fj] - 1) * n)[:, None, None] + dd[None, None, :], shape).ravel())
-        vals.append(-Jk.ravel())
+        # Their entries depend only on the merged points D (the same at every step of a run without new ties).
+        if st.vertex_pattern is None or not np.array_equal(st.vertex_pattern[0], vx.D):
+            i = np.arange(Mv)
+            point = vx.D[i[:, None] + np.arange(3)]  # (Mv, 3): the vertex's three points
+            free = (point >= 1) & (point <= m)  # the waypoints among them
+            fi, fj = np.nonzero(free)
+            shape = (fi.size, n, n)  # rows d, cols e of each J_ij
+            J_rows = np.broadcast_to((i[fi] * (n + 1) + 1)[:, None, None] + dd[None, :, None], shape).ravel()
+            J_cols = np.broadcast_to(((point[fi, fj] - 1) * n)[:, None, None] + dd[None, None, :], shape).ravel()
+            st.vertex_pattern = (vx.D, i * (n + 1), nw + nt + i, np.full(Mv, -1.0), point, free, fi, fj, J_rows, J_cols)
+        _, s_rows, s_cols, s_vals, point, free, fi, fj, J_rows, J_cols = st.vertex_pattern
+        rows += [off + s_rows, off + J_rows]
+        cols += [s_cols, J_cols]
+        vals += [s_vals, -vx.J[fi, fj].ravel()]
         bv = np.zeros((Mv, n + 1))
         bv[:, 1:] = vx.v
         for j in range(3):  # v_i - sum_j J_ij Q0_(i+j) over the waypoints
@@ -334,7 +350,8 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         cones += [clarabel.SecondOrderConeT(n + 1)] * Mv
         sc = np.minimum(vx.s0, _S_MAX)
         q[nw + nt:nw + nt + Mv] = weights.angle * _dh(sc) / M
-        Pdiag[nw + nt:nw + nt + Mv] = 2.0 * weights.sv * _kappa(sc) / M
+        if weights.sv:
+            Pdiag[nw + nt:nw + nt + Mv] = 2.0 * weights.sv * _kappa(sc) / M
     else:
         Pdiag[nw + nt:] = 1.0
     b = np.concatenate(b)
@@ -350,8 +367,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     # to group g + 1 is put on the adjacent waypoints (last of group g, first of group g + 1), which the tie
     # equalities make equal to the group's point.
     indptr, indices, dpos, upos, tpos, (ta, tb) = st.p_pattern()
-    first = np.flatnonzero(np.r_[True, vx.rep[1:] != vx.rep[:-1]])
-    kb = first[1:] - 1  # waypoint index of each segment's b end (point first[j + 1]); also the path segment's index
+    kb = vx.first[1:] - 1  # waypoint index of each segment's b end (point first[j + 1]); also the path segment's index
     ka = kb - 1
     Q = p[vx.D]
     lin = ~seg_keep[kb]  # merged segments whose length is modelled to second order (no cone)
@@ -361,8 +377,8 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     lin_const = 0.0
     if lin.any():
         # Length of a long segment: w_len (|a| + u . da) + w_len da^T G da / 2 (the last in Hs, before the clip).
-        a = np.diff(Q, axis=0)[lin]
-        r = np.linalg.norm(a, axis=1)
+        a = (Q[1:] - Q[:-1])[lin]
+        r = paths.row_norms(a)
         wu = weights.length * a / r[:, None]
         qW[kb[lin & fb]] += wu[fb[lin]]  # (ka and kb are increasing: no repeats in one update)
         qW[ka[lin & fa]] -= wu[fa[lin]]
@@ -409,7 +425,8 @@ def _model_value(x: np.ndarray, st: _Structure, weights: ObjectiveWeights, vx: _
         sc = np.minimum(vx.s0, _S_MAX)
         h0, dh0 = _h(sc), _dh(sc)
         value += weights.angle * float(np.sum(h0 + dh0 * (s - sc))) / M
-        value += weights.sv * float(np.sum(h0**2 + _kappa(sc) * (s**2 - sc**2))) / M
+        if weights.sv:
+            value += weights.sv * float(np.sum(h0**2 + _kappa(sc) * (s**2 - sc**2))) / M
         if curv is not None:
             value += 0.5 * float(np.sum(curv[2] * (x[nw + nt:nw + nt + Mv] - sc) ** 2))
     if curv is not None:
