@@ -125,8 +125,12 @@ def metrics(points: np.ndarray) -> PathMetrics:
     p = np.asarray(points, dtype=float)
     if p.ndim != 2 or len(p) < 2:
         raise ValueError(f"a path needs shape (m >= 2, n), got {p.shape}")
-    a, length = float(angle_term(p)), float(path_length(p))
-    return PathMetrics(length, a, a + length, float(tc(p)), float(sv(p)), len(p))
+    # (angle_term, path_length, tc and sv, each turning angle and length computed once)
+    t = turning_angles(p)
+    length = segment_lengths(p).sum(axis=-1)
+    a = float(t.mean()) if len(t) else 0.0
+    tc_ = float(np.linalg.norm(p[-1] - p[0], axis=-1) / np.maximum(length, _EPS))
+    return PathMetrics(float(length), a, a + float(length), tc_, float((t**2).mean()) if len(t) else 0.0, len(p))
 
 
 def densify(points: np.ndarray, step: float = 1e-3) -> np.ndarray:

@@ -542,7 +542,7 @@ def sequential_convex(
                 z0 = np.zeros((st.M, 2))
                 kept = np.ones((st.M, 2), dtype=bool) if keep is None else keep
                 z0[kept] = z[ball_row + np.arange(int(kept.sum())) * cd]
-                guess = (y_pt.copy(), z0 / (2.0 * (np.stack([h.ra, h.rb], axis=1) - inset)))
+                guess = (y_pt.copy(), z0 / (2.0 * radii))
             if certify is not None and pred <= certify_tol * abs(F):
                 cert = certify(w, guess)
                 if cert.certified(kkt_tol if not curvature or modelled and free else POLISH_TOL):
@@ -675,8 +675,9 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     # Smooth gradient over the merged polyline: length, SV, and the angle at bent vertices.
     M = m
     grad_q = np.zeros_like(Q)
-    seg = np.diff(Q, axis=0)
-    lens = np.maximum(np.linalg.norm(seg, axis=1), paths._EPS)
+    seg = Q[1:] - Q[:-1]
+    qlens = paths.row_norms(seg)
+    lens = np.maximum(qlens, paths._EPS)
     u = seg / lens[:, None]
     grad_q[:-1] -= weights.length * u
     grad_q[1:] += weights.length * u
@@ -687,7 +688,10 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
         unit_v = np.where(sc[:, None] > 0, vx.v / np.maximum(sc, _TINY)[:, None], 0.0)
         # d/dv of w_angle h(|v|) + w_sv h(|v|)^2 = (w_angle h' + 2 w_sv h h') v/|v|, zero where straight (angle part)
         dh0 = _dh(sc)
-        coef = (np.where(straight, 0.0, weights.angle * dh0) + 2.0 * weights.sv * _h(sc) * dh0) / M
+        coef = np.where(straight, 0.0, weights.angle * dh0)
+        if weights.sv:
+            coef = coef + 2.0 * weights.sv * _h(sc) * dh0
+        coef = coef / M
         gv = coef[:, None] * unit_v  # (Mv, n)
         for j in range(3):
             grad_q[j:j + len(gv)] += np.einsum("fde,fd->fe", vx.J[:, j], gv)
@@ -700,7 +704,7 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     radii = np.concatenate([ra, rb])
     xx = np.concatenate([x, x])
     own = np.concatenate([owner, owner])
-    slack = radii - np.linalg.norm(xx - centres, axis=1)
+    slack = radii - paths.row_norms(xx - centres)
     active = np.flatnonzero((slack <= ACTIVE) & (col[own] >= 0))
     na = active.size
     st_idx = np.flatnonzero(straight)
@@ -718,8 +722,7 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
         cc = (1 + na + np.flatnonzero(ok) * n)[:, None, None] + dd[None, None, :]
         Gm[r, cc] = weights.angle / M * np.swapaxes(vx.J[st_idx[ok], j], 1, 2)
     # Row scaling: the residual at a point times its neighbour distance ell (<= 1), see Certificate.
-    qlens = np.linalg.norm(np.diff(Q, axis=0), axis=1)
-    ell = np.minimum(1.0, np.minimum(np.r_[np.inf, qlens], np.r_[qlens, np.inf]))[free]
+    ell = np.minimum(1.0, np.minimum(np.concatenate(([np.inf], qlens)), np.concatenate((qlens, [np.inf]))))[free]
     scale = np.repeat(ell, n)
 
     def certificate(lam_v: np.ndarray, g: np.ndarray) -> Certificate:
@@ -738,7 +741,7 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     if multipliers is not None:
         y_pt, lam_ball = multipliers
         g = y_pt[vx.D[st_idx + 1]] * (M / weights.angle) if ns else np.zeros((0, n))
-        g = g / np.maximum(np.linalg.norm(g, axis=1), 1.0)[:, None]
+        g = g / np.maximum(paths.row_norms(g), 1.0)[:, None]
         lam_v = np.maximum(np.concatenate([lam_ball[:, 0], lam_ball[:, 1]])[active], 0.0)
         cert = certificate(lam_v, g)
         if cert.certified(tol if guess_tol is None else min(tol, guess_tol)) or not solve:
