@@ -30,8 +30,8 @@ PROX = 1e-2  # (PROX max(weights) / 2) |dW|^2 in every subproblem: picks the nea
 @dataclass
 class _CSC:
     """A matrix in canonical CSC form (row indices sorted in each column, no duplicates), as Clarabel reads it:
-    the subproblems are built as these arrays directly (scipy's constructors check and convert their input,
-    0.1-0.2 ms a matrix, a sixth of the build)."""
+    the subproblems are built as these arrays directly (an obstacle subproblem's A: 36 us by :func:`_csc`, 86 us
+    by scipy's COO to CSC conversion, whose checks also cost each P 15-20 us)."""
 
     data: np.ndarray
     indices: np.ndarray
