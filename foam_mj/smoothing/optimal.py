@@ -500,16 +500,16 @@ def sequential_convex(
                 P, q, A, b, cones, curv, ball_row = _subproblem(st, p, weights, delta, vx, y, rel, near, long_seg, trust=False)
                 sol = relaxed.solve(P, q, A, b, cones, sub_tol)
                 status = str(sol.status).rsplit(".", 1)[-1]
+                x = np.asarray(sol.x)  # (each sol.x makes a new list: read once)
                 if status not in ("Solved", "AlmostSolved") or near is keep:
                     break
-                wx = np.asarray(sol.x)[:st.nw].reshape(w.shape)
-                out = keep & ~near & (h.centre_distances(wx) > radii)
+                out = keep & ~near & (h.centre_distances(x[:st.nw].reshape(w.shape)) > radii)
                 if not out.any():
                     break
                 near = near | out
                 trace.ball_solves += 1
             if status in ("Solved", "AlmostSolved"):
-                if not _within_trust(np.asarray(sol.x), p, vx, delta, rel):
+                if not _within_trust(x, p, vx, delta, rel):
                     try_relaxed, status = False, ""
                 elif keep is not None:
                     keep = near  # (the balls of the problem solved: its duals are the certificate's guess)
@@ -517,18 +517,18 @@ def sequential_convex(
             P, q, A, b, cones, curv, ball_row = _subproblem(st, p, weights, delta, vx, y, rel, keep, long_seg)
             sol = solver.solve(P, q, A, b, cones, sub_tol)
             status = str(sol.status).rsplit(".", 1)[-1]
-            trace.trust_solves += 1
-            free = curvature and _within_trust(np.asarray(sol.x), p, vx, 0.99 * delta, 0.99 * rel)  # (the rows inactive)
-        if status in ("Solved", "AlmostSolved"):
             x = np.asarray(sol.x)
+            trace.trust_solves += 1
+            free = curvature and _within_trust(x, p, vx, 0.99 * delta, 0.99 * rel)  # (the rows inactive)
+        if status in ("Solved", "AlmostSolved"):
             pred = F - _model_value(x, st, weights, vx, p, curv)
             pred_last = pred
-            z, cd, Mv = np.asarray(sol.z), st.n + 1, len(vx.s0)
+            z, cd, Mv = sol.z, st.n + 1, len(vx.s0)  # (a list: only its vertex and ball parts become arrays)
             if Mv and weights.angle:
                 # y_i = -(the v part of vertex cone i's dual): Clarabel's dual z of the cone (s_i, v_i + J_i dW)
                 # enters the Lagrangian as -z . (s_i, v_i + ...), so y_i multiplies v_i as in F's Lagrangian.
                 y_pt[:] = 0.0
-                y_pt[vx.D[1:-1]] = -z[len(b) - Mv * cd:].reshape(Mv, cd)[:, 1:]
+                y_pt[vx.D[1:-1]] = -np.asarray(z[len(b) - Mv * cd:]).reshape(Mv, cd)[:, 1:]
             if pred <= tol * abs(F) + 1e-15:
                 if curvature:  # only the plain model may say so (a clipped curvature can stall short of it)
                     curvature, delta, rel, rejected = False, delta0, RELATIVE, 0
@@ -541,7 +541,7 @@ def sequential_convex(
                 # certificate's R^2 - |w - c|^2 >= 0, whose gradient is -2 (w - c) = -2 R (w - c)/|w - c|).
                 z0 = np.zeros((st.M, 2))
                 kept = np.ones((st.M, 2), dtype=bool) if keep is None else keep
-                z0[kept] = z[ball_row + np.arange(int(kept.sum())) * cd]
+                z0[kept] = z[ball_row:ball_row + int(kept.sum()) * cd:cd]
                 guess = (y_pt.copy(), z0 / (2.0 * radii))
             if certify is not None and pred <= certify_tol * abs(F):
                 cert = certify(w, guess)
