@@ -62,14 +62,18 @@ def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | Non
     Refused with :class:`OutputError` naming ``what`` (e.g. "--json"): an empty name, a name too long
     for the file system, a directory, a missing folder, a folder where no file can be created (probed by
     creating and removing a temporary file: catches read-only and pseudo file systems like ``/proc``),
-    an existing file that is not writable, less than ``min_free`` bytes free (default :data:`MIN_FREE_BYTES`), and (with ``suffix``) a
-    name not ending in it.
+    an existing file that is not writable, an existing path that is not a regular file (``/dev/null``, a
+    FIFO, a socket: the final rename would replace it, as root even the device node), a name ending in a
+    path separator (a folder, not a file name), less than ``min_free`` bytes free (default
+    :data:`MIN_FREE_BYTES`), and (with ``suffix``) a name not ending in it.
     """
     if path is None:
         return None
     text = os.fspath(path)
     if not text:
         raise OutputError(f"{what}: empty file name")
+    if text.endswith(("/", os.sep)):
+        raise OutputError(f"{what} output {text} ends in '/': it names a folder; give a file name")
     p = Path(text)
     if suffix is not None and p.suffix != suffix:
         raise OutputError(f"{what} output {p} must end in {suffix}")
@@ -82,6 +86,8 @@ def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | Non
             raise OutputError(f"{what} output: file name of {len(os.fsencode(p.name))} bytes is longer than this file system allows ({limit})")
         if p.is_dir():
             raise OutputError(f"{what} output {p} is a directory")
+        if p.exists() and not p.is_file():
+            raise OutputError(f"{what} output {p} exists and is not a regular file ({_kind(p)}): writing it would replace it; give a file name")
         if p.exists() and not os.access(p, os.W_OK):
             raise OutputError(f"{what} output {p} is not writable")
         probe = folder / f".foam-mj-probe.{secrets.token_hex(4)}.tmp"
@@ -100,6 +106,15 @@ def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | Non
     except OSError as exc:
         raise OutputError(f"{what} output {p}: {_reason(exc)}") from None
     return p
+
+
+def _kind(p: Path) -> str:
+    """What a non-regular file is, for a message."""
+    for test, kind in ((Path.is_char_device, "a character device"), (Path.is_block_device, "a block device"),
+                       (Path.is_fifo, "a FIFO"), (Path.is_socket, "a socket")):
+        if test(p):
+            return kind
+    return "a special file"
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -169,6 +184,8 @@ def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
         yield tmp
         if not tmp.exists():
             raise OutputError(f"could not write {target}: the writer produced no file")
+        if target.exists() and not target.is_file():  # never rename onto /dev/null, a FIFO, a socket
+            raise OutputError(f"could not write {target}: it exists and is not a regular file ({_kind(target)})")
         os.replace(tmp, target)
     except OutputError:
         _remove(tmp)

@@ -85,3 +85,25 @@ def test_check_output_dir_accepts_a_creatable_folder_only(tmp_path):
 def test_atomic_write_text_is_complete(tmp_path):
     p = atomic_write_text(tmp_path / "t.txt", "é" * 1000)
     assert p.read_text(encoding="utf-8") == "é" * 1000
+
+
+def test_an_output_that_is_not_a_regular_file_is_refused_and_left_alone(tmp_path):
+    # The final rename would replace the node itself: `plan --json /dev/null` as root turned /dev/null into a
+    # regular file. A device, FIFO or socket is refused before any work, and atomic_path never renames onto one.
+    with pytest.raises(OutputError, match=r"/dev/null exists and is not a regular file \(a character device\)"):
+        check_output("/dev/null", "--json")
+    assert os.path.exists("/dev/null") and not os.path.isfile("/dev/null")
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    with pytest.raises(OutputError, match="is not a regular file \\(a FIFO\\)"):
+        check_output(fifo, "--json")
+    with pytest.raises(OutputError, match="is not a regular file \\(a FIFO\\)"):
+        atomic_write_text(fifo, "{}")
+    assert fifo.is_fifo() and [p.name for p in tmp_path.iterdir()] == ["pipe.json"]
+
+
+def test_an_output_name_ending_in_a_slash_is_a_folder_not_a_file(tmp_path):
+    # `--json out/` used to write a file named `out`.
+    with pytest.raises(OutputError, match="ends in '/': it names a folder"):
+        check_output(f"{tmp_path}/new/", "--json")
+    assert list(tmp_path.iterdir()) == []
