@@ -32,3 +32,13 @@ class PlanningFailed(FoamError):
         super().__init__(message)
         self.stats = stats
         self.foam = foam
+
+
+def clearance_text(d: float, delta: float) -> str:
+    """A clearance ``d`` (m) for a message beside the margin ``delta``: 4 decimals, more where 4 would print it
+    equal to ``delta`` although it differs (4.999 mm is "0.004999 m", not "0.0050 m" beside a margin of 0.005 m)."""
+    for k in range(4, 13):
+        text = f"{d:.{k}f}"
+        if d == delta or text != f"{delta:.{k}f}":
+            break
+    return f"{text} m"

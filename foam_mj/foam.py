@@ -39,7 +39,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
-from foam_mj.errors import ConfigurationError, PlanningFailed
+from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
 from foam_mj.rosary import MEMBERSHIP_TOL, Rosary
 
 
@@ -400,14 +400,14 @@ def plan(
     goal_clear = oracle.clearance(q_goal)
     if goal_clear <= params.delta:
         raise ConfigurationError(
-            f"q_goal {q_goal.tolist()} is too close to an obstacle: clearance {goal_clear:.4f} m <= margin {params.delta} m"
+            f"q_goal {q_goal.tolist()} is too close to an obstacle: clearance {clearance_text(goal_clear, params.delta)} <= margin {params.delta} m"
         )
     clear0 = oracle.clearance(q_init)
     r0 = float(oracle.radius(q_init))
     if r0 < r_min:
         raise ConfigurationError(
             f"q_init {q_init.tolist()} admits a root bubble of radius {r0:.4f} < r_min = {r_min} "
-            f"(clearance {clear0:.4f} m, margin {params.delta} m): move it away from obstacles and bounds or lower r_min"
+            f"(clearance {clearance_text(clear0, params.delta)}, margin {params.delta} m): move it away from obstacles and bounds or lower r_min"
         )
 
     cap = 4096

@@ -74,7 +74,7 @@ import numpy as np
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.data import models_dir, scenarios_dir
 from foam_mj.clearance import Clearance
-from foam_mj.errors import ConfigurationError, FoamError, ScenarioError
+from foam_mj.errors import ConfigurationError, FoamError, ScenarioError, clearance_text
 from foam_mj.foam import check_candidate_bound
 from foam_mj.model import RobotModel
 from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
@@ -434,7 +434,7 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None) -> None:
                     hint = (f"; a robot/robot pair: if these links overlap by design, add <contact><exclude body1=\"{bodies[0]}\" "
                             f"body2=\"{bodies[1]}\"/> to the MJCF, or set self_collision = false in a scenario")
                 raise ScenarioError(
-                    f"{where}: field '{field_name}' = {q.tolist()} is {state}: clearance {d:.4f} m "
+                    f"{where}: field '{field_name}' = {q.tolist()} is {state}: clearance {clearance_text(d, scenario.params.delta)} "
                     f"between {robot.geom_name(int(a))} and {robot.geom_name(int(b))} "
                     f"(the safety margin delta is {scenario.params.delta} m; `foam-mj bubble` shows more){hint}"
                 )

@@ -451,3 +451,17 @@ def test_an_r_min_no_bubble_can_have_is_refused_at_once(obstacle_robot):
     with pytest.raises(ConfigurationError, match="`r_min` = 10 is not below half the joint box's diagonal"):
         get_planner("bubbletree", r_min=10.0).plan(problem, seed=0)
 
+
+
+def test_every_planner_names_a_clearance_just_below_delta_with_the_digits_that_tell_them_apart(obstacle_robot):
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.errors import clearance_text
+
+    s = load_scenario("obstacle")
+    d = float(BubbleOracle(obstacle_robot).clearance(s.q_init))  # 0.110304 m
+    oracle = BubbleOracle(obstacle_robot, delta=d + 2e-7)
+    problem = PlanningProblem(oracle, s.q_init, s.q_goal, delta=oracle.delta)
+    assert clearance_text(d, d + 2e-7) == f"{d:.7f} m" and clearance_text(0.0045, 0.005) == "0.0045 m"
+    for name in PLANNERS:
+        with pytest.raises(ConfigurationError, match=f"q_init .*clearance {d:.7f} m <= margin"):
+            get_planner(name).plan(problem, seed=0)

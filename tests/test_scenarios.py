@@ -86,3 +86,12 @@ def test_bad_scenario_files_name_the_file_and_the_field(tmp_path, edit, message)
 def test_a_missing_scenario_file_is_named(tmp_path):
     with pytest.raises(ScenarioError, match="not found"):
         load_scenario(tmp_path / "none.toml")
+
+
+def test_a_start_just_inside_the_margin_prints_a_clearance_that_differs_from_it(tmp_path):
+    # 4.999 mm of clearance against delta = 5 mm: four decimals would print "clearance 0.0050 m" beside
+    # "delta is 0.005 m"; the message shows as many digits as it takes to tell them apart.
+    p = _write(tmp_path, GOOD.replace("[0.2, 0.3, 0.08]", "[0.2, 0.3, 0.3174898431332786]"))
+    with pytest.raises(ScenarioError, match=r"q_init.*too close to an obstacle: clearance 0\.004999 m between foot_collision "
+                                            r"and obstacle_box \(the safety margin delta is 0\.005 m"):
+        load_scenario(p)

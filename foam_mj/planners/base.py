@@ -25,7 +25,7 @@ from typing import Any, Callable, ClassVar, Mapping
 import numpy as np
 
 from foam_mj.bubbles import BubbleOracle
-from foam_mj.errors import ConfigurationError, FoamError
+from foam_mj.errors import ConfigurationError, FoamError, clearance_text
 from foam_mj.foam import Foam
 from foam_mj.rosary import Rosary
 
@@ -79,7 +79,7 @@ class PlanningProblem:
             if d <= self.delta:
                 state = "in collision" if d < 0 else "too close to an obstacle"
                 raise ConfigurationError(
-                    f"{name} {q.tolist()} is {state}: clearance {d:.4f} m <= margin delta = {self.delta} m"
+                    f"{name} {q.tolist()} is {state}: clearance {clearance_text(d, self.delta)} <= margin delta = {self.delta} m"
                 )
             if not r > 0:
                 raise ConfigurationError(f"{name} {q.tolist()} lies on the boundary of the joint bounds: no certified bubble fits")

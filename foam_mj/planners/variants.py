@@ -65,7 +65,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
-from foam_mj.errors import ConfigurationError, PlanningFailed
+from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
 from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order
 from foam_mj.rosary import MEMBERSHIP_TOL
 
@@ -118,7 +118,7 @@ class _Growth:
             c = float(oracle.clearance(q))
             if c <= params.delta:
                 state = "in collision" if c < 0 else "too close to an obstacle"
-                raise ConfigurationError(f"{name} {q.tolist()} is {state}: clearance {c:.4f} m <= margin delta = {params.delta} m")
+                raise ConfigurationError(f"{name} {q.tolist()} is {state}: clearance {clearance_text(c, params.delta)} <= margin delta = {params.delta} m")
         r0 = float(oracle.radius(self.q_init))
         if r0 <= 0.0:
             raise ConfigurationError(f"q_init {self.q_init.tolist()} lies on the configuration bounds: its bubble has radius 0")
