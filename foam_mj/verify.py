@@ -12,7 +12,8 @@ fingerprint helpers, which use nothing else). For every path of the result:
 and at every sample, ``mujoco.mj_geomDistance`` between every moving collision geom (on a body a
 configuration joint moves) and every other one (contype or conaffinity non-zero; a loose object on a
 joint that is not a configuration coordinate is an obstacle where the rows put it), with no
-contype/conaffinity filtering: stricter than the planner; and, unless the result says the robot was planned
+contype/conaffinity filtering: stricter than the planner (only a geom on the same or the parent or child
+body of a moving one is left out, as by MuJoCo: they meet at their joint); and, unless the result says the robot was planned
 with ``self_collision`` false, between the robot's own geoms, for the pairs MuJoCo's collision detection
 tests whose distance a configuration joint changes (:func:`collision_pairs`). A sample is a *violation*
 when some pair is closer than the result's margin ("planner" / "delta").
@@ -141,14 +142,20 @@ def _mujoco_tests(m: mujoco.MjModel, a: int, b: int) -> bool:
     ct, ca = m.geom_contype, m.geom_conaffinity
     if not ((ct[a] & ca[b]) or (ct[b] & ca[a])):
         return False
+    if _attached(m, a, b):
+        return False
     ba, bb = int(m.geom_bodyid[a]), int(m.geom_bodyid[b])
-    wa, wb = int(m.body_weldid[ba]), int(m.body_weldid[bb])
-    if wa == wb:
-        return False
-    filter_parent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
-    if filter_parent and wa and wb and (wa == int(m.body_weldid[m.body_parentid[wb]]) or wb == int(m.body_weldid[m.body_parentid[wa]])):
-        return False
     return ((min(ba, bb) << 16) + max(ba, bb)) not in {int(x) for x in m.exclude_signature}
+
+
+def _attached(m: mujoco.MjModel, a: int, b: int) -> bool:
+    """Are geoms a and b on one weld body, or on weld bodies that are parent and child (neither the world;
+    unless the model disables that filter)? MuJoCo never collides such geoms: they meet at their joint by design."""
+    wa, wb = int(m.body_weldid[m.geom_bodyid[a]]), int(m.body_weldid[m.geom_bodyid[b]])
+    if wa == wb:
+        return True
+    filter_parent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
+    return bool(filter_parent and wa and wb and (wa == int(m.body_weldid[m.body_parentid[wb]]) or wb == int(m.body_weldid[m.body_parentid[wa]])))
 
 
 def collision_pairs(m: mujoco.MjModel, qpos_index: np.ndarray | None = None, self_collision: bool = False) -> np.ndarray:
@@ -158,7 +165,10 @@ def collision_pairs(m: mujoco.MjModel, qpos_index: np.ndarray | None = None, sel
     With ``qpos_index`` (the result's configuration coordinates), *moving* means moved by one of those
     joints; a body on any other joint (a loose box with a free joint) stays where the rows put it and is
     checked as an obstacle, as the planner treats it. Without it, any joint makes a body moving.
-    Moving/static pairs are checked with no contype/conaffinity filtering (stricter than the planner).
+    Moving/static pairs are checked with no contype/conaffinity filtering (stricter than the planner),
+    except a geom attached to a moving one (:func:`_attached`: the same weld body, or parent and child, e.g. the
+    upper arm, held at its ``qpos0`` when only the elbow is a coordinate, and the forearm): they overlap at their
+    joint by design, MuJoCo never collides them and the planner does not check them.
     Robot/robot pairs cannot be checked unfiltered (a thigh touches its shank at the knee by design), so
     they are the pairs MuJoCo's own collision detection tests (explicit ``<contact><pair>`` elements, and
     :func:`_mujoco_tests`) whose distance some configuration joint can change (a joint moves one geom and
@@ -168,7 +178,7 @@ def collision_pairs(m: mujoco.MjModel, qpos_index: np.ndarray | None = None, sel
     joints = {g: _moving_joints(m, int(m.geom_bodyid[g]), moved) for g in coll}
     moving = [g for g in coll if joints[g]]
     static = [g for g in coll if not joints[g]]
-    out = [(a, b) for a in moving for b in static]
+    out = [(a, b) for a in moving for b in static if not _attached(m, a, b)]
     if self_collision:
         explicit = {(min(int(a), int(b)), max(int(a), int(b))) for a, b in zip(m.pair_geom1, m.pair_geom2)}
         for i, a in enumerate(moving):

@@ -238,3 +238,21 @@ def test_the_robot_touching_itself_is_a_violation_unless_planned_without_self_co
     doc["robot"]["self_collision"] = False                       # planned without robot/robot pairs: not checked
     bad.write_text(json.dumps(doc))
     assert main(["verify", str(bad)]) == 0
+
+
+def test_a_link_held_still_is_an_obstacle_except_where_it_meets_the_moving_link_at_their_joint(tmp_path, capsys):
+    """Only j3 a coordinate: link1 and link2 stay at qpos0 and are obstacles for link3, unfiltered, except link2,
+    link3's parent, whose capsule overlaps link3's at j3 by design (MuJoCo never collides parent and child, nor
+    does the planner). verify used to count that overlap (-60 mm) on every sample and call a clean plan UNSAFE."""
+    xml = tmp_path / "arm.xml"
+    xml.write_text(FOLDING_ARM)
+    out = tmp_path / "arm.json"
+    assert main(["plan", "--mjcf", str(xml), "--joints", "j3", "--start", "0", "--goal", "1.0", "--smoother", "none",
+                 "--no-replay", "--no-rrd", "--json", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["verify", str(out)]) == 0
+    assert "violations 0: clean" in capsys.readouterr().out
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    gid = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)  # noqa: E731
+    pairs = {tuple(p) for p in collision_pairs(m, np.array([2]), self_collision=True).tolist()}
+    assert pairs == {(gid("link3"), gid("floor")), (gid("link3"), gid("link1"))}
