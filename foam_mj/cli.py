@@ -241,6 +241,8 @@ def _parse_q(text: str, flag: str) -> list[float]:
     """``--start "0.1 0.2 0.3"`` (spaces or commas) as a list of numbers."""
     parts = text.replace(",", " ").split()
     try:
+        if any("_" in v for v in parts):  # float() reads "0_08" as 8: a typo must not become another number
+            raise ValueError
         values = [float(v) for v in parts]
     except ValueError:
         raise FoamError(f"{flag} must be numbers separated by spaces or commas, got {text!r}") from None

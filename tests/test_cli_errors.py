@@ -55,7 +55,18 @@ def _bad_inputs(d: Path) -> dict[str, tuple[list[str], str]]:
         "--no-rrd with --rrd": (["--no-rrd", "--rrd", str(d / "x.rrd")], "not allowed with argument --no-rrd"),
         "unknown smoother": (["--smoother", "fastest"], "unknown smoother"),
         "unknown scene": (["--scene", "moon_walk"], "unknown scenario"),
+        "--json a FIFO": (["--json", str(_fifo(d / "pipe.json"))], "is not a regular file (a FIFO)"),
+        "--json ending in /": (["--json", f"{d}/out/"], "ends in '/': it names a folder"),
+        "--start with _": (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0_08", "--goal", "0.45 0.4536 1.45"],
+                           "--start must be numbers separated by spaces or commas, got '0.2 0.3 0_08'"),
     }
+
+
+def _fifo(p: Path) -> Path:
+    """A named pipe, as ``/dev/null`` is a device: renaming a result onto either would replace it (as root, the
+    device node itself), and opening it would block or discard the result."""
+    os.mkfifo(p)
+    return p
 
 
 
@@ -70,7 +81,7 @@ def inputs(tmp_path):
 NAMES = ["q_goal == q_init", "huge K", "tiny r_min", "seed -1", "seed 2**70", "seed not a number", "--json under /proc",
          "--rrd under /proc", "--json 300-char name", "--rrd 300-char name", "--json a directory", "--rrd not .rrd",
          "--figures a file", "scenario name a/b", "--scene ''", "--scene a directory", "MJCF compile error",
-         "--no-rrd with --rrd", "unknown smoother", "unknown scene"]
+         "--no-rrd with --rrd", "unknown smoother", "unknown scene", "--json a FIFO", "--json ending in /", "--start with _"]
 
 
 @pytest.mark.parametrize("name", NAMES)
