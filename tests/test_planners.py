@@ -465,3 +465,10 @@ def test_every_planner_names_a_clearance_just_below_delta_with_the_digits_that_t
     for name in PLANNERS:
         with pytest.raises(ConfigurationError, match=f"q_init .*clearance {d:.7f} m <= margin"):
             get_planner(name).plan(problem, seed=0)
+
+
+@pytest.mark.parametrize("value", [float("inf"), float("nan"), 0.0])
+def test_bubbletree_refine_floor_must_be_a_finite_positive_multiple_of_delta(value):
+    # refine_floor = inf was accepted and silently allowed no refinement bubble at all.
+    with pytest.raises(PlannerError, match=re.escape("`refine_floor` must be a finite number > 0")):
+        get_planner("bubbletree", refine_floor=value)

@@ -153,8 +153,8 @@ class BubbleTreeOptions:
             raise ValueError(f"`refine_time` must be > 0 seconds, got {self.refine_time!r}")
         if not (isinstance(self.explore, (int, float)) and 0 <= self.explore <= MAX_EXPLORE):
             raise ValueError(f"`explore` must be in [0, {MAX_EXPLORE:g}] (iterations after the first path, per iteration before it), got {self.explore!r}")
-        if not (isinstance(self.refine_floor, (int, float)) and self.refine_floor > 0):
-            raise ValueError(f"`refine_floor` must be > 0 (a multiple of delta / ||rho||), got {self.refine_floor!r}")
+        if not (isinstance(self.refine_floor, (int, float)) and 0 < self.refine_floor < np.inf):  # inf: silently no refinement bubble
+            raise ValueError(f"`refine_floor` must be a finite number > 0 (a multiple of delta / ||rho||), got {self.refine_floor!r}")
         if self.metric not in ("q", "qpos"):
             raise ValueError(f"`metric` must be \"q\" or \"qpos\", got {self.metric!r}")
         if not isinstance(self.informed, bool):
