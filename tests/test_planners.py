@@ -472,3 +472,20 @@ def test_bubbletree_refine_floor_must_be_a_finite_positive_multiple_of_delta(val
     # refine_floor = inf was accepted and silently allowed no refinement bubble at all.
     with pytest.raises(PlannerError, match=re.escape("`refine_floor` must be a finite number > 0")):
         get_planner("bubbletree", refine_floor=value)
+
+
+def test_bubbletree_says_why_when_an_endpoint_next_to_the_margin_never_grows(obstacle_robot):
+    # A start 1 um of clearance above delta has a bubble of ~1e-6: every child on its surface is below r_min, so
+    # the start tree never grows and the goal tree cannot find so small a ball; the budget runs out (60 s by
+    # default). The failure names the endpoint and why, instead of a bare "the trees did not meet".
+    from foam_mj.bubbles import BubbleOracle
+
+    s = load_scenario("obstacle")
+    oracle = BubbleOracle(obstacle_robot)
+    q_init = np.array([0.2, 0.3, 0.31748533260994427])  # clearance 5.001 mm (foot / box), delta 5 mm
+    assert 0.005 < oracle.clearance(q_init) < 0.005 + 2e-6
+    problem = PlanningProblem(oracle, q_init, s.q_goal, delta=oracle.delta, time_limit=0.5)
+    with pytest.raises(PlanningFailed, match=r"did not meet \(time budget\).*; the start tree never grew: q_init's certified "
+                                             r"bubble has radius [0-9.e-]+ < r_min = .*move it away") as err:
+        get_planner("bubbletree").plan(problem, seed=0)
+    assert "goal tree never grew" not in str(err.value) and err.value.stats.details["tree_start"] == 1

@@ -403,8 +403,13 @@ class BubbleTreePlanner(Planner):
                     break
                 outcome = "time budget" if timer.elapsed() > problem.time_limit else "bubble budget"
                 st = stats(outcome, None)
+                stuck = "".join(
+                    f"; the {side} tree never grew: {name}'s certified bubble has radius {r:.3g} < r_min = {r_min:.3g} (its clearance "
+                    f"is barely above delta or it lies next to a joint bound; `foam-mj bubble` shows which): move it away"
+                    for side, name, r, T in (("start", "q_init", r0, B.trees[0]), ("goal", "q_goal", r1, B.trees[1])) if T.n == 1 and r < r_min
+                )
                 raise PlanningFailed(
-                    f"the trees did not meet ({outcome}) after {B.n} bubbles in {st.elapsed:.2f} s", st, B.foam(q0, q1)
+                    f"the trees did not meet ({outcome}) after {B.n} bubbles in {st.elapsed:.2f} s{stuck}", st, B.foam(q0, q1)
                 )
             timer.report(B.n)
             counters["iterations"] += 1
