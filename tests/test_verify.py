@@ -205,16 +205,21 @@ FOLDING_ARM = """<mujoco model="three-link arm that can fold onto itself">
 """
 
 
-def test_the_robot_touching_itself_is_a_violation_unless_planned_without_self_collision(tmp_path, capsys):
-    """link3 folded back onto link1 (two links apart: MuJoCo tests that pair) is unsafe; the planner checked
-    robot/robot pairs, and so does verify, with a rule of its own (MuJoCo's filter, not the planner's code)."""
+def _plan_folding_arm(tmp_path, capsys, *args: str):
+    """FOLDING_ARM planned with ``args`` (no smoother) to a JSON that ``verify`` passes -> (MJCF path, JSON path)."""
     xml = tmp_path / "arm.xml"
     xml.write_text(FOLDING_ARM)
     out = tmp_path / "arm.json"
-    assert main(["plan", "--mjcf", str(xml), "--start", "0 0 0", "--goal", "0.3 0.5 0.5", "--smoother", "none",
-                 "--no-replay", "--no-rrd", "--json", str(out)]) == 0
+    assert main(["plan", "--mjcf", str(xml), *args, "--smoother", "none", "--no-replay", "--no-rrd", "--json", str(out)]) == 0
     capsys.readouterr()
     assert main(["verify", str(out)]) == 0
+    return xml, out
+
+
+def test_the_robot_touching_itself_is_a_violation_unless_planned_without_self_collision(tmp_path, capsys):
+    """link3 folded back onto link1 (two links apart: MuJoCo tests that pair) is unsafe; the planner checked
+    robot/robot pairs, and so does verify, with a rule of its own (MuJoCo's filter, not the planner's code)."""
+    xml, out = _plan_folding_arm(tmp_path, capsys, "--start", "0 0 0", "--goal", "0.3 0.5 0.5")
     assert "robot/robot pairs" in capsys.readouterr().out
     m = mujoco.MjModel.from_xml_path(str(xml))
     gid = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)  # noqa: E731
@@ -244,13 +249,7 @@ def test_a_link_held_still_is_an_obstacle_except_where_it_meets_the_moving_link_
     """Only j3 a coordinate: link1 and link2 stay at qpos0 and are obstacles for link3, unfiltered, except link2,
     link3's parent, whose capsule overlaps link3's at j3 by design (MuJoCo never collides parent and child, nor
     does the planner). verify used to count that overlap (-60 mm) on every sample and call a clean plan UNSAFE."""
-    xml = tmp_path / "arm.xml"
-    xml.write_text(FOLDING_ARM)
-    out = tmp_path / "arm.json"
-    assert main(["plan", "--mjcf", str(xml), "--joints", "j3", "--start", "0", "--goal", "1.0", "--smoother", "none",
-                 "--no-replay", "--no-rrd", "--json", str(out)]) == 0
-    capsys.readouterr()
-    assert main(["verify", str(out)]) == 0
+    xml, out = _plan_folding_arm(tmp_path, capsys, "--joints", "j3", "--start", "0", "--goal", "1.0")
     assert "violations 0: clean" in capsys.readouterr().out
     m = mujoco.MjModel.from_xml_path(str(xml))
     gid = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)  # noqa: E731
