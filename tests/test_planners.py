@@ -489,3 +489,29 @@ def test_bubbletree_says_why_when_an_endpoint_next_to_the_margin_never_grows(obs
                                              r"bubble has radius [0-9.e-]+ < r_min = .*move it away") as err:
         get_planner("bubbletree").plan(problem, seed=0)
     assert "goal tree never grew" not in str(err.value) and err.value.stats.details["tree_start"] == 1
+
+
+@pytest.mark.parametrize("above_mm", [0.05, 0.3])
+def test_a_start_a_fraction_of_a_millimetre_above_delta_is_reached_and_smoothed_safely(obstacle_robot, above_mm):
+    # The start's bubble (1e-4 to 1e-3, under r_min) grows children of 1.5 x its radius out of its corner, then
+    # larger ones: the plan succeeds on every seed (it ran out of budget before), and every path keeps delta.
+    from conftest import MujocoChecker
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.planners.base import smoother_start
+    from foam_mj.smoothing import OptimalSmoother
+
+    s = load_scenario("obstacle")
+    oracle = BubbleOracle(obstacle_robot)
+    lo, hi = 0.08, 1.0  # along the hip displacement toward the box: clearance falls from 0.08's
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if oracle.clearance(np.array([0.2, 0.3, mid])) > 0.005 + above_mm * 1e-3 else (lo, mid)
+    q_init = np.array([0.2, 0.3, lo])
+    assert 0 < oracle.radius(q_init) < oracle.delta / oracle.bound.ball_factor / 2  # under the default r_min
+    checker = MujocoChecker(obstacle_robot)
+    for seed in range(3):
+        res = get_planner("bubbletree").plan(PlanningProblem(oracle, q_init, s.q_goal, delta=oracle.delta, time_limit=10.0), seed=seed)
+        _check_paths(checker, oracle, res, 0.005)
+        sm = OptimalSmoother().smooth(res.rosary, initial=smoother_start(res.rosary, res.waypoints), seed=seed)
+        assert sm.info["certified"] and res.rosary.all_in_hatches(np.asarray(sm.path)[1:-1])
+        assert checker.first_collision_along(np.asarray(sm.path), step=2e-3) is None
