@@ -243,6 +243,9 @@ def _parse_q(text: str, flag: str) -> list[float]:
     try:
         if any("_" in v for v in parts):  # float() reads "0_08" as 8: a typo must not become another number
             raise ValueError
+        fields = text.strip().strip(",").split(",")
+        if len(fields) > 1 and any(not f.strip() for f in fields):  # "0.2,,0.3": a number left out, not skipped
+            raise ValueError
         values = [float(v) for v in parts]
     except ValueError:
         raise FoamError(f"{flag} must be numbers separated by spaces or commas, got {text!r}") from None

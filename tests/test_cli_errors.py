@@ -57,6 +57,8 @@ def _bad_inputs(d: Path) -> dict[str, tuple[list[str], str]]:
         "unknown scene": (["--scene", "moon_walk"], "unknown scenario"),
         "--json a FIFO": (["--json", str(_fifo(d / "pipe.json"))], "is not a regular file (a FIFO)"),
         "--json ending in /": (["--json", f"{d}/out/"], "ends in '/': it names a folder"),
+        "--start with an empty field": (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2,,0.3,0.08", "--goal", "0.45 0.4536 1.45"],
+                                        "--start must be numbers separated by spaces or commas, got '0.2,,0.3,0.08'"),
         "--start with _": (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0_08", "--goal", "0.45 0.4536 1.45"],
                            "--start must be numbers separated by spaces or commas, got '0.2 0.3 0_08'"),
     }
