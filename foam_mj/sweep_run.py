@@ -327,6 +327,9 @@ def local_engine(tasks: Iterator[Task], workers: int, *, poll: float = 0.5) -> I
     exhausted = False
     try:
         while True:
+            # A worker can die between two waits: the pool is then broken, and submit raises. The task goes back
+            # to the front of the queue, and the futures in flight end with BrokenProcessPool below.
+            refused = False
             while len(inflight) < limit and (retry or not exhausted):
                 if retry:
                     task = retry.popleft()
@@ -335,23 +338,29 @@ def local_engine(tasks: Iterator[Task], workers: int, *, poll: float = 0.5) -> I
                     if task is None:
                         exhausted = True
                         break
-                inflight[pool.submit(run_task, task)] = task
-            if not inflight:
-                return
-            finished, _ = wait(list(inflight), timeout=poll, return_when=FIRST_COMPLETED)
-            if not finished:
-                yield None, None
-                continue
-            broken = False
-            for fut in finished:
-                task = inflight.pop(fut)
                 try:
-                    rows = fut.result()
+                    inflight[pool.submit(run_task, task)] = task
                 except BrokenProcessPool:
-                    broken = True
-                    retry.append(task)
+                    retry.appendleft(task)
+                    refused = True
+                    break
+            if not inflight and not refused:
+                return
+            broken = refused and not inflight
+            if inflight:
+                finished, _ = wait(list(inflight), timeout=poll, return_when=FIRST_COMPLETED)
+                if not finished:
+                    yield None, None
                     continue
-                yield task, rows
+                for fut in finished:
+                    task = inflight.pop(fut)
+                    try:
+                        rows = fut.result()
+                    except BrokenProcessPool:
+                        broken = True
+                        retry.append(task)
+                        continue
+                    yield task, rows
             if broken:
                 retry.extend(inflight.values())
                 inflight.clear()
