@@ -21,7 +21,8 @@ One iteration, for both trees at once, with one batched distance query (``Cleara
    centres c_p + s r_p u for s in :data:`STEPS` (but not beyond the target), all evaluated in the batch
    except those too near the joint bounds for a good radius (step 4; a radius is at most the distance to
    the bounds).
-4. Children. Per extension, the farthest candidate whose certified radius r is at least ``r_min``, that
+4. Children. Per extension, the farthest candidate whose certified radius r is at least ``r_min`` (or
+   :data:`GROW` x its parent's, for a parent under ``r_min``: a small endpoint bubble), that
    overlaps its parent with a hatch (s r_p <= r_p + (1 - HATCH) r), and whose centre lies in no other
    bubble of its tree (no growth inside explored space); candidates of one batch are also deduplicated
    against each other.
@@ -327,7 +328,6 @@ class BubbleTreePlanner(Planner):
         calls0 = oracle.clearance.calls
         n = robot.dim
         lo, hi = robot.lower, robot.upper
-        lo_col, hi_col = lo[:, None], hi[:, None]
         factor = oracle.bound.ball_factor
         r_min = o.r_min if o.r_min > 0 else problem.delta / factor / 2 if problem.delta > 0 else 1e-4
         span = hi - lo
@@ -475,10 +475,7 @@ class BubbleTreePlanner(Planner):
             # radius (below) is not sized (radius 0, never kept: 12 % of them on the obstacle scene, nearly all
             # at s = 2); the rest are, in one batch.
             flat = cand.reshape(-1, n)
-            W = np.empty((2 * n, len(flat)))  # the distances to the bounds, per coordinate (rows) and candidate
-            np.subtract(flat.T, lo_col, out=W[:n])
-            np.subtract(hi_col, flat.T, out=W[n:])
-            wall = np.minimum.reduce(W, axis=0).reshape(s.shape)
+            wall = oracle.to_bounds(flat).reshape(s.shape)
             reach = rP[:, None]
             floor = np.where(rP >= SMALLEST, np.minimum(r_min, GROW * rP), r_min)[:, None]  # (GROW, SMALLEST)
             ask = np.flatnonzero((wall >= floor) & (s <= reach + (1 - HATCH) * wall))
