@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from foam_mj.paths import row_norms
+
 #: A hatch must be at least this fraction of the smaller radius deep.
 HATCH = 0.05
 #: The final rosary's hatches are at least this fraction of the smaller radius deep (hatch sampling by
@@ -68,8 +70,7 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
 
     def gaps() -> tuple[np.ndarray, np.ndarray]:
         """Whether each two consecutive points (of one chord) do not overlap deeply, and their distances."""
-        d = pts[1:] - pts[:-1]
-        d = np.sqrt((d * d).sum(axis=1))  # np.linalg.norm's own sum, without its overhead
+        d = row_norms(pts[1:] - pts[:-1])
         return (cid[:-1] == cid[1:]) & (d > r[:-1] + r[1:] - DEEP * np.minimum(r[:-1], r[1:])), d
 
     for _ in range(levels):

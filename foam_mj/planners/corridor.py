@@ -107,6 +107,7 @@ from numpy.lib.stride_tricks import as_strided
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
+from foam_mj.paths import row_norms
 from foam_mj.planners.chains import (
     HATCH,
     INSET,
@@ -341,7 +342,7 @@ def shortest_path(
     pts = np.empty((m + 2, n))
     pts[0], pts[1:-1], pts[-1] = q_init, np.reshape(sol.x[: m * n], (m, n)), q_goal
     d = (pts[1:] - pts[:-1]) * sw
-    return pts[1:-1], float(np.sum(np.sqrt((d * d).sum(axis=1))))  # np.linalg.norm's own sum
+    return pts[1:-1], float(np.sum(row_norms(d)))
 
 
 class _Clock:
