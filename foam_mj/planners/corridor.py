@@ -122,7 +122,7 @@ from foam_mj.planners.chains import (
     thin_line_chain,
 )
 from foam_mj.rosary import Rosary
-from foam_mj.smoothing.convex import csc_lists, socp_pattern
+from foam_mj.smoothing.convex import csc_lists, socp_pattern, to_csc
 
 DEBUG = False
 #: A round's pruned chain is solved again only if it drops more than this share of the bubbles (else the
@@ -250,11 +250,10 @@ def shortest_chain(
     cols = np.concatenate([j, i, hs, np.full(len(hg), G)])
     vals = np.concatenate([w, w, np.linalg.norm((centers[hs] - q_init) * s, axis=1), np.linalg.norm((centers[hg] - q_goal) * s, axis=1)])
     vals = np.maximum(vals, 1e-12)  # an explicit zero would read as "no edge"
-    # The CSR arrays directly (no two equal (row, column) pairs): entries by row, then column, as scipy's
-    # COO -> CSR conversion orders them, for a fifth of its time.
-    order = np.argsort(rows * (n + 2) + cols)
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n + 2))])
-    g = sp.csr_matrix((vals[order], cols[order], indptr), shape=(n + 2, n + 2))
+    # The CSR arrays directly (no two equal (row, column) pairs), as scipy's COO -> CSR conversion orders them, for
+    # a fifth of its time: a matrix's CSR arrays are its transpose's CSC arrays.
+    gT = to_csc(cols, rows, vals, (n + 2, n + 2))
+    g = sp.csr_matrix((gT.data, gT.indices, gT.indptr), shape=(n + 2, n + 2))
     dist, pred = dijkstra(g, directed=True, indices=S, return_predecessors=True)
     if not np.isfinite(dist[G]):
         return None
@@ -275,7 +274,7 @@ def _socp_template(m: int, n: int, metric: tuple[float, ...] | None):
     (:func:`foam_mj.smoothing.convex.csc_lists`; the same solutions).
 
     A is build_socp's own entries (:func:`foam_mj.smoothing.convex.socp_pattern`), put in CSC order by one sort
-    (by column, then row: what scipy's COO -> CSC conversion gives, entry for entry) rather than by building the
+    (:func:`foam_mj.smoothing.convex.to_csc`) rather than by building the
     program on a rosary of zeros (0.83-0.86 ms per chain length, m 10-109, n 3; each length's first program pays
     it, in a benchmark most programs); the vector rows of segment cone j, j (n + 1) + 1 .. j (n + 1) + n, are
     weighted by ``metric``."""
@@ -290,9 +289,8 @@ def _socp_template(m: int, n: int, metric: tuple[float, ...] | None):
         row_w = np.ones(nrow)
         row_w[(np.arange(nt)[:, None] * cd + 1 + d).ravel()] = np.tile(np.asarray(metric, dtype=float), nt)
         vals = vals * row_w[rows]
-    order = np.lexsort((rows, cols))
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(cols, minlength=nw + nt))])
-    A = csc_lists(vals[order], rows[order], indptr, (nrow, nw + nt))
+    Ac = to_csc(rows, cols, vals, (nrow, nw + nt))
+    A = csc_lists(Ac.data, Ac.indices, Ac.indptr, Ac.shape)
     P = csc_lists([], [], [0] * (nw + nt + 1), (nw + nt, nw + nt))
     q = [0.0] * nw + [1.0] * nt
     cones = [clarabel.SecondOrderConeT(cd)] * (nt + 2 * m)

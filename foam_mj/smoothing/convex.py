@@ -183,6 +183,27 @@ def socp_cones(rosary: Rosary, inset: float = 0.0) -> tuple[np.ndarray, np.ndarr
     return (*socp_pattern(m, n), b, m * n)
 
 
+@dataclass
+class CSC:
+    """A matrix in canonical CSC form (row indices sorted in each column, no duplicates), as Clarabel reads it:
+    the smoother's subproblems are built as these arrays directly (an obstacle subproblem's A: 36 us by
+    :func:`to_csc`, 86 us by scipy's COO to CSC conversion, whose checks also cost each P 15-20 us)."""
+
+    data: np.ndarray
+    indices: np.ndarray
+    indptr: np.ndarray
+    shape: tuple[int, int]
+
+
+def to_csc(rows: np.ndarray, cols: np.ndarray, vals: np.ndarray, shape: tuple[int, int]) -> CSC:
+    """The CSC form of entries (rows, cols, vals) that name every (row, column) at most once: by column, then row,
+    as scipy's COO -> CSC conversion orders them, entry for entry."""
+    order = np.argsort(cols * shape[0] + rows, kind="stable")  # (the entries come in runs: half the time of quicksort)
+    indptr = np.zeros(shape[1] + 1, dtype=np.int64)
+    np.cumsum(np.bincount(cols, minlength=shape[1]), out=indptr[1:])
+    return CSC(vals[order], rows[order], indptr, shape)
+
+
 def csc_lists(data, indices, indptr, shape: tuple[int, int], canonical: bool = True) -> SimpleNamespace:
     """A CSC matrix with its arrays as Python lists, for Clarabel's constructor: it reads a matrix (data, indices,
     indptr, nnz, shape, has_canonical_format) element by element, which costs a fifth of the build from numpy

@@ -177,14 +177,12 @@ from foam_mj.smoothing.base import (
     check_initial,
     trivial_result,
 )
-from foam_mj.smoothing.convex import ConvexShortestPath
+from foam_mj.smoothing.convex import CSC, ConvexShortestPath, to_csc
 from foam_mj.smoothing.subproblem import (
-    _CSC,
     _S_MAX,
     _TINY,
     RELATIVE,
     SOLVER_TOL,
-    _csc,
     _dh,
     _h,
     _lists,
@@ -757,7 +755,7 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     b_soc = np.zeros((ns, 1 + n))
     b_soc[:, 0] = 1.0
     cones = [clarabel.NonnegativeConeT(2 * nv + na)] + [clarabel.SecondOrderConeT(1 + n)] * ns
-    A = _csc(rows, cols, vals, (2 * nv + na + ns * (1 + n), nz))
+    A = to_csc(rows, cols, vals, (2 * nv + na + ns * (1 + n), nz))
     q = np.zeros(nz)
     q[0] = 1.0
     settings = clarabel.DefaultSettings()
@@ -765,7 +763,7 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     settings.presolve_enable = False  # nothing to remove; saves a fifth of the certificate's time
     settings.iterative_refinement_enable = False  # a third of the rest; the residual is recomputed below
     b = np.concatenate([-grad_s, grad_s, np.zeros(na), b_soc.ravel()])
-    P = _CSC(np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(nz + 1, dtype=np.int64), (nz, nz))
+    P = CSC(np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(nz + 1, dtype=np.int64), (nz, nz))
     sol = clarabel.DefaultSolver(_lists(P), q.tolist(), _lists(A), b.tolist(), cones, settings).solve()
     z = np.asarray(sol.x)
     lam_v = np.maximum(z[1:1 + na], 0.0)

@@ -15,7 +15,7 @@ import numpy as np
 from foam_mj import paths
 from foam_mj.rosary import Rosary
 from foam_mj.smoothing.base import Hatches
-from foam_mj.smoothing.convex import ConvexShortestPath, build_socp, csc_lists, socp_cones
+from foam_mj.smoothing.convex import CSC, ConvexShortestPath, build_socp, csc_lists, socp_cones, to_csc
 
 if TYPE_CHECKING:
     from foam_mj.smoothing.optimal import ObjectiveWeights
@@ -25,26 +25,6 @@ SOLVER_TOL = 1e-9
 _S_MAX = 2.0 - 1e-9  # |v| = 2 sin(phi / 2) <= 2; h'(s) blows up at a U-turn
 RELATIVE = 0.5  # a segment's vector may change by at most this fraction of its length in one step
 PROX = 1e-2  # (PROX max(weights) / 2) |dW|^2 in every subproblem: picks the nearest of equally good steps
-
-
-@dataclass
-class _CSC:
-    """A matrix in canonical CSC form (row indices sorted in each column, no duplicates), as Clarabel reads it:
-    the subproblems are built as these arrays directly (an obstacle subproblem's A: 36 us by :func:`_csc`, 86 us
-    by scipy's COO to CSC conversion, whose checks also cost each P 15-20 us)."""
-
-    data: np.ndarray
-    indices: np.ndarray
-    indptr: np.ndarray
-    shape: tuple[int, int]
-
-
-def _csc(rows: np.ndarray, cols: np.ndarray, vals: np.ndarray, shape: tuple[int, int]) -> _CSC:
-    """The CSC form of entries (rows, cols, vals) that name every (row, column) at most once."""
-    order = np.argsort(cols * shape[0] + rows, kind="stable")  # (the entries come in runs: half the time of quicksort)
-    indptr = np.zeros(shape[1] + 1, dtype=np.int64)
-    np.cumsum(np.bincount(cols, minlength=shape[1]), out=indptr[1:])
-    return _CSC(vals[order], rows[order], indptr, shape)
 
 
 @dataclass
@@ -355,13 +335,13 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     else:
         Pdiag[nw + nt:] = 1.0
     b = np.concatenate(b)
-    A = _csc(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), (len(b), nx))
+    A = to_csc(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), (len(b), nx))
     if y is None:
         # P is diagonal (every diagonal entry stored, zeros too, so that the pattern is the same at every step)
         ix = np.arange(nx + 1)
         Pdiag[:nw] = prox
         q[:nw] -= prox * p[vx.rep[1:-1]].ravel()
-        return _CSC(Pdiag, ix[:-1], ix, (nx, nx)), q, A, b, cones, None, ball_row
+        return CSC(Pdiag, ix[:-1], ix, (nx, nx)), q, A, b, cones, None, ball_row
     # Curvature (SQP): 1/2 dW^T H dW with H the PSD part of sum_i y_i . d^2 v_i (see _segment_curvature), and
     # 1/2 h''(s0) (s - s0)^2 for the angle's outer function; the segment of the merged polyline from group g
     # to group g + 1 is put on the adjacent waypoints (last of group g, first of group g + 1), which the tie
@@ -405,7 +385,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     q[:nw] -= prox * W0.ravel()
     data[upos] = Sblk
     data[tpos] = Pdiag[nw:]
-    return (_CSC(data, indices, indptr, (nx, nx)), q, A, b, cones,
+    return (CSC(data, indices, indptr, (nx, nx)), q, A, b, cones,
             (Dblk, Sblk, Pdiag[nw + nt:nw + nt + Mv], lin_const, qW), ball_row)
 
 
@@ -459,7 +439,7 @@ def _settings(refine: bool = True, tol: float = SOLVER_TOL) -> clarabel.DefaultS
 _EXTRA: dict = {"presolve_enable": False}
 
 
-def _lists(M: _CSC) -> SimpleNamespace:
+def _lists(M: CSC) -> SimpleNamespace:
     """M for Clarabel's constructor, its arrays as Python lists (:func:`foam_mj.smoothing.convex.csc_lists`)."""
     return csc_lists(M.data, M.indices, M.indptr, M.shape)
 
@@ -476,7 +456,7 @@ class _Solver:
         self._key = None
         self.reused = 0
 
-    def solve(self, P: _CSC, q: np.ndarray, A: _CSC, b: np.ndarray, cones: list, tol: float = SOLVER_TOL):
+    def solve(self, P: CSC, q: np.ndarray, A: CSC, b: np.ndarray, cones: list, tol: float = SOLVER_TOL):
         # The cones are the zero cone of the ties (if any), the trust region's, then second-order cones of
         # one size: their count and the first two fix them all.
         key = (A.shape, len(cones), tuple((type(c).__name__, c.dim) for c in cones[:2]), A.indptr.tobytes(),
