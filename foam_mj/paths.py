@@ -79,7 +79,11 @@ def turning_angles(points: np.ndarray) -> np.ndarray:
 
 def angle_term(points: np.ndarray) -> np.ndarray:
     """Mean of (pi - theta_i) over the interior vertices: the first term of Nascimento et al. 2020 Eq. 5."""
-    t = turning_angles(points)
+    return _vertex_mean(turning_angles(points))
+
+
+def _vertex_mean(t: np.ndarray) -> np.ndarray:
+    """The mean over the interior vertices (last axis) of a per-vertex value, 0 for a path without any."""
     return t.mean(axis=-1) if t.shape[-1] else np.zeros(t.shape[:-1])
 
 
@@ -95,14 +99,18 @@ def objective_terms(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def tc(points: np.ndarray) -> np.ndarray:
     """TC of Nascimento and Alsina 2021 Eq. 6: |q_goal - q_init| / path length (1 for a straight line)."""
+    return _tc(points, path_length(points))
+
+
+def _tc(points: np.ndarray, length: np.ndarray) -> np.ndarray:
+    """Eq. 6 for points whose path length is known."""
     de = np.linalg.norm(points[..., -1, :] - points[..., 0, :], axis=-1)
-    return de / np.maximum(path_length(points), _EPS)
+    return de / np.maximum(length, _EPS)
 
 
 def sv(points: np.ndarray) -> np.ndarray:
     """SV of Nascimento and Alsina 2021 Eq. 7: mean squared supplementary angle over the interior vertices (0 = straight)."""
-    t = turning_angles(points)
-    return (t**2).mean(axis=-1) if t.shape[-1] else np.zeros(t.shape[:-1])
+    return _vertex_mean(turning_angles(points) ** 2)
 
 
 @dataclass(frozen=True)
@@ -125,12 +133,9 @@ def metrics(points: np.ndarray) -> PathMetrics:
     p = np.asarray(points, dtype=float)
     if p.ndim != 2 or len(p) < 2:
         raise ValueError(f"a path needs shape (m >= 2, n), got {p.shape}")
-    # (angle_term, path_length, tc and sv, each turning angle and length computed once)
-    t = turning_angles(p)
-    length = segment_lengths(p).sum(axis=-1)
-    a = float(t.mean()) if len(t) else 0.0
-    tc_ = float(np.linalg.norm(p[-1] - p[0], axis=-1) / np.maximum(length, _EPS))
-    return PathMetrics(float(length), a, a + float(length), tc_, float((t**2).mean()) if len(t) else 0.0, len(p))
+    t, length = turning_angles(p), path_length(p)  # (each computed once for the four measures)
+    a, length_ = float(_vertex_mean(t)), float(length)
+    return PathMetrics(length_, a, a + length_, float(_tc(p, length)), float(_vertex_mean(t**2)), len(p))
 
 
 def densify(points: np.ndarray, step: float = 1e-3) -> np.ndarray:
