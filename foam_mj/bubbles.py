@@ -319,6 +319,36 @@ class BubbleOracle:
         r = np.minimum((np.asarray(clearance) - self.delta) / self._factor, self.to_bounds(q))
         return np.maximum(r, 0.0)
 
+    def holding_bubble(self, q: np.ndarray, want: float) -> tuple[np.ndarray, float]:
+        """A certified bubble (centre, radius) that holds q, for an end point of a path.
+
+        The bubble centred at q has at most q's distance to the joint bounds (the radius's bounds term, module
+        docstring): none at all for q on a bound (a knee straight at its limit), a sliver beside one. Where that
+        term, not the clearance, makes q's own radius smaller than ``want``, the centre moves inside, off the
+        near faces: c = q + sum_j (rho - d_j)^+ u_j (d_j the distance from q to face j, u_j its inward normal),
+        so that the ball of radius rho about c lies in the box, and it holds q when |c - q| <= rho -- always
+        for q near one face (q on it: the ball touches the face at q), never for q on an edge or a corner of
+        the box (two faces at distance 0: no ball inside the box holds a corner). rho starts at the
+        clearance's radius at q and halves (SHRINK steps, one batch of distance queries) until c's own
+        certified radius reaches |c - q|. Returns (q, q's radius) where q's bubble needs no move, and that too
+        (radius possibly 0) where no moved bubble holds q: the caller names the problem."""
+        q = np.asarray(q, dtype=float)
+        lo, hi = self.robot.lower, self.robot.upper
+        D = self.clearance.batch_pairs(q[None])
+        own = float(self.radius_from_distances(D, q[None])[0])
+        free = float(np.maximum(((D[0] - self.delta) * self._inv).min(), 0.0))  # the clearance's radius alone
+        if own >= min(want, free) or free <= 0.0:
+            return q, own
+        rho = free * 0.5 ** np.arange(SHRINK)[:, None]  # (S, 1)
+        rho = np.minimum(rho, 0.5 * (hi - lo))
+        C = q + np.maximum(rho - (q - lo), 0.0) - np.maximum(rho - (hi - q), 0.0)
+        r = self.radii(C)
+        holds = np.linalg.norm(C - q, axis=1) <= r  # the test by which a chain's end bubble is found to hold q
+        if not holds.any():
+            return q, own
+        k = int(np.argmax(np.where(holds, r, -1.0)))
+        return C[k], float(r[k])
+
     def radius(self, q) -> float:
         """Certified radius at one configuration (validated: shape, finite, within bounds)."""
         q = self.robot.validate(q)
@@ -352,6 +382,11 @@ class BubbleOracle:
 
     def close(self) -> None:
         self.clearance.close()
+
+
+#: Radii tried for an end point's bubble moved off the joint bounds (:meth:`BubbleOracle.holding_bubble`): the
+#: clearance's radius at q times 1, 1/2, ... 1/2^(SHRINK - 1).
+SHRINK = 16
 
 
 @dataclass(frozen=True)

@@ -234,6 +234,35 @@ def test_random_chains_keep_the_margin_inside_every_bubble(tmp_path, seed, delta
     assume(checked > 0)
 
 
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much])
+@given(seed=st.integers(0, 2**32 - 1), at=st.sampled_from(["lower", "upper", "beside"]))
+def test_a_bubble_holding_a_point_on_a_joint_limit_stays_in_the_bounds_and_keeps_the_margin(tmp_path, seed, at):
+    """An end point with one joint at (or 1e-9 beside) a limit: the bubble that holds it is certified at its own
+    centre, lies inside the joint bounds, holds the point, and every configuration sampled in it and on the
+    segments from the point into it keeps delta by MuJoCo's own reckoning."""
+    from chains import random_chain_xml
+
+    rng = np.random.default_rng(seed)
+    robot = _robot_from_xml(tmp_path, random_chain_xml(rng, self_collision=False), f"limit{seed}.xml")
+    oracle = BubbleOracle(robot, delta=0.005)
+    check = _IndependentCheck(robot)
+    n = robot.dim
+    q = rng.uniform(robot.lower, robot.upper)
+    j = int(rng.integers(n))
+    q[j] = {"lower": robot.lower[j], "upper": robot.upper[j], "beside": robot.lower[j] + 1e-9}[at]
+    assume(oracle.clearance(q) > 0.006)
+    c, r = oracle.holding_bubble(q, want=1e-3)
+    oracle_r = oracle.radius(c)
+    oracle.close()
+    assert r > 0 and not np.array_equal(c, q)  # one joint at its limit: a moved bubble always holds the point
+    assert r <= oracle_r + 1e-15 and np.linalg.norm(c - q) <= r
+    assert np.all(c - r >= robot.lower - 1e-12) and np.all(c + r <= robot.upper + 1e-12)
+    inside = _uniform_in_ball(rng, c, r, 10)
+    towards = [q + s * (a - q) for a in inside[:5] for s in np.linspace(0, 1, 5)]
+    for a in np.vstack([inside, towards]):
+        assert check.clearance(a) >= 0.005 - 1e-7, f"clearance below delta at {a} in the bubble ({c}, {r}) holding {q}"
+
+
 def _points_in_geom(m, d, g):
     """Points of geom g (world frame): its centre and, just inside its surface, the ends of its local axes
     (box corners for boxes)."""

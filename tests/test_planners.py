@@ -515,3 +515,41 @@ def test_a_start_a_fraction_of_a_millimetre_above_delta_is_reached_and_smoothed_
         sm = OptimalSmoother().smooth(res.rosary, initial=smoother_start(res.rosary, res.waypoints), seed=seed)
         assert sm.info["certified"] and res.rosary.all_in_hatches(np.asarray(sm.path)[1:-1])
         assert checker.first_collision_along(np.asarray(sm.path), step=2e-3) is None
+
+
+@pytest.mark.parametrize("knee", [0.0, 1e-9])
+def test_a_goal_with_the_knee_straight_at_its_limit_is_reached_and_smoothed_safely(obstacle_robot, knee):
+    # A straight knee is its range's lower end: a bubble centred there has no room inside the joint bounds. The
+    # goal's bubble moves inside (it touches the limit at the goal), the plan succeeds on every seed, and every
+    # path keeps delta and the joint bounds, ending exactly at the goal.
+    from conftest import MujocoChecker
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.planners.base import smoother_start
+    from foam_mj.smoothing import OptimalSmoother
+
+    s = load_scenario("obstacle")
+    oracle = BubbleOracle(obstacle_robot)
+    q_goal = np.array([s.q_goal[0], knee, s.q_goal[2]])
+    assert oracle.robot.lower[1] == 0.0 and oracle.radius(q_goal) <= 1e-9
+    checker = MujocoChecker(obstacle_robot)
+    for seed in range(3):
+        res = get_planner("bubbletree").plan(PlanningProblem(oracle, s.q_init, q_goal, delta=oracle.delta, time_limit=10.0), seed=seed)
+        _check_paths(checker, oracle, res, 0.005)
+        sm = OptimalSmoother().smooth(res.rosary, initial=smoother_start(res.rosary, res.waypoints), seed=seed)
+        path = np.asarray(sm.path)
+        assert sm.info["certified"] and res.rosary.all_in_hatches(path[1:-1])
+        assert np.array_equal(path[-1], q_goal) and np.all(path >= oracle.robot.lower) and np.all(path <= oracle.robot.upper)
+        assert checker.first_collision_along(path, step=2e-3) is None
+
+
+def test_an_end_point_with_two_joints_at_their_limits_is_refused_naming_them():
+    from foam_mj.bubbles import BubbleOracle
+
+    s = load_scenario("obstacle")
+    oracle = BubbleOracle(s.robot, delta=0.005)
+    q_goal = np.array([oracle.robot.upper[0], 0.0, s.q_goal[2]])  # hip flexed to its limit, knee straight
+    problem = PlanningProblem(oracle, s.q_init, q_goal, delta=0.005)
+    with pytest.raises(ConfigurationError, match=r"q_goal .* has hip_flexion and knee_flexion at their limits: no certified bubble"):
+        get_planner("bubbletree").plan(problem, seed=0)
+    with pytest.raises(ConfigurationError, match="lies on the boundary of the joint bounds.*the bubbletree planner accepts it"):
+        get_planner("pfm").plan(PlanningProblem(oracle, s.q_init, np.array([s.q_goal[0], 0.0, s.q_goal[2]]), delta=0.005), seed=0)

@@ -69,22 +69,47 @@ class PlanningProblem:
     def endpoint_radii(self) -> tuple[float, float]:
         """Certified radii at q_init and q_goal; :class:`ConfigurationError` naming the clearance when
         either is closer than delta to an obstacle (or has no room inside the joint bounds)."""
-        o = self.oracle
-        Q = np.stack([self.q_init, self.q_goal])
-        D = o.clearance.batch_pairs(Q)  # both ends in one batch of distance queries
-        radii = o.radius_from_distances(D, Q)  # per-pair bound (foam_mj.bubbles)
+        Q, D = self._endpoint_distances()
+        radii = self.oracle.radius_from_distances(D, Q)  # per-pair bound (foam_mj.bubbles)
+        for name, q, r in zip(("q_init", "q_goal"), Q, radii):
+            if not r > 0:
+                raise ConfigurationError(f"{name} {q.tolist()} lies on the boundary of the joint bounds: no certified bubble "
+                                         f"centred there fits (the bubbletree planner accepts it)")
+        return float(radii[0]), float(radii[1])
+
+    def endpoint_bubbles(self, want: float) -> tuple[tuple[np.ndarray, float], tuple[np.ndarray, float]]:
+        """A certified bubble (centre, radius) holding q_init and one holding q_goal, centred at the end point
+        itself unless the joint bounds keep its radius below ``want`` (an end point on or beside a joint limit:
+        :meth:`foam_mj.bubbles.BubbleOracle.holding_bubble` moves the centre off the bounds).
+        :class:`ConfigurationError` naming the clearance when either is closer than delta to an obstacle, or
+        the joints when one lies on an edge or corner of the joint box (two or more joints at their limits)."""
+        Q, _ = self._endpoint_distances()
         out = []
-        for name, q, dp, r in zip(("q_init", "q_goal"), Q, D, radii):
+        for name, q in zip(("q_init", "q_goal"), Q):
+            c, r = self.oracle.holding_bubble(q, want)
+            if not r > 0:
+                r_ = self.oracle.robot
+                at = [r_.config.joint_names[j] for j in np.flatnonzero((q <= r_.lower) | (q >= r_.upper))]
+                raise ConfigurationError(
+                    f"{name} {q.tolist()} has {' and '.join(at) if at else 'joints'} at their limits: no certified bubble "
+                    f"inside the joint bounds holds it (a bubble may touch one limit, not two); move one of them off its limit"
+                )
+            out.append((c, r))
+        return out[0], out[1]
+
+    def _endpoint_distances(self) -> tuple[np.ndarray, np.ndarray]:
+        """q_init and q_goal (2, n) and their pair distances (one batch); :class:`ConfigurationError` naming the
+        clearance when either is closer than delta to an obstacle."""
+        Q = np.stack([self.q_init, self.q_goal])
+        D = self.oracle.clearance.batch_pairs(Q)
+        for name, q, dp in zip(("q_init", "q_goal"), Q, D):
             d = float(dp.min())
             if d <= self.delta:
                 state = "in collision" if d < 0 else "too close to an obstacle"
                 raise ConfigurationError(
                     f"{name} {q.tolist()} is {state}: clearance {clearance_text(d, self.delta)} <= margin delta = {self.delta} m"
                 )
-            if not r > 0:
-                raise ConfigurationError(f"{name} {q.tolist()} lies on the boundary of the joint bounds: no certified bubble fits")
-            out.append(float(r))
-        return out[0], out[1]
+        return Q, D
 
 
 @dataclass(frozen=True)

@@ -76,7 +76,12 @@ overlapping bubbles (both trees), refined where the shortest path through it pre
 boundary. Every bubble added there is certified as well: the margin stays delta everywhere.
 
 Design choices (the papers leave them open): start and goal bubbles of any positive certified radius
-are accepted (r_min is a resolution of the growth, not a precondition); ``r_min`` defaults to
+are accepted (r_min is a resolution of the growth, not a precondition), and so are end points on a joint
+limit (a straight knee is its range's end): where the joint bounds, not the clearance, keep an end point's own
+bubble under r_min, its tree's root is a certified bubble moved off the bounds that holds it
+(:meth:`foam_mj.bubbles.BubbleOracle.holding_bubble`; on a limit the root touches it at the end point),
+so the path still ends exactly there; only an end point with two joints at their limits (an edge or corner
+of the joint box, which no ball inside the box holds) is refused, naming the joints. ``r_min`` defaults to
 delta / ||rho||_2 / 2, half the radius that a clearance of 2 delta buys (the bound of Nascimento and Alsina 2021
 Eq. 4 on this model), so that narrow passages down to a few delta of clearance are still entered.
 """
@@ -336,7 +341,7 @@ class BubbleTreePlanner(Planner):
             raise ConfigurationError(f"bubbletree option `r_min` = {r_min:g} is not below half the joint box's diagonal "
                                      f"({half_span:.3g}); use a smaller one (0: derived from delta)")
         q0, q1 = problem.q_init, problem.q_goal
-        r0, r1 = problem.endpoint_radii()
+        (c0, r0), (c1, r1) = problem.endpoint_bubbles(r_min)  # centred at q0 and q1 unless a joint limit is in the way
         metric = robot.config.scale if o.metric == "qpos" else np.ones(n)
 
         B = _Bubbles(n)
@@ -395,7 +400,7 @@ class BubbleTreePlanner(Planner):
         sampler: InformedSampler | None = None
         k_max = o.batch + 2 * o.connect  # extensions per tree per iteration
         later = ~np.tri(k_max, k_max, -1, dtype=bool)  # later[i, j]: sibling j is not earlier than i
-        newest = B.add(np.stack([q0, q1]), np.array([r0, r1]), np.array([-1, -1]), np.array([0, 1], dtype=np.int8))
+        newest = B.add(np.stack([c0, c1]), np.array([r0, r1]), np.array([-1, -1]), np.array([0, 1], dtype=np.int8))
         link = update_gaps(newest)
         t_first: float | None = None
         it_first = 0
