@@ -8,7 +8,8 @@ beside OMPL's RRTConnect (+ PathSimplifier) and RRT* (10x the time) on the same 
 Problems: the Ortholeg's ``obstacle``, ``step_up`` and ``step_down`` scenarios (their paper parameters
 K and r_min for the foam planners), ``obstacle5`` (the 5-joint leg of ``models/ortholeg5.xml``, hip
 ab/adduction and ankle added, over the same box; K = 10, r_min = 0.05 for the foam planners) and
-``arm6`` (``models/bench_arm6.xml``: a 6-joint arm reaching around a tall box; K = 10, r_min = 0.05).
+``arm6`` (``models/bench_arm6.xml``: a 6-joint arm reaching around a tall box; K = 10, r_min = 0.05) and
+``arm7`` (``models/bench_arm7.xml``: a 7-joint arm with iiwa-like axes z y z y z y z around the same box).
 ``--problems shelf6`` adds the example UR-like arm reaching into a shelf
 (``examples/industrial_arm/reach_shelf.toml``).
 Every planner of :data:`foam_mj.planners.PLANNERS` runs; the foam family (pfm, gbpf, rbpf, hpf) gets
@@ -81,7 +82,7 @@ from foam_mj.smoothing import OptimalSmoother  # noqa: E402
 DELTA = 0.005
 FOAM_FAMILY = ("pfm", "gbpf", "rbpf", "hpf")
 QUICK_PROBLEMS = ("obstacle", "step_up", "step_down")
-ALL_PROBLEMS = QUICK_PROBLEMS + ("obstacle5", "arm6")
+ALL_PROBLEMS = QUICK_PROBLEMS + ("obstacle5", "arm6", "arm7")
 EXTRA_PROBLEMS = ("shelf6",)  # only when named with --problems
 CHECK_STEP = 1e-3  # rad (max-norm in q) between densely checked configurations
 
@@ -105,6 +106,10 @@ def problem(name: str) -> Problem:
         # Mirror poses either side of the box, the tool low beside it; the straight line cuts 42 mm into the box.
         a = np.array([-0.7, 0.87, 1.12, -0.08, 0.0, 0.0])
         return Problem(name, models_dir() / "bench_arm6.xml", a, a * np.array([-1, 1, 1, 1, 1, 1]), 10, 0.05)
+    if name == "arm7":
+        # Mirror poses either side of the box (iiwa-like axes); the straight line cuts 66 mm into the box.
+        a = np.array([-0.7, 0.9, 0.0, 1.2, 0.0, 0.2, 0.0])
+        return Problem(name, models_dir() / "bench_arm7.xml", a, a * np.array([-1, 1, 1, 1, 1, 1, 1]), 10, 0.05)
     if name == "shelf6":
         s = load_scenario(Path(__file__).resolve().parents[1] / "examples" / "industrial_arm" / "reach_shelf.toml")
         return Problem(name, Path(s.scene), s.q_init, s.q_goal, 10, 0.05)

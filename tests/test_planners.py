@@ -553,3 +553,25 @@ def test_an_end_point_with_two_joints_at_their_limits_is_refused_naming_them():
         get_planner("bubbletree").plan(problem, seed=0)
     with pytest.raises(ConfigurationError, match="lies on the boundary of the joint bounds.*the bubbletree planner accepts it"):
         get_planner("pfm").plan(PlanningProblem(oracle, s.q_init, np.array([s.q_goal[0], 0.0, s.q_goal[2]]), delta=0.005), seed=0)
+
+
+def test_bubbletree_plans_the_7_joint_arm_around_the_box_collision_free(checkers):
+    # models/bench_arm7.xml (benchmarks/planners.py, arm7): iiwa-like axes, mirror poses either side of a tall box;
+    # the straight line between them cuts into the box. The plan and its certified optimum keep delta.
+    from conftest import MODELS, MujocoChecker
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.model import RobotModel
+    from foam_mj.planners.base import smoother_start
+    from foam_mj.smoothing import OptimalSmoother
+
+    robot = RobotModel.from_xml(MODELS / "bench_arm7.xml")
+    oracle = BubbleOracle(robot, delta=0.005)
+    checker = MujocoChecker(robot)
+    a = np.array([-0.7, 0.9, 0.0, 1.2, 0.0, 0.2, 0.0])
+    b = a * np.array([-1, 1, 1, 1, 1, 1, 1])
+    assert robot.dim == 7 and checker.first_collision_along(np.array([a, b]), step=2e-3) is not None
+    res = get_planner("bubbletree").plan(PlanningProblem(oracle, a, b, delta=0.005, time_limit=30.0), seed=0)
+    _check_paths(checker, oracle, res, 0.005)
+    sm = OptimalSmoother().smooth(res.rosary, initial=smoother_start(res.rosary, res.waypoints), seed=0)
+    assert sm.info["certified"] and checker.first_collision_along(np.asarray(sm.path), step=2e-3) is None
+    oracle.close()
