@@ -474,21 +474,23 @@ def test_bubbletree_refine_floor_must_be_a_finite_positive_multiple_of_delta(val
         get_planner("bubbletree", refine_floor=value)
 
 
-def test_bubbletree_says_why_when_an_endpoint_next_to_the_margin_never_grows(obstacle_robot):
-    # A start 1 um of clearance above delta has a bubble of ~1e-6: every child on its surface is below r_min, so
-    # the start tree never grows and the goal tree cannot find so small a ball; the budget runs out (60 s by
-    # default). The failure names the endpoint and why, instead of a bare "the trees did not meet".
+def test_bubbletree_refuses_at_once_an_endpoint_too_near_the_margin_to_grow_from(obstacle_robot):
+    # A start 1 um of clearance above delta has a bubble of ~1e-6, below SMALLEST: no child grows from it and no
+    # other bubble comes to hold it. It is refused before any growth (it used to run out the whole budget, 60 s by
+    # default), naming the endpoint, its clearance and why.
     from foam_mj.bubbles import BubbleOracle
 
     s = load_scenario("obstacle")
     oracle = BubbleOracle(obstacle_robot)
     q_init = np.array([0.2, 0.3, 0.31748533260994427])  # clearance 5.001 mm (foot / box), delta 5 mm
     assert 0.005 < oracle.clearance(q_init) < 0.005 + 2e-6
-    problem = PlanningProblem(oracle, q_init, s.q_goal, delta=oracle.delta, time_limit=0.5)
-    with pytest.raises(PlanningFailed, match=r"did not meet \(time budget\).*; the start tree never grew: q_init's certified "
-                                             r"bubble has radius [0-9.e-]+ < r_min = .*move it away") as err:
+    problem = PlanningProblem(oracle, q_init, s.q_goal, delta=oracle.delta, time_limit=60.0)
+    calls = oracle.clearance.calls
+    with pytest.raises(ConfigurationError, match=r"q_init .* is too close to an obstacle to certify a path from it: clearance "
+                                                 r"0\.005001 m, barely above delta = 0.005 m, gives a certified bubble of radius "
+                                                 r"[0-9.e-]+ < 3e-05, too small to grow from .*move it away"):
         get_planner("bubbletree").plan(problem, seed=0)
-    assert "goal tree never grew" not in str(err.value) and err.value.stats.details["tree_start"] == 1
+    assert oracle.clearance.calls - calls < 10  # refused before any growth
 
 
 @pytest.mark.parametrize("above_mm", [0.05, 0.3])

@@ -93,7 +93,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from foam_mj.errors import ConfigurationError, PlanningFailed
+from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
 from foam_mj.foam import Foam
 from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer
 from foam_mj.planners.chains import HATCH
@@ -111,7 +111,8 @@ MAX_TRIES = 3
 #: or beside a joint bound) grows a chain of larger bubbles out of its corner instead of never growing. A bubble below
 #: SMALLEST does not grow (its hatches, HATCH x its radius deep, would be thinner than the cone programs resolve:
 #: roots of 0.7-1e-5 beside bubbles of 4e-3 to 6e-2 gave infeasible programs), and such an endpoint stays
-#: unreachable (the failure names it). On the obstacle scene, starts 5.02-5.4 mm from the box (delta 5 mm) failed on
+#: unreachable: unless the other end's bubble holds it, it is refused before any growth (ConfigurationError naming
+#: its clearance; it failed after the whole time budget, 60 s by default, before). On the obstacle scene, starts 5.02-5.4 mm from the box (delta 5 mm) failed on
 #: every seed after the whole budget; now those from 5.04 mm plan in 0.1-0.4 s (seeds 0-5), and the optimal smoother's
 #: paths are certified and keep their own clearance. Plans from other starts are unchanged (hashall.py).
 GROW = 1.5
@@ -402,6 +403,15 @@ class BubbleTreePlanner(Planner):
         later = ~np.tri(k_max, k_max, -1, dtype=bool)  # later[i, j]: sibling j is not earlier than i
         newest = B.add(np.stack([c0, c1]), np.array([r0, r1]), np.array([-1, -1]), np.array([0, 1], dtype=np.int8))
         link = update_gaps(newest)
+        if link is None:  # an end bubble below SMALLEST never grows, and no other bubble comes to hold its centre
+            for name, q, r in (("q_init", q0, r0), ("q_goal", q1, r1)):
+                if r < SMALLEST:
+                    raise ConfigurationError(
+                        f"{name} {q.tolist()} is too close to an obstacle to certify a path from it: clearance "
+                        f"{clearance_text(oracle.clearance(q), problem.delta)}, barely above delta = {problem.delta} m, "
+                        f"gives a certified bubble of radius {r:.3g} < {SMALLEST:g}, too small to grow from "
+                        f"(`foam-mj bubble` shows the limiting pair): move it away"
+                    )
         t_first: float | None = None
         it_first = 0
         foam_first = 0
