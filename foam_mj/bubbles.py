@@ -319,8 +319,8 @@ class BubbleOracle:
         r = np.minimum((np.asarray(clearance) - self.delta) / self._factor, self.to_bounds(q))
         return np.maximum(r, 0.0)
 
-    def holding_bubble(self, q: np.ndarray, want: float) -> tuple[np.ndarray, float]:
-        """A certified bubble (centre, radius) that holds q, for an end point of a path.
+    def holding_bubble(self, q: np.ndarray, want: float) -> "EndBubble":
+        """A certified bubble that holds q, for an end point of a path (:class:`EndBubble`).
 
         The bubble centred at q has at most q's distance to the joint bounds (the radius's bounds term, module
         docstring): none at all for q on a bound (a knee straight at its limit), a sliver beside one. Where that
@@ -330,24 +330,33 @@ class BubbleOracle:
         for q near one face (q on it: the ball touches the face at q), never for q on an edge or a corner of
         the box (two faces at distance 0: no ball inside the box holds a corner). rho starts at the
         clearance's radius at q and halves (SHRINK steps, one batch of distance queries) until c's own
-        certified radius reaches |c - q|. Returns (q, q's radius) where q's bubble needs no move, and that too
-        (radius possibly 0) where no moved bubble holds q: the caller names the problem."""
+        certified radius reaches |c - q|.
+
+        Where no such ball holds q (an edge or corner), the bubble is the clearance's ball about q itself, radius
+        min_p (d_p(q) - delta) / ||rho_p||, which leaves the box (``within_bounds`` False). Design choice: that is
+        sound for an *end* bubble of a chain whose other bubbles lie in the box. The bound of Eq. 4 holds for
+        motions inside the joint ranges, and every point of a path through the chain is in the box: the end
+        point, and waypoints in hatches, each of which lies in an in-box neighbour; a segment between two such
+        points stays in the box (convex) and in the ball, where the bound certifies it. Two such balls must never
+        be neighbours (their hatch may leave the box): :meth:`foam_mj.planners.base.PlanningProblem.endpoint_bubbles`
+        keeps them apart. Returns q's own bubble where it needs no move, radius 0 where q has no clearance to
+        spare."""
         q = np.asarray(q, dtype=float)
         lo, hi = self.robot.lower, self.robot.upper
         D = self.clearance.batch_pairs(q[None])
         own = float(self.radius_from_distances(D, q[None])[0])
         free = float(np.maximum(((D[0] - self.delta) * self._inv).min(), 0.0))  # the clearance's radius alone
         if own >= min(want, free) or free <= 0.0:
-            return q, own
+            return EndBubble(q, own, True)
         rho = free * 0.5 ** np.arange(SHRINK)[:, None]  # (S, 1)
         rho = np.minimum(rho, 0.5 * (hi - lo))
         C = q + np.maximum(rho - (q - lo), 0.0) - np.maximum(rho - (hi - q), 0.0)
         r = self.radii(C)
         holds = np.linalg.norm(C - q, axis=1) <= r  # the test by which a chain's end bubble is found to hold q
         if not holds.any():
-            return q, own
+            return EndBubble(q, free, False)
         k = int(np.argmax(np.where(holds, r, -1.0)))
-        return C[k], float(r[k])
+        return EndBubble(C[k], float(r[k]), True)
 
     def radius(self, q) -> float:
         """Certified radius at one configuration (validated: shape, finite, within bounds)."""
@@ -382,6 +391,16 @@ class BubbleOracle:
 
     def close(self) -> None:
         self.clearance.close()
+
+
+@dataclass(frozen=True)
+class EndBubble:
+    """A certified bubble that holds an end point of a path (:meth:`BubbleOracle.holding_bubble`); a ball that
+    leaves the joint box when ``within_bounds`` is False (an end point on an edge or corner of the box)."""
+
+    center: np.ndarray
+    radius: float
+    within_bounds: bool
 
 
 #: Radii tried for an end point's bubble moved off the joint bounds (:meth:`BubbleOracle.holding_bubble`): the

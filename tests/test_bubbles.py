@@ -251,7 +251,9 @@ def test_a_bubble_holding_a_point_on_a_joint_limit_stays_in_the_bounds_and_keeps
     j = int(rng.integers(n))
     q[j] = {"lower": robot.lower[j], "upper": robot.upper[j], "beside": robot.lower[j] + 1e-9}[at]
     assume(oracle.clearance(q) > 0.006)
-    c, r = oracle.holding_bubble(q, want=1e-3)
+    e = oracle.holding_bubble(q, want=1e-3)
+    c, r = e.center, e.radius
+    assert e.within_bounds
     oracle_r = oracle.radius(c)
     oracle.close()
     assert r > 0 and not np.array_equal(c, q)  # one joint at its limit: a moved bubble always holds the point
@@ -261,6 +263,34 @@ def test_a_bubble_holding_a_point_on_a_joint_limit_stays_in_the_bounds_and_keeps
     towards = [q + s * (a - q) for a in inside[:5] for s in np.linspace(0, 1, 5)]
     for a in np.vstack([inside, towards]):
         assert check.clearance(a) >= 0.005 - 1e-7, f"clearance below delta at {a} in the bubble ({c}, {r}) holding {q}"
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much])
+@given(seed=st.integers(0, 2**32 - 1))
+def test_an_end_bubble_on_an_edge_of_the_joint_box_keeps_the_margin_wherever_it_is_in_the_box(tmp_path, seed):
+    """An end point with two joints at their limits: no ball inside the box holds it, so its bubble is the
+    clearance's ball about it (it leaves the box); every configuration sampled in that ball and inside the box, and
+    on the segments from the point to them, keeps delta by MuJoCo's own reckoning."""
+    from chains import random_chain_xml
+
+    rng = np.random.default_rng(seed)
+    robot = _robot_from_xml(tmp_path, random_chain_xml(rng, self_collision=False), f"edge{seed}.xml")
+    n = robot.dim
+    assume(n >= 2)
+    oracle = BubbleOracle(robot, delta=0.005)
+    check = _IndependentCheck(robot)
+    q = rng.uniform(robot.lower, robot.upper)
+    for j in rng.choice(n, 2, replace=False):
+        q[j] = robot.lower[j] if rng.random() < 0.5 else robot.upper[j]
+    assume(oracle.clearance(q) > 0.006)
+    e = oracle.holding_bubble(q, want=1e-3)
+    oracle.close()
+    assert not e.within_bounds and np.array_equal(e.center, q) and e.radius > 0
+    pts = _uniform_in_ball(rng, q, e.radius, 400)
+    pts = pts[np.all((pts >= robot.lower) & (pts <= robot.upper), axis=1)][:12]
+    towards = [q + s * (a - q) for a in pts[:5] for s in np.linspace(0, 1, 5)]
+    for a in np.vstack([pts, towards]):
+        assert check.clearance(a) >= 0.005 - 1e-7, f"clearance below delta at {a} in the end bubble ({q}, {e.radius})"
 
 
 def _points_in_geom(m, d, g):

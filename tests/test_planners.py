@@ -544,15 +544,48 @@ def test_a_goal_with_the_knee_straight_at_its_limit_is_reached_and_smoothed_safe
         assert checker.first_collision_along(path, step=2e-3) is None
 
 
-def test_an_end_point_with_two_joints_at_their_limits_is_refused_naming_them():
+@pytest.mark.parametrize("ends", ["goal", "both"])
+def test_end_points_on_an_edge_of_the_joint_box_are_reached_and_every_path_stays_in_the_box(obstacle_robot, ends):
+    # Hip flexed to its limit and knee straight at its limit: no ball inside the joint box holds such a point, so its
+    # end bubble is the clearance's ball about it, which leaves the box. Every path through the chain still stays in
+    # the box (each hatch lies in an in-box neighbour), keeps delta by MuJoCo's own check, and ends exactly there.
+    from conftest import MujocoChecker
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.planners.base import smoother_start
+    from foam_mj.smoothing import OptimalSmoother
+
+    s = load_scenario("obstacle")
+    oracle = BubbleOracle(obstacle_robot)
+    lo, hi = oracle.robot.lower, oracle.robot.upper
+    q_goal = np.array([hi[0], lo[1], s.q_goal[2]])
+    q_init = np.array([lo[0], lo[1], s.q_init[2]]) if ends == "both" else s.q_init
+    problem = PlanningProblem(oracle, q_init, q_goal, delta=oracle.delta, time_limit=20.0)
+    a, b = problem.endpoint_bubbles(1e-3)
+    assert not b.within_bounds and a.within_bounds == (ends == "goal")
+    if ends == "both":  # two balls that leave the box are never neighbours
+        assert np.linalg.norm(a.center - b.center) > a.radius + b.radius
+    checker = MujocoChecker(obstacle_robot)
+    for seed in range(2):
+        res = get_planner("bubbletree").plan(problem, seed=seed)
+        ros = res.rosary
+        assert ros.check_structure() == [] and ros.all_in_hatches(ros.center_waypoints())
+        inner = ros.radii[1:-1] if ends == "both" else ros.radii[:-1]
+        centres = ros.centers[1:-1] if ends == "both" else ros.centers[:-1]
+        assert np.all(inner <= oracle.radii(centres) + 1e-9)  # in-box bubbles: certified by the oracle as they are
+        sm = OptimalSmoother().smooth(ros, initial=smoother_start(ros, res.waypoints), seed=seed)
+        assert sm.info["certified"]
+        for path in (ros.path(ros.center_waypoints()), ros.path(res.waypoints), np.asarray(sm.path)):
+            assert np.array_equal(path[0], q_init) and np.array_equal(path[-1], q_goal)
+            assert np.all(path >= lo) and np.all(path <= hi)
+            assert checker.first_collision_along(path, step=2e-3) is None
+            assert min(checker.distance(q) for q in path) >= 0.005 - 1e-9
+
+
+def test_pfm_refuses_an_end_point_on_a_joint_limit_and_names_bubbletree():
     from foam_mj.bubbles import BubbleOracle
 
     s = load_scenario("obstacle")
     oracle = BubbleOracle(s.robot, delta=0.005)
-    q_goal = np.array([oracle.robot.upper[0], 0.0, s.q_goal[2]])  # hip flexed to its limit, knee straight
-    problem = PlanningProblem(oracle, s.q_init, q_goal, delta=0.005)
-    with pytest.raises(ConfigurationError, match=r"q_goal .* has hip_flexion and knee_flexion at their limits: no certified bubble"):
-        get_planner("bubbletree").plan(problem, seed=0)
     with pytest.raises(ConfigurationError, match="lies on the boundary of the joint bounds.*the bubbletree planner accepts it"):
         get_planner("pfm").plan(PlanningProblem(oracle, s.q_init, np.array([s.q_goal[0], 0.0, s.q_goal[2]]), delta=0.005), seed=0)
 

@@ -24,7 +24,7 @@ from typing import Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
-from foam_mj.bubbles import BubbleOracle
+from foam_mj.bubbles import BubbleOracle, EndBubble
 from foam_mj.errors import ConfigurationError, FoamError, clearance_text
 from foam_mj.foam import Foam
 from foam_mj.rosary import Rosary
@@ -77,25 +77,20 @@ class PlanningProblem:
                                          f"centred there fits (the bubbletree planner accepts it)")
         return float(radii[0]), float(radii[1])
 
-    def endpoint_bubbles(self, want: float) -> tuple[tuple[np.ndarray, float], tuple[np.ndarray, float]]:
-        """A certified bubble (centre, radius) holding q_init and one holding q_goal, centred at the end point
-        itself unless the joint bounds keep its radius below ``want`` (an end point on or beside a joint limit:
-        :meth:`foam_mj.bubbles.BubbleOracle.holding_bubble` moves the centre off the bounds).
-        :class:`ConfigurationError` naming the clearance when either is closer than delta to an obstacle, or
-        the joints when one lies on an edge or corner of the joint box (two or more joints at their limits)."""
+    def endpoint_bubbles(self, want: float) -> tuple[EndBubble, EndBubble]:
+        """A certified bubble holding q_init and one holding q_goal (:meth:`foam_mj.bubbles.BubbleOracle.holding_bubble`):
+        centred at the end point itself unless the joint bounds keep its radius below ``want`` (an end point on or
+        beside a joint limit: the centre moves off the bounds; on an edge or corner of the joint box, a ball about
+        the end point that leaves the box). Two balls that leave the box are kept apart (each radius at most 0.45 x
+        the distance between the end points: smaller balls about the same centres, still certified and holding
+        them), so that no chain has them as neighbours, whose hatch could leave the box. :class:`ConfigurationError`
+        naming the clearance when either end point is closer than delta to an obstacle."""
         Q, _ = self._endpoint_distances()
-        out = []
-        for name, q in zip(("q_init", "q_goal"), Q):
-            c, r = self.oracle.holding_bubble(q, want)
-            if not r > 0:
-                r_ = self.oracle.robot
-                at = [r_.config.joint_names[j] for j in np.flatnonzero((q <= r_.lower) | (q >= r_.upper))]
-                raise ConfigurationError(
-                    f"{name} {q.tolist()} has {' and '.join(at) if at else 'joints'} at their limits: no certified bubble "
-                    f"inside the joint bounds holds it (a bubble may touch one limit, not two); move one of them off its limit"
-                )
-            out.append((c, r))
-        return out[0], out[1]
+        a, b = (self.oracle.holding_bubble(q, want) for q in Q)
+        if not (a.within_bounds or b.within_bounds):
+            cap = 0.45 * float(np.linalg.norm(a.center - b.center))
+            a, b = (EndBubble(e.center, min(e.radius, cap), False) for e in (a, b))
+        return a, b
 
     def _endpoint_distances(self) -> tuple[np.ndarray, np.ndarray]:
         """q_init and q_goal (2, n) and their pair distances (one batch); :class:`ConfigurationError` naming the

@@ -80,8 +80,10 @@ are accepted (r_min is a resolution of the growth, not a precondition), and so a
 limit (a straight knee is its range's end): where the joint bounds, not the clearance, keep an end point's own
 bubble under r_min, its tree's root is a certified bubble moved off the bounds that holds it
 (:meth:`foam_mj.bubbles.BubbleOracle.holding_bubble`; on a limit the root touches it at the end point),
-so the path still ends exactly there; only an end point with two joints at their limits (an edge or corner
-of the joint box, which no ball inside the box holds) is refused, naming the joints. ``r_min`` defaults to
+so the path still ends exactly there; an end point with two or more joints at their limits (an edge or
+corner of the joint box, which no ball inside the box holds) gets the clearance's ball about itself, which
+leaves the box: every hatch of a chain lies in an in-box neighbour, so every path stays in the box, where
+the ball certifies it. ``r_min`` defaults to
 delta / ||rho||_2 / 2, half the radius that a clearance of 2 delta buys (the bound of Nascimento and Alsina 2021
 Eq. 4 on this model), so that narrow passages down to a few delta of clearance are still entered.
 """
@@ -117,6 +119,14 @@ MAX_TRIES = 3
 #: paths are certified and keep their own clearance. Plans from other starts are unchanged (hashall.py).
 GROW = 1.5
 SMALLEST = 3e-5
+#: A root that leaves the joint box (an end point on an edge or corner of it: foam_mj.bubbles.BubbleOracle.holding_bubble)
+#: has children of radius r_min, or CORNER x its own if that is less: next to the corner the bounds keep every bubble
+#: in the box small (a child on the root's surface is about r / sqrt(2) from two faces), and from such a child GROW
+#: takes over. With r_min alone, a corner goal of the step_down scene 7.4 mm from the floor (root 2.16e-3, r_min 2.1e-3)
+#: never grew in 20 s.
+CORNER = 0.5
+#: A failed plan names an end point on a joint limit whose tree holds fewer bubbles than this (it stalled beside it).
+STALLED = 20
 #: ``refine_chain = 0``: refinement starts no new round once the chain holds this many bubbles per joint
 #: (on the 3-joint obstacle scene 60 bubbles cut plan + optimal smoother by ~13 % CPU at the same median
 #: length; on the 5-joint leg a cap of 60 cost 6 % of length, 100 costs nothing).
@@ -342,7 +352,10 @@ class BubbleTreePlanner(Planner):
             raise ConfigurationError(f"bubbletree option `r_min` = {r_min:g} is not below half the joint box's diagonal "
                                      f"({half_span:.3g}); use a smaller one (0: derived from delta)")
         q0, q1 = problem.q_init, problem.q_goal
-        (c0, r0), (c1, r1) = problem.endpoint_bubbles(r_min)  # centred at q0 and q1 unless a joint limit is in the way
+        e0, e1 = problem.endpoint_bubbles(r_min)  # centred at q0 and q1 unless a joint limit is in the way
+        (c0, r0), (c1, r1) = (e0.center, e0.radius), (e1.center, e1.radius)
+        outside = np.array([not e0.within_bounds, not e1.within_bounds])  # roots that leave the joint box
+        corner_roots = bool(outside.any())
         metric = robot.config.scale if o.metric == "qpos" else np.ones(n)
 
         B = _Bubbles(n)
@@ -429,10 +442,15 @@ class BubbleTreePlanner(Planner):
                 outcome = "time budget" if timer.elapsed() > problem.time_limit else "bubble budget"
                 st = stats(outcome, None)
                 stuck = "".join(
-                    f"; the {side} tree never grew: {name}'s certified bubble has radius {r:.3g} < r_min = {r_min:.3g}"
-                    f"{f' and < {SMALLEST:g}, too small to grow from' if r < SMALLEST else ''} (its clearance "
-                    f"is barely above delta or it lies next to a joint bound; `foam-mj bubble` shows which): move it away"
-                    for side, name, r, T in (("start", "q_init", r0, B.trees[0]), ("goal", "q_goal", r1, B.trees[1])) if T.n == 1 and r < r_min
+                    (f"; the {side} tree never grew: {name}'s certified bubble has radius {r:.3g} < r_min = {r_min:.3g}"
+                     f"{f' and < {SMALLEST:g}, too small to grow from' if r < SMALLEST else ''} (its clearance "
+                     f"is barely above delta or it lies next to a joint bound; `foam-mj bubble` shows which): move it away")
+                    if T.n == 1 else
+                    (f"; the {side} tree stopped at {T.n} bubbles: {name} lies on {'an edge or corner of the joint box' if out else 'a joint limit'} "
+                     f"and its certified bubble has radius {r:.3g}, so the bubbles beside it are too small to grow (clearance "
+                     f"{clearance_text(oracle.clearance(q), problem.delta)}): move it off a limit or away from the obstacle")
+                    for side, name, q, r, out, T in (("start", "q_init", q0, r0, outside[0], B.trees[0]), ("goal", "q_goal", q1, r1, outside[1], B.trees[1]))
+                    if (T.n == 1 and r < r_min) or (T.n < STALLED and (out or oracle.to_bounds(q) < r_min))
                 )
                 raise PlanningFailed(
                     f"the trees did not meet ({outcome}) after {B.n} bubbles in {st.elapsed:.2f} s{stuck}", st, B.foam(q0, q1)
@@ -492,7 +510,11 @@ class BubbleTreePlanner(Planner):
             flat = cand.reshape(-1, n)
             wall = oracle.to_bounds(flat).reshape(s.shape)
             reach = rP[:, None]
-            floor = np.where(rP >= SMALLEST, np.minimum(r_min, GROW * rP), r_min)[:, None]  # (GROW, SMALLEST)
+            floor = np.where(rP >= SMALLEST, np.minimum(r_min, GROW * rP), r_min)  # (GROW, SMALLEST)
+            if corner_roots:  # children of a root on an edge or corner of the box (CORNER)
+                at = P[P < 2]
+                floor[P < 2] = np.where(outside[at], np.minimum(r_min, CORNER * rP[P < 2]), floor[P < 2])
+            floor = floor[:, None]
             ask = np.flatnonzero((wall >= floor) & (s <= reach + (1 - HATCH) * wall))
             flat = flat.take(ask, axis=0)
             r = np.zeros(s.shape)
