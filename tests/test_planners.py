@@ -610,3 +610,17 @@ def test_bubbletree_plans_the_7_joint_arm_around_the_box_collision_free(checkers
     sm = OptimalSmoother().smooth(res.rosary, initial=smoother_start(res.rosary, res.waypoints), seed=0)
     assert sm.info["certified"] and checker.first_collision_along(np.asarray(sm.path), step=2e-3) is None
     oracle.close()
+
+
+def test_a_tree_that_stalls_beside_an_end_point_on_an_edge_of_the_joint_box_is_named(robots):
+    # step_down, knee straight and hip displacement at its end, 7.4 mm from the floor: the start's ball (radius
+    # 2.2e-3) leaves the box and the bubbles beside it in the box are bound-limited, too small to grow from.
+    from foam_mj.bubbles import BubbleOracle
+
+    s = load_scenario("step_down")
+    oracle = BubbleOracle(robots["step_down"], delta=0.005)
+    lo, hi = oracle.robot.lower, oracle.robot.upper
+    q_init = np.array([-0.25, lo[1], hi[2]])
+    with pytest.raises(PlanningFailed, match=r"the start tree stopped at \d+ bubbles: q_init lies on an edge or corner of the "
+                                             r"joint box .* \(clearance 0\.0074 m\): move it off a limit or away from the obstacle"):
+        get_planner("bubbletree").plan(PlanningProblem(oracle, q_init, s.q_goal, delta=0.005, time_limit=1.0), seed=0)

@@ -445,7 +445,7 @@ class BubbleTreePlanner(Planner):
                     (f"; the {side} tree never grew: {name}'s certified bubble has radius {r:.3g} < r_min = {r_min:.3g}"
                      f"{f' and < {SMALLEST:g}, too small to grow from' if r < SMALLEST else ''} (its clearance "
                      f"is barely above delta or it lies next to a joint bound; `foam-mj bubble` shows which): move it away")
-                    if T.n == 1 else
+                    if T.n == 1 and r < r_min else
                     (f"; the {side} tree stopped at {T.n} bubbles: {name} lies on {'an edge or corner of the joint box' if out else 'a joint limit'} "
                      f"and its certified bubble has radius {r:.3g}, so the bubbles beside it are too small to grow (clearance "
                      f"{clearance_text(oracle.clearance(q), problem.delta)}): move it off a limit or away from the obstacle")
