@@ -319,7 +319,11 @@ class BubbleOracle:
         r = np.minimum((np.asarray(clearance) - self.delta) / self._factor, self.to_bounds(q))
         return np.maximum(r, 0.0)
 
-    def holding_bubble(self, q: np.ndarray, want: float) -> "EndBubble":
+    def pair_radii(self, distances: np.ndarray) -> np.ndarray:
+        """The per-pair terms (d_p - delta) / ||rho_p|| of the radius (..., P), without the bounds' terms."""
+        return (np.asarray(distances) - self.delta) * self._inv
+
+    def holding_bubble(self, q: np.ndarray, want: float, distances: np.ndarray | None = None) -> "EndBubble":
         """A certified bubble that holds q, for an end point of a path (:class:`EndBubble`).
 
         The bubble centred at q has at most q's distance to the joint bounds (the radius's bounds term, module
@@ -340,12 +344,12 @@ class BubbleOracle:
         points stays in the box (convex) and in the ball, where the bound certifies it. Two such balls must never
         be neighbours (their hatch may leave the box): :meth:`foam_mj.planners.base.PlanningProblem.endpoint_bubbles`
         keeps them apart. Returns q's own bubble where it needs no move, radius 0 where q has no clearance to
-        spare."""
+        spare. ``distances``: q's pair distances, when the caller has them (else one query)."""
         q = np.asarray(q, dtype=float)
         lo, hi = self.robot.lower, self.robot.upper
-        D = self.clearance.batch_pairs(q[None])
+        D = self.clearance.batch_pairs(q[None]) if distances is None else np.asarray(distances, dtype=float)[None]
         own = float(self.radius_from_distances(D, q[None])[0])
-        free = float(np.maximum(((D[0] - self.delta) * self._inv).min(), 0.0))  # the clearance's radius alone
+        free = float(np.maximum(self.pair_radii(D[0]).min(), 0.0))  # the clearance's radius alone
         if own >= min(want, free) or free <= 0.0:
             return EndBubble(q, own, True)
         rho = free * 0.5 ** np.arange(SHRINK)[:, None]  # (S, 1)
@@ -373,7 +377,7 @@ class BubbleOracle:
         """Everything behind the radius at q: per-pair distances and bounds, the pair that sets the radius."""
         q = self.robot.validate(q)
         dist = self.clearance.pair_distances(q)
-        terms = (dist - self.delta) * self._inv
+        terms = self.pair_radii(dist)
         k = int(np.argmin(terms))
         to_bounds = float(self.to_bounds(q))
         return BubbleReport(

@@ -85,8 +85,8 @@ class PlanningProblem:
         the distance between the end points: smaller balls about the same centres, still certified and holding
         them), so that no chain has them as neighbours, whose hatch could leave the box. :class:`ConfigurationError`
         naming the clearance when either end point is closer than delta to an obstacle."""
-        Q, _ = self._endpoint_distances()
-        a, b = (self.oracle.holding_bubble(q, want) for q in Q)
+        Q, D = self._endpoint_distances()
+        a, b = (self.oracle.holding_bubble(q, want, d) for q, d in zip(Q, D))
         if not (a.within_bounds or b.within_bounds):
             cap = 0.45 * float(np.linalg.norm(a.center - b.center))
             a, b = (EndBubble(e.center, min(e.radius, cap), False) for e in (a, b))

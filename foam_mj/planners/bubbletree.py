@@ -512,8 +512,8 @@ class BubbleTreePlanner(Planner):
             reach = rP[:, None]
             floor = np.where(rP >= SMALLEST, np.minimum(r_min, GROW * rP), r_min)  # (GROW, SMALLEST)
             if corner_roots:  # children of a root on an edge or corner of the box (CORNER)
-                at = P[P < 2]
-                floor[P < 2] = np.where(outside[at], np.minimum(r_min, CORNER * rP[P < 2]), floor[P < 2])
+                root = P < 2
+                floor[root] = np.where(outside[P[root]], np.minimum(r_min, CORNER * rP[root]), floor[root])
             floor = floor[:, None]
             ask = np.flatnonzero((wall >= floor) & (s <= reach + (1 - HATCH) * wall))
             flat = flat.take(ask, axis=0)
