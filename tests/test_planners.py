@@ -612,15 +612,42 @@ def test_bubbletree_plans_the_7_joint_arm_around_the_box_collision_free(checkers
     oracle.close()
 
 
-def test_a_tree_that_stalls_beside_an_end_point_on_an_edge_of_the_joint_box_is_named(robots):
+def test_an_end_point_on_an_edge_of_the_joint_box_beside_the_floor_is_planned_to(robots):
     # step_down, knee straight and hip displacement at its end, 7.4 mm from the floor: the start's ball (radius
-    # 2.2e-3) leaves the box and the bubbles beside it in the box are bound-limited, too small to grow from.
+    # 2.2e-3) leaves the box and every bubble beside it in the box is bound- and floor-limited (about 1-2e-3, under
+    # r_min): the goal tree reaches it with bubbles down to CORNER x r_min (TOWARD_SMALL); it stalled before.
+    from conftest import MujocoChecker
     from foam_mj.bubbles import BubbleOracle
+    from foam_mj.planners.base import smoother_start
+    from foam_mj.smoothing import OptimalSmoother
 
     s = load_scenario("step_down")
     oracle = BubbleOracle(robots["step_down"], delta=0.005)
+    checker = MujocoChecker(oracle.robot)
     lo, hi = oracle.robot.lower, oracle.robot.upper
     q_init = np.array([-0.25, lo[1], hi[2]])
-    with pytest.raises(PlanningFailed, match=r"the start tree stopped at \d+ bubbles: q_init lies on an edge or corner of the "
-                                             r"joint box .* \(clearance 0\.0074 m\): move it off a limit or away from the obstacle"):
-        get_planner("bubbletree").plan(PlanningProblem(oracle, q_init, s.q_goal, delta=0.005, time_limit=1.0), seed=0)
+    res = get_planner("bubbletree").plan(PlanningProblem(oracle, q_init, s.q_goal, delta=0.005, time_limit=30.0), seed=2)
+    ros = res.rosary
+    assert ros.check_structure() == [] and ros.all_in_hatches(ros.center_waypoints())
+    assert np.all(ros.radii[1:] <= oracle.radii(ros.centers[1:]) + 1e-9)  # in-box bubbles: certified as they are
+    sm = OptimalSmoother().smooth(res.rosary, initial=smoother_start(res.rosary, res.waypoints), seed=2)
+    for path in (ros.path(ros.center_waypoints()), ros.path(res.waypoints), np.asarray(sm.path)):
+        assert np.array_equal(path[0], q_init) and np.all((path >= lo) & (path <= hi))
+        assert checker.first_collision_along(path, step=2e-3) is None
+    dense = np.concatenate([a_ + (b_ - a_) * np.linspace(0.0, 1.0, 50)[:, None] for a_, b_ in zip(path[:-1], path[1:])])
+    assert sm.info["certified"] and min(checker.distance(q) for q in dense) >= 0.005 - 1e-9  # the margin, by MuJoCo
+    oracle.close()
+
+
+def test_a_tree_that_stalls_beside_an_end_point_on_an_edge_of_the_joint_box_is_named(robots):
+    # The same start with delta 7 mm, 0.4 mm under its clearance: its ball (radius 3.7e-4) and the bubbles beside it
+    # are too small to grow; a bubble budget (not the clock) ends the plan, with the end point named.
+    from foam_mj.bubbles import BubbleOracle
+
+    s = load_scenario("step_down")
+    oracle = BubbleOracle(robots["step_down"], delta=0.007)
+    lo, hi = oracle.robot.lower, oracle.robot.upper
+    q_init = np.array([-0.25, lo[1], hi[2]])
+    with pytest.raises(PlanningFailed, match=r"bubble budget.*the start tree stopped at \d+ bubbles: q_init lies on an edge or corner "
+                                             r"of the joint box .* \(clearance 0\.0074 m\): move it off a limit or away from the obstacle"):
+        get_planner("bubbletree").plan(PlanningProblem(oracle, q_init, s.q_goal, delta=0.007, max_bubbles=2000), seed=0)
