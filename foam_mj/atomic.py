@@ -50,6 +50,15 @@ def _name_max(folder: Path) -> int:
         return 255
 
 
+def _target(p: Path) -> Path:
+    """The file a write to ``p`` must replace: ``p`` itself, or for a symbolic link the file it points to (a rename
+    onto the link would replace the link: ``--out /dev/stdout`` as root turned /dev/stdout into a regular file)."""
+    try:
+        return Path(os.path.realpath(p)) if p.is_symlink() else p
+    except OSError:  # e.g. a name too long to look up: not a link; check_output names the problem
+        return p
+
+
 def _tmp_name(target: Path) -> str:
     suffix = target.suffix if len(target.suffix) <= 16 else ""
     return f".{target.name[:60]}.{secrets.token_hex(4)}.tmp{suffix}"
@@ -77,35 +86,37 @@ def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | Non
     p = Path(text)
     if suffix is not None and p.suffix != suffix:
         raise OutputError(f"{what} output {p} must end in {suffix}")
+    link, p = p, _target(p)  # a link: the checks below are of the file it points to, which the write replaces
+    shown = str(p) if p == link else f"{link} (a link to {p})"
     folder = p.parent
     try:
         if not folder.is_dir():
-            raise OutputError(f"{what} output {p}: folder {folder} does not exist")
+            raise OutputError(f"{what} output {shown}: folder {folder} does not exist")
         limit = _name_max(folder)
         if len(os.fsencode(p.name)) > limit:
             raise OutputError(f"{what} output: file name of {len(os.fsencode(p.name))} bytes is longer than this file system allows ({limit})")
         if p.is_dir():
-            raise OutputError(f"{what} output {p} is a directory")
+            raise OutputError(f"{what} output {shown} is a directory")
         if p.exists() and not p.is_file():
-            raise OutputError(f"{what} output {p} exists and is not a regular file ({_kind(p)}): writing it would replace it; give a file name")
+            raise OutputError(f"{what} output {shown} exists and is not a regular file ({_kind(p)}): writing it would replace it; give a file name")
         if p.exists() and not os.access(p, os.W_OK):
-            raise OutputError(f"{what} output {p} is not writable")
+            raise OutputError(f"{what} output {shown} is not writable")
         probe = folder / f".foam-mj-probe.{secrets.token_hex(4)}.tmp"
         try:
             fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
         except OSError as exc:
-            raise OutputError(f"{what} output {p}: cannot create a file in {folder}: {_reason(exc)}") from None
+            raise OutputError(f"{what} output {shown}: cannot create a file in {folder}: {_reason(exc)}") from None
         os.close(fd)
         os.unlink(probe)
         st = os.statvfs(folder)
         free = st.f_bavail * st.f_frsize
         if free < (MIN_FREE_BYTES if min_free is None else min_free):
-            raise OutputError(f"{what} output {p}: no space left on its file system ({free} bytes free)")
+            raise OutputError(f"{what} output {shown}: no space left on its file system ({free} bytes free)")
     except OutputError:
         raise
     except OSError as exc:
-        raise OutputError(f"{what} output {p}: {_reason(exc)}") from None
-    return p
+        raise OutputError(f"{what} output {shown}: {_reason(exc)}") from None
+    return link
 
 
 def _kind(p: Path) -> str:
@@ -176,9 +187,9 @@ def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
 
     When the block raises (or the rename fails), the temporary file is removed and the exception
     propagates, an :class:`OSError` turned into :class:`OutputError` naming ``target``. An existing
-    ``target`` is left untouched until the rename.
+    ``target`` is left untouched until the rename. A symbolic link is kept: the file it points to is replaced.
     """
-    target = Path(target)
+    target = _target(Path(target))
     tmp = target.parent / _tmp_name(target)
     try:
         yield tmp

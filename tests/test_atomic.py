@@ -107,3 +107,28 @@ def test_an_output_name_ending_in_a_slash_is_a_folder_not_a_file(tmp_path):
     with pytest.raises(OutputError, match="ends in '/': it names a folder"):
         check_output(f"{tmp_path}/new/", "--json")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_symbolic_link_is_kept_and_the_file_it_points_to_is_replaced(tmp_path):
+    # `export --out /dev/stdout` (stdout redirected to a file) as root renamed the export onto the /dev/stdout link
+    # itself: the machine's /dev/stdout became a regular file. A link is checked and written as the file it names.
+    real, link = tmp_path / "real.csv", tmp_path / "link.csv"
+    real.write_text("old")
+    link.symlink_to(real)
+    assert check_output(link, "--out") == link
+    atomic_write_text(link, "new")
+    assert link.is_symlink() and os.readlink(link) == str(real) and real.read_text() == "new"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.csv", "real.csv"]
+
+
+def test_a_link_to_a_device_or_to_nowhere_is_refused_and_left_alone(tmp_path):
+    device, dangling = tmp_path / "null.json", tmp_path / "dangling.json"
+    device.symlink_to("/dev/null")
+    dangling.symlink_to(tmp_path / "missing" / "x.json")
+    with pytest.raises(OutputError, match=r"null.json \(a link to /dev/null\) exists and is not a regular file \(a character device\)"):
+        check_output(device, "--json")
+    with pytest.raises(OutputError, match=r"not a regular file"):
+        atomic_write_text(device, "{}")
+    with pytest.raises(OutputError, match=r"dangling.json \(a link to .*missing/x.json\): folder .*missing does not exist"):
+        check_output(dangling, "--json")
+    assert device.is_symlink() and dangling.is_symlink() and os.path.exists("/dev/null") and not os.path.isfile("/dev/null")
