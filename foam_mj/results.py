@@ -275,11 +275,35 @@ def read_result(path: str | Path) -> dict:
             raise FoamError(f"{p}: missing field '{key}'")
     if not isinstance(doc["paths"], dict):
         raise FoamError(f"{p}: field 'paths' must be an object")
+    for key in ("planner", "limits"):
+        if key in doc and not isinstance(doc[key], dict):
+            raise FoamError(f"{p}: field '{key}' must be an object, got {type(doc[key]).__name__}")
+    q_init, q_goal = (_finite_array(doc[key], p, f"field '{key}'", 1) for key in ("q_init", "q_goal"))
+    if len(q_init) != len(q_goal):
+        raise FoamError(f"{p}: fields 'q_init' and 'q_goal' must have as many numbers, got {len(q_init)} and {len(q_goal)}")
     for name, entry in doc["paths"].items():
         for key in ("waypoints", "rosary"):
             if not isinstance(entry, dict) or key not in entry:
                 raise FoamError(f"{p}: path '{name}' misses field '{key}'")
+        _finite_array(entry["waypoints"], p, f"path '{name}': field 'waypoints'", 2, len(q_init))
     return doc
+
+
+def _finite_array(value: Any, source: Path, where: str, ndim: int, width: int | None = None) -> np.ndarray:
+    """``value`` as a float array of ``ndim`` (1: one configuration, 2: rows of them, at least 2) of finite
+    numbers, ``width`` numbers per configuration; FoamError naming ``where`` otherwise."""
+    expected = "a list of numbers" if ndim == 1 else "a list of at least 2 rows of numbers"
+    if width is not None:
+        expected += f", {width} per {'list' if ndim == 1 else 'row'} (one per configuration coordinate)"
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.ndim != ndim or arr.shape[-1] == 0 or (width is not None and arr.shape[-1] != width) or (ndim == 2 and len(arr) < 2):
+        raise FoamError(f"{source}: {where} must be {expected}")
+    if not np.all(np.isfinite(arr)):
+        raise FoamError(f"{source}: {where} holds a number that is not finite (NaN or infinite)")
+    return arr
 
 
 def _version() -> str:

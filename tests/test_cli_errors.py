@@ -346,3 +346,28 @@ def test_an_output_never_overwrites_an_input_or_another_output(planned_result, t
         assert len(err.splitlines()) == 1 and words in err, (argv, err)
     assert {p: p.read_bytes() for p in before} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["arm.xml", "r.json", "s.toml"]
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda d: d.update(limits="x"), "field 'limits' must be an object, got str"),
+        (lambda d: d.update(planner=[1]), "field 'planner' must be an object, got list"),
+        (lambda d: d.update(q_init=[0.2, 0.3]), "fields 'q_init' and 'q_goal' must have as many numbers, got 2 and 3"),
+        (lambda d: d.update(q_goal="abc"), "field 'q_goal' must be a list of numbers"),
+        (lambda d: d["paths"]["centre"]["waypoints"][2].__setitem__(0, float("nan")), "path 'centre': field 'waypoints' holds a number that is not finite"),
+        (lambda d: d["paths"]["centre"]["waypoints"][2].append(0.1), "path 'centre': field 'waypoints' must be a list of at least 2 rows of numbers, 3 per row"),
+        (lambda d: d["paths"]["centre"].update(waypoints=[[0.2, 0.3, 0.08]]), "path 'centre': field 'waypoints' must be a list of at least 2 rows"),
+    ],
+)
+def test_replay_export_and_figures_refuse_a_malformed_result_before_any_output(planned_result, tmp_path, edit, message, capsys):
+    """limits = "x" was an internal error (exit 1, AttributeError) in replay and export; a NaN waypoint made
+    figures exit 1 after writing some of the figures. Each is now one line, exit 2, and nothing is written."""
+    bad = _edited(planned_result, tmp_path, edit)
+    for argv in (["replay", str(bad), "--kinematic-only", "--rrd", str(tmp_path / "r.rrd")],
+                 ["export", str(bad), "--format", "csv", "--out", str(tmp_path / "t.csv")],
+                 ["figures", str(bad), str(tmp_path / "figs")]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and message in err, (argv, err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["edited.json"]
