@@ -134,7 +134,7 @@ def load(out: str | Path) -> tuple[dict, Any]:
     manifest = read_manifest(out)
     if manifest is None:
         raise FoamError(f"{out} is not a sweep folder (no sweep.json): run foam-mj sweep SWEEP.toml --out {out} first")
-    return manifest, read_rows(out)
+    return manifest, read_rows(out, manifest.get("columns") or ("key",))
 
 
 def summary(manifest: dict, table) -> list[dict]:

@@ -67,6 +67,22 @@ def _row_files(folder: Path) -> list[Path]:
     return sorted(f for f in folder.glob("*.parquet") if not f.name.startswith("."))
 
 
+def _read_batch(f: Path, required: Iterable[str], columns: list[str] | None = None):
+    """One batch of rows as a pyarrow Table; SweepError naming the file when it is not a Parquet file of this
+    sweep (unreadable, truncated, or without one of the ``required`` columns)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        schema = pq.read_schema(f)
+        missing = [c for c in required if c not in schema.names]
+        if missing:
+            raise SweepError(f"{f}: not a row file of this sweep (no column(s) {missing[:5]}); move it out of {f.parent}")
+        return pq.read_table(f, columns=columns)
+    except (pa.ArrowException, OSError) as exc:
+        raise SweepError(f"{f}: not a readable Parquet file ({' '.join(str(exc).split())[:200]}); move it out of {f.parent}") from None
+
+
 def read_manifest(out: Path) -> dict | None:
     p = Path(out) / MANIFEST
     if not p.is_file():
@@ -136,11 +152,9 @@ class RowStore:
         files = _row_files(self.dir)
         if not files:
             return set()
-        import pyarrow.parquet as pq
-
         keys: set[str] = set()
         for f in files:
-            keys.update(pq.read_table(f, columns=["key"]).column("key").to_pylist())
+            keys.update(_read_batch(f, self.schema.names, columns=["key"]).column("key").to_pylist())
         return keys
 
     def add(self, rows: Iterable[dict]) -> None:
@@ -220,15 +234,13 @@ class _interrupts_deferred:
                 raise KeyboardInterrupt
 
 
-def read_rows(out: str | Path):
-    """Every row of a sweep folder as one pyarrow Table."""
+def read_rows(out: str | Path, columns: Iterable[str] = ("key",)):
+    """Every row of a sweep folder as one pyarrow Table; every file must hold ``columns`` (the manifest's)."""
     pa = _pyarrow()
-    import pyarrow.parquet as pq
-
     files = _row_files(Path(out) / ROWS)
     if not files:
         raise SweepError(f"{out}: no rows (expected Parquet files in {Path(out) / ROWS})")
-    return pa.concat_tables([pq.read_table(f) for f in files], promote_options="default")
+    return pa.concat_tables([_read_batch(f, columns) for f in files], promote_options="default")
 
 
 # ----------------------------------------------------------------------------------------- progress

@@ -414,3 +414,36 @@ def test_ray_with_an_address_joins_that_cluster(study, tmp_path):
     rows = deterministic(check_folder(tmp_path / "joined"))
     local = {r["key"]: r for r in deterministic(study["rows"])}
     assert len(rows) == 2 and rows == [local[r["key"]] for r in rows]
+
+
+@pytest.mark.parametrize("flag, value", [("--batch", "0"), ("--batch", "-5"), ("--limit", "0"), ("--limit", "-1"), ("--workers", "0"),
+                                         ("--flush-seconds", "nan"), ("--flush-seconds", "-1"), ("--progress-interval", "0"),
+                                         ("--progress-interval", "inf")])
+def test_bad_numbers_for_the_sweep_flags_are_exit_2_before_any_work(tmp_path, capsys, flag, value):
+    """--batch -5 ran as 1, --limit -1 ran nothing and exited 0, --flush-seconds nan was taken: each is refused, naming the flag."""
+    out = tmp_path / "out"
+    assert main(["sweep", str(write(tmp_path, STUDY)), "--out", str(out), flag, value]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and f"{flag} must be" in err and value in err, err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda rows: (rows / "zzz.parquet").write_text("hello"), "zzz.parquet: not a readable Parquet file"),
+    (lambda rows: pq.write_table(pa.table({"a": [1, 2]}), rows / "other.parquet"), "other.parquet: not a row file of this sweep (no column(s) ['key'"),
+    (lambda rows: (lambda f: f.write_bytes(f.read_bytes()[:300]))(sorted(rows.glob("*.parquet"))[0]), "not a readable Parquet file"),
+])
+def test_a_corrupt_or_foreign_parquet_file_is_named_by_report_and_by_a_rerun(study, tmp_path, capsys, damage, message):
+    """A truncated batch, a file that is not Parquet or one of another schema in rows/ was an internal error
+    (exit 1, ArrowInvalid / KeyError) in `report` and in a rerun of the sweep: now exit 2 naming the file."""
+    import shutil
+
+    out = tmp_path / "study"
+    shutil.copytree(study["out"], out)
+    damage(out / "rows")
+    before = sorted(p.name for p in (out / "rows").iterdir())
+    for argv in (["report", str(out), "--figures", str(tmp_path / "figs")], ["sweep", str(study["spec"]), "--out", str(out), "--quiet"]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and message in err and "move it out of" in err, err
+    assert sorted(p.name for p in (out / "rows").iterdir()) == before and not (tmp_path / "figs").exists()
