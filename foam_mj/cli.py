@@ -630,8 +630,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
         if importlib.util.find_spec("ray") is None:
             raise FoamError("--ray needs Ray, which is not installed: pip install 'foam-mj[cluster]'")
-    if args.workers is not None and args.workers < 1:
-        raise FoamError(f"--workers must be >= 1, got {args.workers}")
+    for flag, value in (("--workers", args.workers), ("--batch", args.batch), ("--limit", args.limit)):
+        if value is not None and value < 1:
+            raise FoamError(f"{flag} must be an integer >= 1, got {value}")
+    for flag, value in (("--flush-seconds", args.flush_seconds), ("--progress-interval", args.progress_interval)):
+        if not 0 < value < float("inf"):
+            raise FoamError(f"{flag} must be a number of seconds > 0, got {value}")
     sweep = load_sweep(args.sweep)  # every key and value checked: exit 2 naming it, before any plan
     engine = "local" if args.ray is None else "ray"
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # `kill` stops it like Ctrl-C: completed rows kept
