@@ -254,6 +254,17 @@ def _parse_q(text: str, flag: str) -> list[float]:
     return values
 
 
+def _check_delta(delta: float | None) -> None:
+    """``--delta`` (plan, bubble): a finite margin >= 0 in metres."""
+    if delta is not None and not 0 <= delta < float("inf"):
+        raise FoamError(f"--delta must be a margin >= 0 in metres, got {delta}")
+
+
+#: How ``plan --mjcf`` names in its messages the scenario fields its flags fill (the user wrote no scenario).
+MJCF_FIELD_FLAGS = (("fields 'q_goal' and 'q_init' are", "--start and --goal are"), ("field 'q_init'", "--start"),
+                    ("field 'q_goal'", "--goal"), ("field 'scene'", "--mjcf"))
+
+
 def _robot_overrides(doc: dict, args: argparse.Namespace) -> None:
     """--joints, --robot-root and --no-self-collision (plan and bubble) into a scenario document."""
     if args.joints is not None:
@@ -270,8 +281,14 @@ def _robot_overrides(doc: dict, args: argparse.Namespace) -> None:
 def _plan_scenario(args: argparse.Namespace):
     """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta,
     --subject-height/--subject-mass, --robot-root and --no-self-collision override the scenario's fields."""
-    from foam_mj.scenarios import read_scenario_doc, scenario_from_dict
+    from foam_mj.errors import ScenarioError
+    from foam_mj.scenarios import SUBJECT_HEIGHT_RANGE, SUBJECT_MASS_RANGE, read_scenario_doc, scenario_from_dict
 
+    _check_delta(args.delta)
+    for flag, value, (lo, hi), unit in (("--subject-height", args.subject_height, SUBJECT_HEIGHT_RANGE, "m"),
+                                        ("--subject-mass", args.subject_mass, SUBJECT_MASS_RANGE, "kg")):
+        if value is not None and not lo <= value <= hi:
+            raise FoamError(f"{flag} must be in [{lo:g}, {hi:g}] {unit}, got {value}")
     if args.mjcf is not None:
         if args.scene is not None:
             raise FoamError("give either --scene or --mjcf, not both")
@@ -293,7 +310,15 @@ def _plan_scenario(args: argparse.Namespace):
     for flag, key in (("subject_height", "height"), ("subject_mass", "mass")):
         if getattr(args, flag) is not None:
             doc["subject"] = {**doc.get("subject", {}), key: getattr(args, flag)}
-    return scenario_from_dict(doc, base, source=source)
+    try:
+        return scenario_from_dict(doc, base, source=source)
+    except ScenarioError as exc:
+        if source is not None:
+            raise
+        message = str(exc).removeprefix(f"{doc['name']}: ")  # named after the flags, not a scenario file's fields
+        for field_text, flag_text in MJCF_FIELD_FLAGS:
+            message = message.replace(field_text, flag_text)
+        raise ScenarioError(message) from None
 
 
 def _check_figures_dir(path: str | None) -> Path | None:
@@ -424,8 +449,7 @@ def cmd_bubble(args: argparse.Namespace) -> int:
     if (args.scene is None) == (args.mjcf is None):
         raise FoamError("give one of --scene NAME or --mjcf FILE")
     q = _parse_q(args.q, "--q")
-    if args.delta is not None and not (args.delta >= 0 and args.delta < float("inf")):
-        raise FoamError(f"--delta must be a margin >= 0 in metres, got {args.delta}")
+    _check_delta(args.delta)
     if args.mjcf is not None:
         mjcf = Path(args.mjcf)
         if not mjcf.is_file():

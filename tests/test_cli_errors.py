@@ -371,3 +371,27 @@ def test_replay_export_and_figures_refuse_a_malformed_result_before_any_output(p
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and message in err, (argv, err)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["edited.json"]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--delta", "nan"], "--delta must be a margin >= 0 in metres, got nan"),
+        (["--delta", "1e309"], "--delta must be a margin >= 0 in metres, got inf"),
+        (["--subject-height", "50"], "--subject-height must be in [1.2, 2.2] m, got 50.0"),
+        (["--subject-mass", "nan"], "--subject-mass must be in [25, 200] kg, got nan"),
+        (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3", "--goal", "0.45 0.4536 1.45"], "--start: q_init must have shape (3,)"),
+        (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0.08", "--goal", "0 0 0.785"], "--goal = [0.0, 0.0, 0.785] is in collision"),
+        (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0.08", "--goal", "0.2 0.3 0.08"], "--start and --goal are equal"),
+        (["--mjcf", str(MODELS / "obstacle.xml"), "--joints", "a,b,c", "--start", "0.2 0.3 0.08", "--goal", "0.45 0.4536 1.45"],
+         "--mjcf: " + str(MODELS / "obstacle.xml") + ": configuration joint 'a' is not in the model"),
+    ],
+)
+def test_a_bad_flag_is_named_as_the_flag_not_as_a_scenario_field(args, message, tmp_path, monkeypatch, capsys):
+    """`plan --delta nan` said "scenarios/obstacle.toml: [planner] `delta` must be >= 0", `--subject-height 50`
+    "[subject] field 'height'", and `--mjcf ... --goal` "obstacle: field 'q_goal'": a file and fields the user never wrote."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["plan", *args, "--no-rrd"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and err.startswith(f"foam-mj: error: {message}"), err
+    assert ".toml" not in err and list(tmp_path.iterdir()) == []
