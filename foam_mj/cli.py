@@ -78,6 +78,9 @@ class Parser(argparse.ArgumentParser):
 #: Figure file formats and PNG resolution of ``foam-mj figures`` (foam_mj.figures uses these too).
 FIGURE_FORMATS = ("png", "svg", "pdf")
 FIGURE_DPI = 150
+#: The largest --dpi: a 10 x 8 inch figure at 600 dpi is 29 million pixels (about 115 MB to draw); 100,000 dpi ended in
+#: a MemoryError.
+FIGURE_MAX_DPI = 600
 
 
 class Progress:
@@ -634,7 +637,7 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--format", nargs="+", choices=FIGURE_FORMATS, default=["png"], dest="formats",
                    help="one or more of png (default), svg, pdf")
     p.add_argument("--paths", nargs="+", metavar="NAME", default=None, help="only these paths (default: all in the result)")
-    p.add_argument("--dpi", type=int, default=FIGURE_DPI, help=f"resolution of PNG files (default {FIGURE_DPI})")
+    p.add_argument("--dpi", type=int, default=FIGURE_DPI, help=f"resolution of PNG files, at most {FIGURE_MAX_DPI} (default {FIGURE_DPI})")
     p.set_defaults(func=_cmd_figures)
     return p
 

@@ -50,7 +50,7 @@ from typing import Any, Iterable, Sequence
 import mujoco
 import numpy as np
 
-from foam_mj.cli import FIGURE_DPI, FIGURE_FORMATS, add_figures_parser
+from foam_mj.cli import FIGURE_DPI, FIGURE_FORMATS, FIGURE_MAX_DPI, add_figures_parser
 from foam_mj.atomic import atomic_path
 from foam_mj.errors import FoamError
 from foam_mj.model import RobotModel
@@ -953,8 +953,8 @@ def cmd_figures(args: argparse.Namespace) -> int:
 
     from foam_mj.atomic import check_output_dir
 
-    if args.dpi <= 0:
-        raise FoamError(f"--dpi must be positive, got {args.dpi}")
+    if not 0 < args.dpi <= FIGURE_MAX_DPI:
+        raise FoamError(f"--dpi must be in [1, {FIGURE_MAX_DPI}], got {args.dpi}")
     check_output_dir(args.out_dir, "DIR")
     doc = read_result(args.result)
     for p in write_figures(doc, args.out_dir, formats=args.formats, paths=args.paths, dpi=args.dpi):

@@ -232,6 +232,17 @@ def test_cli_entry_point(planned, tmp_path, capsys):
     assert "result file not found" in capsys.readouterr().err
 
 
+def test_a_dpi_beyond_600_or_below_1_is_refused_before_any_drawing(planned, tmp_path, capsys):
+    """--dpi 100000 ended in a MemoryError (exit 1) after creating the output folder."""
+    result = tmp_path / "r.json"
+    result.write_text(json.dumps(planned))
+    for dpi in ("0", "601", "100000"):
+        assert figures.main([str(result), str(tmp_path / "out"), "--dpi", dpi]) == 2
+        err = capsys.readouterr().err
+        assert err.strip() == f"foam-mj: error: --dpi must be in [1, 600], got {dpi}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
+
+
 def test_missing_matplotlib_says_how_to_install(planned, tmp_path, monkeypatch, capsys):
     for name in [m for m in sys.modules if m == "matplotlib" or m.startswith(("matplotlib.", "mpl_toolkits"))]:
         monkeypatch.delitem(sys.modules, name)
