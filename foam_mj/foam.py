@@ -264,6 +264,16 @@ def candidate_bound(params: FoamParams, lower, upper) -> float:
     return float(params.K) * float(np.floor(diag / params.r_min)) ** (len(lower) - 1)
 
 
+def seed_rng(seed: int | np.random.Generator) -> np.random.Generator:
+    """A planner's random generator: ``seed`` itself, or one seeded by an integer in [0, 2**63 - 1];
+    ConfigurationError for anything else (numpy's own messages, e.g. "expected non-negative integer", name nothing)."""
+    if isinstance(seed, np.random.Generator):
+        return seed
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= 2**63 - 1:
+        raise ConfigurationError(f"seed must be an integer in [0, 2**63 - 1] or a numpy Generator, got {seed!r}")
+    return np.random.default_rng(int(seed))
+
+
 def check_candidate_bound(params: FoamParams, lower, upper) -> None:
     """Refuse (ConfigurationError) settings whose bubbles could get more than MAX_CANDIDATES_PER_BUBBLE candidates."""
     if getattr(params, "K", None) is None or getattr(params, "r_min", None) is None:
@@ -388,7 +398,7 @@ def plan(
     if np.array_equal(q_init, q_goal):
         raise ConfigurationError(f"q_goal equals q_init ({q_init.tolist()}): nothing to plan")
     check_candidate_bound(params, robot.lower, robot.upper)
-    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    rng = seed_rng(seed)
     n = robot.dim
     lo, hi = robot.lower, robot.upper
     r_min = params.r_min

@@ -412,9 +412,11 @@ class RobotModel:
     def validate(self, q, name: str = "q", *, check_bounds: bool = True) -> np.ndarray:
         """Return q as a float array of shape (n,), or raise ConfigurationError saying what is wrong."""
         try:
+            if np.asarray(q).dtype.kind in "bc":  # True as 1.0, or 0.2+1j as 0.2 (numpy only warns), would be planned
+                raise TypeError
             arr = np.asarray(q, dtype=float)
         except (TypeError, ValueError):
-            raise ConfigurationError(f"{name} must be a sequence of {self.dim} numbers, got {q!r}") from None
+            raise ConfigurationError(f"{name} must be a sequence of {self.dim} real numbers, got {q!r}") from None
         if arr.shape != (self.dim,):
             raise ConfigurationError(
                 f"{name} must have shape ({self.dim},) ({', '.join(self.config.joint_names)}), got shape {arr.shape}"

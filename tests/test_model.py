@@ -119,7 +119,9 @@ def test_a_model_that_needs_its_other_geoms_keeps_them_in_the_sensor_model(tmp_p
         ([0.1, 0.2, 2.0], "q[2] (hip_displacement) = 2 is outside its bounds"),
         ([0.1, 0.2, -0.3], "hip_displacement"),
         ([0.1, -0.1, 0.3], "knee_flexion"),
-        ("abc", "sequence of 3 numbers"),
+        ("abc", "sequence of 3 real numbers"),
+        (np.array([True, False, True]), "sequence of 3 real numbers"),  # was planned as [1.0, 0.0, 1.0]
+        (np.array([0.2, 0.3, 0.08]) + 1j, "sequence of 3 real numbers"),  # was planned as its real part (numpy only warned)
     ],
 )
 def test_bad_configurations_are_refused_with_the_reason(obstacle_robot, q, message):

@@ -88,6 +88,22 @@ def test_a_start_closer_than_delta_is_refused_naming_its_clearance(oracles):
         PlanningProblem(oracles["obstacle"], q_bad, s.q_goal).endpoint_radii()
 
 
+@pytest.mark.parametrize("name", sorted(PLANNERS))
+def test_every_planner_takes_an_integer_seed_or_a_generator_and_names_any_other(oracles, name):
+    """seed -1 failed in numpy ("expected non-negative integer"), 1.5 and "0" with SeedSequence's TypeError, and
+    True, None or 2**80 were planned with: each is now a ConfigurationError naming the seed, before any growth."""
+    s = load_scenario("obstacle")
+    problem = _problem(oracles["obstacle"], s, time_limit=5.0)
+    planner = get_planner(name, **({"r_min": 0.07} if name != "bubbletree" else {}))
+    for seed in (-1, 1.5, "0", True, None, 2**80, np.random.RandomState(0)):
+        with pytest.raises(ConfigurationError, match=r"seed must be an integer in \[0, 2\*\*63 - 1\] or a numpy Generator"):
+            planner.plan(problem, seed)
+    if name in ("bubbletree", "gbpf"):  # the fast ones: an integer, a numpy integer and a Generator give one path
+        paths = [planner.plan(problem, seed).rosary.centers for seed in (3, np.int64(3), np.random.default_rng(3))]
+        np.testing.assert_array_equal(paths[0], paths[1])
+        np.testing.assert_array_equal(paths[0], paths[2])
+
+
 # -- every planner: a certified chain whose paths MuJoCo finds collision-free -------------------------
 def _check_paths(checker, oracle, res, delta):
     ros = res.rosary

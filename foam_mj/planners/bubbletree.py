@@ -96,7 +96,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
-from foam_mj.foam import Foam
+from foam_mj.foam import Foam, seed_rng
 from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer
 from foam_mj.planners.chains import HATCH
 from foam_mj.planners.corridor import CorridorOptions, build_corridor, overlap_pairs
@@ -346,7 +346,7 @@ class BubbleTreePlanner(Planner):
         o = self.options
         oracle = problem.oracle
         robot = oracle.robot
-        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        rng = seed_rng(seed)
         timer = Timer(progress)
         cpu0 = time.process_time()
         calls0 = oracle.clearance.calls

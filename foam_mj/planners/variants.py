@@ -66,7 +66,7 @@ from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
-from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order
+from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order, seed_rng
 from foam_mj.rosary import MEMBERSHIP_TOL
 
 #: Citation used in docstrings, the README and docs/references.md.
@@ -106,7 +106,7 @@ class _Growth:
         self.q_goal = robot.validate(q_goal, "q_goal")
         if oracle.delta != params.delta:
             raise ValueError(f"the oracle's margin delta={oracle.delta} differs from params.delta={params.delta}")
-        self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        self.rng = seed_rng(seed)
         self.n = robot.dim
         self.lo, self.hi = robot.lower, robot.upper
         self.t0 = time.perf_counter()
