@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import signal
 import sys
 import time
 from pathlib import Path
@@ -591,7 +592,6 @@ def cmd_view(args: argparse.Namespace) -> int:
 def _run_viewer(cmd: list[str]) -> int:
     """Run the Rerun viewer in its own process group; Ctrl-C or SIGTERM stops the whole group (the
     ``rerun`` launcher starts the viewer binary as a child: it must not outlive us)."""
-    import signal
     import subprocess
 
     proc = subprocess.Popen(cmd, start_new_session=True)
@@ -643,8 +643,6 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    import signal
-
     from foam_mj.sweep import WorkersDied, load_sweep
     from foam_mj.sweep_run import _pyarrow, run_sweep
 
@@ -885,6 +883,9 @@ def main(argv: list[str] | None = None) -> int:
         # It never renders with MuJoCo's OpenGL; without this, `import mujoco` also loads GLFW (a tenth
         # of a second of start-up). A user's own MUJOCO_GL wins.
         os.environ.setdefault("MUJOCO_GL", "disable")
+        # `kill` (SIGTERM) stops a command as Ctrl-C does: exit 130, temporary files removed, no output half-written
+        # (it ended the process at once, exit 143, leaving a write's temporary file).
+        signal.signal(signal.SIGTERM, signal.default_int_handler)
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["bench"]:  # everything after `bench` belongs to the benchmark's own parser
         argv = ["bench", "--", *argv[1:]] if len(argv) > 1 else argv

@@ -395,3 +395,36 @@ def test_a_bad_flag_is_named_as_the_flag_not_as_a_scenario_field(args, message, 
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and err.startswith(f"foam-mj: error: {message}"), err
     assert ".toml" not in err and list(tmp_path.iterdir()) == []
+
+
+def test_sigterm_during_plan_is_exit_130_and_leaves_no_file(tmp_path):
+    """`kill` of a plan ended it at once (exit 143), a write's temporary file left behind; it now stops as Ctrl-C does."""
+    import signal
+    import time
+
+    import psutil  # a dependency of rerun-sdk
+
+    scene = tmp_path / "wall.xml"  # no way past the wall: the plan runs until its 60 s budget
+    scene.write_text(
+        f'<mujoco><include file="{MODELS / "ortholeg.xml"}"/><worldbody><geom name="floor" type="plane" size="3 3 0.1"/>'
+        '<geom name="wall" type="box" pos="0.46 0 0.75" size="0.04 0.25 0.75"/></worldbody></mujoco>'
+    )
+    toml = tmp_path / "wall.toml"
+    toml.write_text(f'scene = "{scene}"\nq_init = [0.2, 0.3, 0.08]\nq_goal = [0.45, 0.4536, 1.45]\n[planner]\ntime_limit = 60.0\n')
+    out = tmp_path / "out"
+    out.mkdir()
+    exe = Path(sys.executable).with_name("foam-mj")
+    proc = subprocess.Popen([str(exe), "plan", "--scene", str(toml), "--json", "r.json", "--rrd", "r.rrd"], cwd=out,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    try:
+        for _ in range(1200):  # MuJoCo is loaded by the command itself, after foam-mj's signal handlers are in place
+            if proc.poll() is not None or any("mujoco" in m.path for m in psutil.Process(proc.pid).memory_maps()):
+                break
+            time.sleep(0.05)
+        time.sleep(1.0)
+        proc.send_signal(signal.SIGTERM)
+        err = proc.communicate(timeout=120)[1]
+    finally:
+        proc.kill()
+    assert proc.returncode == 130 and err.strip().splitlines()[-1] == "foam-mj: interrupted", err
+    assert list(out.iterdir()) == []
