@@ -564,12 +564,30 @@ def _rerun_executable() -> str:
     return exe
 
 
+#: The first bytes of every Rerun recording file (its stream header, "RRF2" in the rerun-sdk foam-mj uses).
+RRD_MAGIC = b"RRF"
+
+
 def cmd_view(args: argparse.Namespace) -> int:
     p = Path(args.recording)
     if not p.is_file():
         raise FoamError(f"recording not found: {p}" if not p.exists() else f"{p} is not a file")
     if p.suffix != ".rrd":
         raise FoamError(f"{p} is not a Rerun recording (.rrd)")
+    try:
+        with open(p, "rb") as f:
+            head = f.read(len(RRD_MAGIC))
+    except OSError as exc:
+        raise FoamError(f"{p}: cannot read: {exc.strerror}") from None
+    if head != RRD_MAGIC:  # the viewer would open it and show nothing, or an error in its own window
+        raise FoamError(f"{p} is not a Rerun recording: it does not start with Rerun's file header {RRD_MAGIC.decode()!r}"
+                        f"{' (the file is empty)' if not head else ''}")
+    import ipaddress
+
+    try:
+        ipaddress.ip_address(args.bind)
+    except ValueError:
+        raise FoamError(f"--bind must be an IP address (127.0.0.1, 0.0.0.0, ::1), got {args.bind!r}") from None
     if not args.web and not _has_display():
         raise FoamError(
             f"no display (DISPLAY and WAYLAND_DISPLAY are unset): serve the web viewer with `foam-mj view --web {p}` "

@@ -218,13 +218,28 @@ def test_replay_exits_4_when_its_replay_is_closer_than_the_margin(planned_result
 # -- view, version, documentation -----------------------------------------------------------------------------
 def test_view_without_a_display_says_what_to_do(tmp_path, monkeypatch, capsys):
     rrd = tmp_path / "x.rrd"
-    rrd.write_bytes(b"")
+    rrd.write_bytes(b"RRF2")
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     monkeypatch.setattr(sys, "platform", "linux")
     assert main(["view", str(rrd)]) == 2
     err = capsys.readouterr().err
     assert "no display" in err and "--web" in err and "rerun rrd stats" in err
+
+
+@pytest.mark.parametrize(("content", "args", "message"), [
+    (b"hello", [], "is not a Rerun recording: it does not start with Rerun's file header 'RRF'"),
+    (b"", [], "header 'RRF' (the file is empty)"),
+    (b"RRF2", ["--bind", "999.1.1.1"], "--bind must be an IP address (127.0.0.1, 0.0.0.0, ::1), got '999.1.1.1'"),
+])
+def test_view_refuses_a_file_that_is_not_a_recording_and_a_bad_address(tmp_path, content, args, message, capsys):
+    """A text file named .rrd was handed to the viewer (it served it and showed nothing); --bind 999.1.1.1 gave the
+    rerun binary's own three-line error."""
+    rrd = tmp_path / "x.rrd"
+    rrd.write_bytes(content)
+    assert main(["view", str(rrd), "--web", *args]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and message in err, err
 
 
 def test_view_web_serves_on_localhost_only_and_prints_the_url(tmp_path):
