@@ -924,6 +924,18 @@ def _exit_now(code: int) -> None:
     os._exit(code)
 
 
+def _caused_by_interrupt(exc: BaseException) -> bool:
+    """True when a KeyboardInterrupt (Ctrl-C, SIGTERM) is among the causes of ``exc``."""
+    seen: set[int] = set()
+    cause: BaseException | None = exc
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return True
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return False
+
+
 def _main(argv: list[str], ran: list[str]) -> int:
     """Parse ``argv`` and run its command (its name appended to ``ran``); errors become exit codes."""
     try:
@@ -947,6 +959,9 @@ def _main(argv: list[str], ran: list[str]) -> int:
         print("foam-mj: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except Exception as exc:  # pragma: no cover - the last line of defence
+        if _caused_by_interrupt(exc):  # Ctrl-C inside a C extension's import: "ImportError: initialization failed"
+            print("foam-mj: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
         if os.environ.get("FOAM_MJ_DEBUG"):
             raise
         print(f"foam-mj: internal error: {type(exc).__name__}: {_one_line(exc)} (set FOAM_MJ_DEBUG=1 for a traceback)", file=sys.stderr)

@@ -443,3 +443,20 @@ def test_sigterm_during_plan_is_exit_130_and_leaves_no_file(tmp_path):
         proc.kill()
     assert proc.returncode == 130 and err.strip().splitlines()[-1] == "foam-mj: interrupted", err
     assert list(out.iterdir()) == []
+
+
+def test_ctrl_c_inside_an_import_is_exit_130_not_an_internal_error(monkeypatch, capsys):
+    """Ctrl-C while MuJoCo's C extension initialises surfaces as "ImportError: initialization failed" caused by the
+    KeyboardInterrupt: it was reported as an internal error (exit 1; test_recorder's Ctrl-C test failed so under load)."""
+    import foam_mj.cli as cli
+
+    def interrupted_import(args):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise ImportError("initialization failed") from exc
+
+    monkeypatch.setattr(cli, "cmd_scenes", interrupted_import)
+    monkeypatch.delenv("FOAM_MJ_DEBUG", raising=False)
+    assert main(["scenes"]) == 130
+    assert capsys.readouterr().err.strip() == "foam-mj: interrupted"
