@@ -258,6 +258,18 @@ def _parse_q(text: str, flag: str) -> list[float]:
     return values
 
 
+def _mjcf_file(text: str) -> Path:
+    """``--mjcf`` (plan, bubble): an existing file (an empty name and a folder are said to be what they are)."""
+    if not text:
+        raise FoamError("--mjcf: empty file name; give an MJCF file")
+    mjcf = Path(text)
+    if mjcf.is_dir():
+        raise FoamError(f"--mjcf: {mjcf} is a folder, not an MJCF file")
+    if not mjcf.is_file():
+        raise FoamError(f"--mjcf: MJCF file not found: {mjcf}")
+    return mjcf
+
+
 def _check_delta(delta: float | None) -> None:
     """``--delta`` (plan, bubble): a finite margin >= 0 in metres."""
     if delta is not None and not 0 <= delta < float("inf"):
@@ -298,9 +310,7 @@ def _plan_scenario(args: argparse.Namespace):
             raise FoamError("give either --scene or --mjcf, not both")
         if args.start is None or args.goal is None:
             raise FoamError("--mjcf needs --start and --goal (one number per configuration joint each)")
-        mjcf = Path(args.mjcf)
-        if not mjcf.is_file():
-            raise FoamError(f"--mjcf: MJCF file not found: {mjcf}")
+        mjcf = _mjcf_file(args.mjcf)
         doc: dict = {"name": re.sub(r"[^A-Za-z0-9_.\-]", "_", mjcf.stem), "scene": str(mjcf.resolve()), "q_init": _parse_q(args.start, "--start"), "q_goal": _parse_q(args.goal, "--goal")}
         base, source = Path.cwd(), None
     else:
@@ -455,9 +465,7 @@ def cmd_bubble(args: argparse.Namespace) -> int:
     q = _parse_q(args.q, "--q")
     _check_delta(args.delta)
     if args.mjcf is not None:
-        mjcf = Path(args.mjcf)
-        if not mjcf.is_file():
-            raise FoamError(f"--mjcf: MJCF file not found: {mjcf}")
+        mjcf = _mjcf_file(args.mjcf)
         doc: dict = {"name": mjcf.stem, "scene": str(mjcf.resolve())}
         base, source = Path.cwd(), None
     else:

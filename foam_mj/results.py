@@ -261,7 +261,7 @@ def read_result(path: str | Path) -> dict:
     """Load and check a result file (format and the fields replay needs)."""
     p = Path(path)
     try:
-        doc = json.loads(p.read_text())
+        doc = json.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise FoamError(f"result file not found: {p}") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:

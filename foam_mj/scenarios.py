@@ -271,7 +271,7 @@ def read_scenario_doc(name_or_path: str | Path) -> tuple[dict, Path]:
     """The parsed TOML document of a scenario (built-in name or path) and its file, not yet validated."""
     path = resolve_scenario_path(name_or_path)
     try:
-        return tomllib.loads(path.read_text()), path
+        return tomllib.loads(path.read_text(encoding="utf-8-sig")), path  # TOML is UTF-8; a byte-order mark is let through
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: malformed TOML: {exc}") from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -318,6 +318,8 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     if not isinstance(raw["scene"], (str, Path)):
         raise ScenarioError(f"{path}: field 'scene' must be a path string")
     scene = (base_dir / raw["scene"]).resolve()
+    if scene.is_dir():  # scene = "" or a folder: "MJCF file not found" named an existing folder
+        raise ScenarioError(f"{path}: field 'scene' = {str(raw['scene'])!r} names the folder {scene}, not an MJCF file")
     if not scene.is_file():
         raise ScenarioError(f"{path}: field 'scene': MJCF file not found: {scene}")
     seed = raw.get("seed", 0)

@@ -87,7 +87,7 @@ def _fail(source: Path, msg: str) -> FoamError:
 
 def _load(source: Path) -> dict:
     try:
-        doc = json.loads(source.read_text())
+        doc = json.loads(source.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise FoamError(f"result file not found: {source}") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:

@@ -460,3 +460,12 @@ def test_ctrl_c_inside_an_import_is_exit_130_not_an_internal_error(monkeypatch, 
     monkeypatch.delenv("FOAM_MJ_DEBUG", raising=False)
     assert main(["scenes"]) == 130
     assert capsys.readouterr().err.strip() == "foam-mj: interrupted"
+
+
+@pytest.mark.parametrize("command", [["plan", "--start", "0.2 0.3 0.08", "--goal", "0.45 0.4536 1.45", "--no-rrd"], ["bubble", "--q", "0.2 0.3 0.08"]])
+def test_an_mjcf_that_is_a_folder_or_an_empty_name_is_named_as_such(command, tmp_path, capsys):
+    """--mjcf /tmp said "MJCF file not found: /tmp"."""
+    for value, message in ((str(tmp_path), f"--mjcf: {tmp_path} is a folder, not an MJCF file"), ("", "--mjcf: empty file name")):
+        assert main([command[0], "--mjcf", value, *command[1:]]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and message in err, err

@@ -95,3 +95,22 @@ def test_a_start_just_inside_the_margin_prints_a_clearance_that_differs_from_it(
     with pytest.raises(ScenarioError, match=r"q_init.*too close to an obstacle: clearance 0\.004999 m between foot_collision "
                                             r"and obstacle_box \(the safety margin delta is 0\.005 m"):
         load_scenario(p)
+
+
+def test_a_scene_that_is_a_folder_is_named_as_one(tmp_path):
+    """scene = "" (the TOML's own folder) or a folder said "MJCF file not found: <an existing folder>"."""
+    for value in ("", str(tmp_path)):
+        p = _write(tmp_path, GOOD.replace('scene = "{scene}"', f'scene = "{value}"'))
+        with pytest.raises(ScenarioError, match=rf"field 'scene' = '{value}' names the folder {tmp_path}, not an MJCF file"):
+            load_scenario(p)
+
+
+def test_a_scenario_saved_with_a_byte_order_mark_loads_and_one_in_latin_1_is_named(tmp_path):
+    """Windows editors save UTF-8 with a byte-order mark: tomllib read it as "Invalid statement (at line 1, column 1)"."""
+    p = tmp_path / "s.toml"
+    text = GOOD.format(scene=load_scenario("obstacle").scene).replace("[planner]", 'description = "stépping"\n[planner]')
+    p.write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    assert load_scenario(p).description == "stépping"
+    p.write_bytes(text.encode("latin-1"))
+    with pytest.raises(ScenarioError, match="s.toml: cannot read: 'utf-8' codec can't decode byte 0xe9"):
+        load_scenario(p)
