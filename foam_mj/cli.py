@@ -9,7 +9,7 @@ Exit codes (:data:`EXIT_CODES`; the README lists them too):
      where it can be; also an output that could not be written (nothing is left half-written)
 3    planning failed (the foam did not reach the goal; what was computed is still written)
 4    a check found contacts or clearance below the margin (``verify``, ``replay``)
-130  interrupted (Ctrl-C); no output is left half-written
+130  interrupted (Ctrl-C or SIGTERM); no output is left half-written
 ===  =====================================================================================================
 
 Errors are one line on stderr, never a traceback. To add a command: write ``cmd_<name>(args) -> int``
