@@ -223,7 +223,7 @@ def _scene_edits(raw: dict, where: str, base_dir: Path) -> SceneEdits:
         name = t.get("name")
         if name is not None and (not isinstance(name, str) or not name):
             raise ScenarioError(f"{where}: [obstacle] field 'name' must be a geom name")
-        obstacle = BoxObstacle(size, pos, name) if (size is not None or pos is not None) else None
+        obstacle = BoxObstacle(size, pos, name) if (size is not None or pos is not None or name is not None) else None
     meshes = []
     mesh_list = raw.get("mesh", [])
     if isinstance(mesh_list, dict):

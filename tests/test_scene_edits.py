@@ -87,6 +87,16 @@ def test_obstacle_table_resizes_the_box_and_keeps_it_on_the_floor():
     np.testing.assert_allclose(r.model.geom("obstacle_box").pos, [0.6, 0.0, 0.075])
 
 
+def test_an_obstacle_name_is_checked_even_when_the_table_changes_nothing_else():
+    """A misspelt box name alone is refused (it was ignored: the scene planned on was not the one meant);
+    the right name alone leaves the box as it is."""
+    with pytest.raises(ScenarioError, match=r"\[obstacle\] name 'obstacle_bx': no static collision box of that name"):
+        _robot(obstacle={"name": "obstacle_bx"})
+    g = _robot(obstacle={"name": "obstacle_box"}).model.geom("obstacle_box")
+    np.testing.assert_allclose(g.size, [0.1, 0.25, 0.075])
+    np.testing.assert_allclose(g.pos, [0.5, 0.0, 0.075])
+
+
 def test_a_taller_obstacle_puts_the_goal_in_collision():
     with pytest.raises(ScenarioError, match="q_goal"):
         scenario_from_dict({**OBSTACLE, "obstacle": {"size": [0.3, 0.5, 0.3], "pos": [0.85, 0.0, 0.15]}}, MODELS)
