@@ -306,6 +306,9 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     if not isinstance(paths, dict):
         raise _fail(source, "field 'paths' must be an object")
     if not paths:
+        outcome = doc.get("outcome")
+        if isinstance(outcome, str) and outcome != "reached":
+            raise _fail(source, f"the plan failed (outcome '{outcome}'): the result has no paths, nothing to verify")
         raise _fail(source, "field 'paths' is empty: nothing to verify")
     robot = doc.get("robot")
     self_collision = not (isinstance(robot, dict) and robot.get("self_collision") is False)

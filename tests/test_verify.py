@@ -136,6 +136,7 @@ def test_verify_refuses_bad_input(tmp_path, planned_result, capsys):
     (lambda d: d["planner"].__setitem__("delta", -1.0), "planner.delta"),
     (lambda d: d["planner"].__setitem__("delta", float("nan")), "planner.delta"),
     (lambda d: d.__setitem__("paths", {}), "nothing to verify"),
+    (lambda d: d.update(paths={}, outcome="time budget"), "the plan failed (outcome 'time budget'): the result has no paths"),
 ])
 def test_a_result_that_would_pass_vacuously_is_refused(tmp_path, planned_result, capsys, edit, words):
     """A negative margin (every sample passes) or no path at all is bad input (2), never 'clean' (0)."""
