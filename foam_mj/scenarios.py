@@ -395,9 +395,9 @@ def _limits(table, path: Path) -> tuple[Limits | None, str | None]:
     return (Limits(**lists) if lists else None), law
 
 
-def check_scenario(scenario: Scenario, robot: RobotModel | None = None) -> None:
+def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check_clearance: bool = True) -> None:
     """Load the scene (unless its compiled ``robot`` is given, e.g. a sweep worker's cached one) and check
-    q_init and q_goal: shape, bounds, and clearance above the margin."""
+    q_init and q_goal: shape, bounds, and (unless ``check_clearance`` is false) clearance above the margin."""
     where = scenario.source or scenario.name
     if robot is None:
         try:
@@ -423,6 +423,8 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None) -> None:
                 robot.validate(q, field_name)
             except ConfigurationError as exc:
                 raise ScenarioError(f"{where}: field '{field_name}': {exc}") from None
+            if not check_clearance:
+                continue
             d = clearance(q)
             if d <= scenario.params.delta:
                 state = "in collision" if d < 0 else "too close to an obstacle"

@@ -22,8 +22,9 @@ A swept key is a dotted path into the scenario's TOML table (``planner.delta`` i
 ``[planner]``); the value replaces that field *before* the scenario is validated, so every field the
 scenario format knows can be swept and a wrong key or value is named by the scenario's own check.
 Every value of every key is checked that way before any planning (:func:`load_sweep`); a combination
-that is only wrong together (a goal in collision with a taller obstacle, say) becomes a row with
-outcome ``invalid``.
+that is only wrong together (a goal in collision with a taller obstacle, say), or a value that puts the
+start or goal within the margin of an obstacle (a problem of the study, not a bad value), becomes a row
+with outcome ``invalid``.
 
 A *task* is one (parameters, seed): one plan, smoothed by every requested smoother, replayed. It gives
 one *row* per path (``centre`` always, plus the smoothers' paths), identified by a deterministic key,
@@ -306,8 +307,9 @@ def _robot_for(scenario):
     return robot
 
 
-def build_scenario(scenario: str, builtin: bool, base: dict, params, *, check: bool = True):
-    """The base scenario with ``params`` applied, validated (ScenarioError / SweepError otherwise)."""
+def build_scenario(scenario: str, builtin: bool, base: dict, params, *, check: bool = True, check_clearance: bool = True):
+    """The base scenario with ``params`` applied, validated (ScenarioError / SweepError otherwise); without
+    ``check_clearance``, start and goal may lie within the margin of an obstacle (a problem, not a bad value)."""
     from foam_mj.scenarios import check_scenario, scenario_from_dict
 
     doc = apply_overrides(base, params)
@@ -318,7 +320,7 @@ def build_scenario(scenario: str, builtin: bool, base: dict, params, *, check: b
             robot = _robot_for(s)
         except FoamError as exc:
             raise ScenarioError(f"field 'scene': {exc}") from None
-        check_scenario(s, robot)
+        check_scenario(s, robot, check_clearance=check_clearance)
     return s
 
 
@@ -494,7 +496,8 @@ def load_sweep(path: str | Path) -> Sweep:
     dup = sorted({k for k in keys if keys.count(k) > 1})
     if dup:
         raise SweepError(f"{where}: key(s) {dup} swept twice")
-    # every value, one key at a time, on the base scenario: bad keys and values named before any work
+    # every value, one key at a time, on the base scenario: bad keys and values named before any work; a value
+    # that only puts the start or goal within the margin (an obstacle moved onto the goal) gives 'invalid' rows
     try:
         robot = build_scenario(scenario, builtin, base, ()).robot
     except FoamError as exc:
@@ -504,7 +507,7 @@ def load_sweep(path: str | Path) -> Sweep:
         tries = a.values if a.source != "uniform" else (a.low, a.high)
         for v in tries:
             try:
-                build_scenario(scenario, builtin, base, ((a.key, _normalize(v, a.kind)),))
+                build_scenario(scenario, builtin, base, ((a.key, _normalize(v, a.kind)),), check_clearance=False)
             except FoamError as exc:
                 raise SweepError(f"{where}: {section} '{a.key}' = {json.dumps(v)}: {exc}") from None
     return Sweep(

@@ -215,6 +215,19 @@ def test_a_bad_key_or_value_is_exit_2_before_any_work_naming_it(tmp_path, capsys
     assert not out.exists()
 
 
+def test_an_obstacle_moved_onto_the_goal_gives_invalid_rows_not_a_refused_sweep(tmp_path):
+    """A swept box position that puts q_goal in collision is a data point of the study (no path there), not a
+    bad value: its rows say 'invalid' and name the goal's clearance; the other positions are planned."""
+    spec = write(tmp_path, 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "none"\n'
+                           '[grid]\n"obstacle.pos" = [[0.5, 0.0, 0.075], [0.9, 0.0, 0.1]]\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    rows = {r["obstacle.pos"]: r for r in read_rows(out).to_pylist()}
+    assert rows["[0.5, 0.0, 0.075]"]["outcome"] == "reached"
+    bad = rows["[0.9, 0.0, 0.1]"]
+    assert bad["outcome"] == "invalid" and "'q_goal'" in bad["reason"] and "in collision" in bad["reason"]
+
+
 def test_bad_random_tables_and_fields_are_named(tmp_path):
     bad = {
         '[random]\nsamples = 3\n[random.uniform]\n"planner.r_min" = [0.09, 0.05]\n': "low <= high",
