@@ -44,6 +44,16 @@ f = :data:`SERVO_HZ` and I_j the joint's diagonal entry of the joint-space inert
 (``dof_M0``, armature included), critically damped (dampratio 1), no force limit. The replay's
 ``servo_note`` says so in one line. Nothing fails after planning for want of actuators.
 
+Joints outside the configuration
+--------------------------------
+The planner holds every joint that is not a configuration coordinate (a floating base, a wrist or a
+spinning joint left out, a loose object) at its pose in the trajectory (``qpos0`` or the scenario's
+keyframe), so the dynamic replay does too: before each step their qpos is set back to the trajectory's
+and their velocity to zero (:func:`held_joints`), and on a copy of the model (:func:`servo_model`) their
+dofs get an armature :data:`HOLD_ARMATURE` times the largest diagonal inertia, so that the configuration
+joints move, and servos added with a damping ratio are damped, as on a fixed mount (a free base otherwise
+recoils from the servos, and falls under gravity).
+
 Contacts are read from ``data.contact`` after each ``mj_step1`` (collision detection at that frame's
 state): every contact between a leg geom and an obstacle geom with ``dist <= 0`` is reported with its
 frame, time, geom names and penetration depth.
@@ -66,6 +76,9 @@ DT_TOL = 1e-9
 FEEDFORWARD = ("inverse", "gravity", "none")
 #: Natural frequency (Hz) of the servos added to a model that has none (module docstring).
 SERVO_HZ = 10.0
+#: Armature added to the dofs of joints outside the configuration in the dynamic replay, times the largest
+#: diagonal inertia (module docstring): the configuration joints then move as on a fixed mount.
+HOLD_ARMATURE = 1e8
 
 
 @dataclass(frozen=True)
@@ -152,6 +165,24 @@ def leg_bodies(robot: RobotModel) -> np.ndarray:
     return np.array([b for b in range(1, m.nbody) if body_is_moving(m, b)], dtype=int)
 
 
+def held_joints(robot: RobotModel) -> np.ndarray:
+    """Ids of the joints outside the configuration (a floating base, a wrist left out, a loose object),
+    which the dynamic replay holds where the trajectory puts them, as the planner does (module docstring)."""
+    return np.setdiff1d(np.arange(robot.model.njnt), robot.config.joint_ids).astype(int)
+
+
+def _addresses(m: mujoco.MjModel, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The qpos and dof addresses of ``joints``."""
+    size = {int(mujoco.mjtJoint.mjJNT_FREE): (7, 6), int(mujoco.mjtJoint.mjJNT_BALL): (4, 3)}
+    qpos: list[int] = []
+    dof: list[int] = []
+    for j in joints:
+        nq, nv = size.get(int(m.jnt_type[j]), (1, 1))
+        qpos += range(int(m.jnt_qposadr[j]), int(m.jnt_qposadr[j]) + nq)
+        dof += range(int(m.jnt_dofadr[j]), int(m.jnt_dofadr[j]) + nv)
+    return np.array(qpos, dtype=int), np.array(dof, dtype=int)
+
+
 def _body_names(m: mujoco.MjModel, ids: np.ndarray) -> tuple[str, ...]:
     return tuple(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(b)) or f"body{int(b)}" for b in ids)
 
@@ -228,16 +259,26 @@ def _servo_problem(m: mujoco.MjModel, robot: RobotModel) -> str | None:
 
 
 def servo_model(robot: RobotModel) -> tuple[mujoco.MjModel, str]:
-    """The model the dynamic replay drives, and a one-line note ("" when it is ``robot.model`` itself).
+    """The model the dynamic replay drives, and a one-line note ("" when no servo was added).
 
-    When the model lacks a position servo on some configuration joint, a copy whose actuators are all
-    replaced by position servos with gains from the joints' inertia (module docstring).
+    ``robot.model`` itself when it has a position servo on every configuration joint and no other joint;
+    else a copy in which the joints outside the configuration get the armature that makes them a fixed
+    mount (:data:`HOLD_ARMATURE`, before the servos' damping is computed from the inertia they drive) and,
+    when some configuration joint lacks a position servo, all actuators are replaced by position servos
+    with gains from the joints' inertia (module docstring).
     """
     m = robot.model
     problem = _servo_problem(m, robot)
-    if problem is None:
+    held = held_joints(robot)
+    if problem is None and not len(held):
         return m, ""
     spec = robot.spec_copy()
+    joints = list(spec.joints)  # in model order
+    hold = HOLD_ARMATURE * max(1.0, float(m.dof_M0.max()))
+    for j in held:
+        joints[j].armature += hold
+    if problem is None:
+        return spec.compile(), ""
     for act in list(spec.actuators):
         spec.delete(act)
     inertia = np.asarray(m.dof_M0)[m.jnt_dofadr[robot.config.joint_ids]]
@@ -331,6 +372,7 @@ def replay_dynamic(
         )
     if int(m.opt.integrator) == int(mujoco.mjtIntegrator.mjINT_RK4):
         raise ValueError("the dynamic replay steps with mj_step1/mj_step2, which RK4 does not support")
+    held_qpos, held_dof = _addresses(m, held_joints(robot))
     ctrl = servo_controls(robot, trajectory, feedforward, m)
     d = mujoco.MjData(m)
     d.qpos[:] = trajectory.qpos[0]
@@ -351,6 +393,8 @@ def replay_dynamic(
     force = np.zeros((T, m.nu))
     contacts: list[Contact] = []
     for i in range(T):
+        d.qpos[held_qpos] = trajectory.qpos[i, held_qpos]
+        d.qvel[held_dof] = 0.0
         mujoco.mj_step1(m, d)  # kinematics and collision detection at frame i's state
         qpos[i] = d.qpos
         xpos[i] = d.xpos[ids]

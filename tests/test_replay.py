@@ -145,3 +145,54 @@ def test_bad_inputs_raise_clear_errors(robot, centre):
     bare = Trajectory(times=centre.times, q=centre.q, qpos=centre.qpos, joint_names=centre.joint_names)
     with pytest.raises(ValueError, match="`trajectory.qvel` and `trajectory.qacc`"):
         replay_dynamic(robot, bare)
+
+
+#: A 2-hinge arm on a floating base (a free joint) with a ball-jointed hand, neither of which is a
+#: configuration joint: the planner holds both at qpos0, so must the dynamic replay.
+FLOATING_ARM = """
+<mujoco>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="base" pos="0 0 0.6">
+      {base_joint}
+      <geom type="box" size="0.1 0.1 0.1" mass="5" contype="0" conaffinity="0"/>
+      <body pos="0 0 0.14">
+        <joint name="sh" axis="0 1 0" range="-90 90"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+        <body pos="0.3 0 0">
+          <joint name="el" axis="0 1 0" range="-150 150"/>
+          <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.025"/>
+          <body pos="0.25 0 0">
+            <joint name="hand" type="ball"/>
+            <geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.02"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _swing(path) -> tuple[RobotModel, Trajectory]:
+    arm = RobotModel.from_xml(path)
+    a, b = np.array([-1.2, 0.3]), np.array([-0.2, 1.5])
+    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    return arm, make_trajectory(arm, line.path(np.empty((0, 2))), line)
+
+
+def test_joints_outside_the_configuration_are_held_as_on_a_fixed_mount(tmp_path):
+    floating, fixed = tmp_path / "floating.xml", tmp_path / "fixed.xml"
+    floating.write_text(FLOATING_ARM.format(base_joint='<freejoint name="root"/>'))
+    fixed.write_text(FLOATING_ARM.format(base_joint=""))
+    arm, swing = _swing(floating)
+    assert arm.config.joint_names == ("sh", "el")
+    dyn = replay_dynamic(arm, swing)
+    # The base neither falls to the floor nor recoils from the servos; the ball-jointed hand does not flop.
+    held = np.r_[0:7, arm.model.jnt_qposadr[3] : arm.model.jnt_qposadr[3] + 4]
+    assert np.array_equal(dyn.qpos[:, held], swing.qpos[:, held])
+    assert dyn.contacts == () and dyn.warnings == ()
+    # The arm tracks as it does on a mount without the free joint (to 5 %).
+    mounted = replay_dynamic(*_swing(fixed))
+    assert np.allclose(dyn.max_error, mounted.max_error, rtol=0.05)
+    assert np.all(dyn.max_error < 5e-3)
