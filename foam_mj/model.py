@@ -31,16 +31,18 @@ given, otherwise every body some configuration joint moves. Every other collisio
 ``qpos0`` (or at the pose of the keyframe named ``keyframe``), so a loose object with a free joint is an
 obstacle at its initial pose.
 
-The clearance pairs are the geom pairs MuJoCo's own collision detection would test
-(:func:`collision_pairs`: every ``<contact><pair>``, plus the pairs that pass the contype/conaffinity
-filter, are not on one body or welded together, are not parent and child (unless the model disables
-that filter), and are not named in a ``<contact><exclude>``) in which at least one geom is a robot
-geom: robot/obstacle pairs and, unless ``self_collision`` is off, robot/robot pairs. A pair whose
+The clearance pairs are every robot/obstacle pair of collision geoms that are not :func:`attached`
+(on one weld body, or parent and child: they meet at a joint), whatever contype/conaffinity and
+``<contact><exclude>`` say: an obstacle in another collision group is still in the way, and the
+independent checkers (``foam-mj verify``, MuJoCo-only checkers) count it; and, unless ``self_collision``
+is off, the robot/robot pairs MuJoCo's own collision detection would test (:func:`collision_pairs`: every
+``<contact><pair>``, plus the pairs that pass the contype/conaffinity filter, are not on one body or
+welded together, are not parent and child (unless the model disables that filter), and are not named in
+a ``<contact><exclude>``): a thigh touches its shank at the knee by design. A pair whose
 distance no configuration joint can change (no configuration joint lies on the kinematic path between
 its two bodies: a shoulder capsule above the floor turned only by a vertical pan joint) is left out of
 the checked pairs and kept in ``fixed_pairs``: no motion can bring it closer.
-The independent checker ``foam-mj verify`` (foam_mj/verify.py) keeps its own rule, written apart from
-this one: every moving/static pair unfiltered, and robot/robot pairs by MuJoCo's filter.
+The independent checker ``foam-mj verify`` (foam_mj/verify.py) writes the same rule apart from this one.
 """
 
 from __future__ import annotations
@@ -175,6 +177,17 @@ def collision_pairs(m: mujoco.MjModel) -> list[tuple[int, int]]:
                 continue
             out.add((a, b))
     return sorted(out)
+
+
+def attached(m: mujoco.MjModel, a: int, b: int) -> bool:
+    """Are geoms a and b on one weld body, or on weld bodies that are parent and child (neither the world;
+    unless the model disables that filter)? They meet at their joint by design and MuJoCo never collides them."""
+    wa, wb = int(m.body_weldid[m.geom_bodyid[a]]), int(m.body_weldid[m.geom_bodyid[b]])
+    if wa == wb:
+        return True
+    filter_parent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
+    weld, parent = m.body_weldid, m.body_parentid
+    return bool(filter_parent and wa and wb and (wa == int(weld[parent[wb]]) or wb == int(weld[parent[wa]])))
 
 
 @dataclass(frozen=True)
@@ -329,6 +342,8 @@ class RobotModel:
         live = sorted({g for pr in all_pairs for g in pr} | {g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]})
         robot = [g for g in live if is_robot[g]]
         obstacles = [g for g in live if not is_robot[g]]
+        # robot/obstacle pairs whatever contype/conaffinity and <exclude> say (module docstring)
+        all_pairs = sorted(set(all_pairs) | {(min(a, b), max(a, b)) for a in robot for b in obstacles if not attached(m, a, b)})
         if not robot:
             raise ModelError(f"{p}: no collision geom is attached to the robot (a body moved by a configuration joint)")
         pairs, self_pair, fixed = [], [], []

@@ -12,7 +12,7 @@ fingerprint helpers, which use nothing else). For every path of the result:
 and at every sample, ``mujoco.mj_geomDistance`` between every moving collision geom (on a body a
 configuration joint moves) and every other one (contype or conaffinity non-zero; a loose object on a
 joint that is not a configuration coordinate is an obstacle where the rows put it), with no
-contype/conaffinity filtering: stricter than the planner (only a geom on the same or the parent or child
+contype/conaffinity filtering, as the planner (only a geom on the same or the parent or child
 body of a moving one is left out, as by MuJoCo: they meet at their joint); and, unless the result says the robot was planned
 with ``self_collision`` false, between the robot's own geoms, for the pairs MuJoCo's collision detection
 tests whose distance a configuration joint changes (:func:`collision_pairs`). A sample is a *violation*
@@ -165,7 +165,7 @@ def collision_pairs(m: mujoco.MjModel, qpos_index: np.ndarray | None = None, sel
     With ``qpos_index`` (the result's configuration coordinates), *moving* means moved by one of those
     joints; a body on any other joint (a loose box with a free joint) stays where the rows put it and is
     checked as an obstacle, as the planner treats it. Without it, any joint makes a body moving.
-    Moving/static pairs are checked with no contype/conaffinity filtering (stricter than the planner),
+    Moving/static pairs are checked with no contype/conaffinity filtering (as the planner),
     except a geom attached to a moving one (:func:`_attached`: the same weld body, or parent and child, e.g. the
     upper arm, held at its ``qpos0`` when only the elbow is a coordinate, and the forearm): they overlap at their
     joint by design, MuJoCo never collides them and the planner does not check them.

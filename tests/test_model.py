@@ -172,3 +172,33 @@ def test_a_height_field_obstacle_is_refused_naming_it(tmp_path):
     )
     with pytest.raises(ModelError, match=r"\['hill'\] are height fields"):
         RobotModel.from_xml(scene)
+
+
+def test_an_obstacle_in_another_collision_group_is_still_checked(tmp_path):
+    """MuJoCo's contype/conaffinity bits and <exclude> keep a box from colliding with the arm, but the box is
+    in the way all the same, and `foam-mj verify` and MuJoCo-only checkers count it: the planner checks it.
+    Robot/robot pairs keep MuJoCo's filter (the excluded links stay unchecked)."""
+    scene = tmp_path / "groups.xml"
+    scene.write_text(
+        '<mujoco><worldbody>'
+        '<geom name="ghost" type="box" size="0.05 0.05 0.05" pos="0.3 0.2 0" contype="2" conaffinity="2"/>'
+        '<body name="shelf" pos="0.3 -0.2 0"><geom name="shelf" type="box" size="0.05 0.05 0.05"/></body>'
+        '<body name="l1"><joint name="a" axis="0 0 1" range="-90 90"/>'
+        '<geom name="l1" type="capsule" fromto="0.05 0 0 0.4 0 0" size="0.02" contype="1" conaffinity="1"/>'
+        '<body name="l2" pos="0.45 0 0"><joint name="b" axis="0 0 1" range="-170 170"/>'
+        '<geom name="l2" type="capsule" fromto="0.05 0 0 0.3 0 0" size="0.02"/>'
+        '<body name="l3" pos="0.35 0 0"><joint name="c" axis="0 0 1" range="-170 170"/>'
+        '<geom name="l3" type="capsule" fromto="0.05 0 0 0.3 0 0" size="0.02"/></body></body></body>'
+        '</worldbody><contact><exclude body1="l1" body2="shelf"/><exclude body1="l1" body2="l3"/></contact></mujoco>'
+    )
+    robot = RobotModel.from_xml(scene)
+    names = {(robot.geom_name(a), robot.geom_name(b)) for a, b in robot.pairs}
+    assert {("l1", "ghost"), ("l1", "shelf"), ("l2", "ghost"), ("l3", "shelf")} <= names
+    assert ("l1", "l3") not in names and ("l3", "l1") not in names
+    clearance = Clearance(robot)
+    try:
+        through = clearance.pairwise(np.radians([34, 0, 0]))  # l1 through the ghost box
+        assert through[("l1", "ghost")] < 0
+        assert clearance.pairwise(np.radians([-34, 0, 0]))[("l1", "shelf")] < 0  # and through the shelf
+    finally:
+        clearance.close()
