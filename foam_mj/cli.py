@@ -289,6 +289,8 @@ def _robot_overrides(doc: dict, args: argparse.Namespace) -> None:
             raise FoamError("--joints must name joints separated by commas")
         doc["joints"] = joints
     if args.robot_root is not None:
+        if not args.robot_root.strip():
+            raise FoamError("--robot-root must name a body of the model, got an empty name")
         doc["robot_root"] = args.robot_root
     if args.no_self_collision:
         doc["self_collision"] = False
