@@ -667,3 +667,15 @@ def test_a_tree_that_stalls_beside_an_end_point_on_an_edge_of_the_joint_box_is_n
     with pytest.raises(PlanningFailed, match=r"bubble budget.*the start tree stopped at \d+ bubbles: q_init lies on an edge or corner "
                                              r"of the joint box .* \(clearance 0\.0074 m\): move it off a limit or away from the obstacle"):
         get_planner("bubbletree").plan(PlanningProblem(oracle, q_init, s.q_goal, delta=0.007, max_bubbles=2000), seed=0)
+
+
+def test_a_problem_names_a_margin_budget_or_count_that_is_not_a_number(oracles):
+    """delta="0.005" failed in numpy ("ufunc 'isfinite' not supported for the input types"), time_limit="5" with
+    "'>' not supported between instances of 'str' and 'int'", and max_bubbles=True was a budget of one bubble."""
+    s = load_scenario("obstacle")
+    oracle = oracles["obstacle"]
+    for name, value in (("delta", "0.005"), ("time_limit", "5"), ("max_bubbles", True), ("time_limit", None)):
+        kw = {"delta": oracle.delta, name: value}
+        with pytest.raises(TypeError, match=f"`{name}` must be a number, got {value!r}"):
+            PlanningProblem(oracle, s.q_init, s.q_goal, **kw)
+    assert PlanningProblem(oracle, s.q_init, s.q_goal, delta=np.float64(oracle.delta), time_limit=np.float32(5), max_bubbles=np.int64(10)).max_bubbles == 10

@@ -53,6 +53,9 @@ class PlanningProblem:
         robot = self.oracle.robot
         object.__setattr__(self, "q_init", robot.validate(self.q_init, "q_init"))
         object.__setattr__(self, "q_goal", robot.validate(self.q_goal, "q_goal"))
+        for name, value in (("delta", self.delta), ("time_limit", self.time_limit), ("max_bubbles", self.max_bubbles)):
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+                raise TypeError(f"`{name}` must be a number, got {value!r}")
         if not (np.isfinite(self.delta) and self.delta >= 0):
             raise ValueError(f"`delta` must be >= 0 (metres), got {self.delta!r}")
         if self.oracle.delta != self.delta:
