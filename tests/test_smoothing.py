@@ -486,3 +486,14 @@ def test_rosary_adjustment_survives_a_wrong_lipschitz_bound(smoothing_setup, ros
     np.testing.assert_array_equal(got.certified_radii, oracle.radii(got.rosary.centers))
     np.testing.assert_array_equal(got.rosary.centers, want.rosary.centers)
     np.testing.assert_array_equal(got.path.history_mean, want.path.history_mean)
+
+
+def test_a_negative_or_boolean_seed_is_named():
+    """seed=-1 failed inside numpy ("expected non-negative integer"), naming no argument; True was seed 1."""
+    from foam_mj.smoothing.base import as_generator
+
+    for seed in (-1, True, 1.5, "0"):
+        with pytest.raises(ValueError, match=r"`seed` must be an integer >= 0, a numpy Generator or None, got"):
+            as_generator(seed)
+    g = np.random.default_rng(0)
+    assert as_generator(g) is g and as_generator(np.int64(3)).integers(1 << 30) == np.random.default_rng(3).integers(1 << 30)

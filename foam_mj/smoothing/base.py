@@ -38,8 +38,8 @@ def as_generator(seed: SeedLike) -> np.random.Generator:
     """A numpy Generator from an int seed (or None) or the Generator itself."""
     if isinstance(seed, np.random.Generator):
         return seed
-    if seed is not None and not isinstance(seed, (int, np.integer)):
-        raise ValueError(f"`seed` must be an int, a numpy Generator or None, got {seed!r}")
+    if seed is not None and (isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0):
+        raise ValueError(f"`seed` must be an integer >= 0, a numpy Generator or None, got {seed!r}")
     return np.random.default_rng(seed)
 
 
