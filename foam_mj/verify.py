@@ -41,6 +41,10 @@ import numpy as np
 from foam_mj.errors import FoamError
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
+#: The most samples of one polyline (a path's waypoints or its qpos rows): --step 1e-3, the default, takes a few
+#: thousand; a million keeps the (sample, pair) bounds within a few hundred MB.
+MAX_SAMPLES = 1_000_000
+
 #: How many (sample, pair) candidates with the smallest lower bounds are evaluated first, to bound the minimum.
 _PROBES = 32
 
@@ -212,7 +216,10 @@ def _densify(points: np.ndarray, extra: np.ndarray, step: float) -> np.ndarray:
         return extra.copy()
     d_pts = np.linalg.norm(np.diff(points, axis=0), axis=1)
     d_ext = np.max(np.abs(np.diff(extra, axis=0)), axis=1)
-    counts = np.maximum(1, np.ceil(np.maximum(d_pts, d_ext) / step).astype(int))
+    counts_f = np.maximum(1.0, np.ceil(np.maximum(d_pts, d_ext) / step))
+    if counts_f.sum() > MAX_SAMPLES:  # --step 1e-12 asked numpy for 33.6 TiB (a MemoryError, exit 1)
+        raise FoamError(f"--step {step:g} would take {counts_f.sum():.3g} samples on one path (at most {MAX_SAMPLES:,}): use a larger step")
+    counts = counts_f.astype(int)
     seg = np.repeat(np.arange(len(counts)), counts)
     t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(counts, counts)
     out = extra[seg] + (extra[seg + 1] - extra[seg]) * t[:, None]

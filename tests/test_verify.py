@@ -132,6 +132,15 @@ def test_verify_refuses_bad_input(tmp_path, planned_result, capsys):
     assert main(["verify", str(planned_result), "--step", "0"]) == 2
 
 
+def test_a_step_too_small_to_sample_is_refused_before_any_allocation(planned_result, capsys):
+    """--step 1e-12 asked numpy for 33.6 TiB: a MemoryError, exit 1. A path of more than a million samples is refused."""
+    for step in ("1e-12", "1e-300"):
+        assert main(["verify", str(planned_result), "--step", step]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f"foam-mj: error: --step {step} would take") and "(at most 1,000,000): use a larger step" in err, err
+    assert main(["verify", str(planned_result), "--step", "1e-4"]) == 0
+
+
 @pytest.mark.parametrize("edit, words", [
     (lambda d: d["planner"].__setitem__("delta", -1.0), "planner.delta"),
     (lambda d: d["planner"].__setitem__("delta", float("nan")), "planner.delta"),
