@@ -40,8 +40,11 @@ Models without servos
 When some configuration joint has no position servo (a user's MJCF often has no actuators, or motors),
 the dynamic replay runs on a copy of the model, made with :class:`mujoco.MjSpec`, whose actuators are
 replaced by one position servo per configuration joint (:func:`servo_model`): kp = I_j (2 pi f)^2 with
-f = :data:`SERVO_HZ` and I_j the joint's diagonal entry of the joint-space inertia matrix at ``qpos0``
-(``dof_M0``, armature included), critically damped (dampratio 1), no force limit. The replay's
+f = :data:`SERVO_HZ` and I_j the joint's effective inertia at ``qpos0`` (:func:`effective_inertia`:
+1 / (M^-1)_jj over the configuration joints, armature included, the inertia the joint drives when the
+others are free), critically damped (dampratio 1), no force limit. The diagonal entry M_jj instead would
+give a proximal joint of a long chain, or any joint of a millimetre robot, a servo far stiffer than
+f for what it moves, and the simulation would blow up at the model's timestep. The replay's
 ``servo_note`` says so in one line. Nothing fails after planning for want of actuators.
 
 Joints outside the configuration
@@ -258,6 +261,20 @@ def _servo_problem(m: mujoco.MjModel, robot: RobotModel) -> str | None:
     return None
 
 
+def effective_inertia(robot: RobotModel) -> np.ndarray:
+    """(n,) the inertia each configuration joint drives at the configuration's ``qpos0`` when the other
+    configuration joints are free and every other joint is held: 1 / (M_cc^-1)_jj, M_cc the joint-space
+    inertia matrix (armature included) restricted to the configuration's dofs (kg m^2 or kg)."""
+    m = robot.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = robot.config.qpos0
+    mujoco.mj_forward(m, d)
+    full = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, full)
+    dof = m.jnt_dofadr[robot.config.joint_ids]
+    return 1.0 / np.diag(np.linalg.inv(full[np.ix_(dof, dof)]))
+
+
 def servo_model(robot: RobotModel) -> tuple[mujoco.MjModel, str]:
     """The model the dynamic replay drives, and a one-line note ("" when no servo was added).
 
@@ -281,11 +298,11 @@ def servo_model(robot: RobotModel) -> tuple[mujoco.MjModel, str]:
         return spec.compile(), ""
     for act in list(spec.actuators):
         spec.delete(act)
-    inertia = np.asarray(m.dof_M0)[m.jnt_dofadr[robot.config.joint_ids]]
+    inertia = effective_inertia(robot)
     omega = 2 * np.pi * SERVO_HZ
     gains = []
     for name, I in zip(robot.config.joint_names, inertia):
-        kp = float(max(I, 1e-6) * omega**2)
+        kp = float(I * omega**2)
         act = spec.add_actuator()
         act.name = f"foam_mj_servo_{name}"
         act.target = name
@@ -295,7 +312,7 @@ def servo_model(robot: RobotModel) -> tuple[mujoco.MjModel, str]:
     out = spec.compile()
     note = (
         f"dynamic replay: {problem}, so every configuration joint is driven by an added position servo, "
-        f"kp = joint inertia x (2 pi {SERVO_HZ:g} Hz)^2, critically damped: {', '.join(gains)} (N m/rad or N/m)"
+        f"kp = effective joint inertia x (2 pi {SERVO_HZ:g} Hz)^2, critically damped: {', '.join(gains)} (N m/rad or N/m)"
     )
     return out, note
 

@@ -70,8 +70,12 @@ def test_servos_added_to_a_model_without_actuators_have_gains_from_the_joint_ine
     robot = RobotModel.from_xml(ARM)
     m, note = servo_model(robot)
     assert m is not robot.model and m.nu == 2 and note.startswith("dynamic replay:")
-    inertia = robot.model.dof_M0[robot.model.jnt_dofadr[robot.config.joint_ids]]
-    np.testing.assert_allclose(m.actuator_gainprm[:, 0], inertia * (2 * np.pi * SERVO_HZ) ** 2, rtol=1e-9)
+    # kp = the inertia each joint drives with the other free, 1 / (M^-1)_jj at qpos0, times (2 pi f)^2
+    d = mujoco.MjData(robot.model)
+    mujoco.mj_forward(robot.model, d)
+    M = np.zeros((2, 2))
+    mujoco.mj_fullM(robot.model, d, M)
+    np.testing.assert_allclose(m.actuator_gainprm[:, 0], (2 * np.pi * SERVO_HZ) ** 2 / np.diag(np.linalg.inv(M)), rtol=1e-9)
     assert np.all(m.actuator_biasprm[:, 2] < 0)  # damped
     # A model that has its servos keeps them, with no note.
     from conftest import MODELS
