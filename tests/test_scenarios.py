@@ -114,3 +114,21 @@ def test_a_scenario_saved_with_a_byte_order_mark_loads_and_one_in_latin_1_is_nam
     p.write_bytes(text.encode("latin-1"))
     with pytest.raises(ScenarioError, match="s.toml: cannot read: 'utf-8' codec can't decode byte 0xe9"):
         load_scenario(p)
+
+
+def test_a_robot_geom_held_within_the_margin_by_no_joint_is_refused_naming_the_pair(tmp_path):
+    """A door on a vertical hinge stands on the floor: no configuration joint changes their distance, so the
+    planner leaves the pair out, yet every path would keep the door 0 mm from the floor, which `foam-mj verify`
+    and MuJoCo-only checkers count as breaking the margin: refused before planning, naming both geoms."""
+    (tmp_path / "door.xml").write_text(
+        '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 0.1"/><geom name="post" type="box" size="0.05 0.05 0.3" pos="0.6 0 0.3"/>'
+        '<body name="door" pos="0 0 0.3"><joint name="swing" axis="0 0 1" range="-90 90"/>'
+        '<geom name="leaf" type="box" size="0.02 0.2 0.3" pos="0 0.2 {lift}"/></body></worldbody></mujoco>'.replace("{lift}", "0")
+    )
+    p = tmp_path / "door.toml"
+    p.write_text('name = "door"\nscene = "door.xml"\nq_init = [-1.0]\nq_goal = [1.0]\n')
+    with pytest.raises(ScenarioError, match=r"door.toml: field 'scene': robot geom leaf and obstacle floor are 0\.0000 m apart, "
+                                            r"within the safety margin delta 0\.005 m, and no configuration joint changes that distance"):
+        load_scenario(p)
+    (tmp_path / "door.xml").write_text((tmp_path / "door.xml").read_text().replace('pos="0 0.2 0"', 'pos="0 0.2 0.01"'))
+    assert load_scenario(p).name == "door"  # 1 cm above the floor: planned
