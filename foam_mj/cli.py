@@ -143,7 +143,7 @@ def _summary_table(outcome) -> str:
         )
     lines.append(
         "min clear: smallest MuJoCo clearance along the replayed trajectory; track err: largest servo tracking "
-        "error under gravity (mrad for hinges, mm for the hip slide); contacts: leg/obstacle contacts in that replay."
+        "error under gravity (mrad for hinges, mm for slides); contacts: robot/obstacle contacts in that replay."
     )
     return "\n".join(lines)
 
