@@ -395,6 +395,14 @@ def _limits(table, path: Path) -> tuple[Limits | None, str | None]:
     return (Limits(**lists) if lists else None), law
 
 
+def _meet_at_a_joint(robot: RobotModel, a: int, b: int) -> bool:
+    """Is robot geom ``a`` on a body whose parent is welded to the world with obstacle geom ``b`` (a first link on
+    its fixed base)? MuJoCo's parent/child filter exempts the world, so such a pair is checked."""
+    m = robot.model
+    fixed = int(m.geom_bodyid[b])
+    return int(m.body_weldid[fixed]) == 0 and fixed == int(m.body_parentid[m.body_weldid[m.geom_bodyid[a]]])
+
+
 def _check_fixed_pairs(robot: RobotModel, q: np.ndarray, delta: float, where: str) -> None:
     """Refuse a robot/obstacle pair closer than ``delta`` whose distance no configuration joint changes (a
     base on the floor turned by a vertical axis): it is left out of the planner's pairs, yet every path
@@ -462,6 +470,10 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
                     bodies = [mujoco.mj_id2name(robot.model, mujoco.mjtObj.mjOBJ_BODY, int(robot.model.geom_bodyid[g])) or f"body {int(robot.model.geom_bodyid[g])}" for g in (a, b)]
                     hint = (f"; a robot/robot pair: if these links overlap by design, add <contact><exclude body1=\"{bodies[0]}\" "
                             f"body2=\"{bodies[1]}\"/> to the MJCF, or set self_collision = false in a scenario")
+                elif _meet_at_a_joint(robot, int(a), int(b)):
+                    hint = (f"; {robot.geom_name(int(a))} is on a link jointed to the fixed body of {robot.geom_name(int(b))}: they "
+                            "are checked like any robot/obstacle pair (<contact><exclude> does not apply), so shorten one so they do "
+                            "not overlap, or give the fixed one contype=\"0\" conaffinity=\"0\"")
                 raise ScenarioError(
                     f"{where}: field '{field_name}' = {q.tolist()} is {state}: clearance {clearance_text(d, scenario.params.delta)} "
                     f"between {robot.geom_name(int(a))} and {robot.geom_name(int(b))} "

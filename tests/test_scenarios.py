@@ -132,3 +132,21 @@ def test_a_robot_geom_held_within_the_margin_by_no_joint_is_refused_naming_the_p
         load_scenario(p)
     (tmp_path / "door.xml").write_text((tmp_path / "door.xml").read_text().replace('pos="0 0.2 0"', 'pos="0 0.2 0.01"'))
     assert load_scenario(p).name == "door"  # 1 cm above the floor: planned
+
+
+def test_a_first_link_overlapping_its_fixed_base_is_refused_with_the_way_out(tmp_path):
+    """A pan link jointed to a base fixed to the world overlaps it at the joint; MuJoCo's parent/child filter
+    exempts the world and robot/obstacle pairs ignore <exclude>, so the start is in collision: the message
+    says why the <exclude> did not help and what to change."""
+    (tmp_path / "base.xml").write_text(
+        '<mujoco><worldbody><geom name="post" type="box" size="0.05 0.05 0.2" pos="0.4 0.3 0.2"/>'
+        '<body name="base" pos="0 0 0.3"><geom name="base" type="cylinder" size="0.06 0.3" pos="0 0 -0.05"/>'
+        '<body name="link1" pos="0 0 0.25"><joint name="pan" axis="0 0 1" range="-170 170"/>'
+        '<geom name="l1" type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/></body></body></worldbody>'
+        '<contact><exclude body1="base" body2="link1"/></contact></mujoco>'
+    )
+    p = tmp_path / "base.toml"
+    p.write_text('name = "base"\nscene = "base.xml"\nq_init = [-0.5]\nq_goal = [1.5]\n')
+    with pytest.raises(ScenarioError, match=r"q_init.*in collision: clearance -0\.0300 m between l1 and base .*; l1 is on a link "
+                                            r"jointed to the fixed body of base: .*<contact><exclude> does not apply.*contype=\"0\""):
+        load_scenario(p)
