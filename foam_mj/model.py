@@ -330,6 +330,13 @@ class RobotModel:
                 raise ModelError(f"{p}: keyframe '{keyframe}' is not in the model (keyframes: {known})")
             config = dataclasses.replace(config, qpos0=np.array(m.key_qpos[k]))
         moves = geom_moved_by(m, config)
+        coupled = coupling_equalities(m, config)
+        if coupled:
+            raise ModelError(
+                f"{p}: equality constraint(s) {coupled} tie a configuration joint ({', '.join(config.joint_names)}) to "
+                "other motion (a coupled or mimic joint, a closed loop), which the planner, moving each joint on its own, "
+                "would not follow: deactivate them (active=\"false\") or plan over joints they do not touch (--joints)"
+            )
         if root is not None:
             in_robot = body_subtree(m, root)
             outside = [n for n, j in zip(config.joint_names, config.joint_ids) if not in_robot[int(m.jnt_bodyid[j])]]
@@ -532,6 +539,48 @@ def geom_moved_by(m: mujoco.MjModel, config: "ConfigurationMap") -> np.ndarray:
     for i, j in enumerate(config.joint_ids):
         below = body_subtree(m, int(m.jnt_bodyid[int(j)]))
         out[:, i] = below[m.geom_bodyid]
+    return out
+
+
+def coupling_equalities(m: mujoco.MjModel, config: "ConfigurationMap") -> list[str]:
+    """Names of the active equality constraints that tie a configuration joint to other motion: a joint or tendon
+    coupling that involves a configuration joint (a mimic joint), or a connect/weld/distance constraint on a body
+    that a configuration joint moves (a closed loop). The planner moves each coordinate independently and holds
+    every other joint at its pose, so its path would not be the motion MuJoCo, or the robot, makes."""
+    moved = np.zeros(m.nbody, dtype=bool)
+    for j in config.joint_ids:
+        moved |= body_subtree(m, int(m.jnt_bodyid[int(j)]))
+    joints = {int(j) for j in config.joint_ids}
+    eq = mujoco.mjtEq
+
+    def tendon_touches(t: int) -> bool:
+        for w in range(int(m.tendon_adr[t]), int(m.tendon_adr[t]) + int(m.tendon_num[t])):
+            kind, obj = int(m.wrap_type[w]), int(m.wrap_objid[w])
+            if kind == int(mujoco.mjtWrap.mjWRAP_JOINT) and obj in joints:
+                return True
+            if kind == int(mujoco.mjtWrap.mjWRAP_SITE) and moved[int(m.site_bodyid[obj])]:
+                return True
+        return False
+
+    def body_of(kind: int, obj: int) -> int:
+        return int(m.site_bodyid[obj]) if kind == int(mujoco.mjtObj.mjOBJ_SITE) else obj
+
+    out = []
+    for e in range(m.neq):
+        if not m.eq_active0[e]:
+            continue
+        kind, a, b = int(m.eq_type[e]), int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        if kind == int(eq.mjEQ_JOINT):
+            hit = a in joints or b in joints
+        elif kind == int(eq.mjEQ_TENDON):
+            hit = tendon_touches(a) or (b >= 0 and tendon_touches(b))
+        elif kind in (int(eq.mjEQ_CONNECT), int(eq.mjEQ_WELD), int(eq.mjEQ_DISTANCE)):
+            objtype = int(m.eq_objtype[e])
+            hit = bool(moved[body_of(objtype, a)] or (b >= 0 and moved[body_of(objtype, b)]))
+        else:  # flex constraints act on flex vertices, not on the configuration's joints
+            hit = False
+        if hit:
+            out.append(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e) or f"equality {e}")
     return out
 
 

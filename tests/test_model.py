@@ -202,3 +202,31 @@ def test_an_obstacle_in_another_collision_group_is_still_checked(tmp_path):
         assert clearance.pairwise(np.radians([-34, 0, 0]))[("l1", "shelf")] < 0  # and through the shelf
     finally:
         clearance.close()
+
+
+def test_an_equality_that_ties_a_configuration_joint_to_other_motion_is_refused_naming_it(tmp_path):
+    """A mimic joint (<equality><joint>) or a closed loop (<connect> on a moved body) would make MuJoCo, and the robot,
+    move otherwise than the planner, which moves each configuration joint on its own: refused, naming the constraint.
+    An inactive one, one between joints outside the configuration, or a weld of a mocap obstacle is fine."""
+    arm = (
+        '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+        '<body name="b1" pos="0 0 .5"><joint name="a" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '<body name="b2" pos=".3 0 0"><joint name="b" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '<body name="b3" pos=".3 0 0"><joint name="c" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .2 0 0" size=".02"/>'
+        '</body></body></body><body name="mocap" mocap="true" pos="1 0 1"><geom type="box" size=".05 .05 .05"/></body>'
+        '<body name="loose" pos="1 1 1"><freejoint/><geom type="box" size=".05 .05 .05"/></body></worldbody>{eq}</mujoco>'
+    )
+
+    def load(eq: str, joints=None) -> RobotModel:
+        scene = tmp_path / "arm.xml"
+        scene.write_text(arm.replace("{eq}", eq))
+        return RobotModel.from_xml(scene, joints=joints)
+
+    mimic = '<equality><joint name="mimic" joint1="c" joint2="b"/></equality>'
+    with pytest.raises(ModelError, match=r"equality constraint\(s\) \['mimic'\] tie a configuration joint \(a, b, c\) to other motion"):
+        load(mimic)
+    with pytest.raises(ModelError, match=r"\['loop'\] tie a configuration joint"):
+        load('<equality><connect name="loop" body1="b3" body2="world" anchor="0 0 0"/></equality>', joints=["a"])
+    assert load(mimic, joints=["a"]).dim == 1  # b and c held where they are: the constraint holds too
+    assert load(mimic.replace('joint2="b"', 'joint2="b" active="false"')).dim == 3
+    assert load('<equality><weld body1="mocap" body2="loose"/></equality>').dim == 3
