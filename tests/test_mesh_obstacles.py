@@ -177,3 +177,31 @@ def test_mesh_tables_are_checked(stl, tmp_path):
         doc["mesh"] = [mesh]
         with pytest.raises(ScenarioError, match=message):
             scenario_from_dict(doc, stl.parent, check=False)
+
+
+def test_an_open_or_flat_mesh_is_refused_at_once_naming_the_fix(stl, tmp_path):
+    """An open surface is refused for decomposition at once (CoACD used to remesh a box with one face missing
+    into 60,588 triangles and search them for 6 minutes); with decompose = false its convex hull is used, wound
+    outward; a flat mesh, whose hull has no volume, is refused (its hull used to need networkx: exit 1)."""
+    import time
+
+    from foam_mj.obstacles import convex_parts
+    from foam_mj.scene_edits import MeshObstacle
+
+    box = trimesh.creation.box(extents=(0.2, 0.5, 0.15))
+    box.update_faces(np.arange(len(box.faces)) != 0)
+    box.remove_unreferenced_vertices()
+    opened = tmp_path / "open_box.stl"
+    box.export(opened)
+    t0 = time.perf_counter()
+    with pytest.raises(ScenarioError, match="not closed.*decompose = false"):
+        convex_parts(MeshObstacle(opened))
+    assert time.perf_counter() - t0 < 5.0
+    ((v, f),) = convex_parts(MeshObstacle(opened, decompose=False))
+    assert len(v) == 8 and len(f) == 12
+    a, b, c = (v[f[:, i]] for i in range(3))
+    assert np.all(np.einsum("ij,ij->i", np.cross(b - a, c - a), (a + b + c) / 3 - v.mean(axis=0)) > 0)  # outward
+    flat = tmp_path / "flat.stl"
+    trimesh.Trimesh([[0, -0.25, 0], [0, 0.25, 0], [0, 0.25, 0.2], [0, -0.25, 0.2]], [[0, 1, 2], [0, 2, 3]]).export(flat)
+    with pytest.raises(ScenarioError, match="lie in one plane.*no volume"):
+        convex_parts(MeshObstacle(flat, decompose=False))
