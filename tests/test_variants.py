@@ -177,6 +177,18 @@ def test_budgets_stop_every_variant_with_statistics(scene_oracles, variant):
 
 
 @pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_a_foam_that_never_grows_past_its_root_says_r_min_is_why(scene_oracles, variant):
+    """The variants accept a start bubble under r_min; when nothing of r_min fits on it the failure says so
+    and names the way out (it used to say only 'queue empty after 1 bubbles' or, for gbpf, 'time budget')."""
+    s = SCEN["obstacle"]
+    params = FoamParams(K=s.params.K, r_min=0.3, delta=s.params.delta, time_limit=0.5)
+    with pytest.raises(PlanningFailed, match=r"after 1 bubbles .*: no bubble of radius >= r_min = 0.3 fits on the start's "
+                                             r"bubble \(radius 0.0878\); lower r_min, or plan with bubbletree") as err:
+        VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, params, seed=0)
+    assert err.value.foam.size == 1
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
 def test_a_start_or_goal_inside_the_margin_is_refused_naming_its_clearance(scene_oracles, variant):
     s = SCEN["obstacle"]
     foot_in_box = [0.2, 0.3, 1.0]  # the foot sinks 19 mm into the box

@@ -210,8 +210,14 @@ class _Growth:
             self.q_init, self.q_goal, self.goal,
         )
         if self.goal is None:
+            stuck = ""
+            if self.count == 1:
+                stuck = (
+                    f": no bubble of radius >= r_min = {self.params.r_min} fits on the start's bubble (radius "
+                    f"{self.radii[0]:.4f}); lower r_min, or plan with bubbletree"
+                )
             raise PlanningFailed(
-                f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles in {st.elapsed:.2f} s", stats=st, foam=foam
+                f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles in {st.elapsed:.2f} s{stuck}", stats=st, foam=foam
             )
         return PlanResult(foam, foam.rosary(), st)
 
