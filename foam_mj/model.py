@@ -55,7 +55,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.errors import ConfigurationError, ModelError
+from foam_mj.errors import ConfigurationError, ModelError, clearance_text
 
 CONFIGURATION_FIELD = "foam_mj:configuration"
 NORMALIZE_PREFIX = "foam_mj:normalize:"
@@ -430,6 +430,31 @@ class RobotModel:
 
     def geom_name(self, g: int) -> str:
         return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"geom{g}"
+
+    def check_fixed_pairs(self, delta: float) -> None:
+        """:class:`ConfigurationError` for a robot/obstacle pair closer than ``delta`` whose distance no configuration
+        joint changes (a base on the floor turned by a vertical axis): it is left out of the planner's pairs
+        (``fixed_pairs``), yet every path would break the margin there, and ``foam-mj verify`` and MuJoCo-only
+        checkers count it. Robot/robot pairs no joint changes are left out by the checkers too."""
+        if not len(self.fixed_pairs):
+            return
+        m = self.model
+        robot = {int(g) for g in self.robot_geoms}
+        d = mujoco.MjData(m)
+        d.qpos[:] = self.config.qpos0  # any configuration: no coordinate changes these distances
+        mujoco.mj_kinematics(m, d)
+        for a, b in self.fixed_pairs:
+            a, b = (int(a), int(b)) if int(a) in robot else (int(b), int(a))
+            if b in robot:
+                continue
+            dist = mujoco.mj_geomDistance(m, d, a, b, max(1.0, 2 * delta), None)
+            if dist <= delta:
+                raise ConfigurationError(
+                    f"robot geom {self.geom_name(a)} and obstacle {self.geom_name(b)} are {clearance_text(dist, delta)} "
+                    f"apart, within the safety margin delta {delta} m, and no configuration joint changes that distance, "
+                    "so every path would break the margin (move one of them, give the geom contype=\"0\" conaffinity=\"0\" "
+                    "if it never meets the obstacle, or make a joint between them a configuration joint)"
+                )
 
     def validate(self, q, name: str = "q", *, check_bounds: bool = True) -> np.ndarray:
         """Return q as a float array of shape (n,), or raise ConfigurationError saying what is wrong."""

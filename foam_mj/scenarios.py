@@ -403,31 +403,6 @@ def _meet_at_a_joint(robot: RobotModel, a: int, b: int) -> bool:
     return int(m.body_weldid[fixed]) == 0 and fixed == int(m.body_parentid[m.body_weldid[m.geom_bodyid[a]]])
 
 
-def _check_fixed_pairs(robot: RobotModel, q: np.ndarray, delta: float, where: str) -> None:
-    """Refuse a robot/obstacle pair closer than ``delta`` whose distance no configuration joint changes (a
-    base on the floor turned by a vertical axis): it is left out of the planner's pairs, yet every path
-    would break the margin there, and ``foam-mj verify`` and MuJoCo-only checkers count it."""
-    import mujoco
-
-    m = robot.model
-    robot_geoms = {int(g) for g in robot.robot_geoms}
-    d = mujoco.MjData(m)
-    d.qpos[:] = robot.config.to_qpos(q)
-    mujoco.mj_kinematics(m, d)
-    for a, b in robot.fixed_pairs:
-        a, b = (int(a), int(b)) if int(a) in robot_geoms else (int(b), int(a))
-        if b in robot_geoms:
-            continue  # robot/robot: the checkers too leave out what no joint changes
-        dist = mujoco.mj_geomDistance(m, d, a, b, max(1.0, 2 * delta), None)
-        if dist <= delta:
-            raise ScenarioError(
-                f"{where}: field 'scene': robot geom {robot.geom_name(a)} and obstacle {robot.geom_name(b)} are "
-                f"{clearance_text(dist, delta)} apart, within the safety margin delta {delta} m, and no configuration "
-                "joint changes that distance, so every path would break the margin (move one of them, give the geom "
-                'contype="0" conaffinity="0" if it never meets the obstacle, or make a joint between them a configuration joint)'
-            )
-
-
 def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check_clearance: bool = True) -> None:
     """Load the scene (unless its compiled ``robot`` is given, e.g. a sweep worker's cached one) and check
     q_init and q_goal: shape, bounds, and (unless ``check_clearance`` is false) clearance above the margin."""
@@ -480,7 +455,10 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
                     f"(the safety margin delta is {scenario.params.delta} m; `foam-mj bubble` shows more){hint}"
                 )
         if check_clearance:  # a per-plan check in a sweep, as the clearance's (see check_clearance)
-            _check_fixed_pairs(robot, scenario.q_init, scenario.params.delta, where)
+            try:
+                robot.check_fixed_pairs(scenario.params.delta)
+            except ConfigurationError as exc:
+                raise ScenarioError(f"{where}: field 'scene': {exc}") from None
     finally:
         clearance.close()
     scenario._robot = robot

@@ -12,9 +12,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from foam_mj.bubbles import BubbleOracle
-from foam_mj.errors import ModelError
+from foam_mj.errors import ConfigurationError, ModelError
 from foam_mj.foam import FoamParams, plan
 from foam_mj.model import RobotModel, collision_pairs
+from foam_mj.planners import PlanningProblem, get_planner
 
 _INERTIAL = '<inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/>'
 
@@ -98,10 +99,11 @@ def test_an_excluded_body_pair_is_not_checked(tmp_path):
 
 # -- pairs no joint can change, and the per-pair bound ---------------------------------------------------------
 def test_a_pair_no_joint_can_change_drops_out_and_the_arm_plans(tmp_path):
-    """The shoulder is 3 mm above the floor (less than delta = 5 mm) and only the pan joint moves it: one
-    global clearance made every radius 0. The pair drops out, the others keep their own rho, and the foam
+    """The shoulder is 3 mm above the floor and only the pan joint moves it. With delta = 2 mm, one global
+    clearance would make every radius tiny: the pair drops out, the others keep their own rho, and the foam
     reaches the goal on the far side of the post; the path keeps delta on every pair by MuJoCo's reckoning,
-    and the shoulder stays 3 mm above the floor all along."""
+    and the shoulder stays 3 mm above the floor all along. With delta = 5 mm every path would break the margin
+    on that pair (as `foam-mj verify` counts it): every planner refuses, naming it."""
     robot = _robot(tmp_path, PAN_ARM)
     m, d = robot.model, mujoco.MjData(robot.model)
     shoulder, floor = _gid(m, "shoulder_collision"), _gid(m, "floor")
@@ -109,9 +111,16 @@ def test_a_pair_no_joint_can_change_drops_out_and_the_arm_plans(tmp_path):
     q_init, q_goal = np.array([-1.2, -0.6, 0.5]), np.array([1.2, -0.6, 0.5])
     robot.set_configuration(q_init, d)
     assert mujoco.mj_geomDistance(m, d, shoulder, floor, 1.0, None) == pytest.approx(0.003)
-    oracle = BubbleOracle(robot, delta=0.005)
+    near = BubbleOracle(robot, delta=0.005)
+    refusal = r"robot geom shoulder_collision and obstacle floor are 0\.003\d* m apart, within the safety margin delta 0\.005 m"
+    with pytest.raises(ConfigurationError, match=refusal):
+        plan(near, q_init, q_goal, FoamParams(K=6, r_min=0.05, delta=0.005), seed=0)
+    with pytest.raises(ConfigurationError, match=refusal):
+        get_planner("bubbletree").plan(PlanningProblem(near, q_init, q_goal, delta=0.005), seed=0)
+    near.close()
+    oracle = BubbleOracle(robot, delta=0.002)
     assert oracle.radius(q_init) > 0.1
-    res = plan(oracle, q_init, q_goal, FoamParams(K=6, r_min=0.05, delta=0.005, time_limit=60), seed=0)
+    res = plan(oracle, q_init, q_goal, FoamParams(K=6, r_min=0.05, delta=0.002, time_limit=60), seed=0)
     path = np.vstack([res.rosary.centers, q_goal])
     checked = {tuple(sorted(p)) for p in robot.pairs}
     dense = np.vstack([a + s * (b - a) for a, b in zip(path[:-1], path[1:]) for s in np.linspace(0, 1, 40)])
@@ -121,7 +130,7 @@ def test_a_pair_no_joint_can_change_drops_out_and_the_arm_plans(tmp_path):
         mujoco.mj_collision(m, d)
         assert d.ncon == 0
         assert mujoco.mj_geomDistance(m, d, shoulder, floor, 1.0, None) == pytest.approx(0.003, abs=1e-9)
-        assert min(mujoco.mj_geomDistance(m, d, a, b, 1.0, None) for a, b in checked) >= 0.005 - 1e-9
+        assert min(mujoco.mj_geomDistance(m, d, a, b, 1.0, None) for a, b in checked) >= 0.002 - 1e-9
         crossed_post |= abs(q[0]) < 0.05
     assert crossed_post
     oracle.close()

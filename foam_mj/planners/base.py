@@ -64,6 +64,7 @@ class PlanningProblem:
             raise ValueError(f"`time_limit` must be > 0 seconds, got {self.time_limit!r}")
         if not (isinstance(self.max_bubbles, (int, np.integer)) and self.max_bubbles >= 1):
             raise ValueError(f"`max_bubbles` must be an integer >= 1, got {self.max_bubbles!r}")
+        robot.check_fixed_pairs(self.delta)  # a pair within delta that no joint moves: every path would break it
 
     @property
     def dim(self) -> int:
