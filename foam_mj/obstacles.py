@@ -70,11 +70,27 @@ def resize_box(spec: mujoco.MjSpec, scene: Path, box: "BoxObstacle") -> None:
     half = old_half if box.size is None else np.asarray(box.size, dtype=float) / 2
     if box.pos is not None:
         pos = np.asarray(box.pos, dtype=float)
-    else:  # same centre in x and y, same bottom face
+    else:  # same centre in x and y, same lowest point (for a box turned about a horizontal axis too)
         pos = old_pos.copy()
-        pos[2] = old_pos[2] - old_half[2] + half[2]
+        tilt = np.abs(_world_rotation(spec, g)[2])  # |R_zi|: the lowest point lies sum_i |R_zi| h_i below the centre
+        pos[2] = old_pos[2] - tilt @ old_half + tilt @ half
     g.size = half
     g.pos = pos
+
+
+def _world_rotation(spec: mujoco.MjSpec, g) -> np.ndarray:
+    """The rotation matrix of geom ``g`` of <worldbody>, as MuJoCo resolves its orientation (quat, euler, axisangle,
+    xyaxes or zaxis, in the compiler's angle unit): read off a compiled copy, with ``g`` found by a temporary name."""
+    name = g.name
+    g.name = "foam_mj_resized_box"
+    try:
+        m = spec.compile()
+        quat = np.array(m.geom_quat[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, g.name)])
+    finally:
+        g.name = name
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, quat)
+    return R.reshape(3, 3)
 
 
 def _euler_quat(euler_deg: tuple[float, float, float]) -> np.ndarray:

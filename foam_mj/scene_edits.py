@@ -37,7 +37,7 @@ class BoxObstacle:
     """New full extents (m, along x, y, z) and/or centre (m, world frame) of a scene's box geom.
 
     ``name`` picks the geom when the scene has several static boxes. When ``size`` changes and ``pos``
-    is not given, the box keeps its centre in x and y and its bottom face (it stays on the floor).
+    is not given, the box keeps its centre in x and y and its lowest point (it stays on the floor, turned or not).
     """
 
     size: tuple[float, float, float] | None = None

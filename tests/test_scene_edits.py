@@ -87,6 +87,29 @@ def test_obstacle_table_resizes_the_box_and_keeps_it_on_the_floor():
     np.testing.assert_allclose(r.model.geom("obstacle_box").pos, [0.6, 0.0, 0.075])
 
 
+def test_a_turned_box_resized_keeps_its_lowest_point(tmp_path):
+    """A box turned 30 degrees about y, resized without pos: its lowest corner stays where it was (it sank 29 mm when
+    the axis-aligned bottom face was kept), whichever way the orientation is written."""
+    scene = (MODELS / "obstacle.xml").read_text()
+    assert 'name="obstacle_box"' in scene
+    for orientation in ('euler="0 30 0"', 'axisangle="0 1 0 30"', 'quat="0.9659258 0 0.2588190 0"'):
+        path = tmp_path / "turned.xml"
+        path.write_text(scene.replace('name="obstacle_box"', f'name="obstacle_box" {orientation}').replace(
+            'file="', f'file="{MODELS}/'))
+
+        def lowest(robot: RobotModel) -> float:
+            m, d = robot.model, mujoco.MjData(robot.model)
+            mujoco.mj_kinematics(m, d)
+            g = m.geom("obstacle_box").id
+            corners = np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T * m.geom_size[g]
+            return float((d.geom_xpos[g] + corners @ d.geom_xmat[g].reshape(3, 3).T)[:, 2].min())
+
+        before = lowest(scenario_from_dict({**OBSTACLE, "scene": str(path)}, MODELS, check=False).robot)
+        after = scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"size": [0.3, 0.5, 0.2]}}, MODELS, check=False).robot
+        np.testing.assert_allclose(after.model.geom("obstacle_box").size, [0.15, 0.25, 0.1])
+        assert lowest(after) == pytest.approx(before, abs=1e-6), orientation
+
+
 def test_an_obstacle_name_is_checked_even_when_the_table_changes_nothing_else():
     """A misspelt box name alone is refused (it was ignored: the scene planned on was not the one meant);
     the right name alone leaves the box as it is."""
