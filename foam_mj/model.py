@@ -50,6 +50,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 import dataclasses
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import mujoco
@@ -218,6 +219,10 @@ class ConfigurationMap:
         """Configurations for qpos rows of shape (nq,) or (N, nq)."""
         qpos = np.asarray(qpos, dtype=float)
         return (qpos[..., self.qpos_index] - self.offset) / self.scale
+
+
+#: The cutoff of the fixed pairs' distances (metres): above any margin a plan could ask for.
+FIXED_DISTMAX = 1e6
 
 
 @dataclass
@@ -431,23 +436,28 @@ class RobotModel:
     def geom_name(self, g: int) -> str:
         return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"geom{g}"
 
+    @cached_property
+    def fixed_obstacle_distances(self) -> tuple[tuple[int, int, float], ...]:
+        """(robot geom, obstacle geom, distance) of every robot/obstacle pair in ``fixed_pairs``: no configuration
+        joint changes these distances, so they are measured once (at ``qpos0``)."""
+        m = self.model
+        robot = {int(g) for g in self.robot_geoms}
+        d = mujoco.MjData(m)
+        d.qpos[:] = self.config.qpos0
+        mujoco.mj_kinematics(m, d)
+        out = []
+        for a, b in self.fixed_pairs:
+            a, b = (int(a), int(b)) if int(a) in robot else (int(b), int(a))
+            if b not in robot:  # robot/robot pairs no joint changes are left out by the checkers too
+                out.append((a, b, float(mujoco.mj_geomDistance(m, d, a, b, FIXED_DISTMAX, None))))
+        return tuple(out)
+
     def check_fixed_pairs(self, delta: float) -> None:
         """:class:`ConfigurationError` for a robot/obstacle pair closer than ``delta`` whose distance no configuration
         joint changes (a base on the floor turned by a vertical axis): it is left out of the planner's pairs
         (``fixed_pairs``), yet every path would break the margin there, and ``foam-mj verify`` and MuJoCo-only
-        checkers count it. Robot/robot pairs no joint changes are left out by the checkers too."""
-        if not len(self.fixed_pairs):
-            return
-        m = self.model
-        robot = {int(g) for g in self.robot_geoms}
-        d = mujoco.MjData(m)
-        d.qpos[:] = self.config.qpos0  # any configuration: no coordinate changes these distances
-        mujoco.mj_kinematics(m, d)
-        for a, b in self.fixed_pairs:
-            a, b = (int(a), int(b)) if int(a) in robot else (int(b), int(a))
-            if b in robot:
-                continue
-            dist = mujoco.mj_geomDistance(m, d, a, b, max(1.0, 2 * delta), None)
+        checkers count it."""
+        for a, b, dist in self.fixed_obstacle_distances:
             if dist <= delta:
                 raise ConfigurationError(
                     f"robot geom {self.geom_name(a)} and obstacle {self.geom_name(b)} are {clearance_text(dist, delta)} "

@@ -528,11 +528,10 @@ class BubbleTreePlanner(Planner):
             wall = oracle.to_bounds(flat).reshape(s.shape)
             reach = rP[:, None]
             floor = np.where(rP >= SMALLEST, np.minimum(r_min, GROW * rP), r_min)  # (GROW, SMALLEST)
-            if corner_roots:  # children of a root on an edge or corner of the box (CORNER)
+            if corner_roots:  # children of a root on an edge or corner of the box (CORNER), and TOWARD_SMALL
                 root = P < 2
                 floor[root] = np.where(outside[P[root]], np.minimum(r_min, CORNER * rP[root]), floor[root])
-            if corner_roots:  # toward a bubble of the other tree below r_min (TOWARD_SMALL)
-                tr = np.concatenate(target_r)[ok]
+                tr = np.concatenate(target_r)[ok]  # toward a bubble of the other tree below r_min
                 floor = np.where(tr < r_min, np.minimum(floor, CORNER * np.maximum(tr, r_corner)), floor)
             floor = floor[:, None]
             ask = np.flatnonzero((wall >= floor) & (s <= reach + (1 - HATCH) * wall))
