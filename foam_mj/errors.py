@@ -42,3 +42,11 @@ def clearance_text(d: float, delta: float) -> str:
         if d == delta or text != f"{delta:.{k}f}":
             break
     return f"{text} m"
+
+
+def is_number(value: Any) -> bool:
+    """A real number (Python's or numpy's) and not a boolean: True is the integer 1 to Python, and a flag
+    given where a number is expected (``K = true``) must be refused, not planned with as 1."""
+    import numbers
+
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)  # numpy's bool_ is no Real

@@ -34,6 +34,14 @@ def test_unknown_and_invalid_options_are_named():
         get_planner("pfm", r_min=-1.0)
 
 
+@pytest.mark.parametrize("name, option", [("pfm", "K"), ("pfm", "r_min"), ("gbpf", "bias"), ("hpf", "K"), ("bubbletree", "explore"), ("bubbletree", "batch")])
+def test_a_boolean_where_a_number_is_expected_is_refused_not_read_as_one(name, option):
+    with pytest.raises(PlannerError, match=f"planner '{name}': `{option}` must be a number, got True"):
+        get_planner(name, **{option: True})
+    with pytest.raises(ValueError, match="`time_limit` must be > 0"):
+        PlannerConfig(algorithm=name, time_limit=True)
+
+
 def test_every_planner_has_a_name_a_summary_and_default_options():
     for name, cls in PLANNERS.items():
         p = get_planner(name)

@@ -25,7 +25,7 @@ from typing import Any, Callable, ClassVar, Mapping
 import numpy as np
 
 from foam_mj.bubbles import BubbleOracle, EndBubble
-from foam_mj.errors import ConfigurationError, FoamError, clearance_text
+from foam_mj.errors import ConfigurationError, FoamError, clearance_text, is_number
 from foam_mj.foam import Foam
 from foam_mj.rosary import Rosary
 
@@ -54,7 +54,7 @@ class PlanningProblem:
         object.__setattr__(self, "q_init", robot.validate(self.q_init, "q_init"))
         object.__setattr__(self, "q_goal", robot.validate(self.q_goal, "q_goal"))
         for name, value in (("delta", self.delta), ("time_limit", self.time_limit), ("max_bubbles", self.max_bubbles)):
-            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+            if not is_number(value):
                 raise TypeError(f"`{name}` must be a number, got {value!r}")
         if not (np.isfinite(self.delta) and self.delta >= 0):
             raise ValueError(f"`delta` must be >= 0 (metres), got {self.delta!r}")
@@ -219,6 +219,10 @@ def make_options(cls: type[Planner], values: Mapping[str, Any]) -> Any:
     if unknown:
         expected = ", ".join(known) if known else "none"
         raise PlannerError(f"planner '{cls.name}' has no option(s) {unknown}; its options: {expected}")
+    flags = {f.name for f in dataclasses.fields(cls.Options) if f.type in (bool, "bool")}
+    for key, value in values.items():  # Python's True is the integer 1: K = true would plan with K = 1
+        if isinstance(value, (bool, np.bool_)) and key not in flags:
+            raise PlannerError(f"planner '{cls.name}': `{key}` must be a number, got {value!r}")
     try:
         return cls.Options(**values)
     except (TypeError, ValueError) as exc:
@@ -265,11 +269,11 @@ class PlannerConfig:
     options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.delta, (int, float)) and np.isfinite(self.delta) and self.delta >= 0):
+        if not (is_number(self.delta) and np.isfinite(self.delta) and self.delta >= 0):
             raise ValueError(f"`delta` must be >= 0 (metres), got {self.delta!r}")
         if not (isinstance(self.max_bubbles, (int, np.integer)) and not isinstance(self.max_bubbles, bool) and self.max_bubbles >= 1):
             raise ValueError(f"`max_bubbles` must be an integer >= 1, got {self.max_bubbles!r}")
-        if not (isinstance(self.time_limit, (int, float)) and self.time_limit > 0):
+        if not (is_number(self.time_limit) and self.time_limit > 0):
             raise ValueError(f"`time_limit` must be > 0 seconds, got {self.time_limit!r}")
         object.__setattr__(self, "options", dict(self.options))
         self.planner()  # validates the name and the options
