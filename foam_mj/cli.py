@@ -517,25 +517,23 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """foam-mj export RESULT.json [--path NAME] --format csv|npz|parquet --out FILE [--hz 500]."""
-    from foam_mj.export import check_hz, export_table, pick_path, require_pyarrow, write_table
+    """foam-mj export RESULT.json [--path NAME] [--format csv|npz|parquet] --out FILE [--hz 500]."""
+    from foam_mj.atomic import check_distinct, check_output
+    from foam_mj.export import check_hz, export_table, pick_path, require_pyarrow, resolve_format, write_table
     from foam_mj.results import read_result
 
     hz = check_hz(args.hz)
-    from foam_mj.atomic import check_output
-
     out = check_output(args.out, "--out")
-    from foam_mj.atomic import check_distinct
-
+    fmt = resolve_format(out, args.format)
     check_distinct({"--out": out}, {"the result": args.result})
-    if args.format == "parquet":
+    if fmt == "parquet":
         require_pyarrow()
     doc = read_result(args.result)
     name = pick_path(doc, args.path)
     table = export_table(doc, args.result, name, hz)
-    write_table(table, out, args.format)
+    write_table(table, out, fmt)
     print(f"wrote {out}: path '{name}', {table.n_rows} rows at {hz:g} Hz ({table.metadata['duration_s']:.3f} s), "
-          f"{len(table.columns)} columns ({args.format})")
+          f"{len(table.columns)} columns ({fmt})")
     return EXIT_OK
 
 
@@ -832,7 +830,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
     p.add_argument("--path", default=None, help="which path of the result (default: the last one, plan's smoothed path)")
-    p.add_argument("--format", required=True, choices=["csv", "npz", "parquet"], help="file format (parquet needs pyarrow)")
+    p.add_argument("--format", default=None, choices=["csv", "npz", "parquet"],
+                   help="file format (parquet needs pyarrow; default: the one --out's suffix names, .csv, .npz, .parquet or .pq)")
     p.add_argument("--out", required=True, metavar="FILE", help="where to write the table")
     p.add_argument("--hz", default=500.0, help="samples per second (default: 500)")
     p.set_defaults(func=cmd_export)

@@ -175,6 +175,28 @@ def _csv_text(table: ExportTable) -> str:
     return buf.getvalue()
 
 
+#: The file name endings each format is known by (``--out``'s suffix picks the format when none is given).
+SUFFIXES = {".csv": "csv", ".npz": "npz", ".parquet": "parquet", ".pq": "parquet"}
+
+
+def resolve_format(out: str | Path, fmt: str | None) -> str:
+    """The table format for ``out``: ``fmt`` when given, else the one its suffix names; a known suffix of another
+    format than ``fmt`` is refused (``--format npz --out e.csv`` would write NPZ into a file every reader takes for CSV)."""
+    suffix = Path(out).suffix.lower()
+    named = SUFFIXES.get(suffix)
+    if fmt is None:
+        if named is None:
+            raise FoamError(f"--out {out}: give --format {'|'.join(FORMATS)}, or an --out ending in "
+                            f"{', '.join(SUFFIXES)} to pick it")
+        return named
+    if fmt not in FORMATS:
+        raise FoamError(f"--format must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    if named is not None and named != fmt:
+        raise FoamError(f"--out {out} ends in {suffix}, a {named} file, but --format is {fmt}: "
+                        f"give --format {named} or an --out ending in .{fmt}")
+    return fmt
+
+
 def write_table(table: ExportTable, out: str | Path, fmt: str) -> Path:
     """Write ``table`` to ``out`` as csv, npz or parquet, atomically."""
     out = Path(out)

@@ -117,6 +117,7 @@ def test_npz_and_parquet_hold_the_same_table_and_their_units(planned):
         (["--hz", "0", "--format", "csv"], "--hz must be"),
         (["--hz", "nan", "--format", "csv"], "--hz must be"),
         (["--hz", "fast", "--format", "csv"], "--hz must be"),
+        ([], "give --format csv|npz|parquet, or an --out ending in .csv, .npz, .parquet, .pq"),
     ],
 )
 def test_bad_export_input_is_one_line_and_exit_2_with_no_file(planned, tmp_path, capsys, args, message):
@@ -125,6 +126,19 @@ def test_bad_export_input_is_one_line_and_exit_2_with_no_file(planned, tmp_path,
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_format_follows_the_out_suffix_and_a_mismatch_is_refused(planned, tmp_path, capsys):
+    out = tmp_path / "t.npz"
+    assert main(["export", str(planned["json"]), "--out", str(out), "--hz", "100"]) == 0
+    assert "(npz)" in capsys.readouterr().out
+    with np.load(out) as z:
+        assert "time_s" in z.files
+    wrong = tmp_path / "t.csv"
+    assert main(["export", str(planned["json"]), "--format", "npz", "--out", str(wrong)]) == 2
+    err = capsys.readouterr().err
+    assert "--out " + str(wrong) + " ends in .csv, a csv file, but --format is npz" in err and err.count("\n") == 1
+    assert not wrong.exists()
 
 
 def test_an_unwritable_export_target_is_exit_2(planned, tmp_path, capsys):
