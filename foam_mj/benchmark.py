@@ -377,6 +377,10 @@ def format_tables(res: dict) -> str:
     return "\n".join(lines)
 
 
+#: The most runs per stochastic method ``--runs`` takes (a typo of a few zeros would run for days).
+MAX_RUNS = 10_000
+
+
 def main(argv: list[str] | None = None) -> int:
     from foam_mj.cli import Parser, UsageError  # one-line argument errors, exit 2
 
@@ -388,15 +392,15 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = ap.parse_args(argv)
         runs = args.runs if args.runs is not None else (3 if args.quick else 50)
-        if runs < 1:
-            ap.error(f"--runs must be >= 1, got {runs}")
+        if not 1 <= runs <= MAX_RUNS:
+            ap.error(f"--runs must be in [1, {MAX_RUNS}] (runs per stochastic method; 50 take minutes), got {runs}")
     except UsageError as exc:
         print(exc, file=sys.stderr)
         return 2
     try:  # checked before any work: the default folder is created, anything else must exist and be writable
         if args.json == DEFAULT_JSON:
             args.json.parent.mkdir(parents=True, exist_ok=True)
-        check_output(args.json, "--json")
+        check_output(args.json, "--json", suffix=".json")
     except OutputError as exc:
         print(f"foam-mj: error: {exc}", file=sys.stderr)
         return 2

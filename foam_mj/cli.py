@@ -366,7 +366,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
     from foam_mj.results import write_failure, write_outcome
 
     # Every input and output is checked before any planning.
-    json_out = check_output(args.json, "--json")
+    json_out = check_output(args.json, "--json", suffix=".json")
     rrd = check_output(args.rrd, "--rrd", suffix=".rrd")
     figures_dir = _check_figures_dir(args.figures)
     names = parse_smoothers(args.smoother)

@@ -194,6 +194,9 @@ def test_an_unwritable_output_fails_before_planning(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--json" in err and "does not exist" in err and "planning" not in err
     assert main(["plan", "--rrd", str(tmp_path / "x.txt")]) == 2
+    assert main(["plan", "--no-rrd", "--json", str(tmp_path / "x.txt")]) == 2
+    assert "--json output " + str(tmp_path / "x.txt") + " must end in .json" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_planning_failure_exits_3_and_still_writes_the_foam(tmp_path, capsys):

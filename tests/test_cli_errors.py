@@ -116,7 +116,9 @@ def test_bench_refuses_an_unwritable_json_before_any_work(capsys):
     assert main(["bench", "--quick", "--json", "/proc/bench.json"]) == 2
     err = capsys.readouterr().err
     assert "cannot create a file in /proc" in err and len(err.strip().splitlines()) == 1
-    for args in (["--runs", "0"], ["--runs", "x"], ["--colour"]):
+    assert main(["bench", "--quick", "--json", "bench.txt"]) == 2
+    assert "--json output bench.txt must end in .json" in capsys.readouterr().err
+    for args in (["--runs", "0"], ["--runs", "x"], ["--runs", "10001"], ["--colour"]):
         assert main(["bench", *args]) == 2
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and "foam-mj bench: error" in err, err
