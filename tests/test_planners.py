@@ -677,6 +677,27 @@ def test_a_tree_that_stalls_beside_an_end_point_on_an_edge_of_the_joint_box_is_n
         get_planner("bubbletree").plan(PlanningProblem(oracle, q_init, s.q_goal, delta=0.007, max_bubbles=2000), seed=0)
 
 
+def test_trees_that_cannot_meet_name_where_they_came_nearest_and_what_blocks_it(tmp_path):
+    """A box 0.8 m tall between start and goal: no step clears it. The failure says where the trees came nearest and
+    the clearance there, which MuJoCo confirms: the leg is inside the box."""
+    from foam_mj.bubbles import BubbleOracle
+    from tests.conftest import MujocoChecker
+
+    toml = tmp_path / "tall.toml"
+    base = load_scenario("obstacle")
+    toml.write_text(f"scene = '{base.scene}'\nq_init = {base.q_init.tolist()}\nq_goal = {base.q_goal.tolist()}\n"
+                    "[planner]\nalgorithm = 'bubbletree'\n[obstacle]\nsize = [0.2, 0.5, 0.8]\n")
+    s = load_scenario(toml)
+    oracle = BubbleOracle(s.robot, delta=0.005)
+    with pytest.raises(PlanningFailed, match=r"the trees did not meet \(bubble budget\)") as err:
+        get_planner("bubbletree").plan(PlanningProblem(oracle, s.q_init, s.q_goal, max_bubbles=1500), seed=0)
+    m = re.search(r"they came nearest at q = \[([^]]+)\] \(a gap of [0-9.e-]+ between their bubbles\), with clearance "
+                  r"(-?[0-9.]+) m between (\w+) and (\w+): the goal may be unreachable", str(err.value))
+    assert m and "obstacle_box" in m.group(3, 4), str(err.value)
+    q = np.array([float(v) for v in m.group(1).split(",")])
+    assert MujocoChecker(s.robot).distance(q) == pytest.approx(float(m.group(2)), abs=1e-4) and float(m.group(2)) < 0
+
+
 def test_a_problem_names_a_margin_budget_or_count_that_is_not_a_number(oracles):
     """delta="0.005" failed in numpy ("ufunc 'isfinite' not supported for the input types"), time_limit="5" with
     "'>' not supported between instances of 'str' and 'int'", and max_bubbles=True was a budget of one bubble."""

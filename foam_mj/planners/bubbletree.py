@@ -407,6 +407,22 @@ class BubbleTreePlanner(Planner):
             details.update(extra or {})
             return PlanStats(self.name, outcome, B.n, oracle.clearance.calls - calls0, timer.elapsed(), t_first, details)
 
+        def closest_approach() -> str:
+            """Where the trees came nearest: the configuration halfway across the gap between the two bubbles
+            nearest each other, its clearance and the pair that sets it (what blocks the way, for the user)."""
+            T = B.trees[0]
+            if T.n == 0 or not np.isfinite(T.gap[: T.n]).any():
+                return ""
+            i = int(np.argmin(T.gap[: T.n]))
+            a, b = int(T.idx[i]), int(T.mate[i])
+            u = B.c[b] - B.c[a]
+            u /= np.linalg.norm(u)
+            q = np.clip(B.c[a] + (B.r[a] + T.gap[i] / 2) * u, lo, hi)
+            report = oracle.explain(q)
+            return (f"; they came nearest at q = {np.round(q, 4).tolist()} (a gap of {T.gap[i]:.3g} between their bubbles), with "
+                    f"clearance {clearance_text(report.clearance, problem.delta)} between {report.closest_pair[0]} and {report.closest_pair[1]}"
+                    f": the goal may be unreachable from the start (`foam-mj bubble` shows more)")
+
         def chain_length(pair: tuple[int, int]) -> float:
             """Length of the polyline q_init -> centres of the tree chain through ``pair`` -> q_goal (an upper
             bound of the shortest path through it: consecutive centres lie in overlapping balls)."""
@@ -462,7 +478,8 @@ class BubbleTreePlanner(Planner):
                     if (T.n == 1 and r < r_min) or (T.n < STALLED and (out or oracle.to_bounds(q) < r_min))
                 )
                 raise PlanningFailed(
-                    f"the trees did not meet ({outcome}) after {B.n} bubbles in {st.elapsed:.2f} s{stuck}", st, B.foam(q0, q1)
+                    f"the trees did not meet ({outcome}) after {B.n} bubbles in {st.elapsed:.2f} s{stuck or closest_approach()}",
+                    st, B.foam(q0, q1),
                 )
             timer.report(B.n)
             counters["iterations"] += 1
