@@ -153,7 +153,9 @@ def plan_scenario(scenario: Scenario, seed: int, report: Report | None = None) -
         return planner.plan(
             problem,
             seed=seed,
-            progress=None if report is None else (lambda st: report(f"planning ({planner.name}): {st.bubbles:,} bubbles, {st.elapsed:.1f} s")),
+            progress=None if report is None else (lambda st: report(
+                f"planning ({planner.name}): {st.bubbles:,} of at most {problem.max_bubbles:,} bubbles, "
+                f"{st.elapsed:.1f} s of {problem.time_limit:g} s")),
         )
     finally:
         oracle.close()
