@@ -84,8 +84,6 @@ def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | Non
     if text.endswith(("/", os.sep)):
         raise OutputError(f"{what} output {text} ends in '/': it names a folder; give a file name")
     p = Path(text)
-    if suffix is not None and p.suffix != suffix:
-        raise OutputError(f"{what} output {p} must end in {suffix}")
     link, p = p, _target(p)  # a link: the checks below are of the file it points to, which the write replaces
     shown = str(p) if p == link else f"{link} (a link to {p})"
     folder = p.parent
@@ -97,6 +95,8 @@ def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | Non
             raise OutputError(f"{what} output: file name of {len(os.fsencode(p.name))} bytes is longer than this file system allows ({limit})")
         if p.is_dir():
             raise OutputError(f"{what} output {shown} is a directory")
+        if suffix is not None and link.suffix != suffix:
+            raise OutputError(f"{what} output {link} must end in {suffix}")
         if p.exists() and not p.is_file():
             raise OutputError(f"{what} output {shown} exists and is not a regular file ({_kind(p)}): writing it would replace it; give a file name")
         if p.exists() and not os.access(p, os.W_OK):

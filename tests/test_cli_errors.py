@@ -353,9 +353,9 @@ def test_an_output_never_overwrites_an_input_or_another_output(planned_result, t
     cases = [
         (["export", str(result), "--format", "csv", "--out", str(result)], "is the result"),
         (["replay", str(tmp_path / "x.rrd"), "--rrd", str(tmp_path / "x.rrd")], "is the result"),
-        (["plan", "--scene", str(scenario), "--no-rrd", "--json", str(scenario)], "is the scenario file"),
-        (["plan", "--mjcf", str(arm), "--start", "0.3 2", "--goal", "0.1 0.6", "--no-rrd", "--json", str(arm)], "is the scene (MJCF)"),
-        (["plan", "--scene", str(scenario), "--rrd", str(tmp_path / "o.rrd"), "--json", str(tmp_path / "o.rrd")], "name the same file"),
+        (["plan", "--scene", str(scenario), "--no-rrd", "--json", str(scenario)], "must end in .json"),
+        (["plan", "--mjcf", str(arm), "--start", "0.3 2", "--goal", "0.1 0.6", "--no-rrd", "--json", str(arm)], "must end in .json"),
+        (["plan", "--scene", str(scenario), "--rrd", str(tmp_path / "o.rrd"), "--json", str(tmp_path / "o.rrd")], "must end in .json"),
     ]
     for argv, words in cases:
         assert main(argv) == 2, argv
