@@ -31,7 +31,7 @@ from foam_mj import paths  # noqa: E402
 from foam_mj.foam import plan  # noqa: E402
 from foam_mj.scenarios import load_scenario  # noqa: E402
 from foam_mj.smoothing import ConvexShortestPath, Hatches, ObjectiveWeights, OptimalSmoother, kkt_certificate  # noqa: E402
-from foam_mj.smoothing.optimal import objective_and_gradient  # noqa: E402
+from foam_mj.smoothing.objective import objective_and_gradient  # noqa: E402
 
 INSET = 1e-6
 EPS_SCHEDULE = (1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6)

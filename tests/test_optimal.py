@@ -12,14 +12,9 @@ from foam_mj.foam import plan
 from foam_mj.rosary import Rosary
 from foam_mj.scenarios import load_scenario
 from foam_mj.smoothing import ConvexShortestPath, GeneticAlgorithm, GradientSmoothing, HarmonySearch, Hatches, StopCriteria
-from foam_mj.smoothing.optimal import (
-    KKT_TOL,
-    ObjectiveWeights,
-    OptimalSmoother,
-    kkt_certificate,
-    objective_and_gradient,
-    objective_value,
-)
+from foam_mj.smoothing.certificate import KKT_TOL, kkt_certificate
+from foam_mj.smoothing.objective import ObjectiveWeights, objective_and_gradient, objective_value
+from foam_mj.smoothing.optimal import OptimalSmoother
 
 from conftest import MujocoChecker
 

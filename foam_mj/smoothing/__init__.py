@@ -27,12 +27,14 @@ from foam_mj.smoothing.base import (
     coordinate_major_objective,
     population_objective,
 )
+from foam_mj.smoothing.certificate import Certificate, kkt_certificate
 from foam_mj.smoothing.convex import ConvexShortestPath, ConvexSolveError, build_socp
 from foam_mj.smoothing.genetic import GeneticAlgorithm
 from foam_mj.smoothing.goa import GOA, MGOA, MGOASmoother
 from foam_mj.smoothing.gradient import GradientSmoothing, center_path_result, sv_and_gradient, tc_and_gradient
 from foam_mj.smoothing.harmony import HarmonySearch
-from foam_mj.smoothing.optimal import Certificate, ObjectiveWeights, OptimalSmoother, kkt_certificate
+from foam_mj.smoothing.objective import ObjectiveWeights
+from foam_mj.smoothing.optimal import OptimalSmoother
 from foam_mj.smoothing.pareto import (
     Archive,
     ParetoResult,

@@ -18,7 +18,7 @@ from foam_mj.smoothing.base import Hatches
 from foam_mj.smoothing.convex import CSC, ConvexShortestPath, build_socp, csc_lists, socp_cones, to_csc
 
 if TYPE_CHECKING:
-    from foam_mj.smoothing.optimal import ObjectiveWeights
+    from foam_mj.smoothing.objective import ObjectiveWeights
 
 _TINY = 1e-300
 SOLVER_TOL = 1e-9
