@@ -39,11 +39,11 @@ def main(argv: list[str] | None = None) -> dict:
     for n in (16, 64, 256, 1024, 4096):
         t = median_time(lambda: oracle.clearance.batch(Q[:n]), args.repeats)
         out[f"batch_{n}"] = {"per_second": n / t, "us_per_config": t / n * 1e6}
-        rows.append([f"clearance, batch", n, n / t, t / n * 1e6])
+        rows.append(["clearance, batch", n, n / t, t / n * 1e6])
     for n in (64, 1024):
         t = median_time(lambda: oracle.radii(Q[:n]), args.repeats)
         out[f"radii_{n}"] = {"per_second": n / t, "us_per_config": t / n * 1e6}
-        rows.append([f"bubble radii, batch", n, n / t, t / n * 1e6])
+        rows.append(["bubble radii, batch", n, n / t, t / n * 1e6])
     t = median_time(lambda: [oracle.radius(q) for q in Q[:n_single]], args.repeats)
     out["radius_single"] = {"per_second": n_single / t, "us_per_config": t / n_single * 1e6}
     rows.append(["bubble radius, one call (validated)", 1, n_single / t, t / n_single * 1e6])

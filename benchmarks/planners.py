@@ -208,7 +208,7 @@ class OMPLRunner:
         self.pb = pb
 
     def _setup(self):
-        ob, og = self.ob, self.og
+        og = self.og
         ss = og.SimpleSetup(self.space)
         n, clearance = self.n, self.clearance
 

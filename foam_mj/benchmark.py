@@ -23,7 +23,6 @@ lower f than the optimal smoother on a scenario's rosary.
 
 from __future__ import annotations
 
-import argparse
 import json
 import platform
 import sys
@@ -219,7 +218,6 @@ GAP_SCENES = ("obstacle", "step_up", "step_down")
 def run_scene_gaps(runs: int, quick: bool, progress: bool = True) -> dict:
     """Every method's f gap to the certified optimum on the obstacle, step-up and step-down rosaries."""
     from foam_mj.scenarios import load_scenario
-    from foam_mj.smoothing.objective import ObjectiveWeights
 
     repeats = 1 if quick else 5
     stochastic = ("HS", "GA")

@@ -20,7 +20,6 @@ normalized unit); ``fixed_pairs`` are the pairs no coordinate can change (left o
 
 from __future__ import annotations
 
-import numpy as np
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.model import RobotModel

@@ -35,7 +35,6 @@ import os
 import signal
 import sys
 import time
-import uuid
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path

@@ -8,7 +8,7 @@ import re
 import mujoco
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from foam_mj.bubbles import BubbleOracle
