@@ -25,7 +25,7 @@ reference (not mgoa or mopso). The optimal path's certificate (KKT residuals, ``
 
 For mgoa and mopso the whole front is in ``result.info["front"]`` (waypoints (F, k-1, n), paths
 (F, k+1, n), objectives (F, 2), objective_names, knee, extremes = (shortest, smoothest)) and the
-:class:`~foam_mj.smoothing.pareto.ParetoResult` in ``result.info["pareto"]``.
+:class:`~foam_mj.smoothing.multiobjective.ParetoResult` in ``result.info["pareto"]``.
 
 Every path keeps its waypoints in its rosary's hatches; the trajectory built on it is certified to
 stay inside the same bubbles (foam_mj.trajectory), and the kinematic replay measures its clearance

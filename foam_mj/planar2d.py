@@ -278,7 +278,7 @@ def _length_and_turning(p: np.ndarray, delta: float) -> np.ndarray:
 
 class PlanarPathProblem:
     """Paths on a :class:`CircleMap` as a two-objective problem (F1, F2) for MGOA / MOPSO (see the module
-    docstring). Implements the :class:`~foam_mj.smoothing.pareto.Problem` protocol: ``lb``, ``ub``,
+    docstring). Implements the :class:`~foam_mj.smoothing.multiobjective.Problem` protocol: ``lb``, ``ub``,
     ``sample``, ``repair`` (clipping to the box), ``evaluate`` -> (objectives (P, 2), violation (P,))."""
 
     names = ("F1", "F2")

@@ -18,17 +18,15 @@ from foam_mj.scenarios import load_scenario
 from foam_mj.smoothing.base import SmoothingResult
 from foam_mj.smoothing.convex import ConvexShortestPath
 from foam_mj.smoothing.goa import GOA, MGOA, MGOASmoother, c_schedule, s_function, social_interaction
+from foam_mj.smoothing.multiobjective import ParetoResult, RosaryProblem, length_and_angle
 from foam_mj.smoothing.pareto import (
     Archive,
-    ParetoResult,
-    RosaryProblem,
     crowding_distance,
     dominance_matrix,
     dominates,
     error_ratio,
     hypervolume_2d,
     knee_index,
-    length_and_angle,
     nondominated_mask,
     prune_by_crowding,
     set_coverage,

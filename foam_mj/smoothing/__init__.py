@@ -33,18 +33,10 @@ from foam_mj.smoothing.genetic import GeneticAlgorithm
 from foam_mj.smoothing.goa import GOA, MGOA, MGOASmoother
 from foam_mj.smoothing.gradient import GradientSmoothing, center_path_result, sv_and_gradient, tc_and_gradient
 from foam_mj.smoothing.harmony import HarmonySearch
+from foam_mj.smoothing.multiobjective import ParetoResult, ParetoSmoother, RosaryProblem
 from foam_mj.smoothing.objective import ObjectiveWeights
 from foam_mj.smoothing.optimal import OptimalSmoother
-from foam_mj.smoothing.pareto import (
-    Archive,
-    ParetoResult,
-    ParetoSmoother,
-    RosaryProblem,
-    error_ratio,
-    hypervolume_2d,
-    knee_index,
-    set_coverage,
-)
+from foam_mj.smoothing.pareto import Archive, error_ratio, hypervolume_2d, knee_index, set_coverage
 from foam_mj.smoothing.pso import MOPSO, PSO, MOPSOSmoother
 
 __all__ = [

@@ -52,15 +52,8 @@ from typing import Any, Callable, ClassVar
 import numpy as np
 
 from foam_mj.smoothing.base import SeedLike, _check_int, _check_positive, as_generator
-from foam_mj.smoothing.pareto import (
-    Archive,
-    ParetoRun,
-    ParetoSmoother,
-    Problem,
-    RunRecorder,
-    check_schedule_params,
-    finish_run,
-)
+from foam_mj.smoothing.multiobjective import ParetoRun, ParetoSmoother, Problem, RunRecorder, check_schedule_params, finish_run
+from foam_mj.smoothing.pareto import Archive
 
 #: Saremi et al.'s social force parameters: attraction intensity f and attractive length scale l.
 PAPER_F = 0.5
@@ -361,7 +354,7 @@ class MGOA(GOAParams):
 class MGOASmoother(MGOA, ParetoSmoother):
     """MGOA over a rosary's hatches, objectives (length, angle term of Nascimento et al. 2020 Eq. 5).
 
-    ``front(rosary, initial, seed)`` -> :class:`~foam_mj.smoothing.pareto.ParetoResult`;
+    ``front(rosary, initial, seed)`` -> :class:`~foam_mj.smoothing.multiobjective.ParetoResult`;
     ``smooth(rosary, initial, seed)`` -> the :class:`SmoothingResult` of the front member named by
     ``select`` ("knee" by default; "min_f", "shortest", "smoothest"), the front in ``info["front"]``.
     Every position is projected onto its hatches (shrunk by ``inset``) after each move, so every path

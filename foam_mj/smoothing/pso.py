@@ -33,15 +33,8 @@ import numpy as np
 
 from foam_mj.smoothing.base import SeedLike, _check_int, _check_positive, as_generator
 from foam_mj.smoothing.goa import OptimizeResult, _check_box
-from foam_mj.smoothing.pareto import (
-    Archive,
-    ParetoRun,
-    ParetoSmoother,
-    Problem,
-    RunRecorder,
-    dominates,
-    finish_run,
-)
+from foam_mj.smoothing.multiobjective import ParetoRun, ParetoSmoother, Problem, RunRecorder, finish_run
+from foam_mj.smoothing.pareto import Archive, dominates
 
 #: Clerc and Kennedy's constriction-equivalent constants.
 CLERC_W = 0.7298
