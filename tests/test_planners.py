@@ -330,7 +330,7 @@ def test_the_corridor_comes_near_the_straight_line_when_it_is_free(oracles):
 
 
 def test_informed_samples_lie_where_a_shorter_path_can_pass_and_fill_that_set():
-    from foam_mj.planners.bubbletree import informed_samples
+    from foam_mj.planners.informed import informed_samples
 
     q0, q1 = np.array([0.0, 0.0, 0.0]), np.array([1.0, 1.0, 0.5])
     metric = np.array([1.0, 1.0, 0.4])

@@ -40,7 +40,7 @@ One iteration, for both trees at once, with one batched distance query (``Cleara
    +6 % and +1.8 %, while 1.5 gains at most 1.3 % for 25-28 % more bubbles (step_up: +-0.02 % throughout).
 
 Implementation: each tree keeps its bubbles as rows [-2c, |c|^2 - r^2, 1] and [-2c, |c|^2, 1]
-(:class:`_Tree`), so that the power distances of step 2, the coverage test of step 4 (a power distance
+(:class:`foam_mj.planners.trees.Tree`), so that the power distances of step 2, the coverage test of step 4 (a power distance
 < 0) and the gaps of step 1 are each one matrix product with the lifted points [x, 1, |x|^2]; every
 candidate lies on a segment between two points of the joint box, so none lies outside it. Of the growth's
 CPU time on the 3-joint obstacle scene, about 45 % is MuJoCo's distance queries (about 1,900 per plan,
@@ -48,7 +48,7 @@ CPU time on the 3-joint obstacle scene, about 45 % is MuJoCo's distance queries 
 unable to be good, nearly all at s = 2), the rest numpy over 18 iterations: some two hundred calls each
 on arrays of tens to hundreds of rows, so that the count of calls more than their size sets the time (the
 gaps' update, the largest part, takes about 15 %); hence rows preallocated with their constants and
-written in place (:class:`_Tree`), the siblings' rows stored after their tree's. Measured and left out
+written in place (:class:`foam_mj.planners.trees.Tree`), the siblings' rows stored after their tree's. Measured and left out
 (40-100 seeds, all three leg scenes, the 5-joint leg and the 6-joint arm): testing candidates for
 coverage before their query (2 % of them are covered: the test costs more than the queries it saves);
 dropping an extension whose direction is within 0.5 rad of an earlier one from the same parent (98 % of
@@ -96,10 +96,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
-from foam_mj.foam import Foam, seed_rng
+from foam_mj.foam import seed_rng
 from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer
 from foam_mj.planners.chains import HATCH
 from foam_mj.planners.corridor import CorridorOptions, build_corridor, overlap_pairs
+from foam_mj.planners.informed import InformedSampler
+from foam_mj.planners.trees import Bubbles, lifted
 
 #: Candidate centres per extension, at s r_p from the parent's centre along the direction to the target.
 STEPS = np.array([1.0, 2.0])
@@ -198,145 +200,6 @@ class BubbleTreeOptions:
             raise ValueError(f"`refine_tol` must be in (0, 1), got {self.refine_tol!r}")
 
 
-def _grow(obj, names: tuple[str, ...], size: int) -> None:
-    """Double the arrays ``obj.<name>`` (first axis) until they hold ``size`` rows."""
-    while size > len(getattr(obj, names[0])):
-        for name in names:
-            a = getattr(obj, name)
-            setattr(obj, name, np.concatenate([a, np.empty_like(a)]))
-
-
-def _lifted(Y: np.ndarray) -> np.ndarray:
-    """The rows [y, 1, |y|^2] of points y (see :class:`_Tree`)."""
-    L = np.empty((len(Y), Y.shape[1] + 2))
-    L[:, :-2] = Y
-    L[:, -2] = 1.0
-    L[:, -1] = np.einsum("ij,ij->i", Y, Y)
-    return L
-
-
-class _Tree:
-    """One tree's bubbles in order of creation: their indices ``idx`` among all bubbles, radii ``r``, the rows
-    ``pw = [-2c, |c|^2 - r^2, 1]``, ``d2 = [-2c, |c|^2, 1]`` and ``lift = [c, 1, |c|^2]``, so that for the lifted
-    rows L = [y, 1, |y|^2] of points y (:func:`_lifted`) one matrix product gives the power distances
-    |y - c|^2 - r^2 (``L @ pw.T``) or the squared distances |y - c|^2 (``L @ d2.T``) to every bubble; and per
-    bubble ``gap``, the smallest |c - c'| - r - r' over bubbles c' of the other tree, ``mate`` that bubble's
-    index, and ``tries``, the times the bubble was extended toward the other tree."""
-
-    def __init__(self, dim: int, cap: int = 512) -> None:
-        self.dim = dim
-        for name, blank in self._blank(cap).items():
-            setattr(self, name, blank)
-        self.n = 0
-
-    def _blank(self, cap: int) -> dict[str, np.ndarray]:
-        """Rows for ``cap`` more bubbles, their constants already in place (a new bubble has no gap, mate or
-        try yet; the last entry of a ``pw`` or ``d2`` row is 1), so that :meth:`add` writes only the rest."""
-        pw, d2 = np.empty((cap, self.dim + 2)), np.empty((cap, self.dim + 2))
-        pw[:, -1] = d2[:, -1] = 1.0
-        return dict(idx=np.empty(cap, dtype=np.int64), r=np.empty(cap), pw=pw, d2=d2, lift=np.empty((cap, self.dim + 2)),
-                    gap=np.full(cap, np.inf), mate=np.full(cap, -1, dtype=np.int64), tries=np.zeros(cap, dtype=np.int64))
-
-    def reserve(self, size: int) -> None:
-        """Double the rows until they hold ``size`` bubbles."""
-        while size > len(self.idx):
-            for name, blank in self._blank(len(self.idx)).items():
-                setattr(self, name, np.concatenate([getattr(self, name), blank]))
-
-    def add(self, idx: np.ndarray, lift: np.ndarray, r: np.ndarray) -> None:
-        """Append bubbles given by their indices, lifted centres [c, 1, |c|^2] (:func:`_lifted`) and radii."""
-        m, n = len(idx), self.dim
-        self.reserve(self.n + m)
-        s = slice(self.n, self.n + m)
-        self.idx[s], self.r[s], self.lift[s] = idx, r, lift
-        d2 = self.d2[s]
-        np.multiply(lift[:, :n], -2.0, out=d2[:, :n])
-        d2[:, n] = lift[:, n + 1]
-        self.pw[s] = d2
-        self.pw[s, n] -= r**2
-        self.n += m
-
-
-_TREES = np.array([0, 1], dtype=np.int8)  # the start and the goal tree's labels, for _Bubbles.add
-
-
-class _Bubbles:
-    """Growing arrays of bubbles: centre, radius, parent (-1 for a root), tree (0: start, 1: goal) and position
-    among its tree's bubbles; the two trees (:class:`_Tree`)."""
-
-    def __init__(self, dim: int, cap: int = 1024) -> None:
-        self.c = np.empty((cap, dim))
-        self.r = np.empty(cap)
-        self.parent = np.empty(cap, dtype=np.int64)
-        self.tree = np.empty(cap, dtype=np.int8)
-        self.pos = np.empty(cap, dtype=np.int64)
-        self.trees = (_Tree(dim), _Tree(dim))
-        self.n = 0
-
-    def add(self, c: np.ndarray, r: np.ndarray, parent: np.ndarray, tree: np.ndarray, lift: np.ndarray | None = None) -> list[np.ndarray]:
-        """Append bubbles, ``tree`` in non-decreasing order (the start tree's first, then the goal tree's, then
-        any of neither; ``lift``: their rows :func:`_lifted` (c) if already computed); return the indices of
-        the new ones of tree 0 and of tree 1."""
-        m = len(r)
-        _grow(self, ("c", "r", "parent", "tree", "pos"), self.n + m)
-        s = slice(self.n, self.n + m)
-        self.c[s], self.r[s], self.parent[s], self.tree[s] = c, r, parent, tree
-        ends = tree.searchsorted(_TREES, side="right").tolist()
-        if lift is None and ends[1]:
-            lift = _lifted(c)
-        out = []
-        for t, (a, b) in enumerate(((0, ends[0]), (ends[0], ends[1]))):
-            out.append(np.arange(self.n + a, self.n + b))
-            if b > a:
-                T = self.trees[t]
-                self.pos[self.n + a : self.n + b] = np.arange(T.n, T.n + b - a)
-                T.add(out[t], lift[a:b], r[a:b])
-        self.n += m
-        return out
-
-    def foam(self, q_init: np.ndarray, q_goal: np.ndarray) -> Foam:
-        n = self.n
-        return Foam(self.c[:n].copy(), self.r[:n].copy(), self.parent[:n].copy(), q_init, q_goal)
-
-
-class InformedSampler:
-    """Uniform samples of the prolate hyperspheroid {x : |S(x - q0)| + |S(x - q1)| <= c_best} (Gammell,
-    Srinivasa and Barfoot, "Informed RRT*", IROS 2014, Eq. 8-10; S = diag(metric), default identity):
-    the only points through which a path shorter than c_best (in that metric) can pass. The rotation and
-    the axes are computed once; :meth:`sample` draws."""
-
-    def __init__(self, q0: np.ndarray, q1: np.ndarray, c_best: float, metric: np.ndarray | None = None) -> None:
-        self.scale = None if metric is None else np.asarray(metric, dtype=float)
-        if self.scale is not None:
-            q0, q1 = q0 * self.scale, q1 * self.scale
-        n = self.n = len(q0)
-        c_min = float(np.linalg.norm(q1 - q0))
-        c_best = max(c_best, c_min * (1 + 1e-9))
-        self.radii = np.full(n, np.sqrt(c_best**2 - c_min**2) / 2)
-        self.radii[0] = c_best / 2
-        a1 = (q1 - q0) / max(c_min, 1e-300)
-        # An orthonormal basis whose first vector is a1 (Householder reflection of e1 onto a1).
-        e1 = np.zeros(n)
-        e1[0] = 1.0
-        v = e1 - a1
-        nv = float(v @ v)
-        self.HT = (np.eye(n) - 2.0 * np.outer(v, v) / nv if nv > 1e-24 else np.eye(n)).T
-        self.centre = 0.5 * (q0 + q1)
-
-    def sample(self, rng: np.random.Generator, m: int) -> np.ndarray:
-        x = rng.standard_normal((m, self.n))
-        x *= (rng.random(m) ** (1.0 / self.n) / np.sqrt(np.add.reduce(x * x, axis=1)))[:, None]  # uniform in the unit ball
-        X = self.centre + (x * self.radii) @ self.HT
-        return X if self.scale is None else X / self.scale
-
-
-def informed_samples(
-    rng: np.random.Generator, m: int, q0: np.ndarray, q1: np.ndarray, c_best: float, metric: np.ndarray | None = None
-) -> np.ndarray:
-    """m samples of :class:`InformedSampler` (q0, q1, c_best, metric)."""
-    return InformedSampler(q0, q1, c_best, metric).sample(rng, m)
-
-
 class BubbleTreePlanner(Planner):
     name = "bubbletree"
     summary = "bidirectional goal-directed tree of certified bubbles, then a near-shortest corridor (the default)"
@@ -367,7 +230,7 @@ class BubbleTreePlanner(Planner):
         r_corner = min(r for r, out in zip((r0, r1), outside) if out) if corner_roots else 0.0
         metric = robot.config.scale if o.metric == "qpos" else np.ones(n)
 
-        B = _Bubbles(n)
+        B = Bubbles(n)
         counters = {"iterations": 0, "candidates": 0, "rejected_small": 0, "rejected_covered": 0}
 
         def update_gaps(new: list[np.ndarray], find: bool = True) -> tuple[int, int] | None:
@@ -510,7 +373,7 @@ class BubbleTreePlanner(Planner):
                         pick, pick_r = B.c[chosen], B.r[chosen]
                 # Samples and newest bubbles extend the bubble of smallest power distance |x - c|^2 - r^2.
                 Y = X if pick is None else np.concatenate([X, pick])
-                par = mine[(_lifted(Y) @ T.pw[: T.n].T).argmin(axis=1)]
+                par = mine[(lifted(Y) @ T.pw[: T.n].T).argmin(axis=1)]
                 parents.append(par[: len(X)])
                 targets.append(X)
                 if corner_roots:
@@ -570,7 +433,7 @@ class BubbleTreePlanner(Planner):
             # bubbles and to the siblings' balls, in one product.
             keep = np.empty(len(rows), dtype=bool)
             k0 = int(np.count_nonzero(ct == 0))
-            L = _lifted(cc)
+            L = lifted(cc)
             for t, sl in ((0, slice(0, k0)), (1, slice(k0, len(rows)))):
                 k = sl.stop - sl.start
                 if k == 0:

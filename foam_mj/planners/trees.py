@@ -1,0 +1,112 @@
+"""The bubbles of ``bubbletree``'s two trees, stored for its vectorised growth (foam_mj.planners.bubbletree).
+
+Every array is preallocated and grown by doubling, rows written in place: a growth iteration makes some two
+hundred numpy calls on arrays of tens to hundreds of rows, so the count of calls, not their size, sets its time.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from foam_mj.foam import Foam
+
+
+def grow(obj, names: tuple[str, ...], size: int) -> None:
+    """Double the arrays ``obj.<name>`` (first axis) until they hold ``size`` rows."""
+    while size > len(getattr(obj, names[0])):
+        for name in names:
+            a = getattr(obj, name)
+            setattr(obj, name, np.concatenate([a, np.empty_like(a)]))
+
+
+def lifted(Y: np.ndarray) -> np.ndarray:
+    """The rows [y, 1, |y|^2] of points y (see :class:`Tree`)."""
+    L = np.empty((len(Y), Y.shape[1] + 2))
+    L[:, :-2] = Y
+    L[:, -2] = 1.0
+    L[:, -1] = np.einsum("ij,ij->i", Y, Y)
+    return L
+
+
+class Tree:
+    """One tree's bubbles in order of creation: their indices ``idx`` among all bubbles, radii ``r``, the rows
+    ``pw = [-2c, |c|^2 - r^2, 1]``, ``d2 = [-2c, |c|^2, 1]`` and ``lift = [c, 1, |c|^2]``, so that for the lifted
+    rows L = [y, 1, |y|^2] of points y (:func:`lifted`) one matrix product gives the power distances
+    |y - c|^2 - r^2 (``L @ pw.T``) or the squared distances |y - c|^2 (``L @ d2.T``) to every bubble; and per
+    bubble ``gap``, the smallest |c - c'| - r - r' over bubbles c' of the other tree, ``mate`` that bubble's
+    index, and ``tries``, the times the bubble was extended toward the other tree."""
+
+    def __init__(self, dim: int, cap: int = 512) -> None:
+        self.dim = dim
+        for name, blank in self._blank(cap).items():
+            setattr(self, name, blank)
+        self.n = 0
+
+    def _blank(self, cap: int) -> dict[str, np.ndarray]:
+        """Rows for ``cap`` more bubbles, their constants already in place (a new bubble has no gap, mate or
+        try yet; the last entry of a ``pw`` or ``d2`` row is 1), so that :meth:`add` writes only the rest."""
+        pw, d2 = np.empty((cap, self.dim + 2)), np.empty((cap, self.dim + 2))
+        pw[:, -1] = d2[:, -1] = 1.0
+        return dict(idx=np.empty(cap, dtype=np.int64), r=np.empty(cap), pw=pw, d2=d2, lift=np.empty((cap, self.dim + 2)),
+                    gap=np.full(cap, np.inf), mate=np.full(cap, -1, dtype=np.int64), tries=np.zeros(cap, dtype=np.int64))
+
+    def reserve(self, size: int) -> None:
+        """Double the rows until they hold ``size`` bubbles."""
+        while size > len(self.idx):
+            for name, blank in self._blank(len(self.idx)).items():
+                setattr(self, name, np.concatenate([getattr(self, name), blank]))
+
+    def add(self, idx: np.ndarray, lift: np.ndarray, r: np.ndarray) -> None:
+        """Append bubbles given by their indices, lifted centres [c, 1, |c|^2] (:func:`lifted`) and radii."""
+        m, n = len(idx), self.dim
+        self.reserve(self.n + m)
+        s = slice(self.n, self.n + m)
+        self.idx[s], self.r[s], self.lift[s] = idx, r, lift
+        d2 = self.d2[s]
+        np.multiply(lift[:, :n], -2.0, out=d2[:, :n])
+        d2[:, n] = lift[:, n + 1]
+        self.pw[s] = d2
+        self.pw[s, n] -= r**2
+        self.n += m
+
+
+TREES = np.array([0, 1], dtype=np.int8)  # the start and the goal tree's labels, for Bubbles.add
+
+
+class Bubbles:
+    """Growing arrays of bubbles: centre, radius, parent (-1 for a root), tree (0: start, 1: goal) and position
+    among its tree's bubbles; the two trees (:class:`Tree`)."""
+
+    def __init__(self, dim: int, cap: int = 1024) -> None:
+        self.c = np.empty((cap, dim))
+        self.r = np.empty(cap)
+        self.parent = np.empty(cap, dtype=np.int64)
+        self.tree = np.empty(cap, dtype=np.int8)
+        self.pos = np.empty(cap, dtype=np.int64)
+        self.trees = (Tree(dim), Tree(dim))
+        self.n = 0
+
+    def add(self, c: np.ndarray, r: np.ndarray, parent: np.ndarray, tree: np.ndarray, lift: np.ndarray | None = None) -> list[np.ndarray]:
+        """Append bubbles, ``tree`` in non-decreasing order (the start tree's first, then the goal tree's, then
+        any of neither; ``lift``: their rows :func:`lifted` (c) if already computed); return the indices of
+        the new ones of tree 0 and of tree 1."""
+        m = len(r)
+        grow(self, ("c", "r", "parent", "tree", "pos"), self.n + m)
+        s = slice(self.n, self.n + m)
+        self.c[s], self.r[s], self.parent[s], self.tree[s] = c, r, parent, tree
+        ends = tree.searchsorted(TREES, side="right").tolist()
+        if lift is None and ends[1]:
+            lift = lifted(c)
+        out = []
+        for t, (a, b) in enumerate(((0, ends[0]), (ends[0], ends[1]))):
+            out.append(np.arange(self.n + a, self.n + b))
+            if b > a:
+                T = self.trees[t]
+                self.pos[self.n + a : self.n + b] = np.arange(T.n, T.n + b - a)
+                T.add(out[t], lift[a:b], r[a:b])
+        self.n += m
+        return out
+
+    def foam(self, q_init: np.ndarray, q_goal: np.ndarray) -> Foam:
+        n = self.n
+        return Foam(self.c[:n].copy(), self.r[:n].copy(), self.parent[:n].copy(), q_init, q_goal)
