@@ -297,7 +297,7 @@ def _robot_overrides(doc: dict, args: argparse.Namespace) -> None:
 
 
 def _plan_scenario(args: argparse.Namespace):
-    """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta,
+    """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta, --time-limit,
     --subject-height/--subject-mass, --robot-root and --no-self-collision override the scenario's fields."""
     from foam_mj.errors import ScenarioError
     from foam_mj.scenarios import SUBJECT_HEIGHT_RANGE, SUBJECT_MASS_RANGE, read_scenario_doc, scenario_from_dict
@@ -323,6 +323,10 @@ def _plan_scenario(args: argparse.Namespace):
     _robot_overrides(doc, args)
     if args.delta is not None:
         doc["planner"] = {**doc.get("planner", {}), "delta": args.delta}
+    if args.time_limit is not None:
+        if not 0 < args.time_limit < float("inf"):
+            raise FoamError(f"--time-limit must be a number of seconds > 0, got {args.time_limit}")
+        doc["planner"] = {**doc.get("planner", {}), "time_limit": args.time_limit}
     for flag, key in (("subject_height", "height"), ("subject_mass", "mass")):
         if getattr(args, flag) is not None:
             doc["subject"] = {**doc.get("subject", {}), key: getattr(args, flag)}
@@ -757,6 +761,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--goal", metavar='"q1 q2 ..."', help="with --mjcf: the goal configuration")
     p.add_argument("--joints", metavar="a,b,c", help="the configuration joints, in order (default: the scenario's or the MJCF's declaration, else every limited hinge/slide joint)")
     p.add_argument("--delta", type=float, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
+    p.add_argument("--time-limit", type=float, metavar="S", help="the planner's time budget in seconds: a plan that has not "
+                   "reached the goal by then fails (exit 3) (default: the scenario's [planner] time_limit, else 60)")
     p.add_argument("--subject-height", type=float, metavar="M", help="scale the leg to a subject this tall (m; Winter's segment fractions)")
     p.add_argument("--subject-mass", type=float, metavar="KG", help="scale the leg's segment masses to a subject this heavy (kg)")
     p.add_argument("--robot-root", metavar="BODY", help="the body whose subtree is the robot (other moving bodies are fixed obstacles at their qpos0 pose)")

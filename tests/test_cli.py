@@ -216,6 +216,23 @@ def test_a_planning_failure_exits_3_and_still_writes_the_foam(tmp_path, capsys):
     assert "planning failed" in capsys.readouterr().err
 
 
+def test_time_limit_bounds_the_plan_and_a_bad_one_is_refused_before_any_work(tmp_path, capsys):
+    scene = tmp_path / "wall.xml"
+    scene.write_text(
+        f'<mujoco><include file="{MODELS / "ortholeg.xml"}"/><worldbody><geom name="floor" type="plane" size="3 3 0.1"/>'
+        '<geom name="wall" type="box" pos="0.46 0 0.75" size="0.04 0.25 0.75"/></worldbody></mujoco>'
+    )
+    args = ["plan", "--mjcf", str(scene), "--start", "0.2 0.3 0.08", "--goal", "0.45 0.4536 1.45", "--no-rrd", "--no-replay"]
+    for bad in ("0", "-1", "inf", "nan"):
+        assert main([*args, "--time-limit", bad]) == 2
+        assert f"--time-limit must be a number of seconds > 0, got {float(bad)}" in capsys.readouterr().err
+    js = tmp_path / "r.json"
+    assert main([*args, "--time-limit", "0.5", "--json", str(js)]) == 3  # the wall cannot be stepped over
+    doc = json.loads(js.read_text())
+    assert doc["outcome"] == "time budget" and 0.5 <= doc["foam"]["stats"]["elapsed"] < 1.5
+    assert "the trees did not meet (time budget)" in capsys.readouterr().err
+
+
 def test_replay_refuses_a_tampered_result(planned, tmp_path, capsys):
     doc = json.loads(planned["json"].read_text())
     doc["paths"]["centre"]["waypoints"][3] = [1.5, 0.0, 0.5]
