@@ -403,13 +403,20 @@ def ray_engine(tasks: Iterator[Task], workers: int, address: str | None, *, poll
     except ImportError:
         raise SweepError("--ray needs Ray: pip install 'foam-mj[cluster]'") from None
     import logging
+    import threading
 
     kwargs = dict(include_dashboard=False, logging_level=logging.ERROR, log_to_driver=False, configure_logging=True)
+    main_thread = threading.current_thread() is threading.main_thread()
+    sigterm = signal.getsignal(signal.SIGTERM) if main_thread else None
     if address:
         ray.init(address=address, **kwargs)
     else:
         # A private local instance; workers inherit this environment (PYTHONPATH included).
         ray.init(num_cpus=workers, **kwargs)
+    if sigterm is not None:
+        # ray.init replaces the SIGTERM handler with sys.exit(15), which no `except KeyboardInterrupt` sees: a `kill`
+        # would end the sweep with exit 1 or 143, its received rows unwritten. Ours comes back (the CLI's: Ctrl-C).
+        signal.signal(signal.SIGTERM, sigterm)
     try:
         remote = ray.remote(num_cpus=1, max_retries=3)(run_task)
         limit = 2 * max(workers, int(ray.cluster_resources().get("CPU", workers)))
@@ -538,8 +545,10 @@ def run_sweep(
             interrupted = True
             raise
         finally:
-            events.close() if hasattr(events, "close") else None
-            store.flush()
+            try:
+                store.flush()  # the rows received first: the engine's teardown (Ray's shutdown) may not return
+            finally:
+                events.close()
     finally:
         if bar:
             bar.close()
