@@ -101,22 +101,28 @@ def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | Non
             raise OutputError(f"{what} output {shown} exists and is not a regular file ({_kind(p)}): writing it would replace it; give a file name")
         if p.exists() and not os.access(p, os.W_OK):
             raise OutputError(f"{what} output {shown} is not writable")
-        probe = folder / f".foam-mj-probe.{secrets.token_hex(4)}.tmp"
-        try:
-            fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-        except OSError as exc:
-            raise OutputError(f"{what} output {shown}: cannot create a file in {folder}: {_reason(exc)}") from None
-        os.close(fd)
-        os.unlink(probe)
-        st = os.statvfs(folder)
-        free = st.f_bavail * st.f_frsize
-        if free < (MIN_FREE_BYTES if min_free is None else min_free):
-            raise OutputError(f"{what} output {shown}: no space left on its file system ({free} bytes free)")
+        _check_writable(folder, f"{what} output {shown}", min_free)
     except OutputError:
         raise
     except OSError as exc:
         raise OutputError(f"{what} output {shown}: {_reason(exc)}") from None
     return link
+
+
+def _check_writable(folder: Path, shown: str, min_free: int | None = None) -> None:
+    """Create and remove a file in ``folder`` (catches read-only and pseudo file systems) and check that it has
+    ``min_free`` bytes free (default :data:`MIN_FREE_BYTES`); OutputError starting with ``shown`` otherwise."""
+    probe = folder / f".foam-mj-probe.{secrets.token_hex(4)}.tmp"
+    try:
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    except OSError as exc:
+        raise OutputError(f"{shown}: cannot create a file in {folder}: {_reason(exc)}") from None
+    os.close(fd)
+    os.unlink(probe)
+    st = os.statvfs(folder)
+    free = st.f_bavail * st.f_frsize
+    if free < (MIN_FREE_BYTES if min_free is None else min_free):
+        raise OutputError(f"{shown}: no space left on its file system ({free} bytes free)")
 
 
 def _kind(p: Path) -> str:
@@ -166,11 +172,11 @@ def check_output_dir(path: str | os.PathLike | None, what: str) -> Path | None:
         if p.exists() and not p.is_dir():
             raise OutputError(f"{what} {p} is a file, not a folder")
         if p.is_dir():
-            check_output(p / "x", what)
+            _check_writable(p, f"{what} {p}")
             return p
         if not p.parent.is_dir():
             raise OutputError(f"{what} {p}: folder {p.parent} does not exist")
-        check_output(p.parent / "x", what)
+        _check_writable(p.parent, f"{what} {p}")
         limit = _name_max(p.parent)
         if len(os.fsencode(p.name)) > limit:
             raise OutputError(f"{what}: folder name of {len(os.fsencode(p.name))} bytes is longer than this file system allows ({limit})")

@@ -29,7 +29,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from foam_mj.atomic import atomic_path, atomic_write_text, check_output_dir
+from foam_mj.atomic import OutputError, atomic_path, atomic_write_text, check_output_dir
 from foam_mj.errors import FoamError
 
 MAX_LEVELS = 12
@@ -230,7 +230,13 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
 
     manifest, table = load(out)
     _matplotlib()  # FoamError with the install hint when matplotlib is missing
-    figures_dir = check_output_dir(Path(out) / "report" if figures_dir is None else Path(figures_dir), "--figures")
+    if figures_dir is None:
+        try:
+            figures_dir = check_output_dir(Path(out) / "report", "report folder")
+        except OutputError as exc:  # e.g. a sweep folder on read-only storage: say how to write elsewhere
+            raise OutputError(f"{exc} (the default report folder; write elsewhere with --figures FIGDIR)") from None
+    else:
+        figures_dir = check_output_dir(Path(figures_dir), "--figures")
     figures_dir.mkdir(exist_ok=True)
     lines = summary(manifest, table)
     text = format_summary(lines)

@@ -82,6 +82,17 @@ def test_check_output_dir_accepts_a_creatable_folder_only(tmp_path):
         check_output_dir(tmp_path / "a" / "b", "--figures")
 
 
+def test_check_output_dir_names_the_folder_given_not_a_probe_file(tmp_path, monkeypatch):
+    """`sweep --out /ro/study` said "--out output /ro/x: cannot create a file in /ro": a file "x" nobody named."""
+    for given, folder in (("/proc/study", "/proc"), ("/proc", "/proc")):
+        with pytest.raises(OutputError) as exc:
+            check_output_dir(given, "--out")
+        assert str(exc.value).startswith(f"--out {given}: cannot create a file in {folder}: "), exc.value
+    monkeypatch.setattr(atomic, "MIN_FREE_BYTES", (1 << 62))
+    with pytest.raises(OutputError, match=rf"^--figures {tmp_path}/figs: no space left on its file system \("):
+        check_output_dir(tmp_path / "figs", "--figures")
+
+
 def test_atomic_write_text_is_complete(tmp_path):
     p = atomic_write_text(tmp_path / "t.txt", "é" * 1000)
     assert p.read_text(encoding="utf-8") == "é" * 1000

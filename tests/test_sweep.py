@@ -313,6 +313,19 @@ def test_report_draws_the_envelope_and_prints_a_summary(study, tmp_path, capsys)
         assert cells[y.index[k], x.index[k]] == pytest.approx(np.median(f[same]))
 
 
+def test_report_into_a_sweep_folder_that_cannot_take_it_says_how_to_write_elsewhere(study, capsys, monkeypatch):
+    """Results on read-only or full storage: the default DIR/report was named as "--figures output DIR/x",
+    a flag the user had not given and a file nobody named."""
+    from foam_mj import atomic
+
+    monkeypatch.setattr(atomic, "MIN_FREE_BYTES", 1 << 62)
+    assert main(["report", str(study["out"])]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"foam-mj: error: report folder {study['out']}/report: no space left on its file system")
+    assert err.strip().endswith("(the default report folder; write elsewhere with --figures FIGDIR)") and len(err.splitlines()) == 1
+    assert not (study["out"] / "report").exists()
+
+
 def test_the_readme_duckdb_query_runs_on_the_parquet_files(study, monkeypatch):
     duckdb = pytest.importorskip("duckdb")
     readme = (ROOT / "README.md").read_text()
