@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
-from foam_mj.atomic import atomic_write_bytes
+from foam_mj.atomic import OutputError, atomic_write_bytes
 from foam_mj.sweep import FORMAT, Sweep, SweepError, Task, WorkersDied, run_task
 
 #: How many times a broken local pool is replaced before the sweep gives up.
@@ -200,6 +200,13 @@ class RowStore:
                 os.fsync(dfd)
             finally:
                 os.close(dfd)
+        except OSError as exc:  # a full disk, a folder gone read-only: exit 2 like any output that cannot be written
+            reason = os.strerror(exc.errno) if exc.errno else " ".join(str(exc).split())
+            n = len(self.pending)
+            raise OutputError(
+                f"--out {self.out}: could not write a batch of {n} row{'s' * (n != 1)} to {self.dir}: {reason}; "
+                "the batches written before are kept (free space, then run the same command again)"
+            ) from None
         finally:
             if tmp.exists():
                 tmp.unlink()

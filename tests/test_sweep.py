@@ -326,6 +326,25 @@ def test_report_into_a_sweep_folder_that_cannot_take_it_says_how_to_write_elsewh
     assert not (study["out"] / "report").exists()
 
 
+def test_a_full_disk_while_writing_rows_is_exit_2_naming_the_folder_and_leaves_no_partial_file(tmp_path, capsys, monkeypatch):
+    """A batch that hit a full disk (pyarrow's OSError, errno 28) was an internal error, exit 1."""
+    import errno
+
+    def full_disk(table, where, **kw):
+        Path(where).write_bytes(b"PAR1 half a file")
+        raise OSError(errno.ENOSPC, "Error writing bytes to file. Detail: [errno 28] No space left on device")
+
+    monkeypatch.setattr(pq, "write_table", full_disk)
+    spec = write(tmp_path, 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "none"\n[grid]\n"planner.delta" = [0.005]\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1, err
+    assert f"--out {out}: could not write a batch of 1 row to {out / 'rows'}: No space left on device;" in err
+    assert "run the same command again" in err and "internal error" not in err
+    assert list((out / "rows").iterdir()) == []  # nothing half-written, no temporary file
+
+
 def test_the_readme_duckdb_query_runs_on_the_parquet_files(study, monkeypatch):
     duckdb = pytest.importorskip("duckdb")
     readme = (ROOT / "README.md").read_text()
