@@ -228,6 +228,20 @@ def test_an_obstacle_moved_onto_the_goal_gives_invalid_rows_not_a_refused_sweep(
     assert bad["outcome"] == "invalid" and "'q_goal'" in bad["reason"] and "in collision" in bad["reason"]
 
 
+def test_a_failed_plan_gives_the_same_reason_on_every_run(tmp_path):
+    """A failed row's reason held the planner's wall time ("... after 715 bubbles in 0.17 s"), so the same row
+    differed between runs and engines in a column that is not a timing column; the time is in plan_time."""
+    from foam_mj.sweep import run_task
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = [1]\nsmoothers = "none"\nreplay = "none"\n[grid]\n'
+                           '"obstacle.size" = [[0.2, 0.5, 0.6]]\n"subject.height" = [1.55]\n"planner.delta" = [0.02]\n')
+    (task,) = load_sweep(spec).tasks()
+    first, second = run_task(task), run_task(task)
+    assert [r["outcome"] for r in first] == ["failed"] and first[0]["plan_time"] > 0
+    assert first[0]["reason"] == "queue empty: the foam did not reach q_goal (queue empty) after 715 bubbles"
+    assert deterministic(first) == deterministic(second)
+
+
 def test_bad_random_tables_and_fields_are_named(tmp_path):
     bad = {
         '[random]\nsamples = 3\n[random.uniform]\n"planner.r_min" = [0.09, 0.05]\n': "low <= high",
