@@ -350,10 +350,15 @@ def outcome_robot(doc: dict, source: str | Path):
     """The compiled scene a result was planned on (a ModelError, exit 2, when it cannot be loaded)."""
     from foam_mj.model import RobotModel
 
+    return RobotModel.from_xml(resolve_model(doc, source), **robot_options(doc, source))
+
+
+def robot_options(doc: dict, source: str | Path) -> dict:
+    """The result's ``robot`` field (robot_root, self_collision, keyframe): what the robot was when planned."""
     options = doc.get("robot") or {}
     if not isinstance(options, dict) or set(options) - {"robot_root", "self_collision", "keyframe"}:
         raise FoamError(f"{source}: field 'robot' must hold only robot_root, self_collision and keyframe")
-    return RobotModel.from_xml(resolve_model(doc, source), **options)
+    return options
 
 
 def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
@@ -378,7 +383,8 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
             raise FoamError(f"{source}: field 'time_law' must be one of {list(METHODS)}, got {time_law!r}")
         params = PlannerConfig.from_dict(doc["planner"])  # results written before the seam were pfm's
         scenario = Scenario(
-            doc.get("scenario", "result"), "", resolve_model(doc, source), np.asarray(doc["q_init"], float), np.asarray(doc["q_goal"], float), params, int(doc.get("seed", 0)), Path(source)
+            doc.get("scenario", "result"), "", resolve_model(doc, source), np.asarray(doc["q_init"], float), np.asarray(doc["q_goal"], float), params, int(doc.get("seed", 0)), Path(source),
+            **robot_options(doc, source),  # the robot it was planned as: a keyframe's pose of the other joints, its root, its pairs
         )
         robot = scenario.robot
         q_init, q_goal = scenario.q_init, scenario.q_goal

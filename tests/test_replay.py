@@ -222,3 +222,50 @@ def test_added_servos_are_stable_on_small_robots_and_long_chains(tmp_path, links
     dyn = replay_dynamic(chain, make_trajectory(chain, line.path(np.empty((0, links))), line))
     assert dyn.warnings == () and np.all(np.isfinite(dyn.qpos))
     assert np.all(dyn.max_error < 0.05)  # rad
+
+
+KEYFRAME_ARM = """<mujoco model="arm with a wrist held at a keyframe">
+  <compiler angle="radian"/>
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom type="plane" size="2 2 0.1"/>
+    <geom name="post" type="box" pos="0.45 0 0.125" size="0.04 0.2 0.125"/>
+    <body pos="0 0 0.5">
+      <joint name="shoulder" axis="0 1 0" range="-1.7 1.7" damping="0.5"/>
+      <geom type="capsule" fromto="0 0 0 0.35 0 0" size="0.03" mass="1.2"/>
+      <body pos="0.35 0 0">
+        <joint name="elbow" axis="0 1 0" range="-2.6 2.6" damping="0.3"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.025" mass="0.6"/>
+        <body pos="0.3 0 0">
+          <joint name="wrist" axis="0 1 0" range="-2 2"/>
+          <geom type="capsule" fromto="0 0 0 0.15 0 0" size="0.02" mass="0.3"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <keyframe><key name="home" qpos="0 0 1.2"/></keyframe>
+</mujoco>
+"""
+
+
+def test_a_saved_result_is_replayed_as_the_robot_it_was_planned_as(tmp_path):
+    """``foam-mj replay`` rebuilds the robot with the result's ``robot`` options: a wrist held at its keyframe
+    pose (1.2 rad, folded up) stays there, so the replay shows the planned, clean motion (at qpos0 the
+    straight wrist hits the post: contacts, exit 4)."""
+    from foam_mj.pipeline import run
+    from foam_mj.results import outcome_from_result, read_result, write_outcome
+    from foam_mj.scenarios import load_scenario
+
+    (tmp_path / "arm.xml").write_text(KEYFRAME_ARM)
+    (tmp_path / "kf.toml").write_text(
+        'name = "kf"\nscene = "arm.xml"\njoints = ["shoulder", "elbow"]\nkeyframe = "home"\n'
+        "q_init = [0.3, 2.0]\nq_goal = [0.1, 0.6]\n"
+    )
+    planned = run(load_scenario(tmp_path / "kf.toml"), 0, ("centre",), dynamic=False)
+    js = write_outcome(tmp_path / "kf.json", planned)
+    back = outcome_from_result(read_result(js), js, dynamic=True)
+    assert back.scenario.robot.config.qpos0[2] == pytest.approx(1.2)
+    before, after = planned.paths["centre"], back.paths["centre"]
+    assert np.array_equal(after.trajectory.qpos, before.trajectory.qpos)
+    assert after.kinematic.min_clearance == pytest.approx(before.kinematic.min_clearance, rel=1e-9)
+    assert after.kinematic.min_clearance >= 0.005 and after.dynamic.contacts == ()
