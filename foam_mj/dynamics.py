@@ -21,8 +21,10 @@ absorb (brake, or regenerate).
 Actuator limits
 ---------------
 A configuration joint's torque limit is read from the MJCF: the force range of the joint-transmission
-actuator(s) driving it times their gear (``actuator_forcerange`` where ``actuator_forcelimited``), else
-the joint's own ``actfrcrange`` (``jnt_actfrclimited``); a joint with neither has no limit (infinity).
+actuator(s) driving it times their gear (``actuator_forcerange`` where ``actuator_forcelimited``; for a
+motor, whose force is gain x ctrl, also its ``ctrlrange`` times its gain: ``<motor gear="100"
+ctrlrange="-1 1"/>`` makes at most 100 N m), else the joint's own ``actfrcrange`` (``jnt_actfrclimited``);
+a joint with neither has no limit (infinity).
 Where two actuators drive one joint their ranges add. The limit is symmetric: the smaller of |lower| and
 upper (a choice: every actuator of the shipped models is symmetric, and a symmetric limit is what the
 time law needs to stay conservative).
@@ -88,12 +90,12 @@ def torque_limits(robot: RobotModel) -> np.ndarray:
         for a in range(m.nu):
             if int(m.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_JOINT) or int(m.actuator_trnid[a, 0]) != int(j):
                 continue
-            if not m.actuator_forcelimited[a]:
+            bound = _actuator_force_bound(m, a)
+            if not np.isfinite(bound):
                 found = False
                 total = np.inf
                 break
-            lo, hi = (float(v) for v in m.actuator_forcerange[a])
-            total += min(abs(lo), abs(hi)) * abs(float(m.actuator_gear[a, 0]))
+            total += bound * abs(float(m.actuator_gear[a, 0]))
             found = True
         if found and np.isfinite(total):
             out[i] = total
@@ -101,6 +103,22 @@ def torque_limits(robot: RobotModel) -> np.ndarray:
             lo, hi = (float(v) for v in m.jnt_actfrcrange[j])
             out[i] = min(out[i], min(abs(lo), abs(hi)))
     return out
+
+
+def _actuator_force_bound(m: mujoco.MjModel, a: int) -> float:
+    """The largest symmetric |force| actuator ``a`` can make (before its gear; inf when unbounded): its force
+    range, and for a motor (force = gain ctrl: no bias, no activation) also gain times its control range."""
+    bound = np.inf
+    if m.actuator_forcelimited[a]:
+        lo, hi = (float(v) for v in m.actuator_forcerange[a])
+        bound = min(abs(lo), abs(hi))
+    motor = (int(m.actuator_dyntype[a]) == int(mujoco.mjtDyn.mjDYN_NONE)
+             and int(m.actuator_gaintype[a]) == int(mujoco.mjtGain.mjGAIN_FIXED)
+             and int(m.actuator_biastype[a]) == int(mujoco.mjtBias.mjBIAS_NONE))
+    if motor and m.actuator_ctrllimited[a]:
+        lo, hi = (float(v) for v in m.actuator_ctrlrange[a])
+        bound = min(bound, abs(float(m.actuator_gainprm[a, 0])) * min(abs(lo), abs(hi)))
+    return bound
 
 
 def joint_units(robot: RobotModel) -> tuple[tuple[str, str, str, str], ...]:

@@ -10,10 +10,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from foam_mj.dynamics import HUMAN_SWING, body_mass, joint_loads, torque_limits
+from foam_mj.dynamics import HUMAN_SWING, body_mass, inverse_dynamics, joint_loads, torque_limits
+from foam_mj.model import RobotModel
 from foam_mj.pipeline import plan_scenario, smooth_paths
 from foam_mj.scenarios import load_scenario
-from foam_mj.timing import MAX_SLOWDOWN, Limits, TimingInfeasible, retime
+from foam_mj.rosary import Rosary
+from foam_mj.timing import MAX_SLOWDOWN, Limits, TimingInfeasible, retime, timed_trajectory
 from foam_mj.trajectory import make_trajectory
 
 from conftest import MujocoChecker
@@ -50,6 +52,32 @@ def test_torque_limits_come_from_the_actuator_force_ranges(obstacle_robot):
     lim = dict(zip(names, torque_limits(obstacle_robot)))
     assert lim == {"hip_flexion": 400.0, "knee_flexion": 400.0, "hip_displacement": 3000.0}
     assert body_mass(obstacle_robot) == 75.0
+
+
+def test_a_motor_is_limited_by_its_control_range_times_gain_and_gear(tmp_path):
+    """A motor (force = gain x ctrl) with ctrlrange -1 1 and gear 10 makes at most 10 N m, though it declares
+    no force range: the time law is held to it (it was timed as unlimited, asking 15 N m of the shoulder), a
+    force range tighter still wins, and a position servo's ctrlrange (a set point, not a force) sets nothing."""
+    from pathlib import Path
+
+    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
+
+    def limits(actuators: str) -> list[float]:
+        (tmp_path / "arm.xml").write_text(xml.replace("</worldbody>", f"</worldbody><actuator>{actuators}</actuator>"))
+        return torque_limits(RobotModel.from_xml(tmp_path / "arm.xml")).tolist()
+
+    motors = ('<motor joint="shoulder" gear="10" ctrlrange="-1 1"/>'
+              '<general joint="elbow" gear="20" gainprm="0.5" ctrlrange="-2 3" forcerange="-0.8 0.8"/>')
+    assert limits(motors) == [10.0, 16.0]
+    assert limits('<motor joint="shoulder" gear="10"/><position joint="elbow" kp="50" ctrlrange="-1 1"/>') == [np.inf, np.inf]
+    (tmp_path / "arm.xml").write_text(xml.replace("</worldbody>", f"</worldbody><actuator>{motors}</actuator>"))
+    robot = RobotModel.from_xml(tmp_path / "arm.xml")
+    a, b = np.array([-0.3, 0.2]), np.array([-1.2, 0.8])  # raising the arm, above the post
+    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    traj = timed_trajectory(robot, line.path(np.empty((0, 2))), line)
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    peak = np.abs(inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]).max(axis=0)
+    assert peak[0] == pytest.approx(10.0, rel=0.01) and peak[0] <= 10.0 * (1 + 1e-9)
 
 
 @pytest.mark.parametrize("method", ["toppra", "own"])
