@@ -142,17 +142,21 @@ def _summary_table(outcome) -> str:
             f"{po.result.wall_time * 1000:>7.0f} ms"
         )
     lines.append(
-        "min clear: smallest MuJoCo clearance along the replayed trajectory; track err: largest servo tracking "
-        "error under gravity (mrad for hinges, mm for slides); contacts: robot/obstacle contacts in that replay."
+        "min clear: smallest MuJoCo clearance along the planned trajectory; track err: largest servo tracking "
+        "error under gravity (mrad for hinges, mm for slides); contacts: robot/obstacle contacts in that servo replay."
     )
     return "\n".join(lines)
 
 
 def _print_servo_note(outcome) -> None:
-    """One line when the dynamic replay had to add servos to the model (foam_mj.replay.servo_model)."""
+    """One line when the dynamic replay had to add servos to the model (foam_mj.replay.servo_model), and one
+    per path whose servos ran into their ctrl or force range (DynamicReplay.limit_note)."""
     notes = {po.dynamic.servo_note for po in outcome.paths.values() if po.dynamic is not None and po.dynamic.servo_note}
     for note in sorted(notes):
         print(f"note: {note}")
+    for po in outcome.paths.values():
+        if po.dynamic is not None and po.dynamic.limit_note:
+            print(f"note: {po.label}: dynamic replay: {po.dynamic.limit_note}")
 
 
 def _loads_table(outcome) -> str:

@@ -57,6 +57,12 @@ dofs get an armature :data:`HOLD_ARMATURE` times the largest diagonal inertia, s
 joints move, and servos added with a damping ratio are damped, as on a fixed mount (a free base otherwise
 recoils from the servos, and falls under gravity).
 
+A servo can only do what its MJCF allows: MuJoCo clamps a ctrl outside the actuator's ``ctrlrange`` (a
+position servo whose set-point range is narrower than the motion, or than the set point plus the folded-in
+feed-forward) and caps its force at its ``forcerange``. The frames where either happened are counted per
+actuator (``clamped_frames``, ``saturated_frames``) and named in ``limit_note``, which ``plan`` and
+``replay`` print: the tracking error and contacts that follow are the servo's, not the path's.
+
 Contacts are read from ``data.contact`` after each ``mj_step1`` (collision detection at that frame's
 state): every contact between a leg geom and an obstacle geom with ``dist <= 0`` is reported with its
 frame, time, geom names and penetration depth.
@@ -159,6 +165,8 @@ class DynamicReplay(_ReplayMeasures):
     saturated_frames: np.ndarray  # (nu,) frames at which each actuator's force sat at its force range
     warnings: tuple[str, ...]  # MuJoCo warnings raised during the simulation (e.g. "mjWARN_BADQACC")
     servo_note: str = ""  # set when servos were added to the model for this replay (module docstring)
+    clamped_frames: np.ndarray | None = None  # (nu,) frames at which each actuator's ctrl lay outside its ctrlrange
+    limit_note: str = ""  # set when a servo could not do what tracking asked (ctrl or force range; module docstring)
 
 
 
@@ -436,6 +444,8 @@ def replay_dynamic(
     lo, hi = m.actuator_forcerange.T
     limited = m.actuator_forcelimited.astype(bool)
     at_limit = limited & ((force <= lo + 1e-9 * np.abs(lo)) | (force >= hi - 1e-9 * np.abs(hi)))
+    clo, chi = m.actuator_ctrlrange.T
+    clamped = (m.actuator_ctrllimited.astype(bool) & ((ctrl < clo) | (ctrl > chi))).sum(axis=0)
     warned = tuple(mujoco.mjtWarning(w).name for w in range(len(d.warning)) if d.warning[w].number > 0)
     own = clearance is None
     clr = Clearance(robot) if own else clearance
@@ -461,4 +471,26 @@ def replay_dynamic(
         saturated_frames=at_limit.sum(axis=0),
         warnings=warned,
         servo_note=note,
+        clamped_frames=clamped,
+        limit_note=_limit_note(m, clamped, at_limit.sum(axis=0), T),
     )
+
+
+def _limit_note(m: mujoco.MjModel, clamped: np.ndarray, saturated: np.ndarray, frames: int) -> str:
+    """One line naming the servos whose ctrl MuJoCo clamped to its ctrlrange, or whose force sat at its force
+    range, and in how many frames ("" when none): the reason of a large tracking error, never silent."""
+    parts = []
+    for a in np.flatnonzero((clamped > 0) | (saturated > 0)):
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, int(a)) or f"actuator{int(a)}"
+        joint = m.joint(int(m.actuator_trnid[a, 0])).name if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT) else ""
+        what = []
+        if clamped[a]:
+            lo, hi = m.actuator_ctrlrange[a]
+            what.append(f"ctrl clamped to its ctrlrange [{lo:g}, {hi:g}] in {int(clamped[a])}")
+        if saturated[a]:
+            lo, hi = m.actuator_forcerange[a]
+            what.append(f"force at its forcerange [{lo:g}, {hi:g}] in {int(saturated[a])}")
+        parts.append(f"servo '{name}'{f' ({joint})' if joint else ''}: {' and '.join(what)} of {frames} frames")
+    if not parts:
+        return ""
+    return "; ".join(parts) + ": the tracking error and any contacts there are the servo's, not the path's"

@@ -269,3 +269,26 @@ def test_a_saved_result_is_replayed_as_the_robot_it_was_planned_as(tmp_path):
     assert np.array_equal(after.trajectory.qpos, before.trajectory.qpos)
     assert after.kinematic.min_clearance == pytest.approx(before.kinematic.min_clearance, rel=1e-9)
     assert after.kinematic.min_clearance >= 0.005 and after.dynamic.contacts == ()
+
+
+def test_a_servo_that_cannot_follow_is_named_with_its_ctrl_or_force_range(tmp_path):
+    """A position servo whose ctrlrange is narrower than the motion is clamped by MuJoCo: the replay counts
+    the clamped frames and names the servo, its joint and its range in ``limit_note`` (which plan and replay
+    print), so a large tracking error is never left unexplained; servos within their ranges say nothing."""
+    from pathlib import Path
+
+    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
+    servos = '<position name="sh" joint="shoulder" kp="300" kv="10" gear="2"/><position name="el" joint="elbow" kp="100" kv="3"{}/>'
+    for limited, narrow in ((False, ""), (True, ' ctrlrange="-1.5 1.5"')):
+        path = tmp_path / f"arm{int(limited)}.xml"
+        path.write_text(xml.replace("</worldbody>", f"</worldbody><actuator>{servos.format(narrow)}</actuator>"))
+        arm = RobotModel.from_xml(path)
+        a, b = np.array([-0.3, 0.6]), np.array([-1.2, 2.0])  # raising the arm and folding the elbow past 1.5 rad
+        line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: replay only
+        dyn = replay_dynamic(arm, make_trajectory(arm, line.path(np.empty((0, 2))), line))
+        if not limited:
+            assert dyn.limit_note == "" and not dyn.clamped_frames.any() and dyn.max_error.max() < 0.01
+            continue
+        assert dyn.clamped_frames[0] == 0 and dyn.clamped_frames[1] > 0
+        assert dyn.max_error[1] > 0.3  # the elbow stops at 1.5 rad (plus what the servo's gravity offset gives)
+        assert dyn.limit_note.startswith(f"servo 'el' (elbow): ctrl clamped to its ctrlrange [-1.5, 1.5] in {dyn.clamped_frames[1]} of {len(dyn.times)} frames")
