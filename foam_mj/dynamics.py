@@ -141,9 +141,11 @@ def body_mass(robot: RobotModel) -> float | None:
     return float(v[1])
 
 
-def inverse_dynamics(robot: RobotModel, qpos, qvel, qacc, data: mujoco.MjData | None = None) -> np.ndarray:
-    """qfrc_inverse (T, nv) of ``mujoco.mj_inverse`` at every row of qpos (T, nq), qvel and qacc (T, nv)."""
-    m = robot.model
+def inverse_dynamics(robot: RobotModel, qpos, qvel, qacc, data: mujoco.MjData | None = None,
+                     model: mujoco.MjModel | None = None) -> np.ndarray:
+    """qfrc_inverse (T, nv) of ``mujoco.mj_inverse`` at every row of qpos (T, nq), qvel and qacc (T, nv), on
+    ``model`` (default ``robot.model``; ``data`` must belong to it)."""
+    m = robot.model if model is None else model
     qpos = np.atleast_2d(np.asarray(qpos, dtype=float))
     qvel = np.atleast_2d(np.asarray(qvel, dtype=float))
     qacc = np.atleast_2d(np.asarray(qacc, dtype=float))

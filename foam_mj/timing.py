@@ -20,7 +20,10 @@ The torque model is MuJoCo's inverse dynamics, tau = M(q) qdd + c(q, qd) + g(q) 
 joint damping B from the MJCF). Along the curve, with s the path parameter, qd = q' sd and
 qdd = q' sdd + q'' sd^2, so
 
-    tau(s) = a(s) sdd + b(s) sd^2 + g(s) + B q'(s) sd,    a = M q',  b = M q'' + c(q, q').
+    tau(s) = a(s) sdd + b(s) sd^2 + g(s) + B q'(s) sd + F,    a = M q',  b = M q'' + c(q, q'),
+
+F the joint friction (MJCF ``frictionloss``), at most its frictionloss while the joint moves: toppra gets each
+torque limit less the joint's frictionloss, and the samples are checked with the true ``mj_inverse``.
 
 Two time laws (``method``)
 --------------------------
@@ -53,6 +56,7 @@ rather than slowed to an absurd duration.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 import mujoco
@@ -170,7 +174,12 @@ def as_limits(limits: Limits | JointLimits | None) -> Limits:
 
 # -- the path seen in joint units -----------------------------------------------------------------------
 class _Kinematics:
-    """The curve at path positions in MuJoCo's units: qpos (N, nq) and dq/du, d2q/du2 (N, n)."""
+    """The curve at path positions in MuJoCo's units: qpos (N, nq) and dq/du, d2q/du2 (N, n).
+
+    The torque coefficients come from a copy of the model without joint friction (``frictionloss``), which
+    is no term of the form a sdd + b sd^2: MuJoCo's friction force is nearly constant while a joint moves
+    (up to its frictionloss), so read off at qacc = q' it would be scaled by sdd. ``friction`` (n,) bounds it
+    instead, taken off the torque limits given to toppra (module docstring)."""
 
     def __init__(self, robot: RobotModel, curve: SafeCurve) -> None:
         self.robot, self.curve = robot, curve
@@ -178,6 +187,11 @@ class _Kinematics:
         m = robot.model
         self.dof = m.jnt_dofadr[robot.config.joint_ids]
         self.damping = m.dof_damping[self.dof].copy()
+        self.friction = m.dof_frictionloss[self.dof].copy()
+        self.model = m
+        if np.any(m.dof_frictionloss > 0):
+            self.model = copy.copy(m)
+            self.model.dof_frictionloss[:] = 0.0
 
     def at(self, u: np.ndarray):
         q, qu, quu = self.curve.evaluate(u)
@@ -193,19 +207,19 @@ class _Kinematics:
         return self._cache
 
     def _coefficients(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        m = self.robot.model
+        m = self.model
         qpos, qu, quu = self.at(u)
         N = len(u)
         zero = np.zeros((N, m.nv))
         vel = zero.copy()
         acc = zero.copy()
         d = mujoco.MjData(m)
-        g = inverse_dynamics(self.robot, qpos, zero, zero, d)[:, self.dof]
+        g = inverse_dynamics(self.robot, qpos, zero, zero, d, m)[:, self.dof]
         acc[:, self.dof] = qu
-        a = inverse_dynamics(self.robot, qpos, zero, acc, d)[:, self.dof] - g
+        a = inverse_dynamics(self.robot, qpos, zero, acc, d, m)[:, self.dof] - g
         vel[:, self.dof] = qu
         acc[:, self.dof] = quu
-        b = inverse_dynamics(self.robot, qpos, vel, acc, d)[:, self.dof] - g - self.damping * qu
+        b = inverse_dynamics(self.robot, qpos, vel, acc, d, m)[:, self.dof] - g - self.damping * qu
         return a, b, g, self.damping * qu
 
 
@@ -387,8 +401,9 @@ def _toppra_law(kin: _Kinematics, vmax, amax, tmax, x0: np.ndarray | None = None
         tc.JointAccelerationConstraint(np.stack([-amax, amax], axis=1), discretization_scheme=tc.DiscretizationType.Interpolation),
     ]
     limited = np.isfinite(tmax)
-    if np.any(limited):
-        constraints.append(TorqueConstraint(np.where(limited, tmax, 1e12), np.maximum(x0, 1e-12)))
+    if np.any(limited):  # joint friction takes up to its frictionloss of the limit (class _Kinematics)
+        room = np.maximum(tmax - kin.friction, 1e-9 * np.where(limited, tmax, 1.0))
+        constraints.append(TorqueConstraint(np.where(limited, room, 1e12), np.maximum(x0, 1e-12)))
     algo = toppra.algorithm.TOPPRA(constraints, CurvePath(), gridpoints=grid, solver_wrapper="seidel")
     sdd, sd, _ = algo.compute_parameterization(0.0, 0.0)
     if sd is None or np.any(~np.isfinite(sd)):

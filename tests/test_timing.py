@@ -235,3 +235,28 @@ def test_one_joint_with_a_torque_limit_and_one_without_times_silently(tmp_path):
         warnings.simplefilter("error")
         assert main(["plan", "--mjcf", str(tmp_path / "arm.xml"), "--start", "0.3 2.0", "--goal", "0.1 0.6",
                      "--no-rrd", "--smoother", "none"]) == 0
+
+
+def test_joint_friction_costs_toppra_only_the_torque_it_takes(tmp_path):
+    """frictionloss is a nearly constant force while a joint moves, no term of a sdd + b sd^2: read off at
+    qacc = q' it was scaled by the path acceleration, and a 2 N m friction made toppra's swing 55 % longer
+    than without it, its real torque at half the limit. Now the limit given to toppra is less the friction:
+    the swing lasts about as long as without friction, and the true torque (mj_inverse) meets the limit."""
+    from pathlib import Path
+
+    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
+    xml = xml.replace("</worldbody>", '</worldbody><actuator><position joint="shoulder" kp="500" kv="20" forcerange="-12 12"/>'
+                      '<position joint="elbow" kp="200" kv="8" forcerange="-12 12"/></actuator>')
+    a, b = np.array([-0.3, 0.2]), np.array([-1.5, 1.8])  # raising the arm, above the post
+    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    durations = {}
+    for friction in ("0", "2"):
+        (tmp_path / "arm.xml").write_text(xml.replace('damping="0.5"', f'damping="0.5" frictionloss="{friction}" armature="0.2"'))
+        robot = RobotModel.from_xml(tmp_path / "arm.xml")
+        traj = timed_trajectory(robot, line.path(np.empty((0, 2))), line, method="toppra")
+        dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+        peak = np.abs(inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]).max(axis=0)
+        assert peak[0] <= 12.0 * (1 + 1e-9) and peak[1] <= 12.0 * (1 + 1e-9)
+        durations[friction] = traj.duration
+        assert peak[0] > 0.97 * 12.0  # the shoulder's limit binds: the timing is not held back by a phantom torque
+    assert durations["2"] < 1.1 * durations["0"]
