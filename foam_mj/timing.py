@@ -66,7 +66,8 @@ from foam_mj.dynamics import inverse_dynamics, joint_units, torque_limits
 from foam_mj.errors import PlanningFailed
 from foam_mj.model import RobotModel
 from foam_mj.rosary import Rosary, in_ball
-from foam_mj.trajectory import SAFETY_TOL, JointLimits, SafeCurve, Trajectory, TrajectoryError, _motion, make_trajectory
+from foam_mj.trajectory import (SAFETY_TOL, JointLimits, SafeCurve, Trajectory, TrajectoryError, _motion, make_trajectory,
+                                row_acceleration_cap)
 
 #: Time laws accepted by :func:`retime` / :func:`timed_trajectory`.
 METHODS = ("toppra", "own")
@@ -609,6 +610,7 @@ def retime(robot: RobotModel, trajectory: Trajectory, rosary: Rosary, limits: Li
     lim = as_limits(limits)
     vmax, amax, tmax = lim.resolve(robot)
     dt = trajectory.dt if dt is None else float(dt)
+    amax = np.minimum(amax, row_acceleration_cap(robot, dt))  # consecutive samples stay close to the curve
     check_gravity(robot, trajectory.curve, tmax)
     if method == "own":
         return _retime_own(robot, rosary, trajectory, tmax, dt)

@@ -72,6 +72,10 @@ from foam_mj.rosary import MEMBERSHIP_TOL, Rosary, in_ball
 #: Slack (configuration units) allowed when checking that a sample or control point lies in its bubble.
 #: Far below the bubbles' safety margin (delta = 5 mm of workspace clearance).
 SAFETY_TOL = 1e-9
+#: Largest distance (configuration units) between the straight line joining two consecutive samples (one
+#: timestep apart) and the certified curve between them: a consumer that interpolates the rows linearly
+#: (a checker, a controller) stays this close to the curve. The same step as ``foam-mj verify``'s default.
+ROW_TOL = 1e-3
 #: Fraction of the feasible tangent/curvature scale used, leaving room inside the ball.
 GAMMA = 0.9
 #: Tangent-direction blends tried at each waypoint (0 = the spline's own direction).
@@ -150,6 +154,16 @@ class JointLimits:
             vel.append(v)
             acc.append(a)
         return np.array(vel), np.array(acc)
+
+
+def row_acceleration_cap(robot: RobotModel, dt: float) -> np.ndarray:
+    """(n,) the joint accelerations (joint units) that keep each chord between samples ``dt`` apart within
+    :data:`ROW_TOL` of the curve: a C1 motion with |d2q_j/dt2| <= a_j leaves its chord over one step by at
+    most a_j dt^2 / 8 per coordinate, so a_j = 8 ROW_TOL / (sqrt(n) dt^2) in configuration units. Far above
+    the default limits at a 2 ms timestep (1,155 rad/s^2 for 3 joints); it binds only for very high limits,
+    which would otherwise leap from q_init to q_goal in one step, or a coarse timestep."""
+    n = robot.dim
+    return 8.0 * ROW_TOL / (np.sqrt(n) * dt * dt) * np.abs(robot.config.scale)
 
 
 # -- the safe curve ----------------------------------------------------------------------------------------
@@ -650,6 +664,7 @@ def make_trajectory(
     if rosary.dim != robot.dim:
         raise ValueError(f"`rosary` has dimension {rosary.dim}, the robot's configuration has {robot.dim}")
     vmax, amax = limits.resolve(robot)
+    amax = np.minimum(amax, row_acceleration_cap(robot, dt))  # rows dense enough to interpolate
     scale = robot.config.scale  # joint units per configuration unit
 
     for _ in range(len(curve.radii) + 1):

@@ -327,3 +327,28 @@ def test_a_goal_a_tenth_of_a_microradian_from_the_start_plans():
 
     arm = Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml"
     assert main(["plan", "--mjcf", str(arm), "--start", "0.3 2.0", "--goal", "0.3 2.0000001", "--no-rrd"]) == 0
+
+
+@pytest.mark.parametrize("method", ["toppra", "own"])
+def test_rows_stay_close_to_the_curve_however_high_the_limits(robot, rosary, paths, method):
+    """Limits of 1e6 rad/s and 1e9 rad/s^2 timed the swing in one 2 ms step: two rows, q_init and q_goal, whose
+    straight line (what a checker or a controller interpolates) ran 65 mm into the box. The joint accelerations
+    are now also held to row_acceleration_cap, so every chord between consecutive rows stays within ROW_TOL of
+    the certified curve, and MuJoCo finds the rows and the chords between them clear of the margin."""
+    from foam_mj.timing import Limits, timed_trajectory
+    from foam_mj.trajectory import ROW_TOL, row_acceleration_cap
+
+    assert np.all(row_acceleration_cap(robot, 0.002) > 10 * np.array([50.0, 50.0, 10.0]))  # default limits: no change
+    limits = Limits(velocity=(1e6,) * 3, acceleration=(1e9,) * 3, torque=(1e12,) * 3)
+    tr = timed_trajectory(robot, paths["centre"], rosary, limits, method)
+    assert len(tr) > 20
+    t = tr.times
+    for s in (0.25, 0.5, 0.75):
+        between = tr.evaluate(t[:-1] + s * np.diff(t))[0]
+        assert np.linalg.norm(between - ((1 - s) * tr.q[:-1] + s * tr.q[1:]), axis=1).max() <= ROW_TOL
+    chords = np.concatenate([(1 - s) * tr.q[:-1] + s * tr.q[1:] for s in np.linspace(0.0, 1.0, 11)])
+    clearance = Clearance(robot)
+    try:
+        assert clearance.batch(chords).min() >= DELTA
+    finally:
+        clearance.close()
