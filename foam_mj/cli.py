@@ -159,6 +159,26 @@ def _print_servo_note(outcome) -> None:
             print(f"note: {po.label}: dynamic replay: {po.dynamic.limit_note}")
 
 
+def _print_row_cap_note(outcome) -> None:
+    """One line when the model's timestep, not the joint limits, held some joint's acceleration (so that
+    consecutive trajectory rows stay close to the certified curve: foam_mj.trajectory.row_acceleration_cap)."""
+    from foam_mj.dynamics import joint_units
+    from foam_mj.trajectory import ROW_TOL, row_acceleration_cap
+
+    timed = [po.trajectory for po in outcome.paths.values() if po.trajectory is not None]
+    if not timed:
+        return
+    robot = outcome.scenario.robot
+    dt = timed[0].dt
+    _, acc, _ = outcome.limits.resolve(robot)
+    cap = row_acceleration_cap(robot, dt)
+    held = [f"{name} {c:.3g} {unit[2]} (limit {a:g})" for name, c, a, unit in
+            zip(robot.config.joint_names, cap, acc, joint_units(robot)) if c < a]
+    if held:
+        print(f"note: at the model's timestep of {dt:g} s, accelerations are held to {', '.join(held)}, so that the "
+              f"straight line between consecutive trajectory rows stays within {ROW_TOL:g} of the certified curve")
+
+
 def _loads_table(outcome) -> str:
     """Per path and joint: peak and RMS torque (mj_inverse), per kilogram, the actuator limit and its use,
     positive and negative work; then the human reference (foam_mj.dynamics.HUMAN_SWING)."""
@@ -425,6 +445,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
             f"(each bubble on its parent's surface); planner {scenario.params.algorithm}'s chain is not one (use --planner pfm)"
         )
     _print_servo_note(outcome)
+    _print_row_cap_note(outcome)
     loads = _loads_table(outcome)
     if loads:
         print(loads)
@@ -510,6 +531,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     print(f"replayed {len(outcome.paths)} path(s) of {args.result} on {outcome.scenario.scene}")
     print(_summary_table(outcome))
     _print_servo_note(outcome)
+    _print_row_cap_note(outcome)
     loads = _loads_table(outcome)
     if loads:
         print(loads)

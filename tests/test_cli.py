@@ -289,3 +289,22 @@ def test_the_parser_is_built_without_importing_numpy_mujoco_or_the_plotting_stac
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+def test_a_coarse_timestep_that_holds_the_accelerations_says_so(tmp_path, capsys):
+    """At a 20 ms timestep the rows can follow the curve to 1e-3 only below 14 rad/s^2, under the 50 rad/s^2
+    limit: plan says which joints the timestep holds and to what, so the slower swing is not a silent surprise;
+    at the shipped 2 ms nothing is said."""
+    arm = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
+    (tmp_path / "coarse.xml").write_text(arm.replace('timestep="0.002"', 'timestep="0.02"'))
+    (tmp_path / "fine.xml").write_text(arm)
+    for name, said in (("coarse", True), ("fine", False)):
+        assert main(["plan", "--mjcf", str(tmp_path / f"{name}.xml"), "--start", "0.3 2.0", "--goal", "0.1 0.6",
+                     "--no-rrd", "--smoother", "none"]) == 0
+        notes = [line for line in capsys.readouterr().out.splitlines() if "timestep" in line]
+        if said:
+            assert notes == ["note: at the model's timestep of 0.02 s, accelerations are held to shoulder 14.1 rad/s^2 "
+                             "(limit 50), elbow 14.1 rad/s^2 (limit 50), so that the straight line between consecutive "
+                             "trajectory rows stays within 0.001 of the certified curve"]
+        else:
+            assert notes == []
