@@ -235,7 +235,9 @@ def check_gravity(robot: RobotModel, curve: SafeCurve, torque: np.ndarray, sampl
     g = np.abs(inverse_dynamics(robot, qpos, zero, zero)[:, kin.dof])
     over = g - torque
     if np.any(over > 0):
-        i, j = np.unravel_index(int(np.argmax(over / torque)), over.shape)
+        with np.errstate(invalid="ignore"):  # an unlimited joint (inf) is never the one: -inf / inf is NaN
+            ratio = np.where(np.isfinite(torque), over / torque, -np.inf)
+        i, j = np.unravel_index(int(np.argmax(ratio)), over.shape)
         name, unit = robot.config.joint_names[j], joint_units(robot)[j][3]
         raise TimingInfeasible(
             f"no timing fits the torque limit of {name}: gravity alone needs {g[i, j]:.1f} {unit} at "

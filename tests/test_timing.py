@@ -260,3 +260,22 @@ def test_joint_friction_costs_toppra_only_the_torque_it_takes(tmp_path):
         durations[friction] = traj.duration
         assert peak[0] > 0.97 * 12.0  # the shoulder's limit binds: the timing is not held back by a phantom torque
     assert durations["2"] < 1.1 * durations["0"]
+
+
+def test_gravity_beyond_the_limit_names_the_limited_joint_beside_an_unlimited_one(tmp_path):
+    """Only the shoulder has a limit (a 4 N m motor) and gravity needs more: the message names the shoulder and
+    its excess. The elbow's infinite limit gave the ratio (g - inf) / inf = NaN, which argmax picked: 'limit of
+    elbow: ... over its limit inf N m by -inf N m (nan%)'."""
+    from pathlib import Path
+
+    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
+    (tmp_path / "arm.xml").write_text(xml.replace("</worldbody>", '</worldbody><actuator><motor joint="shoulder" '
+                                                  'gear="4" ctrlrange="-1 1"/></actuator>'))
+    robot = RobotModel.from_xml(tmp_path / "arm.xml")
+    a, b = np.array([0.3, 0.5]), np.array([-0.2, 0.2])  # the arm held out level: about 5 N m at the shoulder
+    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    with pytest.raises(TimingInfeasible) as info:
+        timed_trajectory(robot, line.path(np.empty((0, 2))), line)
+    assert info.value.joint == "shoulder" and info.value.excess > 0
+    assert re.search(r"no timing fits the torque limit of shoulder: gravity alone needs \d+\.\d N m at \d+% of the path, "
+                     r"over its limit 4\.0 N m by \d+\.\d N m \(\d+%\)$", str(info.value))
