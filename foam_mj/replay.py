@@ -445,7 +445,9 @@ def replay_dynamic(
     limited = m.actuator_forcelimited.astype(bool)
     at_limit = limited & ((force <= lo + 1e-9 * np.abs(lo)) | (force >= hi - 1e-9 * np.abs(hi)))
     clo, chi = m.actuator_ctrlrange.T
-    clamped = (m.actuator_ctrllimited.astype(bool) & ((ctrl < clo) | (ctrl > chi))).sum(axis=0)
+    servo = np.zeros(m.nu, dtype=bool)
+    servo[_servos(robot, m).actuator] = True  # the other actuators (say a gripper's) are left at ctrl 0
+    clamped = (servo & m.actuator_ctrllimited.astype(bool) & ((ctrl < clo) | (ctrl > chi))).sum(axis=0)
     warned = tuple(mujoco.mjtWarning(w).name for w in range(len(d.warning)) if d.warning[w].number > 0)
     own = clearance is None
     clr = Clearance(robot) if own else clearance

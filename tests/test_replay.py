@@ -292,3 +292,16 @@ def test_a_servo_that_cannot_follow_is_named_with_its_ctrl_or_force_range(tmp_pa
         assert dyn.clamped_frames[0] == 0 and dyn.clamped_frames[1] > 0
         assert dyn.max_error[1] > 0.3  # the elbow stops at 1.5 rad (plus what the servo's gravity offset gives)
         assert dyn.limit_note.startswith(f"servo 'el' (elbow): ctrl clamped to its ctrlrange [-1.5, 1.5] in {dyn.clamped_frames[1]} of {len(dyn.times)} frames")
+
+
+def test_an_actuator_the_replay_does_not_drive_is_never_named_as_clamped(tmp_path):
+    """Only the servos of the configuration joints are driven; another actuator (a motor on the held wrist whose
+    ctrlrange [0.5, 1] excludes the 0 it is left at) is no servo that failed to follow."""
+    actuators = ('<actuator><position joint="shoulder" kp="300" kv="10"/><position joint="elbow" kp="100" kv="3"/>'
+                 '<motor name="grip" joint="wrist" ctrlrange="0.5 1"/></actuator>')
+    (tmp_path / "arm.xml").write_text(KEYFRAME_ARM.replace("</worldbody>", "</worldbody>" + actuators))
+    arm = RobotModel.from_xml(tmp_path / "arm.xml", ["shoulder", "elbow"], keyframe="home")
+    a, b = np.array([-0.3, 0.6]), np.array([-1.0, 1.2])
+    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: replay only
+    dyn = replay_dynamic(arm, make_trajectory(arm, line.path(np.empty((0, 2))), line))
+    assert not dyn.clamped_frames.any() and dyn.limit_note == ""
