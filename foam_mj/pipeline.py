@@ -60,7 +60,7 @@ from foam_mj.smoothing import (
 )
 from foam_mj.smoothing.gradient import center_path_result
 from foam_mj.dynamics import JointLoads, joint_loads
-from foam_mj.timing import DEFAULT_METHOD as DEFAULT_TIME_LAW, Limits, TimingInfeasible, as_limits, retime
+from foam_mj.timing import DEFAULT_METHOD as DEFAULT_TIME_LAW, METHODS as TIME_LAWS, Limits, TimingInfeasible, as_limits, retime
 from foam_mj.trajectory import JointLimits, Trajectory, make_trajectory
 
 #: Smoother names accepted by ``--smoother`` and what each adds to the centre path.
@@ -76,6 +76,8 @@ SMOOTHERS: dict[str, tuple[str, ...]] = {
     "mopso": ("mopso",),
 }
 SMOOTHERS["all"] = tuple(p for k in ("gradient", "adjust", "hs", "ga", "convex", "optimal") for p in SMOOTHERS[k])
+#: Every path name: the centre path (always there) and those the smoothers produce.
+PATH_NAMES: tuple[str, ...] = tuple(dict.fromkeys(("centre",) + tuple(p for paths in SMOOTHERS.values() for p in paths)))
 #: What ``foam-mj plan`` runs when no smoother is named: the certified optimum of f, the best f of all the
 #: methods and among the fastest (benchmarks/smoothing.py).
 DEFAULT_SMOOTHER = "optimal"
@@ -229,14 +231,24 @@ def run(
 ) -> Outcome:
     """Plan, smooth, build trajectories and replay them (kinematically, and dynamically when asked).
 
-    ``smoothers`` are path names (:func:`parse_smoothers`); by default those of :data:`DEFAULT_SMOOTHER`,
-    as ``foam-mj plan``. The centre path is always there; every path is time-parametrized and replayed.
+    ``smoothers`` are path names of :data:`PATH_NAMES`, or a ``--smoother`` value (:func:`parse_smoothers`);
+    by default those of :data:`DEFAULT_SMOOTHER`, as ``foam-mj plan``. The centre path is always there; every
+    path is time-parametrized and replayed. Unknown path names, a ``time_law`` not in ("toppra", "own") and
+    ``limits`` of the wrong length are refused before any planning, by an error that names the argument.
     """
     seed = scenario.seed if seed is None else seed
+    if isinstance(smoothers, str):
+        smoothers = parse_smoothers(smoothers)
+    unknown = [name for name in smoothers if name not in PATH_NAMES]
+    if unknown:
+        raise FoamError(f"`smoothers`: unknown path name(s) {unknown}; known: {', '.join(PATH_NAMES)} (or a --smoother value such as 'all')")
+    time_law = time_law or getattr(scenario, "time_law", None) or DEFAULT_TIME_LAW
+    if time_law not in TIME_LAWS:
+        raise ValueError(f"`time_law` must be one of {TIME_LAWS}, got {time_law!r}")
+    lim = as_limits(limits if limits is not None else getattr(scenario, "limits", None))
+    lim.resolve(scenario.robot)  # a limit list of the wrong length is named before any planning
     t0 = time.perf_counter()
     result = plan_scenario(scenario, seed, report)
-    lim = as_limits(limits if limits is not None else getattr(scenario, "limits", None))
-    time_law = time_law or getattr(scenario, "time_law", None) or DEFAULT_TIME_LAW
     outcome = Outcome(scenario, seed, result, limits=lim, time_law=time_law)
     outcome.timings["plan"] = time.perf_counter() - t0
     t1 = time.perf_counter()

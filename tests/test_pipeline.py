@@ -1,0 +1,43 @@
+"""foam_mj.pipeline.run, the Python form of ``foam-mj plan``: its arguments are checked before any planning."""
+
+from __future__ import annotations
+
+import pytest
+
+from foam_mj.errors import FoamError
+from foam_mj.pipeline import PATH_NAMES, run
+from foam_mj.scenarios import load_scenario
+from foam_mj.timing import Limits
+
+
+@pytest.fixture
+def no_planning(monkeypatch):
+    """Fail the test if run() reaches the planner."""
+
+    def planned(*_args, **_kwargs):
+        raise AssertionError("run() planned before refusing its arguments")
+
+    monkeypatch.setattr("foam_mj.pipeline.plan_scenario", planned)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "names"),
+    [
+        ({"time_law": "fast"}, ValueError, "`time_law` must be one of ('toppra', 'own'), got 'fast'"),
+        ({"limits": Limits(torque=(150, 60))}, ValueError, "limits `torque` must have 3 numbers"),
+        ({"smoothers": ("optimal", "hs_typo")}, FoamError, "unknown path name(s) ['hs_typo']"),
+        ({"smoothers": "convex,nope"}, FoamError, "unknown smoother 'nope'"),
+    ],
+)
+def test_bad_arguments_are_named_before_any_planning(no_planning, kwargs, error, names):
+    with pytest.raises(error) as exc:
+        run(load_scenario("obstacle"), **kwargs)
+    assert names in str(exc.value)
+
+
+def test_smoothers_take_path_names_or_a_smoother_value():
+    scenario = load_scenario("step_up")
+    by_value = run(scenario, None, "adjust", replay=False)
+    by_names = run(scenario, None, ("centre", "adjusted", "adjusted_gradient"), replay=False)
+    assert list(by_value.paths) == list(by_names.paths) == ["centre", "adjusted", "adjusted_gradient"]
+    assert set(by_value.paths) <= set(PATH_NAMES)
