@@ -48,6 +48,33 @@ def test_every_planner_has_a_name_a_summary_and_default_options():
         assert p.name == name and cls.summary
 
 
+def test_register_takes_a_named_planner_with_frozen_options(monkeypatch):
+    import dataclasses
+
+    from foam_mj.planners import register
+    from foam_mj.planners.base import Planner
+
+    monkeypatch.setattr("foam_mj.planners.PLANNERS", dict(PLANNERS))
+
+    @dataclasses.dataclass
+    class Mutable:
+        step: float = 1.0
+
+    class Straight(Planner):
+        name = "straight"
+
+        def plan(self, problem, seed=0, progress=None):
+            raise NotImplementedError
+
+    assert register(Straight) is Straight and isinstance(get_planner("straight"), Straight)  # no options: fine
+    with pytest.raises(TypeError, match=r"planner 'mutable': `Options` must be a frozen dataclass"):
+        register(type("MutablePlanner", (Straight,), {"name": "mutable", "Options": Mutable}))
+    with pytest.raises(TypeError, match=r"`name` must be a non-empty string, got ''"):
+        register(type("Nameless", (Straight,), {"name": ""}))
+    with pytest.raises(TypeError, match="subclass of foam_mj.planners.base.Planner"):
+        register(Mutable)
+
+
 def test_planner_config_reads_a_table_and_keeps_old_pfm_tables():
     c = PlannerConfig.from_dict({"K": 6, "r_min": 0.045, "delta": 0.01})
     assert (c.algorithm, c.K, c.r_min, c.delta) == ("pfm", 6, 0.045, 0.01)

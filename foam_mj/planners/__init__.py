@@ -17,6 +17,8 @@ Add a planner: subclass :class:`~foam_mj.planners.base.Planner` (``name``, ``sum
 
 from __future__ import annotations
 
+import dataclasses
+
 from foam_mj.planners.base import (
     Planner,
     PlannerConfig,
@@ -39,7 +41,16 @@ DEFAULT_PLANNER = "bubbletree"
 
 
 def register(cls: type[Planner]) -> type[Planner]:
-    """Add a planner class to :data:`PLANNERS` under ``cls.name``."""
+    """Add a planner class to :data:`PLANNERS` under ``cls.name``; TypeError unless it is a :class:`Planner`
+    with a non-empty string ``name`` and a frozen dataclass ``Options`` (options are shared, never changed)."""
+    if not (isinstance(cls, type) and issubclass(cls, Planner)):
+        raise TypeError(f"register() takes a subclass of foam_mj.planners.base.Planner, got {cls!r}")
+    name = getattr(cls, "name", None)
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"planner class {cls.__name__}: `name` must be a non-empty string, got {name!r}")
+    options = cls.Options
+    if not (dataclasses.is_dataclass(options) and options.__dataclass_params__.frozen):
+        raise TypeError(f"planner '{name}': `Options` must be a frozen dataclass (@dataclass(frozen=True)), got {options.__name__}")
     PLANNERS[cls.name] = cls
     return cls
 
