@@ -764,7 +764,8 @@ def _port(text: str) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser(
         prog="foam-mj",
-        description="Plan safe, smooth swing-leg motions for the Ortholeg exoskeleton with the Probabilistic Foam Method.",
+        description="Plan safe, smooth motions for MuJoCo robots (built in: the Ortholeg exoskeleton's swing leg) over bubbles "
+        "of free configuration space certified by MuJoCo distance queries (the Probabilistic Foam Method and its kin).",
         epilog=EXIT_EPILOG + ". Set FOAM_MJ_DEBUG=1 to see the traceback of an internal error.",
     )
     parser.add_argument("--version", action="version", version=f"foam-mj {__version__}")
@@ -775,11 +776,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "plan",
         help="plan, smooth, replay and record",
-        description="Plan a path with the Probabilistic Foam Method, smooth it, turn every path into a joint "
-        "trajectory, replay it on the simulated leg (kinematically and under gravity), print a summary and "
+        description="Plan a path of certified bubbles (the scenario's planner, or --planner), smooth it, turn every path into a "
+        "joint trajectory, replay it on the simulated robot (kinematically and under gravity), print a summary and "
         "write a Rerun recording. Every output is checked before planning and written atomically.",
         epilog="exit codes: 0 success; 2 bad input or an output that could not be written; 3 planning failed "
-        "(the foam so far is still written); 1 internal error; 130 interrupted.",
+        "(the foam did not reach the goal: the foam so far is still written; or no timing of a path fits the joint "
+        "limits); 1 internal error; 130 interrupted.",
     )
     p.add_argument("--scene", default=None, help="a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: obstacle)")
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="plan on any MJCF scene without a scenario file (needs --start and --goal; default planner parameters)")

@@ -126,6 +126,14 @@ def test_plan_help_names_optimal_as_the_default(capsys):
     assert "default: optimal" in " ".join(capsys.readouterr().out.split())
 
 
+def test_plan_help_describes_any_robot_and_planner_and_both_causes_of_exit_3(capsys):
+    with pytest.raises(SystemExit):
+        main(["plan", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "simulated robot" in text and "or --planner" in text and "simulated leg" not in text
+    assert "no timing of a path fits the joint limits" in text
+
+
 def test_every_recorded_path_is_collision_free_under_an_independent_check(planned, obstacle_robot):
     """Dense check of every joint trajectory in the JSON with mj_collision (step 1e-3 in qpos)."""
     doc = planned["doc"]
