@@ -395,8 +395,9 @@ def replay_dynamic(
         raise ValueError(
             f"`trajectory.times` must be spaced by the model's timestep {m.opt.timestep} s, got dt = {trajectory.dt}"
         )
-    if int(m.opt.integrator) == int(mujoco.mjtIntegrator.mjINT_RK4):
-        raise ValueError("the dynamic replay steps with mj_step1/mj_step2, which RK4 does not support")
+    # mj_step1/mj_step2 (collision detection between the halves of a step) have no RK4 form: an RK4 model
+    # is stepped whole by mj_step after mj_forward has computed frame i's kinematics and contacts.
+    rk4 = int(m.opt.integrator) == int(mujoco.mjtIntegrator.mjINT_RK4)
     held_qpos, held_dof = _addresses(m, held_joints(robot))
     ctrl = servo_controls(robot, trajectory, feedforward, m)
     d = mujoco.MjData(m)
@@ -420,7 +421,10 @@ def replay_dynamic(
     for i in range(T):
         d.qpos[held_qpos] = trajectory.qpos[i, held_qpos]
         d.qvel[held_dof] = 0.0
-        mujoco.mj_step1(m, d)  # kinematics and collision detection at frame i's state
+        if rk4:
+            mujoco.mj_forward(m, d)
+        else:
+            mujoco.mj_step1(m, d)  # kinematics and collision detection at frame i's state
         qpos[i] = d.qpos
         xpos[i] = d.xpos[ids]
         xquat[i] = d.xquat[ids]
@@ -435,7 +439,10 @@ def replay_dynamic(
                 )
         d.ctrl[:] = ctrl[i]
         if i + 1 < T:
-            mujoco.mj_step2(m, d)
+            if rk4:
+                mujoco.mj_step(m, d)
+            else:
+                mujoco.mj_step2(m, d)
         else:
             mujoco.mj_fwdActuation(m, d)  # the last frame's forces, for the record
         force[i] = d.actuator_force

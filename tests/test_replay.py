@@ -305,3 +305,21 @@ def test_an_actuator_the_replay_does_not_drive_is_never_named_as_clamped(tmp_pat
     line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: replay only
     dyn = replay_dynamic(arm, make_trajectory(arm, line.path(np.empty((0, 2))), line))
     assert not dyn.clamped_frames.any() and dyn.limit_note == ""
+
+
+def test_an_rk4_model_replays_dynamically(tmp_path):
+    """mj_step1/mj_step2 have no RK4 form: a user's RK4 model ended `foam-mj plan` with an internal error after
+    the planning. It is stepped whole by mj_step and tracks within a few mrad, as the same arm under Euler
+    does (explicit RK4 tracks the inverse-dynamics feed-forward less closely than MuJoCo's semi-implicit Euler:
+    4-5 against 1-2 mrad here)."""
+    xml = FLOATING_ARM.format(base_joint="")
+    euler, rk4 = tmp_path / "euler.xml", tmp_path / "rk4.xml"
+    euler.write_text(xml)
+    rk4.write_text(xml.replace("<mujoco>", '<mujoco><option integrator="RK4"/>', 1))
+    arm, swing = _swing(rk4)
+    assert arm.model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
+    dyn = replay_dynamic(arm, swing)
+    twin = replay_dynamic(*_swing(euler))
+    assert dyn.contacts == () and dyn.warnings == () and np.all(np.isfinite(dyn.qpos))
+    assert np.all(twin.max_error < 3e-3) and np.all(dyn.max_error < 1e-2), (dyn.max_error, twin.max_error)
+    assert np.allclose(dyn.qpos[-1, arm.config.qpos_index], swing.qpos[-1, arm.config.qpos_index], atol=1e-2)
