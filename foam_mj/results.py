@@ -400,6 +400,7 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
         ros0 = Rosary(np.asarray(top["centers"], float), np.asarray(top["radii"], float), q_init, q_goal)
         outcome = Outcome(scenario, scenario.seed, PlanResult(foam, ros0, PlanStats(params.algorithm, doc.get("outcome", ""), foam.size, 0, 0.0)),
                           limits=limits, time_law=time_law)
+        waypoints: dict[str, np.ndarray] = {}
         for name, entry in doc["paths"].items():
             rosary = Rosary(np.asarray(entry["rosary"]["centers"], float), np.asarray(entry["rosary"]["radii"], float), q_init, q_goal)
             path = np.asarray(entry["waypoints"], float)
@@ -414,15 +415,18 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
                 history_mean=np.asarray(conv["mean"], float) if "mean" in conv else None,
                 iterations=0, evaluations=0, wall_time=0.0, stop_reason="loaded",
             )
-            po = PathOutcome(name, res, metrics(path))
-            po.trajectory = time_path(robot, name, path, rosary, limits, time_law)
-            po.loads = joint_loads(robot, po.trajectory, limit=limits.resolve(robot)[2])
-            po.kinematic = replay_kinematic(robot, po.trajectory)
-            if dynamic:
-                po.dynamic = replay_dynamic(robot, po.trajectory)
-            outcome.paths[name] = po
-        return outcome
+            outcome.paths[name] = PathOutcome(name, res, metrics(path))
+            waypoints[name] = path
+        torque_limit = limits.resolve(robot)[2]
     except (KeyError, TypeError, ValueError) as exc:
         if isinstance(exc, FoamError):
             raise
         raise FoamError(f"{source}: malformed result: {type(exc).__name__}: {exc}") from None
+    # The result is read; what fails from here on is the replay's own doing, not the file's.
+    for name, po in outcome.paths.items():
+        po.trajectory = time_path(robot, name, waypoints[name], po.rosary, limits, time_law)
+        po.loads = joint_loads(robot, po.trajectory, limit=torque_limit)
+        po.kinematic = replay_kinematic(robot, po.trajectory)
+        if dynamic:
+            po.dynamic = replay_dynamic(robot, po.trajectory)
+    return outcome

@@ -217,6 +217,19 @@ def test_replay_exits_4_when_its_replay_is_closer_than_the_margin(planned_result
     assert main(["replay", str(planned_result), "--kinematic-only"]) == 0
 
 
+def test_a_failure_of_the_replay_itself_is_not_blamed_on_the_result(planned_result, monkeypatch, capsys):
+    """Every ValueError during `replay` was reported as 'malformed result' (exit 2), even one raised by the
+    simulation after the file was read (an RK4 model's dynamic replay did): a bug then passed for bad input."""
+
+    def broken(*_args, **_kwargs):
+        raise ValueError("the simulation went wrong")
+
+    monkeypatch.setattr("foam_mj.replay.replay_dynamic", broken)
+    assert main(["replay", str(planned_result)]) == 1
+    err = capsys.readouterr().err
+    assert "internal error: ValueError: the simulation went wrong" in err and "malformed" not in err
+
+
 # -- view, version, documentation -----------------------------------------------------------------------------
 def test_view_without_a_display_says_what_to_do(tmp_path, monkeypatch, capsys):
     rrd = tmp_path / "x.rrd"
