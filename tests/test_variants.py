@@ -181,11 +181,14 @@ def test_a_foam_that_never_grows_past_its_root_says_r_min_is_why(scene_oracles, 
     """The variants accept a start bubble under r_min; when nothing of r_min fits on it the failure says so
     and names the way out (it used to say only 'queue empty after 1 bubbles' or, for gbpf, 'time budget')."""
     s = SCEN["obstacle"]
-    params = FoamParams(K=s.params.K, r_min=0.3, delta=s.params.delta, time_limit=0.5)
+    params = FoamParams(K=s.params.K, r_min=0.3, delta=s.params.delta, time_limit=60.0)
     with pytest.raises(PlanningFailed, match=r"after 1 bubbles .*: no bubble of radius >= r_min = 0.3 fits on the start's "
                                              r"bubble \(radius 0.0878\); lower r_min, or plan with bubbletree") as err:
         VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, params, seed=0)
     assert err.value.foam.size == 1
+    # At once: a child on the root's surface has radius at most 0.0878 + 0.0878 < r_min, which gbpf's random
+    # samples used to take the whole time budget (60 s here) to give up on.
+    assert err.value.stats.elapsed < 5.0 and err.value.stats.outcome == "queue empty"
 
 
 @pytest.mark.parametrize("variant", sorted(VARIANTS))

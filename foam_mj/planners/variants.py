@@ -119,7 +119,8 @@ class _Growth:
             if c <= params.delta:
                 state = "in collision" if c < 0 else "too close to an obstacle"
                 raise ConfigurationError(f"{name} {q.tolist()} is {state}: clearance {clearance_text(c, params.delta)} <= margin delta = {params.delta} m")
-        r0 = float(oracle.radius(self.q_init))
+        self.root_distances = oracle.clearance.pair_distances(self.q_init)  # per pair, for root_cannot_grow
+        r0 = float(oracle.radius_from_distances(self.root_distances, self.q_init))
         if r0 <= 0.0:
             raise ConfigurationError(f"q_init {self.q_init.tolist()} lies on the configuration bounds: its bubble has radius 0")
         cap = 1024
@@ -131,6 +132,14 @@ class _Growth:
         self.goal: int | None = None
         self.add(self.q_init, r0, -1)
         self.goal = 0 if self.holds_goal(self.q_init, r0) else None
+
+    def root_cannot_grow(self) -> bool:
+        """True when no child of radius >= r_min can sit on the root's surface: a pair's distance changes by at
+        most ||rho_p|| per unit of q, so a point r0 from q_init has radius at most min_p (d_p - delta) / ||rho_p||
+        + r0 (exact when that pair's distance reads below the cap ``distmax``, which is then required)."""
+        terms = self.oracle.pair_radii(self.root_distances)
+        k = int(np.argmin(terms))
+        return bool(self.root_distances[k] < self.oracle.clearance.distmax and terms[k] + self.radii[0] < self.params.r_min)
 
     def holds_goal(self, c: np.ndarray, r) -> np.ndarray:
         return np.sum((np.atleast_2d(c) - self.q_goal) ** 2, axis=1) <= (np.asarray(r) + MEMBERSHIP_TOL) ** 2
@@ -330,6 +339,8 @@ def plan_gbpf(
     nearest = _NearestCentre()
     dead_toward_goal = np.zeros(1024, dtype=bool)  # bubble's candidate toward q_goal already rejected
     B = int(goal_bias.batch)
+    if g.goal is None and g.root_cannot_grow():
+        return g.finish("queue empty")  # random samples would spend the whole time budget finding nothing
     while g.goal is None:
         if (outcome := g.budget()) is not None:
             return g.finish(outcome)
