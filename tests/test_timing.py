@@ -80,6 +80,32 @@ def test_a_motor_is_limited_by_its_control_range_times_gain_and_gear(tmp_path):
     assert peak[0] == pytest.approx(10.0, rel=0.01) and peak[0] <= 10.0 * (1 + 1e-9)
 
 
+MOTOR_ARM = """<mujoco><worldbody><geom type="plane" size="1 1 0.1" pos="0 0 -1"/><body><joint name="{j}" axis="0 1 0" range="-90 90"/>
+<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/></body></worldbody><actuator>{act}</actuator></mujoco>"""
+
+
+@pytest.mark.parametrize(
+    ("act", "limit"),
+    [
+        ('<motor joint="a" ctrlrange="-10 10"/>', 10.0),  # a motor's torque is its control: 10 N m at most
+        ('<motor joint="a" ctrlrange="-10 10" gear="3"/>', 30.0),
+        ('<general joint="a" ctrlrange="-2 2" gainprm="5"/>', 10.0),  # force = 5 ctrl, no bias
+        ('<motor joint="a" ctrlrange="-10 10" forcerange="-4 4"/>', 4.0),
+        ('<motor joint="a"/>', np.inf),
+        ('<position joint="a" kp="100" ctrlrange="-1 1"/>', np.inf),  # ctrl is a position: no force limit
+        ('<general joint="a" ctrlrange="-2 2" gainprm="5" dyntype="integrator"/>', np.inf),  # ctrl is a rate
+    ],
+)
+def test_a_motors_control_range_is_its_torque_limit(tmp_path, act, limit):
+    """A user's <motor ctrlrange="-10 10"/> can give at most 10 N m; it read as 'no limit', so the time law
+    asked 11.7 N m of such a motor (a 4-joint arm) and the loads table printed 'none'."""
+    from foam_mj.model import RobotModel
+
+    scene = tmp_path / "motor.xml"
+    scene.write_text(MOTOR_ARM.format(j="a", act=act))
+    assert torque_limits(RobotModel.from_xml(scene))[0] == limit
+
+
 @pytest.mark.parametrize("method", ["toppra", "own"])
 @pytest.mark.parametrize("torque", [None, (150.0, 40.0, 400.0)])
 def test_a_retimed_trajectory_keeps_the_curve_and_meets_every_limit(planned, method, torque):
