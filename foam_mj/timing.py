@@ -224,23 +224,38 @@ class _Kinematics:
         return a, b, g, self.damping * qu
 
 
+def _held_loads(robot: RobotModel, kin: _Kinematics, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """|gravity| (N, n) at rest along the curve, and the joint friction (frictionloss) each joint must overcome
+    where it moves (0 where the curve leaves it still): what no timing can avoid."""
+    qpos, qu, _ = kin.at(u)
+    zero = np.zeros((len(u), robot.model.nv))
+    g = np.abs(inverse_dynamics(robot, qpos, zero, zero)[:, kin.dof])
+    return g, np.where(np.abs(qu) > 1e-9, kin.friction, 0.0)
+
+
+def _load_text(g: float, f: float, unit: str) -> str:
+    """'gravity (5.4 N m)', or with joint friction 'gravity (5.4 N m) and joint friction (27.0 N m)'."""
+    return f"gravity ({g:.1f} {unit})" + (f" and joint friction ({f:.1f} {unit})" if f > 0 else "")
+
+
 def check_gravity(robot: RobotModel, curve: SafeCurve, torque: np.ndarray, samples: int = 2000) -> None:
-    """Raise :class:`TimingInfeasible` where gravity alone exceeds a joint's torque limit on the curve."""
+    """Raise :class:`TimingInfeasible` where gravity alone, with the joint friction of a moving joint, exceeds a
+    joint's torque limit on the curve."""
     if not np.any(np.isfinite(torque)):
         return
     kin = _Kinematics(robot, curve)
     u = np.linspace(0.0, curve.length, samples)
-    qpos, _, _ = kin.at(u)
-    zero = np.zeros((len(u), robot.model.nv))
-    g = np.abs(inverse_dynamics(robot, qpos, zero, zero)[:, kin.dof])
-    over = g - torque
+    g, f = _held_loads(robot, kin, u)
+    over = g + f - torque
     if np.any(over > 0):
         with np.errstate(invalid="ignore"):  # an unlimited joint (inf) is never the one: -inf / inf is NaN
             ratio = np.where(np.isfinite(torque), over / torque, -np.inf)
         i, j = np.unravel_index(int(np.argmax(ratio)), over.shape)
         name, unit = robot.config.joint_names[j], joint_units(robot)[j][3]
+        need = (f"gravity alone needs {g[i, j]:.1f} {unit}" if f[i, j] == 0 else
+                f"{_load_text(g[i, j], f[i, j], unit)} need {g[i, j] + f[i, j]:.1f} {unit}")
         raise TimingInfeasible(
-            f"no timing fits the torque limit of {name}: gravity alone needs {g[i, j]:.1f} {unit} at "
+            f"no timing fits the torque limit of {name}: {need} at "
             f"{100 * u[i] / curve.length:.0f}% of the path, over its limit {torque[j]:.1f} {unit} by "
             f"{over[i, j]:.1f} {unit} ({100 * over[i, j] / torque[j]:.0f}%)",
             joint=name, excess=float(over[i, j]),
@@ -538,21 +553,20 @@ def _report_slowdown(robot, kin: _Kinematics, law: PathTiming, free: PathTiming,
 
 
 def _report_margin(robot, kin: _Kinematics, tmax, what: str) -> None:
-    """Raise TimingInfeasible naming the joint whose torque limit leaves the least room above gravity."""
+    """Raise TimingInfeasible naming the joint whose torque limit leaves the least room above gravity (and the
+    friction of a moving joint)."""
     u = np.linspace(0.0, kin.curve.length, 2001)
-    qpos, _, _ = kin.at(u)
-    zero = np.zeros((len(u), robot.model.nv))
-    g = np.abs(inverse_dynamics(robot, qpos, zero, zero)[:, kin.dof])
+    g, f = _held_loads(robot, kin, u)
     with np.errstate(invalid="ignore", divide="ignore"):
-        margin = np.where(np.isfinite(tmax), (tmax - g) / tmax, np.inf)
+        margin = np.where(np.isfinite(tmax), (tmax - g - f) / tmax, np.inf)
     i, j = np.unravel_index(int(np.argmin(margin)), margin.shape)
     if not np.isfinite(margin[i, j]):
         raise TimingInfeasible(f"no timing fits the limits: {what}")
     name, unit = robot.config.joint_names[j], joint_units(robot)[j][3]
     raise TimingInfeasible(
-        f"the torque limit of {name} ({tmax[j]:.1f} {unit}) leaves only {tmax[j] - g[i, j]:.2f} {unit} above gravity "
-        f"({g[i, j]:.1f} {unit}) at {100 * u[i] / kin.curve.length:.0f}% of the path: {what}",
-        joint=name, excess=float(g[i, j] - tmax[j]),
+        f"the torque limit of {name} ({tmax[j]:.1f} {unit}) leaves only {tmax[j] - g[i, j] - f[i, j]:.2f} {unit} above "
+        f"{_load_text(g[i, j], f[i, j], unit)} at {100 * u[i] / kin.curve.length:.0f}% of the path: {what}",
+        joint=name, excess=float(g[i, j] + f[i, j] - tmax[j]),
     )
 
 

@@ -298,10 +298,31 @@ def test_gravity_beyond_the_limit_names_the_limited_joint_beside_an_unlimited_on
     (tmp_path / "arm.xml").write_text(xml.replace("</worldbody>", '</worldbody><actuator><motor joint="shoulder" '
                                                   'gear="4" ctrlrange="-1 1"/></actuator>'))
     robot = RobotModel.from_xml(tmp_path / "arm.xml")
-    a, b = np.array([0.3, 0.5]), np.array([-0.2, 0.2])  # the arm held out level: about 5 N m at the shoulder
+    a, b = np.array([-0.1, 0.1]), np.array([-0.5, 0.3])  # the arm held out about level, above the post: ~5 N m
     line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
     with pytest.raises(TimingInfeasible) as info:
         timed_trajectory(robot, line.path(np.empty((0, 2))), line)
     assert info.value.joint == "shoulder" and info.value.excess > 0
     assert re.search(r"no timing fits the torque limit of shoulder: gravity alone needs \d+\.\d N m at \d+% of the path, "
                      r"over its limit 4\.0 N m by \d+\.\d N m \(\d+%\)$", str(info.value))
+
+
+@pytest.mark.parametrize("method", ["toppra", "own"])
+def test_friction_that_leaves_no_room_is_named_with_gravity(tmp_path, method):
+    """A moving joint must overcome its frictionloss too: 27 N m of friction and about 5 N m of gravity do not fit a
+    30 N m motor. Both laws say so, naming the joint, gravity and friction; they said 'leaves only 24.57 N m above
+    gravity' (toppra) or, with 31 N m of friction, 'the stretched time law still exceeds the torque limits' (own)."""
+    from pathlib import Path
+
+    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
+    xml = xml.replace('damping="0.5"', 'damping="0.5" frictionloss="27"')
+    (tmp_path / "arm.xml").write_text(xml.replace("</worldbody>", '</worldbody><actuator><motor joint="shoulder" '
+                                                  'gear="30" ctrlrange="-1 1"/></actuator>'))
+    robot = RobotModel.from_xml(tmp_path / "arm.xml")
+    a, b = np.array([-0.1, 0.1]), np.array([-0.5, 0.3])  # the arm held out about level, above the post: ~5 N m
+    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    with pytest.raises(TimingInfeasible) as info:
+        timed_trajectory(robot, line.path(np.empty((0, 2))), line, method=method)
+    assert info.value.joint == "shoulder" and info.value.excess > 0
+    assert re.search(r"no timing fits the torque limit of shoulder: gravity \(\d+\.\d N m\) and joint friction "
+                     r"\(27\.0 N m\) need \d+\.\d N m at \d+% of the path, over its limit 30\.0 N m by", str(info.value))
