@@ -66,8 +66,8 @@ from foam_mj.dynamics import inverse_dynamics, joint_units, torque_limits
 from foam_mj.errors import PlanningFailed
 from foam_mj.model import RobotModel
 from foam_mj.rosary import Rosary, in_ball
-from foam_mj.trajectory import (SAFETY_TOL, JointLimits, SafeCurve, Trajectory, TrajectoryError, _motion, make_trajectory,
-                                row_acceleration_cap)
+from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError
+from foam_mj.trajectory import JointLimits, Trajectory, _motion, make_trajectory, row_acceleration_cap
 
 #: Time laws accepted by :func:`retime` / :func:`timed_trajectory`.
 METHODS = ("toppra", "own")

@@ -14,7 +14,8 @@ from foam_mj.clearance import Clearance
 from foam_mj.foam import FoamParams, plan
 from foam_mj.model import RobotModel
 from foam_mj.rosary import Rosary
-from foam_mj.trajectory import JointLimits, Trajectory, _max_filter, _mean_filter, _natural_spline_derivatives, make_trajectory, safe_curve
+from foam_mj.safe_curve import _natural_spline_derivatives, safe_curve
+from foam_mj.trajectory import JointLimits, Trajectory, _max_filter, _mean_filter, make_trajectory
 
 Q_INIT = [0.2, 0.3, 0.08]
 Q_GOAL = [0.45, 0.4536, 1.45]
