@@ -25,10 +25,8 @@ MJCF scene and writes, into one folder:
 ``map``          planar mobile bases only: top-down map with the walls, the foam's (x, y) footprint,
                  the rosary and the paths (Nascimento and Alsina 2021 Figs. 12-13).
 
-Geometry is MuJoCo's: every pose runs ``mj_kinematics`` and each geom is projected with its
-``geom_xpos``/``geom_xmat`` (:func:`strobe_geometry`): boxes become rectangles (the convex hull of
-their projected corners), capsules stadiums, spheres discs, cylinders/ellipsoids/meshes the hull of
-their projected surface points, and a plane a line (the floor, at its height).
+Geometry is MuJoCo's: every pose runs ``mj_kinematics`` and each geom is projected onto the plane of motion
+(:mod:`foam_mj.figure_geometry`).
 
 matplotlib is optional (``pip install 'foam-mj[figures]'``). It is imported only when a figure is
 drawn, and only through its object-oriented API (``matplotlib.figure.Figure``): pyplot is never
@@ -43,9 +41,8 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any, Sequence
 
 import mujoco
 import numpy as np
@@ -53,6 +50,24 @@ import numpy as np
 from foam_mj.cli import FIGURE_DPI, FIGURE_FORMATS, FIGURE_MAX_DPI, add_figures_parser
 from foam_mj.atomic import atomic_path
 from foam_mj.errors import FoamError
+from foam_mj.figure_data import (
+    _ALIASES,
+    _Path,
+    _GOAL_STYLE,
+    _OBSTACLE_EDGE,
+    _OBSTACLE_FACE,
+    _START_STYLE,
+    _THESIS,
+    _as_doc,
+    _config_points,
+    _coord_labels,
+    _joint_labels,
+    _read_paths,
+    _rosary_groups,
+    _sample_qpos,
+    path_style,
+)
+from foam_mj.figure_geometry import _PLANES, Shape, _bounds, _default_plane, _shapes, convex_hull, robot_kind, strobe_geometry
 from foam_mj.model import RobotModel
 
 __all__ = [
@@ -72,49 +87,6 @@ FORMATS = FIGURE_FORMATS
 MISSING_MATPLOTLIB = "figures need matplotlib: pip install 'foam-mj[figures]'"
 DPI = FIGURE_DPI
 N_POSES = 8  # poses per strobe panel
-
-# -- names, colours and labels ------------------------------------------------------------------------
-# Nascimento and Alsina 2021 Fig. 8d: T red, T_CA blue, T_RA magenta, T_RCA green. The result file names them after the
-# method ("centre", "gradient", "adjusted", "adjusted_gradient"); the thesis's own names work too.
-_THESIS = {
-    "centre": (r"$\mathcal{T}$ (rosary centres)", (0.85, 0.0, 0.0)),
-    "gradient": (r"$\mathcal{T}_{CA}$ (gradient smoothing)", (0.0, 0.2, 0.95)),
-    "adjusted": (r"$\mathcal{T}_{RA}$ (adjusted rosary)", (0.85, 0.0, 0.85)),
-    "adjusted_gradient": (r"$\mathcal{T}_{RCA}$ (adjusted + smoothed)", (0.0, 0.6, 0.0)),
-}
-_ALIASES = {"T": "centre", "center": "centre", "T_CA": "gradient", "T_RA": "adjusted", "T_RCA": "adjusted_gradient"}
-_OTHERS = {
-    "hs": ("HS (harmony search)", (1.0, 0.55, 0.0)),
-    "ga": ("GA (genetic algorithm)", (0.0, 0.7, 0.8)),
-    "convex": ("convex (shortest through hatches)", (0.3, 0.3, 0.3)),
-    "optimal": ("optimal (certified $f$)", (0.45, 0.0, 0.65)),
-}
-_FALLBACK_COLOURS = [(0.58, 0.4, 0.74), (0.55, 0.34, 0.29), (0.74, 0.74, 0.13), (0.5, 0.5, 0.5), (0.09, 0.75, 0.81)]
-_ORDER = ["centre", "gradient", "adjusted", "adjusted_gradient", "hs", "ga", "convex", "optimal"]
-
-# Symbols of the papers' configuration coordinates (Nascimento and Alsina 2021, section 5.1).
-_SYMBOLS = {"hip_flexion": r"\theta_h", "knee_flexion": r"\theta_k", "hip_displacement": r"\theta_q"}
-_START_STYLE = dict(marker="o", color="black", markersize=7, markeredgecolor="white", linestyle="none")
-_GOAL_STYLE = dict(marker="*", color="black", markersize=12, markeredgecolor="white", linestyle="none")
-_OBSTACLE_FACE = (0.80, 0.62, 0.25)
-_OBSTACLE_EDGE = (0.45, 0.32, 0.1)
-
-
-def path_style(name: str, index: int = 0) -> tuple[str, tuple[float, float, float]]:
-    """(legend label, RGB colour) of a path: the thesis's colours for T, T_CA, T_RA, T_RCA."""
-    key = _ALIASES.get(name, name)
-    if key in _THESIS:
-        return _THESIS[key]
-    if key in _OTHERS:
-        return _OTHERS[key]
-    return name.replace("_", " "), _FALLBACK_COLOURS[index % len(_FALLBACK_COLOURS)]
-
-
-def _order_paths(names: Iterable[str]) -> list[str]:
-    names = list(names)
-    rank = {n: i for i, n in enumerate(_ORDER)}
-    return sorted(names, key=lambda n: (rank.get(_ALIASES.get(n, n), len(rank)), names.index(n)))
-
 
 # -- matplotlib, imported on demand ---------------------------------------------------------------------
 def _matplotlib():
@@ -142,356 +114,6 @@ _RC = {
     "figure.constrained_layout.h_pad": 0.07,  # inches of margin around the figure's content
     "figure.constrained_layout.w_pad": 0.07,
 }
-
-
-# -- geometry -----------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Shape:
-    """One geom projected onto a plane: ``outline`` is a convex polygon (counter-clockwise, not closed)
-    in the plane's two coordinates (metres), or for a plane geom the two ends of a line.
-
-    ``kind`` is MuJoCo's geom type ("box", "capsule", "sphere", "cylinder", "ellipsoid", "mesh",
-    "plane"); ``role`` is "robot" or "obstacle" (:class:`~foam_mj.model.RobotModel`'s split); ``centre``
-    the projected ``geom_xpos``; for capsules ``ends`` holds the projected segment and ``radius`` the
-    capsule's radius.
-    """
-
-    name: str
-    geom: int
-    kind: str
-    role: str
-    outline: np.ndarray
-    centre: np.ndarray
-    rgba: tuple[float, float, float, float]
-    ends: np.ndarray | None = None
-    radius: float | None = None
-
-
-_PLANES = {"xz": (0, 2), "xy": (0, 1), "yz": (1, 2)}
-_GEOM_KIND = {
-    int(mujoco.mjtGeom.mjGEOM_PLANE): "plane",
-    int(mujoco.mjtGeom.mjGEOM_SPHERE): "sphere",
-    int(mujoco.mjtGeom.mjGEOM_CAPSULE): "capsule",
-    int(mujoco.mjtGeom.mjGEOM_ELLIPSOID): "ellipsoid",
-    int(mujoco.mjtGeom.mjGEOM_CYLINDER): "cylinder",
-    int(mujoco.mjtGeom.mjGEOM_BOX): "box",
-    int(mujoco.mjtGeom.mjGEOM_MESH): "mesh",
-}
-_ARC = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
-
-
-def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise convex hull of 2-D points (Andrew's monotone chain), without repeated or
-    collinear vertices."""
-    p = np.unique(np.round(np.asarray(points, dtype=float), 12), axis=0)
-    if len(p) <= 2:
-        return p
-    pts = sorted(map(tuple, p))
-
-    def half(seq):
-        out: list = []
-        for q in seq:
-            while len(out) >= 2 and (out[-1][0] - out[-2][0]) * (q[1] - out[-2][1]) - (out[-1][1] - out[-2][1]) * (q[0] - out[-2][0]) <= 1e-15:
-                out.pop()
-            out.append(q)
-        return out
-
-    lower, upper = half(pts), half(reversed(pts))
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def _stadium(a: np.ndarray, b: np.ndarray, r: float, n: int = 24) -> np.ndarray:
-    """The outline of the points within r of segment ab (a capsule's projection): two half circles
-    joined by tangents, counter-clockwise; every vertex lies exactly r from the segment."""
-    d = b - a
-    if np.linalg.norm(d) < 1e-12:  # seen end-on: a disc
-        return a + r * np.column_stack([np.cos(_ARC), np.sin(_ARC)])
-    phi = np.arctan2(d[1], d[0])
-    t = np.linspace(-np.pi / 2, np.pi / 2, n + 1)
-    arc_b = b + r * np.column_stack([np.cos(phi + t), np.sin(phi + t)])
-    arc_a = a + r * np.column_stack([np.cos(phi + np.pi + t), np.sin(phi + np.pi + t)])
-    return np.vstack([arc_b, arc_a])
-
-
-def robot_kind(robot: RobotModel) -> str:
-    """"planar_base" for a mobile base moving in the floor plane (configuration joints that slide along
-    world x and y, or hinges about z and none about y: the walker), "sagittal" otherwise (a leg whose
-    hinges turn about y and which moves in the x-z plane)."""
-    m = robot.model
-    d = mujoco.MjData(m)
-    mujoco.mj_kinematics(m, d)
-    slides, hinges = [], []
-    for j in robot.config.joint_ids:
-        axis = np.abs(np.asarray(d.xaxis[j]))
-        if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_SLIDE):
-            slides.append(int(np.argmax(axis)) if axis.max() > 0.99 else -1)
-        else:
-            hinges.append(int(np.argmax(axis)) if axis.max() > 0.99 else -1)
-    if (0 in slides and 1 in slides) or (2 in hinges and 1 not in hinges):
-        return "planar_base"
-    return "sagittal"
-
-
-def _default_plane(robot: RobotModel) -> str:
-    return "xy" if robot_kind(robot) == "planar_base" else "xz"
-
-
-def _project_geom(m: mujoco.MjModel, d: mujoco.MjData, g: int, axes: tuple[int, int], role: str) -> Shape | None:
-    kind = _GEOM_KIND.get(int(m.geom_type[g]))
-    if kind is None:  # height fields, SDFs: not drawn
-        return None
-    pos = np.array(d.geom_xpos[g])
-    R = np.array(d.geom_xmat[g]).reshape(3, 3)  # columns: the geom's axes in the world frame
-    size = np.array(m.geom_size[g])
-    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}"
-    rgba = tuple(float(v) for v in m.geom_rgba[g])
-    i, k = axes
-    centre = pos[[i, k]]
-    ends = radius = None
-    if kind == "plane":
-        normal = R[:, 2]
-        if abs(normal[i]) < 1e-9 and abs(normal[k]) < 1e-9:
-            return None  # the plane of the drawing itself (the floor seen from above)
-        direction = np.array([normal[k], -normal[i]])
-        direction /= np.linalg.norm(direction)
-        half = float(size[0]) if size[0] > 0 else 50.0
-        outline = np.array([centre - half * direction, centre + half * direction])
-        return Shape(name, g, kind, role, outline, centre, rgba)
-    if kind == "box":
-        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-        pts3 = pos + (signs * size) @ R.T
-    elif kind in ("capsule", "sphere"):
-        r = float(size[0])
-        half = float(size[1]) if kind == "capsule" else 0.0
-        seg = np.array([pos - half * R[:, 2], pos + half * R[:, 2]])[:, [i, k]]
-        outline = _stadium(seg[0], seg[1], r)
-        if kind == "capsule":
-            ends, radius = seg, r
-        else:
-            radius = r
-        return Shape(name, g, kind, role, outline, centre, rgba, ends, radius)
-    elif kind == "cylinder":
-        r, half = float(size[0]), float(size[1])
-        rim = r * (np.outer(np.cos(_ARC), R[:, 0]) + np.outer(np.sin(_ARC), R[:, 1]))
-        pts3 = np.vstack([pos + half * R[:, 2] + rim, pos - half * R[:, 2] + rim])
-    elif kind == "ellipsoid":
-        u, v = np.meshgrid(_ARC, np.linspace(0.0, np.pi, 33))
-        unit = np.column_stack([(np.sin(v) * np.cos(u)).ravel(), (np.sin(v) * np.sin(u)).ravel(), np.cos(v).ravel()])
-        pts3 = pos + (unit * size) @ R.T
-    else:  # mesh: its vertices are in the geom's frame
-        mesh = int(m.geom_dataid[g])
-        adr, n = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
-        pts3 = pos + np.asarray(m.mesh_vert[adr : adr + n], dtype=float) @ R.T
-    return Shape(name, g, kind, role, convex_hull(pts3[:, [i, k]]), centre, rgba, ends, radius)
-
-
-def _shapes(robot: RobotModel, data: mujoco.MjData, qpos: np.ndarray, plane: str, which: str) -> list[Shape]:
-    if plane not in _PLANES:
-        raise FoamError(f"plane must be one of {sorted(_PLANES)}, got {plane!r}")
-    if which not in ("all", "robot", "obstacles"):
-        raise FoamError(f"which must be 'all', 'robot' or 'obstacles', got {which!r}")
-    m = robot.model
-    data.qpos[:] = qpos
-    mujoco.mj_kinematics(m, data)
-    geoms = []
-    if which in ("all", "robot"):
-        geoms += [(int(g), "robot") for g in robot.robot_geoms]
-    if which in ("all", "obstacles"):
-        geoms += [(int(g), "obstacle") for g in robot.obstacle_geoms]
-    out = []
-    for g, role in geoms:
-        s = _project_geom(m, data, g, _PLANES[plane], role)
-        if s is not None:
-            out.append(s)
-    return out
-
-
-def strobe_geometry(robot: RobotModel, q, plane: str | None = None, which: str = "all") -> list[Shape]:
-    """The robot's and the obstacles' collision geoms at configuration ``q`` (planner coordinates),
-    projected onto ``plane`` ("xz", "xy" or "yz"; default: "xz" for a leg, "xy" for a planar mobile
-    base), as :class:`Shape` s. ``which`` selects "all", "robot" or "obstacles" geoms.
-
-    Positions come from ``mj_kinematics`` (``geom_xpos``, ``geom_xmat``) on a private ``MjData``, so the
-    drawn outline of, for example, a box is exactly the convex hull of its eight corners projected."""
-    q = robot.validate(q, "q", check_bounds=False)
-    data = mujoco.MjData(robot.model)
-    return _shapes(robot, data, robot.config.to_qpos(q), plane or _default_plane(robot), which)
-
-
-def _bounds(shapes: Iterable[Shape]) -> np.ndarray | None:
-    pts = [s.outline for s in shapes if s.kind != "plane"]
-    if not pts:
-        return None
-    p = np.vstack(pts)
-    return np.array([p.min(axis=0), p.max(axis=0)])
-
-
-# -- reading the document -------------------------------------------------------------------------------
-@dataclass
-class _Path:
-    name: str
-    label: str
-    colour: tuple[float, float, float]
-    waypoints: np.ndarray | None  # (m, n) configuration coordinates
-    qpos: np.ndarray  # (T, nq)
-    times: np.ndarray | None
-    convergence: dict | None
-    metrics: dict
-    objective: str | None = None  # what "convergence" tracks ("f", "SV", "TC", "length"), when known
-    rosary: tuple[np.ndarray, np.ndarray] | None = None  # (centers, radii) of the rosary holding the path
-
-
-def _as_doc(doc) -> dict:
-    if isinstance(doc, (str, Path)):
-        from foam_mj.results import read_result
-
-        return read_result(doc)
-    if not isinstance(doc, dict):
-        raise FoamError(f"expected a result document (dict) or a path to one, got {type(doc).__name__}")
-    for key in ("mjcf", "paths", "q_init", "q_goal"):
-        if doc.get(key) is None:
-            raise FoamError(f"the result document has no field '{key}'")
-    return doc
-
-
-def _read_paths(doc: dict, robot: RobotModel, names: Sequence[str] | None) -> list[_Path]:
-    entries = doc.get("paths") or {}
-    if names is None:
-        names = _order_paths(entries)
-    else:
-        missing = [n for n in names if n not in entries]
-        if missing:
-            raise FoamError(f"no path named {missing} in the result (it has: {sorted(entries)})")
-    nq = robot.model.nq
-    out = []
-    for i, name in enumerate(names):
-        e = entries[name] or {}
-        w = np.asarray(e["waypoints"], dtype=float) if e.get("waypoints") is not None else None
-        if e.get("qpos") is not None:
-            qpos = np.asarray(e["qpos"], dtype=float)
-        elif w is not None:
-            qpos = robot.config.to_qpos(w)
-        else:
-            continue  # nothing to draw
-        if qpos.ndim != 2 or qpos.shape[1] != nq or len(qpos) < 1:
-            raise FoamError(f"path '{name}': qpos must have shape (T, {nq}) for this model, got {qpos.shape}")
-        if w is not None and (w.ndim != 2 or w.shape[1] != robot.dim):
-            raise FoamError(f"path '{name}': waypoints must have shape (m, {robot.dim}), got {w.shape}")
-        times = None
-        if e.get("times") is not None:
-            times = np.asarray(e["times"], dtype=float)
-            if times.shape != (len(qpos),):
-                raise FoamError(f"path '{name}': {len(times)} times for {len(qpos)} qpos rows")
-            if len(times) < 2 or not np.all(np.diff(times) > 0):
-                raise FoamError(f"path '{name}': times must increase")
-        conv = e.get("convergence")
-        if not (isinstance(conv, dict) and conv.get("best") is not None and len(conv["best"]) > 0):
-            conv = None
-        label, colour = path_style(name, i)
-        if name not in _ALIASES and _ALIASES.get(name, name) not in _THESIS and name not in _OTHERS and e.get("label"):
-            label = str(e["label"])
-        smoother = e.get("smoother") if isinstance(e.get("smoother"), dict) else {}
-        objective = smoother.get("objective") or (conv or {}).get("objective")
-        ros = _rosary_arrays(e.get("rosary"))
-        out.append(_Path(name, label, colour, w, qpos, times, conv, dict(e.get("metrics") or {}),
-                         None if objective is None else str(objective), ros))
-    return out
-
-
-def _rosary_arrays(ros) -> tuple[np.ndarray, np.ndarray] | None:
-    if not isinstance(ros, dict) or not ros.get("centers") or ros.get("radii") is None:
-        return None
-    c, r = np.asarray(ros["centers"], dtype=float), np.asarray(ros["radii"], dtype=float)
-    if c.ndim != 2 or r.shape != (len(c),):
-        raise FoamError(f"a rosary has {len(r)} radii for centers of shape {c.shape}")
-    return c, r
-
-
-def _same_rosary(a, b) -> bool:
-    if a is None or b is None:
-        return a is None and b is None
-    return a[0].shape == b[0].shape and np.allclose(a[0], b[0]) and np.allclose(a[1], b[1])
-
-
-def _rosary_groups(doc: dict, paths: list[_Path]) -> list[tuple[str, str, tuple | None, list[_Path]]]:
-    """(file stem, title, rosary, paths it holds): the planned rosary first, then each other rosary
-    (the adjusted one of T_RA and T_RCA), named after the first path that lies in it."""
-    main = _rosary_arrays(doc.get("rosary"))
-    groups: list[tuple[str, str, tuple | None, list[_Path]]] = [("rosary", "Rosary", main, []) if main is not None else ("paths", "Paths", None, [])]
-    for p in paths:
-        ros = p.rosary if p.rosary is not None else main
-        for g in groups:
-            if _same_rosary(g[2], ros):
-                g[3].append(p)
-                break
-        else:
-            if _ALIASES.get(p.name, p.name) in ("adjusted", "adjusted_gradient"):
-                stem, title = "rosary_adjusted", "Adjusted rosary"
-            else:
-                stem, title = f"rosary_{p.name}", f"Rosary of {p.label}"
-            if any(g[0] == stem for g in groups):
-                stem = f"rosary_{p.name}"
-            groups.append((stem, title, ros, [p]))
-    return [g for g in groups if g[2] is not None or g[3]]
-
-
-def _config_points(p: _Path, robot: RobotModel) -> np.ndarray:
-    """The path in configuration coordinates: its waypoints, or its qpos rows mapped back."""
-    return p.waypoints if p.waypoints is not None else robot.config.to_q(p.qpos)
-
-
-def _sample_qpos(p: _Path, robot: RobotModel, count: int) -> np.ndarray:
-    """``count`` qpos rows at evenly spaced times (by arc length in q when the path has no times)."""
-    if p.times is not None:
-        t = np.linspace(p.times[0], p.times[-1], count)
-        return np.column_stack([np.interp(t, p.times, p.qpos[:, c]) for c in range(p.qpos.shape[1])])
-    q = robot.config.to_q(p.qpos)
-    if len(q) == 1:
-        return np.repeat(p.qpos, count, axis=0)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
-    if s[-1] <= 0:
-        return np.repeat(p.qpos[:1], count, axis=0)
-    u = np.linspace(0.0, s[-1], count)
-    qs = np.column_stack([np.interp(u, s, q[:, c]) for c in range(q.shape[1])])
-    return robot.config.to_qpos(qs)
-
-
-def _coord_labels(robot: RobotModel) -> list[str]:
-    """Axis labels of the configuration coordinates, with units."""
-    m, cfg = robot.model, robot.config
-    d = mujoco.MjData(m)
-    mujoco.mj_kinematics(m, d)
-    labels = []
-    for name, j, s, o in zip(cfg.joint_names, cfg.joint_ids, cfg.scale, cfg.offset):
-        normalized = not (s == 1.0 and o == 0.0)
-        hinge = int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE)
-        if name in _SYMBOLS:
-            sym = f"${_SYMBOLS[name]}$"
-        else:
-            axis = np.abs(np.asarray(d.xaxis[j]))
-            if hinge:
-                sym = r"$\theta$" if axis.max() > 0.99 and np.argmax(axis) == 2 and robot_kind(robot) == "planar_base" else name.replace("_", " ")
-            else:
-                sym = "xyz"[int(np.argmax(axis))] if axis.max() > 0.99 and robot_kind(robot) == "planar_base" else name.replace("_", " ")
-        if normalized:  # the papers give the normalized hip displacement theta_q in rad
-            unit = "rad" if name in _SYMBOLS else "normalized"
-        else:
-            unit = "rad" if hinge else "m"
-        labels.append(f"{sym} [{unit}]")
-    return labels
-
-
-def _joint_labels(robot: RobotModel) -> list[tuple[str, str, str]]:
-    """(name, position unit, velocity unit) of each configuration joint, in joint units."""
-    m = robot.model
-    out = []
-    for name, j in zip(robot.config.joint_names, robot.config.joint_ids):
-        hinge = int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE)
-        nice = name.replace("_", " ")
-        if name in _SYMBOLS:
-            nice = f"{nice} (${_SYMBOLS[name]}$)" if hinge else nice
-        out.append((nice, "rad" if hinge else "m", "rad/s" if hinge else "m/s"))
-    return out
 
 
 # -- figures --------------------------------------------------------------------------------------------
