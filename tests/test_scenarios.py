@@ -150,3 +150,27 @@ def test_a_first_link_overlapping_its_fixed_base_is_refused_with_the_way_out(tmp
     with pytest.raises(ScenarioError, match=r"q_init.*in collision: clearance -0\.0300 m between l1 and base .*; l1 is on a link "
                                             r"jointed to the fixed body of base: .*<contact><exclude> does not apply.*contype=\"0\""):
         load_scenario(p)
+
+
+def test_two_links_overlapping_at_a_universal_joint_are_refused_with_both_ways_out(tmp_path, capsys):
+    """Links meeting at a two-body universal joint overlap by design (grandparent and grandchild, which MuJoCo's
+    parent/child filter does not exempt): the message names the <exclude> to add and the flag that drops
+    self-collision (it named only the scenario field, while `plan --mjcf` takes --no-self-collision), with
+    which the same start plans."""
+    from foam_mj.cli import main
+
+    scene = tmp_path / "ujoint.xml"
+    scene.write_text(
+        '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 0.1"/>'
+        '<body name="A" pos="0 0 0.5"><joint name="a" axis="0 1 0" range="-90 90"/>'
+        '<geom name="gA" type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>'
+        '<body name="B" pos="0.3 0 0"><joint name="u1" axis="0 1 0" range="-90 90"/>'
+        '<inertial pos="0 0 0" mass="0.1" diaginertia="1e-4 1e-4 1e-4"/>'
+        '<body name="C"><joint name="u2" axis="0 0 1" range="-90 90"/>'
+        '<geom name="gC" type="capsule" fromto="0 0 0 0.25 0 0" size="0.025"/></body></body></body></worldbody></mujoco>'
+    )
+    argv = ["plan", "--mjcf", str(scene), "--start", "0 0 0", "--goal", "0.5 0.5 0.5", "--no-rrd", "--no-replay"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "between gA and gC" in err and '<contact><exclude body1="A" body2="C"/>' in err and "--no-self-collision" in err
+    assert main(argv + ["--no-self-collision"]) == 0
