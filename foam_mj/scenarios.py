@@ -74,7 +74,7 @@ import numpy as np
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.data import models_dir, scenarios_dir
 from foam_mj.clearance import Clearance
-from foam_mj.errors import ConfigurationError, FoamError, ScenarioError, clearance_text
+from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioError, clearance_text
 from foam_mj.foam import check_candidate_bound
 from foam_mj.model import RobotModel
 from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
@@ -418,11 +418,12 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
         check_candidate_bound(scenario.params, robot.lower, robot.upper)
     except ConfigurationError as exc:
         raise ScenarioError(f"{where}: [planner] {exc}") from None
-    if scenario.limits is not None:
-        try:
-            scenario.limits.resolve(robot)
-        except ValueError as exc:
-            raise ScenarioError(f"{where}: [limits] {exc}") from None
+    try:  # the [limits] table against the joints, and the MJCF's own foam_mj:limits:<joint> fields
+        (scenario.limits or Limits()).resolve(robot)
+    except ModelError as exc:
+        raise ScenarioError(f"{where}: field 'scene': {exc}") from None
+    except ValueError as exc:
+        raise ScenarioError(f"{where}: [limits] {exc}") from None
     clearance = Clearance(robot)
     try:
         for field_name in ("q_init", "q_goal"):

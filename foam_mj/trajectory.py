@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from foam_mj.errors import ModelError
 from foam_mj.model import RobotModel, _custom_numeric
 from foam_mj.rosary import Rosary, in_ball
 from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError, _with_linear, safe_curve
@@ -98,7 +99,8 @@ class JointLimits:
                 v, a = (float(x) for x in self.per_joint[name])
             elif declared is not None:
                 if declared.size != 2 or not np.all(np.isfinite(declared) & (declared > 0)):
-                    raise ValueError(f"{robot.path}: '{LIMITS_PREFIX + name}' must hold 2 numbers > 0 (velocity acceleration)")
+                    raise ModelError(f"{robot.path}: '{LIMITS_PREFIX + name}' must hold 2 numbers > 0 (velocity acceleration), "
+                                     f"got {declared.tolist()}")
                 v, a = float(declared[0]), float(declared[1])
             elif int(robot.model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_SLIDE):
                 v, a = self.slide_velocity, self.slide_acceleration

@@ -174,3 +174,23 @@ def test_two_links_overlapping_at_a_universal_joint_are_refused_with_both_ways_o
     err = capsys.readouterr().err
     assert "between gA and gC" in err and '<contact><exclude body1="A" body2="C"/>' in err and "--no-self-collision" in err
     assert main(argv + ["--no-self-collision"]) == 0
+
+
+@pytest.mark.parametrize("data", ["3", "-3 30"])
+def test_a_bad_limits_field_in_the_mjcf_is_refused_at_load_naming_it(tmp_path, capsys, data):
+    """A <numeric name="foam_mj:limits:<joint>"> without two positive numbers ended `plan` with exit 1 (an
+    internal ValueError) after the whole planning; it is a model error, named when the scenario is loaded."""
+    from foam_mj.cli import main
+
+    (tmp_path / "arm.xml").write_text(
+        f'<mujoco><custom><numeric name="foam_mj:limits:sh" data="{data}"/></custom><worldbody>'
+        '<geom name="floor" type="plane" size="2 2 0.1"/><body pos="0 0 0.5"><joint name="sh" axis="0 1 0" range="-90 90"/>'
+        '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/></body></worldbody></mujoco>'
+    )
+    (tmp_path / "arm.toml").write_text('name = "arm"\nscene = "arm.xml"\nq_init = [-0.5]\nq_goal = [0.5]\n')
+    with pytest.raises(ScenarioError, match=r"arm.toml: field 'scene': .*arm.xml: 'foam_mj:limits:sh' must hold 2 numbers > 0 "
+                                            r"\(velocity acceleration\), got \["):
+        load_scenario(tmp_path / "arm.toml")
+    argv = ["plan", "--mjcf", str(tmp_path / "arm.xml"), "--start", "-0.5", "--goal", "0.5", "--no-rrd", "--no-replay"]
+    assert main(argv) == 2
+    assert "'foam_mj:limits:sh' must hold 2 numbers" in capsys.readouterr().err
