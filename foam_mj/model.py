@@ -668,6 +668,13 @@ def check_configuration_joint(m: mujoco.MjModel, path: str | Path, name: str) ->
             "foam-mj plans over hinge and slide joints only (leave it out of the configuration)"
         )
     if not m.jnt_limited[j]:
+        lo, hi = (float(v) for v in m.jnt_range[j])
+        if hi > lo:  # a range MuJoCo ignores: limited="false" on the joint or its default class
+            raise ModelError(
+                f"{path}: configuration joint '{name}' has range=\"{lo:g} {hi:g}\" but limited=\"false\" (on the joint or its "
+                "default class), so MuJoCo ignores that range; the bounds of q come from it (set limited=\"true\", or leave "
+                "the joint out of the configuration)"
+            )
         raise ModelError(
             f"{path}: configuration joint '{name}' has no range; the bounds of q come from it "
             "(add range=\"lo hi\" to the joint, or leave it out of the configuration)"

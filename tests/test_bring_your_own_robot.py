@@ -120,6 +120,22 @@ def test_bad_robots_exit_2_with_one_line_before_planning(tmp_path, capsys, joint
     assert len(lines) == 1 and f"'{joint}'" in lines[0] and reason in lines[0]
 
 
+@pytest.mark.parametrize("where", ["joint", "default class"])
+def test_a_range_that_mujoco_ignores_is_named_as_such(tmp_path, capsys, where):
+    """A joint with range="-0.5 1.4" and limited="false" was refused as having 'no range' and told to add
+    range="lo hi", which it has: the message now says why MuJoCo ignores that range and what to set."""
+    if where == "joint":
+        xml = BAD.replace('name="spin"', 'name="spin" range="-0.5 1.4" limited="false"')
+    else:
+        xml = BAD.replace('name="spin"', 'name="spin" range="-0.5 1.4"').replace(
+            "<mujoco>", '<mujoco><default><joint limited="false"/></default>', 1)
+    p = tmp_path / "bad.xml"
+    p.write_text(xml)
+    assert main(["plan", "--mjcf", str(p), "--joints", "spin", "--start", "0", "--goal", "0.05", "--no-rrd"]) == 2
+    err = capsys.readouterr().err
+    assert "'spin' has range=\"-0.5 1.4\" but limited=\"false\"" in err and 'set limited="true"' in err
+
+
 def test_default_configuration_skips_unlimited_and_ball_joints(tmp_path, capsys):
     p = tmp_path / "bad.xml"
     p.write_text(BAD)
