@@ -86,23 +86,33 @@ def _stadium(a: np.ndarray, b: np.ndarray, r: float, n: int = 24) -> np.ndarray:
     return np.vstack([arc_b, arc_a])
 
 
-def robot_kind(robot: RobotModel) -> str:
-    """"planar_base" for a mobile base moving in the floor plane (configuration joints that slide along
-    world x and y, or hinges about z and none about y: the walker), "sagittal" otherwise (a leg whose
-    hinges turn about y and which moves in the x-z plane)."""
+def _joint_axes(robot: RobotModel) -> tuple[list[int], list[int]]:
+    """World axis (0 x, 1 y, 2 z; -1 oblique) of every configuration slide and hinge at qpos0."""
     m = robot.model
     d = mujoco.MjData(m)
     mujoco.mj_kinematics(m, d)
     slides, hinges = [], []
     for j in robot.config.joint_ids:
         axis = np.abs(np.asarray(d.xaxis[j]))
-        if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_SLIDE):
-            slides.append(int(np.argmax(axis)) if axis.max() > 0.99 else -1)
-        else:
-            hinges.append(int(np.argmax(axis)) if axis.max() > 0.99 else -1)
-    if (0 in slides and 1 in slides) or (2 in hinges and 1 not in hinges):
+        (slides if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_SLIDE) else hinges).append(
+            int(np.argmax(axis)) if axis.max() > 0.99 else -1)
+    return slides, hinges
+
+
+def robot_kind(robot: RobotModel) -> str:
+    """"planar_base" when every configuration joint moves the robot in the floor plane (slides along world
+    x or y, hinges about z: the walker, a SCARA arm), "sagittal" otherwise (a leg whose hinges turn about y
+    and which moves in the x-z plane; any arm with a hinge off the vertical, drawn from the side)."""
+    slides, hinges = _joint_axes(robot)
+    if all(a in (0, 1) for a in slides) and all(a == 2 for a in hinges):
         return "planar_base"
     return "sagittal"
+
+
+def has_xy_base(robot: RobotModel) -> bool:
+    """A mobile base: configuration slides along world x and y (the map draws its bubbles' (x, y) footprint)."""
+    slides, _ = _joint_axes(robot)
+    return robot_kind(robot) == "planar_base" and 0 in slides and 1 in slides
 
 
 def _default_plane(robot: RobotModel) -> str:

@@ -22,7 +22,7 @@ MJCF scene and writes, into one folder:
 ``joints``       joint positions and finite-difference velocities (``numpy.gradient`` over "times") in
                  joint units, one row per configuration joint, one line per time-parametrized path;
                  only when some path has ``times``;
-``map``          planar mobile bases only: top-down map with the walls, the foam's (x, y) footprint,
+``map``          mobile bases only (configuration slides along world x and y): top-down map with the walls, the foam's (x, y) footprint,
                  the rosary and the paths (Nascimento and Alsina 2021 Figs. 12-13).
 
 Geometry is MuJoCo's: every pose runs ``mj_kinematics`` and each geom is projected onto the plane of motion
@@ -67,7 +67,7 @@ from foam_mj.figure_data import (
     _sample_qpos,
     path_style,
 )
-from foam_mj.figure_geometry import _PLANES, Shape, _bounds, _default_plane, _shapes, convex_hull, robot_kind, strobe_geometry
+from foam_mj.figure_geometry import _PLANES, Shape, _bounds, _default_plane, _shapes, convex_hull, has_xy_base, robot_kind, strobe_geometry
 from foam_mj.model import RobotModel
 
 __all__ = [
@@ -555,7 +555,7 @@ def write_figures(doc, out_dir, formats: Sequence[str] = ("png",), paths: Sequen
             ("convergence", lambda: _fig_convergence(mpl, sel)),
             ("joints", lambda: _fig_joints(mpl, robot, sel)),
         ]
-        if robot_kind(robot) == "planar_base":
+        if has_xy_base(robot):
             makers.append(("map", lambda: _fig_map(mpl, doc, robot, sel)))
         for stem, make in makers:
             fig = make()

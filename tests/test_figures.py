@@ -314,3 +314,26 @@ def test_walker_corridor_figures(tmp_path):
     assert "map.png" in names and "strobe.png" in names
     for p in written:
         check_png(p, min_px=150)
+
+
+ARM_3D = """<mujoco><worldbody><geom name="post" type="box" pos="0.6 0 0.3" size="0.05 0.05 0.3"/>
+  <body name="turret" pos="0 0 0.1" quat="0.9238795 0 0 0.3826834"><joint name="yaw" axis="0 0 1" range="-170 170"/>
+    <geom type="cylinder" size="0.06 0.04"/>
+    <body name="upper" pos="0 0 0.06"><joint name="pitch" axis="{pitch}" range="-100 100"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0.3" size="0.04"/></body></body></worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize(("pitch", "kind"), [("1 0 0", "sagittal"), ("0 0 1", "planar_base")], ids=["3-D arm", "SCARA"])
+def test_only_a_base_sliding_in_x_and_y_gets_a_map(tmp_path, pitch, kind):
+    """A 3-D arm (a yaw hinge, then a pitch hinge turned 45 degrees about z, oblique in the world) was taken for a
+    mobile base: its joint angles were drawn as a top-down 'map' of bubbles in metres. Only configuration
+    joints that all move in the floor plane make a planar robot, and only x and y slides make a map."""
+    from foam_mj.figure_geometry import has_xy_base
+
+    xml = tmp_path / "arm.xml"
+    xml.write_text(ARM_3D.format(pitch=pitch))
+    robot = RobotModel.from_xml(xml)
+    assert robot_kind(robot) == kind and not has_xy_base(robot)
+    walker = tmp_path / "walker.xml"
+    walker.write_text(WALKER_XML)
+    assert has_xy_base(RobotModel.from_xml(walker))
