@@ -20,17 +20,17 @@ in :func:`build_parser` with ``p.set_defaults(func=cmd_<name>)``. Check outputs 
 Start-up is kept short: this module imports only the standard library at load time; numpy, MuJoCo, the
 pipeline, Rerun and matplotlib are imported inside the command that uses them, so ``foam-mj --help``
 and argument errors answer at once (benchmarks/speed.py measures it).
-``plan`` loads Rerun in a helper process beside the planning (:mod:`foam_mj.recorder`).
+``plan`` loads Rerun in a helper process beside the planning (:mod:`foam_mj.recorder`). The larger commands live in
+their own modules, imported when they run: ``plan`` in :mod:`foam_mj.plan_command` (with what it prints,
+:mod:`foam_mj.summary`), ``view`` in :mod:`foam_mj.viewer`, ``figures`` in :mod:`foam_mj.figures`.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import re
 import signal
 import sys
-import time
 from pathlib import Path
 
 from foam_mj import __version__
@@ -106,6 +106,7 @@ class Progress:
 
 def cmd_scenes(args: argparse.Namespace) -> int:
     from foam_mj.scenarios import available_scenarios, load_scenario
+    from foam_mj.summary import fmt_q as _fmt_q
 
     rows = []
     for name in available_scenarios():
@@ -119,367 +120,10 @@ def cmd_scenes(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _fmt_q(q) -> str:
-    import numpy as np
-
-    return "[" + ", ".join(f"{v:g}" for v in np.asarray(q)) + "]"
-
-
-def _summary_table(outcome) -> str:
-    """The per-path summary printed by ``plan`` and ``replay``."""
-    import numpy as np
-
-    head = f"{'path':<27}{'length':>8}{'f':>8}{'TC':>8}{'SV':>8}{'min clear':>11}{'duration':>10}{'track err':>10}{'contacts':>9}{'time':>9}"
-    lines = [head, "-" * len(head)]
-    for po in outcome.paths.values():
-        m = po.metrics
-        clear = f"{po.kinematic.min_clearance * 1000:.1f} mm" if po.kinematic is not None else "-"
-        dur = f"{po.trajectory.duration:.2f} s" if po.trajectory is not None else "-"
-        err = f"{np.max(po.dynamic.max_error) * 1000:.2f}" if po.dynamic is not None else "-"
-        con = str(len(po.dynamic.contacts)) if po.dynamic is not None else "-"
-        lines.append(
-            f"{po.label:<27}{m.length:>8.4f}{m.f:>8.4f}{m.tc:>8.4f}{m.sv:>8.4f}{clear:>11}{dur:>10}{err:>10}{con:>9}"
-            f"{po.result.wall_time * 1000:>7.0f} ms"
-        )
-    lines.append(
-        "min clear: smallest MuJoCo clearance along the planned trajectory; track err: largest servo tracking "
-        "error under gravity (mrad for hinges, mm for slides); contacts: robot/obstacle contacts in that servo replay."
-    )
-    return "\n".join(lines)
-
-
-def _print_servo_note(outcome) -> None:
-    """One line when the dynamic replay had to add servos to the model (foam_mj.replay.servo_model), and one
-    per path whose servos ran into their ctrl or force range (DynamicReplay.limit_note)."""
-    notes = {po.dynamic.servo_note for po in outcome.paths.values() if po.dynamic is not None and po.dynamic.servo_note}
-    for note in sorted(notes):
-        print(f"note: {note}")
-    for po in outcome.paths.values():
-        if po.dynamic is not None and po.dynamic.limit_note:
-            print(f"note: {po.label}: dynamic replay: {po.dynamic.limit_note}")
-
-
-def _print_row_cap_note(outcome) -> None:
-    """One line when the model's timestep, not the joint limits, held some joint's acceleration (so that
-    consecutive trajectory rows stay close to the certified curve: foam_mj.trajectory.row_acceleration_cap)."""
-    from foam_mj.dynamics import joint_units
-    from foam_mj.trajectory import ROW_TOL, row_acceleration_cap
-
-    timed = [po.trajectory for po in outcome.paths.values() if po.trajectory is not None]
-    if not timed:
-        return
-    robot = outcome.scenario.robot
-    dt = timed[0].dt
-    _, acc, _ = outcome.limits.resolve(robot)
-    cap = row_acceleration_cap(robot, dt)
-    held = [f"{name} {c:.3g} {unit[2]} (limit {a:g})" for name, c, a, unit in
-            zip(robot.config.joint_names, cap, acc, joint_units(robot)) if c < a]
-    if held:
-        print(f"note: at the model's timestep of {dt:g} s, accelerations are held to {', '.join(held)}, so that the "
-              f"straight line between consecutive trajectory rows stays within {ROW_TOL:g} of the certified curve")
-
-
-def _loads_table(outcome) -> str:
-    """Per path and joint: peak and RMS torque (mj_inverse), per kilogram, the actuator limit and its use,
-    positive and negative work; then the human reference (foam_mj.dynamics.HUMAN_SWING)."""
-    import numpy as np
-
-    from foam_mj.dynamics import HUMAN_SWING
-
-    rows = [(po.label, po.loads) for po in outcome.paths.values() if getattr(po, "loads", None) is not None]
-    if not rows:
-        return ""
-    law = getattr(outcome, "time_law", "")
-    head = f"{'path':<27}{'joint':<18}{'peak':>11}{'RMS':>11}{'per kg':>8}{'limit':>11}{'use':>6}{'work +':>9}{'work -':>9}"
-    lines = [f"joint loads (mj_inverse along each trajectory, timed by {law}):", head, "-" * len(head)]
-    any_kg = False
-    for label, L in rows:
-        per_kg = L.per_kg
-        for j, joint in enumerate(L.joint_names):
-            unit = L.torque_units[j]
-            kg = "-"
-            if per_kg is not None and unit == "N m":
-                kg, any_kg = f"{per_kg[j]:.2f}", True
-            lim = f"{L.limit[j]:.0f} {unit}" if np.isfinite(L.limit[j]) else "none"
-            use = f"{100 * L.use[j]:.0f}%" if np.isfinite(L.limit[j]) else "-"
-            lines.append(
-                f"{label if j == 0 else '':<27}{joint:<18}{L.peak[j]:>7.1f} {unit:<3}{L.rms[j]:>7.1f} {unit:<3}{kg:>8}{lim:>11}{use:>6}"
-                f"{L.positive_work[j]:>7.1f} J{L.negative_work[j]:>7.1f} J"
-            )
-    lines.append("peak/RMS: joint torque (N m) or force (N); per kg: peak per kilogram of body mass (N m/kg); use: peak / the "
-                 "torque limit (the actuator's force range, a motor's control range, unless [limits] sets one); work +/-: energy the joint supplies / absorbs.")
-    if any_kg:
-        h = HUMAN_SWING
-        lines.append(f"human reference, swing of normal walking ({h.source.split(',')[0]}): peak hip {h.hip:.2f} N m/kg, knee {h.knee:.2f} N m/kg")
-    return "\n".join(lines)
-
-
-def _print_fronts(outcome) -> None:
-    """For multi-objective smoothers: the front's extremes and knee, and the gap to the convex length."""
-    import numpy as np
-
-    convex = outcome.paths.get("convex")
-    for name, po in outcome.paths.items():
-        front = po.result.info.get("front") if po.result.info else None
-        if front is None:
-            continue
-        F = np.asarray(front["objectives"], dtype=float)
-        knee = front.get("knee")
-        print(f"{po.label}: Pareto front of {len(F)} paths (length, angle term)")
-        rows = [("shortest", int(np.argmin(F[:, 0]))), ("smoothest", int(np.argmin(F[:, 1])))]
-        if knee is not None:
-            rows.append(("knee", int(knee)))
-        for label, i in rows:
-            gap = f", {100 * (F[i, 0] / convex.metrics.length - 1):+.2f}% vs convex length" if convex is not None else ""
-            print(f"  {label:<9} length {F[i, 0]:.4f}  angle term {F[i, 1]:.4f}{gap}")
-
-
-def _print_certificates(outcome) -> None:
-    """For the optimal smoother: whether its path is a certified local optimum, and its gain on the convex path."""
-    convex = outcome.paths.get("convex")
-    for po in outcome.paths.values():
-        info = po.result.info or {}
-        if "kkt_stationarity" not in info:
-            continue
-        gain = f"; f {100 * (po.metrics.f / convex.metrics.f - 1):+.2f}% vs convex" if convex is not None else ""
-        if info.get("certified"):
-            verdict, residual = "certified local optimum", f"KKT residual {info['kkt_stationarity']:.1e}"
-        else:
-            verdict = "NOT certified as a local optimum"
-            residual = f"KKT residual {info['kkt_stationarity']:.1e}, complementarity {info.get('kkt_complementarity', float('nan')):.1e}"
-        print(
-            f"{po.label}: {verdict} of {po.result.objective} ({residual}, tolerance "
-            f"{info['kkt_tol']:.0e}; {info['straight_vertices']} straight vertices, {info['active_constraints']} active "
-            f"hatch constraints) in {1e3 * po.result.wall_time:.0f} ms{gain}"
-        )
-
-
-def _record(path: Path, outcome=None, *, scenario=None, foam=None, recorder=None) -> None:
-    """Write the recording of ``outcome`` (or of the foam grown so far) to ``path``: by ``recorder``
-    (a foam_mj.recorder.RecorderProcess, which has Rerun loaded already) when given and it succeeds,
-    else here."""
-    from foam_mj.recorder import outcome_job
-
-    job = outcome_job(path, outcome, scenario=scenario, foam=foam)
-    if recorder is None or not recorder.write(job):
-        job.write()
-
-
-def _parse_q(text: str, flag: str) -> list[float]:
-    """``--start "0.1 0.2 0.3"`` (spaces or commas) as a list of numbers."""
-    parts = text.replace(",", " ").split()
-    try:
-        if any("_" in v for v in parts):  # float() reads "0_08" as 8: a typo must not become another number
-            raise ValueError
-        fields = text.strip().strip(",").split(",")
-        if len(fields) > 1 and any(not f.strip() for f in fields):  # "0.2,,0.3": a number left out, not skipped
-            raise ValueError
-        values = [float(v) for v in parts]
-    except ValueError:
-        raise FoamError(f"{flag} must be numbers separated by spaces or commas, got {text!r}") from None
-    if not values:
-        raise FoamError(f"{flag} is empty; give one number per configuration joint")
-    return values
-
-
-def _mjcf_file(text: str) -> Path:
-    """``--mjcf`` (plan, bubble): an existing file (an empty name and a folder are said to be what they are)."""
-    if not text:
-        raise FoamError("--mjcf: empty file name; give an MJCF file")
-    mjcf = Path(text)
-    if mjcf.is_dir():
-        raise FoamError(f"--mjcf: {mjcf} is a folder, not an MJCF file")
-    if not mjcf.is_file():
-        raise FoamError(f"--mjcf: MJCF file not found: {mjcf}")
-    return mjcf
-
-
-def _check_delta(delta: float | None) -> None:
-    """``--delta`` (plan, bubble): a finite margin >= 0 in metres."""
-    if delta is not None and not 0 <= delta < float("inf"):
-        raise FoamError(f"--delta must be a margin >= 0 in metres, got {delta}")
-
-
-#: How ``plan --mjcf`` names in its messages the scenario fields its flags fill (the user wrote no scenario).
-MJCF_FIELD_FLAGS = (("fields 'q_goal' and 'q_init' are", "--start and --goal are"), ("field 'q_init'", "--start"),
-                    ("field 'q_goal'", "--goal"), ("field 'scene'", "--mjcf"))
-
-
-def _robot_overrides(doc: dict, args: argparse.Namespace) -> None:
-    """--joints, --robot-root and --no-self-collision (plan and bubble) into a scenario document."""
-    if args.joints is not None:
-        joints = [j.strip() for j in args.joints.split(",") if j.strip()]
-        if not joints:
-            raise FoamError("--joints must name joints separated by commas")
-        doc["joints"] = joints
-    if args.robot_root is not None:
-        if not args.robot_root.strip():
-            raise FoamError("--robot-root must name a body of the model, got an empty name")
-        doc["robot_root"] = args.robot_root
-    if args.no_self_collision:
-        doc["self_collision"] = False
-
-
-def _plan_scenario(args: argparse.Namespace):
-    """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta, --time-limit,
-    --subject-height/--subject-mass, --robot-root and --no-self-collision override the scenario's fields."""
-    from foam_mj.errors import ScenarioError
-    from foam_mj.scenarios import SUBJECT_HEIGHT_RANGE, SUBJECT_MASS_RANGE, read_scenario_doc, scenario_from_dict
-
-    _check_delta(args.delta)
-    for flag, value, (lo, hi), unit in (("--subject-height", args.subject_height, SUBJECT_HEIGHT_RANGE, "m"),
-                                        ("--subject-mass", args.subject_mass, SUBJECT_MASS_RANGE, "kg")):
-        if value is not None and not lo <= value <= hi:
-            raise FoamError(f"{flag} must be in [{lo:g}, {hi:g}] {unit}, got {value}")
-    if args.mjcf is not None:
-        if args.scene is not None:
-            raise FoamError("give either --scene or --mjcf, not both")
-        if args.start is None or args.goal is None:
-            raise FoamError("--mjcf needs --start and --goal (one number per configuration joint each)")
-        mjcf = _mjcf_file(args.mjcf)
-        doc: dict = {"name": re.sub(r"[^A-Za-z0-9_.\-]", "_", mjcf.stem), "scene": str(mjcf.resolve()), "q_init": _parse_q(args.start, "--start"), "q_goal": _parse_q(args.goal, "--goal")}
-        base, source = Path.cwd(), None
-    else:
-        if args.start is not None or args.goal is not None:
-            raise FoamError("--start and --goal go with --mjcf (a scenario has its own q_init and q_goal)")
-        doc, source = read_scenario_doc("obstacle" if args.scene is None else args.scene)
-        base = source.parent
-    _robot_overrides(doc, args)
-    if args.delta is not None:
-        doc["planner"] = {**doc.get("planner", {}), "delta": args.delta}
-    if args.time_limit is not None:
-        if not 0 < args.time_limit < float("inf"):
-            raise FoamError(f"--time-limit must be a number of seconds > 0, got {args.time_limit}")
-        doc["planner"] = {**doc.get("planner", {}), "time_limit": args.time_limit}
-    for flag, key in (("subject_height", "height"), ("subject_mass", "mass")):
-        if getattr(args, flag) is not None:
-            doc["subject"] = {**doc.get("subject", {}), key: getattr(args, flag)}
-    try:
-        return scenario_from_dict(doc, base, source=source)
-    except ScenarioError as exc:
-        if source is not None:
-            raise
-        message = str(exc).removeprefix(f"{doc['name']}: ")  # named after the flags, not a scenario file's fields
-        for field_text, flag_text in MJCF_FIELD_FLAGS:
-            message = message.replace(field_text, flag_text)
-        raise ScenarioError(message) from None
-
-
-def _check_figures_dir(path: str | None) -> Path | None:
-    if path is None:
-        return None
-    from foam_mj.atomic import check_output_dir
-    from foam_mj.figures import _matplotlib
-
-    _matplotlib()  # fails now, with the install hint, when matplotlib is missing
-    return check_output_dir(path, "--figures")
-
-
 def cmd_plan(args: argparse.Namespace) -> int:
-    recorder = None
-    if not args.no_rrd:  # loads Rerun in a second process while this one plans (foam_mj.recorder)
-        from foam_mj.recorder import RecorderProcess
+    from foam_mj.plan_command import cmd_plan as plan
 
-        recorder = RecorderProcess.start()
-    try:
-        return _plan(args, recorder)
-    finally:
-        if recorder is not None:
-            recorder.close()  # no recording sent (an error, Ctrl-C): the helper is stopped, nothing written
-
-
-def _plan(args: argparse.Namespace, recorder) -> int:
-    from foam_mj.atomic import check_output
-    from foam_mj.pipeline import parse_smoothers, run
-    from foam_mj.results import write_failure, write_outcome
-
-    # Every input and output is checked before any planning.
-    json_out = check_output(args.json, "--json", suffix=".json")
-    rrd = check_output(args.rrd, "--rrd", suffix=".rrd")
-    figures_dir = _check_figures_dir(args.figures)
-    names = parse_smoothers(args.smoother)
-    if args.planner is not None:
-        from foam_mj.planners import planner_class
-
-        planner_class(args.planner)  # an unknown name fails here, listing the known ones
-    scenario = _plan_scenario(args)
-    if args.planner is not None:
-        import dataclasses
-
-        scenario = dataclasses.replace(scenario, params=scenario.params.with_algorithm(args.planner))
-    if rrd is None and not args.no_rrd:
-        rrd = check_output(f"foam-mj-{scenario.name}.rrd", "--rrd (default)", suffix=".rrd")
-    from foam_mj.atomic import check_distinct
-
-    check_distinct({"--json": json_out, "--rrd": rrd,
-                    "--json's scene file": json_out.with_name(json_out.stem + ".scene.xml") if json_out is not None and scenario.edits.changes_scene else None},
-                   {"the scenario file": scenario.source, "the scene (MJCF)": scenario.scene})
-    seed = scenario.seed if args.seed is None else args.seed
-    progress = Progress()
-    t0 = time.perf_counter()
-    try:
-        outcome = run(scenario, seed, names, replay=not args.no_replay, dynamic=not args.no_replay, time_law=args.time_law, report=progress)
-    except PlanningFailed as exc:
-        progress.done()
-        print(f"foam-mj: planning failed: {' '.join(str(exc).split())}", file=sys.stderr)
-        if exc.foam is not None:
-            if rrd is not None:
-                _record(rrd, scenario=scenario, foam=exc.foam, recorder=recorder)
-                print(f"wrote the foam so far to {rrd}", file=sys.stderr)
-            if json_out is not None:
-                write_failure(json_out, scenario, exc, seed)
-                print(f"wrote {json_out}", file=sys.stderr)
-        return EXIT_PLANNING_FAILED
-    finally:
-        progress.done()
-    st = outcome.plan.stats
-    print(
-        f"scenario {scenario.name} (seed {seed}, planner {scenario.params.algorithm}): {st.bubbles:,} bubbles in {st.elapsed:.3f} s "
-        f"({st.bubbles_per_second:,.0f} bubbles/s), rosary of {outcome.plan.rosary.k} bubbles, margin {scenario.params.delta * 1000:g} mm"
-    )
-    print(_summary_table(outcome))
-    skipped = [n for n in names if n in ("adjusted", "adjusted_gradient") and n not in outcome.paths]
-    if skipped:
-        print(
-            f"note: {', '.join(skipped)} left out: the rosary adjustment (T_RA) moves the centres of a foam's rosary "
-            f"(each bubble on its parent's surface); planner {scenario.params.algorithm}'s chain is not one (use --planner pfm)"
-        )
-    _print_servo_note(outcome)
-    _print_row_cap_note(outcome)
-    loads = _loads_table(outcome)
-    if loads:
-        print(loads)
-    _print_fronts(outcome)
-    _print_certificates(outcome)
-    if rrd is not None:
-        progress("recording")
-        _record(rrd, outcome, recorder=recorder)
-        progress.done()
-        print(f"wrote {rrd} (view it with: foam-mj view {rrd})")
-    if json_out is not None:
-        write_outcome(json_out, outcome)
-        print(f"wrote {json_out}")
-    if figures_dir is not None:
-        from foam_mj.figures import write_figures
-        from foam_mj.results import outcome_dict
-
-        progress("drawing figures")
-        written = write_figures(outcome_dict(outcome), figures_dir, formats=tuple(args.figure_format))
-        progress.done()
-        print(f"wrote {len(written)} figures to {figures_dir}")
-    print(f"total {time.perf_counter() - t0:.2f} s")
-    return EXIT_OK
-
-
-def _unsafe_paths(outcome, margin: float) -> list[str]:
-    """Paths whose replay has contacts or a clearance below ``margin``."""
-    bad = []
-    for name, po in outcome.paths.items():
-        contacts = len(po.dynamic.contacts) if po.dynamic is not None else 0
-        clear = po.kinematic.min_clearance if po.kinematic is not None else float("inf")
-        if contacts or clear < margin:
-            bad.append(f"{name} ({contacts} contacts, min clearance {clear * 1000:.1f} mm)")
-    return bad
+    return plan(args)
 
 
 def cmd_bubble(args: argparse.Namespace) -> int:
@@ -488,6 +132,8 @@ def cmd_bubble(args: argparse.Namespace) -> int:
 
     from foam_mj.atomic import check_output
     from foam_mj.bubble_report import bubble_report, format_report
+    from foam_mj.plan_command import check_delta as _check_delta, mjcf_file as _mjcf_file, parse_q as _parse_q
+    from foam_mj.plan_command import robot_overrides as _robot_overrides
     from foam_mj.scenarios import read_scenario_doc, scenario_from_dict
 
     json_out = check_output(args.json, "--json", suffix=".json")
@@ -518,7 +164,10 @@ def cmd_bubble(args: argparse.Namespace) -> int:
 
 def cmd_replay(args: argparse.Namespace) -> int:
     from foam_mj.atomic import check_output
+    from foam_mj.plan_command import record as _record, unsafe_paths as _unsafe_paths
     from foam_mj.results import outcome_from_result, read_result
+    from foam_mj.summary import loads_table as _loads_table, print_row_cap_note as _print_row_cap_note
+    from foam_mj.summary import print_servo_note as _print_servo_note, summary_table as _summary_table
 
     rrd = check_output(args.rrd, "--rrd", suffix=".rrd")
     from foam_mj.atomic import check_distinct
@@ -575,96 +224,10 @@ def cmd_verify(args: argparse.Namespace) -> int:
     return EXIT_UNSAFE if report.violations else EXIT_OK
 
 
-def _has_display() -> bool:
-    """Can a native window open here? (Linux/BSD: an X11 or Wayland display; macOS and Windows: yes.)"""
-    if sys.platform.startswith(("darwin", "win")):
-        return True
-    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
-
-
-def _free_port(bind: str) -> int:
-    """A port the OS reports free on ``bind`` (for ``--web-port 0`` / ``--grpc-port 0``)."""
-    import socket
-
-    family = socket.AF_INET6 if ":" in bind else socket.AF_INET
-    with socket.socket(family, socket.SOCK_STREAM) as s:
-        s.bind((bind, 0))
-        return int(s.getsockname()[1])
-
-
-def _rerun_executable() -> str:
-    import shutil
-
-    viewer = Path(sys.executable).with_name("rerun")
-    exe = str(viewer) if viewer.exists() else shutil.which("rerun")
-    if exe is None:
-        raise FoamError("the Rerun viewer ('rerun', shipped with rerun-sdk) was not found on PATH")
-    return exe
-
-
-#: The first bytes of every Rerun recording file (its stream header, "RRF2" in the rerun-sdk foam-mj uses).
-RRD_MAGIC = b"RRF"
-
-
 def cmd_view(args: argparse.Namespace) -> int:
-    p = Path(args.recording)
-    if not p.is_file():
-        raise FoamError(f"recording not found: {p}" if not p.exists() else f"{p} is not a file")
-    if p.suffix != ".rrd":
-        raise FoamError(f"{p} is not a Rerun recording (.rrd)")
-    try:
-        with open(p, "rb") as f:
-            head = f.read(len(RRD_MAGIC))
-    except OSError as exc:
-        raise FoamError(f"{p}: cannot read: {exc.strerror}") from None
-    if head != RRD_MAGIC:  # the viewer would open it and show nothing, or an error in its own window
-        raise FoamError(f"{p} is not a Rerun recording: it does not start with Rerun's file header {RRD_MAGIC.decode()!r}"
-                        f"{' (the file is empty)' if not head else ''}")
-    import ipaddress
+    from foam_mj.viewer import cmd_view as view
 
-    try:
-        ipaddress.ip_address(args.bind)
-    except ValueError:
-        raise FoamError(f"--bind must be an IP address (127.0.0.1, 0.0.0.0, ::1), got {args.bind!r}") from None
-    if not args.web and not _has_display():
-        raise FoamError(
-            f"no display (DISPLAY and WAYLAND_DISPLAY are unset): serve the web viewer with `foam-mj view --web {p}` "
-            f"(then open the URL it prints, e.g. through an SSH tunnel), or summarise the file with `rerun rrd stats {p}`"
-        )
-    exe = _rerun_executable()
-    if not args.web:
-        return _run_viewer([exe, str(p), "--bind", args.bind])
-    from urllib.parse import quote
-
-    host = "127.0.0.1" if args.bind in ("0.0.0.0", "::") else args.bind
-    web_port, grpc_port = (p or _free_port(args.bind) for p in (args.web_port, args.grpc_port))
-    host = f"[{host}]" if ":" in host else host
-    url = f"http://{host}:{web_port}?url={quote(f'rerun+http://{host}:{grpc_port}/proxy', safe='')}"
-    print(f"serving {p} in Rerun's web viewer (bound to {args.bind}; Ctrl-C stops it): open {url}", flush=True)
-    cmd = [exe, str(p), "--serve-web", "--bind", args.bind, "--web-viewer-port", str(web_port), "--port", str(grpc_port)]
-    return _run_viewer(cmd)
-
-
-def _run_viewer(cmd: list[str]) -> int:
-    """Run the Rerun viewer in its own process group; Ctrl-C or SIGTERM stops the whole group (the
-    ``rerun`` launcher starts the viewer binary as a child: it must not outlive us)."""
-    import subprocess
-
-    proc = subprocess.Popen(cmd, start_new_session=True)
-    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
-    try:
-        return proc.wait()
-    except KeyboardInterrupt:
-        for sig in (signal.SIGTERM, signal.SIGKILL):
-            try:
-                os.killpg(proc.pid, sig)
-                proc.wait(timeout=10)
-                break
-            except (ProcessLookupError, subprocess.TimeoutExpired):
-                continue
-        raise
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    return view(args)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:

@@ -1,0 +1,250 @@
+"""``foam-mj plan``: its flags made into a scenario (--scene or --mjcf with --start/--goal, and the overrides), every
+input and output checked before any work, the run, what it prints and writes (:func:`cmd_plan`). Imported only when
+a command runs (foam_mj.cli keeps start-up to the standard library); ``bubble`` and ``replay`` share its helpers."""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+import time
+from pathlib import Path
+
+from foam_mj.cli import EXIT_OK, EXIT_PLANNING_FAILED, Progress
+from foam_mj.errors import FoamError, PlanningFailed
+from foam_mj.summary import (
+    loads_table,
+    print_certificates,
+    print_fronts,
+    print_row_cap_note,
+    print_servo_note,
+    summary_table,
+)
+
+
+def record(path: Path, outcome=None, *, scenario=None, foam=None, recorder=None) -> None:
+    """Write the recording of ``outcome`` (or of the foam grown so far) to ``path``: by ``recorder``
+    (a foam_mj.recorder.RecorderProcess, which has Rerun loaded already) when given and it succeeds,
+    else here."""
+    from foam_mj.recorder import outcome_job
+
+    job = outcome_job(path, outcome, scenario=scenario, foam=foam)
+    if recorder is None or not recorder.write(job):
+        job.write()
+
+
+def parse_q(text: str, flag: str) -> list[float]:
+    """``--start "0.1 0.2 0.3"`` (spaces or commas) as a list of numbers."""
+    parts = text.replace(",", " ").split()
+    try:
+        if any("_" in v for v in parts):  # float() reads "0_08" as 8: a typo must not become another number
+            raise ValueError
+        fields = text.strip().strip(",").split(",")
+        if len(fields) > 1 and any(not f.strip() for f in fields):  # "0.2,,0.3": a number left out, not skipped
+            raise ValueError
+        values = [float(v) for v in parts]
+    except ValueError:
+        raise FoamError(f"{flag} must be numbers separated by spaces or commas, got {text!r}") from None
+    if not values:
+        raise FoamError(f"{flag} is empty; give one number per configuration joint")
+    return values
+
+
+def mjcf_file(text: str) -> Path:
+    """``--mjcf`` (plan, bubble): an existing file (an empty name and a folder are said to be what they are)."""
+    if not text:
+        raise FoamError("--mjcf: empty file name; give an MJCF file")
+    mjcf = Path(text)
+    if mjcf.is_dir():
+        raise FoamError(f"--mjcf: {mjcf} is a folder, not an MJCF file")
+    if not mjcf.is_file():
+        raise FoamError(f"--mjcf: MJCF file not found: {mjcf}")
+    return mjcf
+
+
+def check_delta(delta: float | None) -> None:
+    """``--delta`` (plan, bubble): a finite margin >= 0 in metres."""
+    if delta is not None and not 0 <= delta < float("inf"):
+        raise FoamError(f"--delta must be a margin >= 0 in metres, got {delta}")
+
+
+#: How ``plan --mjcf`` names in its messages the scenario fields its flags fill (the user wrote no scenario).
+MJCF_FIELD_FLAGS = (("fields 'q_goal' and 'q_init' are", "--start and --goal are"), ("field 'q_init'", "--start"),
+                    ("field 'q_goal'", "--goal"), ("field 'scene'", "--mjcf"))
+
+
+def robot_overrides(doc: dict, args: argparse.Namespace) -> None:
+    """--joints, --robot-root and --no-self-collision (plan and bubble) into a scenario document."""
+    if args.joints is not None:
+        joints = [j.strip() for j in args.joints.split(",") if j.strip()]
+        if not joints:
+            raise FoamError("--joints must name joints separated by commas")
+        doc["joints"] = joints
+    if args.robot_root is not None:
+        if not args.robot_root.strip():
+            raise FoamError("--robot-root must name a body of the model, got an empty name")
+        doc["robot_root"] = args.robot_root
+    if args.no_self_collision:
+        doc["self_collision"] = False
+
+
+def plan_scenario(args: argparse.Namespace):
+    """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta, --time-limit,
+    --subject-height/--subject-mass, --robot-root and --no-self-collision override the scenario's fields."""
+    from foam_mj.errors import ScenarioError
+    from foam_mj.scenarios import SUBJECT_HEIGHT_RANGE, SUBJECT_MASS_RANGE, read_scenario_doc, scenario_from_dict
+
+    check_delta(args.delta)
+    for flag, value, (lo, hi), unit in (("--subject-height", args.subject_height, SUBJECT_HEIGHT_RANGE, "m"),
+                                        ("--subject-mass", args.subject_mass, SUBJECT_MASS_RANGE, "kg")):
+        if value is not None and not lo <= value <= hi:
+            raise FoamError(f"{flag} must be in [{lo:g}, {hi:g}] {unit}, got {value}")
+    if args.mjcf is not None:
+        if args.scene is not None:
+            raise FoamError("give either --scene or --mjcf, not both")
+        if args.start is None or args.goal is None:
+            raise FoamError("--mjcf needs --start and --goal (one number per configuration joint each)")
+        mjcf = mjcf_file(args.mjcf)
+        doc: dict = {"name": re.sub(r"[^A-Za-z0-9_.\-]", "_", mjcf.stem), "scene": str(mjcf.resolve()), "q_init": parse_q(args.start, "--start"), "q_goal": parse_q(args.goal, "--goal")}
+        base, source = Path.cwd(), None
+    else:
+        if args.start is not None or args.goal is not None:
+            raise FoamError("--start and --goal go with --mjcf (a scenario has its own q_init and q_goal)")
+        doc, source = read_scenario_doc("obstacle" if args.scene is None else args.scene)
+        base = source.parent
+    robot_overrides(doc, args)
+    if args.delta is not None:
+        doc["planner"] = {**doc.get("planner", {}), "delta": args.delta}
+    if args.time_limit is not None:
+        if not 0 < args.time_limit < float("inf"):
+            raise FoamError(f"--time-limit must be a number of seconds > 0, got {args.time_limit}")
+        doc["planner"] = {**doc.get("planner", {}), "time_limit": args.time_limit}
+    for flag, key in (("subject_height", "height"), ("subject_mass", "mass")):
+        if getattr(args, flag) is not None:
+            doc["subject"] = {**doc.get("subject", {}), key: getattr(args, flag)}
+    try:
+        return scenario_from_dict(doc, base, source=source)
+    except ScenarioError as exc:
+        if source is not None:
+            raise
+        message = str(exc).removeprefix(f"{doc['name']}: ")  # named after the flags, not a scenario file's fields
+        for field_text, flag_text in MJCF_FIELD_FLAGS:
+            message = message.replace(field_text, flag_text)
+        raise ScenarioError(message) from None
+
+
+def check_figures_dir(path: str | None) -> Path | None:
+    if path is None:
+        return None
+    from foam_mj.atomic import check_output_dir
+    from foam_mj.figures import _matplotlib
+
+    _matplotlib()  # fails now, with the install hint, when matplotlib is missing
+    return check_output_dir(path, "--figures")
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    recorder = None
+    if not args.no_rrd:  # loads Rerun in a second process while this one plans (foam_mj.recorder)
+        from foam_mj.recorder import RecorderProcess
+
+        recorder = RecorderProcess.start()
+    try:
+        return _plan(args, recorder)
+    finally:
+        if recorder is not None:
+            recorder.close()  # no recording sent (an error, Ctrl-C): the helper is stopped, nothing written
+
+
+def _plan(args: argparse.Namespace, recorder) -> int:
+    from foam_mj.atomic import check_output
+    from foam_mj.pipeline import parse_smoothers, run
+    from foam_mj.results import write_failure, write_outcome
+
+    # Every input and output is checked before any planning.
+    json_out = check_output(args.json, "--json", suffix=".json")
+    rrd = check_output(args.rrd, "--rrd", suffix=".rrd")
+    figures_dir = check_figures_dir(args.figures)
+    names = parse_smoothers(args.smoother)
+    if args.planner is not None:
+        from foam_mj.planners import planner_class
+
+        planner_class(args.planner)  # an unknown name fails here, listing the known ones
+    scenario = plan_scenario(args)
+    if args.planner is not None:
+        import dataclasses
+
+        scenario = dataclasses.replace(scenario, params=scenario.params.with_algorithm(args.planner))
+    if rrd is None and not args.no_rrd:
+        rrd = check_output(f"foam-mj-{scenario.name}.rrd", "--rrd (default)", suffix=".rrd")
+    from foam_mj.atomic import check_distinct
+
+    check_distinct({"--json": json_out, "--rrd": rrd,
+                    "--json's scene file": json_out.with_name(json_out.stem + ".scene.xml") if json_out is not None and scenario.edits.changes_scene else None},
+                   {"the scenario file": scenario.source, "the scene (MJCF)": scenario.scene})
+    seed = scenario.seed if args.seed is None else args.seed
+    progress = Progress()
+    t0 = time.perf_counter()
+    try:
+        outcome = run(scenario, seed, names, replay=not args.no_replay, dynamic=not args.no_replay, time_law=args.time_law, report=progress)
+    except PlanningFailed as exc:
+        progress.done()
+        print(f"foam-mj: planning failed: {' '.join(str(exc).split())}", file=sys.stderr)
+        if exc.foam is not None:
+            if rrd is not None:
+                record(rrd, scenario=scenario, foam=exc.foam, recorder=recorder)
+                print(f"wrote the foam so far to {rrd}", file=sys.stderr)
+            if json_out is not None:
+                write_failure(json_out, scenario, exc, seed)
+                print(f"wrote {json_out}", file=sys.stderr)
+        return EXIT_PLANNING_FAILED
+    finally:
+        progress.done()
+    st = outcome.plan.stats
+    print(
+        f"scenario {scenario.name} (seed {seed}, planner {scenario.params.algorithm}): {st.bubbles:,} bubbles in {st.elapsed:.3f} s "
+        f"({st.bubbles_per_second:,.0f} bubbles/s), rosary of {outcome.plan.rosary.k} bubbles, margin {scenario.params.delta * 1000:g} mm"
+    )
+    print(summary_table(outcome))
+    skipped = [n for n in names if n in ("adjusted", "adjusted_gradient") and n not in outcome.paths]
+    if skipped:
+        print(
+            f"note: {', '.join(skipped)} left out: the rosary adjustment (T_RA) moves the centres of a foam's rosary "
+            f"(each bubble on its parent's surface); planner {scenario.params.algorithm}'s chain is not one (use --planner pfm)"
+        )
+    print_servo_note(outcome)
+    print_row_cap_note(outcome)
+    loads = loads_table(outcome)
+    if loads:
+        print(loads)
+    print_fronts(outcome)
+    print_certificates(outcome)
+    if rrd is not None:
+        progress("recording")
+        record(rrd, outcome, recorder=recorder)
+        progress.done()
+        print(f"wrote {rrd} (view it with: foam-mj view {rrd})")
+    if json_out is not None:
+        write_outcome(json_out, outcome)
+        print(f"wrote {json_out}")
+    if figures_dir is not None:
+        from foam_mj.figures import write_figures
+        from foam_mj.results import outcome_dict
+
+        progress("drawing figures")
+        written = write_figures(outcome_dict(outcome), figures_dir, formats=tuple(args.figure_format))
+        progress.done()
+        print(f"wrote {len(written)} figures to {figures_dir}")
+    print(f"total {time.perf_counter() - t0:.2f} s")
+    return EXIT_OK
+
+
+def unsafe_paths(outcome, margin: float) -> list[str]:
+    """Paths whose replay has contacts or a clearance below ``margin``."""
+    bad = []
+    for name, po in outcome.paths.items():
+        contacts = len(po.dynamic.contacts) if po.dynamic is not None else 0
+        clear = po.kinematic.min_clearance if po.kinematic is not None else float("inf")
+        if contacts or clear < margin:
+            bad.append(f"{name} ({contacts} contacts, min clearance {clear * 1000:.1f} mm)")
+    return bad

@@ -1,0 +1,139 @@
+"""What ``plan`` and ``replay`` print: the per-path summary table, the joint loads, the servo and timestep notes,
+the Pareto fronts and the optimal smoother's certificates. Heavy modules are imported inside each function."""
+
+from __future__ import annotations
+
+
+def fmt_q(q) -> str:
+    import numpy as np
+
+    return "[" + ", ".join(f"{v:g}" for v in np.asarray(q)) + "]"
+
+
+def summary_table(outcome) -> str:
+    """The per-path summary printed by ``plan`` and ``replay``."""
+    import numpy as np
+
+    head = f"{'path':<27}{'length':>8}{'f':>8}{'TC':>8}{'SV':>8}{'min clear':>11}{'duration':>10}{'track err':>10}{'contacts':>9}{'time':>9}"
+    lines = [head, "-" * len(head)]
+    for po in outcome.paths.values():
+        m = po.metrics
+        clear = f"{po.kinematic.min_clearance * 1000:.1f} mm" if po.kinematic is not None else "-"
+        dur = f"{po.trajectory.duration:.2f} s" if po.trajectory is not None else "-"
+        err = f"{np.max(po.dynamic.max_error) * 1000:.2f}" if po.dynamic is not None else "-"
+        con = str(len(po.dynamic.contacts)) if po.dynamic is not None else "-"
+        lines.append(
+            f"{po.label:<27}{m.length:>8.4f}{m.f:>8.4f}{m.tc:>8.4f}{m.sv:>8.4f}{clear:>11}{dur:>10}{err:>10}{con:>9}"
+            f"{po.result.wall_time * 1000:>7.0f} ms"
+        )
+    lines.append(
+        "min clear: smallest MuJoCo clearance along the planned trajectory; track err: largest servo tracking "
+        "error under gravity (mrad for hinges, mm for slides); contacts: robot/obstacle contacts in that servo replay."
+    )
+    return "\n".join(lines)
+
+
+def print_servo_note(outcome) -> None:
+    """One line when the dynamic replay had to add servos to the model (foam_mj.replay.servo_model), and one
+    per path whose servos ran into their ctrl or force range (DynamicReplay.limit_note)."""
+    notes = {po.dynamic.servo_note for po in outcome.paths.values() if po.dynamic is not None and po.dynamic.servo_note}
+    for note in sorted(notes):
+        print(f"note: {note}")
+    for po in outcome.paths.values():
+        if po.dynamic is not None and po.dynamic.limit_note:
+            print(f"note: {po.label}: dynamic replay: {po.dynamic.limit_note}")
+
+
+def print_row_cap_note(outcome) -> None:
+    """One line when the model's timestep, not the joint limits, held some joint's acceleration (so that
+    consecutive trajectory rows stay close to the certified curve: foam_mj.trajectory.row_acceleration_cap)."""
+    from foam_mj.dynamics import joint_units
+    from foam_mj.trajectory import ROW_TOL, row_acceleration_cap
+
+    timed = [po.trajectory for po in outcome.paths.values() if po.trajectory is not None]
+    if not timed:
+        return
+    robot = outcome.scenario.robot
+    dt = timed[0].dt
+    _, acc, _ = outcome.limits.resolve(robot)
+    cap = row_acceleration_cap(robot, dt)
+    held = [f"{name} {c:.3g} {unit[2]} (limit {a:g})" for name, c, a, unit in
+            zip(robot.config.joint_names, cap, acc, joint_units(robot)) if c < a]
+    if held:
+        print(f"note: at the model's timestep of {dt:g} s, accelerations are held to {', '.join(held)}, so that the "
+              f"straight line between consecutive trajectory rows stays within {ROW_TOL:g} of the certified curve")
+
+
+def loads_table(outcome) -> str:
+    """Per path and joint: peak and RMS torque (mj_inverse), per kilogram, the actuator limit and its use,
+    positive and negative work; then the human reference (foam_mj.dynamics.HUMAN_SWING)."""
+    import numpy as np
+
+    from foam_mj.dynamics import HUMAN_SWING
+
+    rows = [(po.label, po.loads) for po in outcome.paths.values() if getattr(po, "loads", None) is not None]
+    if not rows:
+        return ""
+    law = getattr(outcome, "time_law", "")
+    head = f"{'path':<27}{'joint':<18}{'peak':>11}{'RMS':>11}{'per kg':>8}{'limit':>11}{'use':>6}{'work +':>9}{'work -':>9}"
+    lines = [f"joint loads (mj_inverse along each trajectory, timed by {law}):", head, "-" * len(head)]
+    any_kg = False
+    for label, L in rows:
+        per_kg = L.per_kg
+        for j, joint in enumerate(L.joint_names):
+            unit = L.torque_units[j]
+            kg = "-"
+            if per_kg is not None and unit == "N m":
+                kg, any_kg = f"{per_kg[j]:.2f}", True
+            lim = f"{L.limit[j]:.0f} {unit}" if np.isfinite(L.limit[j]) else "none"
+            use = f"{100 * L.use[j]:.0f}%" if np.isfinite(L.limit[j]) else "-"
+            lines.append(
+                f"{label if j == 0 else '':<27}{joint:<18}{L.peak[j]:>7.1f} {unit:<3}{L.rms[j]:>7.1f} {unit:<3}{kg:>8}{lim:>11}{use:>6}"
+                f"{L.positive_work[j]:>7.1f} J{L.negative_work[j]:>7.1f} J"
+            )
+    lines.append("peak/RMS: joint torque (N m) or force (N); per kg: peak per kilogram of body mass (N m/kg); use: peak / the "
+                 "torque limit (the actuator's force range, a motor's control range, unless [limits] sets one); work +/-: energy the joint supplies / absorbs.")
+    if any_kg:
+        h = HUMAN_SWING
+        lines.append(f"human reference, swing of normal walking ({h.source.split(',')[0]}): peak hip {h.hip:.2f} N m/kg, knee {h.knee:.2f} N m/kg")
+    return "\n".join(lines)
+
+
+def print_fronts(outcome) -> None:
+    """For multi-objective smoothers: the front's extremes and knee, and the gap to the convex length."""
+    import numpy as np
+
+    convex = outcome.paths.get("convex")
+    for name, po in outcome.paths.items():
+        front = po.result.info.get("front") if po.result.info else None
+        if front is None:
+            continue
+        F = np.asarray(front["objectives"], dtype=float)
+        knee = front.get("knee")
+        print(f"{po.label}: Pareto front of {len(F)} paths (length, angle term)")
+        rows = [("shortest", int(np.argmin(F[:, 0]))), ("smoothest", int(np.argmin(F[:, 1])))]
+        if knee is not None:
+            rows.append(("knee", int(knee)))
+        for label, i in rows:
+            gap = f", {100 * (F[i, 0] / convex.metrics.length - 1):+.2f}% vs convex length" if convex is not None else ""
+            print(f"  {label:<9} length {F[i, 0]:.4f}  angle term {F[i, 1]:.4f}{gap}")
+
+
+def print_certificates(outcome) -> None:
+    """For the optimal smoother: whether its path is a certified local optimum, and its gain on the convex path."""
+    convex = outcome.paths.get("convex")
+    for po in outcome.paths.values():
+        info = po.result.info or {}
+        if "kkt_stationarity" not in info:
+            continue
+        gain = f"; f {100 * (po.metrics.f / convex.metrics.f - 1):+.2f}% vs convex" if convex is not None else ""
+        if info.get("certified"):
+            verdict, residual = "certified local optimum", f"KKT residual {info['kkt_stationarity']:.1e}"
+        else:
+            verdict = "NOT certified as a local optimum"
+            residual = f"KKT residual {info['kkt_stationarity']:.1e}, complementarity {info.get('kkt_complementarity', float('nan')):.1e}"
+        print(
+            f"{po.label}: {verdict} of {po.result.objective} ({residual}, tolerance "
+            f"{info['kkt_tol']:.0e}; {info['straight_vertices']} straight vertices, {info['active_constraints']} active "
+            f"hatch constraints) in {1e3 * po.result.wall_time:.0f} ms{gain}"
+        )

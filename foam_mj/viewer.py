@@ -1,0 +1,105 @@
+"""``foam-mj view``: a Rerun recording opened in Rerun's viewer, a native window or the web viewer (``--web``), in
+its own process group so that Ctrl-C or SIGTERM stops all of it."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+from pathlib import Path
+
+from foam_mj.errors import FoamError
+
+
+def _has_display() -> bool:
+    """Can a native window open here? (Linux/BSD: an X11 or Wayland display; macOS and Windows: yes.)"""
+    if sys.platform.startswith(("darwin", "win")):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _free_port(bind: str) -> int:
+    """A port the OS reports free on ``bind`` (for ``--web-port 0`` / ``--grpc-port 0``)."""
+    import socket
+
+    family = socket.AF_INET6 if ":" in bind else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        s.bind((bind, 0))
+        return int(s.getsockname()[1])
+
+
+def _rerun_executable() -> str:
+    import shutil
+
+    viewer = Path(sys.executable).with_name("rerun")
+    exe = str(viewer) if viewer.exists() else shutil.which("rerun")
+    if exe is None:
+        raise FoamError("the Rerun viewer ('rerun', shipped with rerun-sdk) was not found on PATH")
+    return exe
+
+
+#: The first bytes of every Rerun recording file (its stream header, "RRF2" in the rerun-sdk foam-mj uses).
+RRD_MAGIC = b"RRF"
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    """``foam-mj view``: open a recording in the Rerun viewer (native window, or the web viewer with --web)."""
+    p = Path(args.recording)
+    if not p.is_file():
+        raise FoamError(f"recording not found: {p}" if not p.exists() else f"{p} is not a file")
+    if p.suffix != ".rrd":
+        raise FoamError(f"{p} is not a Rerun recording (.rrd)")
+    try:
+        with open(p, "rb") as f:
+            head = f.read(len(RRD_MAGIC))
+    except OSError as exc:
+        raise FoamError(f"{p}: cannot read: {exc.strerror}") from None
+    if head != RRD_MAGIC:  # the viewer would open it and show nothing, or an error in its own window
+        raise FoamError(f"{p} is not a Rerun recording: it does not start with Rerun's file header {RRD_MAGIC.decode()!r}"
+                        f"{' (the file is empty)' if not head else ''}")
+    import ipaddress
+
+    try:
+        ipaddress.ip_address(args.bind)
+    except ValueError:
+        raise FoamError(f"--bind must be an IP address (127.0.0.1, 0.0.0.0, ::1), got {args.bind!r}") from None
+    if not args.web and not _has_display():
+        raise FoamError(
+            f"no display (DISPLAY and WAYLAND_DISPLAY are unset): serve the web viewer with `foam-mj view --web {p}` "
+            f"(then open the URL it prints, e.g. through an SSH tunnel), or summarise the file with `rerun rrd stats {p}`"
+        )
+    exe = _rerun_executable()
+    if not args.web:
+        return _run_viewer([exe, str(p), "--bind", args.bind])
+    from urllib.parse import quote
+
+    host = "127.0.0.1" if args.bind in ("0.0.0.0", "::") else args.bind
+    web_port, grpc_port = (p or _free_port(args.bind) for p in (args.web_port, args.grpc_port))
+    host = f"[{host}]" if ":" in host else host
+    url = f"http://{host}:{web_port}?url={quote(f'rerun+http://{host}:{grpc_port}/proxy', safe='')}"
+    print(f"serving {p} in Rerun's web viewer (bound to {args.bind}; Ctrl-C stops it): open {url}", flush=True)
+    cmd = [exe, str(p), "--serve-web", "--bind", args.bind, "--web-viewer-port", str(web_port), "--port", str(grpc_port)]
+    return _run_viewer(cmd)
+
+
+def _run_viewer(cmd: list[str]) -> int:
+    """Run the Rerun viewer in its own process group; Ctrl-C or SIGTERM stops the whole group (the
+    ``rerun`` launcher starts the viewer binary as a child: it must not outlive us)."""
+    import subprocess
+
+    proc = subprocess.Popen(cmd, start_new_session=True)
+    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
+    try:
+        return proc.wait()
+    except KeyboardInterrupt:
+        for sig in (signal.SIGTERM, signal.SIGKILL):
+            try:
+                os.killpg(proc.pid, sig)
+                proc.wait(timeout=10)
+                break
+            except (ProcessLookupError, subprocess.TimeoutExpired):
+                continue
+        raise
+    finally:
+        signal.signal(signal.SIGTERM, previous)
