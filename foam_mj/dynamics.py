@@ -46,7 +46,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from foam_mj.model import RobotModel, _custom_numeric
+from foam_mj.mjcf import _custom_numeric
+from foam_mj.model import RobotModel
 from foam_mj.trajectory import Trajectory
 
 #: MJCF custom numeric "height mass" of the subject the model is built for (metres, kilograms; kept

@@ -1,26 +1,6 @@
 """The robot model: an MJCF scene, its configuration map q <-> qpos, and which geoms are robot and obstacle.
 
-Configuration map
------------------
-The configuration coordinates are, in order of precedence: the joint names a scenario gives
-(``joints = [...]``, passed here as ``joints``), the MJCF's ``<custom>`` text field
-``foam_mj:configuration`` (joint names, in order), or else every *limited* hinge and slide joint in
-model order (unlimited hinges, ball and free joints then stay at ``qpos0``). A configuration joint
-must be a limited hinge or slide: a ball or free joint, an unlimited joint, or the name of a tendon is
-refused with a :class:`~foam_mj.errors.ModelError` naming it, before any planning. A coordinate is the joint's own value
-(radians for hinges, metres for slides) unless a numeric field ``foam_mj:normalize:<joint>`` holds
-"a b S", in which case qpos values a..b map linearly onto [0, S] (one number S alone means the joint's
-range [lo, hi]):
-
-    q_i = S (qpos_j - a) / (b - a)        qpos_j = a + (b - a) q_i / S.
-
-For the Ortholeg, q = [theta_h, theta_k, theta_q] with theta_q the hip displacement normalized so that
-the swing's 0.7 m of travel is [0, pi/2] (Nascimento and Alsina 2021, section 5.1). Joints that are not configuration coordinates stay at their
-``qpos0``. The bounds of q come from the joint ranges (every configuration joint must be limited).
-A scenario's ``[normalize]`` table gives the same numbers per joint and takes precedence over the MJCF.
-
-Unnamed geoms get the name ``geom<i>`` (``i`` their index in the model) when the model is loaded, so
-that the distance sensors of :mod:`foam_mj.clearance` can refer to them; an existing name is never changed.
+The configuration map q <-> qpos is :mod:`foam_mj.configuration`'s; MJCF loading, :mod:`foam_mj.mjcf`'s.
 
 Robot and obstacle geoms, and the pairs that are checked
 --------------------------------------------------------
@@ -56,77 +36,15 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from foam_mj.configuration import (
+    _SUPPORTED_JOINTS,
+    CONFIGURATION_FIELD,
+    ConfigurationMap,
+    _configuration_map,
+    _joint_name,
+)
 from foam_mj.errors import ConfigurationError, ModelError, clearance_text
-
-CONFIGURATION_FIELD = "foam_mj:configuration"
-NORMALIZE_PREFIX = "foam_mj:normalize:"
-
-_SUPPORTED_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
-
-
-def load_mjcf(path: str | Path) -> mujoco.MjModel:
-    """Compile an MJCF file, turning MuJoCo's errors into a :class:`ModelError` naming the file."""
-    return compile_spec(load_spec(path), path)
-
-
-def load_spec(path: str | Path) -> mujoco.MjSpec:
-    """Parse an MJCF file into a :class:`mujoco.MjSpec` (errors as :class:`ModelError` naming the file)."""
-    p = Path(path)
-    if not p.is_file():
-        raise ModelError(f"MJCF file not found: {p}")
-    try:
-        return mujoco.MjSpec.from_file(str(p))
-    except ValueError as exc:  # MuJoCo reports XML and compile errors as ValueError
-        raise ModelError(f"could not load MJCF file {p}: {' '.join(str(exc).split())}") from None
-
-
-def compile_spec(spec: mujoco.MjSpec, path: str | Path) -> mujoco.MjModel:
-    """Compile a spec, turning MuJoCo's errors into a :class:`ModelError` naming ``path``."""
-    try:
-        return spec.compile()
-    except ValueError as exc:
-        raise ModelError(f"could not load MJCF file {path}: {exc}") from None
-
-
-def name_unnamed_geoms(spec: mujoco.MjSpec) -> int:
-    """Give every unnamed geom of ``spec`` the name ``geom<i>`` (i: its index in the compiled model).
-
-    MuJoCo's distance sensors refer to geoms by name; users' models often leave them unnamed. Returns
-    how many geoms were named. A name already taken gets a ``_`` suffix until it is free.
-    """
-    geoms = list(spec.geoms)
-    if all(g.name for g in geoms):
-        return 0
-    spec.compile()  # assigns the ids (g.id) the compiled model will use
-    taken = {g.name for g in geoms if g.name}
-    count = 0
-    for g in geoms:
-        if g.name:
-            continue
-        name = f"geom{int(g.id)}"
-        while name in taken:
-            name += "_"
-        g.name = name
-        taken.add(name)
-        count += 1
-    return count
-
-
-def _custom_text(m: mujoco.MjModel, name: str) -> str | None:
-    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TEXT, name)
-    if i < 0:
-        return None
-    adr, size = int(m.text_adr[i]), int(m.text_size[i])
-    return bytes(m.text_data[adr : adr + size]).rstrip(b"\x00").decode()
-
-
-def _custom_numeric(m: mujoco.MjModel, name: str) -> np.ndarray | None:
-    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_NUMERIC, name)
-    if i < 0:
-        return None
-    adr, size = int(m.numeric_adr[i]), int(m.numeric_size[i])
-    return np.array(m.numeric_data[adr : adr + size])
-
+from foam_mj.mjcf import _custom_text, compile_spec, load_spec, name_unnamed_geoms
 
 def body_is_moving(m: mujoco.MjModel, body: int) -> bool:
     """True when some joint moves ``body`` (the body or one of its ancestors has a joint)."""
@@ -189,36 +107,6 @@ def attached(m: mujoco.MjModel, a: int, b: int) -> bool:
     filter_parent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
     weld, parent = m.body_weldid, m.body_parentid
     return bool(filter_parent and wa and wb and (wa == int(weld[parent[wb]]) or wb == int(weld[parent[wa]])))
-
-
-@dataclass(frozen=True)
-class ConfigurationMap:
-    """Affine map between the planner's q (n,) and MuJoCo's qpos (nq,): qpos[index] = offset + scale * q."""
-
-    joint_names: tuple[str, ...]
-    joint_ids: np.ndarray  # (n,) joint ids
-    qpos_index: np.ndarray  # (n,) qpos addresses
-    scale: np.ndarray  # (n,) qpos units per q unit
-    offset: np.ndarray  # (n,)
-    lower: np.ndarray  # (n,) bounds of q
-    upper: np.ndarray  # (n,)
-    qpos0: np.ndarray  # (nq,) values of the joints that are not coordinates
-
-    @property
-    def dim(self) -> int:
-        return len(self.joint_names)
-
-    def to_qpos(self, q: np.ndarray) -> np.ndarray:
-        """qpos rows for configurations q of shape (n,) or (N, n)."""
-        q = np.asarray(q, dtype=float)
-        out = np.broadcast_to(self.qpos0, q.shape[:-1] + self.qpos0.shape).copy()
-        out[..., self.qpos_index] = self.offset + self.scale * q
-        return out
-
-    def to_q(self, qpos: np.ndarray) -> np.ndarray:
-        """Configurations for qpos rows of shape (nq,) or (N, nq)."""
-        qpos = np.asarray(qpos, dtype=float)
-        return (qpos[..., self.qpos_index] - self.offset) / self.scale
 
 
 #: The cutoff of the fixed pairs' distances (metres): above any margin a plan could ask for.
@@ -617,126 +505,3 @@ def coupling_equalities(m: mujoco.MjModel, config: "ConfigurationMap") -> list[s
         if hit:
             out.append(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e) or f"equality {e}")
     return out
-
-
-_JOINT_TYPE_NAMES = {
-    int(mujoco.mjtJoint.mjJNT_FREE): "a free joint",
-    int(mujoco.mjtJoint.mjJNT_BALL): "a ball joint",
-    int(mujoco.mjtJoint.mjJNT_SLIDE): "a slide joint",
-    int(mujoco.mjtJoint.mjJNT_HINGE): "a hinge joint",
-}
-
-
-def _joint_name(m: mujoco.MjModel, j: int) -> str:
-    return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
-
-
-def configuration_joint_names(m: mujoco.MjModel, path: str | Path, joints: Sequence[str] | None = None) -> list[str]:
-    """The configuration joints' names (module docstring: scenario, MJCF declaration, or every limited
-    hinge/slide joint)."""
-    if joints is not None:
-        return list(joints)
-    text = _custom_text(m, CONFIGURATION_FIELD)
-    if text is not None:
-        return text.split()
-    ids = [j for j in range(m.njnt) if int(m.jnt_type[j]) in _SUPPORTED_JOINTS and m.jnt_limited[j]]
-    unnamed = [j for j in ids if not mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)]
-    if unnamed:
-        raise ModelError(
-            f"{path}: joint {unnamed[0]} (a limited hinge/slide, so a configuration joint by default) has no name; "
-            "name it in the MJCF or list the configuration joints with `joints = [...]` (--joints)"
-        )
-    if not ids:
-        raise ModelError(f"{path}: the model has no limited hinge or slide joint to plan over (give joints a range)")
-    return [_joint_name(m, j) for j in ids]
-
-
-def check_configuration_joint(m: mujoco.MjModel, path: str | Path, name: str) -> int:
-    """The id of joint ``name`` if it can be a configuration coordinate; ModelError saying why not otherwise."""
-    j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
-    if j < 0:
-        if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, name) >= 0:
-            raise ModelError(
-                f"{path}: configuration joint '{name}' is a tendon, not a joint; foam-mj plans over hinge and slide joints"
-            )
-        known = [_joint_name(m, k) for k in range(m.njnt)]
-        raise ModelError(f"{path}: configuration joint '{name}' is not in the model (joints: {known})")
-    kind = int(m.jnt_type[j])
-    if kind not in _SUPPORTED_JOINTS:
-        raise ModelError(
-            f"{path}: configuration joint '{name}' is {_JOINT_TYPE_NAMES.get(kind, 'not a hinge or slide')}; "
-            "foam-mj plans over hinge and slide joints only (leave it out of the configuration)"
-        )
-    if not m.jnt_limited[j]:
-        lo, hi = (float(v) for v in m.jnt_range[j])
-        if hi > lo:  # a range MuJoCo ignores: limited="false" on the joint or its default class
-            raise ModelError(
-                f"{path}: configuration joint '{name}' has range=\"{lo:g} {hi:g}\" but limited=\"false\" (on the joint or its "
-                "default class), so MuJoCo ignores that range; the bounds of q come from it (set limited=\"true\", or leave "
-                "the joint out of the configuration)"
-            )
-        raise ModelError(
-            f"{path}: configuration joint '{name}' has no range; the bounds of q come from it "
-            "(add range=\"lo hi\" to the joint, or leave it out of the configuration)"
-        )
-    return j
-
-
-def _configuration_map(
-    m: mujoco.MjModel,
-    path: Path,
-    joints: Sequence[str] | None = None,
-    normalize: Mapping[str, Sequence[float]] | None = None,
-) -> ConfigurationMap:
-    names = configuration_joint_names(m, path, joints)
-    if not names:
-        raise ModelError(f"{path}: the configuration declares no joints")
-    if len(set(names)) != len(names):
-        dup = sorted({n for n in names if names.count(n) > 1})
-        raise ModelError(f"{path}: configuration joint(s) {dup} listed more than once")
-    normalize = dict(normalize or {})
-    joint_names = {_joint_name(m, k) for k in range(m.njnt)}
-    declared = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_NUMERIC, i) or "" for i in range(m.nnumeric)]
-    typos = sorted(n[len(NORMALIZE_PREFIX):] for n in declared
-                   if n.startswith(NORMALIZE_PREFIX) and n[len(NORMALIZE_PREFIX):] not in joint_names)
-    if typos:  # a [normalize] entry (or an MJCF field) for a joint the model does not have would be ignored
-        raise ModelError(f"{path}: normalization given for {typos}, which are not joints of the model {sorted(joint_names)}")
-    unknown = set(normalize) - set(names)
-    if unknown:
-        raise ModelError(f"{path}: normalization given for {sorted(unknown)}, which are not configuration joints {names}")
-    ids, adr, scale, offset, lo, hi = [], [], [], [], [], []
-    for name in names:
-        j = check_configuration_joint(m, path, name)
-        jlo, jhi = (float(v) for v in m.jnt_range[j])
-        if name in normalize:
-            norm, where = np.asarray(normalize[name], dtype=float).ravel(), f"normalize.{name}"
-        else:
-            norm, where = _custom_numeric(m, NORMALIZE_PREFIX + name), f"'{NORMALIZE_PREFIX + name}'"
-        if norm is None:
-            s, o = 1.0, 0.0
-        else:
-            if norm.size == 1:
-                a, b, span = jlo, jhi, float(norm[0])
-            elif norm.size == 3:
-                a, b, span = (float(v) for v in norm)
-            else:
-                raise ModelError(f"{path}: {where} must hold 1 number (span) or 3 (qpos_lo qpos_hi span)")
-            if not (span > 0 and b > a):
-                raise ModelError(f"{path}: {where} needs span > 0 and qpos_hi > qpos_lo")
-            s, o = (b - a) / span, a
-        ids.append(j)
-        adr.append(int(m.jnt_qposadr[j]))
-        scale.append(s)
-        offset.append(o)
-        lo.append((jlo - o) / s)
-        hi.append((jhi - o) / s)
-    return ConfigurationMap(
-        tuple(names),
-        np.array(ids),
-        np.array(adr),
-        np.array(scale),
-        np.array(offset),
-        np.array(lo),
-        np.array(hi),
-        np.array(m.qpos0),
-    )

@@ -320,7 +320,7 @@ def resolve_model(doc: dict, source: str | Path) -> Path:
     :class:`FoamError` naming the field, the file and the parts that differ. Returns the first that
     exists. A result without "model_hash" (written before it existed) is accepted unchecked.
     """
-    from foam_mj.model import load_mjcf
+    from foam_mj.mjcf import load_mjcf
 
     src = Path(source)
     candidates: list[tuple[str, Path]] = []

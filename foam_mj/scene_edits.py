@@ -21,7 +21,9 @@ from pathlib import Path
 
 import mujoco
 
-from foam_mj.model import CONFIGURATION_FIELD, NORMALIZE_PREFIX, RobotModel, load_spec
+from foam_mj.configuration import CONFIGURATION_FIELD, NORMALIZE_PREFIX
+from foam_mj.mjcf import load_spec
+from foam_mj.model import RobotModel
 
 
 @dataclass(frozen=True)
@@ -152,7 +154,7 @@ def build_robot(scene: Path, edits: SceneEdits | None = None, **options) -> Robo
     edits = edits or SceneEdits()
     if not edits.changes_scene:
         return RobotModel.from_xml(scene, **options)
-    from foam_mj.model import compile_spec, name_unnamed_geoms
+    from foam_mj.mjcf import compile_spec, name_unnamed_geoms
 
     spec = edited_spec(scene, edits)
     compile_spec(spec, scene)

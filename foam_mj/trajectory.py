@@ -36,7 +36,8 @@ import mujoco
 import numpy as np
 
 from foam_mj.errors import ModelError
-from foam_mj.model import RobotModel, _custom_numeric
+from foam_mj.mjcf import _custom_numeric
+from foam_mj.model import RobotModel
 from foam_mj.rosary import Rosary, in_ball
 from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError, _with_linear, safe_curve
 

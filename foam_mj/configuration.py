@@ -1,0 +1,189 @@
+"""The configuration map: the planner's coordinates q and MuJoCo's qpos.
+
+The configuration coordinates are, in order of precedence: the joint names a scenario gives
+(``joints = [...]``, passed here as ``joints``), the MJCF's ``<custom>`` text field
+``foam_mj:configuration`` (joint names, in order), or else every *limited* hinge and slide joint in
+model order (unlimited hinges, ball and free joints then stay at ``qpos0``). A configuration joint
+must be a limited hinge or slide: a ball or free joint, an unlimited joint, or the name of a tendon is
+refused with a :class:`~foam_mj.errors.ModelError` naming it, before any planning. A coordinate is the joint's own value
+(radians for hinges, metres for slides) unless a numeric field ``foam_mj:normalize:<joint>`` holds
+"a b S", in which case qpos values a..b map linearly onto [0, S] (one number S alone means the joint's
+range [lo, hi]):
+
+    q_i = S (qpos_j - a) / (b - a)        qpos_j = a + (b - a) q_i / S.
+
+For the Ortholeg, q = [theta_h, theta_k, theta_q] with theta_q the hip displacement normalized so that
+the swing's 0.7 m of travel is [0, pi/2] (Nascimento and Alsina 2021, section 5.1). Joints that are not configuration coordinates stay at their
+``qpos0``. The bounds of q come from the joint ranges (every configuration joint must be limited).
+A scenario's ``[normalize]`` table gives the same numbers per joint and takes precedence over the MJCF.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from foam_mj.errors import ModelError
+from foam_mj.mjcf import _custom_numeric, _custom_text
+
+CONFIGURATION_FIELD = "foam_mj:configuration"
+NORMALIZE_PREFIX = "foam_mj:normalize:"
+
+_SUPPORTED_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+@dataclass(frozen=True)
+class ConfigurationMap:
+    """Affine map between the planner's q (n,) and MuJoCo's qpos (nq,): qpos[index] = offset + scale * q."""
+
+    joint_names: tuple[str, ...]
+    joint_ids: np.ndarray  # (n,) joint ids
+    qpos_index: np.ndarray  # (n,) qpos addresses
+    scale: np.ndarray  # (n,) qpos units per q unit
+    offset: np.ndarray  # (n,)
+    lower: np.ndarray  # (n,) bounds of q
+    upper: np.ndarray  # (n,)
+    qpos0: np.ndarray  # (nq,) values of the joints that are not coordinates
+
+    @property
+    def dim(self) -> int:
+        return len(self.joint_names)
+
+    def to_qpos(self, q: np.ndarray) -> np.ndarray:
+        """qpos rows for configurations q of shape (n,) or (N, n)."""
+        q = np.asarray(q, dtype=float)
+        out = np.broadcast_to(self.qpos0, q.shape[:-1] + self.qpos0.shape).copy()
+        out[..., self.qpos_index] = self.offset + self.scale * q
+        return out
+
+    def to_q(self, qpos: np.ndarray) -> np.ndarray:
+        """Configurations for qpos rows of shape (nq,) or (N, nq)."""
+        qpos = np.asarray(qpos, dtype=float)
+        return (qpos[..., self.qpos_index] - self.offset) / self.scale
+
+
+_JOINT_TYPE_NAMES = {
+    int(mujoco.mjtJoint.mjJNT_FREE): "a free joint",
+    int(mujoco.mjtJoint.mjJNT_BALL): "a ball joint",
+    int(mujoco.mjtJoint.mjJNT_SLIDE): "a slide joint",
+    int(mujoco.mjtJoint.mjJNT_HINGE): "a hinge joint",
+}
+
+
+def _joint_name(m: mujoco.MjModel, j: int) -> str:
+    return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
+
+
+def configuration_joint_names(m: mujoco.MjModel, path: str | Path, joints: Sequence[str] | None = None) -> list[str]:
+    """The configuration joints' names (module docstring: scenario, MJCF declaration, or every limited
+    hinge/slide joint)."""
+    if joints is not None:
+        return list(joints)
+    text = _custom_text(m, CONFIGURATION_FIELD)
+    if text is not None:
+        return text.split()
+    ids = [j for j in range(m.njnt) if int(m.jnt_type[j]) in _SUPPORTED_JOINTS and m.jnt_limited[j]]
+    unnamed = [j for j in ids if not mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)]
+    if unnamed:
+        raise ModelError(
+            f"{path}: joint {unnamed[0]} (a limited hinge/slide, so a configuration joint by default) has no name; "
+            "name it in the MJCF or list the configuration joints with `joints = [...]` (--joints)"
+        )
+    if not ids:
+        raise ModelError(f"{path}: the model has no limited hinge or slide joint to plan over (give joints a range)")
+    return [_joint_name(m, j) for j in ids]
+
+
+def check_configuration_joint(m: mujoco.MjModel, path: str | Path, name: str) -> int:
+    """The id of joint ``name`` if it can be a configuration coordinate; ModelError saying why not otherwise."""
+    j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
+    if j < 0:
+        if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, name) >= 0:
+            raise ModelError(
+                f"{path}: configuration joint '{name}' is a tendon, not a joint; foam-mj plans over hinge and slide joints"
+            )
+        known = [_joint_name(m, k) for k in range(m.njnt)]
+        raise ModelError(f"{path}: configuration joint '{name}' is not in the model (joints: {known})")
+    kind = int(m.jnt_type[j])
+    if kind not in _SUPPORTED_JOINTS:
+        raise ModelError(
+            f"{path}: configuration joint '{name}' is {_JOINT_TYPE_NAMES.get(kind, 'not a hinge or slide')}; "
+            "foam-mj plans over hinge and slide joints only (leave it out of the configuration)"
+        )
+    if not m.jnt_limited[j]:
+        lo, hi = (float(v) for v in m.jnt_range[j])
+        if hi > lo:  # a range MuJoCo ignores: limited="false" on the joint or its default class
+            raise ModelError(
+                f"{path}: configuration joint '{name}' has range=\"{lo:g} {hi:g}\" but limited=\"false\" (on the joint or its "
+                "default class), so MuJoCo ignores that range; the bounds of q come from it (set limited=\"true\", or leave "
+                "the joint out of the configuration)"
+            )
+        raise ModelError(
+            f"{path}: configuration joint '{name}' has no range; the bounds of q come from it "
+            "(add range=\"lo hi\" to the joint, or leave it out of the configuration)"
+        )
+    return j
+
+
+def _configuration_map(
+    m: mujoco.MjModel,
+    path: Path,
+    joints: Sequence[str] | None = None,
+    normalize: Mapping[str, Sequence[float]] | None = None,
+) -> ConfigurationMap:
+    names = configuration_joint_names(m, path, joints)
+    if not names:
+        raise ModelError(f"{path}: the configuration declares no joints")
+    if len(set(names)) != len(names):
+        dup = sorted({n for n in names if names.count(n) > 1})
+        raise ModelError(f"{path}: configuration joint(s) {dup} listed more than once")
+    normalize = dict(normalize or {})
+    joint_names = {_joint_name(m, k) for k in range(m.njnt)}
+    declared = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_NUMERIC, i) or "" for i in range(m.nnumeric)]
+    typos = sorted(n[len(NORMALIZE_PREFIX):] for n in declared
+                   if n.startswith(NORMALIZE_PREFIX) and n[len(NORMALIZE_PREFIX):] not in joint_names)
+    if typos:  # a [normalize] entry (or an MJCF field) for a joint the model does not have would be ignored
+        raise ModelError(f"{path}: normalization given for {typos}, which are not joints of the model {sorted(joint_names)}")
+    unknown = set(normalize) - set(names)
+    if unknown:
+        raise ModelError(f"{path}: normalization given for {sorted(unknown)}, which are not configuration joints {names}")
+    ids, adr, scale, offset, lo, hi = [], [], [], [], [], []
+    for name in names:
+        j = check_configuration_joint(m, path, name)
+        jlo, jhi = (float(v) for v in m.jnt_range[j])
+        if name in normalize:
+            norm, where = np.asarray(normalize[name], dtype=float).ravel(), f"normalize.{name}"
+        else:
+            norm, where = _custom_numeric(m, NORMALIZE_PREFIX + name), f"'{NORMALIZE_PREFIX + name}'"
+        if norm is None:
+            s, o = 1.0, 0.0
+        else:
+            if norm.size == 1:
+                a, b, span = jlo, jhi, float(norm[0])
+            elif norm.size == 3:
+                a, b, span = (float(v) for v in norm)
+            else:
+                raise ModelError(f"{path}: {where} must hold 1 number (span) or 3 (qpos_lo qpos_hi span)")
+            if not (span > 0 and b > a):
+                raise ModelError(f"{path}: {where} needs span > 0 and qpos_hi > qpos_lo")
+            s, o = (b - a) / span, a
+        ids.append(j)
+        adr.append(int(m.jnt_qposadr[j]))
+        scale.append(s)
+        offset.append(o)
+        lo.append((jlo - o) / s)
+        hi.append((jhi - o) / s)
+    return ConfigurationMap(
+        tuple(names),
+        np.array(ids),
+        np.array(adr),
+        np.array(scale),
+        np.array(offset),
+        np.array(lo),
+        np.array(hi),
+        np.array(m.qpos0),
+    )

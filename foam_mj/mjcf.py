@@ -1,0 +1,79 @@
+"""Loading MJCF: files and specs compiled with MuJoCo's errors turned into a :class:`~foam_mj.errors.ModelError`
+naming the file, unnamed geoms named, and the ``<custom>`` text and numeric fields foam-mj reads.
+
+Unnamed geoms get the name ``geom<i>`` (``i`` their index in the model) when the model is loaded, so
+that the distance sensors of :mod:`foam_mj.clearance` can refer to them; an existing name is never changed.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from foam_mj.errors import ModelError
+
+
+def load_mjcf(path: str | Path) -> mujoco.MjModel:
+    """Compile an MJCF file, turning MuJoCo's errors into a :class:`ModelError` naming the file."""
+    return compile_spec(load_spec(path), path)
+
+
+def load_spec(path: str | Path) -> mujoco.MjSpec:
+    """Parse an MJCF file into a :class:`mujoco.MjSpec` (errors as :class:`ModelError` naming the file)."""
+    p = Path(path)
+    if not p.is_file():
+        raise ModelError(f"MJCF file not found: {p}")
+    try:
+        return mujoco.MjSpec.from_file(str(p))
+    except ValueError as exc:  # MuJoCo reports XML and compile errors as ValueError
+        raise ModelError(f"could not load MJCF file {p}: {' '.join(str(exc).split())}") from None
+
+
+def compile_spec(spec: mujoco.MjSpec, path: str | Path) -> mujoco.MjModel:
+    """Compile a spec, turning MuJoCo's errors into a :class:`ModelError` naming ``path``."""
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        raise ModelError(f"could not load MJCF file {path}: {exc}") from None
+
+
+def name_unnamed_geoms(spec: mujoco.MjSpec) -> int:
+    """Give every unnamed geom of ``spec`` the name ``geom<i>`` (i: its index in the compiled model).
+
+    MuJoCo's distance sensors refer to geoms by name; users' models often leave them unnamed. Returns
+    how many geoms were named. A name already taken gets a ``_`` suffix until it is free.
+    """
+    geoms = list(spec.geoms)
+    if all(g.name for g in geoms):
+        return 0
+    spec.compile()  # assigns the ids (g.id) the compiled model will use
+    taken = {g.name for g in geoms if g.name}
+    count = 0
+    for g in geoms:
+        if g.name:
+            continue
+        name = f"geom{int(g.id)}"
+        while name in taken:
+            name += "_"
+        g.name = name
+        taken.add(name)
+        count += 1
+    return count
+
+
+def _custom_text(m: mujoco.MjModel, name: str) -> str | None:
+    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TEXT, name)
+    if i < 0:
+        return None
+    adr, size = int(m.text_adr[i]), int(m.text_size[i])
+    return bytes(m.text_data[adr : adr + size]).rstrip(b"\x00").decode()
+
+
+def _custom_numeric(m: mujoco.MjModel, name: str) -> np.ndarray | None:
+    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_NUMERIC, name)
+    if i < 0:
+        return None
+    adr, size = int(m.numeric_adr[i]), int(m.numeric_size[i])
+    return np.array(m.numeric_data[adr : adr + size])
