@@ -189,7 +189,11 @@ def _plan(args: argparse.Namespace, recorder) -> int:
         outcome = run(scenario, seed, names, replay=not args.no_replay, dynamic=not args.no_replay, time_law=args.time_law, report=progress)
     except PlanningFailed as exc:
         progress.done()
-        print(f"foam-mj: planning failed: {' '.join(str(exc).split())}", file=sys.stderr)
+        from foam_mj.timing import TimingInfeasible
+
+        hint = ("; the paths themselves are certified: --no-replay plans and writes them without timing, or raise the "
+                "limits ([limits] in the scenario)") if isinstance(exc, TimingInfeasible) and not args.no_replay else ""
+        print(f"foam-mj: planning failed: {' '.join(str(exc).split())}{hint}", file=sys.stderr)
         if exc.foam is not None:
             if rrd is not None:
                 record(rrd, scenario=scenario, foam=exc.foam, recorder=recorder)

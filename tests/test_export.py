@@ -187,6 +187,10 @@ def test_a_torque_limit_below_gravity_is_exit_3_naming_the_joint(tmp_path, capsy
     assert code == 3, err
     assert "torque limit of knee_flexion: gravity alone needs" in err and "over its limit 3.0 N m by" in err
     assert err.count("\n") == 1 and not js.exists()
+    assert "--no-replay plans and writes them without timing" in err
+    assert main(["plan", "--scene", str(_tight_scenario(tmp_path, "[400.0, 3.0, 3000.0]")), "--no-rrd", "--no-replay",
+                 "--json", str(js)]) == 0  # the hint holds: the certified paths, untimed
+    assert json.loads(js.read_text())["paths"]
 
 
 def test_a_malformed_limits_table_is_exit_2(tmp_path, capsys):
