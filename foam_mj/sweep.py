@@ -62,6 +62,11 @@ REPLAYS = ("dynamic", "kinematic", "none")
 #: error: anything else (a bug, a solver failure), with the exception in ``reason``.
 OUTCOMES = ("reached", "failed", "invalid", "error")
 _TOP_FIELDS = {"scenario", "seeds", "smoothers", "replay", "grid", "random"}
+#: The most plans one sweep file may hold: its row keys are kept in memory, and its tasks counted before the first
+#: plan (a 10-million-plan study is about 1,500 core-hours: split bigger ones into several sweep files).
+MAX_TASKS = 10_000_000
+_SPLIT = ": split the study into several sweep files, each with its own --out"
+
 _RANDOM_FIELDS = {"samples", "seed", "uniform", "choice"}
 
 #: The result columns after the swept keys, with their Arrow type names (peak torques are added per joint).
@@ -438,6 +443,8 @@ def load_sweep(path: str | Path) -> Sweep:
     if isinstance(seeds, int) and not isinstance(seeds, bool):
         if seeds < 1:
             raise SweepError(f"{where}: field 'seeds' must be a count >= 1 or a list of integers >= 0, got {seeds}")
+        if seeds > MAX_TASKS:
+            raise SweepError(f"{where}: field 'seeds' = {seeds:,} is more plans than one sweep takes ({MAX_TASKS:,}){_SPLIT}")
         seeds = list(range(seeds))
     if not (isinstance(seeds, list) and seeds and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)):
         raise SweepError(f"{where}: field 'seeds' must be a count >= 1 or a non-empty list of integers >= 0, got {seeds!r}")
@@ -498,6 +505,10 @@ def load_sweep(path: str | Path) -> Sweep:
     dup = sorted({k for k in keys if keys.count(k) > 1})
     if dup:
         raise SweepError(f"{where}: key(s) {dup} swept twice")
+    factors = [(len(a.values), f"'{a.key}'") for a in grid] + [(samples, "random samples")] * bool(random_axes) + [(len(seeds), "seeds")]
+    if math.prod(n for n, _ in factors) > MAX_TASKS:  # before any sample is drawn or task listed (memory, minutes of start-up)
+        product = " x ".join(f"{n:,} {what}" for n, what in factors if n > 1)
+        raise SweepError(f"{where}: {math.prod(n for n, _ in factors):,} plans ({product}) are more than one sweep takes ({MAX_TASKS:,}){_SPLIT}")
     # every value, one key at a time, on the base scenario: bad keys and values named before any work; a value
     # that only puts the start or goal within the margin (an obstacle moved onto the goal) gives 'invalid' rows
     try:

@@ -516,7 +516,7 @@ def run_sweep(
             nonlocal skipped
             n = 0
             for task in sweep.tasks():
-                if done.issuperset(task.keys):
+                if done and done.issuperset(task.keys):  # (no keys to hash on a first run)
                     skipped += 1
                     continue
                 if limit is not None and n >= limit:
@@ -527,9 +527,11 @@ def run_sweep(
         if total <= 200_000:  # the tasks to run, listed up front
             pending = list(todo())
             already = skipped
-        else:  # a big study: count what is done in a first pass, then generate the tasks again as they are sent
+        else:  # a big study: count what is done in a first pass (a re-run), then generate the tasks again as they are sent
             pending = None
-            already = sum(1 for t in sweep.tasks() if done.issuperset(t.keys))
+            if done and progress is not False:
+                print(f"sweep: finding which of the {total:,} plans are done ({len(done):,} rows in {store.dir})", file=sys.stderr, flush=True)
+            already = sum(1 for t in sweep.tasks() if done.issuperset(t.keys)) if done else 0
         bar = SweepProgress(total, already, interval=interval) if progress is not False else None
         source = iter(pending) if pending is not None else todo()
         events = local_engine(source, workers) if engine == "local" else ray_engine(source, workers, ray_address)

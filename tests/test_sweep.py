@@ -242,6 +242,37 @@ def test_a_failed_plan_gives_the_same_reason_on_every_run(tmp_path):
     assert deterministic(first) == deterministic(second)
 
 
+@pytest.mark.parametrize("table, named", [
+    ("seeds = 1000000000000", "field 'seeds' = 1,000,000,000,000 is more plans than one sweep takes (10,000,000)"),
+    ('seeds = 2\n[random]\nsamples = 100000000000\n[random.uniform]\n"planner.delta" = [0.001, 0.01]',
+     "200,000,000,000 plans (100,000,000,000 random samples x 2 seeds) are more than one sweep takes (10,000,000)"),
+    ('seeds = 11\n[grid]\n"planner.K" = ' + json.dumps(list(range(1, 1001))) + '\n"planner.delta" = ' + json.dumps([0.001 * k for k in range(1, 1001)]),
+     "11,000,000 plans (1,000 'planner.K' x 1,000 'planner.delta' x 11 seeds) are more than one sweep takes"),
+])
+def test_a_sweep_too_big_to_hold_is_exit_2_at_once_naming_its_factors(tmp_path, capsys, table, named):
+    """seeds = 1e12 or 1e11 random samples was 'internal error: MemoryError' (exit 1)."""
+    out = tmp_path / "out"
+    assert main(["sweep", str(write(tmp_path, f'scenario = "obstacle"\n{table}\n')), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and named in err and "split the study into several sweep files" in err, err
+    assert not out.exists()
+
+
+def test_the_first_run_of_a_big_study_hashes_no_row_key_before_its_first_plan(tmp_path, monkeypatch):
+    """A study of more than 200,000 plans counted its done plans by hashing every row key, twice, even on its
+    first run with nothing done: minutes before the first plan of a 10-million-plan study."""
+    from foam_mj import sweep as sweep_module
+
+    hashed = []
+    real = sweep_module.row_key
+    monkeypatch.setattr(sweep_module, "row_key", lambda *a: hashed.append(a) or real(*a))
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = 1000\nsmoothers = "none"\nreplay = "none"\n[grid]\n"planner.K" = '
+                 + json.dumps(list(range(5, 305))) + "\n")
+    summary = run_sweep(load_sweep(spec), tmp_path / "out", workers=1, limit=1, progress=False)
+    assert (summary.tasks, summary.skipped, summary.run, summary.rows_written) == (300_000, 0, 1, 1)
+    assert len(hashed) == 0  # the worker process hashes its own task's keys
+
+
 def test_bad_random_tables_and_fields_are_named(tmp_path):
     bad = {
         '[random]\nsamples = 3\n[random.uniform]\n"planner.r_min" = [0.09, 0.05]\n': "low <= high",
