@@ -416,7 +416,10 @@ def ray_engine(tasks: Iterator[Task], workers: int, address: str | None, *, poll
     main_thread = threading.current_thread() is threading.main_thread()
     sigterm = signal.getsignal(signal.SIGTERM) if main_thread else None
     if address:
-        ray.init(address=address, **kwargs)
+        try:
+            ray.init(address=address, **kwargs)
+        except ConnectionError as exc:  # something answers there, but no Ray cluster
+            raise SweepError(f"--ray {address}: {' '.join(str(exc).split())[:200]}") from None
     else:
         # A private local instance; workers inherit this environment (PYTHONPATH included).
         ray.init(num_cpus=workers, **kwargs)

@@ -273,6 +273,25 @@ def test_the_first_run_of_a_big_study_hashes_no_row_key_before_its_first_plan(tm
     assert len(hashed) == 0  # the worker process hashes its own task's keys
 
 
+@pytest.mark.parametrize("address, message", [("nohost", "expected auto, HOST:PORT or ray://HOST:PORT"),
+                                              ("ray://127.0.0.1:{port}", "no Ray cluster answers there (Connection refused)"),
+                                              ("127.0.0.1:{port}", "no Ray cluster answers there (Connection refused)")])
+def test_a_ray_address_where_no_cluster_answers_is_exit_2_before_any_work(tmp_path, capsys, address, message):
+    """`--ray 127.0.0.1:1` waited minutes in ray.init, logging warnings, after creating the output folder."""
+    import socket
+
+    pytest.importorskip("ray")
+    with socket.socket() as s:  # a port where nothing listens
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    address = address.format(port=port)
+    out = tmp_path / "out"
+    assert main(["sweep", str(write(tmp_path, STUDY)), "--out", str(out), "--ray", address]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"foam-mj: error: --ray {address}: {message}") and len(err.splitlines()) == 1, err
+    assert not out.exists()
+
+
 def test_bad_random_tables_and_fields_are_named(tmp_path):
     bad = {
         '[random]\nsamples = 3\n[random.uniform]\n"planner.r_min" = [0.09, 0.05]\n': "low <= high",
