@@ -272,7 +272,9 @@ def _servo_problem(m: mujoco.MjModel, robot: RobotModel) -> str | None:
 def effective_inertia(robot: RobotModel) -> np.ndarray:
     """(n,) the inertia each configuration joint drives at the configuration's ``qpos0`` when the other
     configuration joints are free and every other joint is held: 1 / (M_cc^-1)_jj, M_cc the joint-space
-    inertia matrix (armature included) restricted to the configuration's dofs (kg m^2 or kg)."""
+    inertia matrix (armature included) restricted to the configuration's dofs (kg m^2 or kg). Where M_cc is
+    singular (two coaxial hinges on one body: either turns the body, so the other, free, drives nothing), a
+    joint's inertia is M_jj, the inertia it drives with the others held."""
     m = robot.model
     d = mujoco.MjData(m)
     d.qpos[:] = robot.config.qpos0
@@ -280,7 +282,14 @@ def effective_inertia(robot: RobotModel) -> np.ndarray:
     full = np.zeros((m.nv, m.nv))
     mujoco.mj_fullM(m, d, full)
     dof = m.jnt_dofadr[robot.config.joint_ids]
-    return 1.0 / np.diag(np.linalg.inv(full[np.ix_(dof, dof)]))
+    M = full[np.ix_(dof, dof)]
+    held = np.diag(M).copy()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        try:
+            free = 1.0 / np.diag(np.linalg.inv(M))
+        except np.linalg.LinAlgError:
+            free = np.zeros_like(held)
+    return np.where(np.isfinite(free) & (free > 1e-9 * held), free, held)
 
 
 def servo_model(robot: RobotModel) -> tuple[mujoco.MjModel, str]:

@@ -11,7 +11,7 @@ import pytest
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.foam import FoamParams, plan
 from foam_mj.model import RobotModel
-from foam_mj.replay import DynamicReplay, KinematicReplay, replay_dynamic, replay_kinematic, servo_controls
+from foam_mj.replay import DynamicReplay, KinematicReplay, replay_dynamic, replay_kinematic, servo_controls, servo_model, SERVO_HZ
 from foam_mj.rosary import Rosary
 from foam_mj.trajectory import Trajectory, make_trajectory
 
@@ -323,3 +323,28 @@ def test_an_rk4_model_replays_dynamically(tmp_path):
     assert dyn.contacts == () and dyn.warnings == () and np.all(np.isfinite(dyn.qpos))
     assert np.all(twin.max_error < 3e-3) and np.all(dyn.max_error < 1e-2), (dyn.max_error, twin.max_error)
     assert np.allclose(dyn.qpos[-1, arm.config.qpos_index], swing.qpos[-1, arm.config.qpos_index], atol=1e-2)
+
+
+def test_added_servos_have_a_gain_when_two_hinges_share_an_axis(tmp_path):
+    """Two coaxial hinges on one body make the configuration's inertia matrix singular (either joint turns the
+    body, so with the other free a joint drives nothing): 1 / (M^-1)_jj was 0 or infinite, the added servo's kp
+    not a positive number, and `plan` ended in an internal error (exit 1) after planning. Such a joint's servo is
+    sized from M_jj, the inertia it drives with the others held."""
+    scene = tmp_path / "coaxial.xml"
+    scene.write_text(
+        '<mujoco><worldbody><geom type="plane" size="1 1 0.1" pos="0 0 -1"/><body>'
+        '<joint name="a" axis="0 1 0" range="-90 90"/><joint name="b" axis="0 1 0" range="-90 90"/>'
+        '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>'
+        '<body pos="0.3 0 0"><joint name="c" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02"/>'
+        "</body></body></worldbody></mujoco>"
+    )
+    robot = RobotModel.from_xml(scene)
+    m, note = servo_model(robot)
+    assert "added position servo" in note
+    kp = m.actuator_gainprm[:, 0]
+    held = robot.model.dof_M0 * (2 * np.pi * SERVO_HZ) ** 2  # kp sized from M_jj, the others held
+    assert m.nu == 3 and np.all(np.isfinite(kp)) and np.all(kp > 1e-6 * held)  # each servo drives its joint
+    a, b = np.zeros(3), np.array([0.3, 0.2, 0.4])
+    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    dyn = replay_dynamic(robot, make_trajectory(robot, line.path(np.empty((0, 3))), line))
+    assert np.all(np.isfinite(dyn.qpos))
