@@ -192,6 +192,15 @@ def test_a_foam_that_never_grows_past_its_root_says_r_min_is_why(scene_oracles, 
 
 
 @pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_a_start_on_a_joint_limit_is_refused_naming_the_planner_that_accepts_it(scene_oracles, variant):
+    """As pfm's refusal: the variants said only 'its bubble has radius 0', not that bubbletree plans from there."""
+    s = SCEN["obstacle"]
+    on_limit = [0.2, 0.0, 0.08]  # the knee straight, at the end of its range (36 mm of clearance)
+    with pytest.raises(ConfigurationError, match=r"q_init .* lies on the boundary of the joint bounds: .*bubbletree planner accepts it"):
+        VARIANTS[variant](scene_oracles["obstacle"], on_limit, s.q_goal, PARAMS["obstacle"], seed=0)
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
 def test_a_start_or_goal_inside_the_margin_is_refused_naming_its_clearance(scene_oracles, variant):
     s = SCEN["obstacle"]
     foot_in_box = [0.2, 0.3, 1.0]  # the foot sinks 19 mm into the box

@@ -122,7 +122,8 @@ class _Growth:
         self.root_distances = oracle.clearance.pair_distances(self.q_init)  # per pair, for root_cannot_grow
         r0 = float(oracle.radius_from_distances(self.root_distances, self.q_init))
         if r0 <= 0.0:
-            raise ConfigurationError(f"q_init {self.q_init.tolist()} lies on the configuration bounds: its bubble has radius 0")
+            raise ConfigurationError(f"q_init {self.q_init.tolist()} lies on the boundary of the joint bounds: no certified bubble "
+                                     f"centred there fits (the bubbletree planner accepts it)")
         cap = 1024
         self.centers = np.empty((cap, self.n))
         self.radii = np.empty(cap)
