@@ -11,9 +11,28 @@ import pytest
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.model import RobotModel
+from foam_mj.rosary import Rosary
 
 MODELS = models_dir()
 SCENES = ("obstacle", "step_up", "step_down")
+#: The bring-your-own-robot example's two-link arm (a post in front of it), the base of the odd-actuator tests.
+TWO_LINK_ARM = Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml"
+
+
+def arm_with(folder: Path, actuators: str, xml_edit=None) -> Path:
+    """The two-link arm with ``actuators`` (MJCF <actuator> children) written to ``folder``/arm.xml (after
+    ``xml_edit``, a str -> str edit of the MJCF, if given); returns that file."""
+    xml = TWO_LINK_ARM.read_text()
+    xml = xml_edit(xml) if xml_edit is not None else xml
+    path = folder / "arm.xml"
+    path.write_text(xml.replace("</worldbody>", f"</worldbody><actuator>{actuators}</actuator>"))
+    return path
+
+
+def segment_rosary(a: np.ndarray, b: np.ndarray) -> Rosary:
+    """One bubble holding the straight segment a -> b, its radius made up (not certified): for timing and replay
+    tests, which take the path as given."""
+    return Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)
 
 
 @pytest.fixture(scope="session")

@@ -15,6 +15,8 @@ from foam_mj.replay import DynamicReplay, KinematicReplay, replay_dynamic, repla
 from foam_mj.rosary import Rosary
 from foam_mj.trajectory import Trajectory, make_trajectory
 
+from conftest import TWO_LINK_ARM, segment_rosary
+
 Q_INIT = [0.2, 0.3, 0.08]
 Q_GOAL = [0.45, 0.4536, 1.45]
 DELTA = 0.005
@@ -177,7 +179,7 @@ FLOATING_ARM = """
 def _swing(path) -> tuple[RobotModel, Trajectory]:
     arm = RobotModel.from_xml(path)
     a, b = np.array([-1.2, 0.3]), np.array([-0.2, 1.5])
-    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    line = segment_rosary(a, b)
     return arm, make_trajectory(arm, line.path(np.empty((0, 2))), line)
 
 
@@ -218,7 +220,7 @@ def test_added_servos_are_stable_on_small_robots_and_long_chains(tmp_path, links
     scene.write_text(_chain(links, length))
     chain = RobotModel.from_xml(scene)
     a, b = np.zeros(links), np.full(links, 0.5)
-    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    line = segment_rosary(a, b)
     dyn = replay_dynamic(chain, make_trajectory(chain, line.path(np.empty((0, links))), line))
     assert dyn.warnings == () and np.all(np.isfinite(dyn.qpos))
     assert np.all(dyn.max_error < 0.05)  # rad
@@ -275,16 +277,15 @@ def test_a_servo_that_cannot_follow_is_named_with_its_ctrl_or_force_range(tmp_pa
     """A position servo whose ctrlrange is narrower than the motion is clamped by MuJoCo: the replay counts
     the clamped frames and names the servo, its joint and its range in ``limit_note`` (which plan and replay
     print), so a large tracking error is never left unexplained; servos within their ranges say nothing."""
-    from pathlib import Path
 
-    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
+    xml = TWO_LINK_ARM.read_text()
     servos = '<position name="sh" joint="shoulder" kp="300" kv="10" gear="2"/><position name="el" joint="elbow" kp="100" kv="3"{}/>'
     for limited, narrow in ((False, ""), (True, ' ctrlrange="-1.5 1.5"')):
         path = tmp_path / f"arm{int(limited)}.xml"
         path.write_text(xml.replace("</worldbody>", f"</worldbody><actuator>{servos.format(narrow)}</actuator>"))
         arm = RobotModel.from_xml(path)
         a, b = np.array([-0.3, 0.6]), np.array([-1.2, 2.0])  # raising the arm and folding the elbow past 1.5 rad
-        line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: replay only
+        line = segment_rosary(a, b)
         dyn = replay_dynamic(arm, make_trajectory(arm, line.path(np.empty((0, 2))), line))
         if not limited:
             assert dyn.limit_note == "" and not dyn.clamped_frames.any() and dyn.max_error.max() < 0.01
@@ -302,7 +303,7 @@ def test_an_actuator_the_replay_does_not_drive_is_never_named_as_clamped(tmp_pat
     (tmp_path / "arm.xml").write_text(KEYFRAME_ARM.replace("</worldbody>", "</worldbody>" + actuators))
     arm = RobotModel.from_xml(tmp_path / "arm.xml", ["shoulder", "elbow"], keyframe="home")
     a, b = np.array([-0.3, 0.6]), np.array([-1.0, 1.2])
-    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: replay only
+    line = segment_rosary(a, b)
     dyn = replay_dynamic(arm, make_trajectory(arm, line.path(np.empty((0, 2))), line))
     assert not dyn.clamped_frames.any() and dyn.limit_note == ""
 
@@ -345,6 +346,6 @@ def test_added_servos_have_a_gain_when_two_hinges_share_an_axis(tmp_path):
     held = robot.model.dof_M0 * (2 * np.pi * SERVO_HZ) ** 2  # kp sized from M_jj, the others held
     assert m.nu == 3 and np.all(np.isfinite(kp)) and np.all(kp > 1e-6 * held)  # each servo drives its joint
     a, b = np.zeros(3), np.array([0.3, 0.2, 0.4])
-    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    line = segment_rosary(a, b)
     dyn = replay_dynamic(robot, make_trajectory(robot, line.path(np.empty((0, 3))), line))
     assert np.all(np.isfinite(dyn.qpos))

@@ -14,11 +14,10 @@ from foam_mj.dynamics import HUMAN_SWING, body_mass, inverse_dynamics, joint_loa
 from foam_mj.model import RobotModel
 from foam_mj.pipeline import plan_scenario, smooth_paths
 from foam_mj.scenarios import load_scenario
-from foam_mj.rosary import Rosary
 from foam_mj.timing import MAX_SLOWDOWN, Limits, TimingInfeasible, retime, timed_trajectory
 from foam_mj.trajectory import make_trajectory
 
-from conftest import MujocoChecker
+from conftest import TWO_LINK_ARM, MujocoChecker, arm_with, segment_rosary
 
 
 @pytest.fixture(scope="module")
@@ -58,22 +57,17 @@ def test_a_motor_is_limited_by_its_control_range_times_gain_and_gear(tmp_path):
     """A motor (force = gain x ctrl) with ctrlrange -1 1 and gear 10 makes at most 10 N m, though it declares
     no force range: the time law is held to it (it was timed as unlimited, asking 15 N m of the shoulder), a
     force range tighter still wins, and a position servo's ctrlrange (a set point, not a force) sets nothing."""
-    from pathlib import Path
-
-    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
 
     def limits(actuators: str) -> list[float]:
-        (tmp_path / "arm.xml").write_text(xml.replace("</worldbody>", f"</worldbody><actuator>{actuators}</actuator>"))
-        return torque_limits(RobotModel.from_xml(tmp_path / "arm.xml")).tolist()
+        return torque_limits(RobotModel.from_xml(arm_with(tmp_path, actuators))).tolist()
 
     motors = ('<motor joint="shoulder" gear="10" ctrlrange="-1 1"/>'
               '<general joint="elbow" gear="20" gainprm="0.5" ctrlrange="-2 3" forcerange="-0.8 0.8"/>')
     assert limits(motors) == [10.0, 16.0]
     assert limits('<motor joint="shoulder" gear="10"/><position joint="elbow" kp="50" ctrlrange="-1 1"/>') == [np.inf, np.inf]
-    (tmp_path / "arm.xml").write_text(xml.replace("</worldbody>", f"</worldbody><actuator>{motors}</actuator>"))
-    robot = RobotModel.from_xml(tmp_path / "arm.xml")
+    robot = RobotModel.from_xml(arm_with(tmp_path, motors))
     a, b = np.array([-0.3, 0.2]), np.array([-1.2, 0.8])  # raising the arm, above the post
-    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    line = segment_rosary(a, b)
     traj = timed_trajectory(robot, line.path(np.empty((0, 2))), line)
     dof = robot.model.jnt_dofadr[robot.config.joint_ids]
     peak = np.abs(inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]).max(axis=0)
@@ -249,11 +243,10 @@ def test_one_joint_with_a_torque_limit_and_one_without_times_silently(tmp_path):
     """Only the shoulder has an actuator force range: the elbow's limit is infinite, which no arithmetic of
     the refinement may turn into a NaN or a RuntimeWarning."""
     import warnings
-    from pathlib import Path
 
     from foam_mj.cli import main
 
-    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
+    xml = TWO_LINK_ARM.read_text()
     xml = xml.replace("</worldbody>", '</worldbody>\n  <actuator><position joint="shoulder" kp="200" kv="5" '
                       'forcelimited="true" forcerange="-8 8"/></actuator>')
     (tmp_path / "arm.xml").write_text(xml)
@@ -268,13 +261,12 @@ def test_joint_friction_costs_toppra_only_the_torque_it_takes(tmp_path):
     qacc = q' it was scaled by the path acceleration, and a 2 N m friction made toppra's swing 55 % longer
     than without it, its real torque at half the limit. Now the limit given to toppra is less the friction:
     the swing lasts about as long as without friction, and the true torque (mj_inverse) meets the limit."""
-    from pathlib import Path
 
-    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
+    xml = TWO_LINK_ARM.read_text()
     xml = xml.replace("</worldbody>", '</worldbody><actuator><position joint="shoulder" kp="500" kv="20" forcerange="-12 12"/>'
                       '<position joint="elbow" kp="200" kv="8" forcerange="-12 12"/></actuator>')
     a, b = np.array([-0.3, 0.2]), np.array([-1.5, 1.8])  # raising the arm, above the post
-    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    line = segment_rosary(a, b)
     durations = {}
     for friction in ("0", "2"):
         (tmp_path / "arm.xml").write_text(xml.replace('damping="0.5"', f'damping="0.5" frictionloss="{friction}" armature="0.2"'))
@@ -292,14 +284,10 @@ def test_gravity_beyond_the_limit_names_the_limited_joint_beside_an_unlimited_on
     """Only the shoulder has a limit (a 4 N m motor) and gravity needs more: the message names the shoulder and
     its excess. The elbow's infinite limit gave the ratio (g - inf) / inf = NaN, which argmax picked: 'limit of
     elbow: ... over its limit inf N m by -inf N m (nan%)'."""
-    from pathlib import Path
 
-    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
-    (tmp_path / "arm.xml").write_text(xml.replace("</worldbody>", '</worldbody><actuator><motor joint="shoulder" '
-                                                  'gear="4" ctrlrange="-1 1"/></actuator>'))
-    robot = RobotModel.from_xml(tmp_path / "arm.xml")
+    robot = RobotModel.from_xml(arm_with(tmp_path, '<motor joint="shoulder" gear="4" ctrlrange="-1 1"/>'))
     a, b = np.array([-0.1, 0.1]), np.array([-0.5, 0.3])  # the arm held out about level, above the post: ~5 N m
-    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    line = segment_rosary(a, b)
     with pytest.raises(TimingInfeasible) as info:
         timed_trajectory(robot, line.path(np.empty((0, 2))), line)
     assert info.value.joint == "shoulder" and info.value.excess > 0
@@ -312,15 +300,11 @@ def test_friction_that_leaves_no_room_is_named_with_gravity(tmp_path, method):
     """A moving joint must overcome its frictionloss too: 27 N m of friction and about 5 N m of gravity do not fit a
     30 N m motor. Both laws say so, naming the joint, gravity and friction; they said 'leaves only 24.57 N m above
     gravity' (toppra) or, with 31 N m of friction, 'the stretched time law still exceeds the torque limits' (own)."""
-    from pathlib import Path
 
-    xml = (Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml").read_text()
-    xml = xml.replace('damping="0.5"', 'damping="0.5" frictionloss="27"')
-    (tmp_path / "arm.xml").write_text(xml.replace("</worldbody>", '</worldbody><actuator><motor joint="shoulder" '
-                                                  'gear="30" ctrlrange="-1 1"/></actuator>'))
-    robot = RobotModel.from_xml(tmp_path / "arm.xml")
+    robot = RobotModel.from_xml(arm_with(tmp_path, '<motor joint="shoulder" gear="30" ctrlrange="-1 1"/>',
+                                         lambda xml: xml.replace('damping="0.5"', 'damping="0.5" frictionloss="27"')))
     a, b = np.array([-0.1, 0.1]), np.array([-0.5, 0.3])  # the arm held out about level, above the post: ~5 N m
-    line = Rosary(((a + b) / 2)[None], np.array([np.linalg.norm(b - a)]), a, b)  # made-up radius: timing only
+    line = segment_rosary(a, b)
     with pytest.raises(TimingInfeasible) as info:
         timed_trajectory(robot, line.path(np.empty((0, 2))), line, method=method)
     assert info.value.joint == "shoulder" and info.value.excess > 0
