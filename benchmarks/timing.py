@@ -27,7 +27,8 @@ from _common import median_time, table, write_json  # noqa: E402
 from foam_mj.dynamics import joint_loads  # noqa: E402
 from foam_mj.pipeline import plan_scenario, smooth_paths  # noqa: E402
 from foam_mj.scenarios import load_scenario  # noqa: E402
-from foam_mj.timing import Limits, retime  # noqa: E402
+from foam_mj.limits import Limits  # noqa: E402
+from foam_mj.timing import retime  # noqa: E402
 from foam_mj.trajectory import make_trajectory  # noqa: E402
 
 LIMITS = {"model": Limits(), "tight": Limits(torque=(60.0, 60.0, 400.0))}

@@ -88,7 +88,8 @@ def export_table(doc: dict, source: str | Path, path_name: str, hz: float = DEFA
     from foam_mj.pipeline import time_path
     from foam_mj.results import outcome_robot
     from foam_mj.rosary import Rosary
-    from foam_mj.timing import METHODS, Limits
+    from foam_mj.limits import Limits
+    from foam_mj.timing import METHODS
 
     robot = outcome_robot(doc, source)
     entry = doc["paths"][path_name]

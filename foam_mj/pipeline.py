@@ -60,7 +60,8 @@ from foam_mj.smoothing import (
 )
 from foam_mj.smoothing.gradient import center_path_result
 from foam_mj.dynamics import JointLoads, joint_loads
-from foam_mj.timing import DEFAULT_METHOD as DEFAULT_TIME_LAW, METHODS as TIME_LAWS, Limits, TimingInfeasible, as_limits, retime
+from foam_mj.limits import Limits, as_limits
+from foam_mj.timing import DEFAULT_METHOD as DEFAULT_TIME_LAW, METHODS as TIME_LAWS, TimingInfeasible, retime
 from foam_mj.trajectory import JointLimits, Trajectory, make_trajectory
 
 #: Smoother names accepted by ``--smoother`` and what each adds to the centre path.

@@ -373,7 +373,8 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
     from foam_mj.smoothing import SmoothingResult
     from foam_mj.dynamics import joint_loads
     from foam_mj.pipeline import time_path
-    from foam_mj.timing import METHODS, Limits
+    from foam_mj.limits import Limits
+    from foam_mj.timing import METHODS
 
     try:
         # Results written before the torque-limited time laws have neither field: they were timed by "own".

@@ -80,7 +80,8 @@ from foam_mj.model import RobotModel
 from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
 from foam_mj.planners.base import COMMON_FIELDS, option_names
 from foam_mj.scene_edits import BoxObstacle, MeshObstacle, SceneEdits, Subject, build_robot
-from foam_mj.timing import METHODS as TIME_LAWS, Limits
+from foam_mj.limits import Limits
+from foam_mj.timing import METHODS as TIME_LAWS
 
 SCENARIO_DIR = scenarios_dir()
 MODEL_DIR = models_dir()

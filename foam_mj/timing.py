@@ -57,13 +57,14 @@ rather than slowed to an absurd duration.
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from foam_mj.dynamics import inverse_dynamics, joint_units, torque_limits
+from foam_mj.dynamics import inverse_dynamics, joint_units
 from foam_mj.errors import PlanningFailed
+from foam_mj.limits import Limits, as_limits
 from foam_mj.model import RobotModel
 from foam_mj.rosary import Rosary, in_ball
 from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError
@@ -95,82 +96,6 @@ class TimingInfeasible(PlanningFailed):
         super().__init__(message)
         self.joint = joint
         self.excess = excess
-
-
-def _positive_list(value, name: str, allow_inf: bool = False) -> tuple[float, ...] | None:
-    if value is None:
-        return None
-    try:
-        vals = tuple(float("inf") if (v is None and allow_inf) else float(v) for v in value)
-    except (TypeError, ValueError):
-        raise ValueError(f"`{name}` must be a list of numbers, got {value!r}") from None
-    ok = all((np.isfinite(v) or (allow_inf and v == np.inf)) and v > 0 for v in vals)
-    if isinstance(value, (str, bytes)) or not vals or not ok:
-        raise ValueError(f"`{name}` must be a non-empty list of finite numbers > 0, got {value!r}")
-    return vals
-
-
-@dataclass(frozen=True)
-class Limits:
-    """Joint limits for the time law (module docstring): ``velocity``, ``acceleration``, ``torque`` lists
-    in configuration-joint order and joint units, None for the defaults (``joint`` for velocity and
-    acceleration, the MJCF's actuator force ranges for torque)."""
-
-    velocity: tuple[float, ...] | None = None
-    acceleration: tuple[float, ...] | None = None
-    torque: tuple[float, ...] | None = None
-    joint: JointLimits = field(default_factory=JointLimits)
-
-    def __post_init__(self) -> None:
-        for name in ("velocity", "acceleration", "torque"):  # torque: None/inf entries mean "no limit"
-            object.__setattr__(self, name, _positive_list(getattr(self, name), name, allow_inf=name == "torque"))
-        if not isinstance(self.joint, JointLimits):
-            raise ValueError(f"`joint` must be a JointLimits, got {type(self.joint).__name__}")
-
-    def resolve(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(velocity, acceleration, torque), each (n,) in joint units; torque is inf where unlimited."""
-        v, a = self.joint.resolve(robot)
-        tau = torque_limits(robot)
-        n = robot.dim
-        for name, given in (("velocity", self.velocity), ("acceleration", self.acceleration), ("torque", self.torque)):
-            if given is not None and len(given) != n:
-                raise ValueError(f"limits `{name}` must have {n} numbers ({', '.join(robot.config.joint_names)}), got {len(given)}")
-        if self.velocity is not None:
-            v = np.array(self.velocity)
-        if self.acceleration is not None:
-            a = np.array(self.acceleration)
-        if self.torque is not None:
-            tau = np.array(self.torque)
-        return v, a, tau
-
-    def joint_limits(self, robot: RobotModel) -> JointLimits:
-        """The velocity and acceleration limits as a :class:`JointLimits` (for ``make_trajectory``)."""
-        v, a, _ = self.resolve(robot)
-        j = self.joint
-        return JointLimits(j.hinge_velocity, j.hinge_acceleration, j.slide_velocity, j.slide_acceleration,
-                           {name: (float(v[i]), float(a[i])) for i, name in enumerate(robot.config.joint_names)})
-
-    @classmethod
-    def from_dict(cls, doc: dict) -> "Limits":
-        """The limits :meth:`as_dict` wrote (null torque: no limit)."""
-        return cls(velocity=doc.get("velocity"), acceleration=doc.get("acceleration"), torque=doc.get("torque"))
-
-    def as_dict(self, robot: RobotModel) -> dict:
-        """The resolved limits, for the JSON result (an absent torque limit is null)."""
-        v, a, tau = self.resolve(robot)
-        return {"joints": list(robot.config.joint_names), "velocity": v.tolist(), "acceleration": a.tolist(),
-                "torque": [float(t) if np.isfinite(t) else None for t in tau]}
-
-
-def as_limits(limits: Limits | JointLimits | None) -> Limits:
-    """``limits`` as a :class:`Limits` (a bare JointLimits sets the velocity/acceleration defaults)."""
-    if limits is None:
-        return Limits()
-    if isinstance(limits, JointLimits):
-        return Limits(joint=limits)
-    if isinstance(limits, Limits):
-        return limits
-    raise ValueError(f"`limits` must be a Limits or JointLimits, got {type(limits).__name__}")
 
 
 # -- the path seen in joint units -----------------------------------------------------------------------

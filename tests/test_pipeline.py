@@ -7,7 +7,7 @@ import pytest
 from foam_mj.errors import FoamError
 from foam_mj.pipeline import PATH_NAMES, run
 from foam_mj.scenarios import load_scenario
-from foam_mj.timing import Limits
+from foam_mj.limits import Limits
 
 
 @pytest.fixture

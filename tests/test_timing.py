@@ -14,7 +14,8 @@ from foam_mj.dynamics import HUMAN_SWING, body_mass, inverse_dynamics, joint_loa
 from foam_mj.model import RobotModel
 from foam_mj.pipeline import plan_scenario, smooth_paths
 from foam_mj.scenarios import load_scenario
-from foam_mj.timing import MAX_SLOWDOWN, Limits, TimingInfeasible, retime, timed_trajectory
+from foam_mj.limits import Limits
+from foam_mj.timing import MAX_SLOWDOWN, TimingInfeasible, retime, timed_trajectory
 from foam_mj.trajectory import make_trajectory
 
 from conftest import TWO_LINK_ARM, MujocoChecker, arm_with, segment_rosary

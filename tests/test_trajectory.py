@@ -336,7 +336,8 @@ def test_rows_stay_close_to_the_curve_however_high_the_limits(robot, rosary, pat
     straight line (what a checker or a controller interpolates) ran 65 mm into the box. The joint accelerations
     are now also held to row_acceleration_cap, so every chord between consecutive rows stays within ROW_TOL of
     the certified curve, and MuJoCo finds the rows and the chords between them clear of the margin."""
-    from foam_mj.timing import Limits, timed_trajectory
+    from foam_mj.limits import Limits
+    from foam_mj.timing import timed_trajectory
     from foam_mj.trajectory import ROW_TOL, row_acceleration_cap
 
     assert np.all(row_acceleration_cap(robot, 0.002) > 10 * np.array([50.0, 50.0, 10.0]))  # default limits: no change
