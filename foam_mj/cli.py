@@ -284,7 +284,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             raise FoamError(f"{flag} must be a number of seconds > 0, got {value}")
     sweep = load_sweep(args.sweep)  # every key and value checked: exit 2 naming it, before any plan
     engine = "local" if args.ray is None else "ray"
-    signal.signal(signal.SIGTERM, signal.default_int_handler)  # `kill` stops it like Ctrl-C: completed rows kept
+    signal.signal(signal.SIGTERM, _interrupt)  # `kill` stops it like Ctrl-C: completed rows kept
     where = Path(args.out) / "rows"
     try:
         s = run_sweep(
@@ -529,7 +529,8 @@ def main(argv: list[str] | None = None) -> int:
         os.environ.setdefault("MUJOCO_GL", "disable")
         # `kill` (SIGTERM) stops a command as Ctrl-C does: exit 130, temporary files removed, no output half-written
         # (it ended the process at once, exit 143, leaving a write's temporary file).
-        signal.signal(signal.SIGTERM, signal.default_int_handler)
+        signal.signal(signal.SIGTERM, _interrupt)
+        signal.signal(signal.SIGINT, _interrupt)
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["bench"]:  # everything after `bench` belongs to the benchmark's own parser
         argv = ["bench", "--", *argv[1:]] if len(argv) > 1 else argv
@@ -550,8 +551,21 @@ def _exit_now(code: int) -> None:
     os._exit(code)
 
 
+#: The signals (SIGINT, SIGTERM) the ``foam-mj`` process has received: once the user has asked it to stop, an
+#: exception on the way out (a library that catches the KeyboardInterrupt and raises its own) is still an interruption.
+_SIGNALLED: list[int] = []
+
+
+def _interrupt(signum: int, frame) -> None:
+    """The ``foam-mj`` process's handler of Ctrl-C and SIGTERM: note the signal, then stop as Ctrl-C does."""
+    _SIGNALLED.append(signum)
+    raise KeyboardInterrupt
+
+
 def _caused_by_interrupt(exc: BaseException) -> bool:
-    """True when a KeyboardInterrupt (Ctrl-C, SIGTERM) is among the causes of ``exc``."""
+    """True when a KeyboardInterrupt (Ctrl-C, SIGTERM) is among the causes of ``exc``, or the process was signalled."""
+    if _SIGNALLED:
+        return True
     seen: set[int] = set()
     cause: BaseException | None = exc
     while cause is not None and id(cause) not in seen:
@@ -564,6 +578,7 @@ def _caused_by_interrupt(exc: BaseException) -> bool:
 
 def _main(argv: list[str], ran: list[str]) -> int:
     """Parse ``argv`` and run its command (its name appended to ``ran``); errors become exit codes."""
+    _SIGNALLED.clear()  # a signal of an earlier call from Python is not this call's
     try:
         parser = build_parser()
         args = parser.parse_args(argv)

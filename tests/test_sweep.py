@@ -545,8 +545,9 @@ def test_a_kill_during_a_ray_sweep_exits_130_and_writes_the_rows_received(study,
         assert proc.poll() is None and time.monotonic() - t0 < 300, lines
         time.sleep(0.05)
     os.kill(proc.pid, signal.SIGTERM)
-    assert proc.wait(timeout=120) == 130
+    code = proc.wait(timeout=120)
     reader.join(timeout=10)
+    assert code == 130, lines
     assert "interrupted" in lines[-1] and not any("Traceback" in ln or "Check failed" in ln for ln in lines), lines
     rows = deterministic(check_folder(out))
     assert rows and len(rows) % 2 == 0, "every plan received has both its rows"
