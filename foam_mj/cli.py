@@ -166,8 +166,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from foam_mj.atomic import check_output
     from foam_mj.plan_command import record as _record, unsafe_paths as _unsafe_paths
     from foam_mj.results import outcome_from_result, read_result
-    from foam_mj.summary import loads_table as _loads_table, print_row_cap_note as _print_row_cap_note
-    from foam_mj.summary import print_servo_note as _print_servo_note, summary_table as _summary_table
+    from foam_mj.summary import print_replay_notes, summary_table
 
     rrd = check_output(args.rrd, "--rrd", suffix=".rrd")
     from foam_mj.atomic import check_distinct
@@ -178,12 +177,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
         raise FoamError(f"{args.result}: the result has no paths to replay (outcome: {doc.get('outcome', 'unknown')})")
     outcome = outcome_from_result(doc, args.result, dynamic=not args.kinematic_only)
     print(f"replayed {len(outcome.paths)} path(s) of {args.result} on {outcome.scenario.scene}")
-    print(_summary_table(outcome))
-    _print_servo_note(outcome)
-    _print_row_cap_note(outcome)
-    loads = _loads_table(outcome)
-    if loads:
-        print(loads)
+    print(summary_table(outcome))
+    print_replay_notes(outcome)
     if rrd is not None:
         _record(rrd, outcome)
         print(f"wrote {rrd}")

@@ -12,14 +12,7 @@ from pathlib import Path
 
 from foam_mj.cli import EXIT_OK, EXIT_PLANNING_FAILED, Progress
 from foam_mj.errors import FoamError, PlanningFailed
-from foam_mj.summary import (
-    loads_table,
-    print_certificates,
-    print_fronts,
-    print_row_cap_note,
-    print_servo_note,
-    summary_table,
-)
+from foam_mj.summary import print_certificates, print_fronts, print_replay_notes, summary_table
 
 
 def record(path: Path, outcome=None, *, scenario=None, foam=None, recorder=None) -> None:
@@ -216,11 +209,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
             f"note: {', '.join(skipped)} left out: the rosary adjustment (T_RA) moves the centres of a foam's rosary "
             f"(each bubble on its parent's surface); planner {scenario.params.algorithm}'s chain is not one (use --planner pfm)"
         )
-    print_servo_note(outcome)
-    print_row_cap_note(outcome)
-    loads = loads_table(outcome)
-    if loads:
-        print(loads)
+    print_replay_notes(outcome)
     print_fronts(outcome)
     print_certificates(outcome)
     if rrd is not None:

@@ -460,6 +460,7 @@ def replay_dynamic(
     lo, hi = m.actuator_forcerange.T
     limited = m.actuator_forcelimited.astype(bool)
     at_limit = limited & ((force <= lo + 1e-9 * np.abs(lo)) | (force >= hi - 1e-9 * np.abs(hi)))
+    saturated = at_limit.sum(axis=0)
     clo, chi = m.actuator_ctrlrange.T
     servo = np.zeros(m.nu, dtype=bool)
     servo[_servos(robot, m).actuator] = True  # the other actuators (say a gripper's) are left at ctrl 0
@@ -486,11 +487,11 @@ def replay_dynamic(
         clearance=dist,
         feedforward=feedforward,
         actuator_force=force,
-        saturated_frames=at_limit.sum(axis=0),
+        saturated_frames=saturated,
         warnings=warned,
         servo_note=note,
         clamped_frames=clamped,
-        limit_note=_limit_note(m, clamped, at_limit.sum(axis=0), T),
+        limit_note=_limit_note(m, clamped, saturated, T),
     )
 
 

@@ -64,6 +64,15 @@ def print_row_cap_note(outcome) -> None:
               f"straight line between consecutive trajectory rows stays within {ROW_TOL:g} of the certified curve")
 
 
+def print_replay_notes(outcome) -> None:
+    """What ``plan`` and ``replay`` print after the summary table: the servo and timestep notes, then the joint loads."""
+    print_servo_note(outcome)
+    print_row_cap_note(outcome)
+    loads = loads_table(outcome)
+    if loads:
+        print(loads)
+
+
 def loads_table(outcome) -> str:
     """Per path and joint: peak and RMS torque (mj_inverse), per kilogram, the actuator limit and its use,
     positive and negative work; then the human reference (foam_mj.dynamics.HUMAN_SWING)."""
