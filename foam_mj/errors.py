@@ -25,13 +25,21 @@ class PlanningFailed(FoamError):
     """The foam could not reach the goal within its budget.
 
     ``stats`` holds the foam's statistics and ``foam`` the foam itself (when available), so the
-    caller can still look at what was explored.
+    caller can still look at what was explored. ``reason`` is the message without the wall time the
+    planner took ("after 765 bubbles" where the message says "after 765 bubbles in 0.17 s"): the same
+    run gives the same reason on every machine, so a study's rows can hold it (the time is in ``stats``).
     """
 
-    def __init__(self, message: str, stats: Any = None, foam: Any = None) -> None:
+    def __init__(self, message: str, stats: Any = None, foam: Any = None, reason: str | None = None) -> None:
         super().__init__(message)
         self.stats = stats
         self.foam = foam
+        self.reason = message if reason is None else reason
+
+    @classmethod
+    def after(cls, head: str, stats: Any, tail: str = "", foam: Any = None) -> PlanningFailed:
+        """The failure "``head`` in ``stats.elapsed`` s``tail``", whose ``reason`` leaves the time out."""
+        return cls(f"{head} in {stats.elapsed:.2f} s{tail}", stats, foam, reason=f"{head}{tail}")
 
 
 def clearance_text(d: float, delta: float) -> str:

@@ -530,11 +530,7 @@ def plan(
             goal = count - 1
     if goal is None:
         foam = foam_now()
-        raise PlanningFailed(
-            f"the foam did not reach q_goal ({stats.outcome}) after {stats.bubbles} bubbles in {stats.elapsed:.2f} s",
-            stats=stats,
-            foam=foam,
-        )
+        raise PlanningFailed.after(f"the foam did not reach q_goal ({stats.outcome}) after {stats.bubbles} bubbles", stats, foam=foam)
     finish("reached")
     foam = foam_now(goal)
     return PlanResult(foam, foam.rosary(), stats)

@@ -352,9 +352,9 @@ def run_task(task: Task) -> list[dict]:
     except PlanningFailed as exc:
         st = exc.stats
         extra = {} if st is None else {"bubbles": int(st.bubbles), "plan_time": float(st.elapsed)}
-        # The planners' message says how long the foam grew ("after 765 bubbles in 0.17 s"): that is plan_time, and
-        # in the reason it would make the same row differ from run to run and between engines.
-        reason = str(exc) if st is None else f"{st.outcome}: {str(exc).replace(f' in {st.elapsed:.2f} s', '', 1)}"
+        # exc.reason leaves out the wall time the message names: that is plan_time, and in the reason it would
+        # make the same row differ from run to run and between engines.
+        reason = exc.reason if st is None else f"{st.outcome}: {exc.reason}"
         return fail("failed", reason, **extra)
     except FoamError as exc:  # e.g. a start whose root bubble is below r_min: this combination is no valid problem
         return fail("invalid", f"{type(exc).__name__}: {exc}")

@@ -340,10 +340,7 @@ class BubbleTreePlanner(Planner):
                     for side, name, q, r, out, T in (("start", "q_init", q0, r0, outside[0], B.trees[0]), ("goal", "q_goal", q1, r1, outside[1], B.trees[1]))
                     if (T.n == 1 and r < r_min) or (T.n < STALLED and (out or oracle.to_bounds(q) < r_min))
                 )
-                raise PlanningFailed(
-                    f"the trees did not meet ({outcome}) after {B.n} bubbles in {st.elapsed:.2f} s{stuck or closest_approach()}",
-                    st, B.foam(q0, q1),
-                )
+                raise PlanningFailed.after(f"the trees did not meet ({outcome}) after {B.n} bubbles", st, stuck or closest_approach(), B.foam(q0, q1))
             timer.report(B.n)
             counters["iterations"] += 1
             parents, targets, target_r = [], [], []

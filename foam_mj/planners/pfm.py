@@ -52,5 +52,5 @@ class PFMPlanner(Planner):
             res = foam_plan(problem.oracle, problem.q_init, problem.q_goal, self.foam_params(problem), seed=seed, progress=progress)
         except PlanningFailed as exc:
             stats = _stats(exc.stats, False) if isinstance(exc.stats, FoamStats) else exc.stats
-            raise PlanningFailed(str(exc), stats, exc.foam) from None
+            raise PlanningFailed(str(exc), stats, exc.foam, exc.reason) from None
         return PlanResult(res.foam, res.rosary, _stats(res.stats, True))

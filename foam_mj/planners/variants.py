@@ -226,9 +226,7 @@ class _Growth:
                     f": no bubble of radius >= r_min = {self.params.r_min} fits on the start's bubble (radius "
                     f"{self.radii[0]:.4f}); lower r_min, or plan with bubbletree"
                 )
-            raise PlanningFailed(
-                f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles in {st.elapsed:.2f} s{stuck}", stats=st, foam=foam
-            )
+            raise PlanningFailed.after(f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles", st, stuck, foam)
         return PlanResult(foam, foam.rosary(), st)
 
 
@@ -418,7 +416,7 @@ class _VariantPlanner(Planner):
             res = fn(problem.oracle, problem.q_init, problem.q_goal, params, seed=seed, progress=report, **kw)
         except PlanningFailed as exc:
             stats = _seam_stats(self.name, exc.stats, False) if isinstance(exc.stats, FoamStats) else exc.stats
-            raise PlanningFailed(str(exc), stats, exc.foam) from None
+            raise PlanningFailed(str(exc), stats, exc.foam, exc.reason) from None
         return SeamResult(res.foam, res.rosary, _seam_stats(self.name, res.stats, True))
 
     def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> SeamResult:
