@@ -41,6 +41,8 @@ def _rerun_executable() -> str:
 
 #: The first bytes of every Rerun recording file (its stream header, "RRF2" in the rerun-sdk foam-mj uses).
 RRD_MAGIC = b"RRF"
+#: A closed recording ends with Rerun's footer marker, then 4 bytes (rerun-sdk 0.41); a file cut short lacks it.
+RRD_FOOTER = b"FOOT"
 
 
 def cmd_view(args: argparse.Namespace) -> int:
@@ -53,6 +55,8 @@ def cmd_view(args: argparse.Namespace) -> int:
     try:
         with open(p, "rb") as f:
             head = f.read(len(RRD_MAGIC))
+            f.seek(max(0, p.stat().st_size - 12))
+            tail = f.read(12)
     except OSError as exc:
         raise FoamError(f"{p}: cannot read: {exc.strerror}") from None
     if head != RRD_MAGIC:  # the viewer would open it and show nothing, or an error in its own window
@@ -69,6 +73,9 @@ def cmd_view(args: argparse.Namespace) -> int:
             f"no display (DISPLAY and WAYLAND_DISPLAY are unset): serve the web viewer with `foam-mj view --web {p}` "
             f"(then open the URL it prints, e.g. through an SSH tunnel), or summarise the file with `rerun rrd stats {p}`"
         )
+    if tail[:3] != RRD_MAGIC or tail[4:8] != RRD_FOOTER:  # the viewer shows what the file holds, without a word
+        print(f"note: {p} does not end with Rerun's footer: the file was cut short (a copy or a run that was stopped); "
+              "the viewer shows only what it holds", file=sys.stderr)
     exe = _rerun_executable()
     if not args.web:
         return _run_viewer([exe, str(p), "--bind", args.bind])

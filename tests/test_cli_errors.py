@@ -257,6 +257,24 @@ def test_view_refuses_a_file_that_is_not_a_recording_and_a_bad_address(tmp_path,
     assert len(err.strip().splitlines()) == 1 and message in err, err
 
 
+def test_view_says_when_a_recording_was_cut_short(tmp_path, monkeypatch, capsys):
+    """A recording cut short (a partial copy) was served without a word: the viewer shows part of it as if whole."""
+    from foam_mj.recording import Recording
+
+    rrd = tmp_path / "v.rrd"
+    with Recording(rrd) as rec:
+        rec.log_path("p", [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]])
+    served: list = []
+    monkeypatch.setattr("foam_mj.viewer._run_viewer", lambda cmd: served.append(cmd) or 0)
+    assert main(["view", "--web", str(rrd)]) == 0
+    assert "cut short" not in capsys.readouterr().err
+    cut = tmp_path / "cut.rrd"
+    cut.write_bytes(rrd.read_bytes()[:-40])
+    assert main(["view", "--web", str(cut)]) == 0
+    err = capsys.readouterr().err
+    assert f"note: {cut} does not end with Rerun's footer: the file was cut short" in err and len(served) == 2
+
+
 def test_view_web_serves_on_localhost_only_and_prints_the_url(tmp_path):
     import time
     import urllib.request
