@@ -263,6 +263,9 @@ def run(
             if report:
                 report(f"replaying: {LABELS.get(name, name)}")
             po.trajectory = time_path(robot, name, res.path, res.rosary, lim, time_law)
+            if report:  # a slow timing makes a long replay: say how long, so a wait of minutes is expected
+                times = po.trajectory.times
+                report(f"replaying: {LABELS.get(name, name)} ({times[-1]:,.1f} s of motion, {len(times):,} steps)")
             po.loads = joint_loads(robot, po.trajectory, limit=lim.resolve(robot)[2])  # mass: the (scaled) model's
             po.kinematic = replay_kinematic(robot, po.trajectory)
             if dynamic:

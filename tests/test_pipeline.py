@@ -41,3 +41,14 @@ def test_smoothers_take_path_names_or_a_smoother_value():
     by_names = run(scenario, None, ("centre", "adjusted", "adjusted_gradient"), replay=False)
     assert list(by_value.paths) == list(by_names.paths) == ["centre", "adjusted", "adjusted_gradient"]
     assert set(by_value.paths) <= set(PATH_NAMES)
+
+
+def test_progress_says_how_long_each_replay_runs():
+    """A slow timing (a velocity limit of 1e-3 rad/s gave 1,679 s of motion) made a replay of minutes behind a bare
+    "replaying" line: the progress now says how many seconds of motion and simulation steps each replay has."""
+    messages: list[str] = []
+    out = run(load_scenario("step_up"), None, ("optimal",), dynamic=False, report=messages.append)
+    for name in ("centre", "optimal"):
+        times = out.paths[name].trajectory.times
+        assert any(m.startswith("replaying: ") and f"({times[-1]:,.1f} s of motion, {len(times):,} steps)" in m
+                   for m in messages), messages
