@@ -58,6 +58,10 @@ class Clearance:
         # Only positions and sensors matter: skip contacts, constraints, gravity and actuation.
         off = mujoco.mjtDisableBit
         m.opt.disableflags |= int(off.mjDSBL_CONTACT | off.mjDSBL_CONSTRAINT | off.mjDSBL_GRAVITY | off.mjDSBL_ACTUATION)
+        # The position stage also factors the inertia matrix, which no sensor here reads. A singular one (two
+        # coaxial hinges on one body) made every batch thread print MuJoCo's "Inertia matrix is too close to
+        # singular" warning and append it to MUJOCO_LOG.TXT in the user's folder; armature keeps it regular.
+        m.dof_armature += 1.0
         return m
 
     def _compile(self, lean: bool) -> mujoco.MjModel:

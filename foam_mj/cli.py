@@ -526,6 +526,12 @@ def main(argv: list[str] | None = None) -> int:
         # (it ended the process at once, exit 143, leaving a write's temporary file).
         signal.signal(signal.SIGTERM, _interrupt)
         signal.signal(signal.SIGINT, _interrupt)
+        import warnings
+
+        from foam_mj.mujoco_warnings import route_to_python
+
+        warnings.showwarning = _show_warning
+        route_to_python()
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["bench"]:  # everything after `bench` belongs to the benchmark's own parser
         argv = ["bench", "--", *argv[1:]] if len(argv) > 1 else argv
@@ -544,6 +550,20 @@ def _exit_now(code: int) -> None:
         except (OSError, ValueError):  # a closed pipe (`| head`) or a closed stream: nothing more to show
             pass
     os._exit(code)
+
+
+_WARNED: set[str] = set()
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """The ``foam-mj`` process's warnings: one line each, once. MuJoCo's end in "Time = 0.0000.", so each was new to
+    Python's filter; a model with a singular inertia matrix printed the same three-line warning from every call site."""
+    import re
+
+    text = re.sub(r"\s*Time = \S+$", "", str(message).strip())
+    if text not in _WARNED:
+        _WARNED.add(text)
+        print(f"foam-mj: warning: {text}", file=sys.stderr)
 
 
 #: The signals (SIGINT, SIGTERM) the ``foam-mj`` process has received: once the user has asked it to stop, an

@@ -13,6 +13,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.errors import ModelError
+from foam_mj.mujoco_warnings import install_if_routed
 
 
 def load_mjcf(path: str | Path) -> mujoco.MjModel:
@@ -25,6 +26,7 @@ def load_spec(path: str | Path) -> mujoco.MjSpec:
     p = Path(path)
     if not p.is_file():
         raise ModelError(f"MJCF file not found: {p}")
+    install_if_routed()
     try:
         return mujoco.MjSpec.from_file(str(p))
     except ValueError as exc:  # MuJoCo reports XML and compile errors as ValueError

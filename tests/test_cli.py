@@ -316,3 +316,30 @@ def test_a_coarse_timestep_that_holds_the_accelerations_says_so(tmp_path, capsys
                              "trajectory rows stays within 0.001 of the certified curve"]
         else:
             assert notes == []
+
+
+COAXIAL = (  # two hinges on one axis: the inertia matrix is singular, MuJoCo warns and its simulation diverges
+    '<mujoco><worldbody><geom type="plane" size="1 1 0.1" pos="0 0 -1"/><body>'
+    '<joint name="a" axis="0 1 0" range="-90 90"/><joint name="b" axis="0 1 0" range="-90 90"/>'
+    '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>'
+    '<body pos="0.3 0 0"><joint name="c" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02"/>'
+    '</body></body><geom name="box" type="box" pos="0.3 0 -0.3" size="0.05 0.05 0.05"/></worldbody></mujoco>'
+)
+
+
+def test_mujoco_warnings_are_shown_once_and_a_diverged_replay_is_named(tmp_path):
+    """A model with a singular inertia matrix printed MuJoCo's warning 125 times (once per batch row and replay),
+    appended each to MUJOCO_LOG.TXT in the user's folder, and its replay, reset by MuJoCo, showed a tracking error
+    of 500 mrad as if measured. Now: each warning once, no log file, and the replay named as diverged."""
+    (tmp_path / "coaxial.xml").write_text(COAXIAL)
+    exe = Path(sys.executable).with_name("foam-mj")
+    run = subprocess.run([str(exe), "plan", "--mjcf", "coaxial.xml", "--start", "0,0,0", "--goal=-0.5,-0.3,0.4", "--rrd", "c.rrd"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert run.returncode == 0, run.stderr
+    err = run.stderr.splitlines()
+    assert sum("Inertia matrix is too close to singular" in line for line in err) == 1, run.stderr
+    assert all(line.startswith("foam-mj: warning: ") for line in err), run.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.rrd", "coaxial.xml"]  # no MUJOCO_LOG.TXT
+    table = [line for line in run.stdout.splitlines() if line.startswith(("centre (T)", "optimal"))][:2]  # the summary's rows
+    assert all(" unstable " in line for line in table), run.stdout
+    assert "(T): dynamic replay: MuJoCo's simulation diverged (mjWARN_BADQACC) and restarted" in run.stdout

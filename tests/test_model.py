@@ -72,6 +72,22 @@ def test_batch_clearance_equals_single_clearance(obstacle_robot):
     assert c.batch(np.empty((0, 3))).shape == (0,)
 
 
+def test_batch_clearance_of_a_model_with_a_singular_inertia_matrix_is_silent_and_exact(tmp_path, monkeypatch, capfd):
+    """Two hinges on one axis: the batch's position stage factors the singular inertia matrix, and MuJoCo printed its
+    warning once per batch row and appended each to MUJOCO_LOG.TXT in the working folder. The sensors read no inertia."""
+    from test_cli import COAXIAL
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "coaxial.xml").write_text(COAXIAL)
+    with pytest.warns(UserWarning, match="Inertia matrix is too close to singular"):  # the compiler's, once per compile
+        robot = RobotModel.from_xml(tmp_path / "coaxial.xml")
+        c = Clearance(robot)
+    capfd.readouterr()
+    Q = np.random.default_rng(3).uniform(robot.lower, robot.upper, size=(300, 3))
+    np.testing.assert_allclose(c.batch(Q), [c(q) for q in Q], atol=1e-12)
+    assert "WARNING" not in capfd.readouterr().err and not (tmp_path / "MUJOCO_LOG.TXT").exists()
+
+
 def test_batch_pair_distances_are_every_pairs_distance_and_survive_later_calls(obstacle_robot):
     c = Clearance(obstacle_robot)
     rng = np.random.default_rng(2)

@@ -1,0 +1,36 @@
+"""MuJoCo's runtime warnings in the ``foam-mj`` command: one line each, once.
+
+MuJoCo reports a warning raised while simulating (a singular inertia matrix, an unstable step) through its C
+printer unless a handler is set: it prints the warning once per simulation state, so every batch row and every
+replay repeated it (a model with two coaxial hinges printed 125 copies in one `plan`), and it appends each to
+``MUJOCO_LOG.TXT`` in the working folder. The command routes them to Python's :mod:`warnings` instead, which the
+CLI shows once per distinct text. Only the command does: a library should not take over a process-wide handler,
+so from Python MuJoCo's own behaviour (or the user's handler) stays.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+_ROUTE = False
+
+
+def route_to_python() -> None:
+    """Route MuJoCo's runtime warnings to :mod:`warnings` in this process, from the next model loaded on (the
+    ``foam-mj`` command calls it at start, before MuJoCo is imported)."""
+    global _ROUTE
+    _ROUTE = True
+
+
+def install_if_routed() -> None:
+    """Set the handler, when :func:`route_to_python` asked for it and no handler is set (called on model loads)."""
+    if not _ROUTE:
+        return
+    import mujoco
+
+    if mujoco.get_mju_user_warning() is None:
+        mujoco.set_mju_user_warning(_warn)
+
+
+def _warn(text: str) -> None:
+    warnings.warn(text, RuntimeWarning, stacklevel=2)
