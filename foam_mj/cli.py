@@ -8,7 +8,8 @@ Exit codes (:data:`EXIT_CODES`; the README lists them too):
 2    bad input: a bad argument, scenario, model, result file, output location or sweep key/value, checked before any work
      where it can be; also an output that could not be written (nothing is left half-written)
 3    planning failed (the foam did not reach the goal; what was computed is still written)
-4    a check found contacts or clearance below the margin (``verify``, ``replay``)
+4    a check found contacts or clearance below the margin (``verify``, ``replay``), or ``plan``'s own replay found a
+     planned trajectory below its margin (a certification fault: everything is still written, for a report)
 130  interrupted (Ctrl-C or SIGTERM); no output is left half-written
 ===  =====================================================================================================
 
@@ -46,7 +47,7 @@ EXIT_CODES = {
     EXIT_INTERNAL: "internal error (a bug; FOAM_MJ_DEBUG=1 shows the traceback)",
     EXIT_BAD_INPUT: "bad input (argument, scenario, model, result file or output location), or an output that could not be written",
     EXIT_PLANNING_FAILED: "planning failed (the foam so far is still written)",
-    EXIT_UNSAFE: "verify/replay found contacts or clearance below the margin",
+    EXIT_UNSAFE: "verify/replay found contacts or clearance below the margin, or plan a planned trajectory below its margin",
     EXIT_INTERRUPTED: "interrupted",
 }
 EXIT_EPILOG = "exit codes: " + "; ".join(f"{k} {v}" for k, v in EXIT_CODES.items())

@@ -10,7 +10,7 @@ import sys
 import time
 from pathlib import Path
 
-from foam_mj.cli import EXIT_OK, EXIT_PLANNING_FAILED, Progress
+from foam_mj.cli import EXIT_OK, EXIT_PLANNING_FAILED, EXIT_UNSAFE, Progress
 from foam_mj.errors import FoamError, PlanningFailed
 from foam_mj.summary import print_certificates, print_fronts, print_replay_notes, summary_table
 
@@ -229,7 +229,19 @@ def _plan(args: argparse.Namespace, recorder) -> int:
         progress.done()
         print(f"wrote {len(written)} figures to {figures_dir}")
     print(f"total {time.perf_counter() - t0:.2f} s")
+    below = below_margin(outcome, scenario.params.delta)
+    if below:  # every returned path is certified: this is a fault of ours, and it must not pass as a success
+        print(f"foam-mj: a planned trajectory comes closer than the margin {scenario.params.delta * 1000:g} mm: {'; '.join(below)} "
+              "(a certification fault: please report it with the files written above)", file=sys.stderr)
+        return EXIT_UNSAFE
     return EXIT_OK
+
+
+def below_margin(outcome, margin: float) -> list[str]:
+    """Paths whose timed trajectory (the kinematic replay: MuJoCo's clearance at every sample) comes closer than
+    ``margin``. The dynamic replay's contacts are left out: they measure the servos' tracking, not the plan."""
+    return [f"{name} (min clearance {po.kinematic.min_clearance * 1000:.3f} mm)" for name, po in outcome.paths.items()
+            if po.kinematic is not None and po.kinematic.min_clearance < margin]
 
 
 def unsafe_paths(outcome, margin: float) -> list[str]:

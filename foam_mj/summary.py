@@ -108,7 +108,7 @@ def loads_table(outcome) -> str:
             kg = "-"
             if per_kg is not None and unit == "N m":
                 kg, any_kg = f"{per_kg[j]:.2f}", True
-            lim = f"{L.limit[j]:.0f} {unit}" if np.isfinite(L.limit[j]) else "none"
+            lim = "none" if not np.isfinite(L.limit[j]) else f"{L.limit[j]:.0f} {unit}" if L.limit[j] < 1e6 else f"{L.limit[j]:.2g} {unit}"
             use = f"{100 * L.use[j]:.0f}%" if np.isfinite(L.limit[j]) else "-"
             lines.append(
                 f"{label if j == 0 else '':<27}{joint:<18}{L.peak[j]:>7.1f} {unit:<3}{L.rms[j]:>7.1f} {unit:<3}{kg:>8}{lim:>11}{use:>6}"

@@ -343,3 +343,23 @@ def test_mujoco_warnings_are_shown_once_and_a_diverged_replay_is_named(tmp_path)
     table = [line for line in run.stdout.splitlines() if line.startswith(("centre (T)", "optimal"))][:2]  # the summary's rows
     assert all(" unstable " in line for line in table), run.stdout
     assert "(T): dynamic replay: MuJoCo's simulation diverged (mjWARN_BADQACC) and restarted" in run.stdout
+
+
+def test_plan_exits_4_when_its_own_replay_finds_a_trajectory_below_the_margin(tmp_path, monkeypatch, capsys):
+    """Every returned path is certified, so plan's own kinematic replay never finds one below delta; if a fault of
+    ours ever let one through, plan printed it in the table and exited 0. Injected here: bubbles 2.5 times their
+    certified radius (huge torque limits, so that the timing does not stop first)."""
+    import foam_mj.bubbles
+    from foam_mj.scenarios import load_scenario
+
+    s = load_scenario("obstacle")
+    toml = tmp_path / "s.toml"
+    toml.write_text(f"scene = '{s.scene}'\nq_init = {s.q_init.tolist()}\nq_goal = {s.q_goal.tolist()}\n"
+                    "[planner]\nalgorithm = 'bubbletree'\n[limits]\ntorque = [1e9, 1e9, 1e9]\n")
+    certified = foam_mj.bubbles.BubbleOracle.radius_from_distances
+    monkeypatch.setattr(foam_mj.bubbles.BubbleOracle, "radius_from_distances", lambda self, D, Q: 2.5 * certified(self, D, Q))
+    out = tmp_path / "r.json"
+    assert main(["plan", "--scene", str(toml), "--no-rrd", "--smoother", "convex", "--json", str(out)]) == 4
+    err = capsys.readouterr().err
+    assert "foam-mj: a planned trajectory comes closer than the margin 5 mm: " in err and "certification fault" in err
+    assert out.is_file()  # everything is still written, for the report
