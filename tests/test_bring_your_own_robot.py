@@ -67,6 +67,20 @@ def test_joints_flag_picks_the_configuration(tmp_path, capsys):
     assert again.config.joint_names == ("elbow",)
 
 
+def test_every_smoother_plans_for_a_one_joint_robot(tmp_path, capsys):
+    """With one configuration joint, gradient smoothing (T_CA) ended in an IndexError (exit 1): its
+    coordinate sums and the hatch projection's normals assumed at least two coordinates."""
+    js = tmp_path / "elbow.json"
+    argv = ["plan", "--mjcf", str(ARM), "--joints", "elbow", "--start", "-0.5", "--goal", "0.5", "--smoother", "all",
+            "--no-rrd", "--no-replay", "--json", str(js)]
+    assert main(argv) == 0
+    assert "RuntimeWarning" not in capsys.readouterr().err
+    doc = json.loads(js.read_text())
+    assert {"gradient", "hs", "ga", "convex", "optimal"} <= set(doc["paths"])
+    for name, entry in doc["paths"].items():
+        assert _independent_clearance(doc["mjcf"], np.asarray(entry["qpos"])) >= 0.005 - 1e-9, name
+
+
 def test_servos_added_to_a_model_without_actuators_have_gains_from_the_joint_inertia():
     robot = RobotModel.from_xml(ARM)
     m, note = servo_model(robot)

@@ -311,5 +311,7 @@ def test_bad_initial_waypoints_are_refused(scenario_rosaries):
     far = np.full((ros.n_hatches, 3), 50.0)
     with pytest.raises(ValueError, match="outside their hatches"):
         OptimalSmoother().smooth(ros, initial=far)
-    with pytest.raises(ValueError, match="too large"):
-        OptimalSmoother(inset=1.0).smooth(ros)
+    # An inset larger than the hatches allow is reduced to fit them (Hatches.fitting_inset), not refused.
+    r = OptimalSmoother(inset=1.0).smooth(ros)
+    assert 0 < r.info["inset"] < 1.0 and r.in_hatches()
+    assert np.all(Hatches.of(ros).inside(r.waypoints, r.info["inset"] / 2))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 from foam_mj.data import model_path
 
@@ -497,3 +498,62 @@ def test_a_negative_or_boolean_seed_is_named():
             as_generator(seed)
     g = np.random.default_rng(0)
     assert as_generator(g) is g and as_generator(np.int64(3)).integers(1 << 30) == np.random.default_rng(3).integers(1 << 30)
+
+
+# -- rosaries at the edges: bubbles far below the insets, one joint, seeds of the deterministic methods --------
+from foam_mj.smoothing import MGOASmoother, MOPSOSmoother, OptimalSmoother  # noqa: E402
+
+
+def _chain(radii, n: int = 3) -> Rosary:
+    """A zig-zag chain: each centre on its parent's surface, q_goal inside the last bubble."""
+    step = np.zeros(n)
+    step[0] = 1.0
+    side = np.zeros(n)
+    side[-1] = 1.0 if n > 1 else 0.0
+    c = [np.zeros(n)]
+    for i, r in enumerate(radii[:-1]):
+        d = step + (side if i % 2 else 0.0)
+        c.append(c[-1] + r * d / np.linalg.norm(d))
+    c = np.array(c)
+    return Rosary(c, np.array(radii, dtype=float), c[0].copy(), c[-1] + 0.5 * radii[-1] * step)
+
+
+EDGE_SMOOTHERS = (HS, GA, GRAD, ConvexShortestPath(), OptimalSmoother(),
+                  MGOASmoother(iterations=5, swarm_size=20), MOPSOSmoother(iterations=5, swarm_size=20))
+
+
+@pytest.mark.parametrize("radii", [[1e-6] * 3, [1e-9] * 5, [1.0, 1e-7, 1.0, 1e-4]])
+def test_bubbles_smaller_than_the_insets_are_smoothed(radii):
+    """A start a micrometre beyond delta gets a bubble of that size (gbpf and its variants accept it as the root):
+    the convex and optimal smoothers refused such a rosary ('inset 1e-06 is too large for the rosary's smallest
+    ball', exit 1 after planning), MGOA and MOPSO one below 2e-9. The insets now shrink to fit the hatches."""
+    ros = _chain(radii)
+    for sm in EDGE_SMOOTHERS:
+        r = sm.smooth(ros, seed=0)
+        assert r.in_hatches() and np.all(np.isfinite(r.path)), type(sm).__name__
+        np.testing.assert_array_equal(r.path[[0, -1]], [ros.q_init, ros.q_goal])
+
+
+def test_an_empty_hatch_is_named():
+    ros = Rosary(np.array([[0.0, 0.0], [3.0, 0.0]]), np.array([1.0, 1.0]), np.zeros(2), np.array([3.0, 0.0]))
+    with pytest.raises(ValueError, match=r"hatch 0 is empty or a single point: bubbles 0 and 1 do not overlap"):
+        ConvexShortestPath().smooth(ros)
+
+
+def test_a_one_joint_rosary_is_smoothed_by_every_method():
+    """Gradient smoothing ended in an IndexError with one coordinate, and the hatch projection warned
+    (a division by zero for the normal of its rim, which one coordinate does not have)."""
+    ros = _chain([0.5, 0.4, 0.3], n=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for sm in EDGE_SMOOTHERS:
+            r = sm.smooth(ros, seed=0)
+            assert r.in_hatches() and r.f == pytest.approx(abs(ros.q_goal[0] - ros.q_init[0])), type(sm).__name__
+
+
+@pytest.mark.parametrize("smoother", [GRAD, ConvexShortestPath()])
+def test_deterministic_methods_still_refuse_a_bad_seed(rosary, smoother):
+    """They draw nothing, but seed='a' or -1 was silently accepted where the other methods refuse it."""
+    for seed in (-1, True, "a"):
+        with pytest.raises(ValueError, match=r"`seed` must be an integer >= 0"):
+            smoother.smooth(rosary, seed=seed)

@@ -192,6 +192,30 @@ def test_bad_parameters_raise_value_error_naming_them(make, message):
         make()
 
 
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda: HarmonySearch(HMCR=True), r"HMCR must be in \[0, 1\], got True"),
+        (lambda: HarmonySearch(BW=True), r"BW must be >= 0 and finite, got True"),
+        (lambda: GeneticAlgorithm(mut_prob=True), r"mut_prob must be in \[0, 1\], got True"),
+        (lambda: GeneticAlgorithm(alpha_range=(True, 2.0)), r"alpha_range must be a pair of numbers"),
+        (lambda: GeneticAlgorithm(alpha_range=("0.9", "1.1")), r"alpha_range must be a pair of numbers"),
+        (lambda: StopCriteria(f_threshold=True), r"f_threshold must be a finite number or None, got True"),
+        (lambda: GradientSmoothing(eta=True), r"eta must be > 0 and finite, got True"),
+        (lambda: RosaryAdjustment(r_min=True), r"r_min must be > 0 and finite, got True"),
+    ],
+)
+def test_a_boolean_is_not_a_number_parameter(make, message):
+    """True passed for a rate, a step or a radius was taken as 1 (HMCR=True: always from memory)."""
+    with pytest.raises(ValueError, match=message):
+        make()
+
+
+def test_alpha_range_takes_any_pair_of_numbers():
+    for pair in ((0.9, 1.1), [0.9, 1.1], np.array([0.9, 1.1]), (np.float32(0.9), 1)):
+        GeneticAlgorithm(alpha_range=pair)
+
+
 def test_stop_criteria_order_and_reasons():
     s = StopCriteria(f_threshold=1.0, max_iterations=10, stall_iterations=3)
     assert s.reason(0, 2.0, 0) is None

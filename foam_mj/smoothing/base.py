@@ -34,12 +34,19 @@ SeedLike = int | np.integer | np.random.Generator | None
 _EPS = 1e-12  # the same "zero-length segment" threshold as foam_mj.paths
 
 
+def check_seed(seed: SeedLike) -> None:
+    """Refuse a seed that is not an integer >= 0, a numpy Generator or None (also where a method draws nothing)."""
+    if isinstance(seed, np.random.Generator) or seed is None:
+        return
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"`seed` must be an integer >= 0, a numpy Generator or None, got {seed!r}")
+
+
 def as_generator(seed: SeedLike) -> np.random.Generator:
     """A numpy Generator from an int seed (or None) or the Generator itself."""
     if isinstance(seed, np.random.Generator):
         return seed
-    if seed is not None and (isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0):
-        raise ValueError(f"`seed` must be an integer >= 0, a numpy Generator or None, got {seed!r}")
+    check_seed(seed)
     return np.random.default_rng(seed)
 
 
@@ -50,13 +57,18 @@ def _check_int(name: str, value: Any, low: int, allow_none: bool = False) -> Non
         raise ValueError(f"{name} must be an integer >= {low}{' or None' if allow_none else ''}, got {value!r}")
 
 
+def _is_real(value: Any) -> bool:
+    """A real number: int, float or a numpy scalar of either, but not a bool (True is not a rate or a length)."""
+    return isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
 def _check_unit(name: str, value: Any) -> None:
-    if not (isinstance(value, (int, float, np.floating, np.integer)) and 0.0 <= float(value) <= 1.0):
+    if not (_is_real(value) and 0.0 <= float(value) <= 1.0):
         raise ValueError(f"{name} must be in [0, 1], got {value!r}")
 
 
 def _check_positive(name: str, value: Any, allow_zero: bool = False) -> None:
-    ok = isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(float(value))
+    ok = _is_real(value) and math.isfinite(float(value))
     ok = ok and (float(value) >= 0.0 if allow_zero else float(value) > 0.0)
     if not ok:
         raise ValueError(f"{name} must be {'>= 0' if allow_zero else '> 0'} and finite, got {value!r}")
@@ -86,8 +98,7 @@ class StopCriteria:
 
     def __post_init__(self) -> None:
         thr = self.f_threshold
-        number = isinstance(thr, (int, float, np.floating, np.integer))
-        if thr is not None and not (number and math.isfinite(float(thr))):
+        if thr is not None and not (_is_real(thr) and math.isfinite(float(thr))):
             raise ValueError(f"f_threshold must be a finite number or None, got {self.f_threshold!r}")
         _check_int("max_iterations", self.max_iterations, 1, allow_none=True)
         _check_int("stall_iterations", self.stall_iterations, 1, allow_none=True)
@@ -245,6 +256,19 @@ class Hatches:
     def m(self) -> int:
         return len(self.ra)
 
+    def fitting_inset(self, inset: float) -> float:
+        """``inset``, or less where a hatch is too thin for it: at most a quarter of the smallest slack
+        min(ra, rb, (ra + rb - d) / 2) over the hatches (d the distance of the centres), so that every lens
+        shrunk by it keeps room inside. A rosary's bubbles may be far smaller than the default insets
+        (a start a micrometre beyond delta from an obstacle gets a bubble of that size); a valid rosary's
+        results do not change (its slack is many times larger). Raises ValueError for an empty hatch."""
+        d = row_norms(self.cb - self.ca)
+        slack = np.minimum(np.minimum(self.ra, self.rb), 0.5 * (self.ra + self.rb - d))
+        thin = int(np.argmin(slack))
+        if not slack[thin] > 0:
+            raise ValueError(f"hatch {thin} is empty or a single point: bubbles {thin} and {thin + 1} do not overlap")
+        return min(float(inset), 0.25 * float(slack[thin]))
+
     def inside(self, w: np.ndarray, inset: float = 0.0) -> np.ndarray:
         """(..., m, n) -> bool (..., m): strictly within ``inset`` of both spheres when inset > 0, in
         both closed balls when inset = 0 (no tolerance)."""
@@ -369,7 +393,10 @@ class Hatches:
 
 
 def _any_normal(u: np.ndarray) -> np.ndarray:
-    """A unit vector normal to each row of u (m, n), n >= 2."""
+    """A unit vector normal to each row of u (m, n), n >= 2; zeros for n = 1 (a one-joint robot), where none
+    exists and none is needed: two intervals that overlap always have a one-ball projection in the other."""
+    if u.shape[1] == 1:
+        return np.zeros_like(u)
     e = np.zeros_like(u)
     e[np.arange(len(u)), np.argmin(np.abs(u), axis=1)] = 1.0
     v = e - np.einsum("ij,ij->i", e, u)[:, None] * u

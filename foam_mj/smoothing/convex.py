@@ -37,6 +37,7 @@ from foam_mj.smoothing.base import (
     Smoother,
     _check_positive,
     check_initial,
+    check_seed,
     trivial_result,
 )
 
@@ -50,7 +51,8 @@ class ConvexShortestPath(Smoother):
     """Shortest (``smoothness`` = 0) or smoothness-weighted path through the hatches, solved by Clarabel.
 
     ``initial`` and ``seed`` are accepted for the common interface and unused (the optimum is unique in
-    length and found from scratch); ``initial`` is still validated.
+    length and found from scratch); both are still validated. The balls are shrunk by ``inset``, or by less
+    in a hatch too thin for it (:meth:`Hatches.fitting_inset`; ``info["inset"]`` is the one used).
     """
 
     smoothness: float = 0.0
@@ -70,13 +72,13 @@ class ConvexShortestPath(Smoother):
 
     def smooth(self, rosary: Rosary, initial: np.ndarray | None = None, seed: SeedLike = 0) -> SmoothingResult:
         t_start = time.perf_counter()
+        check_seed(seed)
         check_initial(rosary, initial)
         if rosary.n_hatches == 0:
             return trivial_result(self.method, rosary, t_start, objective="length")
         h = Hatches.of(rosary)
-        if np.any(h.ra <= 2 * self.inset) or np.any(h.rb <= 2 * self.inset):
-            raise ValueError(f"inset {self.inset} is too large for the rosary's smallest ball")
-        P, q, A, b, cones, nw = build_socp(rosary, self.smoothness, self.inset)
+        inset = h.fitting_inset(self.inset)
+        P, q, A, b, cones, nw = build_socp(rosary, self.smoothness, inset)
         settings = clarabel.DefaultSettings()
         settings.verbose = False
         settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = self.tol
@@ -86,8 +88,8 @@ class ConvexShortestPath(Smoother):
         if status not in ("Solved", "AlmostSolved"):
             raise ConvexSolveError(f"Clarabel stopped with status {status} after {sol.iterations} iterations")
         w = np.asarray(sol.x[:nw]).reshape(h.m, rosary.dim)
-        w = h.project(w, self.inset)
-        if not np.all(h.inside(w, self.inset / 2)):  # pragma: no cover - guarded by the projection
+        w = h.project(w, inset)
+        if not np.all(h.inside(w, inset / 2)):  # pragma: no cover - guarded by the projection
             raise ConvexSolveError("the convex solution is not strictly inside the hatches")
         return SmoothingResult.build(
             self.method,
@@ -100,7 +102,7 @@ class ConvexShortestPath(Smoother):
             stop_reason=status,
             objective="length" if self.smoothness == 0 else "length + smoothness",
             info={"solver": "clarabel", "status": status, "solve_time": float(sol.solve_time),
-                  "obj_val": float(sol.obj_val), "inset": self.inset, "smoothness": self.smoothness,
+                  "obj_val": float(sol.obj_val), "inset": inset, "smoothness": self.smoothness,
                   "x": np.asarray(sol.x), "z": np.asarray(sol.z)},
         )
 

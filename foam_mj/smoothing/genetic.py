@@ -47,6 +47,7 @@ from foam_mj.smoothing.base import (
     StopCriteria,
     _check_int,
     _check_unit,
+    _is_real,
     as_generator,
     check_initial,
     coordinate_major_objective,
@@ -87,10 +88,10 @@ class GeneticAlgorithm(Smoother):
         _check_unit("mut_prob", self.mut_prob)
         if self.beta is not None:
             _check_unit("beta", self.beta)
-        try:
-            a, b = (float(x) for x in self.alpha_range)
-        except (TypeError, ValueError):
-            raise ValueError(f"alpha_range must be a pair (a, b), got {self.alpha_range!r}") from None
+        pair = tuple(self.alpha_range) if isinstance(self.alpha_range, (tuple, list, np.ndarray)) else ()
+        if len(pair) != 2 or not all(_is_real(x) for x in pair):
+            raise ValueError(f"alpha_range must be a pair of numbers (a, b), got {self.alpha_range!r}")
+        a, b = (float(x) for x in pair)
         if not (np.isfinite(a) and np.isfinite(b) and a <= b):
             raise ValueError(f"alpha_range must be finite with a <= b, got {self.alpha_range!r}")
         if self.selection not in SELECTIONS:

@@ -38,6 +38,7 @@ from foam_mj.smoothing.base import (
     StopCriteria,
     _check_positive,
     check_initial,
+    check_seed,
     trivial_result,
 )
 
@@ -142,6 +143,9 @@ class _RepeatedCoordSum:
 
     def __call__(self) -> np.ndarray:
         even, odd, out = self.even, self.odd, self.out
+        if not odd:  # n = 1 (a one-joint robot)
+            _copyto(out, even[0])
+            return out
         if len(even) == 1:  # n = 2
             _add(even[0], odd[0], out)
             return out
@@ -277,7 +281,7 @@ class _LensProjection:
             full[0], full[1:-1], full[-1] = first, a, last
             return np.ascontiguousarray(np.broadcast_to(full.T, (n, L)))
 
-        e0, e1 = np.eye(n)[0], np.eye(n)[1]
+        e0, e1 = np.eye(n)[0], np.eye(n)[min(1, n - 1)]  # (n = 1: the ends' rim is never used)
         ca, cb = pad(h.ca, q_init, q_goal), pad(h.cb, q_init, q_goal)
         self._c = np.stack([ca, cb])  # (2, n, L)
         self._c_swap = np.ascontiguousarray(self._c[::-1])
@@ -355,8 +359,9 @@ class GradientSmoothing(Smoother):
     T_RCA). ``stop`` applies to SV: by default the run stops once SV has fallen by less than 1e-5 over
     100 steps (SV drops by ~95% in the first 200 steps, then creeps), capped at 20,000 steps; it also
     ends when a step moves no waypoint by more than ``tol``. ``inset`` shrinks the hatches the
-    projection uses (configuration units), so waypoints end strictly inside. ``seed`` is accepted for
-    the common interface and unused (the method is deterministic). The history holds the lowest SV
+    projection uses (configuration units; less in a hatch too thin for it, :meth:`Hatches.fitting_inset`), so
+    waypoints end strictly inside. ``seed`` is accepted for the common interface, validated and unused (the
+    method is deterministic). The history holds the lowest SV
     after each step; ``info["initial"]`` the SV of the initial path.
     """
 
@@ -376,14 +381,16 @@ class GradientSmoothing(Smoother):
 
     def smooth(self, rosary: Rosary, initial: np.ndarray | None = None, seed: SeedLike = 0) -> SmoothingResult:
         t_start = time.perf_counter()
+        check_seed(seed)
         w = check_initial(rosary, initial, default=rosary.center_waypoints())
         if rosary.n_hatches == 0:
             return trivial_result(self.name, rosary, t_start, objective="SV")
         h = Hatches.of(rosary)
-        w = h.project(w, self.inset)  # a centre waypoint sits on its parent's surface: move it inside
+        inset = h.fitting_inset(self.inset)
+        w = h.project(w, inset)  # a centre waypoint sits on its parent's surface: move it inside
         m, eta, tol, stop = h.m, self.eta, self.tol, self.stop
         sv_grad = _PathSV(m, rosary.dim)
-        project = _LensProjection(h, self.inset, rosary.q_init, rosary.q_goal)
+        project = _LensProjection(h, inset, rosary.q_init, rosary.q_goal)
         # Coordinate-major paths (n, k + 1), two buffers: each step projects into the other one, then
         # they swap. The ends' step is zero (eta_pts) and their dummy hatch keeps them: they stay put.
         path = np.ascontiguousarray(rosary.path(w).T)
@@ -425,7 +432,7 @@ class GradientSmoothing(Smoother):
             wall_time=time.perf_counter() - t_start,
             stop_reason=reason,
             objective="SV",
-            info={"eta": self.eta, "constraint": "projection onto the hatch", "inset": self.inset,
+            info={"eta": self.eta, "constraint": "projection onto the hatch", "inset": inset,
                   "initial": initial_sv},
         )
 

@@ -167,19 +167,16 @@ class RosaryProblem:
     bounding box of every hatch (box of ball a ∩ box of ball b). ``repair`` is the Euclidean
     projection onto the hatches shrunk by ``inset`` (``Hatches.project``, closed form), so every
     position the optimisers evaluate is feasible (violation 0) and its path lies in the rosary's
-    certified bubbles; the small default inset keeps projected waypoints strictly inside the closed
-    hatches despite rounding.
+    certified bubbles; the small default inset (less in a hatch too thin for it, ``Hatches.fitting_inset``)
+    keeps projected waypoints strictly inside the closed hatches despite rounding.
     """
 
     names = ROSARY_OBJECTIVES
 
     def __init__(self, rosary: Rosary, inset: float = 1e-9) -> None:
         self.rosary = rosary
-        self.hatches = Hatches.of(rosary)
-        self.inset = float(inset)
-        h = self.hatches
-        if np.any(h.ra <= 2 * self.inset) or np.any(h.rb <= 2 * self.inset):
-            raise ValueError(f"inset {inset} is too large for the rosary's smallest ball")
+        self.hatches = h = Hatches.of(rosary)
+        self.inset = h.fitting_inset(inset)
         self.m, self.n = h.m, rosary.dim
         lo = np.maximum(h.ca - h.ra[:, None], h.cb - h.rb[:, None])
         hi = np.minimum(h.ca + h.ra[:, None], h.cb + h.rb[:, None])

@@ -78,7 +78,8 @@ path and the hatch centres is tried.
 Certificate: :func:`foam_mj.smoothing.certificate.kkt_certificate` checks first-order optimality of the
 true objective (its module docstring); during the SCP the last subproblem's duals are tried first as its multipliers.
 
-Strictly inside: the balls are shrunk by ``inset`` (1e-6); each accepted step is projected onto the
+Strictly inside: the balls are shrunk by ``inset`` (1e-6; less in a hatch too thin for it,
+:meth:`~foam_mj.smoothing.base.Hatches.fitting_inset`); each accepted step is projected onto the
 shrunk hatches (a no-op up to the solver's 1e-9 feasibility) before ties are snapped, and the returned
 waypoints are checked to be at least inset/2 inside both balls.
 
@@ -528,25 +529,24 @@ class OptimalSmoother(Smoother):
         if rosary.n_hatches == 0:
             return trivial_result(self.method, rosary, t_start, objective=weights.name)
         h = Hatches.of(rosary)
-        if np.any(h.ra <= 2 * self.inset) or np.any(h.rb <= 2 * self.inset):
-            raise ValueError(f"inset {self.inset} is too large for the rosary's smallest ball")
+        inset = h.fitting_inset(self.inset)
         rng = as_generator(seed)
         starts: list[tuple[str, np.ndarray]] = []
         if given is not None:
-            starts += [("initial" if len(given) == 1 else f"initial {j}", h.project(w, self.inset)) for j, w in enumerate(given)]
+            starts += [("initial" if len(given) == 1 else f"initial {j}", h.project(w, inset)) for j, w in enumerate(given)]
         elif weights.sv == 0 and weights.angle > 0:  # (for the length alone, the convex program is the answer)
-            convex, st = _shortest_start(rosary, h, self.inset)
+            convex, st = _shortest_start(rosary, h, inset)
             starts.append(("convex", convex))
         else:
-            convex = np.array(ConvexShortestPath(inset=self.inset).smooth(rosary).waypoints)
+            convex = np.array(ConvexShortestPath(inset=inset).smooth(rosary).waypoints)
             starts.append(("convex", convex))
             if weights.sv > 0:  # SV splits corners: also start between the shortest path and the hatch centres
-                centres = h.project(rosary.center_waypoints(), self.inset)
+                centres = h.project(rosary.center_waypoints(), inset)
                 starts.append(("convex/centre", 0.5 * (convex + centres)))
         for j in range(self.multistart):
-            starts.append((f"random {j}", h.project(h.sample(rng, np.arange(h.m)), self.inset)))
+            starts.append((f"random {j}", h.project(h.sample(rng, np.arange(h.m)), inset)))
         if given is not None or weights.sv > 0 or weights.angle == 0:
-            st = _structure(rosary, self.inset)
+            st = _structure(rosary, inset)
         best = None
         outcomes: list[StartOutcome] = []
         iterations = 0
@@ -560,7 +560,7 @@ class OptimalSmoother(Smoother):
                 # or certified by its guess) is this one.
                 if solve and checked.get("final") and np.array_equal(checked["w"], wc):
                     return checked["cert"]
-                checked["w"], checked["cert"] = wc.copy(), kkt_certificate(rosary, wc, weights, self.inset, multipliers,
+                checked["w"], checked["cert"] = wc.copy(), kkt_certificate(rosary, wc, weights, inset, multipliers,
                                                                             self.kkt_tol, solve, POLISH_TOL)
                 checked["final"] = solve or checked["cert"].certified(POLISH_TOL)
                 return checked["cert"]
@@ -568,7 +568,7 @@ class OptimalSmoother(Smoother):
             # With the curvature model first; a start it leaves uncertified is run again without it (the plain
             # SCP, slower but never misled by a clipped curvature).
             for curvature in (True, False) if weights.sv == 0 and weights.angle > 0 else (False,):
-                w, trace = sequential_convex(rosary, h, w0, weights, self.inset, max_iter=self.max_iter, structure=st,
+                w, trace = sequential_convex(rosary, h, w0, weights, inset, max_iter=self.max_iter, structure=st,
                                              certify=certify if weights.sv == 0 else None,  # SV's optimum is flat: polish it
                                              kkt_tol=self.kkt_tol, curvature=curvature)
                 iterations += trace.iterations
@@ -576,7 +576,7 @@ class OptimalSmoother(Smoother):
                 if "w" in checked and np.array_equal(checked["w"], w):
                     cert = checked["cert"]
                 else:
-                    cert = kkt_certificate(rosary, w, weights, self.inset)
+                    cert = kkt_certificate(rosary, w, weights, inset)
                 outcomes.append(StartOutcome(label if curvature or len(outcomes) == 0 or outcomes[-1].label != label
                                              else f"{label} (plain)", value, cert, trace.iterations, trace.stop_reason))
                 key = (value, not cert.certified(self.kkt_tol))
@@ -590,9 +590,9 @@ class OptimalSmoother(Smoother):
         for j in range(self.restarts):  # only while the best is not certified
             if not best[0][1]:
                 break
-            run(f"restart {j}", h.project(h.sample(rng, np.arange(h.m)), self.inset))
+            run(f"restart {j}", h.project(h.sample(rng, np.arange(h.m)), inset))
         _, w, trace, cert, value, label = best
-        if not np.all(h.inside(w, self.inset / 2)):  # pragma: no cover - guaranteed by the projection
+        if not np.all(h.inside(w, inset / 2)):  # pragma: no cover - guaranteed by the projection
             raise RuntimeError("optimal smoother: a waypoint is not strictly inside its hatch")
         certified = cert.certified(self.kkt_tol)
         return SmoothingResult.build(
@@ -613,6 +613,6 @@ class OptimalSmoother(Smoother):
                 **cert.as_dict(),
                 "best_start": label,
                 "starts": [o.as_dict() for o in outcomes],
-                "inset": self.inset,
+                "inset": inset,
             },
         )
