@@ -557,3 +557,20 @@ def test_deterministic_methods_still_refuse_a_bad_seed(rosary, smoother):
     for seed in (-1, True, "a"):
         with pytest.raises(ValueError, match=r"`seed` must be an integer >= 0"):
             smoother.smooth(rosary, seed=seed)
+
+
+def test_gradient_smoothing_shortens_its_step_for_small_bubbles():
+    """Eq. 9's eta = 0.005 overshoots on a chain of 1 cm bubbles (SV's gradient grows as 1 / segment length):
+    every step raised SV and T_CA came back equal to T (a 1 cm corridor planned by gbpf, seen in QA). A run that
+    never lowers SV is repeated with a ten times shorter step; on the papers' rosaries eta stays 0.005."""
+    ros = _chain([0.01] * 60, n=2)
+    r = GradientSmoothing().smooth(ros)
+    assert r.sv < 1e-2 * center_path_result(ros).sv and r.in_hatches()
+    assert r.info["eta"] < 0.005 and r.info["eta_retries"] >= 1
+    assert len(r.history_best) == r.iterations and np.all(np.diff(r.history_best) <= 0)
+
+
+def test_gradient_smoothing_keeps_the_thesis_step_where_it_works(all_results):
+    for name in ("T_CA", "T_RCA"):
+        assert all_results[name].info["eta"] == 0.005 and all_results[name].info["eta_retries"] == 0
+

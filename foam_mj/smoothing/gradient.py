@@ -12,6 +12,14 @@ full step inside the hatch and moves along its boundary when a constraint is act
 halving would stall there.) All vertices move at once (Jacobi order: Eq. 9 applied to the gradient at
 the current path). The iterate with the lowest SV is returned.
 
+The step. The thesis's eta = 0.005 was tuned on its rosary; SV's gradient grows as 1 / segment length, so
+on a rosary of small bubbles (bubbletree's corridors, a corridor of 1 cm bubbles) every step of that size
+overshoots, SV never falls below the start's, and T_CA came back equal to T (7 of 8 bubbletree rosaries of the
+leg scenes, seeds 0-1). A run that stalls or hits its cap
+without lowering SV at all is therefore repeated with eta / 10, at most :data:`ETA_RETRIES` times
+(``info["eta"]`` is the step used, ``info["eta_retries"]`` the repeats); a run that lowers SV, as on the
+papers' rosaries, is Eq. 9 with the given eta, unchanged.
+
 Gradients (per interior vertex i, a = p_i - p_(i-1), b = p_(i+1) - p_i, c = cos of the turn theta_i):
 
     dc/da = b / (|a||b|) - c a / |a|^2,   dc/db = a / (|a||b|) - c b / |b|^2,
@@ -351,6 +359,10 @@ class _LensProjection:
         return out
 
 
+#: How many times a run that never lowers SV is repeated with a ten times shorter step (see the module docstring).
+ETA_RETRIES = 6
+
+
 @dataclass(frozen=True)
 class GradientSmoothing(Smoother):
     """Projected gradient descent of SV over the waypoints (Nascimento and Alsina 2021 Eq. 9, eta = 0.005).
@@ -393,34 +405,42 @@ class GradientSmoothing(Smoother):
         project = _LensProjection(h, inset, rosary.q_init, rosary.q_goal)
         # Coordinate-major paths (n, k + 1), two buffers: each step projects into the other one, then
         # they swap. The ends' step is zero (eta_pts) and their dummy hatch keeps them: they stay put.
-        path = np.ascontiguousarray(rosary.path(w).T)
-        other = path.copy()
-        trial, diff = np.empty_like(path), np.empty_like(path)
-        eta_pts = np.full_like(path, eta)
-        eta_pts[:, [0, -1]] = 0.0
-        sv, grad = sv_grad(path)
-        best_p, best, initial_sv = path.copy(), sv, sv
-        stall = MeanStall(sv, stop.stall_tol)
+        start = np.ascontiguousarray(rosary.path(w).T)
+        trial, diff = np.empty_like(start), np.empty_like(start)
+        sv0, grad0 = sv_grad(start)
+        grad0 = grad0.copy()  # (sv_grad's buffer is overwritten by its next call)
+        best_p, best, initial_sv = start.copy(), sv0, sv0
         hist: list[float] = []
-        t, reason = 0, stop.reason(0, sv, 0)
+        t = 0
         mul, sub, absolute = np.multiply, np.subtract, np.absolute
-        while reason is None:
-            # Eq. 9 then the projection onto the hatches: w_new = P(w - eta grad)
-            mul(eta_pts, grad, trial)
-            sub(path, trial, trial)
-            new = project(trial, other)
-            step = float(absolute(sub(new, path, diff), diff).max())
-            path, other = new, path
-            sv, grad = sv_grad(path)
-            t += 1
-            if sv < best:
-                best = sv
-                np.copyto(best_p, path)
-            stall.update(sv)
-            hist.append(best)
-            reason = stop.reason(t, best, stall.count)
-            if reason is None and step <= tol:
-                reason = "converged"
+        for retry in range(ETA_RETRIES + 1):
+            path, other = start.copy(), start.copy()
+            sv, grad = sv0, grad0
+            eta_pts = np.full_like(path, eta)
+            eta_pts[:, [0, -1]] = 0.0
+            stall = MeanStall(sv, stop.stall_tol)
+            t_run, reason = 0, stop.reason(0, sv, 0)
+            while reason is None:
+                # Eq. 9 then the projection onto the hatches: w_new = P(w - eta grad)
+                mul(eta_pts, grad, trial)
+                sub(path, trial, trial)
+                new = project(trial, other)
+                step = float(absolute(sub(new, path, diff), diff).max())
+                path, other = new, path
+                sv, grad = sv_grad(path)
+                t += 1
+                t_run += 1
+                if sv < best:
+                    best = sv
+                    np.copyto(best_p, path)
+                stall.update(sv)
+                hist.append(best)
+                reason = stop.reason(t_run, best, stall.count)
+                if reason is None and step <= tol:
+                    reason = "converged"
+            if best < initial_sv or reason not in ("stall", "iteration cap"):
+                break
+            eta /= 10  # every step raised SV: eta is too long for this rosary's bubbles (see the docstring)
         best_w = best_p[:, 1:-1].T
         return SmoothingResult.build(
             self.name,
@@ -432,7 +452,7 @@ class GradientSmoothing(Smoother):
             wall_time=time.perf_counter() - t_start,
             stop_reason=reason,
             objective="SV",
-            info={"eta": self.eta, "constraint": "projection onto the hatch", "inset": inset,
+            info={"eta": eta, "eta_retries": retry, "constraint": "projection onto the hatch", "inset": inset,
                   "initial": initial_sv},
         )
 
