@@ -57,6 +57,7 @@ from foam_mj.smoothing import (
     OptimalSmoother,
     RosaryAdjustment,
     SmoothingResult,
+    StopCriteria,
 )
 from foam_mj.smoothing.gradient import center_path_result
 from foam_mj.dynamics import JointLoads, joint_loads
@@ -164,6 +165,14 @@ def plan_scenario(scenario: Scenario, seed: int, report: Report | None = None) -
         oracle.close()
 
 
+def _iterations(report: Report | None, method: str, unit: str, stop: StopCriteria) -> Callable[[int, float], None] | None:
+    """A progress callback for HS or the GA that tells ``report`` the iterations done, their cap and the best f."""
+    if report is None:
+        return None
+    cap = f" of at most {stop.max_iterations:,}" if stop.max_iterations is not None else ""
+    return lambda t, best: report(f"smoothing: {method}, {unit} {t:,}{cap}, best f {best:.4f}")
+
+
 def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], seed: int, report: Report | None = None,
                  start: np.ndarray | None = None) -> dict[str, SmoothingResult]:
     """Run the smoothers that produce ``names`` (the centre path always comes first). ``start``: the
@@ -197,10 +206,12 @@ def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], see
                 out["adjusted_gradient"] = GradientSmoothing().smooth(adj.rosary)
     if "hs" in names:
         say("smoothing: harmony search")
-        out["hs"] = HarmonySearch().smooth(rosary, seed=seed)
+        hs = HarmonySearch()
+        out["hs"] = hs.smooth(rosary, seed=seed, progress=_iterations(report, "harmony search", "improvisation", hs.stop))
     if "ga" in names:
         say("smoothing: genetic algorithm")
-        out["ga"] = GeneticAlgorithm().smooth(rosary, seed=seed)
+        ga = GeneticAlgorithm()
+        out["ga"] = ga.smooth(rosary, seed=seed, progress=_iterations(report, "genetic algorithm", "generation", ga.stop))
     if "convex" in names:
         say("smoothing: convex shortest path")
         out["convex"] = ConvexShortestPath().smooth(rosary)

@@ -574,3 +574,31 @@ def test_gradient_smoothing_keeps_the_thesis_step_where_it_works(all_results):
     for name in ("T_CA", "T_RCA"):
         assert all_results[name].info["eta"] == 0.005 and all_results[name].info["eta_retries"] == 0
 
+
+@pytest.mark.parametrize("name", ["HS", "GA"])
+def test_long_runs_report_progress_without_changing_the_result(rosary, monkeypatch, name):
+    """The GA took 23 s on a 166-bubble rosary with nothing on the screen (2 x 10^4 generations at most, each
+    linear in the rosary's length); HS and the GA now tell a ``progress`` callback the iterations and best f."""
+    from foam_mj.smoothing import genetic, harmony
+
+    monkeypatch.setattr(genetic, "PROGRESS_INTERVAL", 0.0)
+    monkeypatch.setattr(harmony, "PROGRESS_INTERVAL", 0.0)
+    sm = STOCHASTIC[name]
+    heard: list[tuple[int, float]] = []
+    r = sm.smooth(rosary, seed=1, progress=lambda t, best: heard.append((t, best)))
+    t, best = np.array(heard).T
+    assert t[-1] == r.iterations and np.all(np.diff(t) > 0) and np.all(np.diff(best) <= 0)
+    np.testing.assert_array_equal(best, r.history_best[t.astype(int) - 1])
+    np.testing.assert_array_equal(r.path, sm.smooth(rosary, seed=1).path)
+
+
+def test_plan_reports_the_generations_of_the_genetic_algorithm(smoothing_setup, monkeypatch):
+    from foam_mj import pipeline
+    from foam_mj.scenarios import load_scenario
+    from foam_mj.smoothing import genetic
+
+    monkeypatch.setattr(genetic, "PROGRESS_INTERVAL", 0.0)
+    monkeypatch.setattr(pipeline, "GeneticAlgorithm", lambda: GA)
+    said: list[str] = []
+    pipeline.smooth_paths(load_scenario("obstacle"), smoothing_setup[2], ("ga",), 0, report=said.append)
+    assert "smoothing: genetic algorithm, generation 300 of at most 300, best f " in said[-1]

@@ -13,7 +13,7 @@ import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Mapping
+from typing import Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
@@ -30,6 +30,10 @@ PAPER_MAX_ITERATIONS = 20_000
 PAPER_STALL_ITERATIONS = 200
 
 SeedLike = int | np.integer | np.random.Generator | None
+#: A long run's progress report: called with the iterations done and the best objective so far, at most every
+#: :data:`PROGRESS_INTERVAL` seconds (HS and the GA: 2 x 10^4 iterations on a long rosary take tens of seconds).
+ProgressFn = Callable[[int, float], None]
+PROGRESS_INTERVAL = 0.5
 
 _EPS = 1e-12  # the same "zero-length segment" threshold as foam_mj.paths
 

@@ -40,7 +40,9 @@ import numpy as np
 from foam_mj.rosary import Rosary
 from foam_mj.smoothing.base import (
     Hatches,
+    PROGRESS_INTERVAL,
     MeanStall,
+    ProgressFn,
     SeedLike,
     SmoothingResult,
     Smoother,
@@ -101,7 +103,9 @@ class GeneticAlgorithm(Smoother):
         if not isinstance(self.stop, StopCriteria):
             raise ValueError(f"stop must be a StopCriteria, got {self.stop!r}")
 
-    def smooth(self, rosary: Rosary, initial: np.ndarray | None = None, seed: SeedLike = 0) -> SmoothingResult:
+    def smooth(self, rosary: Rosary, initial: np.ndarray | None = None, seed: SeedLike = 0, *,
+               progress: ProgressFn | None = None) -> SmoothingResult:
+        """Run the GA; ``progress`` (optional) hears the generations done and the best f about twice a second."""
         t_start = time.perf_counter()
         rng = as_generator(seed)
         init = check_initial(rosary, initial)
@@ -144,6 +148,7 @@ class GeneticAlgorithm(Smoother):
         add_reduce, take, subtract, multiply, add, copyto = np.add.reduce, np.take, np.subtract, np.multiply, np.add, np.copyto
         inverse, rank = self.selection == "inverse", self.selection == "rank"
         cw, u = np.empty(P), np.empty(2 * P)  # roulette weights (cumulated in place), scaled draws
+        next_report = t_start + PROGRESS_INTERVAL
         while reason is None:
             if cpos >= CHUNK:
                 sel_u, no_cross, beta, mut_gen, mut_pos, mut_alpha = self._draw(rng, P, m)
@@ -208,6 +213,9 @@ class GeneticAlgorithm(Smoother):
             t += 1
             cpos += 1
             reason = stop.reason(t, best, stall.count)
+            if progress is not None and time.perf_counter() >= next_report:
+                progress(t, best)
+                next_report = time.perf_counter() + PROGRESS_INTERVAL
 
         i_best = int(fit.argmin())
         return SmoothingResult.build(

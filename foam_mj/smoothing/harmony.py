@@ -45,8 +45,10 @@ import numpy as np
 
 from foam_mj.rosary import Rosary
 from foam_mj.smoothing.base import (
+    PROGRESS_INTERVAL,
     Hatches,
     MeanStall,
+    ProgressFn,
     SeedLike,
     SmoothingResult,
     Smoother,
@@ -92,7 +94,9 @@ class HarmonySearch(Smoother):
         if not isinstance(self.stop, StopCriteria):
             raise ValueError(f"stop must be a StopCriteria, got {self.stop!r}")
 
-    def smooth(self, rosary: Rosary, initial: np.ndarray | None = None, seed: SeedLike = 0) -> SmoothingResult:
+    def smooth(self, rosary: Rosary, initial: np.ndarray | None = None, seed: SeedLike = 0, *,
+               progress: ProgressFn | None = None) -> SmoothingResult:
+        """Run HS; ``progress`` (optional) hears the improvisations done and the best f about twice a second."""
         t_start = time.perf_counter()
         rng = as_generator(seed)
         init = check_initial(rosary, initial)
@@ -140,6 +144,7 @@ class HarmonySearch(Smoother):
         block = 4
         reason = stop.reason(0, best, 0)
         cpos = CHUNK  # position in the current chunk of random numbers; CHUNK forces a draw
+        next_report = t_start + PROGRESS_INTERVAL
         while reason is None:
             if cpos >= CHUNK:
                 gidx, offset = self._draw(rng, h, pool, hms, m, n)
@@ -190,6 +195,9 @@ class HarmonySearch(Smoother):
             cpos += j0
             block = min(max(2 * j0, 4), MAX_BLOCK)
             reason = stop.reason(t, best, stall.count)
+            if progress is not None and time.perf_counter() >= next_report:
+                progress(t, best)
+                next_report = time.perf_counter() + PROGRESS_INTERVAL
 
         i_best = int(np.argmin(fit))
         bests, means, lens = (np.array(x) for x in zip(*runs)) if runs else (np.empty(0),) * 3
