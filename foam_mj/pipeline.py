@@ -103,6 +103,9 @@ def parse_smoothers(spec: str) -> tuple[str, ...]:
     names: list[str] = []
     for part in spec.split(","):
         part = part.strip()
+        if not part:
+            raise FoamError(f"an empty smoother name in '{spec}' (a stray comma?); choose from {', '.join(SMOOTHERS)} "
+                            "(or a comma-separated list)")
         if part not in SMOOTHERS:
             raise FoamError(f"unknown smoother '{part}'; choose from {', '.join(SMOOTHERS)} (or a comma-separated list)")
         names += [p for p in SMOOTHERS[part] if p not in names]
