@@ -52,3 +52,23 @@ def test_progress_says_how_long_each_replay_runs():
         times = out.paths[name].trajectory.times
         assert any(m.startswith("replaying: ") and f"({times[-1]:,.1f} s of motion, {len(times):,} steps)" in m
                    for m in messages), messages
+
+
+def test_rosary_adjustment_runs_on_a_variant_rosary_whose_root_is_below_r_min():
+    """gbpf grows from a start whose bubble (0.039) is below r_min = 0.07; the adjustment asked every bubble for
+    r_min, refused the rosary and plan left T_RA and T_RCA out with a note blaming the planner ('gbpf's chain is
+    not one, use --planner pfm', which refuses that start). The bound is now the smaller of r_min and the rosary's
+    smallest radius; every adjusted bubble is still within its certified radius."""
+    from foam_mj.data import model_path
+    from foam_mj.scenarios import scenario_from_dict
+
+    doc = {"name": "near_box", "scene": str(model_path("obstacle.xml")), "q_init": [0.219375, 0.311904, 0.186175],
+           "q_goal": [0.45, 0.4536, 1.45], "planner": {"algorithm": "gbpf", "r_min": 0.07}}
+    scenario = scenario_from_dict(doc, ".")
+    out = run(scenario, 0, "adjust", replay=False)
+    assert out.plan.rosary.radii[0] < 0.07
+    adjusted = out.paths["adjusted"].rosary
+    oracle = scenario.oracle()
+    assert (adjusted.radii <= oracle.radii(adjusted.centers) + 1e-12).all()
+    assert out.paths["adjusted"].metrics.tc > out.paths["centre"].metrics.tc
+    assert "adjusted_gradient" in out.paths
