@@ -39,8 +39,8 @@ import numpy as np
 
 from foam_mj.rosary import Rosary
 from foam_mj.smoothing.base import (
-    Hatches,
     PROGRESS_INTERVAL,
+    Hatches,
     MeanStall,
     ProgressFn,
     SeedLike,

@@ -14,11 +14,11 @@ the current path). The iterate with the lowest SV is returned.
 
 The step. The thesis's eta = 0.005 was tuned on its rosary; SV's gradient grows as 1 / segment length, so
 on a rosary of small bubbles (bubbletree's corridors, a corridor of 1 cm bubbles) every step of that size
-overshoots, SV never falls below the start's, and T_CA came back equal to T (7 of 8 bubbletree rosaries of the
-leg scenes, seeds 0-1). A run that stalls or hits its cap
-without lowering SV at all is therefore repeated with eta / 10, at most :data:`ETA_RETRIES` times
-(``info["eta"]`` is the step used, ``info["eta_retries"]`` the repeats); a run that lowers SV, as on the
-papers' rosaries, is Eq. 9 with the given eta, unchanged.
+overshoots, SV never falls below the start's, and T_CA came back equal to T (7 of 8 bubbletree rosaries of
+the leg scenes, seeds 0-1). A run that stalls or hits its cap without lowering SV at all is therefore
+repeated with eta / 10, at most :data:`ETA_RETRIES` times (``info["eta"]`` is the step used,
+``info["eta_retries"]`` the repeats); a run that lowers SV, as on the papers' rosaries, is Eq. 9 with the
+given eta, unchanged.
 
 Gradients (per interior vertex i, a = p_i - p_(i-1), b = p_(i+1) - p_i, c = cos of the turn theta_i):
 
