@@ -114,8 +114,12 @@ class Rosary:
             raise ValueError("rosary centers must be finite and radii finite and > 0")
         object.__setattr__(self, "centers", c)
         object.__setattr__(self, "radii", r)
-        object.__setattr__(self, "q_init", np.asarray(self.q_init, dtype=float))
-        object.__setattr__(self, "q_goal", np.asarray(self.q_goal, dtype=float))
+        for name in ("q_init", "q_goal"):
+            q = np.asarray(getattr(self, name), dtype=float)
+            if q.shape != (c.shape[1],) or not np.all(np.isfinite(q)):
+                raise ValueError(f"rosary {name} must be {c.shape[1]} finite numbers (the centres' dimension), got "
+                                 f"{getattr(self, name)!r}")
+            object.__setattr__(self, name, q)
 
     @property
     def k(self) -> int:

@@ -104,6 +104,13 @@ def test_densify_keeps_the_step_and_the_vertices():
         assert np.any(np.all(np.isclose(d, v), axis=1))
 
 
+@pytest.mark.parametrize("q_init", [np.zeros(2), np.array([np.nan, 0.0, 0.0]), [0.0, 0.0, np.inf]])
+def test_a_rosary_names_a_bad_end(q_init):
+    """q_init of the wrong length failed in a numpy broadcast inside a smoother; a NaN one was accepted."""
+    with pytest.raises(ValueError, match=r"rosary q_init must be 3 finite numbers \(the centres' dimension\), got"):
+        Rosary(np.zeros((1, 3)), np.array([1.0]), q_init, np.zeros(3))
+
+
 def test_rosary_rejects_bad_shapes():
     with pytest.raises(ValueError, match="radii"):
         Rosary(np.zeros((3, 3)), np.ones(2), np.zeros(3), np.zeros(3))

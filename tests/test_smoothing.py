@@ -534,10 +534,22 @@ def test_bubbles_smaller_than_the_insets_are_smoothed(radii):
         np.testing.assert_array_equal(r.path[[0, -1]], [ros.q_init, ros.q_goal])
 
 
-def test_an_empty_hatch_is_named():
-    ros = Rosary(np.array([[0.0, 0.0], [3.0, 0.0]]), np.array([1.0, 1.0]), np.zeros(2), np.array([3.0, 0.0]))
-    with pytest.raises(ValueError, match=r"hatch 0 is empty or a single point: bubbles 0 and 1 do not overlap"):
-        ConvexShortestPath().smooth(ros)
+@pytest.mark.parametrize(
+    "centers, radii, q_goal, problem",
+    [
+        ([[0.0, 0.0], [3.0, 0.0]], [1.0, 1.0], [3.0, 0.0], r"bubbles \[0\] do not overlap their successors"),
+        ([[0.0, 0.0], [1.0, 0.0]], [1.0, 1.0], [5.0, 0.0], r"q_goal is not in the last bubble"),
+        ([[0.0, 0.0]], [1.0], [5.0, 0.0], r"q_goal is not in the last bubble"),
+    ],
+)
+def test_a_rosary_that_is_not_a_chain_is_refused_by_every_smoother(centers, radii, q_goal, problem):
+    """A hand-made rosary whose q_goal lay outside its last bubble was smoothed: every method returned a path whose
+    last segment left the bubbles (the optimal smoother's straight line to q_goal), uncertified."""
+    ros = Rosary(np.array(centers), np.array(radii), np.zeros(2), np.array(q_goal))
+    for sm in EDGE_SMOOTHERS:
+        with pytest.raises(ValueError, match=r"the rosary is not a chain from q_init to q_goal: " + problem):
+            sm.smooth(ros, seed=0)
+
 
 
 def test_a_one_joint_rosary_is_smoothed_by_every_method():

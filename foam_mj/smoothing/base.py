@@ -229,8 +229,17 @@ class Smoother(ABC):
         """Smooth the path through ``rosary``."""
 
 
+def check_rosary(rosary: Rosary) -> None:
+    """Refuse a rosary whose path would leave its bubbles: q_init outside the first bubble, q_goal outside the
+    last, or two consecutive bubbles that do not overlap (every smoother's path keeps to the bubbles only then)."""
+    problems = rosary.check_structure()
+    if problems:
+        raise ValueError(f"the rosary is not a chain from q_init to q_goal: {'; '.join(problems)}")
+
+
 def trivial_result(method: str, rosary: Rosary, t_start: float, objective: str = "f") -> SmoothingResult:
     """The result for a rosary of one bubble (q_init and q_goal in the root): no waypoint, the straight path."""
+    check_rosary(rosary)
     w = np.empty((0, rosary.dim))
     value = float(paths.objective(rosary.path(w)))
     return SmoothingResult.build(
@@ -254,6 +263,7 @@ class Hatches:
     def of(cls, rosary: Rosary) -> "Hatches":
         if rosary.n_hatches < 1:
             raise ValueError(f"the rosary has {rosary.k} bubble(s): there is no waypoint to smooth (need k >= 2)")
+        check_rosary(rosary)
         return cls(*(np.ascontiguousarray(a) for a in rosary.hatch_balls()))
 
     @property
