@@ -263,7 +263,6 @@ class Hatches:
     def of(cls, rosary: Rosary) -> "Hatches":
         if rosary.n_hatches < 1:
             raise ValueError(f"the rosary has {rosary.k} bubble(s): there is no waypoint to smooth (need k >= 2)")
-        check_rosary(rosary)
         return cls(*(np.ascontiguousarray(a) for a in rosary.hatch_balls()))
 
     @property

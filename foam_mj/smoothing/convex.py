@@ -37,6 +37,7 @@ from foam_mj.smoothing.base import (
     Smoother,
     _check_positive,
     check_initial,
+    check_rosary,
     check_seed,
     trivial_result,
 )
@@ -76,6 +77,7 @@ class ConvexShortestPath(Smoother):
         check_initial(rosary, initial)
         if rosary.n_hatches == 0:
             return trivial_result(self.method, rosary, t_start, objective="length")
+        check_rosary(rosary)
         h = Hatches.of(rosary)
         inset = h.fitting_inset(self.inset)
         P, q, A, b, cones, nw = build_socp(rosary, self.smoothness, inset)

@@ -52,6 +52,7 @@ from foam_mj.smoothing.base import (
     _is_real,
     as_generator,
     check_initial,
+    check_rosary,
     coordinate_major_objective,
     trivial_result,
 )
@@ -111,6 +112,7 @@ class GeneticAlgorithm(Smoother):
         init = check_initial(rosary, initial)
         if rosary.n_hatches == 0:
             return trivial_result(self.name, rosary, t_start)
+        check_rosary(rosary)
         h = Hatches.of(rosary)
         m, n, P = h.m, rosary.dim, int(self.pop_size)
         stop = self.stop

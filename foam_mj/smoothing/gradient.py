@@ -46,6 +46,7 @@ from foam_mj.smoothing.base import (
     StopCriteria,
     _check_positive,
     check_initial,
+    check_rosary,
     check_seed,
     trivial_result,
 )
@@ -397,6 +398,7 @@ class GradientSmoothing(Smoother):
         w = check_initial(rosary, initial, default=rosary.center_waypoints())
         if rosary.n_hatches == 0:
             return trivial_result(self.name, rosary, t_start, objective="SV")
+        check_rosary(rosary)
         h = Hatches.of(rosary)
         inset = h.fitting_inset(self.inset)
         w = h.project(w, inset)  # a centre waypoint sits on its parent's surface: move it inside

@@ -58,6 +58,7 @@ from foam_mj.smoothing.base import (
     _check_unit,
     as_generator,
     check_initial,
+    check_rosary,
     coordinate_major_objective,
     trivial_result,
 )
@@ -102,6 +103,7 @@ class HarmonySearch(Smoother):
         init = check_initial(rosary, initial)
         if rosary.n_hatches == 0:
             return trivial_result(self.name, rosary, t_start)
+        check_rosary(rosary)
         h = Hatches.of(rosary)
         m, n, hms = h.m, rosary.dim, int(self.HMS)
         stop = self.stop

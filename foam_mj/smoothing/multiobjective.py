@@ -32,6 +32,7 @@ from foam_mj.smoothing.base import (
     Smoother,
     _check_positive,
     check_initial,
+    check_rosary,
     trivial_result,
 )
 from foam_mj.smoothing.pareto import _EPS, Archive, hypervolume_2d, knee_index
@@ -175,6 +176,7 @@ class RosaryProblem:
 
     def __init__(self, rosary: Rosary, inset: float = 1e-9) -> None:
         self.rosary = rosary
+        check_rosary(rosary)
         self.hatches = h = Hatches.of(rosary)
         self.inset = h.fitting_inset(inset)
         self.m, self.n = h.m, rosary.dim

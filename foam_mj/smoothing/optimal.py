@@ -159,6 +159,7 @@ from foam_mj.smoothing.base import (
     _check_positive,
     as_generator,
     check_initial,
+    check_rosary,
     trivial_result,
 )
 from foam_mj.smoothing.certificate import KKT_TOL, STRAIGHT, Certificate, kkt_certificate
@@ -528,6 +529,7 @@ class OptimalSmoother(Smoother):
             given = [check_initial(rosary, w) for w in stack]
         if rosary.n_hatches == 0:
             return trivial_result(self.method, rosary, t_start, objective=weights.name)
+        check_rosary(rosary)
         h = Hatches.of(rosary)
         inset = h.fitting_inset(self.inset)
         rng = as_generator(seed)
