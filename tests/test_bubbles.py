@@ -335,3 +335,54 @@ def test_no_point_of_a_random_chain_moves_farther_than_its_geoms_bound(tmp_path,
             for g in robot.robot_geoms:
                 moved = float(np.max(np.linalg.norm(_points_in_geom(m, d, g) - p0[g], axis=1)))
                 assert moved <= allowed[g] + 1e-9, f"geom {robot.geom_name(g)} moved {moved} > bound {allowed[g]}"
+
+
+def test_a_normalized_hinge_has_its_reach_times_its_scale(obstacle_robot):
+    """A hinge whose q is normalized ([normalize] knee_flexion = [0.5]: its 2.1 rad range onto [0, 0.5]) turns
+    4.2 rad per unit of q, so its rho is its reach times 4.2 (not the reach alone), and no leg point moves farther
+    than the bound along any move in q."""
+    from foam_mj.model import RobotModel
+
+    robot = RobotModel.from_xml(obstacle_robot.path, normalize={"knee_flexion": [0.5]})
+    knee = list(robot.config.joint_names).index("knee_flexion")
+    assert robot.config.scale[knee] == pytest.approx(4.2)
+    plain = DisplacementBound.from_model(obstacle_robot)
+    bound = DisplacementBound.from_model(robot)
+    np.testing.assert_allclose(bound.rho[:, knee], 4.2 * plain.rho[:, knee], atol=1e-12)
+    rng = np.random.default_rng(7)
+    m, d = robot.model, mujoco.MjData(robot.model)
+    for _ in range(20):
+        q, a = rng.uniform(robot.lower, robot.upper, (2, robot.dim))
+        p0 = _geom_points(m, robot.set_configuration(q, d), robot)
+        for s in np.linspace(0, 1, 9)[1:]:
+            ps = _geom_points(m, robot.set_configuration(q + s * (a - q), d), robot)
+            assert float(np.max(np.linalg.norm(ps - p0, axis=1))) <= float(bound(s * (a - q))) + 1e-9
+
+
+PAN_TILT = """<mujoco><compiler angle="radian"/><worldbody>
+  <!-- A pan about z and, below it, a tilt about x carrying a 5 cm ball 0.5 m up: drawn on the pan axis. -->
+  <body name="pan"><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
+    <joint name="pan" axis="0 0 1" range="-3 3"/>
+    <body name="tilt"><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
+      <joint name="tilt" axis="1 0 0" range="-1.6 1.6"/>
+      <geom name="ball" type="sphere" size="0.05" pos="0 0 0.5"/>
+    </body>
+  </body>
+  <geom name="wall" type="box" pos="2 0 0" size="0.1 1 1"/>
+</worldbody></mujoco>"""
+
+
+def test_a_hinge_reach_holds_where_a_crossed_hinge_below_swings_the_geom_off_its_axis(tmp_path):
+    """The pan's reach is the farthest the ball can be from the pan axis in any configuration, 0.5 + 0.05 m once the
+    tilt (not parallel to the pan) swings it out, not its 0.05 m in the drawn pose (measured in the plane normal to
+    the pan axis, which is only right when every hinge below is parallel); a pan-only move stays within the bound."""
+    robot = _robot_from_xml(tmp_path, PAN_TILT)
+    bound = DisplacementBound.from_model(robot)
+    m, d = robot.model, mujoco.MjData(robot.model)
+    ball = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "ball")
+    assert bound.rho[ball, 0] >= 0.55 - 1e-9
+    for tilt in np.linspace(-1.6, 1.6, 9):
+        q = np.array([-0.5, tilt])
+        p0 = robot.set_configuration(q, d).geom_xpos[ball].copy()
+        p1 = robot.set_configuration(q + [1.0, 0.0], d).geom_xpos[ball]
+        assert np.linalg.norm(p1 - p0) <= bound.per_geom[ball] @ [1.0, 0.0] + 1e-9
