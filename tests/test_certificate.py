@@ -248,3 +248,34 @@ def test_a_scenario_names_the_robot_root_and_turns_self_collision_off(tmp_path):
     (tmp_path / "d.toml").write_text(base.replace('"shoulder"', '"nope"'))
     with pytest.raises(ScenarioError, match="robot_root 'nope'"):
         load_scenario(tmp_path / "d.toml")
+
+
+
+# A tilt about x, 0.6 m above the floor, and below it a spin about z (parallel to the floor's normal in the drawn
+# pose) carrying a ball 0.4 m out.
+TILT_SPIN = f"""<mujoco><compiler angle="radian"/><worldbody>
+  <geom name="floor" type="plane" size="2 2 0.1"/>
+  <body name="tilt" pos="0 0 0.6">{_INERTIAL}
+    <joint name="tilt" axis="1 0 0" range="-1.6 1.6"/>
+    <body name="spin">{_INERTIAL}
+      <joint name="spin" axis="0 0 1" range="-3 3"/>
+      <geom name="ball" type="sphere" size="0.05" pos="0.4 0 0"/>
+    </body>
+  </body>
+</worldbody></mujoco>"""
+
+
+def test_a_hinge_parallel_to_the_floor_normal_below_a_crossed_hinge_still_changes_the_distance(tmp_path):
+    """The spin cannot change the ball's height in the drawn pose, but once the tilt turns its axis level it swings
+    the ball up and down: the pair (ball, floor) keeps the spin's rho, and a spin-only move changes the distance by
+    no more than the pair's bound (the rule drops a hinge parallel to a plane's normal only when every hinge above
+    it is parallel too)."""
+    robot = _robot(tmp_path, TILT_SPIN)
+    oracle = BubbleOracle(robot, delta=0.005)
+    p = [robot.pair_name(i) for i in range(len(robot.pairs))].index(("ball", "floor"))
+    assert robot.pair_active[p].tolist() == [True, True]
+    q = np.array([np.pi / 2, 0.0])  # the spin's axis level: the ball swings in a vertical plane
+    for spin in (-1.0, -0.5, 0.5, 1.0):
+        a = q + [0.0, spin]
+        change = abs(oracle.clearance.pair_distances(a)[p] - oracle.clearance.pair_distances(q)[p])
+        assert change > 0.1 and change <= oracle.pair_rho[p] @ np.abs(a - q) + 1e-9
