@@ -167,3 +167,33 @@ def test_hatch_sampling_succeeds_in_a_thin_5d_hatch():
     for pts in (ros.sample_hatches(np.random.default_rng(1), size=20)[:, 0], Hatches.of(ros).sample(np.random.default_rng(2), np.zeros(20, dtype=np.intp))):
         assert np.all(np.linalg.norm(pts - c[0], axis=1) <= 0.01 + 1e-15)
         assert np.all(np.linalg.norm(pts - c[1], axis=1) <= 0.01 + 1e-15)
+
+
+def test_membership_is_the_closed_ball_to_rounding_only():
+    """A point on a bubble's sphere is in it, one a micrometre (of q) outside is not: waypoints, the goal and a path's
+    points are held to the certified balls themselves (the tolerance only absorbs a child centre computed on its
+    parent's surface), in in_hatches and in the path check of the safe curve."""
+    from foam_mj.safe_curve import validate_path
+
+    ros = Rosary(np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([0.6, 0.6]), np.array([0.0, 0.0]), np.array([1.0, 0.0]))
+    rim = np.array([0.5, np.sqrt(0.6**2 - 0.5**2)])  # on both spheres
+    assert ros.all_in_hatches(rim[None])
+    out = rim + [0.0, 1e-6]
+    assert not ros.all_in_hatches(out[None])
+    with pytest.raises(ValueError, match=r"`path\[1\]` is not in hatch 0"):
+        validate_path([ros.q_init, out, ros.q_goal], ros)
+    with pytest.raises(ValueError, match="the goal"):
+        validate_path([ros.q_init, rim, [1.6 + 1e-6, 0.0]], ros)
+
+
+def test_the_structure_check_reports_bubbles_that_only_touch_or_miss():
+    """Consecutive bubbles must overlap: two that touch (a hatch of one point) or miss by a millimetre are reported,
+    as are ends outside the first and last bubbles."""
+    touch = Rosary(np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([0.5, 0.5]), np.zeros(2), np.array([1.0, 0.0]))
+    assert touch.check_structure(tol=0.0) == ["bubbles [0] do not overlap their successors"]
+    miss = Rosary(np.array([[0.0, 0.0], [1.002, 0.0]]), np.array([0.5, 0.5]), np.zeros(2), np.array([1.002, 0.0]))
+    assert miss.check_structure() == ["bubbles [0] do not overlap their successors"]
+    ok = Rosary(np.array([[0.0, 0.0], [0.9, 0.0]]), np.array([0.5, 0.5]), np.zeros(2), np.array([0.9, 0.0]))
+    assert ok.check_structure() == []
+    ends = Rosary(ok.centers, ok.radii, np.array([-0.501, 0.0]), np.array([1.401, 0.0]))
+    assert ends.check_structure() == ["q_init is not in the first bubble", "q_goal is not in the last bubble"]
