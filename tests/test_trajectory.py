@@ -183,6 +183,27 @@ def test_random_rosaries_stay_inside_densely(seed):
         assert np.allclose(curve.evaluate(curve.knots)[0], ros.path(waypoints)[curve.point_index], atol=1e-12)
 
 
+
+@pytest.mark.parametrize("factor", [1.02, 1.1, 1.5, 3.0])
+def test_the_control_point_check_alone_keeps_the_curve_in_its_bubbles(monkeypatch, factor):
+    """The derivative fit scales the spline's tangents and curvatures to fit the balls; the check of all six control
+    points of every segment (to SAFETY_TOL) then falls back to straight segments wherever they do not fit. With a fit
+    that overshoots by ``factor`` (control points a little or far outside), the check alone must keep every control
+    point, and so the curve, in its bubble."""
+    import foam_mj.safe_curve as sc
+
+    fit = sc._fit_derivatives
+    monkeypatch.setattr(sc, "_fit_derivatives", lambda *a: tuple(factor * x for x in fit(*a)))
+    rng = np.random.default_rng(5)
+    for _ in range(6):
+        ros = _random_rosary(rng, k=12)
+        curve = safe_curve(ros.path(ros.center_waypoints()), ros)
+        centers, radii = ros.centers[curve.bubble][:, None], ros.radii[curve.bubble][:, None]
+        assert np.all(_in_ball(curve.control_points, centers, radii))
+        u = np.linspace(0, curve.length, 20001)
+        j = curve.segment_of(u)
+        assert np.all(_in_ball(curve.evaluate(u)[0], ros.centers[curve.bubble[j]], ros.radii[curve.bubble[j]]))
+
 def test_repeated_waypoints_and_two_point_paths(robot, rosary):
     # Waypoint i of the centre path is centre i+1; it also lies in hatch i+1 when r_(i+1) <= r_(i+2).
     w = rosary.center_waypoints()
