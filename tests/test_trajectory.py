@@ -127,6 +127,22 @@ def test_respects_velocity_and_acceleration_limits(robot, trajectories, name):
     assert np.allclose(np.diff(tr.times), robot.model.opt.timestep)
 
 
+
+@pytest.mark.parametrize("dense", [5, 10])
+def test_the_limits_hold_on_the_samples_when_the_grid_misses_the_peaks(robot, rosary, paths, monkeypatch, dense):
+    """The duration comes from the peaks on a dense grid; a grid too coarse to find them (5 or 10 points a segment
+    instead of 200) underestimates them by a few per cent, and the samples themselves are then checked and the
+    duration stretched until they keep the limits."""
+    import foam_mj.trajectory as trajectory
+
+    monkeypatch.setattr(trajectory, "_DENSE_PER_SEGMENT", dense)
+    vmax, amax = JointLimits().resolve(robot)
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    for name in ("centre", "portal"):
+        tr = make_trajectory(robot, paths[name], rosary)
+        assert np.all(np.abs(tr.qvel[:, dof]) <= vmax * (1 + 1e-9)), name
+        assert np.all(np.abs(tr.qacc[:, dof]) <= amax * (1 + 1e-9)), name
+
 @pytest.mark.parametrize("name", NAMES)
 def test_every_sample_lies_in_the_bubble_of_its_segment(rosary, trajectories, name):
     tr = trajectories[name]
