@@ -265,3 +265,28 @@ def test_a_link_held_still_is_an_obstacle_except_where_it_meets_the_moving_link_
     gid = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)  # noqa: E731
     pairs = {tuple(p) for p in collision_pairs(m, np.array([2]), self_collision=True).tolist()}
     assert pairs == {(gid("link3"), gid("floor")), (gid("link3"), gid("link1"))}
+
+
+CART_AND_POST = """<mujoco><worldbody>
+  <body name="cart"><joint name="x" type="slide" axis="1 0 0" range="-1 1"/>
+    <geom name="ball" type="sphere" size="0.05" contype="1" conaffinity="1"/></body>
+  <geom name="post" type="sphere" size="0.05" pos="0.5 0 0" contype="{group}" conaffinity="{group}"/>
+</worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("group, offset, scale", [(1, 0.0, 1.0), (2, 0.0, 1.0), (1, 0.3, 0.5)],
+                         ids=["exact-bound", "other-collision-group", "normalized-with-offset"])
+def test_a_ball_that_ends_half_a_millimetre_inside_the_margin_is_a_violation(tmp_path, group, offset, scale):
+    """A slide carries a ball to 4.5 mm from a ball post (margin 5 mm): a violation, where the bounding-sphere bound
+    that prunes the exact queries is itself exact (two spheres), where the post is in another collision group
+    (contype/conaffinity 2: MuJoCo would not collide them, the planner and verify check every robot/obstacle pair),
+    and where q maps to qpos through an offset and a scale (qpos = offset + scale q)."""
+    (tmp_path / "cart.xml").write_text(CART_AND_POST.format(group=group))
+    end = 0.5 - 0.1 - 0.0045  # qpos of the cart 4.5 mm from the post
+    doc = {"format": "foam-mj/result", "version": 1, "mjcf": str(tmp_path / "cart.xml"), "planner": {"delta": 0.005},
+           "configuration": {"qpos_index": [0], "scale": [scale], "offset": [offset], "qpos0": [0.0]},
+           "paths": {"straight": {"waypoints": [[(0.0 - offset) / scale], [(end - offset) / scale]]}}}
+    (tmp_path / "cart.json").write_text(json.dumps(doc))
+    report = verify_result(tmp_path / "cart.json")
+    assert report.violations >= 1
+    assert report.min_clearance == pytest.approx(0.0045, abs=1e-9)
