@@ -219,6 +219,15 @@ def test_replay_exits_4_when_its_replay_is_closer_than_the_margin(planned_result
     assert main(["replay", str(planned_result), "--kinematic-only"]) == 0
 
 
+
+def test_export_exits_3_when_no_timing_fits_the_results_limits(planned_result, tmp_path, capsys):
+    """A result whose torque limits (1 N m) are below what gravity alone asks of the hip: no timing of its path fits,
+    which is a planning failure (exit 3, 'planning failed', nothing written), not bad input (2)."""
+    bad = _edited(planned_result, tmp_path, lambda d: d["limits"].update(torque=[1.0] * len(d["limits"]["joints"])))
+    out = tmp_path / "t.csv"
+    assert main(["export", str(bad), "--out", str(out)]) == 3
+    assert "planning failed" in capsys.readouterr().err and not out.exists()
+
 def test_a_failure_of_the_replay_itself_is_not_blamed_on_the_result(planned_result, monkeypatch, capsys):
     """Every ValueError during `replay` was reported as 'malformed result' (exit 2), even one raised by the
     simulation after the file was read (an RK4 model's dynamic replay did): a bug then passed for bad input."""
