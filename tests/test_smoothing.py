@@ -251,6 +251,18 @@ def test_adjustment_rejects_an_inconsistent_rosary(smoothing_setup, rosary):
         RosaryAdjustment(r_min=10 * R_MIN).adjust(rosary, oracle)
 
 
+
+def test_adjustment_rejects_a_rosary_whose_last_bubble_does_not_hold_the_goal(smoothing_setup, rosary):
+    """Its constraints include q_goal in the goal bubble: a goal a millimetre (of q) beyond that bubble is refused
+    before any move, rather than adjusted into a chain whose last segment leaves the certified bubbles."""
+    from foam_mj.rosary import Rosary
+
+    _, oracle, _ = smoothing_setup
+    u = (rosary.q_goal - rosary.centers[-1]) / np.linalg.norm(rosary.q_goal - rosary.centers[-1])
+    away = Rosary(rosary.centers, rosary.radii, rosary.q_init, rosary.centers[-1] + (rosary.radii[-1] + 1e-3) * u)
+    with pytest.raises(ValueError, match="q_goal"):
+        RosaryAdjustment(r_min=R_MIN).adjust(away, oracle)
+
 # -- determinism and stopping ------------------------------------------------------------------------
 @pytest.mark.parametrize("name", list(STOCHASTIC))
 def test_same_seed_same_result(rosary, stochastic_results, name):
