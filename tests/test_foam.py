@@ -143,6 +143,17 @@ def test_a_goal_in_collision_is_refused(oracle):
         plan(oracle, OBSTACLE.q_init, [0.0, 0.0, 0.5 / 0.7 * np.pi / 2], OBSTACLE.params, seed=0)
 
 
+
+def test_a_goal_just_beyond_the_root_bubble_is_not_taken_as_reached(oracle):
+    """q_goal half a radius beyond the root bubble: the root does not hold it, so the rosary needs more bubbles and its
+    last one holds q_goal (a one-bubble rosary would send the straight path out of the certified ball)."""
+    q0 = np.asarray(OBSTACLE.q_init)
+    r0 = oracle.radius(q0)
+    q_goal = q0 + [0.0, 1.5 * r0, 0.0]  # the knee bent further: free, with room for bubbles above r_min
+    assert oracle.radius(q_goal) > OBSTACLE.params.r_min
+    res = plan(oracle, q0, q_goal, OBSTACLE.params, seed=0)
+    assert res.rosary.k >= 2 and res.rosary.check_structure() == []
+
 @pytest.mark.parametrize("field, value", [("K", 0), ("K", 2.5), ("r_min", 0.0), ("delta", -1.0), ("max_bubbles", 0), ("time_limit", 0)])
 def test_bad_planner_parameters_name_the_field(field, value):
     with pytest.raises(ValueError, match=field):

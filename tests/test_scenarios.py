@@ -64,6 +64,7 @@ def test_a_scenario_file_loads(tmp_path):
         (lambda t: t.replace("K = 10", "K = 0"), "K"),
         (lambda t: t.replace("K = 10", 'K = "ten"'), "'K' must be a number"),
         (lambda t: t.replace("r_min = 0.07", "r_min = 0.07\nspeed = 3"), "unknown \\[planner\\] field"),
+        (lambda t: t.replace("r_min = 0.07", "r_min = 0.07\ndelta = -0.01"), r"\[planner\] `delta` must be >= 0"),
         (lambda t: "colour = 1\n" + t, "unknown field"),
         (lambda t: t.replace("q_init = [0.2, 0.3, 0.08]", ""), "missing field 'q_init'"),
         (lambda t: t.replace("[0.2, 0.3, 0.08]", "[0.2, 0.3]"), "q_init.*shape"),
