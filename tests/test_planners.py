@@ -676,6 +676,22 @@ def test_bubbletree_plans_the_7_joint_arm_around_the_box_collision_free(checkers
     oracle.close()
 
 
+
+def test_two_end_balls_that_leave_the_joint_box_close_together_do_not_overlap(obstacle_robot):
+    """Both ends on one edge of the joint box (knee straight at its limit, slide at its end), 0.15 apart: each end ball
+    leaves the box, so the two are shrunk (still holding their end points) until they do not overlap, where their
+    clearance alone would make them neighbours whose hatch could leave the box."""
+    from foam_mj.bubbles import BubbleOracle
+
+    oracle = BubbleOracle(obstacle_robot)
+    lo = oracle.robot.lower
+    for slide in (lo[2], oracle.robot.upper[2]):
+        q_init, q_goal = np.array([0.2, lo[1], slide]), np.array([0.35, lo[1], slide])
+        a, b = PlanningProblem(oracle, q_init, q_goal, delta=oracle.delta).endpoint_bubbles(1.0)
+        assert not (a.within_bounds or b.within_bounds)
+        assert np.linalg.norm(a.center - b.center) > a.radius + b.radius
+        assert np.linalg.norm(q_init - a.center) <= a.radius and np.linalg.norm(q_goal - b.center) <= b.radius
+
 def test_an_end_point_on_an_edge_of_the_joint_box_beside_the_floor_is_planned_to(robots):
     # step_down, knee straight and hip displacement at its end, 7.4 mm from the floor: the start's ball (radius
     # 2.2e-3) leaves the box and every bubble beside it in the box is bound- and floor-limited (about 1-2e-3, under
