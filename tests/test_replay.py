@@ -115,6 +115,19 @@ def test_feedforward_matters_and_plain_servos_still_run(robot, centre, dynamic):
     assert np.allclose(ctrl, expected)
 
 
+
+def test_the_kinematic_replay_measures_the_clearance_of_every_frame(robot, through_the_box):
+    """Frame by frame, the replay's clearance is MuJoCo's smallest pair distance at that frame's qpos (computed here
+    with mj_geomDistance), at frames spread over the sweep through the box, not a frame's neighbour's."""
+    m, d = robot.model, mujoco.MjData(robot.model)
+    kin = replay_kinematic(robot, through_the_box)
+    frames = np.linspace(1, len(through_the_box) - 2, 25).astype(int)
+    for i in frames:
+        d.qpos[:] = through_the_box.qpos[i]
+        mujoco.mj_kinematics(m, d)
+        here = min(mujoco.mj_geomDistance(m, d, int(a), int(b), 1.0, None) for a, b in robot.pairs)
+        assert kin.clearance[i] == pytest.approx(here, abs=1e-9), i
+
 def test_contacts_are_reported_with_names_time_and_depth(robot, through_the_box):
     kin = replay_kinematic(robot, through_the_box)
     assert kin.min_clearance < 0
