@@ -208,16 +208,18 @@ def test_an_unwritable_output_fails_before_planning(tmp_path, capsys):
 
 
 
-def test_the_json_result_replaces_an_old_one_by_rename_never_in_place(tmp_path, capsys):
+@pytest.mark.parametrize("time_limit, code", [("60", 0), ("0.001", 3)], ids=["planned", "failed"])
+def test_the_json_result_replaces_an_old_one_by_rename_never_in_place(tmp_path, capsys, time_limit, code):
     """A reader that opened the previous result before `plan --json` overwrote it still reads that previous file
-    whole (the new result is written beside it and renamed over it: never truncated and rewritten in place, where a
-    reader or a crash mid-write sees half a file), and no temporary file is left."""
+    whole (the new result, or the failed plan's foam, is written beside it and renamed over it: never truncated and
+    rewritten in place, where a reader or a crash mid-write sees half a file), and no temporary file is left."""
     js = tmp_path / "r.json"
     js.write_text('{"old": "result"}')
     with open(js) as old:
-        assert main(["plan", "--scene", "obstacle", "--smoother", "none", "--no-replay", "--no-rrd", "--json", str(js)]) == 0
+        assert main(["plan", "--scene", "obstacle", "--smoother", "none", "--no-replay", "--no-rrd", "--time-limit", time_limit,
+                     "--json", str(js)]) == code
         assert old.read() == '{"old": "result"}'
-    assert json.loads(js.read_text())["paths"] and [p.name for p in tmp_path.iterdir()] == ["r.json"]
+    assert json.loads(js.read_text())["outcome"] and [p.name for p in tmp_path.iterdir()] == ["r.json"]
     capsys.readouterr()
 
 def test_a_planning_failure_exits_3_and_still_writes_the_foam(tmp_path, capsys):
