@@ -376,6 +376,16 @@ def _row_sq_sums(d: np.ndarray) -> np.ndarray:
     return out
 
 
+def small_goal_hint(oracle: BubbleOracle, q_goal: np.ndarray, r_min: float) -> str:
+    """The reason a foam that did not reach q_goal may have missed it: its own certified bubble is below r_min, so
+    only a bubble of at least r_min placed just so can hold it (and the coverage rule drops most candidates there)."""
+    r_goal = float(oracle.radius(q_goal))
+    if r_goal >= r_min:
+        return ""
+    return (f": q_goal's own certified bubble has radius {r_goal:.4f} < r_min = {r_min}, so only a bubble of at least "
+            "r_min placed to reach it can hold it; lower r_min, or plan with bubbletree")
+
+
 def plan(
     oracle: BubbleOracle,
     q_init,
@@ -530,7 +540,8 @@ def plan(
             goal = count - 1
     if goal is None:
         foam = foam_now()
-        raise PlanningFailed.after(f"the foam did not reach q_goal ({stats.outcome}) after {stats.bubbles} bubbles", stats, foam=foam)
+        raise PlanningFailed.after(f"the foam did not reach q_goal ({stats.outcome}) after {stats.bubbles} bubbles", stats,
+                                   small_goal_hint(oracle, q_goal, params.r_min), foam)
     finish("reached")
     foam = foam_now(goal)
     return PlanResult(foam, foam.rosary(), stats)

@@ -764,3 +764,18 @@ def test_a_problem_names_a_margin_budget_or_count_that_is_not_a_number(oracles):
         with pytest.raises(TypeError, match=f"`{name}` must be a number, got {value!r}"):
             PlanningProblem(oracle, s.q_init, s.q_goal, **kw)
     assert PlanningProblem(oracle, s.q_init, s.q_goal, delta=np.float64(oracle.delta), time_limit=np.float32(5), max_bubbles=np.int64(10)).max_bubbles == 10
+
+
+@pytest.mark.parametrize("name", ["pfm", "hpf"])
+def test_a_foam_that_misses_a_goal_whose_bubble_is_below_r_min_says_so(oracles, name):
+    """A goal 49 mm from the box: its own bubble (0.037) is below r_min = 0.07, so only a bubble placed just so can
+    hold it; hpf (seed 0) and pfm on a goal beside its start ended with a bare 'queue empty'."""
+    s = load_scenario("obstacle")
+    q_init, q_goal = np.array([0.2, 0.3, 0.08]), np.array([0.25, 0.33, 0.15])
+    if name == "pfm":  # 1.5 start radii from the start toward the scenario's goal (found by the mutation sweep)
+        r0 = oracles["obstacle"].radius(s.q_init)
+        q_init, q_goal = s.q_init, s.q_init + 1.5 * r0 * (s.q_goal - s.q_init) / np.linalg.norm(s.q_goal - s.q_init)
+    r_goal = oracles["obstacle"].radius(q_goal)
+    with pytest.raises(PlanningFailed, match=rf"q_goal's own certified bubble has radius {r_goal:.4f} < r_min = 0.07, .* plan with bubbletree"):
+        get_planner(name, K=10, r_min=0.07).plan(PlanningProblem(oracles["obstacle"], q_init, q_goal, delta=0.005), seed=0)
+    assert get_planner("bubbletree").plan(PlanningProblem(oracles["obstacle"], q_init, q_goal, delta=0.005), seed=0).rosary.k >= 1

@@ -66,7 +66,7 @@ from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
-from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order, seed_rng
+from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order, seed_rng, small_goal_hint
 from foam_mj.rosary import MEMBERSHIP_TOL
 
 #: Citation used in docstrings, the README and docs/references.md.
@@ -226,6 +226,8 @@ class _Growth:
                     f": no bubble of radius >= r_min = {self.params.r_min} fits on the start's bubble (radius "
                     f"{self.radii[0]:.4f}); lower r_min, or plan with bubbletree"
                 )
+            else:
+                stuck = small_goal_hint(self.oracle, self.q_goal, self.params.r_min)
             raise PlanningFailed.after(f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles", st, stuck, foam)
         return PlanResult(foam, foam.rosary(), st)
 
