@@ -79,6 +79,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.clearance import Clearance
+from foam_mj.errors import is_number
 from foam_mj.model import RobotModel
 
 _HINGE = int(mujoco.mjtJoint.mjJNT_HINGE)
@@ -267,11 +268,21 @@ class BubbleOracle:
     ``delta`` is the safety margin in metres: every configuration inside a bubble keeps at least delta
     of workspace clearance on every pair. ``distmax`` caps the distances MuJoCo reports (and so the
     radius). ``pair_factor[p]`` is ||rho_p||_2, ``pair_rho[p]`` rho_p per coordinate.
+
+    One oracle serves any number of plans, also from several threads at once, and pickles (process pools, Ray).
+    It measures the scene as ``robot`` was built: to change an obstacle, build a new RobotModel and oracle
+    (:class:`~foam_mj.model.RobotModel`; an edit of ``robot.model`` is refused before any planning).
     """
 
     def __init__(self, robot: RobotModel, delta: float = 0.005, distmax: float = 1.0) -> None:
+        if not isinstance(robot, RobotModel):
+            raise TypeError(f"BubbleOracle takes a foam_mj.model.RobotModel (RobotModel.from_xml(path)), got {type(robot).__name__}")
+        for name, value in (("delta", delta), ("distmax", distmax)):
+            if not is_number(value):
+                raise TypeError(f"`{name}` must be a number (metres), got {value!r}")
         if not (np.isfinite(delta) and delta >= 0):
             raise ValueError(f"`delta` (safety margin, metres) must be >= 0, got {delta}")
+        robot.check_unchanged()
         self.robot = robot
         self.delta = float(delta)
         self.clearance = Clearance(robot, distmax=distmax)
@@ -363,18 +374,21 @@ class BubbleOracle:
         return EndBubble(C[k], float(r[k]), True)
 
     def radius(self, q) -> float:
-        """Certified radius at one configuration (validated: shape, finite, within bounds)."""
+        """Certified radius at one configuration (validated: shape, finite, within bounds; the scene unedited)."""
+        self.robot.check_unchanged()
         q = self.robot.validate(q)
         return float(self.radius_from_distances(self.clearance.pair_distances(q), q))
 
     def radii(self, Q: np.ndarray) -> np.ndarray:
         """Certified radii for every row of Q (N, n), evaluated in one batch. Rows are not bounds-checked:
-        a row outside the bounds gets radius 0."""
+        a row outside the bounds gets radius 0. The planners' inner loop: the scene is checked unedited
+        (:meth:`~foam_mj.model.RobotModel.check_unchanged`) when a plan starts, not here."""
         Q = self.robot.validate_batch(Q)
         return self.radius_from_distances(self.clearance.batch_pairs(Q), Q)
 
     def explain(self, q) -> "BubbleReport":
         """Everything behind the radius at q: per-pair distances and bounds, the pair that sets the radius."""
+        self.robot.check_unchanged()
         q = self.robot.validate(q)
         dist = self.clearance.pair_distances(q)
         terms = self.pair_radii(dist)

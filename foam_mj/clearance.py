@@ -16,9 +16,15 @@ Computed with MuJoCo's own distance queries, never with a C-obstacle map:
 pair, ``foam_mj.bubbles``); ``__call__`` and ``batch`` their minimum. All return
 ``min(signed distance, distmax)``: negative under penetration, capped at ``distmax``
 (MuJoCo's semantics: a separated pair farther than ``distmax`` reads ``distmax``).
+
+One :class:`Clearance` (and so one :class:`~foam_mj.bubbles.BubbleOracle`) may serve several threads at once
+(plans in a thread pool): each thread queries through its own ``MjData`` and batches, created on its first query.
+It pickles (for process pools and Ray) without them.
 """
 
 from __future__ import annotations
+
+import threading
 
 import mujoco
 import numpy as np
@@ -31,8 +37,18 @@ THREADED_BATCH = 256
 _STAGE_POS = int(mujoco.mjtStage.mjSTAGE_POS)
 
 
+class _ThreadState:
+    """One thread's scratch: its MjData, its batches and the configurations it evaluated."""
+
+    def __init__(self, m: mujoco.MjModel) -> None:
+        self.data = mujoco.MjData(m)
+        self.batches: dict[int, tuple] = {}  # threads -> (Batch, its qpos rows, its sensordata rows, ids)
+        self.calls = 0
+
+
 class Clearance:
-    """d(q) for one configuration or a batch. ``distmax`` (metres) caps the distance returned."""
+    """d(q) for one configuration or a batch. ``distmax`` (metres) caps the distance returned. Thread-safe
+    (module docstring); ``calls`` counts the configurations the calling thread evaluated."""
 
     def __init__(self, robot: RobotModel, distmax: float = 1.0) -> None:
         if not distmax > 0:
@@ -40,11 +56,31 @@ class Clearance:
         self.robot = robot
         self.distmax = float(distmax)
         self._m = robot.model
-        self._d = mujoco.MjData(self._m)
         self._pairs = [(int(g), int(o)) for g, o in robot.pairs]
         self._batch_model = self._sensor_model()
-        self._batches: dict[int, tuple] = {}  # threads -> (Batch, its qpos rows, its sensordata rows, ids)
-        self.calls = 0  # configurations evaluated, for statistics
+        self._local = threading.local()
+
+    def _state(self) -> _ThreadState:
+        """The calling thread's scratch (created on its first query)."""
+        try:
+            return self._local.state
+        except AttributeError:
+            state = self._local.state = _ThreadState(self._m)
+            return state
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        del state["_local"]  # MjData and batches are per thread and process; made afresh on the first query
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._local = threading.local()
+
+    @property
+    def calls(self) -> int:
+        """Configurations the calling thread has evaluated, for statistics (a planner counts its own queries)."""
+        return self._state().calls
 
     def _sensor_model(self) -> mujoco.MjModel:
         """The model with one distance sensor per checked pair, lean if it compiles so: without the geoms of no
@@ -84,19 +120,21 @@ class Clearance:
 
     def __call__(self, q: np.ndarray) -> float:
         """d(q) for one configuration (shape (n,)); q is not validated here (see RobotModel.validate)."""
-        d = self._d
+        state = self._state()
+        d = state.data
         d.qpos[:] = self.robot.config.to_qpos(q)
         mujoco.mj_kinematics(self._m, d)
-        self.calls += 1
+        state.calls += 1
         m, dm, gd = self._m, self.distmax, mujoco.mj_geomDistance
         return min([gd(m, d, g, o, dm, None) for g, o in self._pairs])
 
     def pair_distances(self, q: np.ndarray) -> np.ndarray:
         """d_p(q) of every checked pair (shape (P,), in ``robot.pairs`` order)."""
-        d = self._d
+        state = self._state()
+        d = state.data
         d.qpos[:] = self.robot.config.to_qpos(q)
         mujoco.mj_kinematics(self._m, d)
-        self.calls += 1
+        state.calls += 1
         m, dm, gd = self._m, self.distmax, mujoco.mj_geomDistance
         return np.array([gd(m, d, g, o, dm, None) for g, o in self._pairs])
 
@@ -117,26 +155,27 @@ class Clearance:
         P = len(self._pairs)
         if n == 0:
             return np.empty((0, P))
-        self.calls += n
-        batch, qpos, sensordata, ids = self._batch(n, 2 if n >= THREADED_BATCH else 1)
+        state = self._state()
+        state.calls += n
+        batch, qpos, sensordata, ids = self._batch(state, n, 2 if n >= THREADED_BATCH else 1)
         cfg = self.robot.config
         qpos[:n] = cfg.qpos0  # as ConfigurationMap.to_qpos, written straight into the batch's rows
         qpos[:n, cfg.qpos_index] = cfg.offset + cfg.scale * Q
         batch.forward(None if n == batch.nsim else ids[:n], _STAGE_POS)
         return sensordata[:n, sensordata.shape[1] - P :].copy()  # our sensors come last, after any the model has
 
-    def _batch(self, n: int, nthread: int) -> tuple:
-        """The Batch of ``nthread`` threads with room for n configurations (grown by doubling)."""
-        b = self._batches.get(nthread)
+    def _batch(self, state: _ThreadState, n: int, nthread: int) -> tuple:
+        """The calling thread's Batch of ``nthread`` threads with room for n configurations (grown by doubling)."""
+        b = state.batches.get(nthread)
         if b is None or b[0].nsim < n:
             size = max(n, 2 * b[0].nsim if b is not None else 64)
             batch = mj_batch.Batch(self._batch_model, size, nthread=nthread)
-            b = self._batches[nthread] = (batch, batch.bind("qpos"), batch.bind("sensordata"), np.arange(size, dtype=np.int32))
+            b = state.batches[nthread] = (batch, batch.bind("qpos"), batch.bind("sensordata"), np.arange(size, dtype=np.int32))
         return b
 
     def close(self) -> None:
-        """Release the batches and their threads."""
-        self._batches.clear()
+        """Release every thread's batches and their threads (a later query starts afresh)."""
+        self._local = threading.local()
 
     def __del__(self) -> None:  # pragma: no cover - best effort
         try:

@@ -401,6 +401,7 @@ def plan(
     reached within the budget or the foam can grow no further.
     """
     robot = oracle.robot
+    robot.check_unchanged()
     q_init = robot.validate(q_init, "q_init")
     q_goal = robot.validate(q_goal, "q_goal")
     if oracle.delta != params.delta:

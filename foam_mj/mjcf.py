@@ -65,6 +65,17 @@ def name_unnamed_geoms(spec: mujoco.MjSpec) -> int:
     return count
 
 
+def scene_xml(spec: mujoco.MjSpec, scene: Path) -> str:
+    """The spec as one self-contained MJCF string (includes flattened; mesh and texture folders made absolute, from
+    ``scene``'s folder, so the string loads from anywhere). Sets those folders in ``spec`` and compiles it."""
+    base = Path(scene).resolve().parent
+    for attr in ("meshdir", "texturedir"):
+        d = getattr(spec, attr)
+        setattr(spec, attr, str((base / d).resolve()) if d else str(base))
+    spec.compile()
+    return spec.to_xml()
+
+
 def _custom_text(m: mujoco.MjModel, name: str) -> str | None:
     i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TEXT, name)
     if i < 0:

@@ -29,6 +29,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 import dataclasses
+import os
+import threading
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -44,7 +46,8 @@ from foam_mj.configuration import (
     _joint_name,
 )
 from foam_mj.errors import ConfigurationError, ModelError, clearance_text
-from foam_mj.mjcf import _custom_text, compile_spec, load_spec, name_unnamed_geoms
+from foam_mj.fingerprint import PARTS
+from foam_mj.mjcf import _custom_text, compile_spec, load_spec, name_unnamed_geoms, scene_xml
 
 def body_is_moving(m: mujoco.MjModel, body: int) -> bool:
     """True when some joint moves ``body`` (the body or one of its ancestors has a joint)."""
@@ -112,10 +115,21 @@ def attached(m: mujoco.MjModel, a: int, b: int) -> bool:
 #: The cutoff of the fixed pairs' distances (metres): above any margin a plan could ask for.
 FIXED_DISTMAX = 1e6
 
+#: The compiled model's arrays that set the clearances (its kinematics and geometry, as in
+#: :mod:`foam_mj.fingerprint`): an edit of one of them after the RobotModel was built is refused.
+SHAPE_FIELDS: tuple[str, ...] = PARTS["kinematics"] + PARTS["geometry"]
+
 
 @dataclass
 class RobotModel:
-    """A compiled MJCF scene with its configuration map and its robot/obstacle geom pairs."""
+    """A compiled MJCF scene with its configuration map and its robot/obstacle geom pairs.
+
+    Everything derived from ``model`` (the checked pairs, the bubble bound, the batched distance queries' copy
+    of the model) is computed once, so ``model``'s kinematics and geometry must not change afterwards: to move
+    an obstacle, edit :meth:`spec_copy` and build a new RobotModel with :meth:`from_spec` (an edit of ``model``
+    itself is refused by :meth:`check_unchanged` before any planning, never used half-way). Safe to share
+    between threads; picklable (the spec travels as MJCF text), for process pools and Ray.
+    """
 
     path: Path
     model: mujoco.MjModel
@@ -123,8 +137,7 @@ class RobotModel:
     robot_geoms: np.ndarray  # geom ids
     obstacle_geoms: np.ndarray  # geom ids
     pairs: np.ndarray  # (P, 2) geom ids (robot, obstacle)
-    _data: mujoco.MjData = field(repr=False, default=None)  # type: ignore[assignment]
-    spec: mujoco.MjSpec | None = field(repr=False, default=None)  # what ``model`` was compiled from
+    spec: mujoco.MjSpec | None = field(repr=False, default=None)  # what ``model`` was compiled from (a private copy)
     xml: str | None = field(repr=False, default=None)  # the edited scene's MJCF when it differs from ``path``
     self_pair: np.ndarray = field(default=None)  # type: ignore[assignment]  # (P,) bool: both geoms are robot geoms
     moves: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]  # (ngeom, n) bool: coordinate i moves geom g
@@ -153,6 +166,34 @@ class RobotModel:
         self.pair_table = np.zeros((ng, ng), dtype=bool)
         self.pair_table[self.pairs[:, 0], self.pairs[:, 1]] = True
         self.pair_table |= self.pair_table.T
+        self._shape = {name: np.array(getattr(self.model, name)) for name in SHAPE_FIELDS}
+        self._local = threading.local()  # each thread's MjData for set_configuration
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        del state["_local"]
+        state.pop("fixed_obstacle_distances", None)  # a cache
+        if self.spec is not None:  # MjSpec does not pickle: its MJCF text does
+            state["spec"] = self.xml if self.xml is not None else scene_xml(self.spec.copy(), self.path)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        if isinstance(self.spec, str):
+            self.spec = mujoco.MjSpec.from_string(self.spec)
+        self._local = threading.local()
+
+    def check_unchanged(self) -> None:
+        """:class:`ModelError` when ``model``'s kinematics or geometry (a body's or geom's pose, a size, a joint
+        range, ...) were edited after this RobotModel was built: the pairs, the bubble bound and the batched
+        distance queries were computed from the model as it was, so planning on it would mix old and new scenes."""
+        changed = [name for name, value in self._shape.items() if not np.array_equal(getattr(self.model, name), value)]
+        if changed:
+            raise ModelError(
+                f"{self.path}: the compiled model was edited after its RobotModel was built ({', '.join(changed)} changed); "
+                "the bubbles would still see the old scene. Edit the spec instead and build a new model and oracle: "
+                "spec = robot.spec_copy(); ...; BubbleOracle(RobotModel.from_spec(spec, robot.path), delta)"
+            )
 
     @classmethod
     def from_xml(
@@ -174,6 +215,11 @@ class RobotModel:
         the robot/robot pairs MuJoCo lets collide; ``keyframe`` names the keyframe whose pose holds the
         joints that are not configuration coordinates (default: qpos0).
         """
+        if not isinstance(path, (str, os.PathLike)):
+            hint = " (for a mujoco.MjSpec use RobotModel.from_spec(spec, name))" if isinstance(path, mujoco.MjSpec) else (
+                " (a compiled MjModel cannot be turned back into a spec: load its MJCF file, or give its MjSpec to "
+                "RobotModel.from_spec)" if isinstance(path, mujoco.MjModel) else "")
+            raise TypeError(f"RobotModel.from_xml takes the path of an MJCF file, got {type(path).__name__}{hint}")
         p = Path(path).resolve()
         return cls.from_spec(
             load_spec(p), p, joints, normalize, robot_root=robot_root, self_collision=self_collision, keyframe=keyframe
@@ -193,9 +239,13 @@ class RobotModel:
     ) -> "RobotModel":
         """Build from a (possibly edited) :class:`mujoco.MjSpec`; ``path`` names the source in messages.
 
-        Unnamed geoms are named in ``spec`` (module docstring); the spec is kept (:meth:`spec_copy`).
-        Options as in :meth:`from_xml`.
+        Unnamed geoms are named in ``spec`` (module docstring); a copy of the spec is kept (:meth:`spec_copy`), so
+        later edits of ``spec`` do not reach this model. Options as in :meth:`from_xml`.
         """
+        if not isinstance(spec, mujoco.MjSpec):
+            raise TypeError(f"RobotModel.from_spec takes a mujoco.MjSpec, got {type(spec).__name__}")
+        if isinstance(joints, str):
+            raise TypeError(f"`joints` must be a sequence of joint names, got the string {joints!r} (write [{joints!r}])")
         p = Path(path)
         compile_spec(spec, p)
         name_unnamed_geoms(spec)
@@ -289,7 +339,6 @@ class RobotModel:
             np.array(robot, dtype=int),
             np.array(obstacles, dtype=int),
             np.array(pairs, dtype=int),
-            mujoco.MjData(m),
             self_pair=np.array(self_pair, dtype=bool),
             pair_active=active,
             moves=moves,
@@ -297,7 +346,7 @@ class RobotModel:
             robot_root=robot_root,
             self_collision=self_collision,
         )
-        out.spec = spec
+        out.spec = spec.copy()
         return out
 
     def spec_copy(self) -> mujoco.MjSpec:
@@ -379,8 +428,13 @@ class RobotModel:
         return arr
 
     def validate_batch(self, Q, name: str = "Q") -> np.ndarray:
-        """Return Q as a float array of shape (N, n), or raise ConfigurationError."""
-        arr = np.asarray(Q, dtype=float)
+        """Return Q as a float array of shape (N, n), or raise ConfigurationError (bounds are not checked)."""
+        try:
+            if np.asarray(Q).dtype.kind in "bc":  # as in validate
+                raise TypeError
+            arr = np.asarray(Q, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigurationError(f"{name} must be an (N, {self.dim}) array of real numbers, got {Q!r}") from None
         if arr.ndim != 2 or arr.shape[1] != self.dim:
             raise ConfigurationError(f"{name} must have shape (N, {self.dim}), got shape {arr.shape}")
         if not np.all(np.isfinite(arr)):
@@ -388,8 +442,12 @@ class RobotModel:
         return arr
 
     def set_configuration(self, q: np.ndarray, data: mujoco.MjData | None = None) -> mujoco.MjData:
-        """Set qpos from q and run forward kinematics (``mj_kinematics``); returns the MjData used."""
-        d = self._data if data is None else data
+        """Set qpos from q (validated: shape, finite; bounds not checked) and run forward kinematics
+        (``mj_kinematics``); returns the MjData used (by default the calling thread's own)."""
+        q = self.validate(q, check_bounds=False)
+        d = data if data is not None else getattr(self._local, "data", None)
+        if d is None:
+            d = self._local.data = mujoco.MjData(self.model)
         d.qpos[:] = self.config.to_qpos(q)
         mujoco.mj_kinematics(self.model, d)
         return d

@@ -22,7 +22,7 @@ from pathlib import Path
 import mujoco
 
 from foam_mj.configuration import CONFIGURATION_FIELD, NORMALIZE_PREFIX
-from foam_mj.mjcf import load_spec
+from foam_mj.mjcf import load_spec, scene_xml
 from foam_mj.model import RobotModel
 
 
@@ -135,17 +135,6 @@ def edited_spec(scene: Path, edits: SceneEdits) -> mujoco.MjSpec:
     for joint, numbers in edits.normalize.items():
         _set_numeric(spec, NORMALIZE_PREFIX + joint, list(numbers))
     return spec
-
-
-def scene_xml(spec: mujoco.MjSpec, scene: Path) -> str:
-    """The edited scene as one self-contained MJCF string (includes flattened; mesh and texture folders
-    made absolute so the string loads from anywhere)."""
-    base = scene.resolve().parent
-    for attr in ("meshdir", "texturedir"):
-        d = getattr(spec, attr)
-        setattr(spec, attr, str((base / d).resolve()) if d else str(base))
-    spec.compile()
-    return spec.to_xml()
 
 
 def build_robot(scene: Path, edits: SceneEdits | None = None, **options) -> RobotModel:

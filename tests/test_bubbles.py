@@ -386,3 +386,112 @@ def test_a_hinge_reach_holds_where_a_crossed_hinge_below_swings_the_geom_off_its
         p0 = robot.set_configuration(q, d).geom_xpos[ball].copy()
         p1 = robot.set_configuration(q + [1.0, 0.0], d).geom_xpos[ball]
         assert np.linalg.norm(p1 - p0) <= bound.per_geom[ball] @ [1.0, 0.0] + 1e-9
+
+
+# -- one oracle, many plans: threads, pickling, edited scenes -------------------------------------------
+
+def _bubbletree_rosary(problem, seed: int):
+    from foam_mj.planners import get_planner
+
+    r = get_planner("bubbletree").plan(problem, seed=seed).rosary
+    return r.centers, r.radii
+
+
+def test_one_oracle_plans_from_several_threads_as_it_does_alone(oracles):
+    # Each thread queries through its own MjData and batches; shared ones gave rosaries through obstacles.
+    import threading
+
+    from foam_mj.planners import PlanningProblem
+
+    s = oracles["obstacle"]
+    problem = PlanningProblem(s, [0.0, 0.0, 0.0], [0.3, 0.1, 1.5], delta=s.delta, time_limit=30)
+    alone = {seed: _bubbletree_rosary(problem, seed) for seed in range(3)}
+    together: dict = {}
+    threads = [threading.Thread(target=lambda k=seed: together.__setitem__(k, _bubbletree_rosary(problem, k))) for seed in range(3)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for seed in range(3):
+        np.testing.assert_array_equal(together[seed][0], alone[seed][0])
+        np.testing.assert_array_equal(together[seed][1], alone[seed][1])
+
+
+MESH_ARM = """<mujoco><compiler angle="radian" meshdir="assets"/>
+  <asset><mesh name="rock" file="rock.obj"/></asset>
+  <worldbody>
+    <geom name="rock" type="mesh" mesh="rock" pos="0.25 -0.2 0"/>
+    <body name="link" pos="0 0 0.5"><joint name="pan" axis="0 0 1" range="-3 3"/><joint name="tilt" axis="0 1 0" range="-1.2 1.2"/>
+      <geom name="arm" type="capsule" fromto="0 0 0 0.5 0 0" size="0.03"/></body>
+  </worldbody></mujoco>"""
+ROCK = "v 0 0 0\nv 0.4 0 0\nv 0.2 0.35 0\nv 0.2 0.12 0.3\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n"
+
+
+def test_a_problem_pickles_with_its_oracle_and_plans_the_same_elsewhere(tmp_path, monkeypatch):
+    # For process pools and Ray: the MjSpec, which does not pickle, travels as MJCF text whose mesh folder is
+    # absolute, so the copy loads from another working directory.
+    import pickle
+
+    from foam_mj.planners import PlanningProblem
+
+    (tmp_path / "assets").mkdir()
+    (tmp_path / "assets" / "rock.obj").write_text(ROCK)
+    robot = _robot_from_xml(tmp_path, MESH_ARM)
+    oracle = BubbleOracle(robot, delta=0.01)
+    problem = PlanningProblem(oracle, [-1.0, 0.6], [0.3, 0.7], delta=0.01, time_limit=30)
+    monkeypatch.chdir(tmp_path / "assets")
+    copy = pickle.loads(pickle.dumps(problem))
+    for a, b in zip(_bubbletree_rosary(problem, 0), _bubbletree_rosary(copy, 0)):
+        np.testing.assert_array_equal(a, b)
+    assert copy.oracle.robot.spec_copy().compile().ngeom == robot.model.ngeom
+
+
+def test_an_edit_of_the_compiled_model_is_refused_before_it_is_half_used(tmp_path):
+    # The bubble bound and the batched queries' model are built once: an obstacle moved in robot.model was seen
+    # by single queries and not by batches (a silent mix of two scenes). Now every entry point names the edit.
+    from foam_mj.errors import ModelError
+    from foam_mj.model import RobotModel
+    from foam_mj.planners import PlanningProblem, get_planner
+
+    from conftest import MODELS
+
+    robot = RobotModel.from_xml(MODELS / "obstacle.xml")
+    oracle = BubbleOracle(robot, delta=0.005)
+    q0, q1 = [0.0, 0.0, 0.0], [0.3, 0.1, 1.5]
+    problem = PlanningProblem(oracle, q0, q1, delta=0.005)
+    box = mujoco.mj_name2id(robot.model, mujoco.mjtObj.mjOBJ_GEOM, "obstacle_box")
+    robot.model.geom_pos[box, 2] -= 0.05
+    for call in (lambda: oracle.radius(q0), lambda: oracle.explain(q0), lambda: BubbleOracle(robot, 0.005),
+                 lambda: PlanningProblem(oracle, q0, q1, delta=0.005), *(lambda n=n: get_planner(n).plan(problem) for n in ("bubbletree", "pfm", "gbpf"))):
+        with pytest.raises(ModelError, match=r"edited after its RobotModel was built \(geom_pos changed\).*spec_copy"):
+            call()
+    # The documented way: edit a copy of the spec and build a new model and oracle; single and batched agree.
+    spec = robot.spec_copy()
+    spec.geom("obstacle_box").pos[2] -= 0.05
+    moved = BubbleOracle(RobotModel.from_spec(spec, robot.path), delta=0.005)
+    Q = np.array([q0, q1, [0.5, 0.8, 0.7]])
+    np.testing.assert_allclose(moved.radii(Q), [moved.radius(q) for q in Q], atol=1e-12)
+
+
+def test_a_spec_edited_after_from_spec_does_not_reach_the_model_it_built(tmp_path):
+    from foam_mj.model import RobotModel
+
+    from conftest import MODELS
+
+    spec = mujoco.MjSpec.from_file(str(MODELS / "obstacle.xml"))
+    robot = RobotModel.from_spec(spec, MODELS / "obstacle.xml")
+    spec.geom("obstacle_box").pos[2] -= 0.05  # after the model was built: not part of it
+    oracle = BubbleOracle(robot, delta=0.005)
+    Q = np.array([[0.0, 0.0, 0.0], [0.5, 0.8, 0.7]])
+    np.testing.assert_allclose(oracle.radii(Q), [oracle.radius(q) for q in Q], atol=1e-12)
+
+
+@pytest.mark.parametrize("args, message", [
+    (("obstacle.xml",), "BubbleOracle takes a foam_mj.model.RobotModel"),
+    ((None, "0.01"), "`delta` must be a number"),
+    ((None, None), "`delta` must be a number"),
+])
+def test_an_oracle_names_a_wrong_argument_type(obstacle_robot, args, message):
+    args = (obstacle_robot if args[0] is None else args[0], *args[1:])
+    with pytest.raises(TypeError, match=message):
+        BubbleOracle(*args)

@@ -265,3 +265,27 @@ def test_an_equality_that_ties_a_configuration_joint_to_other_motion_is_refused_
     assert load(mimic, joints=["a"]).dim == 1  # b and c held where they are: the constraint holds too
     assert load(mimic.replace('joint2="b"', 'joint2="b" active="false"')).dim == 3
     assert load('<equality><weld body1="mocap" body2="loose"/></equality>').dim == 3
+
+
+def test_the_constructors_name_an_argument_of_the_wrong_type(obstacle_robot):
+    import mujoco
+
+    with pytest.raises(TypeError, match="takes the path of an MJCF file, got MjModel.*cannot be turned back into a spec"):
+        RobotModel.from_xml(obstacle_robot.model)
+    with pytest.raises(TypeError, match=r"got MjSpec \(for a mujoco.MjSpec use RobotModel.from_spec"):
+        RobotModel.from_xml(obstacle_robot.spec_copy())
+    with pytest.raises(TypeError, match="from_spec takes a mujoco.MjSpec, got PosixPath"):
+        RobotModel.from_spec(MODELS / "obstacle.xml", MODELS / "obstacle.xml")
+    # A single name was read letter by letter ("configuration joint 'k' is not in the model").
+    with pytest.raises(TypeError, match=r"`joints` must be a sequence of joint names, got the string 'knee_flexion'"):
+        RobotModel.from_xml(MODELS / "obstacle.xml", joints="knee_flexion")
+    assert isinstance(obstacle_robot.spec_copy(), mujoco.MjSpec)
+
+
+def test_configurations_given_to_the_model_are_validated_with_the_reason(obstacle_robot):
+    with pytest.raises(ConfigurationError, match=r"q must have shape \(3,\)"):
+        obstacle_robot.in_collision([0.2, 0.3])  # was numpy's "operands could not be broadcast"
+    with pytest.raises(ConfigurationError, match=r"Q must be an \(N, 3\) array of real numbers"):
+        obstacle_robot.validate_batch([["a", 0.3, 0.08]])  # was numpy's "could not convert string to float"
+    with pytest.raises(ConfigurationError, match=r"Q must be an \(N, 3\) array of real numbers"):
+        obstacle_robot.validate_batch(np.ones((2, 3), dtype=bool))

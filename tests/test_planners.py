@@ -779,3 +779,30 @@ def test_a_foam_that_misses_a_goal_whose_bubble_is_below_r_min_says_so(oracles, 
     with pytest.raises(PlanningFailed, match=rf"q_goal's own certified bubble has radius {r_goal:.4f} < r_min = 0.07, .* plan with bubbletree"):
         get_planner(name, K=10, r_min=0.07).plan(PlanningProblem(oracles["obstacle"], q_init, q_goal, delta=0.005), seed=0)
     assert get_planner("bubbletree").plan(PlanningProblem(oracles["obstacle"], q_init, q_goal, delta=0.005), seed=0).rosary.k >= 1
+
+
+# -- the problem: what a planner is handed ------------------------------------------------------------
+def test_a_problem_names_an_oracle_of_the_wrong_type(obstacle_robot):
+    for oracle in (None, obstacle_robot):
+        with pytest.raises(TypeError, match="`oracle` must be a foam_mj.bubbles.BubbleOracle"):
+            PlanningProblem(oracle, [0.0, 0.0, 0.0], [0.3, 0.1, 1.5])
+
+
+@pytest.mark.parametrize("name", sorted(PLANNERS))
+def test_every_planner_names_a_problem_that_is_not_one(name):
+    with pytest.raises(TypeError, match=r"plan\(\) takes a foam_mj.planners.PlanningProblem, got tuple"):
+        get_planner(name).plan((None, [0.0, 0.0, 0.0], [0.3, 0.1, 1.5]))
+
+
+def test_a_frozen_problem_keeps_its_validated_end_points(oracles):
+    # The end points are validated once; an in-place change afterwards (q_init[0] = 5, out of bounds) is refused.
+    problem = PlanningProblem(oracles["obstacle"], [0.0, 0.0, 0.0], [0.3, 0.1, 1.5])
+    for q in (problem.q_init, problem.q_goal):
+        with pytest.raises(ValueError, match="read-only"):
+            q[0] = 5.0
+
+
+def test_a_goal_equal_to_the_start_is_refused_for_every_planner(oracles):
+    # pfm refused it and the others returned a one-bubble rosary: one answer now, as the CLI and scenarios give.
+    with pytest.raises(ConfigurationError, match=r"q_goal equals q_init \(\[0.2, 0.3, 0.08\]\): nothing to plan"):
+        PlanningProblem(oracles["obstacle"], [0.2, 0.3, 0.08], np.array([0.2, 0.3, 0.08]))

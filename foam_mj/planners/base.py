@@ -39,7 +39,8 @@ class PlanningProblem:
     """q_init -> q_goal among the oracle's obstacles, every bubble keeping ``delta`` (metres) of clearance.
 
     ``delta`` must equal ``oracle.delta`` (it is repeated so that a problem states its margin).
-    ``time_limit`` (seconds of wall time) and ``max_bubbles`` bound the search.
+    ``time_limit`` (seconds of wall time) and ``max_bubbles`` bound the search. q_init and q_goal are kept as
+    read-only float arrays (validated: shape, finite, within the joint bounds, not equal). Picklable.
     """
 
     oracle: BubbleOracle
@@ -50,9 +51,16 @@ class PlanningProblem:
     max_bubbles: int = 200_000
 
     def __post_init__(self) -> None:
+        if not isinstance(self.oracle, BubbleOracle):
+            raise TypeError(f"`oracle` must be a foam_mj.bubbles.BubbleOracle (BubbleOracle(robot, delta)), got {type(self.oracle).__name__}")
         robot = self.oracle.robot
-        object.__setattr__(self, "q_init", robot.validate(self.q_init, "q_init"))
-        object.__setattr__(self, "q_goal", robot.validate(self.q_goal, "q_goal"))
+        robot.check_unchanged()
+        for name in ("q_init", "q_goal"):
+            q = robot.validate(getattr(self, name), name)
+            q.flags.writeable = False  # a frozen problem: no change after validation
+            object.__setattr__(self, name, q)
+        if np.array_equal(self.q_init, self.q_goal):  # as pfm, the CLI and scenarios: one answer from every planner
+            raise ConfigurationError(f"q_goal equals q_init ({self.q_init.tolist()}): nothing to plan")
         for name, value in (("delta", self.delta), ("time_limit", self.time_limit), ("max_bubbles", self.max_bubbles)):
             if not is_number(value):
                 raise TypeError(f"`{name}` must be a number, got {value!r}")
@@ -155,6 +163,15 @@ class PlanResult:
     waypoints: np.ndarray | None = None
 
 
+def check_problem(problem: Any) -> PlanningProblem:
+    """``problem``, checked at the start of :meth:`Planner.plan`: a :class:`PlanningProblem` (TypeError otherwise)
+    whose scene has not been edited since its oracle was built (:meth:`foam_mj.model.RobotModel.check_unchanged`)."""
+    if not isinstance(problem, PlanningProblem):
+        raise TypeError(f"plan() takes a foam_mj.planners.PlanningProblem, got {type(problem).__name__}")
+    problem.oracle.robot.check_unchanged()
+    return problem
+
+
 def smoother_start(rosary: Rosary, waypoints: np.ndarray | None) -> np.ndarray | None:
     """``waypoints`` if they are a valid start for a smoother on ``rosary`` (shape (k-1, n), finite, every
     waypoint in its hatch), else None (the smoother then solves its own start)."""
@@ -201,8 +218,8 @@ class Planner(ABC):
 
     @abstractmethod
     def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> PlanResult:
-        """Solve ``problem``; raise :class:`~foam_mj.errors.PlanningFailed` (with stats and bubbles) when
-        the budget runs out, :class:`~foam_mj.errors.ConfigurationError` for bad endpoints."""
+        """Solve ``problem`` (first :func:`check_problem`); raise :class:`~foam_mj.errors.PlanningFailed` (with stats
+        and bubbles) when the budget runs out, :class:`~foam_mj.errors.ConfigurationError` for bad endpoints."""
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.options!r})"

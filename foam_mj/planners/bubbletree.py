@@ -97,7 +97,7 @@ import numpy as np
 
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
 from foam_mj.foam import seed_rng
-from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer
+from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer, check_problem
 from foam_mj.planners.chains import HATCH
 from foam_mj.planners.corridor import CorridorOptions, build_corridor, overlap_pairs
 from foam_mj.planners.informed import InformedSampler
@@ -206,6 +206,7 @@ class BubbleTreePlanner(Planner):
     Options = BubbleTreeOptions
 
     def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> PlanResult:
+        check_problem(problem)
         o = self.options
         oracle = problem.oracle
         robot = oracle.robot

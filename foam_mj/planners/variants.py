@@ -102,6 +102,7 @@ class _Growth:
         robot = oracle.robot
         self.oracle = oracle
         self.params = params
+        robot.check_unchanged()
         self.q_init = robot.validate(q_init, "q_init")
         self.q_goal = robot.validate(q_goal, "q_goal")
         if oracle.delta != params.delta:
@@ -371,7 +372,7 @@ def plan_gbpf(
 # ---------------------------------------------------------------------------------------------------
 # The planner seam: ``--planner gbpf | rbpf | hpf``.
 
-from foam_mj.planners.base import PlanningProblem, PlanResult as SeamResult, PlanStats, Planner, Progress, ProgressFn  # noqa: E402
+from foam_mj.planners.base import PlanningProblem, PlanResult as SeamResult, PlanStats, Planner, Progress, ProgressFn, check_problem  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -422,6 +423,7 @@ class _VariantPlanner(Planner):
         return SeamResult(res.foam, res.rosary, _seam_stats(self.name, res.stats, True))
 
     def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> SeamResult:
+        check_problem(problem)
         o = self.options
         params = FoamParams(K=getattr(o, "K", FoamParams.K), r_min=o.r_min, delta=problem.delta,
                             max_bubbles=int(problem.max_bubbles), time_limit=problem.time_limit)
@@ -434,6 +436,7 @@ class GBPFPlanner(_VariantPlanner):
     Options = GBPFOptions
 
     def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> SeamResult:
+        check_problem(problem)
         o = self.options
         params = FoamParams(r_min=o.r_min, delta=problem.delta, max_bubbles=int(problem.max_bubbles), time_limit=problem.time_limit)
         return self._run(problem, params, seed, progress, goal_bias=GoalBias(o.bias, o.batch))
