@@ -87,6 +87,12 @@ V_MARGIN, A_MARGIN = 2e-3, 1.2e-2
 T_MARGIN = 1e-3
 #: A torque-limited timing longer than this multiple of the unlimited one is reported as infeasible.
 MAX_SLOWDOWN = 10.0
+#: toppra's seidel solver turns a path curvature q'' that is nearly but not exactly zero (rounding noise of 1e-9 on
+#: a straight stretch of the curve) into NaN controllable sets and no timing (toppra issues #14 and #17; seen on a
+#: 3-joint arm's optimal path: exit 3 on a feasible timing). A joint's q'' whose acceleration term q'' sd^2 stays
+#: below this fraction of its acceleration limit at every speed the velocity limits allow is given to toppra as
+#: zero; the samples are checked against the true limits afterwards.
+CURVATURE_FLOOR = 1e-6
 
 
 class TimingInfeasible(PlanningFailed):
@@ -301,6 +307,7 @@ def _toppra_law(kin: _Kinematics, vmax, amax, tmax, x0: np.ndarray | None = None
         def __call__(self, s, order=0):
             arr = np.atleast_1d(np.asarray(s, dtype=float))
             qpos, qu, quu = kin.at(arr)
+            quu = np.where(np.abs(quu) < quu_floor, 0.0, quu)  # CURVATURE_FLOOR
             out = (qpos[:, kin.robot.config.qpos_index], qu, quu)[order]
             return out if np.ndim(s) else out[0]
 
@@ -337,8 +344,10 @@ def _toppra_law(kin: _Kinematics, vmax, amax, tmax, x0: np.ndarray | None = None
             return tc.canlinear_colloc_to_interpolate(A, B, C, F, g, None, None, gridpoints, identical=True)
 
     grid = _grid(kin.curve)
+    x_v = _speed_bound(kin, grid, vmax)
+    quu_floor = CURVATURE_FLOOR * np.asarray(amax, dtype=float) / max(float(x_v.max()), 1e-300)
     if x0 is None:
-        x0 = _speed_bound(kin, grid, vmax)
+        x0 = x_v
     constraints = [
         tc.JointVelocityConstraint(np.stack([-vmax, vmax], axis=1)),
         tc.JointAccelerationConstraint(np.stack([-amax, amax], axis=1), discretization_scheme=tc.DiscretizationType.Interpolation),

@@ -311,3 +311,31 @@ def test_friction_that_leaves_no_room_is_named_with_gravity(tmp_path, method):
     assert info.value.joint == "shoulder" and info.value.excess > 0
     assert re.search(r"no timing fits the torque limit of shoulder: gravity \(\d+\.\d N m\) and joint friction "
                      r"\(27\.0 N m\) need \d+\.\d N m at \d+% of the path, over its limit 30\.0 N m by", str(info.value))
+
+
+PLANAR_ARM = """<mujoco model="planar3"><compiler angle="radian"/><option timestep="0.002"/><worldbody>
+  <geom name="floor" type="plane" size="2 2 0.1" pos="0 0 -0.5"/>
+  <body name="l1" pos="0 0 0.1"><joint name="j1" axis="0 1 0" range="-2.5 2.5"/>
+    <geom name="l1g" type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/>
+    <body name="l2" pos="0.4 0 0"><joint name="j2" axis="0 1 0" range="-2.5 2.5"/>
+      <geom name="l2g" type="capsule" fromto="0 0 0 0.3 0 0" size="0.025"/>
+      <body name="l3" pos="0.3 0 0"><joint name="j3" axis="0 1 0" range="-2.5 2.5"/>
+        <geom name="l3g" type="capsule" fromto="0 0 0 0.15 0 0" size="0.02"/></body></body></body>
+  <body name="obst" pos="0.5 0 0.5"><geom name="box" type="box" size="0.08 0.3 0.08"/></body>
+</worldbody></mujoco>"""
+
+
+def test_toppra_times_a_curve_whose_straight_stretches_carry_rounding_noise(tmp_path):
+    # The optimal path of this 3-joint arm has straight stretches where the curve's q'' is 1e-9 of noise, not 0;
+    # toppra's seidel solver turned them into NaN controllable sets: exit 3, "toppra found no timing under the
+    # limits", on a timing the own law found (1.5 s). That q'' is now given to toppra as 0.
+    from foam_mj.pipeline import run
+    from foam_mj.scenarios import scenario_from_dict
+
+    (tmp_path / "arm.xml").write_text(PLANAR_ARM)
+    s = scenario_from_dict({"name": "arm", "scene": "arm.xml", "q_init": [0.3, 0.2, 0.1], "q_goal": [-1.2, -0.5, 0.3]},
+                           tmp_path)
+    traj = run(s, 0, "optimal", dynamic=False).paths["optimal"].trajectory
+    dof = s.robot.model.jnt_dofadr[s.robot.config.joint_ids]
+    assert np.abs(traj.qvel[:, dof]).max() <= 5.0 + 1e-9 and np.abs(traj.qacc[:, dof]).max() <= 50.0 + 1e-9
+    assert 0.5 < traj.duration < 1.5
