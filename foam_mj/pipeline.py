@@ -42,7 +42,7 @@ import numpy as np
 
 from foam_mj.errors import FoamError
 from foam_mj.planners import PlanResult
-from foam_mj.planners.base import smoother_start
+from foam_mj.planners.base import check_result, smoother_start
 from foam_mj.paths import PathMetrics, metrics
 from foam_mj.replay import DynamicReplay, KinematicReplay, replay_dynamic, replay_kinematic
 from foam_mj.rosary import Rosary
@@ -150,20 +150,22 @@ Report = Callable[[str], None]
 
 
 def plan_scenario(scenario: Scenario, seed: int, report: Report | None = None) -> PlanResult:
-    """Plan with the scenario's planner (``scenario.params.algorithm``, from :data:`foam_mj.planners.PLANNERS`).
+    """Plan with the scenario's planner (``scenario.params.algorithm``, from :data:`foam_mj.planners.PLANNERS`); its
+    result is checked certified (:func:`~foam_mj.planners.base.check_result`) before anything uses it.
 
     Raises PlanningFailed with every bubble grown when the goal is not reached."""
     planner = scenario.params.planner()
     oracle = scenario.oracle()
     try:
         problem = scenario.params.problem(oracle, scenario.q_init, scenario.q_goal)
-        return planner.plan(
+        result = planner.plan(
             problem,
             seed=seed,
             progress=None if report is None else (lambda st: report(
                 f"planning ({planner.name}): {st.bubbles:,} of at most {problem.max_bubbles:,} bubbles, "
                 f"{st.elapsed:.1f} s of {problem.time_limit:g} s")),
         )
+        return check_result(result, problem, planner.name)
     finally:
         oracle.close()
 

@@ -72,3 +72,43 @@ def test_rosary_adjustment_runs_on_a_variant_rosary_whose_root_is_below_r_min():
     assert (adjusted.radii <= oracle.radii(adjusted.centers) + 1e-12).all()
     assert out.paths["adjusted"].metrics.tc > out.paths["centre"].metrics.tc
     assert "adjusted_gradient" in out.paths
+
+
+def test_a_registered_planner_runs_through_the_pipeline_and_an_uncertified_rosary_is_refused(monkeypatch):
+    # The pipeline (and so `foam-mj plan`) trusted any registered planner's rosary: one whose bubble was larger than
+    # the certified radius was smoothed, timed and written with paths 70 mm inside an obstacle. Now it is refused,
+    # naming the planner and the bubble, before any smoothing.
+    import dataclasses
+
+    import numpy as np
+
+    from foam_mj.planners import PLANNERS, get_planner, register
+    from foam_mj.planners.base import Planner, PlanResult
+    from foam_mj.rosary import Rosary
+
+    monkeypatch.setattr("foam_mj.planners.PLANNERS", dict(PLANNERS))
+
+    @dataclasses.dataclass(frozen=True)
+    class WrappedOptions:
+        inflate: float = 1.0
+
+    @register
+    class Wrapped(Planner):
+        name = "wrapped"
+        Options = WrappedOptions
+
+        def plan(self, problem, seed=0, progress=None):
+            res = get_planner("bubbletree").plan(problem, seed)
+            r = res.rosary
+            radii = r.radii.copy()
+            radii[len(radii) // 2] *= self.options.inflate
+            return PlanResult(res.foam, Rosary(r.centers, radii, r.q_init, r.q_goal), res.stats)
+
+    s = load_scenario("obstacle")
+    s = dataclasses.replace(s, params=s.params.with_algorithm("wrapped"))
+    out = run(s, smoothers="convex", replay=False)
+    assert out.plan.stats.outcome == "reached" and set(out.paths) == {"centre", "convex"}
+    s = dataclasses.replace(s, params=dataclasses.replace(s.params, options={"inflate": 1.5}))
+    with pytest.raises(RuntimeError, match=r"planner 'wrapped' returned an uncertified rosary: bubble \d+ has radius"):
+        run(s, smoothers="convex", replay=False)
+    assert np.isfinite(out.paths["convex"].metrics.length)

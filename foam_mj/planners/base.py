@@ -172,6 +172,33 @@ def check_problem(problem: Any) -> PlanningProblem:
     return problem
 
 
+def check_result(result: Any, problem: PlanningProblem, planner: str) -> PlanResult:
+    """``result`` of ``planner`` on ``problem``, checked before anything uses it (any registered planner, also a
+    user's): a :class:`PlanResult` whose rosary holds q_init in its first bubble and q_goal in its last, overlaps
+    bubble to bubble, and has no bubble larger than the oracle's certified radius at its centre (the clearance's
+    term: an end bubble may leave the joint box, :meth:`~foam_mj.bubbles.BubbleOracle.holding_bubble`; one batch
+    of distance queries). RuntimeError naming the planner and the first fault otherwise: a bug of that planner,
+    whose paths would not keep delta."""
+    if not isinstance(result, PlanResult):
+        raise RuntimeError(f"planner '{planner}' returned {type(result).__name__}, not a PlanResult")
+    ros = result.rosary
+    if ros.dim != problem.dim or not (np.array_equal(ros.q_init, problem.q_init) and np.array_equal(ros.q_goal, problem.q_goal)):
+        raise RuntimeError(f"planner '{planner}' returned a rosary for another problem (q_init, q_goal or dimension differ)")
+    faults = ros.check_structure()
+    if faults:
+        raise RuntimeError(f"planner '{planner}' returned a broken rosary: {'; '.join(faults)}")
+    oracle = problem.oracle
+    certified = np.maximum(oracle.pair_radii(oracle.clearance.batch_pairs(ros.centers)).min(axis=1), 0.0)
+    over = np.flatnonzero(ros.radii > certified * (1 + 1e-9) + 1e-12)
+    if over.size:
+        i = int(over[0])
+        raise RuntimeError(
+            f"planner '{planner}' returned an uncertified rosary: bubble {i} has radius {ros.radii[i]:.6g}, over the "
+            f"certified radius {certified[i]:.6g} at its centre {ros.centers[i].tolist()} (margin delta {problem.delta} m)"
+        )
+    return result
+
+
 def smoother_start(rosary: Rosary, waypoints: np.ndarray | None) -> np.ndarray | None:
     """``waypoints`` if they are a valid start for a smoother on ``rosary`` (shape (k-1, n), finite, every
     waypoint in its hatch), else None (the smoother then solves its own start)."""
