@@ -238,6 +238,8 @@ def _with_relative_mjcf(doc: dict, out: Path) -> dict:
 
 def write_outcome(path: str | Path, outcome) -> Path:
     """Write the result atomically (complete or not at all; :class:`~foam_mj.atomic.OutputError`)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"write_outcome(path, outcome): `path` must be a file path, got {type(path).__name__}")
     p = Path(path)
     doc = outcome_dict(outcome)
     _save_edited_scene(p, doc, outcome.scenario)

@@ -38,7 +38,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.errors import FoamError
+from foam_mj.errors import FoamError, is_number
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 #: The most samples of one polyline (a path's waypoints or its qpos rows): --step 1e-3, the default, takes a few
@@ -297,8 +297,8 @@ class _Checker:
 def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     """Check every path of a result densely with MuJoCo (see the module docstring)."""
     source = Path(result)
-    if not (np.isfinite(step) and step > 0):
-        raise FoamError(f"--step must be a positive number, got {step}")
+    if not (is_number(step) and np.isfinite(step) and step > 0):
+        raise FoamError(f"--step must be a positive number, got {step!r}")
     doc = _load(source)
     mjcf, m = _scene(doc, source)
     idx, scale, offset, qpos0 = _configuration_map(doc, m, source)

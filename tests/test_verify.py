@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from foam_mj.cli import main
+from foam_mj.errors import FoamError
 from foam_mj.verify import _Checker, _densify, collision_pairs, verify_result
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -130,6 +131,12 @@ def test_verify_refuses_bad_input(tmp_path, planned_result, capsys):
     assert main(["verify", str(tmp_path / "old.json")]) == 2
     assert "q -> qpos map" in capsys.readouterr().err
     assert main(["verify", str(planned_result), "--step", "0"]) == 2
+
+
+def test_verify_result_in_python_names_a_step_that_is_no_number(planned_result):
+    for step in ("1e-3", None, True):  # a string was numpy's "ufunc 'isfinite' not supported"
+        with pytest.raises(FoamError, match=r"--step must be a positive number, got"):
+            verify_result(planned_result, step=step)
 
 
 def test_a_step_too_small_to_sample_is_refused_before_any_allocation(planned_result, capsys):
