@@ -174,6 +174,12 @@ def test_budgets_stop_every_variant_with_statistics(scene_oracles, variant):
     params = FoamParams(K=s.params.K, r_min=s.params.r_min, time_limit=1e-4)
     with pytest.raises(PlanningFailed, match="time budget"):
         VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, params, seed=0)
+    # A budget of one bubble stops it at the root; that is the budget's doing, not r_min's (the message said
+    # "no bubble of radius >= r_min fits on the start's bubble" although one did).
+    params = FoamParams(K=s.params.K, r_min=s.params.r_min, max_bubbles=1)
+    with pytest.raises(PlanningFailed) as err:
+        VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, params, seed=0)
+    assert str(err.value).startswith("the foam did not reach q_goal (bubble budget) after 1 bubbles") and "r_min" not in str(err.value)
 
 
 @pytest.mark.parametrize("variant", sorted(VARIANTS))

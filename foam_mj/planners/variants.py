@@ -222,7 +222,7 @@ class _Growth:
         )
         if self.goal is None:
             stuck = ""
-            if self.count == 1:
+            if self.count == 1 and outcome != "bubble budget":  # a budget of one bubble stopped it, not r_min
                 stuck = (
                     f": no bubble of radius >= r_min = {self.params.r_min} fits on the start's bubble (radius "
                     f"{self.radii[0]:.4f}); lower r_min, or plan with bubbletree"
