@@ -255,9 +255,13 @@ def run(
     path is time-parametrized and replayed. Unknown path names, a ``time_law`` not in ("toppra", "own") and
     ``limits`` of the wrong length are refused before any planning, by an error that names the argument.
     """
+    if not isinstance(scenario, Scenario):
+        raise TypeError(f"run() takes a Scenario (load_scenario(name) or scenario_from_dict(...)), got {type(scenario).__name__}")
     seed = scenario.seed if seed is None else seed
     if isinstance(smoothers, str):
         smoothers = parse_smoothers(smoothers)
+    if not (isinstance(smoothers, (tuple, list)) and all(isinstance(name, str) for name in smoothers)):
+        raise TypeError(f"`smoothers` must be path names or a --smoother value such as 'convex,optimal', got {smoothers!r}")
     unknown = [name for name in smoothers if name not in PATH_NAMES]
     if unknown:
         raise FoamError(f"`smoothers`: unknown path name(s) {unknown}; known: {', '.join(PATH_NAMES)} (or a --smoother value such as 'all')")

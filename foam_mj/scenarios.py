@@ -64,6 +64,7 @@ a path to a TOML file.
 from __future__ import annotations
 
 import dataclasses
+import os
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -74,7 +75,7 @@ import numpy as np
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.data import models_dir, scenarios_dir
 from foam_mj.clearance import Clearance
-from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioError, clearance_text
+from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioError, clearance_text, is_number
 from foam_mj.foam import check_candidate_bound
 from foam_mj.model import RobotModel
 from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
@@ -144,6 +145,9 @@ def available_scenarios() -> list[str]:
 
 def resolve_scenario_path(name_or_path: str | Path) -> Path:
     """A built-in scenario's file, or the given path; ScenarioError listing the known names otherwise."""
+    if not isinstance(name_or_path, (str, os.PathLike)):
+        raise TypeError(f"a scenario is a built-in name or a TOML path, got {type(name_or_path).__name__} "
+                        "(for a dict of scenario fields use scenario_from_dict)")
     if not str(name_or_path).strip():
         raise ScenarioError(f"empty scenario name; known scenarios: {', '.join(available_scenarios())}")
     p = Path(name_or_path)
@@ -160,7 +164,9 @@ def resolve_scenario_path(name_or_path: str | Path) -> Path:
 
 
 def _number_list(value, where: str, n: int | None = None) -> np.ndarray:
-    if not isinstance(value, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+    if isinstance(value, np.ndarray) and value.ndim == 1:  # from Python: a numpy vector is a list of numbers
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or not all(is_number(v) for v in value):
         raise ScenarioError(f"{where} must be a list of numbers, got {value!r}")
     if n is not None and len(value) != n:
         raise ScenarioError(f"{where} must have {n} numbers, got {len(value)}")
@@ -168,7 +174,7 @@ def _number_list(value, where: str, n: int | None = None) -> np.ndarray:
 
 
 def _number(value, where: str, lo: float | None = None, hi: float | None = None) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if not is_number(value):
         raise ScenarioError(f"{where} must be a number, got {value!r}")
     if (lo is not None and not value >= lo) or (hi is not None and not value <= hi):
         raise ScenarioError(f"{where} must be in [{lo}, {hi}], got {value!r}")
@@ -197,7 +203,7 @@ def _vec3(value, where: str, positive: bool = False) -> tuple[float, float, floa
 def _scene_edits(raw: dict, where: str, base_dir: Path) -> SceneEdits:
     joints = raw.get("joints")
     if joints is not None:
-        if not isinstance(joints, list) or not joints or not all(isinstance(j, str) and j for j in joints):
+        if not isinstance(joints, (list, tuple)) or not joints or not all(isinstance(j, str) and j for j in joints):
             raise ScenarioError(f"{where}: field 'joints' must be a non-empty list of joint names, got {joints!r}")
         joints = tuple(joints)
     normalize = raw.get("normalize", {})
@@ -294,8 +300,11 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
 
     Relative paths (``scene``, mesh files) are relative to ``base_dir``; ``source`` (the TOML file, if
     any) names the scenario in messages and gives the default name. ``check`` as in :func:`load_scenario`.
+    Where the TOML has an array of numbers, a tuple or a 1-D numpy array will do; numpy numbers are numbers.
     """
     raw = doc
+    if not isinstance(base_dir, (str, os.PathLike)):
+        raise TypeError(f"`base_dir` (the folder relative paths start from) must be a path, got {type(base_dir).__name__}")
     base_dir = Path(base_dir)
     path = source if source is not None else "scenario"
     if not isinstance(raw, dict):
@@ -324,8 +333,9 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     if not scene.is_file():
         raise ScenarioError(f"{path}: field 'scene': MJCF file not found: {scene}")
     seed = raw.get("seed", 0)
-    if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed <= 2**63 - 1:
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or not 0 <= seed <= 2**63 - 1:
         raise ScenarioError(f"{path}: field 'seed' must be an integer in [0, 2**63 - 1], got {seed!r}")
+    seed = int(seed)
     robot_root, keyframe = raw.get("robot_root"), raw.get("keyframe")
     for key, value in (("robot_root", robot_root), ("keyframe", keyframe)):
         if value is not None and (not isinstance(value, str) or not value):
@@ -355,7 +365,7 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
         numeric = key in ("delta", "max_bubbles", "time_limit") or (
             isinstance(defaults.get(key), (int, float)) and not isinstance(defaults.get(key), bool)
         )
-        if numeric and (isinstance(value, bool) or not isinstance(value, (int, float))):
+        if numeric and not is_number(value):
             raise ScenarioError(f"{path}: [planner] field '{key}' must be a number, got {value!r}")
     try:
         params = PlannerConfig.from_dict(planner)

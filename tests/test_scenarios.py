@@ -195,3 +195,41 @@ def test_a_bad_limits_field_in_the_mjcf_is_refused_at_load_naming_it(tmp_path, c
     argv = ["plan", "--mjcf", str(tmp_path / "arm.xml"), "--start", "-0.5", "--goal", "0.5", "--no-rrd", "--no-replay"]
     assert main(argv) == 2
     assert "'foam_mj:limits:sh' must hold 2 numbers" in capsys.readouterr().err
+
+
+def test_scenario_from_dict_takes_numpy_values_as_a_python_user_has_them(tmp_path):
+    # q_init as a numpy array, a tuple, numpy numbers for seed and planner options were refused ("must be a list of
+    # numbers, got array(...)"); np.int64 options that got through made the JSON result fail in json.dumps.
+    import json
+
+    from foam_mj.data import models_dir
+    from foam_mj.pipeline import run
+    from foam_mj.results import write_outcome
+    from foam_mj.scenarios import scenario_from_dict
+
+    ref = load_scenario("obstacle")
+    s = scenario_from_dict({"name": "np", "scene": "obstacle.xml", "q_init": np.array(ref.q_init),
+                            "q_goal": tuple(np.float64(v) for v in ref.q_goal), "seed": np.int64(2), "joints": ("hip_flexion", "knee_flexion", "hip_displacement"),
+                            "planner": {"algorithm": "pfm", "K": np.int64(10), "r_min": np.float32(0.07), "max_bubbles": np.int64(100_000)}},
+                           models_dir())
+    assert s.seed == 2 and type(s.seed) is int and s.params.max_bubbles == 100_000 and type(s.params.options["K"]) is int
+    np.testing.assert_array_equal(s.q_goal, ref.q_goal)
+    doc = json.loads(write_outcome(tmp_path / "np.json", run(s, smoothers="none", replay=False)).read_text())
+    assert doc["planner"]["K"] == 10 and doc["planner"]["max_bubbles"] == 100_000 and doc["seed"] == 2
+    for bad in (np.array([[0.0, 0.0, 0.0]]), np.array([True, False, True])):
+        with pytest.raises(ScenarioError, match="field 'q_init' must be a list of numbers"):
+            scenario_from_dict({"scene": "obstacle.xml", "q_init": bad, "q_goal": [0.3, 0.1, 1.5]}, models_dir())
+
+
+def test_the_python_entry_points_name_an_argument_of_the_wrong_type():
+    from foam_mj.pipeline import run
+    from foam_mj.scenarios import scenario_from_dict
+
+    with pytest.raises(TypeError, match="a scenario is a built-in name or a TOML path, got dict"):
+        load_scenario({"scene": "obstacle.xml"})
+    with pytest.raises(TypeError, match="`base_dir` .* must be a path, got NoneType"):
+        scenario_from_dict({"scene": "obstacle.xml", "q_init": [0, 0, 0], "q_goal": [0.3, 0.1, 1.5]}, None)
+    with pytest.raises(TypeError, match=r"run\(\) takes a Scenario"):
+        run("obstacle")
+    with pytest.raises(TypeError, match="`smoothers` must be path names"):
+        run(load_scenario("obstacle"), smoothers=None)

@@ -267,10 +267,16 @@ def make_options(cls: type[Planner], values: Mapping[str, Any]) -> Any:
     for key, value in values.items():  # Python's True is the integer 1: K = true would plan with K = 1
         if isinstance(value, (bool, np.bool_)) and key not in flags:
             raise PlannerError(f"planner '{cls.name}': `{key}` must be a number, got {value!r}")
+    values = _python_scalars(values)
     try:
         return cls.Options(**values)
     except (TypeError, ValueError) as exc:
         raise PlannerError(f"planner '{cls.name}': {exc}") from None
+
+
+def _python_scalars(values: Mapping[str, Any]) -> dict[str, Any]:
+    """``values`` with numpy scalars (np.int64(10), np.True_) as Python's: options are written to JSON results."""
+    return {k: v.item() if isinstance(v, np.generic) else v for k, v in values.items()}
 
 
 class Timer:
@@ -319,7 +325,9 @@ class PlannerConfig:
             raise ValueError(f"`max_bubbles` must be an integer >= 1, got {self.max_bubbles!r}")
         if not (is_number(self.time_limit) and self.time_limit > 0):
             raise ValueError(f"`time_limit` must be > 0 seconds, got {self.time_limit!r}")
-        object.__setattr__(self, "options", dict(self.options))
+        for name, kind in (("delta", float), ("max_bubbles", int), ("time_limit", float)):  # Python's, for JSON
+            object.__setattr__(self, name, kind(getattr(self, name)))
+        object.__setattr__(self, "options", _python_scalars(self.options))
         self.planner()  # validates the name and the options
 
     def __getattr__(self, key: str) -> Any:
