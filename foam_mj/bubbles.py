@@ -261,27 +261,36 @@ def _slide_groups(m: mujoco.MjModel, d: mujoco.MjData, robot: RobotModel) -> lis
     return [tuple(g) for g in groups]
 
 
+def default_distmax(delta: float) -> float:
+    """The cap of measured distances (metres) for a margin ``delta``: 1 m, or 2 delta for a margin above half a metre
+    (a cap at or below delta would read every configuration as too close)."""
+    return max(1.0, 2.0 * float(delta))
+
+
 class BubbleOracle:
     """Certified bubble radius r(q) = min(min_p (d_p(q) - delta) / ||rho_p||_2, distance to the bounds), clipped
     at 0 (module docstring; one term per checked pair p of ``robot.pairs``).
 
     ``delta`` is the safety margin in metres: every configuration inside a bubble keeps at least delta
     of workspace clearance on every pair. ``distmax`` caps the distances MuJoCo reports (and so the
-    radius). ``pair_factor[p]`` is ||rho_p||_2, ``pair_rho[p]`` rho_p per coordinate.
+    radius; default :func:`default_distmax`). ``pair_factor[p]`` is ||rho_p||_2, ``pair_rho[p]`` rho_p per coordinate.
 
     One oracle serves any number of plans, also from several threads at once, and pickles (process pools, Ray).
     It measures the scene as ``robot`` was built: to change an obstacle, build a new RobotModel and oracle
     (:class:`~foam_mj.model.RobotModel`; an edit of ``robot.model`` is refused before any planning).
     """
 
-    def __init__(self, robot: RobotModel, delta: float = 0.005, distmax: float = 1.0) -> None:
+    def __init__(self, robot: RobotModel, delta: float = 0.005, distmax: float | None = None) -> None:
         if not isinstance(robot, RobotModel):
             raise TypeError(f"BubbleOracle takes a foam_mj.model.RobotModel (RobotModel.from_xml(path)), got {type(robot).__name__}")
+        distmax = default_distmax(delta) if distmax is None and is_number(delta) else distmax
         for name, value in (("delta", delta), ("distmax", distmax)):
             if not is_number(value):
                 raise TypeError(f"`{name}` must be a number (metres), got {value!r}")
         if not (np.isfinite(delta) and delta >= 0):
             raise ValueError(f"`delta` (safety margin, metres) must be >= 0, got {delta}")
+        if not distmax > delta:  # every distance would read distmax <= delta: "too close" wherever the robot is
+            raise ValueError(f"`distmax` (the cap of every measured distance, metres) must be > delta = {delta}, got {distmax}")
         robot.check_unchanged()
         self.robot = robot
         self.delta = float(delta)

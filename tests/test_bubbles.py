@@ -495,3 +495,25 @@ def test_an_oracle_names_a_wrong_argument_type(obstacle_robot, args, message):
     args = (obstacle_robot if args[0] is None else args[0], *args[1:])
     with pytest.raises(TypeError, match=message):
         BubbleOracle(*args)
+
+
+def test_a_distance_cap_at_or_below_the_margin_is_refused(obstacle_robot):
+    # Every distance then read distmax, so a start 0.11 m clear was refused as "too close to an obstacle: clearance 0.0050 m".
+    for distmax in (0.005, 0.004):
+        with pytest.raises(ValueError, match=r"`distmax` \(the cap of every measured distance, metres\) must be > delta = 0.005"):
+            BubbleOracle(obstacle_robot, delta=0.005, distmax=distmax)
+    assert BubbleOracle(obstacle_robot, delta=0.005, distmax=0.5).clearance.distmax == 0.5
+
+
+def test_a_margin_above_the_default_distance_cap_measures_far_enough(tmp_path):
+    # With delta = 1.2 m every distance was capped at 1 m: a start 2.6 m clear read "too close to an obstacle".
+    from foam_mj.scenarios import scenario_from_dict
+
+    xml = """<mujoco><compiler angle="radian"/><worldbody><geom name="wall" type="box" pos="3 0 0.5" size="0.1 2 0.5"/>
+      <body name="arm" pos="0 0 0.5"><joint name="yaw" axis="0 0 1" range="-1 1"/>
+        <geom name="link" type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/></body></worldbody></mujoco>"""
+    robot = _robot_from_xml(tmp_path, xml)
+    oracle = BubbleOracle(robot, delta=1.2)
+    assert oracle.clearance.distmax == 2.4 and oracle.radius([0.0]) > 0.5
+    s = scenario_from_dict({"scene": "scene.xml", "q_init": [-0.5], "q_goal": [0.5], "planner": {"delta": 1.2}}, tmp_path)
+    assert s.oracle().radius([0.0]) == oracle.radius([0.0])
