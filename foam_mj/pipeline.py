@@ -44,7 +44,7 @@ from foam_mj.errors import FoamError
 from foam_mj.planners import PlanResult
 from foam_mj.planners.base import check_result, smoother_start
 from foam_mj.paths import PathMetrics, metrics
-from foam_mj.replay import DynamicReplay, KinematicReplay, replay_dynamic, replay_kinematic
+from foam_mj.replay import DynamicReplay, KinematicReplay, replay_clearance, replay_dynamic, replay_kinematic
 from foam_mj.rosary import Rosary
 from foam_mj.scenarios import Scenario
 from foam_mj.smoothing import (
@@ -279,20 +279,24 @@ def run(
     outcome.timings["smooth"] = time.perf_counter() - t1
     robot = scenario.robot
     t2 = time.perf_counter()
-    for name, res in smoothed.items():
-        po = PathOutcome(name, res, metrics(res.path))
-        if replay:
-            if report:
-                report(f"replaying: {LABELS.get(name, name)}")
-            po.trajectory = time_path(robot, name, res.path, res.rosary, lim, time_law)
-            if report:  # a slow timing makes a long replay: say how long, so a wait of minutes is expected
-                times = po.trajectory.times
-                report(f"replaying: {LABELS.get(name, name)} ({times[-1]:,.1f} s of motion, {len(times):,} steps)")
-            po.loads = joint_loads(robot, po.trajectory, limit=lim.resolve(robot)[2])  # mass: the (scaled) model's
-            po.kinematic = replay_kinematic(robot, po.trajectory)
-            if dynamic:
-                po.dynamic = replay_dynamic(robot, po.trajectory)
-        outcome.paths[name] = po
+    clearance = replay_clearance(robot, scenario.params.delta)
+    try:
+        for name, res in smoothed.items():
+            po = PathOutcome(name, res, metrics(res.path))
+            if replay:
+                if report:
+                    report(f"replaying: {LABELS.get(name, name)}")
+                po.trajectory = time_path(robot, name, res.path, res.rosary, lim, time_law)
+                if report:  # a slow timing makes a long replay: say how long, so a wait of minutes is expected
+                    times = po.trajectory.times
+                    report(f"replaying: {LABELS.get(name, name)} ({times[-1]:,.1f} s of motion, {len(times):,} steps)")
+                po.loads = joint_loads(robot, po.trajectory, limit=lim.resolve(robot)[2])  # mass: the (scaled) model's
+                po.kinematic = replay_kinematic(robot, po.trajectory, clearance)
+                if dynamic:
+                    po.dynamic = replay_dynamic(robot, po.trajectory, clearance=clearance)
+            outcome.paths[name] = po
+    finally:
+        clearance.close()
     outcome.timings["replay"] = time.perf_counter() - t2
     outcome.timings["total"] = time.perf_counter() - t0
     return outcome

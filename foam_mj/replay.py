@@ -212,6 +212,14 @@ def _check(robot: RobotModel, trajectory: Trajectory) -> None:
         raise ValueError(f"`trajectory.qpos` has {trajectory.qpos.shape[1]} columns, the model has nq = {robot.model.nq}")
 
 
+def replay_clearance(robot: RobotModel, delta: float) -> Clearance:
+    """The clearance the replays of a plan with margin ``delta`` measure with: distances capped above delta
+    (:func:`~foam_mj.bubbles.default_distmax`; a cap of 1 m read a 1.2 m margin as broken). Close it after use."""
+    from foam_mj.bubbles import default_distmax
+
+    return Clearance(robot, distmax=default_distmax(delta))
+
+
 def replay_kinematic(robot: RobotModel, trajectory: Trajectory, clearance: Clearance | None = None) -> KinematicReplay:
     """Pose every frame with ``mj_kinematics`` (the body poses of ``mj_forward``); clearance of every frame from ``clearance`` (default: a new
     :class:`Clearance` of ``robot``)."""

@@ -369,7 +369,7 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
     from foam_mj.planners import PlannerConfig, PlanResult, PlanStats
     from foam_mj.paths import metrics
     from foam_mj.pipeline import Outcome, PathOutcome
-    from foam_mj.replay import replay_dynamic, replay_kinematic
+    from foam_mj.replay import replay_clearance, replay_dynamic, replay_kinematic
     from foam_mj.rosary import Rosary
     from foam_mj.scenarios import Scenario
     from foam_mj.smoothing import SmoothingResult
@@ -426,10 +426,14 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
             raise
         raise FoamError(f"{source}: malformed result: {type(exc).__name__}: {exc}") from None
     # The result is read; what fails from here on is the replay's own doing, not the file's.
-    for name, po in outcome.paths.items():
-        po.trajectory = time_path(robot, name, waypoints[name], po.rosary, limits, time_law)
-        po.loads = joint_loads(robot, po.trajectory, limit=torque_limit)
-        po.kinematic = replay_kinematic(robot, po.trajectory)
-        if dynamic:
-            po.dynamic = replay_dynamic(robot, po.trajectory)
+    clearance = replay_clearance(robot, params.delta)
+    try:
+        for name, po in outcome.paths.items():
+            po.trajectory = time_path(robot, name, waypoints[name], po.rosary, limits, time_law)
+            po.loads = joint_loads(robot, po.trajectory, limit=torque_limit)
+            po.kinematic = replay_kinematic(robot, po.trajectory, clearance)
+            if dynamic:
+                po.dynamic = replay_dynamic(robot, po.trajectory, clearance=clearance)
+    finally:
+        clearance.close()
     return outcome

@@ -112,3 +112,17 @@ def test_a_registered_planner_runs_through_the_pipeline_and_an_uncertified_rosar
     with pytest.raises(RuntimeError, match=r"planner 'wrapped' returned an uncertified rosary: bubble \d+ has radius"):
         run(s, smoothers="convex", replay=False)
     assert np.isfinite(out.paths["convex"].metrics.length)
+
+
+def test_the_replays_measure_a_margin_above_one_metre(tmp_path):
+    # The replays' clearance was capped at 1 m: a path 2.6 m clear of the wall, planned with delta = 1.2 m, was reported
+    # as "min clearance 1000.0 mm" below its margin (foam-mj replay: exit 4 on a correct result).
+    from test_planners import FAR_WALL
+
+    from foam_mj.scenarios import scenario_from_dict
+
+    (tmp_path / "far.xml").write_text(FAR_WALL)
+    s = scenario_from_dict({"scene": "far.xml", "q_init": [-0.5], "q_goal": [0.5], "planner": {"delta": 1.2}}, tmp_path)
+    out = run(s, smoothers="convex")
+    for po in out.paths.values():
+        assert po.kinematic.min_clearance > 1.2 and po.dynamic.min_clearance > 1.2

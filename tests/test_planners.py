@@ -806,3 +806,20 @@ def test_a_goal_equal_to_the_start_is_refused_for_every_planner(oracles):
     # pfm refused it and the others returned a one-bubble rosary: one answer now, as the CLI and scenarios give.
     with pytest.raises(ConfigurationError, match=r"q_goal equals q_init \(\[0.2, 0.3, 0.08\]\): nothing to plan"):
         PlanningProblem(oracles["obstacle"], [0.2, 0.3, 0.08], np.array([0.2, 0.3, 0.08]))
+
+
+FAR_WALL = """<mujoco><compiler angle="radian"/><worldbody><geom name="wall" type="box" pos="3 0 0.5" size="0.1 2 0.5"/>
+  <body name="arm" pos="0 0 0.5"><joint name="yaw" axis="0 0 1" range="-1 1"/>
+    <geom name="link" type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1"/></body></worldbody></mujoco>"""
+
+
+def test_bubbletree_plans_with_a_margin_large_beside_the_robots_reach(tmp_path):
+    # Its default r_min, delta / ||rho|| / 2, was 1.8 for delta = 1.2 m on this 0.33 m arm: refused as "not below half
+    # the joint box's diagonal; use a smaller one (0: derived from delta)", which it was. It is capped at a tenth of that.
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.model import RobotModel
+
+    (tmp_path / "far.xml").write_text(FAR_WALL)
+    oracle = BubbleOracle(RobotModel.from_xml(tmp_path / "far.xml"), delta=1.2)
+    res = get_planner("bubbletree").plan(PlanningProblem(oracle, [-0.5], [0.5], delta=1.2), seed=0)
+    assert res.stats.outcome == "reached" and res.stats.details["r_min"] == pytest.approx(0.1)

@@ -85,7 +85,9 @@ corner of the joint box, which no ball inside the box holds) gets the clearance'
 leaves the box: every hatch of a chain lies in an in-box neighbour, so every path stays in the box, where
 the ball certifies it. ``r_min`` defaults to
 delta / ||rho||_2 / 2, half the radius that a clearance of 2 delta buys (the bound of Nascimento and Alsina 2021
-Eq. 4 on this model), so that narrow passages down to a few delta of clearance are still entered.
+Eq. 4 on this model), so that narrow passages down to a few delta of clearance are still entered; at most a tenth
+of half the joint box's diagonal (a margin large beside the robot's reach would otherwise ask for a resolution
+coarser than the box itself).
 """
 
 from __future__ import annotations
@@ -217,9 +219,9 @@ class BubbleTreePlanner(Planner):
         n = robot.dim
         lo, hi = robot.lower, robot.upper
         factor = oracle.bound.ball_factor
-        r_min = o.r_min if o.r_min > 0 else problem.delta / factor / 2 if problem.delta > 0 else 1e-4
         span = hi - lo
         half_span = 0.5 * float(np.linalg.norm(span))
+        r_min = o.r_min if o.r_min > 0 else min(problem.delta / factor / 2 if problem.delta > 0 else 1e-4, 0.1 * half_span)
         if r_min >= half_span:  # a resolution coarser than the joint box: no child could ever be kept
             raise ConfigurationError(f"bubbletree option `r_min` = {r_min:g} is not below half the joint box's diagonal "
                                      f"({half_span:.3g}); use a smaller one (0: derived from delta)")
