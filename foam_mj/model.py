@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 import dataclasses
+import numbers
 import os
 import threading
 from dataclasses import dataclass, field
@@ -406,7 +407,7 @@ class RobotModel:
     def validate(self, q, name: str = "q", *, check_bounds: bool = True) -> np.ndarray:
         """Return q as a float array of shape (n,), or raise ConfigurationError saying what is wrong."""
         try:
-            if np.asarray(q).dtype.kind in "bc":  # True as 1.0, or 0.2+1j as 0.2 (numpy only warns), would be planned
+            if not _real_numbers(q):  # True as 1.0, 0.2+1j as 0.2 (numpy only warns), "0.2" as 0.2 or None as nan
                 raise TypeError
             arr = np.asarray(q, dtype=float)
         except (TypeError, ValueError):
@@ -430,7 +431,7 @@ class RobotModel:
     def validate_batch(self, Q, name: str = "Q") -> np.ndarray:
         """Return Q as a float array of shape (N, n), or raise ConfigurationError (bounds are not checked)."""
         try:
-            if np.asarray(Q).dtype.kind in "bc":  # as in validate
+            if not _real_numbers(Q):  # as in validate
                 raise TypeError
             arr = np.asarray(Q, dtype=float)
         except (TypeError, ValueError):
@@ -470,6 +471,14 @@ class RobotModel:
         """Geom names of checked pair p."""
         a, b = self.pairs[p]
         return self.geom_name(a), self.geom_name(b)
+
+
+def _real_numbers(values) -> bool:
+    """Are ``values`` (array-like) real numbers: no booleans, complex numbers, strings or None?"""
+    a = np.asarray(values)
+    if a.dtype.kind == "O":
+        return all(isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_)) for v in a.ravel())
+    return a.dtype.kind in "iuf"
 
 
 def _reference_data(m: mujoco.MjModel, config: "ConfigurationMap") -> mujoco.MjData:

@@ -157,6 +157,8 @@ def test_a_models_own_sensors_do_not_take_the_place_of_the_distances(tmp_path):
         ("abc", "sequence of 3 real numbers"),
         (np.array([True, False, True]), "sequence of 3 real numbers"),  # was planned as [1.0, 0.0, 1.0]
         (np.array([0.2, 0.3, 0.08]) + 1j, "sequence of 3 real numbers"),  # was planned as its real part (numpy only warned)
+        (["0.2", "0.3", "0.08"], "sequence of 3 real numbers"),  # strings were parsed as numbers
+        ([None, 0.3, 0.08], "sequence of 3 real numbers"),  # was "must be finite, got [nan, ...]"
     ],
 )
 def test_bad_configurations_are_refused_with_the_reason(obstacle_robot, q, message):
@@ -289,3 +291,6 @@ def test_configurations_given_to_the_model_are_validated_with_the_reason(obstacl
         obstacle_robot.validate_batch([["a", 0.3, 0.08]])  # was numpy's "could not convert string to float"
     with pytest.raises(ConfigurationError, match=r"Q must be an \(N, 3\) array of real numbers"):
         obstacle_robot.validate_batch(np.ones((2, 3), dtype=bool))
+    from fractions import Fraction
+
+    np.testing.assert_array_equal(obstacle_robot.validate([Fraction(1, 5), np.float32(0.25), 0]), [0.2, 0.25, 0.0])
