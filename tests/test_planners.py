@@ -789,9 +789,13 @@ def test_a_problem_names_an_oracle_of_the_wrong_type(obstacle_robot):
 
 
 @pytest.mark.parametrize("name", sorted(PLANNERS))
-def test_every_planner_names_a_problem_that_is_not_one(name):
+def test_every_planner_names_a_problem_that_is_not_one(oracles, name):
     with pytest.raises(TypeError, match=r"plan\(\) takes a foam_mj.planners.PlanningProblem, got tuple"):
         get_planner(name).plan((None, [0.0, 0.0, 0.0], [0.3, 0.1, 1.5]))
+    # A progress that is no callable failed half a second into a long plan (rbpf, hpf), or never (the quick ones).
+    problem = PlanningProblem(oracles["obstacle"], [0.2, 0.3, 0.08], [0.3, 0.1, 1.5])
+    with pytest.raises(TypeError, match="`progress` must be None or a callable taking a Progress, got bool"):
+        get_planner(name).plan(problem, 0, progress=True)
 
 
 def test_a_frozen_problem_keeps_its_validated_end_points(oracles):

@@ -163,11 +163,14 @@ class PlanResult:
     waypoints: np.ndarray | None = None
 
 
-def check_problem(problem: Any) -> PlanningProblem:
+def check_problem(problem: Any, progress: Any = None) -> PlanningProblem:
     """``problem``, checked at the start of :meth:`Planner.plan`: a :class:`PlanningProblem` (TypeError otherwise)
-    whose scene has not been edited since its oracle was built (:meth:`foam_mj.model.RobotModel.check_unchanged`)."""
+    whose scene has not been edited since its oracle was built (:meth:`foam_mj.model.RobotModel.check_unchanged`);
+    ``progress`` None or a callable (it is first called half a second into the plan)."""
     if not isinstance(problem, PlanningProblem):
         raise TypeError(f"plan() takes a foam_mj.planners.PlanningProblem, got {type(problem).__name__}")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"`progress` must be None or a callable taking a Progress, got {type(progress).__name__}")
     problem.oracle.robot.check_unchanged()
     return problem
 

@@ -208,7 +208,7 @@ class BubbleTreePlanner(Planner):
     Options = BubbleTreeOptions
 
     def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> PlanResult:
-        check_problem(problem)
+        check_problem(problem, progress)
         o = self.options
         oracle = problem.oracle
         robot = oracle.robot

@@ -47,7 +47,7 @@ class PFMPlanner(Planner):
         return FoamParams(K=o.K, r_min=o.r_min, delta=problem.delta, max_bubbles=int(problem.max_bubbles), time_limit=problem.time_limit)
 
     def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> PlanResult:
-        check_problem(problem)
+        check_problem(problem, progress)
         problem.endpoint_radii()  # q_init or q_goal closer than delta: the same message as every planner's
         try:
             res = foam_plan(problem.oracle, problem.q_init, problem.q_goal, self.foam_params(problem), seed=seed, progress=progress)

@@ -423,7 +423,7 @@ class _VariantPlanner(Planner):
         return SeamResult(res.foam, res.rosary, _seam_stats(self.name, res.stats, True))
 
     def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> SeamResult:
-        check_problem(problem)
+        check_problem(problem, progress)
         o = self.options
         params = FoamParams(K=getattr(o, "K", FoamParams.K), r_min=o.r_min, delta=problem.delta,
                             max_bubbles=int(problem.max_bubbles), time_limit=problem.time_limit)
@@ -436,7 +436,7 @@ class GBPFPlanner(_VariantPlanner):
     Options = GBPFOptions
 
     def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> SeamResult:
-        check_problem(problem)
+        check_problem(problem, progress)
         o = self.options
         params = FoamParams(r_min=o.r_min, delta=problem.delta, max_bubbles=int(problem.max_bubbles), time_limit=problem.time_limit)
         return self._run(problem, params, seed, progress, goal_bias=GoalBias(o.bias, o.batch))
