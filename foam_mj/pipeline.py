@@ -262,6 +262,8 @@ def run(
         smoothers = parse_smoothers(smoothers)
     if not (isinstance(smoothers, (tuple, list)) and all(isinstance(name, str) for name in smoothers)):
         raise TypeError(f"`smoothers` must be path names or a --smoother value such as 'convex,optimal', got {smoothers!r}")
+    if report is not None and not callable(report):
+        raise TypeError(f"`report` must be None or a callable taking a message (str), got {type(report).__name__}")
     unknown = [name for name in smoothers if name not in PATH_NAMES]
     if unknown:
         raise FoamError(f"`smoothers`: unknown path name(s) {unknown}; known: {', '.join(PATH_NAMES)} (or a --smoother value such as 'all')")

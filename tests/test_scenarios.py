@@ -233,3 +233,5 @@ def test_the_python_entry_points_name_an_argument_of_the_wrong_type():
         run("obstacle")
     with pytest.raises(TypeError, match="`smoothers` must be path names"):
         run(load_scenario("obstacle"), smoothers=None)
+    with pytest.raises(TypeError, match="`report` must be None or a callable"):
+        run(load_scenario("obstacle"), report="planning")
