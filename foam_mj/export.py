@@ -80,8 +80,11 @@ def pick_path(doc: dict, name: str | None) -> str:
     return name
 
 
-def export_table(doc: dict, source: str | Path, path_name: str, hz: float = DEFAULT_HZ) -> ExportTable:
-    """The table of ``path_name`` of a result document (module docstring)."""
+def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float = DEFAULT_HZ) -> ExportTable:
+    """The table of ``path_name`` of a result document (module docstring; None: :func:`pick_path`'s default).
+    ``path_name`` and ``hz`` are checked as ``--path`` and ``--hz`` (:func:`pick_path`, :func:`check_hz`)."""
+    path_name = pick_path(doc, path_name)  # an unknown name was a KeyError, hz = 0 a table of NaN
+    hz = check_hz(hz)
     import mujoco
 
     from foam_mj.dynamics import inverse_dynamics, joint_units

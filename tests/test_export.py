@@ -222,3 +222,17 @@ def test_a_subject_scaled_scenario_loads_and_exports_with_the_scaled_model(tmp_p
         peak = np.abs(scaled[j]).max()
         assert np.max(np.abs(cols[f"{j}.tau"] - scaled[j])) <= 0.01 * peak, j
     assert np.max(np.abs(plain["hip_flexion"] - scaled["hip_flexion"])) > 0.05 * np.abs(scaled["hip_flexion"]).max()
+
+
+def test_export_table_in_python_checks_its_path_and_rate(planned):
+    # From Python an unknown path was a bare KeyError and hz = 0 a one-row table of NaN (silently).
+    from foam_mj.errors import FoamError
+    from foam_mj.export import export_table
+
+    with pytest.raises(FoamError, match=r"--path 'nope' is not in the result; its paths: centre, optimal"):
+        export_table(planned["doc"], planned["json"], "nope")
+    for hz in (0, None, "fast"):
+        with pytest.raises(FoamError, match="--hz must be a number of samples per second"):
+            export_table(planned["doc"], planned["json"], "optimal", hz)
+    table = export_table(planned["doc"], planned["json"], None, 50)  # None: the last path, as the command
+    assert np.all(np.isfinite(table.columns["time_s"])) and table.columns["time_s"][1] == pytest.approx(0.02)
