@@ -39,7 +39,9 @@ class PlanningProblem:
     """q_init -> q_goal among the oracle's obstacles, every bubble keeping ``delta`` (metres) of clearance.
 
     ``delta`` must equal ``oracle.delta`` (it is repeated so that a problem states its margin).
-    ``time_limit`` (seconds of wall time) and ``max_bubbles`` bound the search. q_init and q_goal are kept as
+    ``time_limit`` (seconds of wall time) and ``max_bubbles`` bound the search for a certified chain; bubbletree's
+    corridor, built after its trees meet, is not bounded by them (its refinement has its own CPU budget, the option
+    ``refine_time``), so a plan may return after ``time_limit``. q_init and q_goal are kept as
     read-only float arrays (validated: shape, finite, within the joint bounds, not equal). Picklable.
     """
 
