@@ -73,6 +73,13 @@ def test_register_takes_a_named_planner_with_frozen_options(monkeypatch):
         register(type("Nameless", (Straight,), {"name": ""}))
     with pytest.raises(TypeError, match="subclass of foam_mj.planners.base.Planner"):
         register(Mutable)
+    # A second class under a taken name silently replaced it (a user's "pfm" would change every pfm plan).
+    assert register(Straight) is Straight  # the same class again: fine
+    with pytest.raises(PlannerError, match=r"planner 'pfm' is already registered \(foam_mj.planners.pfm.PFMPlanner\); choose"):
+        register(type("MyPFM", (Straight,), {"name": "pfm"}))
+    assert type(get_planner("pfm")).__name__ == "PFMPlanner"
+    mine = register(type("MyPFM", (Straight,), {"name": "pfm"}), replace=True)
+    assert isinstance(get_planner("pfm"), mine)
 
 
 def test_planner_config_reads_a_table_and_keeps_old_pfm_tables():

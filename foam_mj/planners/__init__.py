@@ -40,9 +40,10 @@ PLANNERS: dict[str, type[Planner]] = {}
 DEFAULT_PLANNER = "bubbletree"
 
 
-def register(cls: type[Planner]) -> type[Planner]:
+def register(cls: type[Planner], *, replace: bool = False) -> type[Planner]:
     """Add a planner class to :data:`PLANNERS` under ``cls.name``; TypeError unless it is a :class:`Planner`
-    with a non-empty string ``name`` and a frozen dataclass ``Options`` (options are shared, never changed)."""
+    with a non-empty string ``name`` and a frozen dataclass ``Options`` (options are shared, never changed).
+    A name another class holds (a built-in's) is refused unless ``replace``: it would change every plan by that name."""
     if not (isinstance(cls, type) and issubclass(cls, Planner)):
         raise TypeError(f"register() takes a subclass of foam_mj.planners.base.Planner, got {cls!r}")
     name = getattr(cls, "name", None)
@@ -51,6 +52,10 @@ def register(cls: type[Planner]) -> type[Planner]:
     options = cls.Options
     if not (dataclasses.is_dataclass(options) and options.__dataclass_params__.frozen):
         raise TypeError(f"planner '{name}': `Options` must be a frozen dataclass (@dataclass(frozen=True)), got {options.__name__}")
+    held = PLANNERS.get(name)
+    if held is not None and held is not cls and not replace:
+        raise PlannerError(f"planner '{name}' is already registered ({held.__module__}.{held.__qualname__}); choose another "
+                           "name, or register(cls, replace=True) to replace it")
     PLANNERS[cls.name] = cls
     return cls
 
