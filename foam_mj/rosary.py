@@ -104,22 +104,24 @@ class Rosary:
     bubble_ids: np.ndarray | None = None  # (k,) indices into the foam, when extracted from one
 
     def __post_init__(self) -> None:
-        c = np.asarray(self.centers, dtype=float)
-        r = np.asarray(self.radii, dtype=float)
+        c = np.array(self.centers, dtype=float)  # copies, kept read-only: an in-place edit would leave it uncertified
+        r = np.array(self.radii, dtype=float)
         if c.ndim != 2 or len(c) < 1:
             raise ValueError(f"rosary centers must have shape (k, n) with k >= 1, got {c.shape}")
         if r.shape != (len(c),):
             raise ValueError(f"rosary radii must have shape ({len(c)},), got {r.shape}")
         if not (np.all(np.isfinite(c)) and np.all(np.isfinite(r)) and np.all(r > 0)):
             raise ValueError("rosary centers must be finite and radii finite and > 0")
-        object.__setattr__(self, "centers", c)
-        object.__setattr__(self, "radii", r)
         for name in ("q_init", "q_goal"):
-            q = np.asarray(getattr(self, name), dtype=float)
+            q = np.array(getattr(self, name), dtype=float)
             if q.shape != (c.shape[1],) or not np.all(np.isfinite(q)):
                 raise ValueError(f"rosary {name} must be {c.shape[1]} finite numbers (the centres' dimension), got "
                                  f"{getattr(self, name)!r}")
+            q.flags.writeable = False
             object.__setattr__(self, name, q)
+        for name, value in (("centers", c), ("radii", r)):
+            value.flags.writeable = False
+            object.__setattr__(self, name, value)
 
     @property
     def k(self) -> int:

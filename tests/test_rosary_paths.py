@@ -197,3 +197,17 @@ def test_the_structure_check_reports_bubbles_that_only_touch_or_miss():
     assert ok.check_structure() == []
     ends = Rosary(ok.centers, ok.radii, np.array([-0.501, 0.0]), np.array([1.401, 0.0]))
     assert ends.check_structure() == ["q_init is not in the first bubble", "q_goal is not in the last bubble"]
+
+
+def test_a_rosary_keeps_its_own_read_only_arrays():
+    # Its arrays were the caller's, and writable: `c = rosary.centers; c += noise` left a frozen, "certified" rosary
+    # that no longer was. It copies them and keeps them read-only.
+    from foam_mj.rosary import Rosary
+
+    centers, radii = np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([0.6, 0.6])
+    ros = Rosary(centers, radii, [0.0, 0.0], [1.0, 0.0])
+    centers[0, 0] = 5.0
+    assert ros.centers[0, 0] == 0.0
+    for a in (ros.centers, ros.radii, ros.q_init, ros.q_goal):
+        with pytest.raises(ValueError, match="read-only"):
+            a[0] = 1.0
