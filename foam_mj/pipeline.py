@@ -40,7 +40,7 @@ from typing import Callable
 
 import numpy as np
 
-from foam_mj.errors import FoamError
+from foam_mj.errors import ConfigurationError, FoamError
 from foam_mj.planners import PlanResult
 from foam_mj.planners.base import check_result, smoother_start
 from foam_mj.paths import PathMetrics, metrics
@@ -258,6 +258,10 @@ def run(
     if not isinstance(scenario, Scenario):
         raise TypeError(f"run() takes a Scenario (load_scenario(name) or scenario_from_dict(...)), got {type(scenario).__name__}")
     seed = scenario.seed if seed is None else seed
+    if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and 0 <= seed <= 2**63 - 1):
+        raise ConfigurationError(f"`seed` must be an integer in [0, 2**63 - 1] (the result records it; a planner's plan() "
+                                 f"also takes a numpy Generator), got {seed!r}")
+    seed = int(seed)
     if isinstance(smoothers, str):
         smoothers = parse_smoothers(smoothers)
     if not (isinstance(smoothers, (tuple, list)) and all(isinstance(name, str) for name in smoothers)):

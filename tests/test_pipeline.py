@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from foam_mj.errors import FoamError
@@ -27,6 +28,8 @@ def no_planning(monkeypatch):
         ({"limits": Limits(torque=(150, 60))}, ValueError, "limits `torque` must have 3 numbers"),
         ({"smoothers": ("optimal", "hs_typo")}, FoamError, "unknown path name(s) ['hs_typo']"),
         ({"smoothers": "convex,nope"}, FoamError, "unknown smoother 'nope'"),
+        ({"seed": np.random.default_rng(0)}, FoamError, "`seed` must be an integer in [0, 2**63 - 1] (the result records it"),
+        ({"seed": -1}, FoamError, "`seed` must be an integer in [0, 2**63 - 1]"),
     ],
 )
 def test_bad_arguments_are_named_before_any_planning(no_planning, kwargs, error, names):
