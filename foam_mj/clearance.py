@@ -47,12 +47,17 @@ class _ThreadState:
 
 
 class Clearance:
-    """d(q) for one configuration or a batch. ``distmax`` (metres) caps the distance returned. Thread-safe
-    (module docstring); ``calls`` counts the configurations the calling thread evaluated."""
+    """d(q) for one configuration or a batch. ``distmax`` (metres) caps the distance returned; ``threads`` is
+    the most threads a batch of at least :data:`THREADED_BATCH` configurations is split over (1: every query
+    in one thread, as a single-threaded peer planner's; the values are the same to the last bit either way).
+    Thread-safe (module docstring); ``calls`` counts the configurations the calling thread evaluated."""
 
-    def __init__(self, robot: RobotModel, distmax: float = 1.0) -> None:
+    def __init__(self, robot: RobotModel, distmax: float = 1.0, threads: int = 2) -> None:
         if not distmax > 0:
             raise ValueError(f"`distmax` must be > 0, got {distmax}")
+        if not (isinstance(threads, int) and threads >= 1):
+            raise ValueError(f"`threads` must be an integer >= 1, got {threads!r}")
+        self.threads = threads
         self.robot = robot
         self.distmax = float(distmax)
         self._m = robot.model
@@ -157,7 +162,7 @@ class Clearance:
             return np.empty((0, P))
         state = self._state()
         state.calls += n
-        batch, qpos, sensordata, ids = self._batch(state, n, 2 if n >= THREADED_BATCH else 1)
+        batch, qpos, sensordata, ids = self._batch(state, n, min(self.threads, 2) if n >= THREADED_BATCH else 1)
         cfg = self.robot.config
         qpos[:n] = cfg.qpos0  # as ConfigurationMap.to_qpos, written straight into the batch's rows
         qpos[:n, cfg.qpos_index] = cfg.offset + cfg.scale * Q

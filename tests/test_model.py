@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from foam_mj.clearance import Clearance
+from foam_mj.clearance import THREADED_BATCH, Clearance
 from foam_mj.errors import ConfigurationError, ModelError
 from foam_mj.model import RobotModel
 
@@ -86,6 +86,16 @@ def test_batch_clearance_of_a_model_with_a_singular_inertia_matrix_is_silent_and
     Q = np.random.default_rng(3).uniform(robot.lower, robot.upper, size=(300, 3))
     np.testing.assert_allclose(c.batch(Q), [c(q) for q in Q], atol=1e-12)
     assert "WARNING" not in capfd.readouterr().err and not (tmp_path / "MUJOCO_LOG.TXT").exists()
+
+
+def test_a_one_thread_clearance_gives_the_two_thread_batches_values_bit_for_bit(obstacle_robot):
+    # benchmarks/planners.py times our planners in one thread, as the single-threaded peers (OMPL).
+    Q = np.random.default_rng(4).uniform(obstacle_robot.lower, obstacle_robot.upper, size=(2 * THREADED_BATCH, 3))
+    one = Clearance(obstacle_robot, threads=1)
+    assert np.array_equal(one.batch_pairs(Q), Clearance(obstacle_robot).batch_pairs(Q))
+    assert set(one._state().batches) == {1}  # a batch past THREADED_BATCH stayed in one thread
+    with pytest.raises(ValueError, match="threads"):
+        Clearance(obstacle_robot, threads=0)
 
 
 def test_batch_pair_distances_are_every_pairs_distance_and_survive_later_calls(obstacle_robot):
