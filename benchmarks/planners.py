@@ -1,9 +1,10 @@
 """Planners x problems x seeds: success, time, bubbles, distance queries, path length, f and clearance,
 beside OMPL's RRTConnect (+ PathSimplifier) and RRT* (10x the time) on the same MJCF.
 
-    python benchmarks/planners.py [--seeds 10] [--planners pfm gbpf ...] [--problems obstacle arm6 ...]
+    python benchmarks/planners.py [--seeds 10] [--planners pfm gbpf ...] [--problems obstacle arm6 my_robot.toml ...]
                                   [--time-limit 10] [--no-ompl] [--bitstar] [--json out.json]
     python benchmarks/planners.py --quick      # CI: 3 seeds, the 3-joint leg scenes, OMPL only if installed
+    python benchmarks/planners.py --problems my_robot.toml --seeds 3   # your robot beside OMPL
 
 Problems: the Ortholeg's ``obstacle``, ``step_up`` and ``step_down`` scenarios (their paper parameters
 K and r_min for the foam planners), ``obstacle5`` (the 5-joint leg of ``models/ortholeg5.xml``, hip
@@ -12,14 +13,36 @@ ab/adduction and ankle added, over the same box; K = 10, r_min = 0.05 for the fo
 ``arm7`` (``models/bench_arm7.xml``: a 7-joint arm with iiwa-like axes z y z y z y z around the same box).
 ``--problems shelf6`` adds the example UR-like arm reaching into a shelf
 (``examples/industrial_arm/reach_shelf.toml``).
+
+Your own problem: ``--problems`` also takes a scenario, a TOML file as ``foam-mj plan --scenario`` reads
+(its scene with the scenario's edits, ``joints``, ``robot_root``, ``self_collision``, ``keyframe``;
+``q_init`` and ``q_goal``; format in :mod:`foam_mj.scenarios`) or a built-in scenario's name
+(``obstacle_thesis``, ``walker_corridor``, ...). Its row is named by the scenario's ``name``. K and r_min
+for the foam family come from its ``[planner]`` table when it sets them (else K = 10, r_min = 0.05, as for
+obstacle5 and arm6), the margin from its ``delta`` (else 5 mm); its ``algorithm``, ``time_limit`` and other
+options are not used (``--planners`` and ``--time-limit`` decide). A file that is missing or fails the
+scenario's checks is refused (one line, exit 2) before any run.
+
 Every planner of :data:`foam_mj.planners.PLANNERS` runs; the foam family (pfm, gbpf, rbpf, hpf) gets
-the problem's K and r_min, any other planner its own default options. The margin is delta = 5 mm
-for every planner and for OMPL's validity checker (MuJoCo clearance > delta at each checked state).
+the problem's K and r_min, any other planner its own default options. The margin delta is the
+problem's (5 mm for the built-in problems; ``delta`` in the JSON and the table), for every planner, for
+OMPL's validity checker (MuJoCo clearance > delta at each checked state) and for the dense check.
+
+Fairness: both sides plan on the same compiled MJCF, in the same coordinates q and joint bounds, against
+the same checked geom pairs (robot/obstacle and the robot/robot pairs of self-collision: OMPL's validity
+checker is our certificate's clearance function, ``BubbleOracle.clearance``) with the same margin. Our
+distance queries run in one thread here (``Clearance.threads = 1``; ``foam-mj plan`` splits large batches
+over two), as OMPL does. OMPL's checks are a Python callback per state, ours batched MuJoCo calls: that is
+part of what the times compare. OMPL checks motions at its default resolution (1 % of the joint box's
+extent), so its paths can come closer than delta between checked states (``below delta``); they still count
+as solved. OMPL's generator is seeded once per process (its rule), so its runs on a problem depend on the
+problems run before it in the same process; ours on the seed alone.
 
 Columns (medians over the successful seeds; ``ok`` counts them):
 
-* ``first ms``: wall time to the first certified chain q_init -> q_goal (``PlanStats.time_to_first_path``);
-  for OMPL, the time to its first solution.
+* ``first ms``: wall time from the planner's call to the first certified chain q_init -> q_goal
+  (``PlanStats.time_to_first_path`` and the planner's set-up before its clock starts); for OMPL, the time
+  to its first solution (``solve``, its set-up included).
 * ``total ms``: planning plus the default smoother (``optimal``, the certified optimum of f in the
   rosary's hatches); for OMPL, solve plus simplification (RRTConnect) or the whole budget (RRT*).
 * ``plan ms``: the planner alone (wall); ``cpu ms``: planning plus the smoother in CPU time of this
@@ -34,8 +57,14 @@ Columns (medians over the successful seeds; ``ok`` counts them):
   (the cone program with qpos weights: our shortest certified path); "-" for OMPL.
 * ``f``: Nascimento et al. 2020 Eq. 5 (mean turning angle + length in q) of the final path.
 * ``clear mm``: the smallest MuJoCo distance between robot and obstacle geoms along the final path,
-  sampled every 1 mrad (max-norm in q) by this script's own mj_geomDistance loop (independent of
-  foam_mj.clearance). Below delta = 5 mm means the path breaks the margin between checked states.
+  sampled every 1 mrad (max-norm in q) by this script's own mj_geomDistance loop over the pairs of
+  :func:`foam_mj.verify.collision_pairs` (independent of the planner's model and clearance code: a geom
+  moved by a configuration joint against every other collision geom). Below delta means the path breaks the
+  margin between checked states. ``worst mm``: the smallest over seeds; ``self mm``: the same dense check
+  over the robot/robot pairs MuJoCo's collision detection tests (when the problem checks self-collision),
+  smallest over seeds.
+* ``below delta``: successful runs whose path comes closer than delta under the dense check (listed after
+  the table; for ours it is a safety failure, exit 1).
 
 OMPL 2.0.1 is an optional peer (``pip install -e ".[peers]"``): without it the OMPL rows are skipped.
 ``--quick`` runs 3 seeds of the 3-joint scenes and finishes in well under a minute (CI runs it).
@@ -44,17 +73,19 @@ The planners and OMPL are single-threaded, so the script sets ``OMP_NUM_THREADS`
 to 1 unless they are set already: otherwise a BLAS product of the checks between runs leaves OpenBLAS threads
 spinning into the next timed run (measured: ``cpu ms`` 78-87 against a wall ``total ms`` of 51-54 on obstacle;
 with one thread both 51-54).
-Exit status 1 when a path of ours comes closer than delta to an obstacle under the dense check (a
-safety failure), 2 for bad arguments.
+Exit status 1 when a path of ours comes closer than delta to an obstacle (or, with self-collision, to
+itself) under the dense check (a safety failure); 2 for bad arguments (one line, before any run: unknown
+planner or problem, a scenario that fails its checks, --seeds outside [1, 10000], --time-limit not a finite
+number > 0, a --json that cannot be written or does not end in .json); 130 when interrupted (Ctrl-C:
+no JSON is written; the JSON is written once, atomically, after the last run).
 """
 
 from __future__ import annotations
 
-import argparse
 import json
+import math
 import os
 import sys
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -68,77 +99,116 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import progress, table  # noqa: E402
 
+from foam_mj.atomic import OutputError, atomic_write_text, check_output  # noqa: E402
 from foam_mj.bubbles import BubbleOracle  # noqa: E402
+from foam_mj.cli import Parser, UsageError  # noqa: E402
 from foam_mj.data import models_dir  # noqa: E402
-from foam_mj.errors import ConfigurationError, PlanningFailed  # noqa: E402
+from foam_mj.errors import ConfigurationError, PlanningFailed, ScenarioError  # noqa: E402
 from foam_mj.model import RobotModel  # noqa: E402
 from foam_mj.paths import metrics  # noqa: E402
-from foam_mj.planners import PLANNERS, PlanningProblem, get_planner  # noqa: E402
+from foam_mj.planners import PLANNERS, PlannerError, PlanningProblem, get_planner  # noqa: E402
 from foam_mj.planners.base import option_names, smoother_start  # noqa: E402
 from foam_mj.planners.corridor import shortest_path  # noqa: E402
-from foam_mj.scenarios import load_scenario  # noqa: E402
+from foam_mj.scenarios import available_scenarios, load_scenario, read_scenario_doc, scenario_from_dict  # noqa: E402
 from foam_mj.smoothing import OptimalSmoother  # noqa: E402
+from foam_mj.verify import collision_pairs  # noqa: E402
 
-DELTA = 0.005
+DELTA = 0.005  # m: the built-in problems' margin, and a scenario's without a [planner] delta
+DEFAULT_K, DEFAULT_R_MIN = 10, 0.05  # the foam family's K and r_min where a problem does not set them
 FOAM_FAMILY = ("pfm", "gbpf", "rbpf", "hpf")
 QUICK_PROBLEMS = ("obstacle", "step_up", "step_down")
 ALL_PROBLEMS = QUICK_PROBLEMS + ("obstacle5", "arm6", "arm7")
 EXTRA_PROBLEMS = ("shelf6",)  # only when named with --problems
 CHECK_STEP = 1e-3  # rad (max-norm in q) between densely checked configurations
+MAX_SEEDS = 10_000  # a typo of a few zeros would run for days
 
 
 @dataclass(frozen=True)
 class Problem:
+    """One benchmark problem: the compiled scene, start and goal, the foam family's K and r_min, the margin."""
+
     name: str
-    mjcf: Path
+    robot: RobotModel
     q_init: np.ndarray
     q_goal: np.ndarray
     K: int
     r_min: float
+    delta: float = DELTA
+    source: str | None = None  # the scenario TOML a user's problem came from
 
 
 def problem(name: str) -> Problem:
+    """A built-in problem by name, else a scenario (a TOML path or a built-in scenario's name); ScenarioError
+    (naming the file and field) when the scenario fails its checks."""
     if name in QUICK_PROBLEMS or name == "obstacle5":
         s = load_scenario(name)
-        K, r_min = (int(s.params.K), float(s.params.r_min)) if name in QUICK_PROBLEMS else (10, 0.05)
-        return Problem(name, Path(s.scene), s.q_init, s.q_goal, K, r_min)
+        K, r_min = (int(s.params.K), float(s.params.r_min)) if name in QUICK_PROBLEMS else (DEFAULT_K, DEFAULT_R_MIN)
+        return Problem(name, s.robot, s.q_init, s.q_goal, K, r_min)
     if name == "arm6":
         # Mirror poses either side of the box, the tool low beside it; the straight line cuts 42 mm into the box.
         a = np.array([-0.7, 0.87, 1.12, -0.08, 0.0, 0.0])
-        return Problem(name, models_dir() / "bench_arm6.xml", a, a * np.array([-1, 1, 1, 1, 1, 1]), 10, 0.05)
+        return Problem(name, RobotModel.from_xml(models_dir() / "bench_arm6.xml"), a, a * np.array([-1, 1, 1, 1, 1, 1]), DEFAULT_K, DEFAULT_R_MIN)
     if name == "arm7":
         # Mirror poses either side of the box (iiwa-like axes); the straight line cuts 66 mm into the box.
         a = np.array([-0.7, 0.9, 0.0, 1.2, 0.0, 0.2, 0.0])
-        return Problem(name, models_dir() / "bench_arm7.xml", a, a * np.array([-1, 1, 1, 1, 1, 1, 1]), 10, 0.05)
+        return Problem(name, RobotModel.from_xml(models_dir() / "bench_arm7.xml"), a, a * np.array([-1, 1, 1, 1, 1, 1, 1]), DEFAULT_K, DEFAULT_R_MIN)
     if name == "shelf6":
         s = load_scenario(Path(__file__).resolve().parents[1] / "examples" / "industrial_arm" / "reach_shelf.toml")
-        return Problem(name, Path(s.scene), s.q_init, s.q_goal, 10, 0.05)
-    raise SystemExit(f"unknown problem '{name}'; known: {', '.join(ALL_PROBLEMS + EXTRA_PROBLEMS)}")
+        return Problem(name, s.robot, s.q_init, s.q_goal, DEFAULT_K, DEFAULT_R_MIN)
+    return scenario_problem(name)
+
+
+def scenario_problem(name_or_path: str) -> Problem:
+    """A scenario as a problem: its robot (with the scenario's edits and options), q_init, q_goal, and from its
+    [planner] table K and r_min (else the defaults) and delta."""
+    raw, path = read_scenario_doc(name_or_path)
+    s = scenario_from_dict(raw, path.parent, source=path)
+    opts = s.params.options
+    return Problem(s.name, s.robot, s.q_init, s.q_goal, int(opts.get("K", DEFAULT_K)), float(opts.get("r_min", DEFAULT_R_MIN)),
+                   float(s.params.delta), str(path))
+
+
+def load_problems(names: list[str]) -> list[Problem]:
+    """Every problem of ``names``, loaded and checked before any run; UsageError (one line) for a bad one."""
+    out: list[Problem] = []
+    for name in names:
+        try:
+            pb = problem(name)
+        except ScenarioError as exc:
+            p = Path(name)
+            if p.suffix != ".toml" and len(p.parts) == 1 and not p.exists():
+                raise UsageError(f"--problems: unknown problem '{name}'; built-in problems: {', '.join(ALL_PROBLEMS + EXTRA_PROBLEMS)}; "
+                                 f"or a scenario TOML file, or a built-in scenario: {', '.join(available_scenarios())}") from None
+            raise UsageError(f"--problems: {exc}") from None
+        same = [o.source or o.name for o in out if o.name == pb.name]
+        if same and same[0] == (pb.source or name):
+            raise UsageError(f"--problems: '{name}' is given twice")
+        if same:
+            raise UsageError(f"--problems: two problems are named '{pb.name}' ({same[0]} and {pb.source or name}): "
+                             "give each once (a scenario's row is named by its 'name' field)")
+        out.append(pb)
+    return out
 
 
 class DenseChecker:
-    """min over robot/obstacle geom pairs of mj_geomDistance, own code: robot geoms are collision geoms on
-    bodies moved by a joint, obstacles the other collision geoms (as foam-mj verify)."""
+    """The smallest mj_geomDistance along a path, own code over :func:`foam_mj.verify.collision_pairs` (independent
+    of the planner's model): robot/obstacle pairs (a geom moved by a configuration joint against every other
+    collision geom) and, when ``robot.self_collision``, the robot/robot pairs MuJoCo's collision detection tests."""
 
     def __init__(self, robot: RobotModel) -> None:
         m = self.m = robot.model
         self.d = mujoco.MjData(m)
         self.to_qpos = robot.config.to_qpos
+        idx = robot.config.qpos_index
+        self.pairs = [tuple(map(int, p)) for p in collision_pairs(m, idx)]
+        obstacle = set(self.pairs)
+        self.self_pairs = [tuple(map(int, p)) for p in collision_pairs(m, idx, self_collision=robot.self_collision)
+                           if tuple(map(int, p)) not in obstacle]
 
-        def moving(b: int) -> bool:
-            while b != 0:
-                if m.body_jntnum[b] > 0:
-                    return True
-                b = int(m.body_parentid[b])
-            return False
-
-        colliding = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
-        leg = [g for g in colliding if moving(int(m.geom_bodyid[g]))]
-        obs = [g for g in colliding if not moving(int(m.geom_bodyid[g]))]
-        self.pairs = [(g, o) for g in leg for o in obs]
-
-    def min_clearance(self, path: np.ndarray) -> float:
-        best = np.inf
+    def min_clearance(self, path: np.ndarray) -> tuple[float, float | None]:
+        """(robot/obstacle, robot/robot) smallest distance along ``path`` (rows of q), sampled every CHECK_STEP;
+        the second is None without self pairs."""
+        best, best_self = np.inf, np.inf
         m, d, gd = self.m, self.d, mujoco.mj_geomDistance
         for a, b in zip(path[:-1], path[1:]):
             n = max(1, int(np.ceil(np.max(np.abs(b - a)) / CHECK_STEP)))
@@ -146,7 +216,14 @@ class DenseChecker:
                 d.qpos[:] = qpos
                 mujoco.mj_kinematics(m, d)
                 best = min(best, min(gd(m, d, g, o, 1.0, None) for g, o in self.pairs))
-        return float(best)
+                if self.self_pairs:
+                    best_self = min(best_self, min(gd(m, d, g, o, 1.0, None) for g, o in self.self_pairs))
+        return float(best), (float(best_self) if self.self_pairs else None)
+
+    def record(self, path: np.ndarray) -> dict:
+        """The dense check's fields of a run's record: clearance and self_clearance (metres)."""
+        clear, self_clear = self.min_clearance(path)
+        return {"clearance": clear, "self_clearance": self_clear}
 
 
 def qpos_length(robot: RobotModel, path: np.ndarray) -> float:
@@ -154,11 +231,25 @@ def qpos_length(robot: RobotModel, path: np.ndarray) -> float:
     return float(np.sum(np.linalg.norm(np.diff(qp, axis=0), axis=1)))
 
 
+def planner_options(name: str, pb: Problem) -> dict:
+    """The options planner ``name`` gets on ``pb``: the problem's K and r_min for the foam family, else none."""
+    return {k: getattr(pb, k) for k in ("K", "r_min") if name in FOAM_FAMILY and k in option_names(PLANNERS[name])}
+
+
+def check_options(planners: list[str], problems: list[Problem]) -> None:
+    """UsageError (one line) when a problem's K or r_min is not valid for a planner of the run (a scenario's
+    ``r_min = 0``, bubbletree's "derive it from delta", is no resolution for pfm)."""
+    for pb in problems:
+        for name in planners:
+            try:
+                get_planner(name, **planner_options(name, pb))
+            except PlannerError as exc:
+                raise UsageError(f"--problems: {pb.source or pb.name}: [planner] K / r_min do not suit the foam planners: {exc}") from None
+
+
 def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker, seed: int, time_limit: float) -> dict:
-    cls = PLANNERS[name]
-    opts = {k: getattr(pb, k) for k in ("K", "r_min") if name in FOAM_FAMILY and k in option_names(cls)}
-    planner = get_planner(name, **opts)
-    prob = PlanningProblem(oracle, pb.q_init, pb.q_goal, delta=DELTA, time_limit=time_limit)
+    planner = get_planner(name, **planner_options(name, pb))
+    prob = PlanningProblem(oracle, pb.q_init, pb.q_goal, delta=pb.delta, time_limit=time_limit)
     t0, c0 = time.perf_counter(), time.process_time()
     try:
         res = planner.plan(prob, seed=seed)
@@ -168,6 +259,8 @@ def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker
                 "queries": getattr(st, "distance_queries", None), "time": time.perf_counter() - t0}
     except ConfigurationError as exc:  # a planner's own rule refuses the problem (pfm: root radius, Eq. 2's bound)
         return {"ok": False, "outcome": f"refused: {exc}", "bubbles": 0, "queries": 0, "time": time.perf_counter() - t0}
+    except Exception as exc:  # a planner's crash is a finding (listed with the failed runs), not a reason to lose every other run
+        return {"ok": False, "outcome": f"planner error: {type(exc).__name__}: {exc}", "time": time.perf_counter() - t0}
     t_plan = time.perf_counter() - t0
     try:
         sm = OptimalSmoother().smooth(res.rosary, initial=smoother_start(res.rosary, res.waypoints), seed=seed)
@@ -179,10 +272,13 @@ def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker
     m = metrics(path)
     ros = res.rosary
     _, len_sp = shortest_path(ros.centers, ros.radii, ros.q_init, ros.q_goal, oracle.robot.config.scale)
+    st = res.stats
+    # From this call, as OMPL's solve: the planner's set-up before its own clock started counts too.
+    first = t_plan - (st.elapsed - st.time_to_first_path) if st.time_to_first_path is not None else t_plan
     return {
-        "ok": True, "outcome": res.stats.outcome, "first": res.stats.time_to_first_path or t_plan, "plan": t_plan, "total": total, "total_cpu": total_cpu,
-        "bubbles": res.stats.bubbles, "queries": res.stats.distance_queries, "rosary": res.rosary.k,
-        "len_q": m.length, "len_qpos": qpos_length(oracle.robot, path), "len_sp": len_sp, "f": m.f, "clearance": checker.min_clearance(path),
+        "ok": True, "outcome": st.outcome, "first": first, "plan": t_plan, "total": total, "total_cpu": total_cpu,
+        "bubbles": st.bubbles, "queries": st.distance_queries, "rosary": res.rosary.k,
+        "len_q": m.length, "len_qpos": qpos_length(oracle.robot, path), "len_sp": len_sp, "f": m.f, **checker.record(path),
         "certified": bool(sm.info.get("certified", False)),
     }
 
@@ -203,18 +299,18 @@ class OMPLRunner:
             bounds.setLow(i, float(r.lower[i]))
             bounds.setHigh(i, float(r.upper[i]))
         self.space.setBounds(bounds)
-        self.clearance = oracle.clearance
+        self.clearance = oracle.clearance  # the pairs and MuJoCo queries of our certificate
         self.checks = 0
         self.pb = pb
 
     def _setup(self):
         og = self.og
         ss = og.SimpleSetup(self.space)
-        n, clearance = self.n, self.clearance
+        n, clearance, delta = self.n, self.clearance, self.pb.delta
 
         def valid(state) -> bool:
             self.checks += 1
-            return bool(clearance(np.array([state[i] for i in range(n)])) > DELTA)
+            return bool(clearance(np.array([state[i] for i in range(n)])) > delta)
 
         ss.setStateValidityChecker(valid)
         start, goal = self.space.allocState(), self.space.allocState()
@@ -259,7 +355,7 @@ def finish_ompl(rec: dict, robot: RobotModel, checker: DenseChecker) -> dict:
     if rec.get("ok"):
         path = rec.pop("path")
         m = metrics(path)
-        rec.update(len_q=m.length, len_qpos=qpos_length(robot, path), f=m.f, clearance=checker.min_clearance(path), bubbles=None)
+        rec.update(len_q=m.length, len_qpos=qpos_length(robot, path), f=m.f, **checker.record(path), bubbles=None)
     return rec
 
 
@@ -271,10 +367,15 @@ def have_ompl() -> bool:
     return True
 
 
-KEYS = ("first", "plan", "total", "total_cpu", "rosary", "bubbles", "queries", "len_q", "len_qpos", "len_sp", "f", "clearance")
+KEYS = ("first", "plan", "total", "total_cpu", "rosary", "bubbles", "queries", "len_q", "len_qpos", "len_sp", "f", "clearance", "self_clearance")
 
 
-def summarize(runs: list[dict]) -> dict:
+def below(run: dict, delta: float) -> bool:
+    """Does a successful run's path come closer than delta under the dense check (either pair kind)?"""
+    return bool(run.get("ok")) and min(run["clearance"], run.get("self_clearance") or np.inf) < delta - 1e-6
+
+
+def summarize(runs: list[dict], delta: float) -> dict:
     ok = [r for r in runs if r.get("ok")]
     med = {}
     for k in KEYS:
@@ -284,64 +385,103 @@ def summarize(runs: list[dict]) -> dict:
     for r in runs:
         if not r.get("ok"):
             failures[str(r.get("outcome"))] = failures.get(str(r.get("outcome")), 0) + 1
+    self_clear = [r["self_clearance"] for r in ok if r.get("self_clearance") is not None]
     return {"ok": len(ok), "runs": len(runs), "median": med, "min_clearance": min((r["clearance"] for r in ok), default=None),
-            "failures": failures}
+            "min_self_clearance": min(self_clear, default=None), "below_delta": sum(below(r, delta) for r in runs), "failures": failures}
 
 
 def _fmt(v, scale=1.0, fmt="{:.0f}") -> str:
     return "-" if v is None else fmt.format(v * scale)
 
 
-def write_json_atomic(path: str, data: dict) -> None:
-    target = Path(path).resolve()
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
-    with os.fdopen(fd, "w") as fh:
-        json.dump(data, fh, indent=1, default=float)
-    os.replace(tmp, target)
-    print(f"wrote {target}")
-
-
-def main(argv: list[str] | None = None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=10, help="seeds per planner and problem (default 10)")
-    ap.add_argument("--planners", nargs="*", default=None, help=f"default: every registered planner ({', '.join(sorted(PLANNERS))})")
-    ap.add_argument("--problems", nargs="*", default=None, help=f"default: {' '.join(ALL_PROBLEMS)}; also {' '.join(EXTRA_PROBLEMS)}")
+def parse(argv: list[str] | None) -> tuple:
+    """(args, planners, problems, seeds), every argument checked and every problem loaded before any run;
+    UsageError (one line) otherwise."""
+    ap = Parser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=None, help=f"seeds per planner and problem (default 10, --quick 3; at most {MAX_SEEDS:,})")
+    ap.add_argument("--planners", nargs="+", default=None, help=f"default: every registered planner ({', '.join(sorted(PLANNERS))})")
+    ap.add_argument("--problems", nargs="+", default=None,
+                    help=f"default: {' '.join(ALL_PROBLEMS)}; also {' '.join(EXTRA_PROBLEMS)}, a scenario TOML file or a built-in scenario's name")
     ap.add_argument("--time-limit", type=float, default=10.0, help="seconds per planning run before it counts as failed (default 10)")
     ap.add_argument("--no-ompl", action="store_true", help="skip the OMPL peers")
     ap.add_argument("--bitstar", action="store_true", help="also run OMPL's BIT* with 10x RRTConnect's time")
     ap.add_argument("--quick", action="store_true", help="CI: 3 seeds, the 3-joint scenes")
     ap.add_argument("--no-progress", action="store_true")
-    ap.add_argument("--json", help="write every run and the medians as JSON")
+    ap.add_argument("--json", help="write every run and the medians as JSON (written once, atomically, after the last run)")
     args = ap.parse_args(argv)
-    if args.json and not Path(args.json).resolve().parent.is_dir():
-        ap.error(f"--json: folder {Path(args.json).resolve().parent} does not exist")
-    if args.seeds < 1:
-        ap.error("--seeds must be >= 1")
-    if not args.time_limit > 0:
-        ap.error("--time-limit must be > 0")
+    seeds = args.seeds if args.seeds is not None else (3 if args.quick else 10)
+    if not 1 <= seeds <= MAX_SEEDS:
+        ap.error(f"--seeds must be in [1, {MAX_SEEDS}] (runs per planner and problem), got {seeds}")
+    if not (math.isfinite(args.time_limit) and args.time_limit > 0):
+        ap.error(f"--time-limit must be a finite number of seconds > 0, got {args.time_limit:g}")
+    if args.bitstar and args.no_ompl:
+        ap.error("--bitstar runs an OMPL planner: not with --no-ompl")
+    try:
+        check_output(args.json, "--json", suffix=".json")
+    except OutputError as exc:
+        ap.error(str(exc))
     planners = args.planners or sorted(PLANNERS)
     for p in planners:
         if p not in PLANNERS:
-            ap.error(f"unknown planner '{p}'; known: {', '.join(sorted(PLANNERS))}")
-    names = args.problems or list(QUICK_PROBLEMS if args.quick else ALL_PROBLEMS)
-    for p in names:
-        if p not in ALL_PROBLEMS + EXTRA_PROBLEMS:
-            ap.error(f"unknown problem '{p}'; known: {', '.join(ALL_PROBLEMS + EXTRA_PROBLEMS)}")
-    seeds = 3 if args.quick and args.seeds == 10 else args.seeds
+            ap.error(f"--planners: unknown planner '{p}'; known: {', '.join(sorted(PLANNERS))}")
+    try:
+        problems = load_problems(args.problems or list(QUICK_PROBLEMS if args.quick else ALL_PROBLEMS))
+        check_options(planners, problems)
+    except UsageError as exc:
+        ap.error(str(exc))
+    return args, planners, problems, seeds
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Run the benchmark (module docstring): exit 2 on a bad argument, 130 when interrupted, 1 when a path of
+    ours breaks its margin."""
+    try:
+        args, planners, problems, seeds = parse(argv)
+    except UsageError as exc:
+        print(exc, file=sys.stderr)
+        raise SystemExit(2) from None
     use_ompl = not args.no_ompl and have_ompl()
+    try:
+        out, broken = run(args, planners, problems, seeds, use_ompl)
+    except KeyboardInterrupt:
+        print("\ninterrupted: no JSON written" if args.json else "\ninterrupted", file=sys.stderr)
+        leave(130, use_ompl)
+    if args.json:
+        atomic_write_text(args.json, json.dumps(out, indent=1, default=float))
+        print(f"wrote {args.json}")
+    for p, n, c in broken:
+        print(f"MARGIN BROKEN: {n} on {p}: {c * 1e3:.3f} mm < delta = {out['problems'][p]['delta'] * 1e3:g} mm", file=sys.stderr)
+    if use_ompl or broken:
+        leave(1 if broken else 0, use_ompl)
+    return out
+
+
+def leave(status: int, use_ompl: bool) -> None:
+    """Exit with ``status``. OMPL 2.0.1's nanobind bindings report leaked references at interpreter exit
+    (harmless noise on stderr); with OMPL loaded, leave without running the finalizers."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    if use_ompl:
+        os._exit(status)
+    raise SystemExit(status)
+
+
+def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl: bool) -> tuple[dict, list]:
+    """Every planner on every problem and seed: (the JSON document, our runs that break their margin as
+    (problem, planner, clearance)); prints the tables."""
     if use_ompl:
         from ompl import util as ou
 
         ou.setLogLevel(ou.LogLevel.LOG_WARN)
         ou.RNG.setSeed(1)  # once per process (OMPL's rule); runs then differ by the generator's state
 
-    out: dict = {"seeds": seeds, "delta": DELTA, "time_limit": args.time_limit, "check_step": CHECK_STEP, "problems": {}}
+    out: dict = {"seeds": seeds, "time_limit": args.time_limit, "check_step": CHECK_STEP, "problems": {}}
     rows, ratio_rows = [], []
     t_start = time.perf_counter()
-    for pname in names:
-        pb = problem(pname)
-        robot = RobotModel.from_xml(pb.mjcf)
-        oracle = BubbleOracle(robot, delta=DELTA)
+    for pb in problems:
+        pname, robot = pb.name, pb.robot
+        oracle = BubbleOracle(robot, delta=pb.delta)
+        oracle.clearance.threads = 1  # one thread, as OMPL (module docstring)
         checker = DenseChecker(robot)
         res: dict = {}
         jobs = len(planners) * seeds + (seeds * (2 + args.bitstar) if use_ompl else 0)
@@ -353,7 +493,7 @@ def main(argv: list[str] | None = None) -> dict:
                     progress(done, jobs, f"{pname:>10}")
                 runs.append(run_ours(name, pb, oracle, checker, s, args.time_limit))
                 done += 1
-            res[name] = {"summary": summarize(runs), "runs": runs}
+            res[name] = {"summary": summarize(runs, pb.delta), "runs": runs}
         if use_ompl:
             runner = OMPLRunner(pb, oracle)
             rc, opt, bit = [], [], []
@@ -367,22 +507,23 @@ def main(argv: list[str] | None = None) -> dict:
                 if args.bitstar:
                     bit.append(finish_ompl(runner.optimizing(budget, "bitstar"), robot, checker))
                 done += 2 + args.bitstar
-            res["ompl:rrtconnect+simplify"] = {"summary": summarize(rc), "runs": rc}
-            res["ompl:rrtstar(10x)"] = {"summary": summarize(opt), "runs": opt}
+            res["ompl:rrtconnect+simplify"] = {"summary": summarize(rc, pb.delta), "runs": rc}
+            res["ompl:rrtstar(10x)"] = {"summary": summarize(opt, pb.delta), "runs": opt}
             if args.bitstar:
-                res["ompl:bitstar(10x)"] = {"summary": summarize(bit), "runs": bit}
+                res["ompl:bitstar(10x)"] = {"summary": summarize(bit, pb.delta), "runs": bit}
         if not args.no_progress:
             progress(jobs, jobs, f"{pname:>10}")
         oracle.close()
-        out["problems"][pname] = {"K": pb.K, "r_min": pb.r_min, "dim": len(pb.q_init), "planners": res}
+        out["problems"][pname] = {"K": pb.K, "r_min": pb.r_min, "delta": pb.delta, "dim": len(pb.q_init), "source": pb.source,
+                                  "scene": str(robot.path), "scene_edited": robot.xml is not None, "planners": res}
         for name, r in res.items():
             m, sm = r["summary"]["median"], r["summary"]
             rows.append([
-                pname, name, f"{sm['ok']}/{sm['runs']}", _fmt(m["first"], 1e3), _fmt(m["plan"], 1e3), _fmt(m["total"], 1e3),
+                pname, _fmt(pb.delta, 1e3, "{:g}"), name, f"{sm['ok']}/{sm['runs']}", _fmt(m["first"], 1e3), _fmt(m["plan"], 1e3), _fmt(m["total"], 1e3),
                 _fmt(m["total_cpu"], 1e3), _fmt(m["rosary"], 1, "{:.0f}"), _fmt(m["bubbles"], 1, "{:,.0f}"),
                 _fmt(m["queries"], 1, "{:,.0f}"), _fmt(m["len_q"], 1, "{:.3f}"), _fmt(m["len_qpos"], 1, "{:.3f}"), _fmt(m["len_sp"], 1, "{:.3f}"),
                 _fmt(m["f"], 1, "{:.3f}"),
-                _fmt(m["clearance"], 1e3, "{:.1f}"), _fmt(sm["min_clearance"], 1e3, "{:.1f}"),
+                _fmt(m["clearance"], 1e3, "{:.1f}"), _fmt(sm["min_clearance"], 1e3, "{:.1f}"), _fmt(sm["min_self_clearance"], 1e3, "{:.1f}"),
             ])
         if use_ompl:
             peer = res["ompl:rrtconnect+simplify"]["summary"]["median"]
@@ -397,36 +538,31 @@ def main(argv: list[str] | None = None) -> dict:
                                    ratio(m["len_qpos"], star["len_qpos"]), ratio(m["len_sp"], star["len_qpos"]),
                                    ratio(m["clearance"], peer["clearance"])])
     out["elapsed"] = time.perf_counter() - t_start
-    print(f"\nmedians over {seeds} seeds (successful runs), delta = {DELTA * 1e3:.0f} mm, time limit {args.time_limit:g} s per run")
-    print(table(["problem", "planner", "ok", "first ms", "plan ms", "total ms", "cpu ms", "chain", "bubbles", "queries", "len q", "len qpos", "sp qpos", "f", "clear mm", "worst mm"], rows))
+    print(f"\nmedians over {seeds} seeds (successful runs), time limit {args.time_limit:g} s per run")
+    print(table(["problem", "delta mm", "planner", "ok", "first ms", "plan ms", "total ms", "cpu ms", "chain", "bubbles", "queries", "len q",
+                 "len qpos", "sp qpos", "f", "clear mm", "worst mm", "self mm"], rows))
     print("total: planning + the default smoother (optimal) for ours; solve + simplify (RRTConnect) or the whole budget (RRT*) for OMPL.")
-    print(f"clear mm: median over seeds of the smallest MuJoCo distance along the final path, checked every {CHECK_STEP * 1e3:g} mrad; worst mm: the smallest over seeds.")
+    print(f"clear mm: median over seeds of the smallest MuJoCo distance robot/obstacle along the final path, checked every {CHECK_STEP * 1e3:g} mrad; "
+          "worst mm: the smallest over seeds; self mm: robot/robot, the smallest over seeds.")
     failed = [(p, n, why, k) for p, v in out["problems"].items() for n, r in v["planners"].items() for why, k in r["summary"]["failures"].items()]
     if failed:
         print("\nfailed runs: " + "; ".join(f"{p} {n}: {k} x {why}" for p, n, why, k in failed))
+    close = [(p, n, r["summary"]) for p, v in out["problems"].items() for n, r in v["planners"].items() if r["summary"]["below_delta"]]
+    if close:
+        print("\nbelow delta (paths closer than the margin under the dense check): "
+              + "; ".join(f"{p} {n}: {sm['below_delta']} of {sm['ok']}" for p, n, sm in close))
     if use_ompl:
         print("\nratios ours / OMPL (medians)")
         print(table(["problem", "planner", "total time / RRTConnect", "len qpos / RRTConnect", "len qpos / RRT*", "sp qpos / RRT*", "clearance / RRTConnect"], ratio_rows))
     elif not args.no_ompl:
         print("\nOMPL is not installed (pip install -e \".[peers]\"): no peer rows")
     print(f"benchmark time {out['elapsed']:.1f} s")
-    # Safety is the product: any path of ours closer than delta to an obstacle fails the benchmark (exit 1).
-    broken = [(p, n, r["clearance"]) for p, v in out["problems"].items() for n in planners for r in v["planners"][n]["runs"]
-              if r.get("ok") and r["clearance"] < DELTA - 1e-6]
+    # Safety is the product: any path of ours closer than delta (to an obstacle or, with self-collision, to itself)
+    # fails the benchmark (exit 1).
+    broken = [(p, n, min(r["clearance"], r.get("self_clearance") or np.inf)) for p, v in out["problems"].items() for n in planners
+              for r in v["planners"][n]["runs"] if below(r, v["delta"])]
     out["margin_violations"] = [{"problem": p, "planner": n, "clearance": c} for p, n, c in broken]
-    if args.json:
-        write_json_atomic(args.json, out)
-    for p, n, c in broken:
-        print(f"MARGIN BROKEN: {n} on {p}: {c * 1e3:.3f} mm < delta = {DELTA * 1e3:g} mm", file=sys.stderr)
-    if use_ompl:
-        # OMPL 2.0.1's nanobind bindings report leaked references at interpreter exit (harmless noise on
-        # stderr); the results are written, so leave without running the finalizers.
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(1 if broken else 0)
-    if broken:
-        raise SystemExit(1)
-    return out
+    return out, broken
 
 
 if __name__ == "__main__":

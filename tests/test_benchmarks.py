@@ -1,0 +1,99 @@
+"""The benchmark scripts (benchmarks/): a user's own problem beside the peers, their checks, their refusals."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from foam_mj.model import RobotModel
+
+from conftest import TWO_LINK_ARM
+
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+sys.path.insert(0, str(BENCHMARKS))
+import planners  # noqa: E402
+
+
+def two_link_toml(folder: Path, planner: str = "[planner]\nK = 8\nr_min = 0.04\ndelta = 0.01\n", q_goal: str = "[0.1, 0.6]") -> Path:
+    """A scenario TOML for the bring-your-own-robot two-link arm (examples/two_link_arm), written to ``folder``."""
+    path = folder / "my_arm.toml"
+    path.write_text(f'name = "my_arm"\nscene = "{TWO_LINK_ARM}"\nq_init = [0.3, 2.0]\nq_goal = {q_goal}\n{planner}')
+    return path
+
+
+def run_planners(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(BENCHMARKS / "planners.py"), "--no-progress", *args],
+                          capture_output=True, text=True, timeout=600)
+
+
+def test_planners_benchmark_runs_a_users_scenario_with_its_margin_and_parameters(tmp_path):
+    toml, out = two_link_toml(tmp_path), tmp_path / "bench.json"
+    r = run_planners("--problems", str(toml), "--seeds", "1", "--no-ompl", "--json", str(out))
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(out.read_text())
+    pb = doc["problems"]["my_arm"]  # the row is named by the scenario's name
+    assert (pb["K"], pb["r_min"], pb["delta"], pb["dim"]) == (8, 0.04, 0.01, 2)
+    assert pb["source"] == str(toml) and pb["scene"] == str(TWO_LINK_ARM)
+    assert set(pb["planners"]) == set(planners.PLANNERS)  # every planner of ours, no OMPL rows
+    for name, res in pb["planners"].items():
+        assert res["summary"]["ok"] == 1, (name, res["summary"]["failures"])
+        assert res["runs"][0]["clearance"] >= 0.01 - 1e-6  # the scenario's 10 mm, under the dense check
+    assert doc["margin_violations"] == []
+    table_row = next(line for line in r.stdout.splitlines() if line.split()[:3] == ["my_arm", "10", "pfm"])
+    assert "1/1" in table_row  # the table states the problem's margin in mm
+
+
+def test_a_scenario_without_planner_parameters_gets_the_benchmarks_defaults(tmp_path):
+    pb = planners.problem(str(two_link_toml(tmp_path, planner="")))
+    assert (pb.K, pb.r_min, pb.delta) == (planners.DEFAULT_K, planners.DEFAULT_R_MIN, planners.DELTA)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--problems", "no_such_problem"], "unknown problem 'no_such_problem'; built-in problems: obstacle"),
+    (["--problems", "missing/robot.toml"], "scenario file not found: missing/robot.toml"),
+    (["--problems", "obstacle", "obstacle"], "'obstacle' is given twice"),
+    (["--seeds", "0"], "--seeds must be in [1, 10000]"),
+    (["--time-limit", "inf"], "--time-limit must be a finite number of seconds > 0, got inf"),
+    (["--json", "nowhere/out.json"], "folder nowhere does not exist"),
+    (["--json", "out.txt"], "must end in .json"),
+    (["--planners", "rrt"], "unknown planner 'rrt'"),
+])
+def test_planners_benchmark_refuses_bad_arguments_in_one_line_before_any_run(args, message, tmp_path):
+    r = subprocess.run([sys.executable, str(BENCHMARKS / "planners.py"), "--no-ompl", *args], capture_output=True, text=True,
+                       timeout=120, cwd=tmp_path)
+    assert r.returncode == 2 and r.stdout == ""
+    assert len(r.stderr.strip().splitlines()) == 1 and message in r.stderr, r.stderr
+
+
+def test_a_scenario_that_fails_its_checks_is_refused_naming_the_field(tmp_path):
+    toml = two_link_toml(tmp_path, q_goal="[0.1]")
+    r = run_planners("--problems", str(toml), "--no-ompl")
+    assert r.returncode == 2 and r.stdout == ""
+    assert f"--problems: {toml}: field 'q_goal'" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_the_dense_check_counts_a_loose_object_as_an_obstacle_and_checks_self_collision(tmp_path):
+    # A box on a free joint (not a configuration coordinate) in the arm's way: the planner holds it where the model
+    # puts it, an obstacle; a checker that took every jointed body for the robot never measured the arm against it.
+    (tmp_path / "arm.xml").write_text("""<mujoco><worldbody>
+      <body name="upper"><joint name="shoulder" type="hinge" axis="0 0 1" range="-2 2"/>
+        <geom name="upper_geom" type="capsule" fromto="0 0 0 0.5 0 0" size="0.03"/>
+        <body name="fore" pos="0.5 0 0"><joint name="elbow" type="hinge" axis="0 0 1" range="-2.5 2.5"/>
+          <geom name="fore_geom" type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/>
+          <body name="hand" pos="0.4 0 0"><joint name="wrist" type="hinge" axis="0 0 1" range="-2 2"/>
+            <geom name="hand_geom" type="capsule" fromto="0 0 0 0.2 0 0" size="0.03"/></body></body></body>
+      <body name="loose" pos="0.3 -0.3 0"><freejoint/><geom name="loose_box" type="box" size="0.05 0.05 0.05"/></body>
+    </worldbody></mujoco>""")
+    robot = RobotModel.from_xml(tmp_path / "arm.xml", joints=["shoulder", "elbow", "wrist"])
+    checker = planners.DenseChecker(robot)
+    names = {(robot.geom_name(a), robot.geom_name(b)) for a, b in checker.pairs}
+    assert ("upper_geom", "loose_box") in names
+    assert {(robot.geom_name(a), robot.geom_name(b)) for a, b in checker.self_pairs} == {("upper_geom", "hand_geom")}
+    # Folding the hand back onto the upper arm: the self pair closes to below the capsules' radii.
+    clear, self_clear = checker.min_clearance(np.array([[0.0, 0.0, 0.0], [0.0, 2.5, 2.0]]))
+    assert self_clear < 0.0 < clear
