@@ -12,7 +12,6 @@ how many seeds reach it) with either bound, for the scenarios whose planner is p
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -20,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import progress, table, write_json  # noqa: E402
+from _common import check_json, check_scenarios, count, parser, progress, run_script, table, write_json  # noqa: E402
 
 from foam_mj.bubbles import BubbleOracle  # noqa: E402
 from foam_mj.errors import PlanningFailed  # noqa: E402
@@ -83,13 +82,15 @@ def run_scenario(name: str, samples: int, seeds: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--samples", type=int, default=2000, help="random configurations per scenario for the mean radius")
-    ap.add_argument("--seeds", type=int, default=10, help="pfm seeds per scenario and bound")
-    ap.add_argument("--scenarios", nargs="*", default=None, help="default: every built-in scenario (pfm runs only on those whose planner is pfm)")
+    ap = parser(__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=count(1, 1_000_000), default=2000, help="random configurations per scenario for the mean radius")
+    ap.add_argument("--seeds", type=count(), default=10, help="pfm seeds per scenario and bound")
+    ap.add_argument("--scenarios", nargs="+", default=None, help="default: every built-in scenario (pfm runs only on those whose planner is pfm)")
     ap.add_argument("--json", help="write the figures as JSON")
     args = ap.parse_args(argv)
+    check_json(ap, args.json)
     names = args.scenarios or available_scenarios()
+    check_scenarios(ap, names)
     out, rows = {}, []
     for name in names:
         rec = run_scenario(name, args.samples, args.seeds)
@@ -120,4 +121,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(main)

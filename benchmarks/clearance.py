@@ -9,23 +9,23 @@ Radii: ``BubbleOracle.radii`` on N configurations (batch clearance plus the radi
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import median_time, table, write_json  # noqa: E402
+from _common import check_json, count, median_time, parser, run_script, table, write_json  # noqa: E402
 
 from foam_mj.scenarios import load_scenario  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__.splitlines()[0])
     ap.add_argument("--json", help="write the figures as JSON")
-    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--repeats", type=count(), default=7, help="timed runs per median (default 7)")
     args = ap.parse_args(argv)
+    check_json(ap, args.json)
     scen = load_scenario("obstacle")
     oracle = scen.oracle()
     robot = scen.robot
@@ -56,4 +56,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(main)

@@ -9,7 +9,6 @@ smoothing (Nascimento and Alsina 2021 Eq. 9; ``--no-smooth`` skips it).
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -17,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import progress, table, write_json  # noqa: E402
+from _common import check_json, check_scenarios, count, parser, progress, run_script, table, write_json  # noqa: E402
 
 from foam_mj.errors import PlanningFailed  # noqa: E402
 from foam_mj.foam import plan  # noqa: E402
@@ -64,13 +63,15 @@ def run_scenario(name: str, seeds: int, smooth: bool = True) -> dict:
 
 
 def main(argv: list[str] | None = None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=20)
-    ap.add_argument("--scenarios", nargs="*", default=None, help=f"default: {' '.join(DEFAULT)} and any walker scenarios")
+    ap = parser(__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=count(), default=20, help="seeds per scenario (default 20)")
+    ap.add_argument("--scenarios", nargs="+", default=None, help=f"default: {' '.join(DEFAULT)} and any walker scenarios")
     ap.add_argument("--json", help="write the figures as JSON")
     ap.add_argument("--no-smooth", action="store_true", help="skip the gradient smoothing columns")
     args = ap.parse_args(argv)
+    check_json(ap, args.json)
     names = args.scenarios or DEFAULT + [n for n in available_scenarios() if n.startswith("walker")]
+    check_scenarios(ap, names)
     out, rows = {}, []
     for name in names:
         rec = run_scenario(name, args.seeds, smooth=not args.no_smooth)
@@ -93,4 +94,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(main)

@@ -30,7 +30,6 @@ Exit status 1 if a front path leaves its hatches (b) or a front claimed collisio
 
 from __future__ import annotations
 
-import argparse
 import platform
 import sys
 import time
@@ -39,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import table, write_json  # noqa: E402
+from _common import check_json, count, parser, run_script, table, write_json  # noqa: E402
 
 from foam_mj.foam import plan  # noqa: E402
 from foam_mj.planar2d import PAPER_ENVIRONMENTS, PlanarPathProblem, paper_environment  # noqa: E402
@@ -265,26 +264,27 @@ def print_report(out: dict) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = parser(__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true", help="small swarms and few runs (well under a minute)")
-    p.add_argument("--json", type=Path, default=None, help=f"write the results as JSON (e.g. {DEFAULT_JSON})")
-    p.add_argument("--runs", type=int, default=None, help="runs per algorithm for Table II (default 10; quick 3)")
-    p.add_argument("--sweep-runs", type=int, default=None, help="runs per swarm size (default 3; quick 1)")
-    p.add_argument("--waypoints", type=int, default=8, help="waypoints between start and target (default 8)")
-    p.add_argument("--rosary-runs", type=int, default=None, help="seeds per rosary smoother (default 5; quick 1)")
+    p.add_argument("--json", default=None, help=f"write the results as JSON (e.g. {DEFAULT_JSON})")
+    p.add_argument("--runs", type=count(), default=None, help="runs per algorithm for Table II (default 10; quick 3)")
+    p.add_argument("--sweep-runs", type=count(), default=None, help="runs per swarm size (default 3; quick 1)")
+    p.add_argument("--waypoints", type=count(1, 1000), default=8, help="waypoints between start and target (default 8)")
+    p.add_argument("--rosary-runs", type=count(), default=None, help="seeds per rosary smoother (default 5; quick 1)")
     p.add_argument("--full-paper", action="store_true",
                    help="also run the paper's 500 x 100 on the rosary (2 seeds each, ~2 min)")
     args = p.parse_args(argv)
     q = args.quick
-    args.runs = args.runs or (3 if q else 10)
-    args.sweep_runs = args.sweep_runs or (1 if q else 3)
-    args.rosary_runs = args.rosary_runs or (1 if q else 5)
+    args.runs = args.runs if args.runs is not None else (3 if q else 10)
+    args.sweep_runs = args.sweep_runs if args.sweep_runs is not None else (1 if q else 3)
+    args.rosary_runs = args.rosary_runs if args.rosary_runs is not None else (1 if q else 5)
     args.sizes = (50, 100) if q else (50, 100, 200, 300, 500)
     args.swarm = 100 if q else 500
     args.iterations = 40 if q else 100
-    for name in ("runs", "sweep_runs", "rosary_runs", "waypoints"):
-        if getattr(args, name) < 1:
-            p.error(f"--{name.replace('_', '-')} must be >= 1")
+    if args.json is not None:  # its folder is made (e.g. out/benchmarks), then checked, before any run
+        if args.json:
+            Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        check_json(p, args.json)
 
     n_planar = 2 * 3 * (len(args.sizes) * args.sweep_runs + args.runs)
     n_rosary = sum(min(args.rosary_runs, 2) if "500x100" in k else args.rosary_runs for k in rosary_methods(args))
@@ -311,10 +311,9 @@ def main(argv: list[str] | None = None) -> int:
     for msg in out["problems"]:
         print(f"PROBLEM: {msg}")
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
         write_json(args.json, out)
     return 1 if out["problems"] else 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main)

@@ -25,7 +25,7 @@ import numpy as np
 from scipy.optimize import NonlinearConstraint, minimize
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import table, write_json  # noqa: E402
+from _common import check_json, parser, run_script, table, write_json  # noqa: E402
 
 from foam_mj import paths  # noqa: E402
 from foam_mj.foam import plan  # noqa: E402
@@ -73,11 +73,10 @@ def scipy_solve(ros, w: ObjectiveWeights, method: str) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import argparse
-
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__.splitlines()[0])
     ap.add_argument("--json", help="write the figures as JSON")
     args = ap.parse_args(argv)
+    check_json(ap, args.json)
     out, rows = {}, []
     for scene in ("obstacle", "step_up", "step_down"):
         sc = load_scenario(scene)
@@ -113,4 +112,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_script(main)

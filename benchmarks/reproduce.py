@@ -26,7 +26,6 @@ and small swarms (under 2 minutes); the full run takes about 10-15 minutes on 2 
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -37,7 +36,10 @@ from pathlib import Path
 
 import numpy as np
 
-from foam_mj import paths
+sys.path.insert(0, str(Path(__file__).parent))
+from _common import count, parser, run_script  # noqa: E402
+
+from foam_mj import paths  # noqa: E402
 from foam_mj.atomic import atomic_path, atomic_write_text
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.data import model_path
@@ -591,9 +593,9 @@ def report(res: dict, figs: dict[str, str], fig_rel: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = parser(__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true", help="few seeds and small swarms (under 2 minutes)")
-    p.add_argument("--seeds", type=int, default=None, help="runs / seeds per experiment (default 20; quick 3)")
+    p.add_argument("--seeds", type=count(2), default=None, help="runs / seeds per experiment (default 20; quick 3; at least 2)")
     p.add_argument("--out", type=Path, default=ROOT / "docs" / "reproduction.md", help="the Markdown report (default docs/reproduction.md)")
     p.add_argument("--json", type=Path, default=None, help="also write every number as JSON")
     p.add_argument("--from-json", type=Path, default=None, help="re-render the report from a saved --json (no runs)")
@@ -609,8 +611,6 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {args.out}")
         return 0
     seeds = args.seeds if args.seeds is not None else (3 if args.quick else 20)
-    if seeds < 2:
-        p.error("--seeds must be >= 2")
     for target in [args.out] + ([args.json] if args.json else []):
         folder = target.resolve().parent
         folder.mkdir(parents=True, exist_ok=True)
@@ -637,4 +637,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main)

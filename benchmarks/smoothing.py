@@ -5,8 +5,12 @@ that the installed `foam-mj bench` runs it too.
 """
 
 import sys
+from pathlib import Path
 
-from foam_mj.benchmark import main
+sys.path.insert(0, str(Path(__file__).parent))
+from _common import run_script  # noqa: E402
+
+from foam_mj.benchmark import main  # noqa: E402
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main)

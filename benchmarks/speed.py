@@ -34,7 +34,6 @@ improvisation.
 
 from __future__ import annotations
 
-import argparse
 import os
 import platform
 import subprocess
@@ -46,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import table, write_json  # noqa: E402
+from _common import check_json, count, parser, run_script, table, write_json  # noqa: E402
 
 #: row -> (target, unit, "<=" or ">="): the targets of the speed issue.
 TARGETS = {
@@ -245,14 +244,13 @@ def ratios(rows: dict) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="3 repeats and smaller GA/HS/MGOA/MOPSO runs (CI)")
-    ap.add_argument("--repeats", type=int, default=None, help="runs per median (default 5; --quick: 3)")
+    ap.add_argument("--repeats", type=count(), default=None, help="runs per median (default 5; --quick: 3)")
     ap.add_argument("--json", metavar="OUT.json", help="write every row, the ratios and the machine's load")
     args = ap.parse_args(argv)
-    repeats = args.repeats or (3 if args.quick else 5)
-    if repeats < 1:
-        ap.error("--repeats must be >= 1")
+    check_json(ap, args.json)
+    repeats = args.repeats if args.repeats is not None else (3 if args.quick else 5)
     cores = os.cpu_count() or 1
     load0 = os.getloadavg()
     print(f"speed benchmark ({'quick' if args.quick else 'full'}; median of {repeats}); {cores} cores, "
@@ -298,4 +296,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main)

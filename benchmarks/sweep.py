@@ -24,7 +24,6 @@ Usage: python benchmarks/sweep.py [--plans 16] [--quick] [--replay kinematic] [-
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import tempfile
@@ -34,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import table, write_json  # noqa: E402
+from _common import check_json, count, parser, run_script, table, write_json  # noqa: E402
 
 from foam_mj.sweep import load_sweep, run_task  # noqa: E402
 from foam_mj.sweep_run import run_sweep  # noqa: E402
@@ -67,13 +66,14 @@ def measure(sweep, out: Path, engine: str, workers: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--plans", type=int, default=16, help="plans per engine (default 16)")
+    ap = parser(__doc__.split("\n\n")[0])
+    ap.add_argument("--plans", type=count(2), default=16, help="plans per engine (default 16; at least 2: the rates need two)")
     ap.add_argument("--quick", action="store_true", help="6 plans, no Ray")
     ap.add_argument("--replay", default="kinematic", choices=["dynamic", "kinematic", "none"])
     ap.add_argument("--no-ray", action="store_true", help="skip the Ray engine")
     ap.add_argument("--json", metavar="OUT.json")
     args = ap.parse_args(argv)
+    check_json(ap, args.json)
     plans = 6 if args.quick else args.plans
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -123,4 +123,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main)

@@ -15,17 +15,16 @@ Medians over the cases are printed at the end.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import median_time, table, write_json  # noqa: E402
+from _common import check_json, check_scenarios, count, median_time, parser, run_script, table, write_json  # noqa: E402
 
 from foam_mj.dynamics import joint_loads  # noqa: E402
-from foam_mj.pipeline import plan_scenario, smooth_paths  # noqa: E402
+from foam_mj.pipeline import PATH_NAMES, plan_scenario, smooth_paths  # noqa: E402
 from foam_mj.scenarios import load_scenario  # noqa: E402
 from foam_mj.limits import Limits  # noqa: E402
 from foam_mj.timing import retime  # noqa: E402
@@ -53,12 +52,15 @@ def measure(robot, base, rosary, limits: Limits, method: str, repeats: int) -> d
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__.split("\n\n")[0])
     ap.add_argument("--scenarios", nargs="+", default=["obstacle", "step_up", "step_down"])
-    ap.add_argument("--paths", nargs="+", default=["centre", "convex", "optimal"])
-    ap.add_argument("--repeats", type=int, default=3, help="timing repeats per case (0: skip the compute times)")
+    ap.add_argument("--paths", nargs="+", default=["centre", "convex", "optimal"], choices=PATH_NAMES, metavar="PATH",
+                    help=f"paths to time (default centre convex optimal; any of {', '.join(PATH_NAMES)})")
+    ap.add_argument("--repeats", type=count(0), default=3, help="timing repeats per case (0: skip the compute times)")
     ap.add_argument("--json", help="write the results as JSON")
     args = ap.parse_args(argv)
+    check_json(ap, args.json)
+    check_scenarios(ap, args.scenarios)
 
     rows, records = [], []
     for name in args.scenarios:
@@ -107,4 +109,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main)

@@ -15,7 +15,6 @@ it (long, wide route), or both ("mixed").
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -24,7 +23,7 @@ import mujoco
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import progress, table, write_json  # noqa: E402
+from _common import check_json, count, parser, progress, run_script, table, write_json  # noqa: E402
 
 from foam_mj.errors import PlanningFailed  # noqa: E402
 from foam_mj.foam import plan  # noqa: E402
@@ -95,10 +94,11 @@ def run_map(name: str, seeds: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=20)
+    ap = parser(__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=count(), default=20, help="seeds per map (default 20)")
     ap.add_argument("--json", help="write the figures as JSON")
     args = ap.parse_args(argv)
+    check_json(ap, args.json)
     out, rows = {}, []
     for name in MAPS:
         rec = run_map(name, args.seeds)
@@ -128,4 +128,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(main)

@@ -385,7 +385,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = Parser(prog="foam-mj bench", description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=None, help="runs per stochastic method (default 50, --quick 3)")
     ap.add_argument("--quick", action="store_true", help="a few runs, for CI")
-    ap.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"where to write the JSON (default {DEFAULT_JSON})")
+    ap.add_argument("--json", default=str(DEFAULT_JSON), help=f"where to write the JSON (default {DEFAULT_JSON})")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     try:
         args = ap.parse_args(argv)
@@ -396,9 +396,10 @@ def main(argv: list[str] | None = None) -> int:
         print(exc, file=sys.stderr)
         return 2
     try:  # checked before any work: the default folder is created, anything else must exist and be writable
-        if args.json == DEFAULT_JSON:
-            args.json.parent.mkdir(parents=True, exist_ok=True)
-        check_output(args.json, "--json", suffix=".json")
+        if args.json == str(DEFAULT_JSON):
+            DEFAULT_JSON.parent.mkdir(parents=True, exist_ok=True)
+        check_output(args.json, "--json", suffix=".json")  # a str: '' is an empty name, not the folder '.'
+        args.json = Path(args.json)
     except OutputError as exc:
         print(f"foam-mj: error: {exc}", file=sys.stderr)
         return 2

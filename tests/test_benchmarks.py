@@ -97,3 +97,25 @@ def test_the_dense_check_counts_a_loose_object_as_an_obstacle_and_checks_self_co
     # Folding the hand back onto the upper arm: the self pair closes to below the capsules' radii.
     clear, self_clear = checker.min_clearance(np.array([[0.0, 0.0, 0.0], [0.0, 2.5, 2.0]]))
     assert self_clear < 0.0 < clear
+
+
+@pytest.mark.parametrize("script, args, message", [
+    ("certificate.py", ["--scenarios", "no_such"], "--scenarios: unknown scenario 'no_such'"),
+    ("foam.py", ["--json", "nowhere/out.json"], "--json output nowhere/out.json: folder nowhere does not exist"),
+    ("walker_routes.py", ["--json", "out.txt"], "--json output out.txt must end in .json"),
+    ("clearance.py", ["--repeats", "0"], "argument --repeats: expected an integer in [1, 10,000], got 0"),
+    ("timing.py", ["--paths", "no_such"], "argument --paths: invalid choice: 'no_such'"),
+    ("mgoa.py", ["--runs", "0"], "argument --runs: expected an integer in [1, 10,000], got 0"),
+    ("optimal_solvers.py", ["--json", "nowhere/out.json"], "folder nowhere does not exist"),
+    ("speed.py", ["--repeats", "0"], "argument --repeats: expected an integer in [1, 10,000], got 0"),
+    ("sweep.py", ["--plans", "0"], "argument --plans: expected an integer in [2, 10,000], got 0"),
+    ("reproduce.py", ["--seeds", "1"], "argument --seeds: expected an integer in [2, 10,000], got 1"),
+    ("smoothing.py", ["--runs", "0"], "--runs must be in [1, 10000]"),
+])
+def test_every_benchmark_script_refuses_a_bad_argument_in_one_line_before_any_work(script, args, message, tmp_path):
+    # Before: tracebacks (an unknown scenario, an unknown path name), a --json refused only after all the work, or
+    # 0 / -1 runs accepted (an empty table, exit 0) or silently read as the default.
+    r = subprocess.run([sys.executable, str(BENCHMARKS / script), *args], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert r.returncode == 2 and r.stdout == "", r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and message in r.stderr, r.stderr
+    assert list(tmp_path.iterdir()) == []  # no folder made, nothing written

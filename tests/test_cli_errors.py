@@ -120,6 +120,8 @@ def test_bench_refuses_an_unwritable_json_before_any_work(capsys):
     assert "cannot create a file in /proc" in err and len(err.strip().splitlines()) == 1
     assert main(["bench", "--quick", "--json", "bench.txt"]) == 2
     assert "--json output bench.txt must end in .json" in capsys.readouterr().err
+    assert main(["bench", "--quick", "--json", ""]) == 2  # was read as the folder '.': "--json output . is a directory"
+    assert "--json: empty file name" in capsys.readouterr().err
     for args in (["--runs", "0"], ["--runs", "x"], ["--runs", "10001"], ["--colour"]):
         assert main(["bench", *args]) == 2
         err = capsys.readouterr().err
