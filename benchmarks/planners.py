@@ -28,7 +28,8 @@ the problem's K and r_min, any other planner its own default options. The margin
 problem's (5 mm for the built-in problems; ``delta`` in the JSON and the table), for every planner, for
 OMPL's validity checker (MuJoCo clearance > delta at each checked state) and for the dense check.
 
-Fairness: both sides plan on the same compiled MJCF, in the same coordinates q and joint bounds, against
+Fairness: both sides plan on the same compiled MJCF, within the same joint bounds (OMPL in qpos units, so that
+RRT* minimizes the ``len qpos`` it is compared in; :class:`OMPLRunner`), against
 the same checked geom pairs (robot/obstacle and the robot/robot pairs of self-collision: OMPL's validity
 checker is our certificate's clearance function, ``BubbleOracle.clearance``) with the same margin. Our
 distance queries run in one thread here (``Clearance.threads = 1``; ``foam-mj plan`` splits large batches
@@ -36,7 +37,9 @@ over two), as OMPL does. OMPL's checks are a Python callback per state, ours bat
 part of what the times compare. OMPL checks motions at its default resolution (1 % of the joint box's
 extent), so its paths can come closer than delta between checked states (``below delta``); they still count
 as solved. OMPL's generator is seeded once per process (its rule), so its runs on a problem depend on the
-problems run before it in the same process; ours on the seed alone.
+problems run before it in the same process (``--problems step_up`` and ``--problems obstacle step_up`` give
+different OMPL rows for step_up), and RRT*'s budget on RRTConnect's wall time; ours depend on the seed alone
+(unless a run meets the wall-time limit).
 
 Columns (medians over the successful seeds; ``ok`` counts them):
 
@@ -284,7 +287,10 @@ def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker
 
 
 class OMPLRunner:
-    """OMPL on the same MJCF: RealVectorStateSpace over q's bounds, valid when MuJoCo's clearance > delta."""
+    """OMPL on the same MJCF: a RealVectorStateSpace over the joint bounds in MuJoCo's units (x = scale * q: the
+    leg's normalized hip displacement in metres), valid when MuJoCo's clearance > delta. In qpos units OMPL's
+    distances (RRT*'s path length, simplification, ranges) are those of the ``len qpos`` column it is compared
+    in; in q, RRT* minimized another length than the one compared (the leg problems)."""
 
     def __init__(self, pb: Problem, oracle: BubbleOracle) -> None:
         from ompl import base as ob
@@ -293,11 +299,13 @@ class OMPLRunner:
         self.ob, self.og = ob, og
         r = oracle.robot
         n = self.n = r.dim
+        self.scale = np.asarray(r.config.scale, dtype=float)
+        lo, hi = np.sort([self.scale * r.lower, self.scale * r.upper], axis=0)
         self.space = ob.RealVectorStateSpace(n)
         bounds = ob.RealVectorBounds(n)
         for i in range(n):
-            bounds.setLow(i, float(r.lower[i]))
-            bounds.setHigh(i, float(r.upper[i]))
+            bounds.setLow(i, float(lo[i]))
+            bounds.setHigh(i, float(hi[i]))
         self.space.setBounds(bounds)
         self.clearance = oracle.clearance  # the pairs and MuJoCo queries of our certificate
         self.checks = 0
@@ -306,21 +314,23 @@ class OMPLRunner:
     def _setup(self):
         og = self.og
         ss = og.SimpleSetup(self.space)
-        n, clearance, delta = self.n, self.clearance, self.pb.delta
+        n, clearance, delta, scale = self.n, self.clearance, self.pb.delta, self.scale
 
         def valid(state) -> bool:
             self.checks += 1
-            return bool(clearance(np.array([state[i] for i in range(n)])) > delta)
+            return bool(clearance(np.array([state[i] for i in range(n)]) / scale) > delta)
 
         ss.setStateValidityChecker(valid)
         start, goal = self.space.allocState(), self.space.allocState()
+        x_init, x_goal = scale * self.pb.q_init, scale * self.pb.q_goal
         for i in range(n):
-            start[i], goal[i] = float(self.pb.q_init[i]), float(self.pb.q_goal[i])
+            start[i], goal[i] = float(x_init[i]), float(x_goal[i])
         ss.setStartAndGoalStates(start, goal)
         return ss
 
     def _path(self, p) -> np.ndarray:
-        return np.array([[p.getState(k)[i] for i in range(self.n)] for k in range(p.getStateCount())])
+        """The solution path as rows of q."""
+        return np.array([[p.getState(k)[i] for i in range(self.n)] for k in range(p.getStateCount())]) / self.scale
 
     def rrtconnect(self, time_limit: float) -> dict:
         ss = self._setup()

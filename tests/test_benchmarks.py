@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import subprocess
 import sys
@@ -10,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from foam_mj.bubbles import BubbleOracle
 from foam_mj.model import RobotModel
 
 from conftest import TWO_LINK_ARM
@@ -119,3 +121,21 @@ def test_every_benchmark_script_refuses_a_bad_argument_in_one_line_before_any_wo
     assert r.returncode == 2 and r.stdout == "", r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and message in r.stderr, r.stderr
     assert list(tmp_path.iterdir()) == []  # no folder made, nothing written
+
+
+def test_ompl_plans_in_qpos_units_with_the_problems_margin():
+    # OMPL planned in q: on the leg (hip displacement normalized, 0.7 m onto pi/2) RRT* minimized the length in q
+    # while the table compares lengths in qpos, which favoured us.
+    pytest.importorskip("ompl")
+    pb = planners.problem("obstacle")
+    oracle = BubbleOracle(pb.robot, delta=pb.delta)
+    runner = planners.OMPLRunner(pb, oracle)
+    bounds = runner.space.getBounds()
+    scale = pb.robot.config.scale
+    np.testing.assert_allclose([bounds.high[i] for i in range(3)], scale * pb.robot.upper)
+    state = runner.space.allocState()
+    for i, x in enumerate(scale * pb.q_init):
+        state[i] = float(x)
+    assert runner._setup().getSpaceInformation().isValid(state)  # 110 mm of clearance > 5 mm
+    wide = planners.OMPLRunner(dataclasses.replace(pb, delta=0.2), oracle)  # the problem's margin, not 5 mm
+    assert not wide._setup().getSpaceInformation().isValid(state)
