@@ -358,7 +358,7 @@ class OMPLRunner:
         total = time.perf_counter() - t0
         if not ss.haveExactSolutionPath():
             return {"ok": False, "outcome": "no exact solution", "time": total}
-        return {"ok": True, "first": float("nan"), "total": total, "queries": self.checks, "path": self._path(ss.getSolutionPath())}
+        return {"ok": True, "first": None, "total": total, "queries": self.checks, "path": self._path(ss.getSolutionPath())}
 
 
 def finish_ompl(rec: dict, robot: RobotModel, checker: DenseChecker) -> dict:

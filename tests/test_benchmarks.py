@@ -139,3 +139,13 @@ def test_ompl_plans_in_qpos_units_with_the_problems_margin():
     assert runner._setup().getSpaceInformation().isValid(state)  # 110 mm of clearance > 5 mm
     wide = planners.OMPLRunner(dataclasses.replace(pb, delta=0.2), oracle)  # the problem's margin, not 5 mm
     assert not wide._setup().getSpaceInformation().isValid(state)
+
+
+def test_an_rrtstar_run_writes_strict_json():
+    # RRT* has no first-solution time: it was NaN, which strict JSON readers (jq, JavaScript) refuse.
+    pytest.importorskip("ompl")
+    pb = planners.problem("step_up")
+    runner = planners.OMPLRunner(pb, BubbleOracle(pb.robot, delta=pb.delta))
+    rec = planners.finish_ompl(runner.optimizing(0.3), pb.robot, planners.DenseChecker(pb.robot))
+    assert rec["ok"], rec
+    json.dumps(rec, allow_nan=False)
