@@ -16,7 +16,7 @@ import numpy as np
 from foam_mj.atomic import OutputError, atomic_write_text, check_output
 from foam_mj.cli import Parser, UsageError
 from foam_mj.errors import ScenarioError
-from foam_mj.scenarios import resolve_scenario_path
+from foam_mj.scenarios import load_scenario
 
 #: The most runs, seeds or repeats a script takes (a typo of a few zeros would run for days).
 MAX_COUNT = 10_000
@@ -51,10 +51,11 @@ def check_json(ap: argparse.ArgumentParser, path: str | Path | None) -> None:
 
 
 def check_scenarios(ap: argparse.ArgumentParser, names: Iterable[str]) -> None:
-    """Refuse (one line, exit 2) a scenario name or file that does not exist, before any work."""
+    """Refuse (one line, exit 2) a scenario name or file that does not exist or whose fields are wrong, before any
+    work (the scene itself is loaded when the script runs it)."""
     for name in names:
         try:
-            resolve_scenario_path(name)
+            load_scenario(name, check=False)
         except ScenarioError as exc:
             ap.error(f"--scenarios: {exc}")
 

@@ -28,12 +28,17 @@ from foam_mj.smoothing import GradientSmoothing  # noqa: E402
 THESIS = {"walker_corridor": (1544, 16.0517, 0.7048, 0.8051), "walker_two_routes": (1795, 13.2180, 0.4220, 0.7308)}
 
 DEFAULT = ["obstacle", "obstacle_thesis", "step_up", "step_down"]
+#: The table's median columns: key, scale, format ("-" where every seed failed).
+FOAM_COLUMNS = (("bubbles", 1, ",.0f"), ("rosary", 1, ".0f"), ("time", 1000, ".0f"), ("rate", 1, ",.0f"), ("tc", 1, ".4f"), ("sv", 1, ".4f"))
 
 
 def run_scenario(name: str, seeds: int, smooth: bool = True) -> dict:
     scen = load_scenario(name)
     oracle = scen.oracle()
-    plan(oracle, scen.q_init, scen.q_goal, scen.params, seed=0)  # warm-up
+    try:
+        plan(oracle, scen.q_init, scen.q_goal, scen.params, seed=0)  # warm-up
+    except PlanningFailed:
+        pass  # seed 0's failure is counted below
     rec = {"bubbles": [], "rosary": [], "time": [], "rate": [], "tc": [], "sv": [], "failed": 0, "mujoco_share": []}
     for s in range(seeds):
         progress(s, seeds, f"{name:>18}")
@@ -72,14 +77,17 @@ def main(argv: list[str] | None = None) -> dict:
     check_json(ap, args.json)
     names = args.scenarios or DEFAULT + [n for n in available_scenarios() if n.startswith("walker")]
     check_scenarios(ap, names)
+    for name in names:
+        algorithm = load_scenario(name, check=False).params.algorithm
+        if algorithm != "pfm":
+            ap.error(f"--scenarios: {name} plans with '{algorithm}'; this benchmark measures pfm (K, r_min): name a pfm scenario")
     out, rows = {}, []
     for name in names:
         rec = run_scenario(name, args.seeds, smooth=not args.no_smooth)
         med = {k: float(np.median(v)) for k, v in rec.items() if isinstance(v, list) and v}
         out[name] = {"median": med, "failed": rec["failed"], "seeds": args.seeds, "raw": {k: v for k, v in rec.items() if isinstance(v, list)}}
         rows.append(
-            [name, f"{med.get('bubbles', 0):,.0f}", f"{med.get('rosary', 0):.0f}", f"{med.get('time', 0) * 1000:.0f}",
-             f"{med.get('rate', 0):,.0f}", f"{med.get('tc', 0):.4f}", f"{med.get('sv', 0):.4f}",
+            [name, *(f"{med[k] * scale:{fmt}}" if k in med else "-" for k, scale, fmt in FOAM_COLUMNS),
              f"{med['tc_smoothed']:.4f}" if "tc_smoothed" in med else "-", f"{med['sv_smoothed']:.4f}" if "sv_smoothed" in med else "-",
              f"{rec['failed']}/{args.seeds}"]
         )

@@ -104,6 +104,7 @@ def test_the_dense_check_counts_a_loose_object_as_an_obstacle_and_checks_self_co
 @pytest.mark.parametrize("script, args, message", [
     ("certificate.py", ["--scenarios", "no_such"], "--scenarios: unknown scenario 'no_such'"),
     ("foam.py", ["--json", "nowhere/out.json"], "--json output nowhere/out.json: folder nowhere does not exist"),
+    ("foam.py", ["--scenarios", "obstacle5"], "--scenarios: obstacle5 plans with 'bubbletree'; this benchmark measures pfm"),
     ("walker_routes.py", ["--json", "out.txt"], "--json output out.txt must end in .json"),
     ("clearance.py", ["--repeats", "0"], "argument --repeats: expected an integer in [1, 10,000], got 0"),
     ("timing.py", ["--paths", "no_such"], "argument --paths: invalid choice: 'no_such'"),
