@@ -363,7 +363,8 @@ def test_mujoco_warnings_are_shown_once_and_a_diverged_replay_is_named(tmp_path)
 def test_plan_exits_4_when_its_own_replay_finds_a_trajectory_below_the_margin(tmp_path, monkeypatch, capsys):
     """Every returned path is certified, so plan's own kinematic replay never finds one below delta; if a fault of
     ours ever let one through, plan printed it in the table and exited 0. Injected here: bubbles 2.5 times their
-    certified radius (huge torque limits, so that the timing does not stop first)."""
+    certified radius (huge torque limits, so that the timing does not stop first), with the pipeline's check of the
+    planner's result, which refuses such a rosary (exit 1), turned off."""
     import foam_mj.bubbles
     from foam_mj.scenarios import load_scenario
 
@@ -373,6 +374,7 @@ def test_plan_exits_4_when_its_own_replay_finds_a_trajectory_below_the_margin(tm
                     "[planner]\nalgorithm = 'bubbletree'\n[limits]\ntorque = [1e9, 1e9, 1e9]\n")
     certified = foam_mj.bubbles.BubbleOracle.radius_from_distances
     monkeypatch.setattr(foam_mj.bubbles.BubbleOracle, "radius_from_distances", lambda self, D, Q: 2.5 * certified(self, D, Q))
+    monkeypatch.setattr("foam_mj.pipeline.check_result", lambda result, problem, planner: result)
     out = tmp_path / "r.json"
     assert main(["plan", "--scene", str(toml), "--no-rrd", "--smoother", "convex", "--json", str(out)]) == 4
     err = capsys.readouterr().err
