@@ -432,6 +432,7 @@ def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Tra
     x_v = _speed_bound(kin, grid, vmax)
     x0, best = x_v, None
     last_over = (np.zeros_like(vmax), np.zeros_like(vmax), np.zeros_like(vmax))
+    law = None
     for round_ in range(REFINE_ROUNDS):
         try:
             law = _toppra_law(kin, v_eff, a_eff, t_eff, x0)
@@ -469,6 +470,10 @@ def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Tra
         x0 = np.maximum(law.sd**2, 1e-9 * float(x_v.max()))
     if best is not None:
         return best
+    if law is not None:
+        stretched = _stretch_to_limits(robot, rosary, curve, law, last_over, vmax, amax, tmax, dt, knots_of_points)
+        if stretched is not None:
+            return stretched
     # Name the joint and the limit that stayed exceeded (the worst ratio of the last round).
     kinds = (("velocity", vmax), ("acceleration", amax), ("torque", tmax))
     k, j = max(((k, int(np.argmax(o))) for k, o in enumerate(last_over)), key=lambda kj: last_over[kj[0]][kj[1]])
@@ -502,6 +507,28 @@ def _report_margin(robot, kin: _Kinematics, tmax, what: str) -> None:
         f"{_load_text(g[i, j], f[i, j], unit)} at {100 * u[i] / kin.curve.length:.0f}% of the path: {what}",
         joint=name, excess=float(g[i, j] + f[i, j] - tmax[j]),
     )
+
+
+def _stretch_to_limits(robot, rosary, curve, law: PathTiming, over, vmax, amax, tmax, dt, knots_of_points) -> Trajectory | None:
+    """toppra meets the limits at its grid points; where its refinements still left a sample over a limit (1.5 %
+    over an acceleration limit on one rbpf path), the last law stretched uniformly by lam meets it: speeds scale by
+    1 / lam and accelerations by 1 / lam^2, exactly, and the inertial part of the torque with them (gravity does
+    not, so torque may need more than one stretch). None when three stretches do not fit the limits."""
+    limited = np.isfinite(tmax)
+    for _ in range(3):
+        over_v, over_a, over_t = over
+        lam = max(1.0, float(over_v.max()), float(np.sqrt(over_a.max())), float(np.sqrt(over_t.max()))) * (1 + 1e-3)
+        T = _whole_steps(law.duration * lam, dt)
+        if T > MAX_SLOWDOWN * law.native:
+            return None
+        law = PathTiming(law.s, law.sd, law.sdd, law.t, T)
+        traj = _sample(robot, rosary, curve, law, T, dt, law.time_at(curve.knots)[knots_of_points])
+        pv, pa, pt = _peaks(robot, traj)
+        with np.errstate(invalid="ignore"):
+            over = (pv / vmax, pa / amax, np.where(limited, pt / tmax, 0.0))
+        if max(o.max() for o in over) <= 1.0 + 1e-9:
+            return traj
+    return None
 
 
 def _retime_own(robot, rosary, base: Trajectory, tmax, dt) -> Trajectory:

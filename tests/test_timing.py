@@ -339,3 +339,22 @@ def test_toppra_times_a_curve_whose_straight_stretches_carry_rounding_noise(tmp_
     dof = s.robot.model.jnt_dofadr[s.robot.config.joint_ids]
     assert np.abs(traj.qvel[:, dof]).max() <= 5.0 + 1e-9 and np.abs(traj.qacc[:, dof]).max() <= 50.0 + 1e-9
     assert 0.5 < traj.duration < 1.5
+
+
+def test_a_law_toppra_leaves_just_over_a_limit_is_stretched_to_meet_it():
+    """rbpf's seed-2 rosary on obstacle, its convex shortest path: toppra's samples stayed 1.5 % over hip_displacement's
+    acceleration limit after every refinement, and plan exited 3 on a feasible timing. The last law stretched uniformly
+    (speeds / lam, accelerations / lam^2) meets every limit on the samples, and keeps the certified curve."""
+    import dataclasses
+
+    from foam_mj.pipeline import run
+
+    s = load_scenario("obstacle")
+    s = dataclasses.replace(s, params=s.params.with_algorithm("rbpf"))
+    out = run(s, 2, ("convex",), dynamic=False)
+    traj = out.paths["convex"].trajectory
+    vmax, amax, _ = out.limits.resolve(s.robot)
+    dof = s.robot.model.jnt_dofadr[s.robot.config.joint_ids]
+    assert np.all(np.abs(traj.qvel[:, dof]).max(axis=0) <= vmax * (1 + 1e-9))
+    assert np.all(np.abs(traj.qacc[:, dof]).max(axis=0) <= amax * (1 + 1e-9))
+    assert out.paths["convex"].kinematic.min_clearance >= s.params.delta
