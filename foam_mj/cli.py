@@ -85,26 +85,6 @@ FIGURE_DPI = 150
 FIGURE_MAX_DPI = 600
 
 
-class Progress:
-    """A one-line progress display on stderr (only when stderr is a terminal, or when forced)."""
-
-    def __init__(self, enabled: bool | None = None) -> None:
-        self.enabled = sys.stderr.isatty() if enabled is None else enabled
-        self._shown = False
-
-    def __call__(self, text: str) -> None:
-        if self.enabled:
-            sys.stderr.write("\r\033[K" + text)
-            sys.stderr.flush()
-            self._shown = True
-
-    def done(self) -> None:
-        if self._shown:
-            sys.stderr.write("\r\033[K")
-            sys.stderr.flush()
-            self._shown = False
-
-
 def cmd_scenes(args: argparse.Namespace) -> int:
     from foam_mj.scenarios import available_scenarios, load_scenario
     from foam_mj.summary import fmt_q as _fmt_q
@@ -529,9 +509,9 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGINT, _interrupt)
         import warnings
 
-        from foam_mj.mujoco_warnings import route_to_python
+        from foam_mj.mujoco_warnings import route_to_python, show_once
 
-        warnings.showwarning = _show_warning
+        warnings.showwarning = show_once
         route_to_python()
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["bench"]:  # everything after `bench` belongs to the benchmark's own parser
@@ -551,20 +531,6 @@ def _exit_now(code: int) -> None:
         except (OSError, ValueError):  # a closed pipe (`| head`) or a closed stream: nothing more to show
             pass
     os._exit(code)
-
-
-_WARNED: set[str] = set()
-
-
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    """The ``foam-mj`` process's warnings: one line each, once. MuJoCo's end in "Time = 0.0000.", so each was new to
-    Python's filter; a model with a singular inertia matrix printed the same three-line warning from every call site."""
-    import re
-
-    text = re.sub(r"\s*Time = \S+$", "", str(message).strip())
-    if text not in _WARNED:
-        _WARNED.add(text)
-        print(f"foam-mj: warning: {text}", file=sys.stderr)
 
 
 #: The signals (SIGINT, SIGTERM) the ``foam-mj`` process has received: once the user has asked it to stop, an

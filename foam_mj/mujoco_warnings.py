@@ -1,4 +1,4 @@
-"""MuJoCo's runtime warnings in the ``foam-mj`` command: one line each, once.
+"""Warnings in the ``foam-mj`` command, MuJoCo's runtime warnings among them: one line each, once.
 
 MuJoCo reports a warning raised while simulating (a singular inertia matrix, an unstable step) through its C
 printer unless a handler is set: it prints the warning once per simulation state, so every batch row and every
@@ -10,6 +10,8 @@ so from Python MuJoCo's own behaviour (or the user's handler) stays.
 
 from __future__ import annotations
 
+import re
+import sys
 import warnings
 
 _ROUTE = False
@@ -34,3 +36,16 @@ def install_if_routed() -> None:
 
 def _warn(text: str) -> None:
     warnings.warn(text, RuntimeWarning, stacklevel=2)
+
+
+_SHOWN: set[str] = set()
+
+
+def show_once(message, category, filename, lineno, file=None, line=None) -> None:
+    """``warnings.showwarning`` of the ``foam-mj`` command: each warning one line, once. MuJoCo's end in
+    "Time = 0.0000.", so each was new to Python's filter; a model with a singular inertia matrix printed the same
+    three-line warning from every call site."""
+    text = re.sub(r"\s*Time = \S+$", "", str(message).strip())
+    if text not in _SHOWN:
+        _SHOWN.add(text)
+        print(f"foam-mj: warning: {text}", file=sys.stderr)

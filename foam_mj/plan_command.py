@@ -10,7 +10,8 @@ import sys
 import time
 from pathlib import Path
 
-from foam_mj.cli import EXIT_OK, EXIT_PLANNING_FAILED, EXIT_UNSAFE, Progress
+from foam_mj.cli import EXIT_OK, EXIT_PLANNING_FAILED, EXIT_UNSAFE
+from foam_mj.progress import Progress
 from foam_mj.errors import FoamError, PlanningFailed
 from foam_mj.summary import print_certificates, print_fronts, print_replay_notes, summary_table
 
