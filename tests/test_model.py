@@ -120,15 +120,19 @@ def test_the_lean_sensor_model_gives_the_full_models_distances_bit_for_bit(obsta
     assert np.array_equal(c.batch_pairs(Q), full.batch_pairs(Q))
 
 
-def test_a_model_that_needs_its_other_geoms_keeps_them_in_the_sensor_model(tmp_path):
-    # The tip's only geom collides with nothing: without it the tip, which moves, would have no mass.
-    (tmp_path / "r.xml").write_text("""<mujoco><worldbody>
+# A two-link arm whose tip's only geom collides with nothing: without it the tip, which moves, would have no mass.
+MASSLESS_TIP_ARM = """<mujoco><worldbody>
       <geom name="floor" type="plane" size="2 2 0.1"/><geom name="wall" type="box" pos="0.5 0 0.3" size="0.05 0.3 0.3"/>
       <body name="link1" pos="0 0 0.3"><joint name="j1" type="hinge" axis="0 0 1" range="-1 1"/>
         <geom name="arm" type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
         <body name="tip" pos="0.3 0 0"><joint name="j2" type="hinge" axis="0 0 1" range="-1 1"/>
           <geom name="marker" type="sphere" size="0.01" contype="0" conaffinity="0"/></body></body>
-    </worldbody></mujoco>""")
+    </worldbody>"""
+
+
+def test_a_model_that_needs_its_other_geoms_keeps_them_in_the_sensor_model(tmp_path):
+    # The tip's only geom collides with nothing: without it the tip, which moves, would have no mass.
+    (tmp_path / "r.xml").write_text(MASSLESS_TIP_ARM + "</mujoco>")
     robot = RobotModel.from_xml(tmp_path / "r.xml")
     c = Clearance(robot)
     assert c._batch_model.ngeom == robot.model.ngeom
@@ -136,18 +140,11 @@ def test_a_model_that_needs_its_other_geoms_keeps_them_in_the_sensor_model(tmp_p
     np.testing.assert_allclose(c.batch_pairs(Q)[:, 0], [c.pair_distances(q)[0] for q in Q], rtol=0, atol=1e-12)
 
 
-
 def test_a_models_own_sensors_do_not_take_the_place_of_the_distances(tmp_path):
     """A model that keeps every element in its sensor model (the tip's mass is in a geom of no pair) and has
     sensors of its own: those come first in sensordata, the distance sensors after them, and the batch reads
     the distances, equal to the one-by-one queries (the joint angles it would read first are not)."""
-    (tmp_path / "r.xml").write_text("""<mujoco><worldbody>
-      <geom name="floor" type="plane" size="2 2 0.1"/><geom name="wall" type="box" pos="0.5 0 0.3" size="0.05 0.3 0.3"/>
-      <body name="link1" pos="0 0 0.3"><joint name="j1" type="hinge" axis="0 0 1" range="-1 1"/>
-        <geom name="arm" type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
-        <body name="tip" pos="0.3 0 0"><joint name="j2" type="hinge" axis="0 0 1" range="-1 1"/>
-          <geom name="marker" type="sphere" size="0.01" contype="0" conaffinity="0"/></body></body>
-    </worldbody>
+    (tmp_path / "r.xml").write_text(MASSLESS_TIP_ARM + """
     <sensor><jointpos joint="j1"/><jointpos joint="j2"/><jointpos joint="j1"/></sensor></mujoco>""")
     robot = RobotModel.from_xml(tmp_path / "r.xml")
     c = Clearance(robot)
