@@ -340,7 +340,8 @@ def build_parser() -> argparse.ArgumentParser:
         "write a Rerun recording. Every output is checked before planning and written atomically.",
         epilog="exit codes: 0 success; 2 bad input or an output that could not be written; 3 planning failed "
         "(the foam did not reach the goal: the foam so far is still written; or no timing of a path fits the joint "
-        "limits); 1 internal error; 130 interrupted.",
+        "limits); 4 plan's own replay found a planned trajectory below the margin (a certification fault: everything "
+        "is still written, for a report); 1 internal error; 130 interrupted.",
     )
     p.add_argument("--scene", default=None, help="a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: obstacle)")
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="plan on any MJCF scene without a scenario file (needs --start and --goal; default planner parameters)")
@@ -408,7 +409,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="replay a saved result",
         description="Rebuild the joint trajectories of a `plan --json` result and replay them on the scene it names. "
         "Refuses (exit 2) a result of an unknown format version, or whose scene file now compiles to a different model.",
-        epilog="exit codes: 0 clean; 2 bad input; 4 the replay has contacts or clearance below the result's margin.",
+        epilog="exit codes: 0 clean; 2 bad input; 3 no timing of a saved path fits the result's joint limits; 4 the "
+        "replay has contacts or clearance below the result's margin.",
     )
     p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
     p.add_argument("--rrd", metavar="OUT.rrd", help="write a Rerun recording of the replay")

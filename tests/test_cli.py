@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -132,6 +133,18 @@ def test_plan_help_describes_any_robot_and_planner_and_both_causes_of_exit_3(cap
     text = " ".join(capsys.readouterr().out.split())
     assert "simulated robot" in text and "or --planner" in text and "simulated leg" not in text
     assert "no timing of a path fits the joint limits" in text
+
+
+@pytest.mark.parametrize(("command", "codes"), [("plan", (2, 3, 4)), ("replay", (2, 3, 4)), ("export", (2, 3)), ("verify", (2, 4))])
+def test_each_commands_help_names_every_exit_code_it_can_return(command, codes, capsys):
+    """plan exits 4 when its own replay finds a trajectory below the margin, replay 3 when no timing fits a saved
+    path (README, exit codes): each command's --help says so (plan's omitted 4, replay's 3)."""
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    epilog = text[text.lower().index("exit codes:"):]
+    for code in codes:
+        assert re.search(rf"[:;,] {code} ", epilog), f"{command} --help: exit {code} not named in {epilog!r}"
 
 
 def test_every_recorded_path_is_collision_free_under_an_independent_check(planned, obstacle_robot):
