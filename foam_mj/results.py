@@ -22,6 +22,7 @@ Layout (format "foam-mj/result", version 1)::
       "foam": {"stats": {"planner", "outcome", "bubbles", "distance_queries", "elapsed", "time_to_first_path", ...},
                "centers": [[...], ...], "radii": [...], "parents": [...]},   # every bubble
       "rosary": {"centers": [[...], ...], "radii": [...], "bubble_ids": [...]},
+      "timings": {"plan": ..., "smooth": ..., "replay": ..., "total": ...},  # seconds of wall time per phase
       "paths": {
         "<name>": {
           "label": "centre (T)",
@@ -36,8 +37,8 @@ Layout (format "foam-mj/result", version 1)::
           "certificate": {"certified", "kkt_stationarity", "kkt_complementarity", "kkt_tol",      # optimal only
                           "straight_vertices", "active_constraints", "tied_waypoints", "objective_value",
                           "weights", "best_start", "starts", ...},
-          "replay": {"min_clearance": ..., "duration": ..., "max_error": [...], "rms_error": [...],
-                     "contacts": N, "joints": [...]},
+          "replay": {"min_clearance": ..., "duration": ...,         # kinematic replay; the rest from the dynamic one
+                     "max_error": [...], "rms_error": [...], "contacts": N, "joints": [...], "dynamic_min_clearance": ...},
           "dynamics": {"joints", "torque_units", "peak_torque", "rms_torque", "peak_power", "positive_work",
                        "negative_work", "torque_limit", "peak_use", "body_mass", "peak_torque_per_kg"}
         }, ...
