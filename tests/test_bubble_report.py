@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import re
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -68,3 +70,12 @@ def test_bad_input_exits_2_with_one_line(argv, message, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_the_readme_shows_what_bubble_prints(capsys):
+    """The README's `foam-mj bubble --scene obstacle --q="0.2 0.3 0.08"` output (Look inside a bubble), line for line."""
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    assert 'foam-mj bubble --scene obstacle --q="0.2 0.3 0.08"' in readme
+    block = re.search(r"```\n(clearance: .*?)```", readme, flags=re.S).group(1)
+    assert main(["bubble", "--scene", "obstacle", "--q=0.2 0.3 0.08"]) == 0
+    assert capsys.readouterr().out == block

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
 import re
@@ -27,9 +29,30 @@ VERIFY = next((p / "shared" / "tools" / "verify_result.py" for p in Path(__file_
 def planned(tmp_path_factory):
     out = tmp_path_factory.mktemp("plan")
     rrd, js = out / "obstacle.rrd", out / "obstacle.json"
-    code = main(["plan", "--scene", "obstacle", "--seed", "0", "--smoother", "all", "--rrd", str(rrd), "--json", str(js)])
+    with contextlib.redirect_stdout(io.StringIO()) as stdout:
+        code = main(["plan", "--scene", "obstacle", "--seed", "0", "--smoother", "all", "--rrd", str(rrd), "--json", str(js)])
     assert code == 0
-    return {"rrd": rrd, "json": js, "doc": json.loads(js.read_text())}
+    return {"rrd": rrd, "json": js, "doc": json.loads(js.read_text()), "stdout": stdout.getvalue()}
+
+
+def _untimed(line: str) -> str:
+    """A summary line without what the machine's speed changes (a path's time column, the certificate's time)."""
+    return re.sub(r"\s+\d+ ms$", "", re.sub(r" in \d+ ms.*$", "", line.rstrip()))
+
+
+def test_the_readme_shows_what_plan_prints(planned):
+    """Every line of the README's two `foam-mj plan --scene obstacle` outputs (What comes out) is one that plan
+    prints, but for wall times and the file written: the joint-loads footnote had drifted after a change."""
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    section = readme[readme.index("## What comes out"):readme.index("## What it does")]
+    blocks = re.findall(r"```\n(scenario obstacle .*?)```", section, flags=re.S)
+    assert len(blocks) == 2
+    printed = {_untimed(line) for line in planned["stdout"].splitlines()}
+    for block in blocks:
+        for line in block.splitlines():
+            if line.startswith(("scenario ", "wrote ", "total ")) or "(...)" in line:
+                continue
+            assert _untimed(line) in printed, line
 
 
 def test_plan_writes_a_json_result_with_every_path(planned):

@@ -1,5 +1,6 @@
 """Tests for examples/: every command in every example's README runs as written (from a scratch folder)
-and exits 0; every JSON it writes passes an independent MuJoCo check (and `foam-mj verify` when present)."""
+and exits 0; every JSON it verifies passes `foam-mj verify` and an independent MuJoCo check; the tables that list
+the examples show their commands."""
 
 from __future__ import annotations
 
@@ -8,9 +9,10 @@ import re
 import shlex
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from foam_mj.cli import build_parser, main
+from foam_mj.cli import main
 
 from test_bring_your_own_robot import _independent_clearance
 
@@ -22,11 +24,6 @@ READMES = sorted(EXAMPLES.glob("*/README.md"))
 def _commands(readme: Path) -> list[str]:
     blocks = re.findall(r"```\n(.*?)```", readme.read_text(), flags=re.S)
     return [line.strip() for block in blocks for line in block.splitlines() if line.strip().startswith("foam-mj ")]
-
-
-def _has_command(name: str) -> bool:
-    sub = next(a for a in build_parser()._actions if a.dest == "command")
-    return name in sub.choices
 
 
 def test_every_example_has_a_readme_with_commands():
@@ -44,11 +41,25 @@ def test_the_readme_commands_run(readme, tmp_path, monkeypatch):
         argv = [a.replace("examples/", f"{EXAMPLES}/", 1) if a.startswith("examples/") else a for a in shlex.split(command)[1:]]
         if argv[0] == "plan":
             argv.append("--no-rrd")  # the recording is not what is tested here
-        if argv[0] == "verify" and not _has_command("verify"):
+        assert main(argv) == 0, command
+        if argv[0] == "verify":  # and a check that shares no code with foam-mj
             doc = json.loads((tmp_path / argv[1]).read_text())
             for name, entry in doc["paths"].items():
-                import numpy as np
-
                 assert _independent_clearance(doc["mjcf"], np.asarray(entry["qpos"])) >= doc["planner"]["delta"] - 1e-9, name
-            continue
-        assert main(argv) == 0, command
+
+
+def _table_commands(text: str) -> list[str]:
+    """The `foam-mj plan ...` commands of a Markdown table's cells."""
+    return re.findall(r"\| `(foam-mj plan [^`]*)` \|", text)
+
+
+@pytest.mark.parametrize("index", ["examples/README.md", "README.md"])
+def test_the_example_tables_show_commands_of_the_example_readmes(index):
+    """examples/README.md and the README's Examples table name each example's command: each is (up to its --json)
+    a command of the README in that example's folder, which test_the_readme_commands_run runs."""
+    commands = [c for c in _table_commands((ROOT / index).read_text()) if "examples/" in c]
+    assert len(commands) == 3, commands
+    for command in commands:
+        folder = re.search(r"examples/(\w+)/", command).group(1)
+        own = [c.split(" --json")[0] for c in _commands(EXAMPLES / folder / "README.md")]
+        assert command.split(" --json")[0] in own, (index, command)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ast
 import json
+import re
 from pathlib import Path
 
 import mujoco
@@ -297,3 +298,14 @@ def test_a_ball_that_ends_half_a_millimetre_inside_the_margin_is_a_violation(tmp
     report = verify_result(tmp_path / "cart.json")
     assert report.violations >= 1
     assert report.min_clearance == pytest.approx(0.0045, abs=1e-9)
+
+
+def test_the_readme_shows_what_verify_prints(planned_result, capsys):
+    """The README's `foam-mj verify r.json` output (Checking a result) is verify's on the default plan of the
+    obstacle scene, but for the result's name and the scene's folder in its first line."""
+    readme = (ROOT / "README.md").read_text()
+    block = re.search(r"```\n(verify r\.json on .*?)```", readme, flags=re.S).group(1).splitlines()
+    assert main(["verify", str(planned_result)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split(": ", 1)[1] == block[0].split(": ", 1)[1]
+    assert out[1:] == block[1:]
