@@ -35,9 +35,9 @@ otherwise the default planner (:data:`foam_mj.planners.DEFAULT_PLANNER`).
 Optional tables that edit the scene through ``mujoco.MjSpec`` (:mod:`foam_mj.scene_edits`; the MJCF file
 itself is never changed)::
 
-    joints = ["shoulder", "elbow"]         # configuration joints (default: the MJCF's declaration, else
-                                           # every limited hinge/slide joint)
-    [normalize]                            # per joint: [span] or [qpos_lo, qpos_hi, span] (model.py)
+    joints = ["hip_flexion", "knee_flexion", "hip_displacement"]  # configuration joints (default: the MJCF's
+                                           # declaration, else every limited hinge/slide joint)
+    [normalize]                            # per configuration joint: [span] or [qpos_lo, qpos_hi, span] (model.py)
     hip_displacement = [0.0, 0.7, 1.5707963267948966]
     [subject]                              # scale the leg (Winter's segment fractions)
     height = 1.62                          # m

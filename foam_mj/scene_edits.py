@@ -149,6 +149,8 @@ def build_robot(scene: Path, edits: SceneEdits | None = None, **options) -> Robo
     compile_spec(spec, scene)
     name_unnamed_geoms(spec)
     xml = scene_xml(spec, scene)
-    robot = RobotModel.from_spec(mujoco.MjSpec.from_string(xml), scene, **options)
+    # The [normalize] table again: its values are the spec's, and a joint outside the configuration is refused
+    # (the MJCF's own fields may name any joint of the model; the scenario's would be silently ignored).
+    robot = RobotModel.from_spec(mujoco.MjSpec.from_string(xml), scene, normalize=edits.normalize or None, **options)
     robot.xml = xml
     return robot

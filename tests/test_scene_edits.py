@@ -213,3 +213,11 @@ def test_scenario_joints_and_normalization_override_the_model():
     again = RobotModel.from_spec(mujoco.MjSpec.from_string(r.xml), "copy.xml")
     assert again.config.joint_names == r.config.joint_names
     np.testing.assert_allclose(again.upper, r.upper)
+
+
+def test_a_normalization_of_a_joint_outside_the_configuration_is_refused():
+    """[normalize] for a joint the scenario's `joints` leave out would change nothing (it was silently ignored, as
+    in the README's own example table): refused, naming the joint and the configuration."""
+    with pytest.raises(ScenarioError, match=r"normalization given for \['hip_displacement'\], which are not configuration joints"):
+        scenario_from_dict({**OBSTACLE, "q_init": [0.2, 0.3], "q_goal": [0.45, 0.4536], "joints": ["hip_flexion", "knee_flexion"],
+                            "normalize": {"hip_displacement": [0.0, 0.7, 1.5707963267948966]}}, MODELS)
