@@ -330,7 +330,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"foam-mj {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
-    p = sub.add_parser("scenes", help="list the built-in scenarios", description="List the built-in scenarios: name, what it is, start and goal.")
+    p = sub.add_parser("scenes", help="list the built-in scenarios", description="List the built-in scenarios: name, what it is, start, goal and scene file.")
     p.set_defaults(func=cmd_scenes)
     p = sub.add_parser(
         "plan",
