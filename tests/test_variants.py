@@ -294,3 +294,19 @@ def test_a_scenario_names_a_variant_and_its_options(tmp_path):
     p.write_text(head + 'algorithm = "rbpf"\nbias = 0.4\n')
     with pytest.raises(ScenarioError, match=r"\['bias'\] for algorithm 'rbpf'"):
         load_scenario(p, check=False)
+
+
+@pytest.mark.parametrize("variant", ["rbpf", "hpf"])
+def test_rbpf_and_hpf_refuse_a_candidate_count_beyond_memory_before_any_work(scene_oracles, variant):
+    """PFM's expansion draws K floor(r / r_min)^(n-1) candidates per bubble: settings that allow more than the
+    planner's cap are refused up front, as pfm refuses them. A 7-joint robot with K = 3, r_min = 1 mm ended in
+    a MemoryError (38 GiB for one bubble's candidates) from get_planner('rbpf' or 'hpf').plan (fuzz seed 402)."""
+    s = SCEN["obstacle"]
+    with pytest.raises(ConfigurationError, match=r"K = 10 and r_min = 0.0001 give up to .* candidates per bubble"):
+        VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, FoamParams(K=10, r_min=1e-4), seed=0)
+
+
+def test_gbpf_grows_one_candidate_per_sample_so_no_candidate_bound_applies(scene_oracles):
+    s = SCEN["obstacle"]
+    with pytest.raises(PlanningFailed, match="bubble budget"):
+        plan_gbpf(scene_oracles["obstacle"], s.q_init, s.q_goal, FoamParams(K=10, r_min=1e-4, max_bubbles=20), seed=0)

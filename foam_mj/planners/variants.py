@@ -66,7 +66,7 @@ from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
-from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order, seed_rng, small_goal_hint
+from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order, check_candidate_bound, seed_rng, small_goal_hint
 from foam_mj.rosary import MEMBERSHIP_TOL
 
 #: Citation used in docstrings, the README and docs/references.md.
@@ -253,6 +253,7 @@ def plan_rbpf(
 
     Raises :class:`ConfigurationError` for a bad start or goal and :class:`PlanningFailed` when the open
     list empties or a budget runs out."""
+    check_candidate_bound(params, oracle.robot.lower, oracle.robot.upper)  # PFM's expansion: N = K floor(r / r_min)^(n-1)
     g = _Growth(oracle, q_init, q_goal, params, seed, progress)
     open_w = np.zeros(1024)  # roulette weight of each bubble: its radius while open, 0 once expanded
     open_w[0] = g.radii[0]
@@ -283,6 +284,7 @@ def plan_hpf(
 
     Raises :class:`ConfigurationError` for a bad start or goal and :class:`PlanningFailed` when the open
     list empties or a budget runs out."""
+    check_candidate_bound(params, oracle.robot.lower, oracle.robot.upper)  # PFM's expansion: N = K floor(r / r_min)^(n-1)
     g = _Growth(oracle, q_init, q_goal, params, seed, progress)
     cost = np.zeros(1024)  # g of each bubble
     heap: list[tuple[float, int]] = [(float(np.linalg.norm(g.q_init - g.q_goal)), 0)]
