@@ -310,3 +310,17 @@ def test_gbpf_grows_one_candidate_per_sample_so_no_candidate_bound_applies(scene
     s = SCEN["obstacle"]
     with pytest.raises(PlanningFailed, match="bubble budget"):
         plan_gbpf(scene_oracles["obstacle"], s.q_init, s.q_goal, FoamParams(K=10, r_min=1e-4, max_bubbles=20), seed=0)
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_a_start_just_inside_a_joint_limit_with_no_room_for_r_min_fails_at_once(scene_oracles, variant):
+    """The knee 1 cm from its limit, the foot 130 mm clear of the box: the root's radius is at most 1 cm and a
+    child on its surface at most 2 cm from that face, so no bubble of r_min = 0.07 can grow, whatever the
+    clearance. gbpf's samples searched the whole time budget (60 s here; fuzz: a random 4-joint arm with a
+    start 0.4 mm inside a limit and r_min 1 mm) before saying so."""
+    s = SCEN["obstacle"]
+    params = FoamParams(K=s.params.K, r_min=s.params.r_min, delta=s.params.delta, time_limit=60.0)
+    near_limit = [0.0, 0.01, 0.08]
+    with pytest.raises(PlanningFailed, match=r"after 1 bubbles .*: no bubble of radius >= r_min = 0.07 fits on the start's bubble") as err:
+        VARIANTS[variant](scene_oracles["obstacle"], near_limit, s.q_goal, params, seed=0)
+    assert err.value.stats.elapsed < 5.0 and err.value.stats.outcome == "queue empty"

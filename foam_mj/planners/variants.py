@@ -138,10 +138,13 @@ class _Growth:
     def root_cannot_grow(self) -> bool:
         """True when no child of radius >= r_min can sit on the root's surface: a pair's distance changes by at
         most ||rho_p|| per unit of q, so a point r0 from q_init has radius at most min_p (d_p - delta) / ||rho_p||
-        + r0 (exact when that pair's distance reads below the cap ``distmax``, which is then required)."""
+        + r0 (exact when that pair's distance reads below the cap ``distmax``, which is then required), and the
+        distance to the joint box's nearest face changes by at most r0 too (a start just inside a joint limit)."""
         terms = self.oracle.pair_radii(self.root_distances)
         k = int(np.argmin(terms))
-        return bool(self.root_distances[k] < self.oracle.clearance.distmax and terms[k] + self.radii[0] < self.params.r_min)
+        r0, r_min = self.radii[0], self.params.r_min
+        pair_bound = self.root_distances[k] < self.oracle.clearance.distmax and terms[k] + r0 < r_min
+        return bool(pair_bound or float(self.oracle.to_bounds(self.q_init)) + r0 < r_min)
 
     def holds_goal(self, c: np.ndarray, r) -> np.ndarray:
         return np.sum((np.atleast_2d(c) - self.q_goal) ** 2, axis=1) <= (np.asarray(r) + MEMBERSHIP_TOL) ** 2
