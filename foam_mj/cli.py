@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import signal
 import sys
 from pathlib import Path
@@ -76,6 +77,25 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message: str):  # noqa: D401 - argparse's hook
         raise UsageError(f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)")
+
+    def parse_known_args(self, args=None, namespace=None):
+        """argparse's, but a value that starts with a minus sign stays its option's value: argparse took
+        ``--start "-0.1,0.3,0.08"`` (or ``--delta -1e-3``) for an option of its own and said only 'expected one
+        argument'; it passes a lone negative decimal or a value with a space. Here such a value is attached to an
+        option that takes one (``--start=-0.1,0.3,0.08``), up to a ``--``."""
+        if args is not None:
+            args = list(args)
+            i = 0
+            while i < len(args) - 1 and args[i] != "--":
+                action = self._option_string_actions.get(args[i])
+                if action is not None and action.nargs is None and _NEGATIVE_VALUE.match(args[i + 1]):
+                    args[i : i + 2] = [f"{args[i]}={args[i + 1]}"]
+                i += 1
+        return super().parse_known_args(args, namespace)
+
+
+#: A value that begins like a negative number ("-0.1,0.3", "-1e-3", "-.5"), which argparse reads as an option.
+_NEGATIVE_VALUE = re.compile(r"-\.?[0-9]")
 
 #: Figure file formats and PNG resolution of ``foam-mj figures`` (foam_mj.figures uses these too).
 FIGURE_FORMATS = ("png", "svg", "pdf")

@@ -542,3 +542,18 @@ def test_an_mjcf_that_is_a_folder_or_an_empty_name_is_named_as_such(command, tmp
         assert main([command[0], "--mjcf", value, *command[1:]]) == 2
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and message in err, err
+
+
+def test_a_value_that_starts_with_a_minus_sign_is_its_options_value(capsys):
+    """README: --start/--goal/--q take numbers separated by spaces or commas. argparse read a comma-separated
+    value with a negative first number ('-0.1,0.3,0.08'), or '-1e-3', as an option of its own: 'argument --start:
+    expected one argument' (fuzz: --mjcf plans of random arms). The value is the option's; '--' still ends options."""
+    args = build_parser().parse_args(["plan", "--mjcf", "r.xml", "--start", "-0.1,0.3,0.08", "--goal", "-.5,0,1"])
+    assert (args.start, args.goal) == ("-0.1,0.3,0.08", "-.5,0,1")
+    assert main(["bubble", "--scene", "obstacle", "--q", "-0.1,0.3,0.08"]) == 0
+    assert "certified radius" in capsys.readouterr().out
+    assert main(["plan", "--scene", "obstacle", "--delta", "-1e-3", "--no-rrd"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "foam-mj: error: --delta must be a margin >= 0 in metres, got -0.001"
+    assert main(["plan", "--scene", "obstacle", "--no-rrd", "-1"]) == 2  # a flag without a value keeps argparse's message
+    assert "unrecognized arguments: -1" in capsys.readouterr().err
