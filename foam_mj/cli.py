@@ -259,7 +259,7 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from foam_mj.sweep import WorkersDied, load_sweep
-    from foam_mj.sweep_run import _pyarrow, run_sweep
+    from foam_mj.sweep_run import _pyarrow, check_ray_address, run_sweep
 
     from foam_mj.atomic import check_output_dir
 
@@ -271,7 +271,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         if importlib.util.find_spec("ray") is None:
             raise FoamError("--ray needs Ray, which is not installed: pip install 'foam-mj[cluster]'")
         if args.ray:
-            _check_ray_address(args.ray)
+            check_ray_address(args.ray)
     for flag, value in (("--workers", args.workers), ("--batch", args.batch), ("--limit", args.limit)):
         if value is not None and value < 1:
             raise FoamError(f"{flag} must be an integer >= 1, got {value}")
@@ -299,24 +299,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         f"{s.rows_written} rows in {s.files_written} file{'s' * (s.files_written != 1)} under {where}; {s.rate:.2f} plans/s on {on} ({s.elapsed:.1f} s)"
     )
     return EXIT_OK
-
-
-def _check_ray_address(address: str) -> None:
-    """A cluster address (``host:port`` or ``ray://host:port``; ``auto`` is Ray's to find) must accept a connection
-    within a few seconds: ray.init waits minutes on an address where nothing listens, logging warnings."""
-    import socket
-
-    if address == "auto":
-        return
-    where = address.removeprefix("ray://")
-    host, sep, port = where.rpartition(":")
-    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
-        raise FoamError(f"--ray {address}: expected auto, HOST:PORT or ray://HOST:PORT")
-    try:
-        socket.create_connection((host.strip("[]"), int(port)), timeout=5).close()
-    except OSError as exc:
-        raise FoamError(f"--ray {address}: no Ray cluster answers there ({exc.strerror or type(exc).__name__}); "
-                        "start one (ray start --head) or leave the address out for a local instance") from None
 
 
 def cmd_report(args: argparse.Namespace) -> int:

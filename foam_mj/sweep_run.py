@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
 from foam_mj.atomic import OutputError, atomic_write_bytes
+from foam_mj.errors import FoamError
 from foam_mj.sweep import FORMAT, Sweep, SweepError, Task, WorkersDied, run_task
 
 #: How many times a broken local pool is replaced before the sweep gives up.
@@ -401,6 +402,24 @@ def _terminate(pool) -> None:
             p.terminate()
     for p in procs:
         p.join(timeout=5)
+
+
+def check_ray_address(address: str) -> None:
+    """A cluster address (``host:port`` or ``ray://host:port``; ``auto`` is Ray's to find) must accept a connection
+    within a few seconds: ray.init waits minutes on an address where nothing listens, logging warnings."""
+    import socket
+
+    if address == "auto":
+        return
+    where = address.removeprefix("ray://")
+    host, sep, port = where.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise FoamError(f"--ray {address}: expected auto, HOST:PORT or ray://HOST:PORT")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=5).close()
+    except OSError as exc:
+        raise FoamError(f"--ray {address}: no Ray cluster answers there ({exc.strerror or type(exc).__name__}); "
+                        "start one (ray start --head) or leave the address out for a local instance") from None
 
 
 def ray_engine(tasks: Iterator[Task], workers: int, address: str | None, *, poll: float = 0.5) -> Iterator[Event]:
