@@ -168,6 +168,15 @@ class DynamicReplay(_ReplayMeasures):
     clamped_frames: np.ndarray | None = None  # (nu,) frames at which each actuator's ctrl lay outside its ctrlrange
     limit_note: str = ""  # set when a servo could not do what tracking asked (ctrl or force range; module docstring)
 
+    @property
+    def diverged(self) -> tuple[str, ...]:
+        """The warnings of :data:`DIVERGED` MuJoCo raised: its simulation blew up and restarted from the model's
+        initial state, so the tracking error and contacts mean nothing (empty when it stayed stable)."""
+        return tuple(w for w in self.warnings if w in DIVERGED)
+
+
+#: MuJoCo's warnings that its simulation diverged and was reset to the model's initial state (auto-reset).
+DIVERGED = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 
 
 def leg_bodies(robot: RobotModel) -> np.ndarray:

@@ -20,7 +20,7 @@ def summary_table(outcome) -> str:
         m = po.metrics
         clear = f"{po.kinematic.min_clearance * 1000:.1f} mm" if po.kinematic is not None else "-"
         dur = f"{po.trajectory.duration:.2f} s" if po.trajectory is not None else "-"
-        err = "-" if po.dynamic is None else "unstable" if unstable(po.dynamic) else f"{np.max(po.dynamic.max_error) * 1000:.2f}"
+        err = "-" if po.dynamic is None else "unstable" if po.dynamic.diverged else f"{np.max(po.dynamic.max_error) * 1000:.2f}"
         con = str(len(po.dynamic.contacts)) if po.dynamic is not None else "-"
         lines.append(
             f"{po.label:<27}{m.length:>8.4f}{m.f:>8.4f}{m.tc:>8.4f}{m.sv:>8.4f}{clear:>11}{dur:>10}{err:>10}{con:>9}"
@@ -33,15 +33,6 @@ def summary_table(outcome) -> str:
     return "\n".join(lines)
 
 
-#: MuJoCo's warnings that its simulation diverged and was reset to the model's initial state (auto-reset).
-UNSTABLE = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
-
-
-def unstable(dynamic) -> tuple[str, ...]:
-    """The divergence warnings MuJoCo raised in a dynamic replay (empty when it stayed stable)."""
-    return tuple(w for w in dynamic.warnings if w in UNSTABLE)
-
-
 def print_servo_note(outcome) -> None:
     """One line when the dynamic replay had to add servos to the model (foam_mj.replay.servo_model), and one
     per path whose servos ran into their ctrl or force range (DynamicReplay.limit_note)."""
@@ -51,8 +42,8 @@ def print_servo_note(outcome) -> None:
     for po in outcome.paths.values():
         if po.dynamic is not None and po.dynamic.limit_note:
             print(f"note: {po.label}: dynamic replay: {po.dynamic.limit_note}")
-        if po.dynamic is not None and unstable(po.dynamic):
-            print(f"note: {po.label}: dynamic replay: MuJoCo's simulation diverged ({', '.join(unstable(po.dynamic))}) and "
+        if po.dynamic is not None and po.dynamic.diverged:
+            print(f"note: {po.label}: dynamic replay: MuJoCo's simulation diverged ({', '.join(po.dynamic.diverged)}) and "
                   "restarted from the model's initial state, so its tracking error and contacts mean nothing (check the "
                   "model's inertias: a singular inertia matrix, as two hinges on one axis give, cannot be simulated); the "
                   "planned path and its clearance do not depend on this replay")
