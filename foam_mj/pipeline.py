@@ -194,8 +194,8 @@ def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], see
         try:
             # Nascimento and Alsina 2021 keeps every adjusted bubble at least r_min; a planner without r_min keeps the rosary's
             # smallest, and so does a root bubble below r_min (gbpf, rbpf and hpf grow from a start that close to an obstacle).
-            r_min = getattr(scenario.params.planner().options, "r_min", None) or float(np.min(rosary.radii))
-            r_min = min(r_min, float(np.min(rosary.radii)))
+            smallest = float(np.min(rosary.radii))
+            r_min = min(getattr(scenario.params.planner().options, "r_min", None) or smallest, smallest)
             adj = RosaryAdjustment(r_min=r_min).adjust(rosary, oracle)
         except ValueError as exc:
             # T_RA moves the centres of a foam's rosary (each child on its parent's surface, radius >= r_min);
