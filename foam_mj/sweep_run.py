@@ -318,6 +318,10 @@ class SweepProgress:
 #: (task, rows) for a finished task, or (None, None) when nothing finished for a while (a tick).
 Event = tuple[Task | None, list[dict] | None]
 
+#: The event an engine yields when Ctrl-C or SIGTERM reaches it while it waits: the sweep writes the rows it has
+#: received, then closes the engine, so that the engine's teardown (Ray's shutdown) comes after the rows are safe.
+INTERRUPTED: Event = (None, [])
+
 
 def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle (it flushes and stops us)
@@ -467,12 +471,15 @@ def ray_engine(tasks: Iterator[Task], workers: int, address: str | None, *, poll
             for ref in ready:
                 task = inflight.pop(ref)
                 yield task, ray.get(ref)
+    except KeyboardInterrupt:
+        # Raised here (in ray.wait, most often), it would run the teardown below before the sweep had written the
+        # rows received. The sweep writes them, then closes this generator: GeneratorExit here, then the teardown.
+        yield INTERRUPTED
+        raise
     finally:
-        for ref in list(locals().get("inflight", {})):
-            try:
-                ray.cancel(ref, force=True)
-            except Exception:  # noqa: BLE001 - best effort on the way out
-                pass
+        # No ray.cancel of the tasks in flight: Ray 2.60 aborts the driver (task_manager.cc "Check failed: it !=
+        # submissible_tasks_.end()", exit 1) when a cancelled task's reply arrives, 1 kill in 5, force or not.
+        # ray.shutdown ends the job, and with it the job's workers and their tasks.
         ray.shutdown()
 
 
@@ -558,7 +565,10 @@ def run_sweep(
         source = iter(pending) if pending is not None else todo()
         events = local_engine(source, workers) if engine == "local" else ray_engine(source, workers, ray_address)
         try:
-            for task, rows in events:
+            for event in events:
+                if event is INTERRUPTED:
+                    raise KeyboardInterrupt
+                task, rows = event
                 if task is None:
                     store.tick()
                     if bar:

@@ -555,6 +555,25 @@ def test_a_kill_during_a_ray_sweep_exits_130_and_writes_the_rows_received(study,
     assert rows == [local[r["key"]] for r in rows]
 
 
+@pytest.mark.slow
+def test_an_interrupt_inside_the_ray_engine_reaches_the_sweep_before_ray_shuts_down(study):
+    """A Ctrl-C that lands inside the Ray engine (in ray.wait, most often) ran Ray's teardown before the sweep had
+    written the rows it had received, and that teardown can hang or abort. The engine now yields INTERRUPTED with
+    Ray still up, and shuts Ray down only when the sweep closes it, after the rows are written."""
+    ray = pytest.importorskip("ray")
+    from foam_mj.sweep_run import INTERRUPTED, ray_engine
+
+    def tasks():
+        raise KeyboardInterrupt
+        yield  # a generator
+
+    events = ray_engine(tasks(), workers=1, address=None)
+    assert next(events) is INTERRUPTED
+    assert ray.is_initialized(), "Ray is still up while the sweep writes its rows"
+    events.close()
+    assert not ray.is_initialized()
+
+
 @pytest.mark.parametrize("flag, value", [("--batch", "0"), ("--batch", "-5"), ("--limit", "0"), ("--limit", "-1"), ("--workers", "0"),
                                          ("--flush-seconds", "nan"), ("--flush-seconds", "-1"), ("--progress-interval", "0"),
                                          ("--progress-interval", "inf")])
