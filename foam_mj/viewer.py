@@ -95,7 +95,10 @@ def _run_viewer(cmd: list[str]) -> int:
     ``rerun`` launcher starts the viewer binary as a child: it must not outlive us)."""
     import subprocess
 
-    proc = subprocess.Popen(cmd, start_new_session=True)
+    # Rerun logs each step of serving at INFO (telemetry, loading, hosting, listening), repeating our own line; its
+    # warnings and errors still show. A user's RUST_LOG wins.
+    env = {**os.environ, "RUST_LOG": os.environ.get("RUST_LOG", "warn")}
+    proc = subprocess.Popen(cmd, start_new_session=True, env=env)
     previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
         return proc.wait()

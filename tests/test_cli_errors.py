@@ -301,8 +301,9 @@ def test_view_web_serves_on_localhost_only_and_prints_the_url(tmp_path):
         rec.log_path("p", [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]])
     exe = Path(sys.executable).with_name("foam-mj")
     env = {**os.environ, "PYTHONPATH": str(ROOT), "RERUN_ANALYTICS": "false"}
+    env.pop("RUST_LOG", None)
     proc = subprocess.Popen([str(exe), "view", "--web", str(rrd), "--web-port", "0", "--grpc-port", "0"],
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     viewers: list = []
     try:
         line = proc.stdout.readline()
@@ -328,6 +329,9 @@ def test_view_web_serves_on_localhost_only_and_prints_the_url(tmp_path):
         for p in alive:  # never leak a server, even when the test fails
             p.kill()
     assert code == 130 and not alive, alive
+    err = proc.stderr.read()
+    # One line of ours says where to look; Rerun's INFO lines (telemetry, "Hosting a web-viewer", "Listening") are not repeated.
+    assert "INFO" not in err and "Hosting" not in err, err
 
 
 def test_version(capsys):
