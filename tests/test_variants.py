@@ -171,9 +171,13 @@ def test_budgets_stop_every_variant_with_statistics(scene_oracles, variant):
         VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, params, seed=0)
     assert err.value.stats.outcome == "bubble budget"
     assert err.value.foam.size == 30
-    params = FoamParams(K=s.params.K, r_min=s.params.r_min, time_limit=1e-4)
-    with pytest.raises(PlanningFailed, match="time budget"):
+    # A budget over before the root's first child names the clock, not r_min: children of r_min fit there
+    # (it said "no bubble of radius >= r_min fits on the start's bubble").
+    params = FoamParams(K=s.params.K, r_min=s.params.r_min, time_limit=1e-6)
+    with pytest.raises(PlanningFailed, match=r"\(time budget\) after 1 bubbles .*: the time budget ended before a bubble of "
+                                             r"radius >= r_min = 0.07 was found on the start's bubble \(radius 0.0878\); raise time_limit") as err:
         VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, params, seed=0)
+    assert "fits" not in str(err.value)
     # A budget of one bubble stops it at the root; that is the budget's doing, not r_min's (the message said
     # "no bubble of radius >= r_min fits on the start's bubble" although one did).
     params = FoamParams(K=s.params.K, r_min=s.params.r_min, max_bubbles=1)

@@ -226,10 +226,14 @@ class _Growth:
         if self.goal is None:
             stuck = ""
             if self.count == 1 and outcome != "bubble budget":  # a budget of one bubble stopped it, not r_min
-                stuck = (
-                    f": no bubble of radius >= r_min = {self.params.r_min} fits on the start's bubble (radius "
-                    f"{self.radii[0]:.4f}); lower r_min, or plan with bubbletree"
-                )
+                bubble, r_min = f"the start's bubble (radius {self.radii[0]:.4f})", f"r_min = {self.params.r_min}"
+                if self.root_cannot_grow():  # proven by the bound: no candidate could have been good
+                    stuck = f": no bubble of radius >= {r_min} fits on {bubble}; lower r_min, or plan with bubbletree"
+                elif outcome == "time budget":  # the clock, not the geometry (a child may fit)
+                    stuck = (f": the time budget ended before a bubble of radius >= {r_min} was found on {bubble}; "
+                             "raise time_limit, lower r_min, or plan with bubbletree")
+                else:  # the candidates drawn all failed; others might not
+                    stuck = f": none of the candidates drawn on {bubble} had radius >= {r_min}; lower r_min, or plan with bubbletree"
             else:
                 stuck = small_goal_hint(self.oracle, self.q_goal, self.params.r_min)
             raise PlanningFailed.after(f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles", st, stuck, foam)
