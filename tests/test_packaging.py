@@ -1,4 +1,5 @@
-"""The package as a user gets it: a non-editable wheel finds every scene; every MJCF compiles on its own."""
+"""The package as a user gets it: a non-editable wheel finds every scene; the sdist is the whole source; every MJCF
+compiles on its own."""
 
 from __future__ import annotations
 
@@ -6,6 +7,8 @@ import os
 import shutil
 import subprocess
 import sys
+import tarfile
+import zipfile
 from pathlib import Path
 
 import mujoco
@@ -32,6 +35,10 @@ def test_a_non_editable_wheel_finds_every_scene(tmp_path):
                            capture_output=True, text=True, timeout=300)
     assert build.returncode == 0, build.stderr
     wheel = next((tmp_path / "dist").glob("foam_mj-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    assert "foam_mj/py.typed" in names and any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
+    dist_info = "-".join(wheel.name.split("-")[:2]) + ".dist-info"
+    assert [n for n in names if n.split("/")[0] not in ("foam_mj", dist_info)] == []  # no tests, docs or build junk
     site = tmp_path / "site"
     inst = subprocess.run([*pip, "install", "--no-deps", "--target", str(site), str(wheel)], capture_output=True, text=True, timeout=300)
     assert inst.returncode == 0, inst.stderr
@@ -53,3 +60,21 @@ def test_a_non_editable_wheel_finds_every_scene(tmp_path):
     assert int(count) == len(list((ROOT / "scenarios").glob("*.toml"))) and folder.startswith(str(site))
     cli = subprocess.run([sys.executable, "-m", "foam_mj.cli", "scenes"], capture_output=True, text=True, cwd=tmp_path, env=env, timeout=300)
     assert cli.returncode == 0 and "obstacle" in cli.stdout, cli.stderr
+
+
+def test_the_sdist_holds_the_whole_source_and_the_license(tmp_path):
+    """Everything the test suite needs to run from an unpacked sdist (its conftest and helpers, the examples and
+    benchmarks it runs, the docs the README links to), the package, its data and the license text."""
+    src = tmp_path / "src"
+    shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(".git", "build", "dist", "*.egg-info", "__pycache__", "*.pyc",
+                                                                ".pytest_cache", ".hypothesis", ".venv", "out"))
+    code = "from setuptools import build_meta; print(build_meta.build_sdist(sys.argv[1]))"
+    run = subprocess.run([sys.executable, "-c", f"import sys; {code}", str(tmp_path / "dist")], capture_output=True,
+                         text=True, cwd=src, timeout=300)
+    assert run.returncode == 0, run.stderr
+    with tarfile.open(tmp_path / "dist" / run.stdout.split()[-1]) as sdist:
+        names = {m.name.split("/", 1)[1] for m in sdist.getmembers() if m.isfile()}
+    folders = ("foam_mj", "models", "scenarios", "tests", "examples", "benchmarks", "docs")
+    expected = {p.relative_to(src).as_posix() for f in folders for p in (src / f).rglob("*") if p.is_file()}
+    expected |= {"LICENSE", "README.md", "pyproject.toml", "setup.py", "MANIFEST.in"}
+    assert sorted(expected - names) == []
