@@ -115,9 +115,8 @@ def cmd_scenes(args: argparse.Namespace) -> int:
         rows.append((s.name, s.description, _fmt_q(s.q_init), _fmt_q(s.q_goal), s.scene.name))
     widths = [max(len(r[i]) for r in rows + [("name", "what it is", "start", "goal", "scene file")]) for i in range(5)]
     header = ("name", "what it is", "start", "goal", "scene file")
-    print("  ".join(h.ljust(w) for h, w in zip(header, widths)))
-    for r in rows:
-        print("  ".join(c.ljust(w) for c, w in zip(r, widths)))
+    for r in [header, *rows]:
+        print("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
     return EXIT_OK
 
 
