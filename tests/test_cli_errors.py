@@ -292,7 +292,7 @@ def test_view_web_serves_on_localhost_only_and_prints_the_url(tmp_path):
     import time
     import urllib.request
 
-    import psutil  # a dependency of rerun-sdk
+    import psutil  # the test extra (rerun-sdk needs it too)
 
     from foam_mj.recording import Recording
 
@@ -494,7 +494,7 @@ def test_sigterm_during_plan_is_exit_130_and_leaves_no_file(tmp_path):
     import signal
     import time
 
-    import psutil  # a dependency of rerun-sdk
+    import psutil  # the test extra (rerun-sdk needs it too)
 
     scene = tmp_path / "wall.xml"  # no way past the wall: the plan runs until its 60 s budget
     scene.write_text(

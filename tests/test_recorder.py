@@ -129,7 +129,7 @@ def test_ctrl_c_stops_the_command_and_its_helper_and_writes_nothing(tmp_path):
     import signal
     import time
 
-    import psutil  # a dependency of rerun-sdk
+    import psutil  # the test extra (rerun-sdk needs it too)
 
     env = {**os.environ, MODE_ENV: "process"}
     rrd = tmp_path / "w.rrd"
