@@ -301,3 +301,36 @@ def test_configurations_given_to_the_model_are_validated_with_the_reason(obstacl
     from fractions import Fraction
 
     np.testing.assert_array_equal(obstacle_robot.validate([Fraction(1, 5), np.float32(0.25), 0]), [0.2, 0.25, 0.0])
+
+
+def test_a_limited_tendon_that_can_bind_within_the_joint_ranges_is_refused_naming_it(tmp_path):
+    """MuJoCo holds a limited tendon within its range as it holds a joint within its own: a fixed tendon coupling
+    shoulder + elbow, or a spatial leash from the world to the hand, makes part of the joint box unreachable. The
+    planner keeps each joint within its own range only, so its path could leave the tendon's range (the time law then
+    failed with 'gravity alone needs 1578 N m', the limit's constraint force): refused before planning, naming it.
+    A limit the joint ranges can never reach, an unlimited tendon, or one over joints outside the configuration is fine."""
+    arm = (
+        '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/><site name="anchor" pos="0 0 1"/>'
+        '<body name="b1" pos="0 0 .5"><joint name="a" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '<body name="b2" pos=".3 0 0"><joint name="b" axis="0 1 0" range="0 120"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '<site name="tip" pos=".3 0 0"/></body></body></worldbody><tendon>{tendon}</tendon></mujoco>'
+    )
+
+    def load(tendon: str, joints=None) -> RobotModel:
+        scene = tmp_path / "arm.xml"
+        scene.write_text(arm.replace("{tendon}", tendon))
+        return RobotModel.from_xml(scene, joints=joints)
+
+    coupling = '<fixed name="coupling" limited="true" range="-0.5 1.5"><joint joint="a" coef="1"/><joint joint="b" coef="1"/></fixed>'
+    # a + b spans [-pi/2, pi/2 + 2 pi/3] within the ranges (degrees, converted by MuJoCo)
+    with pytest.raises(ModelError, match=r"limited tendon\(s\) 'coupling' \(1 a \+ 1 b ranges over \[-1.5708, 3.66519\] .*"
+                                         r"its range is \[-0.5, 1.5\]\).*limited=\"false\""):
+        load(coupling)
+    with pytest.raises(ModelError, match=r"'coupling' \(1 a \+ 1 b \(held at 0\) ranges over \[-1.5708, 1.5708\]"):
+        load(coupling, joints=["a"])  # b held at 0: a alone still leaves [-0.5, 1.5]
+    assert load(coupling.replace('range="-0.5 1.5"', 'range="-1.6 3.7"')).dim == 2  # never reached
+    assert load(coupling.replace('limited="true"', 'limited="false"')).dim == 2
+    leash = '<spatial name="leash" limited="true" range="0 0.8"><site site="anchor"/><site site="tip"/></spatial>'
+    with pytest.raises(ModelError, match=r"'leash' \(a spatial tendon of length 1\.\d+ at qpos .* of a, b, within the joint ranges"):
+        load(leash)
+    assert load(leash.replace('range="0 0.8"', 'range="0 1.2"')).dim == 2  # the hand is never 1.2 m from the anchor
