@@ -409,6 +409,7 @@ def plan(
     if np.array_equal(q_init, q_goal):
         raise ConfigurationError(f"q_goal equals q_init ({q_init.tolist()}): nothing to plan")
     robot.check_fixed_pairs(params.delta)
+    robot.check_margins(params.delta)
     check_candidate_bound(params, robot.lower, robot.upper)
     rng = seed_rng(seed)
     n = robot.dim

@@ -173,7 +173,8 @@ class RobotModel:
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         del state["_local"]
-        state.pop("fixed_obstacle_distances", None)  # a cache
+        state.pop("fixed_obstacle_distances", None)  # caches
+        state.pop("contact_reach", None)
         if self.spec is not None:  # MjSpec does not pickle: its MJCF text does
             state["spec"] = self.xml if self.xml is not None else scene_xml(self.spec.copy(), self.path)
         return state
@@ -335,12 +336,6 @@ class RobotModel:
                 f"{p}: collision geom(s) {hfields} are height fields, which MuJoCo's distance queries "
                 "(mj_geomDistance) do not measure; model that terrain with boxes or a [[mesh]] obstacle"
             )
-        nonzero = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or str(g) for g in checked if m.geom_margin[g] != 0]
-        if nonzero:
-            raise ModelError(
-                f"{p}: collision geoms {nonzero} have a non-zero margin; mj_geomDistance subtracts margins, "
-                "so clearances would be wrong. Set margin=\"0\" on collision geoms."
-            )
         out = cls(
             p,
             m,
@@ -410,6 +405,44 @@ class RobotModel:
                     f"apart, within the safety margin delta {delta} m, and no configuration joint changes that distance, "
                     "so every path would break the margin (move one of them, give the geom contype=\"0\" conaffinity=\"0\" "
                     "if it never meets the obstacle, or make a joint between them a configuration joint)"
+                )
+
+    @cached_property
+    def contact_reach(self) -> tuple[tuple[int, int, float], ...]:
+        """(geom, geom, distance) of every checked pair MuJoCo's collision detection tests whose contact acts before
+        the geoms touch: margin - gap > 0 (the larger margin and gap of the two geoms, the ``<contact><pair>``'s own,
+        or the ``o_margin`` override), the distance at which MuJoCo's contact force starts."""
+        m = self.model
+        explicit = {(min(int(a), int(b)), max(int(a), int(b))): i for i, (a, b) in enumerate(zip(m.pair_geom1, m.pair_geom2))}
+        override = bool(int(m.opt.enableflags) & int(mujoco.mjtEnableBit.mjENBL_OVERRIDE))
+        tested = set(collision_pairs(m))
+        out = []
+        for a, b in self.pairs:
+            key = (min(int(a), int(b)), max(int(a), int(b)))
+            if key not in tested:
+                continue
+            if key in explicit:
+                margin, gap = float(m.pair_margin[explicit[key]]), float(m.pair_gap[explicit[key]])
+            else:
+                margin, gap = float(max(m.geom_margin[a], m.geom_margin[b])), float(max(m.geom_gap[a], m.geom_gap[b]))
+            if override:
+                margin = float(m.opt.o_margin)
+            if margin - gap > 0:
+                out.append((int(a), int(b), margin - gap))
+        return tuple(out)
+
+    def check_margins(self, delta: float) -> None:
+        """:class:`ConfigurationError` for a checked pair whose MuJoCo contact acts farther out than ``delta``
+        (:attr:`contact_reach`: a geom ``margin`` less its ``gap``). Margins change no distance the planner measures,
+        but MuJoCo's contact pushes such geoms apart before they touch, so a path ``delta`` from an obstacle would be
+        pushed off in simulation (the dynamic replay, the user's own)."""
+        for a, b, reach in self.contact_reach:
+            if reach > delta:
+                raise ConfigurationError(
+                    f"collision geoms {self.geom_name(a)} and {self.geom_name(b)} have a contact margin: MuJoCo's contact "
+                    f"between them acts from {reach:.6g} m (margin less gap), farther out than the safety margin delta "
+                    f"{delta} m, so a planned path would be pushed off in simulation; raise delta to at least {reach:.6g} m "
+                    "(--delta), or set margin=\"0\" (or a gap as large) on those geoms"
                 )
 
     def validate(self, q, name: str = "q", *, check_bounds: bool = True) -> np.ndarray:

@@ -470,6 +470,7 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
         if check_clearance:  # a per-plan check in a sweep, as the clearance's (see check_clearance)
             try:
                 robot.check_fixed_pairs(scenario.params.delta)
+                robot.check_margins(scenario.params.delta)
             except ConfigurationError as exc:
                 raise ScenarioError(f"{where}: field 'scene': {exc}") from None
     finally:

@@ -195,14 +195,42 @@ def test_a_scene_without_obstacles_is_refused(tmp_path):
         RobotModel.from_xml(scene)
 
 
-def test_collision_geoms_with_a_margin_are_refused(tmp_path):
-    scene = tmp_path / "margin.xml"
-    scene.write_text(
-        f'<mujoco><include file="{MODELS / "ortholeg.xml"}"/>'
-        '<worldbody><geom name="floor" type="plane" size="1 1 0.1" margin="0.01"/></worldbody></mujoco>'
-    )
-    with pytest.raises(ModelError, match="margin"):
-        RobotModel.from_xml(scene)
+def test_geom_margins_change_no_clearance_and_are_refused_only_when_their_contact_acts_beyond_delta(tmp_path):
+    """mj_geomDistance and the distance sensors ignore geom margins (and gaps): a model whose collision geoms carry
+    them (a menagerie-style default class with margin="0.01") has the same clearances as without (it was refused
+    whatever delta, on the belief that MuJoCo subtracts margins). What a margin does change is MuJoCo's contact: it
+    acts from margin - gap, pushing the geoms apart before they touch, so that distance must not exceed delta (a path
+    delta from an obstacle would be pushed off in the replay): refused, naming the pair and the delta needed."""
+    import mujoco
+
+    def scene(margin: str):
+        path = tmp_path / f"margin{margin}.xml"
+        path.write_text(
+            f'<mujoco><include file="{MODELS / "obstacle.xml"}"/>'
+            '<worldbody><geom name="post" type="cylinder" size="0.03 0.2" pos="0.3 0 0.2"/>'
+            '</worldbody></mujoco>'
+        )
+        spec = mujoco.MjSpec.from_file(str(path))
+        for g in spec.geoms:
+            g.margin, g.gap = float(margin), 0.005
+        robot = RobotModel.from_spec(spec, path)
+        assert all(robot.model.geom_margin[g] == float(margin) for g in robot.pairs.ravel())
+        return robot
+
+    plain, padded = scene("0"), scene("0.02")
+    Q = np.random.default_rng(0).uniform(plain.lower, plain.upper, size=(20, plain.dim))
+    a, b = Clearance(plain), Clearance(padded)
+    try:
+        np.testing.assert_array_equal(a.batch_pairs(Q), b.batch_pairs(Q))
+        np.testing.assert_array_equal(a.pair_distances(Q[0]), b.pair_distances(Q[0]))
+    finally:
+        a.close()
+        b.close()
+    plain.check_margins(0.005)
+    padded.check_margins(0.015)  # margin 0.02 less gap 0.005
+    with pytest.raises(ConfigurationError, match=r"collision geoms \S+ and \S+ have a contact margin: MuJoCo's contact between "
+                                                 r"them acts from 0.015 m .* raise delta to at least 0.015 m"):
+        padded.check_margins(0.005)
 
 
 def test_a_height_field_obstacle_is_refused_naming_it(tmp_path):

@@ -75,6 +75,7 @@ class PlanningProblem:
         if not (isinstance(self.max_bubbles, (int, np.integer)) and self.max_bubbles >= 1):
             raise ValueError(f"`max_bubbles` must be an integer >= 1, got {self.max_bubbles!r}")
         robot.check_fixed_pairs(self.delta)  # a pair within delta that no joint moves: every path would break it
+        robot.check_margins(self.delta)  # a contact that acts beyond delta would push the path off in simulation
 
     @property
     def dim(self) -> int:
