@@ -454,8 +454,12 @@ class RobotModel:
         except (TypeError, ValueError):
             raise ConfigurationError(f"{name} must be a sequence of {self.dim} real numbers, got {q!r}") from None
         if arr.shape != (self.dim,):
+            m = self.model
+            unlimited = [_joint_name(m, j) for j in range(m.njnt) if int(m.jnt_type[j]) in _SUPPORTED_JOINTS
+                         and not m.jnt_limited[j] and j not in set(int(k) for k in self.config.joint_ids)]
+            why = f"; not configuration joints (no range: held at qpos0): {', '.join(unlimited)}" if unlimited else ""
             raise ConfigurationError(
-                f"{name} must have shape ({self.dim},) ({', '.join(self.config.joint_names)}), got shape {arr.shape}"
+                f"{name} must have shape ({self.dim},) ({', '.join(self.config.joint_names)}), got shape {arr.shape}{why}"
             )
         if not np.all(np.isfinite(arr)):
             raise ConfigurationError(f"{name} must be finite, got {arr.tolist()}")
@@ -465,9 +469,19 @@ class RobotModel:
                 i = int(bad[0])
                 raise ConfigurationError(
                     f"{name}[{i}] ({self.config.joint_names[i]}) = {arr[i]:.6g} is outside its bounds "
-                    f"[{self.lower[i]:.6g}, {self.upper[i]:.6g}]"
+                    f"[{self.lower[i]:.6g}, {self.upper[i]:.6g}]{self._degrees_hint(i, float(arr[i]))}"
                 )
         return arr
+
+    def _degrees_hint(self, i: int, value: float) -> str:
+        """For a hinge coordinate in radians whose out-of-bounds value would be within them read as degrees: the
+        hint that q is in radians whatever the MJCF's ``<compiler angle>`` (ranges in degrees are converted)."""
+        cfg = self.config
+        hinge = int(self.model.jnt_type[int(cfg.joint_ids[i])]) == _HINGE_T
+        if not (hinge and cfg.scale[i] == 1.0 and cfg.offset[i] == 0.0 and self.lower[i] <= np.radians(value) <= self.upper[i]):
+            return ""
+        return (f" radians (hinge angles are radians whatever the MJCF's <compiler angle>, whose degrees MuJoCo converts: "
+                f"{value:.6g} degrees is {np.radians(value):.6g})")
 
     def validate_batch(self, Q, name: str = "Q") -> np.ndarray:
         """Return Q as a float array of shape (N, n), or raise ConfigurationError (bounds are not checked)."""

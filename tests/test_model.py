@@ -362,3 +362,26 @@ def test_a_limited_tendon_that_can_bind_within_the_joint_ranges_is_refused_namin
     with pytest.raises(ModelError, match=r"'leash' \(a spatial tendon of length 1\.\d+ at qpos .* of a, b, within the joint ranges"):
         load(leash)
     assert load(leash.replace('range="0 0.8"', 'range="0 1.2"')).dim == 2  # the hand is never 1.2 m from the anchor
+
+
+def test_a_start_out_of_bounds_says_radians_when_degrees_were_meant_and_a_wrong_length_names_unlimited_joints(tmp_path):
+    """A user of an MJCF in degrees (MuJoCo's default) who gives --start in degrees read only 'outside its bounds
+    [-1.74533, 1.74533]'; a user whose shoulder has no range (so it is not a coordinate) read 'must have shape (1,)'.
+    Both messages now say why."""
+    scene = tmp_path / "arm.xml"
+    scene.write_text(
+        '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+        '<body pos="0 0 .5"><joint name="shoulder" axis="0 1 0" {range}/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '<body pos=".3 0 0"><joint name="elbow" axis="0 1 0" range="-150 150"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '</body></body></worldbody></mujoco>'.replace("{range}", 'range="-100 100"')
+    )
+    robot = RobotModel.from_xml(scene)
+    with pytest.raises(ConfigurationError, match=r"q\[0\] \(shoulder\) = 17 is outside its bounds \[-1.74533, 1.74533\] radians "
+                                                 r"\(hinge angles are radians .* 17 degrees is 0.296706\)"):
+        robot.validate([17, 1.0])
+    with pytest.raises(ConfigurationError, match=r"= 300 is outside its bounds \[-1.74533, 1.74533\]$"):
+        robot.validate([300, 1.0])  # not an angle in degrees either: no hint
+    scene.write_text(scene.read_text().replace('range="-100 100"', ""))
+    with pytest.raises(ConfigurationError, match=r"must have shape \(1,\) \(elbow\), got shape \(2,\); not configuration joints "
+                                                 r"\(no range: held at qpos0\): shoulder$"):
+        RobotModel.from_xml(scene).validate([0.3, 1.0])
