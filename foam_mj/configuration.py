@@ -170,6 +170,14 @@ def _configuration_map(
                 raise ModelError(f"{path}: {where} must hold 1 number (span) or 3 (qpos_lo qpos_hi span)")
             if not (span > 0 and b > a):
                 raise ModelError(f"{path}: {where} needs span > 0 and qpos_hi > qpos_lo")
+            hinge = int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE)
+            turn = max(2 * np.pi, abs(jlo), abs(jhi))
+            if hinge and norm.size == 3 and max(abs(a), abs(b)) > turn:  # beyond a turn and the range: degrees
+                raise ModelError(
+                    f"{path}: {where} maps qpos {a:g}..{b:g} onto [0, {span:g}], but a hinge's qpos is in radians (its range "
+                    f"is [{jlo:.6g}, {jhi:.6g}], whatever the MJCF's <compiler angle>): {a:g}..{b:g} degrees is "
+                    f"{np.radians(a):.6g}..{np.radians(b):.6g} radians"
+                )
             s, o = (b - a) / span, a
         ids.append(j)
         adr.append(int(m.jnt_qposadr[j]))

@@ -215,6 +215,18 @@ def test_scenario_joints_and_normalization_override_the_model():
     np.testing.assert_allclose(again.upper, r.upper)
 
 
+def test_a_hinge_normalization_written_in_degrees_is_refused_saying_qpos_is_radians():
+    """A user of a model in degrees (MuJoCo's default) who normalizes the knee as qpos -90..90 got a silent map of
+    -90..90 radians onto [0, S] (bounds of q a sliver [0.77, 0.80] of it, then 'q_init outside its bounds'): refused,
+    naming the field and the radians meant. A map in radians, or one wider than a turn on a multi-turn range, is fine."""
+    with pytest.raises(ScenarioError, match=r"normalize.knee_flexion maps qpos -90..140 onto \[0, 1\], but a hinge's qpos is in "
+                                            r"radians .* -90..140 degrees is -1.5708..2.44346 radians"):
+        scenario_from_dict({**OBSTACLE, "normalize": {"knee_flexion": [-90.0, 140.0, 1.0]}}, MODELS)
+    ok = scenario_from_dict({**OBSTACLE, "q_init": [0.2, 0.466, 0.08], "q_goal": [0.45, 0.504, 1.45],
+                             "normalize": {"knee_flexion": [-1.5707963, 2.443461, 1.0]}}, MODELS)
+    np.testing.assert_allclose([ok.robot.lower[1], ok.robot.upper[1]], [0.391304, 0.91444], atol=1e-6)
+
+
 def test_a_normalization_of_a_joint_outside_the_configuration_is_refused():
     """[normalize] for a joint the scenario's `joints` leave out would change nothing (it was silently ignored, as
     in the README's own example table): refused, naming the joint and the configuration."""
