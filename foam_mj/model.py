@@ -50,6 +50,27 @@ from foam_mj.errors import ConfigurationError, ModelError, clearance_text
 from foam_mj.fingerprint import PARTS
 from foam_mj.mjcf import _custom_text, compile_spec, load_spec, name_unnamed_geoms, scene_xml
 
+def place_mocap_bodies(spec: mujoco.MjSpec, m: mujoco.MjModel, key: int, path: Path) -> bool:
+    """Move the mocap bodies of ``spec`` to keyframe ``key``'s ``mpos``/``mquat`` where they differ from the bodies' own
+    pose; True when one moved. MuJoCo places mocap bodies at the keyframe's pose when it is loaded (``mjData.mocap_pos``),
+    but distance queries of qpos alone (the planner's, ``foam-mj verify``'s, any MuJoCo-only checker's) see them at the
+    model's pose: the scene planned on (and saved with a result) carries the keyframe's."""
+    moved = False
+    for b in range(1, m.nbody):
+        i = int(m.body_mocapid[b])
+        if i < 0:
+            continue
+        pos, quat = np.array(m.key_mpos[key, 3 * i : 3 * i + 3]), np.array(m.key_mquat[key, 4 * i : 4 * i + 4])
+        if np.allclose(pos, m.body_pos[b], rtol=0, atol=1e-12) and np.allclose(quat, m.body_quat[b], rtol=0, atol=1e-12):
+            continue
+        body = spec.body(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b)) if mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) else None
+        if body is None:
+            raise ModelError(f"{path}: the keyframe moves mocap body {b}, which has no name: name it to plan with that keyframe")
+        body.pos, body.quat = pos, quat
+        moved = True
+    return moved
+
+
 def body_is_moving(m: mujoco.MjModel, body: int) -> bool:
     """True when some joint moves ``body`` (the body or one of its ancestors has a joint)."""
     while body != 0:
@@ -252,6 +273,17 @@ class RobotModel:
         compile_spec(spec, p)
         name_unnamed_geoms(spec)
         m = compile_spec(spec, p)
+        xml = None
+        if keyframe is not None:
+            k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, keyframe)
+            if k < 0:
+                known = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, i) for i in range(m.nkey)]
+                raise ModelError(f"{p}: keyframe '{keyframe}' is not in the model (keyframes: {known})")
+            placed = spec.copy()
+            if place_mocap_bodies(placed, m, k, p):  # planned on the scene as saved (scene_xml), as an edited scene
+                xml = scene_xml(placed, p)
+                spec = mujoco.MjSpec.from_string(xml)
+                m = compile_spec(spec, p)
         root = None
         if robot_root is not None:
             root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, robot_root)
@@ -269,10 +301,6 @@ class RobotModel:
                 raise ModelError(f"{p}: robot_root '{robot_root}' has no limited hinge or slide joint in its subtree")
         config = _configuration_map(m, p, joints, normalize)
         if keyframe is not None:
-            k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, keyframe)
-            if k < 0:
-                known = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, i) for i in range(m.nkey)]
-                raise ModelError(f"{p}: keyframe '{keyframe}' is not in the model (keyframes: {known})")
             config = dataclasses.replace(config, qpos0=np.array(m.key_qpos[k]))
         moves = geom_moved_by(m, config)
         coupled = coupling_equalities(m, config)
@@ -351,6 +379,7 @@ class RobotModel:
             self_collision=self_collision,
         )
         out.spec = spec.copy()
+        out.xml = xml
         return out
 
     def spec_copy(self) -> mujoco.MjSpec:

@@ -152,5 +152,5 @@ def build_robot(scene: Path, edits: SceneEdits | None = None, **options) -> Robo
     # The [normalize] table again: its values are the spec's, and a joint outside the configuration is refused
     # (the MJCF's own fields may name any joint of the model; the scenario's would be silently ignored).
     robot = RobotModel.from_spec(mujoco.MjSpec.from_string(xml), scene, normalize=edits.normalize or None, **options)
-    robot.xml = xml
+    robot.xml = robot.xml or xml  # its own when a keyframe moved a mocap body (RobotModel.from_spec)
     return robot

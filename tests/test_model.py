@@ -385,3 +385,36 @@ def test_a_start_out_of_bounds_says_radians_when_degrees_were_meant_and_a_wrong_
     with pytest.raises(ConfigurationError, match=r"must have shape \(1,\) \(elbow\), got shape \(2,\); not configuration joints "
                                                  r"\(no range: held at qpos0\): shoulder$"):
         RobotModel.from_xml(scene).validate([0.3, 1.0])
+
+
+def test_a_keyframe_places_the_mocap_obstacles_where_mujoco_puts_them_and_the_saved_scene_does_too(tmp_path):
+    """MuJoCo loads a keyframe's mocap poses (mpos/mquat) into mjData.mocap_pos, but a distance query of qpos alone sees
+    a mocap body at its MJCF pose: with keyframe "scene" placing a block across the arm's sweep, the planner swept the
+    arm through it (25 mm deep at that pose) and both checkers, also reading qpos alone, said clean. The planned scene,
+    and the one saved with a result (robot.xml), now carry the keyframe's pose; a keyframe that moves no mocap body
+    changes nothing."""
+    import mujoco
+
+    from foam_mj.fingerprint import model_fingerprint
+
+    scene = tmp_path / "arm.xml"
+    scene.write_text(
+        '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+        '<body name="blocker" mocap="true" pos="2 0 2"><geom name="block" type="box" size=".05 .3 .05"/></body>'
+        '<body pos="0 0 .5"><joint name="shoulder" axis="0 1 0" range="-100 100"/><geom name="arm" type="capsule" fromto="0 0 0 .6 0 0" size=".03"/>'
+        '</body></worldbody><keyframe><key name="scene" qpos="0" mpos=".45 0 .5"/><key name="same" qpos="0.1" mpos="2 0 2"/></keyframe></mujoco>'
+    )
+    plain = RobotModel.from_xml(scene)
+    placed = RobotModel.from_xml(scene, keyframe="scene")
+    a, b = Clearance(plain), Clearance(placed)
+    try:
+        assert a.pairwise(np.zeros(1))[("arm", "block")] > 0.5
+        assert b.pairwise(np.zeros(1))[("arm", "block")] < 0  # the arm through the block, where MuJoCo has it
+    finally:
+        a.close()
+        b.close()
+    saved = mujoco.MjModel.from_xml_string(placed.xml)
+    assert model_fingerprint(saved) == model_fingerprint(placed.model)  # `foam-mj verify` accepts the saved scene
+    np.testing.assert_allclose(saved.body_pos[1], [0.45, 0, 0.5])
+    same = RobotModel.from_xml(scene, keyframe="same")
+    assert same.xml is None and same.config.qpos0[0] == 0.1
