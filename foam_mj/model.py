@@ -361,8 +361,8 @@ class RobotModel:
                    if int(m.geom_type[g]) == mujoco.mjtGeom.mjGEOM_HFIELD]
         if hfields:
             raise ModelError(
-                f"{p}: collision geom(s) {hfields} are height fields, which MuJoCo's distance queries "
-                "(mj_geomDistance) do not measure; model that terrain with boxes or a [[mesh]] obstacle"
+                f"{p}: collision geom(s) {hfields} are height fields, which MuJoCo's distance sensors (the planner's "
+                "batched distance queries) do not support; model that terrain with boxes or a [[mesh]] obstacle"
             )
         out = cls(
             p,

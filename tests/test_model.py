@@ -234,7 +234,7 @@ def test_geom_margins_change_no_clearance_and_are_refused_only_when_their_contac
 
 
 def test_a_height_field_obstacle_is_refused_naming_it(tmp_path):
-    """mj_geomDistance cannot measure height fields: refused (ModelError, exit 2) before any distance query,
+    """MuJoCo's distance sensors do not support height fields: refused (ModelError, exit 2) before any distance query,
     instead of MuJoCo's compile error for the distance sensors (an internal error, exit 1)."""
     scene = tmp_path / "hfield.xml"
     scene.write_text(
