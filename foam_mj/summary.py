@@ -69,9 +69,35 @@ def print_row_cap_note(outcome) -> None:
               f"straight line between consecutive trajectory rows stays within {ROW_TOL:g} of the certified curve")
 
 
+def print_limits_note(outcome) -> None:
+    """One line when an MJCF written in degrees declares a hinge's time-law limits in ``foam_mj:limits:<joint>``: MuJoCo
+    converts the model's angles, never a custom field's numbers, so "180 720" is 180 rad/s (10,313 deg/s), not 180 deg/s."""
+    import mujoco
+    import numpy as np
+
+    from foam_mj.mjcf import _custom_numeric
+    from foam_mj.trajectory import LIMITS_PREFIX
+
+    robot = outcome.scenario.robot
+    if robot.spec is None or not robot.spec.compiler.degree:
+        return
+    limits = outcome.limits
+    vel, acc, _ = limits.resolve(robot)
+    read = [
+        f"{name} {v:g} rad/s ({np.degrees(v):,.0f} deg/s), {a:g} rad/s^2"
+        for name, j, v, a in zip(robot.config.joint_names, robot.config.joint_ids, vel, acc)
+        if int(robot.model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE) and name not in limits.joint.per_joint
+        and limits.velocity is None and limits.acceleration is None and _custom_numeric(robot.model, LIMITS_PREFIX + name) is not None
+    ]
+    if read:
+        print(f"note: {LIMITS_PREFIX}<joint> limits are in radians, whatever the MJCF's <compiler angle=\"degree\"> "
+              f"(MuJoCo converts no custom field): {'; '.join(read)}")
+
+
 def print_replay_notes(outcome) -> None:
-    """What ``plan`` and ``replay`` print after the summary table: the servo and timestep notes, then the joint loads."""
+    """What ``plan`` and ``replay`` print after the summary table: the servo, limits and timestep notes, then the joint loads."""
     print_servo_note(outcome)
+    print_limits_note(outcome)
     print_row_cap_note(outcome)
     loads = loads_table(outcome)
     if loads:

@@ -93,6 +93,28 @@ def test_the_default_smoother_is_the_certified_optimum(tmp_path, capsys):
     assert ros.all_in_hatches(np.asarray(entry["waypoints"])[1:-1], tol=0.0)
 
 
+def test_plan_says_that_foam_mj_limits_are_radians_in_a_model_written_in_degrees(tmp_path, capsys):
+    """MuJoCo converts a degree model's ranges, not a custom field's numbers: "180 720" meant as deg/s was silently
+    timed as 180 rad/s (10,313 deg/s). plan now says how it read them; a model in radians gets no such note."""
+    arm = (
+        '<mujoco><compiler angle="{unit}"/><custom><numeric name="foam_mj:limits:shoulder" data="180 720"/></custom>'
+        '<worldbody><geom type="plane" size="2 2 .1"/><body pos="0 0 .5">'
+        '<joint name="shoulder" axis="0 1 0" range="{lo} {hi}"/><geom type="capsule" fromto="0 0 0 .35 0 0" size=".03"/>'
+        '<body pos=".35 0 0"><joint name="elbow" axis="0 1 0" range="-{hi} {hi}"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".025"/>'
+        "</body></body></worldbody></mujoco>"
+    )
+    note = "note: foam_mj:limits:<joint> limits are in radians, whatever the MJCF's <compiler angle=\"degree\">"
+    for unit, lo, hi, says in (("degree", -100, 100, True), ("radian", -1.74, 1.74, False)):
+        scene = tmp_path / f"arm_{unit}.xml"
+        scene.write_text(arm.format(unit=unit, lo=lo, hi=hi))
+        args = ["plan", "--mjcf", str(scene), "--start", "0.3 0.5", "--goal", "0.1 0.6", "--no-rrd", "--smoother", "none"]
+        assert main(args) == 0
+        out = capsys.readouterr().out
+        assert (note in out) is says
+        if says:
+            assert "shoulder 180 rad/s (10,313 deg/s), 720 rad/s^2" in out
+
+
 def test_plan_optimal_writes_a_strict_json_certificate_that_replays_and_verifies(tmp_path, capsys):
     """``--smoother optimal`` on the obstacle scene: certified, in its hatches, strict JSON, replayable, verified."""
     from foam_mj.rosary import Rosary
