@@ -551,6 +551,24 @@ class RobotModel:
         hit = np.asarray(d.contact.dist[: d.ncon]) <= 0
         return bool(np.any(hit & self.pair_table[g[:, 0], g[:, 1]]))
 
+    def hull_hint(self, *geoms: int) -> str:
+        """"; NAME is a non-convex mesh: ..." for each of ``geoms`` whose mesh has vertices off its convex hull (a notch,
+        a U): MuJoCo measures distances to the hull, so a robot that fits the notch reads as in collision there."""
+        m, out = self.model, []
+        for g in geoms:
+            if int(m.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_MESH):
+                continue
+            mesh = int(m.geom_dataid[g])
+            adr = int(m.mesh_graphadr[mesh])
+            if adr >= 0 and int(m.mesh_graph[adr]) < int(m.mesh_vertnum[mesh]):
+                out.append(self.geom_name(g))
+        if not out:
+            return ""
+        one = len(out) == 1
+        return (f"; {' and '.join(out)} {'is a non-convex mesh' if one else 'are non-convex meshes'}: MuJoCo measures distances to "
+                f"{'its convex hull, which fills' if one else 'their convex hulls, which fill'} notches (split a mesh into convex parts: "
+                "several mesh geoms, or a [[mesh]] obstacle, decomposed)")
+
     def pair_name(self, p: int) -> tuple[str, str]:
         """Geom names of checked pair p."""
         a, b = self.pairs[p]

@@ -450,16 +450,16 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
                 state = "in collision" if d < 0 else "too close to an obstacle"
                 i = int(np.argmin(clearance.pair_distances(q)))
                 a, b = robot.pairs[i]
-                hint = ""
+                hint = robot.hull_hint(int(a), int(b))
                 if bool(np.asarray(robot.self_pair)[i]):
                     import mujoco
 
                     bodies = [mujoco.mj_id2name(robot.model, mujoco.mjtObj.mjOBJ_BODY, int(robot.model.geom_bodyid[g])) or f"body {int(robot.model.geom_bodyid[g])}" for g in (a, b)]
-                    hint = (f"; a robot/robot pair: if these links overlap by design, add <contact><exclude body1=\"{bodies[0]}\" "
+                    hint += (f"; a robot/robot pair: if these links overlap by design, add <contact><exclude body1=\"{bodies[0]}\" "
                             f"body2=\"{bodies[1]}\"/> to the MJCF, or leave self-collision out (--no-self-collision; "
                             "self_collision = false in a scenario)")
                 elif _meet_at_a_joint(robot, int(a), int(b)):
-                    hint = (f"; {robot.geom_name(int(a))} is on a link jointed to the fixed body of {robot.geom_name(int(b))}: they "
+                    hint += (f"; {robot.geom_name(int(a))} is on a link jointed to the fixed body of {robot.geom_name(int(b))}: they "
                             "are checked like any robot/obstacle pair (<contact><exclude> does not apply), so shorten one so they do "
                             "not overlap, or give the fixed one contype=\"0\" conaffinity=\"0\"")
                 raise ScenarioError(

@@ -418,3 +418,31 @@ def test_a_keyframe_places_the_mocap_obstacles_where_mujoco_puts_them_and_the_sa
     np.testing.assert_allclose(saved.body_pos[1], [0.45, 0, 0.5])
     same = RobotModel.from_xml(scene, keyframe="same")
     assert same.xml is None and same.config.qpos0[0] == 0.1
+
+
+def test_a_collision_with_a_non_convex_mesh_says_that_mujoco_measures_its_hull(tmp_path):
+    """MuJoCo measures distances to a mesh's convex hull: an arm whose hand sits in the notch of a U-shaped mesh reads
+    'in collision, clearance -0.13 m', which looks wrong to the user who sees room there. The message now says why
+    (and how to split the mesh); a convex mesh gets no such hint."""
+    from foam_mj.errors import ScenarioError
+    from foam_mj.scenarios import scenario_from_dict
+
+    def box(c, h):
+        return [[c[0] + sx * h[0], c[1] + sy * h[1], c[2] + sz * h[2]] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+
+    u = box([0, 0, 0.05], [0.25, 0.1, 0.05]) + box([-0.2, 0, 0.3], [0.05, 0.1, 0.25]) + box([0.2, 0, 0.3], [0.05, 0.1, 0.25])
+    verts = " ".join(f"{v:g}" for p in u for v in p)
+    scene = tmp_path / "u.xml"
+    scene.write_text(
+        f'<mujoco><asset><mesh name="u" vertex="{verts}"/><mesh name="tet" vertex="0 0 0 .1 0 0 0 .1 0 0 0 .1"/></asset>'
+        '<worldbody><geom name="notch" type="mesh" mesh="u" pos=".55 0 0"/><geom name="rock" type="mesh" mesh="tet" pos="-.5 0 0"/>'
+        '<body pos="0 0 .4"><joint name="shoulder" axis="0 1 0" range="-90 60"/>'
+        '<geom name="hand" type="capsule" fromto="0 0 0 .6 0 0" size=".02"/></body></worldbody></mujoco>'
+    )
+    robot = RobotModel.from_xml(scene)
+    ids = {robot.geom_name(g): int(g) for g in range(robot.model.ngeom)}
+    assert robot.hull_hint(ids["rock"], ids["hand"]) == ""
+    assert robot.hull_hint(ids["notch"]).startswith("; notch is a non-convex mesh: MuJoCo measures distances to its convex hull")
+    with pytest.raises(ScenarioError, match=r"'q_init' = \[0.0\] is in collision: .* between hand and notch .*; notch is a "
+                                            r"non-convex mesh: MuJoCo measures distances to its convex hull, which fills notches"):
+        scenario_from_dict({"scene": str(scene), "q_init": [0.0], "q_goal": [-1.0]}, tmp_path)

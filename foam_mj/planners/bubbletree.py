@@ -285,9 +285,11 @@ class BubbleTreePlanner(Planner):
             u /= np.linalg.norm(u)
             q = np.clip(B.c[a] + (B.r[a] + T.gap[i] / 2) * u, lo, hi)
             report = oracle.explain(q)
+            robot = oracle.robot
+            hint = robot.hull_hint(*(int(g) for g in robot.pairs[int(np.argmin(report.pair_distances))]))
             return (f"; they came nearest at q = {np.round(q, 4).tolist()} (a gap of {T.gap[i]:.3g} between their bubbles), with "
                     f"clearance {clearance_text(report.clearance, problem.delta)} between {report.closest_pair[0]} and {report.closest_pair[1]}"
-                    f": the goal may be unreachable from the start (`foam-mj bubble` shows more)")
+                    f": the goal may be unreachable from the start (`foam-mj bubble` shows more){hint}")
 
         def chain_length(pair: tuple[int, int]) -> float:
             """Length of the polyline q_init -> centres of the tree chain through ``pair`` -> q_goal (an upper
