@@ -401,8 +401,11 @@ def test_a_keyframe_places_the_mocap_obstacles_where_mujoco_puts_them_and_the_sa
     scene.write_text(
         '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
         '<body name="blocker" mocap="true" pos="2 0 2"><geom name="block" type="box" size=".05 .3 .05"/></body>'
+        '<frame pos="1 0 0" euler="0 0 90"><body name="framed" mocap="true" pos="1 0 1" euler="0 30 0">'
+        '<geom name="slab" type="box" size=".1 .1 .01"/></body></frame>'
         '<body pos="0 0 .5"><joint name="shoulder" axis="0 1 0" range="-100 100"/><geom name="arm" type="capsule" fromto="0 0 0 .6 0 0" size=".03"/>'
-        '</body></worldbody><keyframe><key name="scene" qpos="0" mpos=".45 0 .5"/><key name="same" qpos="0.1" mpos="2 0 2"/></keyframe></mujoco>'
+        '</body></worldbody><keyframe><key name="scene" qpos="0" mpos=".45 0 .5 -1 0 1" mquat="1 0 0 0 .9659 0 0 .2588"/>'
+        '<key name="same" qpos="0.1"/></keyframe></mujoco>'
     )
     plain = RobotModel.from_xml(scene)
     placed = RobotModel.from_xml(scene, keyframe="scene")
@@ -416,6 +419,13 @@ def test_a_keyframe_places_the_mocap_obstacles_where_mujoco_puts_them_and_the_sa
     saved = mujoco.MjModel.from_xml_string(placed.xml)
     assert model_fingerprint(saved) == model_fingerprint(placed.model)  # `foam-mj verify` accepts the saved scene
     np.testing.assert_allclose(saved.body_pos[1], [0.45, 0, 0.5])
+    original = mujoco.MjModel.from_xml_path(str(scene))
+    d, d0 = mujoco.MjData(placed.model), mujoco.MjData(original)
+    mujoco.mj_resetDataKeyframe(original, d0, 0)
+    mujoco.mj_kinematics(placed.model, d)
+    mujoco.mj_kinematics(original, d0)
+    np.testing.assert_allclose(d.geom_xpos, d0.geom_xpos, atol=1e-9)  # also the body in a rotated <frame>, with euler
+    np.testing.assert_allclose(d.geom_xmat, d0.geom_xmat, atol=1e-6)
     same = RobotModel.from_xml(scene, keyframe="same")
     assert same.xml is None and same.config.qpos0[0] == 0.1
 
