@@ -3,7 +3,7 @@
 F(W) = w_len L + w_angle mean_i phi_i + w_sv mean_i phi_i^2, with L the length and phi_i the supplementary
 angle pi - theta_i at the interior vertices (Nascimento et al. 2020 Eq. 3-5; SV: Nascimento and Alsina 2021
 Eq. 7). Repeated points count once (foam_mj.paths); points closer than ``TIE`` are a tie, one point for the
-optimal smoother (foam_mj.smoothing.optimal, "Repeated points").
+optimal smoother (foam_mj.smoothing.scp, "Repeated points").
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The subproblem of the optimal smoother's sequential convex programming (foam_mj.smoothing.optimal, whose
+"""The subproblem of the optimal smoother's sequential convex programming (foam_mj.smoothing.scp, whose
 module docstring has the model and the reasons for its parts): Clarabel data (P, q, A, b, cones) for the
 composite model of F around a path, with or without the trust region's rows, the model's value at a
 solution, the vertex data the model is built from, and the solver that solves a sequence of them."""
@@ -276,7 +276,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
             off += n_rel
         cones.append(clarabel.NonnegativeConeT(2 * nw + n_rel))
     # Segment and ball cones (constant), only the balls in ``keep`` (the others are out of reach, or left out
-    # of a first solve: foam_mj.smoothing.optimal, Speed).
+    # of a first solve: foam_mj.smoothing.scp, Speed).
     a0_rows, a0_cols, a0_vals = st.A0
     a0_row = off
     seg_keep = np.ones(nt, dtype=bool) if long_seg is None or y is None else ~long_seg
