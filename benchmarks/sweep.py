@@ -35,7 +35,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import check_json, count, parser, run_script, table, write_json  # noqa: E402
 
-from foam_mj.sweep import load_sweep, run_task  # noqa: E402
+from foam_mj.sweep import run_task  # noqa: E402
+from foam_mj.sweep_file import load_sweep  # noqa: E402
 from foam_mj.sweep_run import run_sweep  # noqa: E402
 
 

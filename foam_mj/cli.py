@@ -257,7 +257,8 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from foam_mj.sweep import WorkersDied, load_sweep
+    from foam_mj.sweep import WorkersDied
+    from foam_mj.sweep_file import load_sweep
     from foam_mj.sweep_run import _pyarrow, check_ray_address, run_sweep
 
     from foam_mj.atomic import check_output_dir

@@ -20,7 +20,8 @@ pa = pytest.importorskip("pyarrow")
 import pyarrow.parquet as pq  # noqa: E402
 
 from foam_mj.cli import main  # noqa: E402
-from foam_mj.sweep import TIMING_COLUMNS, SweepError, load_sweep, row_key  # noqa: E402
+from foam_mj.sweep import TIMING_COLUMNS, SweepError, row_key  # noqa: E402
+from foam_mj.sweep_file import load_sweep  # noqa: E402
 from foam_mj.sweep_run import read_rows, run_sweep  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
