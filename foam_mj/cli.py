@@ -302,9 +302,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    from foam_mj.progress import Progress
     from foam_mj.report import write_report
 
-    text, written = write_report(args.dir, args.figures, formats=tuple(args.format))
+    progress = Progress()
+    try:
+        text, written = write_report(args.dir, args.figures, formats=tuple(args.format), progress=progress)
+    finally:
+        progress.done()
     print(text)
     figs = [p for p in written if p.suffix != ".txt" and p.suffix != ".json"]
     folder = written[0].parent if written else args.dir

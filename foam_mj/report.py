@@ -3,7 +3,8 @@
 The envelope is drawn over the swept keys that vary most (most distinct values): the first is the
 heatmap's x axis, the second its y axis, and each value of a third gets its own panel; every other key
 (and the seeds) is pooled into the cells. A key with more than :data:`MAX_LEVELS` numeric values (random
-samples) is cut into :data:`BINS` equal-width bins, labelled by their centres. One figure per measure and
+samples) is cut into :data:`BINS` equal-width bins, labelled by their centres; a list-valued key drawn at random
+(``obstacle.size`` drawn element-wise) becomes one such numeric axis per element that varies. One figure per measure and
 per smoother (path name):
 
 =====================  ==============================================  =====================================
@@ -25,7 +26,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -51,31 +52,54 @@ class Level:
         return self.title or self.key
 
 
-def _levels(key: str, kind: str, values: list) -> Level:
+def _levels(key: str, kind: str, values: list) -> list[Level]:
+    """The envelope axes of one swept key: one, or for a list-valued key drawn at random (more than
+    :data:`MAX_LEVELS` distinct lists of numbers) one numeric axis per element that varies."""
     present = [v for v in values if v is not None]
     if kind == "json":
-        decoded = sorted({v for v in present}, key=lambda s: (json.loads(s) if isinstance(json.loads(s), list) else [], s))
+        parsed = {v: json.loads(v) for v in set(present)}  # each distinct value decoded once: random draws are all distinct
+        decoded = sorted(parsed, key=lambda s: (parsed[s] if isinstance(parsed[s], list) else [], s))
         pos = {v: i for i, v in enumerate(decoded)}
         index = np.array([pos.get(v, -1) for v in values])
-        lists = [json.loads(v) for v in decoded]
+        lists = [parsed[v] for v in decoded]
         if all(isinstance(v, list) and len(v) == len(lists[0]) for v in lists) and len(lists) > 1:
-            varying = [i for i in range(len(lists[0])) if len({json.dumps(v[i]) for v in lists}) > 1]
+            numeric = all(_is_number(e) for v in lists for e in v)
+            if numeric:
+                table = np.array(lists, dtype=float)
+                varying = [i for i in range(table.shape[1]) if table[:, i].min() < table[:, i].max()]
+            else:
+                varying = [i for i in range(len(lists[0])) if len({json.dumps(v[i]) for v in lists}) > 1]
+            if numeric and len(lists) > MAX_LEVELS:  # e.g. obstacle.size drawn element-wise: one label per row was no envelope
+                return [_number_level(key, [lists[k][i] if k >= 0 else None for k in index], f"{key}[{i}]") for i in varying]
             if len(varying) == 1:  # label by the one element that changes, e.g. the box's height
                 i = varying[0]
                 labels = tuple(f"{v[i]:g}" if isinstance(v[i], float) else str(v[i]) for v in lists)
-                return Level(key, labels, index, f"{key}[{i}]")
-        return Level(key, tuple(decoded), index)
+                return [Level(key, labels, index, f"{key}[{i}]")]
+        return [Level(key, tuple(decoded), index)]
+    if kind in ("int", "float"):
+        return [_number_level(key, values)]
     distinct = sorted(set(present), key=lambda v: (isinstance(v, str), v))
-    if kind in ("int", "float") and len(distinct) > MAX_LEVELS:
+    pos = {v: i for i, v in enumerate(distinct)}
+    return [Level(key, tuple(f"{v:g}" if isinstance(v, float) else str(v) for v in distinct), np.array([pos.get(v, -1) for v in values]))]
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _number_level(key: str, values: list, title: str = "") -> Level:
+    """A numeric axis: its distinct values, or :data:`BINS` equal-width bins when there are more than :data:`MAX_LEVELS`."""
+    distinct = sorted({v for v in values if v is not None})
+    if len(distinct) > MAX_LEVELS:
         x = np.array([np.nan if v is None else float(v) for v in values])
         lo, hi = float(np.nanmin(x)), float(np.nanmax(x))
         edges = np.linspace(lo, hi, BINS + 1)
         idx = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, BINS - 1)
         idx[np.isnan(x)] = -1
         centres = 0.5 * (edges[:-1] + edges[1:])
-        return Level(key, tuple(f"{c:.4g}" for c in centres), idx.astype(int))
+        return Level(key, tuple(f"{c:.4g}" for c in centres), idx.astype(int), title)
     pos = {v: i for i, v in enumerate(distinct)}
-    return Level(key, tuple(f"{v:g}" if isinstance(v, float) else str(v) for v in distinct), np.array([pos.get(v, -1) for v in values]))
+    return Level(key, tuple(f"{v:g}" if isinstance(v, float) else str(v) for v in distinct), np.array([pos.get(v, -1) for v in values]), title)
 
 
 def _torque_column(columns: Sequence[str]) -> str | None:
@@ -206,28 +230,36 @@ def _paths(manifest: dict, data) -> list[str]:
 def envelope_axes(manifest: dict, table) -> list[Level]:
     """The swept keys with more than one level, most varied first (ties: the sweep file's order)."""
     kinds = manifest.get("keys", {})
-    levels = [_levels(k, kind, table.column(k).to_pylist()) for k, kind in kinds.items() if k in table.column_names]
+    levels = [level for k, kind in kinds.items() if k in table.column_names for level in _levels(k, kind, table.column(k).to_pylist())]
     varied = [lv for lv in levels if len(lv.labels) > 1]
     return sorted(varied, key=lambda lv: -len(lv.labels))
 
 
 def grid_values(x: Level, y: Level | None, rows: np.ndarray, agg) -> np.ndarray:
-    """(len(y), len(x)) cell values of ``agg`` over the rows selected by ``rows`` (a boolean mask)."""
-    ny = 1 if y is None else len(y.labels)
-    out = np.full((ny, len(x.labels)), np.nan)
-    for j in range(ny):
-        for i in range(len(x.labels)):
-            sel = rows & (x.index == i) & (True if y is None else (y.index == j))
-            idx = np.flatnonzero(sel)
-            if idx.size:
-                out[j, i] = agg(idx)
+    """(len(y), len(x)) cell values of ``agg`` over the rows selected by ``rows`` (a boolean mask); ``agg`` gets each
+    non-empty cell's row indices in ascending order. One pass over the rows, however many cells."""
+    nx, ny = len(x.labels), 1 if y is None else len(y.labels)
+    out = np.full((ny, nx), np.nan)
+    yi = np.zeros_like(x.index) if y is None else y.index
+    idx = np.flatnonzero(rows & (x.index >= 0) & (yi >= 0))
+    cell = yi[idx] * nx + x.index[idx]
+    order = np.argsort(cell, kind="stable")
+    idx, cell = idx[order], cell[order]
+    for group in np.split(np.arange(len(idx)), np.flatnonzero(np.diff(cell)) + 1):
+        if group.size:
+            c = int(cell[group[0]])
+            out[c // nx, c % nx] = agg(idx[group])
     return out
 
 
-def write_report(out: str | Path, figures_dir: str | Path | None = None, *, formats: Sequence[str] = ("png",), dpi: int = 120) -> tuple[str, list[Path]]:
-    """Draw the envelope figures into ``figures_dir`` (default DIR/report) and return (summary text, files)."""
+def write_report(out: str | Path, figures_dir: str | Path | None = None, *, formats: Sequence[str] = ("png",), dpi: int = 120,
+                 progress: Callable[[str], None] | None = None) -> tuple[str, list[Path]]:
+    """Draw the envelope figures into ``figures_dir`` (default DIR/report) and return (summary text, files).
+    ``progress`` is told what is being done (reading the rows, each figure drawn)."""
     from foam_mj.figures import _matplotlib
 
+    say = progress or (lambda _text: None)
+    say(f"reading the rows of {out}")
     manifest, table = load(out)
     _matplotlib()  # FoamError with the install hint when matplotlib is missing
     if figures_dir is None:
@@ -238,6 +270,7 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
     else:
         figures_dir = check_output_dir(Path(figures_dir), "--figures")
     figures_dir.mkdir(exist_ok=True)
+    say(f"summarising {table.num_rows:,} rows")
     lines = summary(manifest, table)
     text = format_summary(lines)
     written = [_write_text(figures_dir / "summary.txt", text + "\n"), _write_text(figures_dir / "summary.json", json.dumps(lines, indent=1) + "\n")]
@@ -248,10 +281,11 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
     panel = axes[2] if len(axes) > 2 else None
     data = {n: _column(table, n) for n in table.column_names}
     torque = _torque_column(table.column_names)
-    for path in _paths(manifest, data):
+    figures = [(path, measure) for path in _paths(manifest, data) for measure in _measures(data, torque)]
+    for k, (path, (stem, title, unit, cmap, agg, lims)) in enumerate(figures, 1):
+        say(f"drawing {stem}-{path} ({k} of {len(figures)}, {table.num_rows:,} rows)")
         mask = data["smoother"] == path
-        for stem, title, unit, cmap, agg, lims in _measures(data, torque):
-            written += _draw(figures_dir, f"{stem}-{path}", f"{title} ({path})", unit, cmap, lims, agg, x, y, panel, mask, formats, dpi)
+        written += _draw(figures_dir, f"{stem}-{path}", f"{title} ({path})", unit, cmap, lims, agg, x, y, panel, mask, formats, dpi)
     return text, written
 
 
