@@ -165,6 +165,7 @@ def cmd_bubble(args: argparse.Namespace) -> int:
 def cmd_replay(args: argparse.Namespace) -> int:
     from foam_mj.atomic import check_output
     from foam_mj.plan_command import record as _record, unsafe_paths as _unsafe_paths
+    from foam_mj.progress import Progress
     from foam_mj.results import outcome_from_result, read_result
     from foam_mj.summary import print_replay_notes, summary_table
 
@@ -175,12 +176,20 @@ def cmd_replay(args: argparse.Namespace) -> int:
     doc = read_result(args.result)
     if not doc["paths"]:
         raise FoamError(f"{args.result}: the result has no paths to replay (outcome: {doc.get('outcome', 'unknown')})")
-    outcome = outcome_from_result(doc, args.result, dynamic=not args.kinematic_only)
+    progress = Progress()
+    try:
+        outcome = outcome_from_result(doc, args.result, dynamic=not args.kinematic_only, report=progress)
+    finally:
+        progress.done()
     print(f"replayed {len(outcome.paths)} path(s) of {args.result} on {outcome.scenario.scene}")
     print(summary_table(outcome))
     print_replay_notes(outcome)
     if rrd is not None:
-        _record(rrd, outcome)
+        progress("recording")
+        try:
+            _record(rrd, outcome)
+        finally:
+            progress.done()
         print(f"wrote {rrd}")
     margin = float(doc["planner"].get("delta", 0.0))
     bad = _unsafe_paths(outcome, margin)

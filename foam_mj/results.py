@@ -73,7 +73,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import mujoco
 import numpy as np
@@ -364,12 +364,13 @@ def robot_options(doc: dict, source: str | Path) -> dict:
     return options
 
 
-def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
-    """Rebuild trajectories from a result's waypoints and rosaries and replay them on its scene."""
+def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, report: Callable[[str], None] | None = None):
+    """Rebuild trajectories from a result's waypoints and rosaries and replay them on its scene; ``report`` is told
+    which path is being timed and replayed (as ``foam-mj plan``'s progress line)."""
     from foam_mj.foam import Foam
     from foam_mj.planners import PlannerConfig, PlanResult, PlanStats
     from foam_mj.paths import metrics
-    from foam_mj.pipeline import Outcome, PathOutcome
+    from foam_mj.pipeline import LABELS, Outcome, PathOutcome
     from foam_mj.replay import replay_clearance, replay_dynamic, replay_kinematic
     from foam_mj.rosary import Rosary
     from foam_mj.scenarios import Scenario
@@ -429,8 +430,13 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True):
     # The result is read; what fails from here on is the replay's own doing, not the file's.
     clearance = replay_clearance(robot, params.delta)
     try:
-        for name, po in outcome.paths.items():
+        for k, (name, po) in enumerate(outcome.paths.items(), 1):
+            if report:
+                report(f"replaying: {LABELS.get(name, name)} ({k} of {len(outcome.paths)})")
             po.trajectory = time_path(robot, name, waypoints[name], po.rosary, limits, time_law)
+            if report:  # as plan's: a slow timing makes a long replay
+                report(f"replaying: {LABELS.get(name, name)} ({k} of {len(outcome.paths)}; {po.trajectory.times[-1]:,.1f} s of motion, "
+                       f"{len(po.trajectory.times):,} steps)")
             po.loads = joint_loads(robot, po.trajectory, limit=torque_limit)
             po.kinematic = replay_kinematic(robot, po.trajectory, clearance)
             if dynamic:

@@ -12,3 +12,20 @@ def test_write_outcome_names_a_path_that_is_not_one(tmp_path):
     with pytest.raises(TypeError, match=r"write_outcome\(path, outcome\): `path` must be a file path, got object"):
         write_outcome(object(), tmp_path / "out.json")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_replaying_a_result_reports_each_path_as_plan_does(tmp_path):
+    """`foam-mj replay` timed and replayed every path of a result without a word (3.8 s on the obstacle's eight paths,
+    17 s on a scene of 1,000 obstacles); it now shows which path, of how many, and how long its motion is."""
+    from foam_mj.cli import main
+    from foam_mj.results import outcome_from_result, read_result
+
+    js = tmp_path / "r.json"
+    assert main(["plan", "--scene", "obstacle", "--smoother", "convex", "--no-rrd", "--no-replay", "--json", str(js)]) == 0
+    messages: list[str] = []
+    outcome = outcome_from_result(read_result(js), js, dynamic=False, report=messages.append)
+    steps = {name: len(po.trajectory.times) for name, po in outcome.paths.items()}
+    assert [m.split(";")[0].rstrip(")") for m in messages] == [
+        "replaying: centre (T) (1 of 2"] * 2 + ["replaying: convex shortest (2 of 2"] * 2
+    assert messages[1].endswith(f" s of motion, {steps['centre']:,} steps)")
+    assert messages[3].endswith(f" s of motion, {steps['convex']:,} steps)")
