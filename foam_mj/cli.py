@@ -29,6 +29,7 @@ their own modules, imported when they run: ``plan`` in :mod:`foam_mj.plan_comman
 from __future__ import annotations
 
 import argparse
+import atexit
 import os
 import re
 import signal
@@ -525,6 +526,7 @@ def main(argv: list[str] | None = None) -> int:
         # (it ended the process at once, exit 143, leaving a write's temporary file).
         signal.signal(signal.SIGTERM, _interrupt)
         signal.signal(signal.SIGINT, _interrupt)
+        atexit.register(_ignore_signals)  # registered first, so it runs after every library's exit handler
         import warnings
 
         from foam_mj.mujoco_warnings import route_to_python, show_once
@@ -541,6 +543,14 @@ def main(argv: list[str] | None = None) -> int:
     return code
 
 
+def _ignore_signals() -> None:
+    """The ``foam-mj`` process's last exit handler: ignore Ctrl-C and SIGTERM from here on. Python then clears its
+    modules with the default handlers back (a SIGTERM there killed the finished process, exit 143); an ignored signal
+    stays ignored, and the process ends with its command's exit code."""
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _exit_now(code: int) -> None:
     """End the process with ``code`` at once, its standard streams flushed (:data:`FAST_EXIT_COMMANDS`)."""
     for stream in (sys.stdout, sys.stderr):
@@ -555,10 +565,17 @@ def _exit_now(code: int) -> None:
 #: exception on the way out (a library that catches the KeyboardInterrupt and raises its own) is still an interruption.
 _SIGNALLED: list[int] = []
 
+#: Set once the command has returned (or failed): its files are complete or removed.
+_RETURNED: list[bool] = []
+
 
 def _interrupt(signum: int, frame) -> None:
-    """The ``foam-mj`` process's handler of Ctrl-C and SIGTERM: note the signal, then stop as Ctrl-C does."""
+    """The ``foam-mj`` process's handler of Ctrl-C and SIGTERM: note the signal, then stop as Ctrl-C does; once the
+    command has returned, end the process at once with 130 (a KeyboardInterrupt raised in the interpreter's teardown,
+    joining threads or in a library's exit handler, printed "Exception ignored ... Traceback" and exited 0)."""
     _SIGNALLED.append(signum)
+    if _RETURNED:
+        _exit_now(EXIT_INTERRUPTED)
     raise KeyboardInterrupt
 
 
@@ -579,11 +596,15 @@ def _caused_by_interrupt(exc: BaseException) -> bool:
 def _main(argv: list[str], ran: list[str]) -> int:
     """Parse ``argv`` and run its command (its name appended to ``ran``); errors become exit codes."""
     _SIGNALLED.clear()  # a signal of an earlier call from Python is not this call's
+    _RETURNED.clear()
     try:
-        parser = build_parser()
-        args = parser.parse_args(argv)
-        ran.append(getattr(args, "command", None) or args.func.__name__.removeprefix("cmd_"))
-        return args.func(args)
+        try:
+            parser = build_parser()
+            args = parser.parse_args(argv)
+            ran.append(getattr(args, "command", None) or args.func.__name__.removeprefix("cmd_"))
+            return args.func(args)
+        finally:  # a signal before this line is a KeyboardInterrupt, handled below
+            _RETURNED.append(True)
     except PlanningFailed as exc:  # e.g. a saved path that no timing fits the limits (replay, export)
         print(f"foam-mj: planning failed: {_one_line(exc)}", file=sys.stderr)
         return EXIT_PLANNING_FAILED

@@ -522,6 +522,39 @@ def test_sigterm_during_plan_is_exit_130_and_leaves_no_file(tmp_path):
     assert list(out.iterdir()) == []
 
 
+TEARDOWN_SIGNAL = """
+import atexit, os, signal, sys
+from foam_mj import cli
+
+class Late:
+    def __del__(self):
+        os.kill(os.getpid(), signal.SIGTERM)
+
+def scenes(args, original=cli.cmd_scenes, when=sys.argv.pop()):
+    if when == "exit handler":  # a signal while a library's exit handler runs (rerun's flush, threads joined)
+        atexit.register(os.kill, os.getpid(), signal.SIGTERM)
+    else:  # or while Python clears its modules, its default signal handlers back
+        cli.late = Late()
+    return original(args)
+
+cli.cmd_scenes = scenes
+sys.argv[1:] = ["scenes"]
+sys.exit(cli.main())
+"""
+
+
+@pytest.mark.parametrize("when, code", [("exit handler", 130), ("module teardown", 0)])
+def test_a_signal_after_the_command_has_returned_is_no_traceback_and_no_kill(when, code):
+    """Ctrl-C or `kill` in the last half second of `foam-mj replay` (its recording written, Python tearing down): the
+    KeyboardInterrupt raised in an exit handler printed "Exception ignored ... Traceback" and the command exited 0, or,
+    later, SIGTERM killed it (143). Now: exit 130 at once while the exit handlers run, ignored after them."""
+    run = subprocess.run([sys.executable, "-c", TEARDOWN_SIGNAL, when], capture_output=True, text=True, timeout=60,
+                         env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert run.returncode == code, run.stderr
+    assert "obstacle" in run.stdout  # the command ran and printed its list
+    assert run.stderr == ""
+
+
 def test_ctrl_c_inside_an_import_is_exit_130_not_an_internal_error(monkeypatch, capsys):
     """Ctrl-C while MuJoCo's C extension initialises surfaces as "ImportError: initialization failed" caused by the
     KeyboardInterrupt: it was reported as an internal error (exit 1; test_recorder's Ctrl-C test failed so under load)."""
