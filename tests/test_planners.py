@@ -327,6 +327,42 @@ def test_random_boxes_and_seeds_every_returned_path_is_collision_free(dx, sx, sz
 
 
 # -- the default planner's corridor ---------------------------------------------------------------------
+def test_the_time_limit_also_ends_the_corridor_refinement(oracles, monkeypatch):
+    """The trees stop at `time_limit`, but the refinement then ran on for up to `refine_time` CPU seconds (10): a
+    1,000-obstacle scene planned with a 3 s limit took 3.94 s. The corridor now gets the planner's deadline: once it
+    has passed no new round starts, and the first path, certified, is returned as it is."""
+    import time
+
+    from foam_mj.planners import bubbletree
+    from foam_mj.planners.base import check_result
+
+    s = load_scenario("obstacle")
+    oracle = oracles["obstacle"]
+    seen = []
+    real = bubbletree.build_corridor
+
+    def corridor(problem, centers, radii, link, options, rng, passed=False):
+        seen.append(options.deadline)
+        if passed:  # the trees met just as the time ran out
+            import dataclasses
+
+            options = dataclasses.replace(options, deadline=time.perf_counter())
+        return real(problem, centers, radii, link, options, rng)
+
+    monkeypatch.setattr(bubbletree, "build_corridor", corridor)
+    before = time.perf_counter()
+    full = get_planner("bubbletree").plan(_problem(oracle, s, time_limit=30.0), seed=2)
+    after = time.perf_counter()
+    assert before + 30.0 <= seen[0] <= after + 30.0  # the planner's own start plus its time limit
+    assert full.stats.details["refine_rounds"] >= 1 and "refine_stopped" not in full.stats.details
+    monkeypatch.setattr(bubbletree, "build_corridor", lambda *a: corridor(*a, passed=True))
+    cut = get_planner("bubbletree").plan(_problem(oracle, s, time_limit=30.0), seed=2)
+    d = cut.stats.details
+    assert d["refine_rounds"] == 0 and d["refine_stopped"] == "time limit"
+    assert d["length_first"] == pytest.approx(full.stats.details["length_first"]) and d["length"] >= full.stats.details["length"]
+    check_result(cut, _problem(oracle, s, time_limit=30.0), "bubbletree")
+
+
 def test_the_corridor_is_the_shortest_chain_and_refinement_only_shortens_it(oracles, checkers):
     from foam_mj.planners.corridor import shortest_path
 

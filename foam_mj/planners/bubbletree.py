@@ -157,7 +157,7 @@ class BubbleTreeOptions:
     per iteration before; ``refine_floor``: refinement bubbles' smallest radius, in delta / ||rho||_2; ``refine_time``: no new round after this many seconds of
     refinement, in process CPU time (the first path is never lost: refinement only shortens it; a cap for
     pathological problems, far above what refinement takes (0.03-0.2 s): counted in CPU time and not wall
-    time, so that a loaded machine gives the same path for the same seed); ``informed``: after the first path,
+    time, so that a loaded machine gives the same path for the same seed; the problem's ``time_limit``, wall time, also ends the rounds, so a plan whose trees met near it is not refined past it); ``informed``: after the first path,
     explore only where a shorter path can pass (the informed set); ``metric``: the length the corridor
     minimises, ``"qpos"`` (MuJoCo's joint units: radians and metres, through the configuration map's scale)
     or ``"q"`` (the planner's coordinates; the same unless a joint is normalized); ``refine_chain``: no new
@@ -462,7 +462,8 @@ class BubbleTreePlanner(Planner):
         corridor = build_corridor(
             problem, B.c[: B.n], B.r[: B.n], link,
             CorridorOptions(refine=o.refine, refine_tol=o.refine_tol, refine_rounds=o.refine_rounds, time_limit=o.refine_time,
-                            floor_factor=o.refine_floor, metric=metric, max_chain=o.refine_chain or CHAIN_PER_JOINT * n), rng,
+                            floor_factor=o.refine_floor, metric=metric, max_chain=o.refine_chain or CHAIN_PER_JOINT * n,
+                            deadline=timer.t0 + problem.time_limit), rng,
         )
         if len(corridor.added_centers):
             B.add(corridor.added_centers, corridor.added_radii, corridor.added_parents, np.full(len(corridor.added_radii), 2, dtype=np.int8))

@@ -159,6 +159,9 @@ class CorridorOptions:
     floor_factor: float = 0.1
     chords: int = 24
     time_limit: float = 10.0  # process CPU seconds
+    #: No new round after this ``time.perf_counter()`` instant: the planner's own ``time_limit``, so that a plan whose
+    #: trees met near it does not refine for up to ``time_limit`` CPU seconds more.
+    deadline: float = float("inf")
     prune: bool = True
     #: Per-coordinate length weights (None: Euclidean in q); see :func:`shortest_path`.
     metric: np.ndarray | None = None
@@ -434,6 +437,9 @@ def build_corridor(
         for _ in range(options.refine_rounds):
             if time.process_time() > t_end:
                 stats["refine_stopped"] = "time"
+                break
+            if time.perf_counter() > options.deadline:
+                stats["refine_stopped"] = "time limit"
                 break
             P = np.concatenate([[q0], w, [q1]])
             k = len(R)
