@@ -204,6 +204,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     """foam-mj export RESULT.json [--path NAME] [--format csv|npz|parquet] --out FILE [--hz 500]."""
     from foam_mj.atomic import check_distinct, check_output
     from foam_mj.export import check_hz, export_table, pick_path, require_pyarrow, resolve_format, write_table
+    from foam_mj.progress import Progress
     from foam_mj.results import read_result
 
     hz = check_hz(args.hz)
@@ -214,8 +215,13 @@ def cmd_export(args: argparse.Namespace) -> int:
         require_pyarrow()
     doc = read_result(args.result)
     name = pick_path(doc, args.path)
-    table = export_table(doc, args.result, name, hz)
-    write_table(table, out, fmt)
+    progress = Progress()
+    try:
+        table = export_table(doc, args.result, name, hz, report=progress)
+        progress(f"exporting: writing {table.n_rows:,} rows to {out}")
+        write_table(table, out, fmt)
+    finally:
+        progress.done()
     print(f"wrote {out}: path '{name}', {table.n_rows} rows at {hz:g} Hz ({table.metadata['duration_s']:.3f} s), "
           f"{len(table.columns)} columns ({fmt})")
     return EXIT_OK

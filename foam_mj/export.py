@@ -32,6 +32,7 @@ import io
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -80,9 +81,11 @@ def pick_path(doc: dict, name: str | None) -> str:
     return name
 
 
-def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float = DEFAULT_HZ) -> ExportTable:
+def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float = DEFAULT_HZ,
+                 report: Callable[[str], None] | None = None) -> ExportTable:
     """The table of ``path_name`` of a result document (module docstring; None: :func:`pick_path`'s default).
-    ``path_name`` and ``hz`` are checked as ``--path`` and ``--hz`` (:func:`pick_path`, :func:`check_hz`)."""
+    ``path_name`` and ``hz`` are checked as ``--path`` and ``--hz`` (:func:`pick_path`, :func:`check_hz`); ``report``
+    is told what is being done (timing the path, the inverse dynamics of its samples)."""
     path_name = pick_path(doc, path_name)  # an unknown name was a KeyError, hz = 0 a table of NaN
     hz = check_hz(hz)
     import mujoco
@@ -112,6 +115,8 @@ def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float
         raise FoamError(f"{source}: path '{path_name}' has waypoints of shape {path.shape}, expected ({rosary.k + 1}, {robot.dim})")
     if not rosary.all_in_hatches(path[1:-1], tol=1e-9):
         raise FoamError(f"{source}: path '{path_name}' has waypoints outside its rosary's hatches: refusing to export it")
+    if report:
+        report(f"exporting: timing path '{path_name}'")
     traj = time_path(robot, path_name, path, rosary, limits, time_law)
 
     T = traj.duration
@@ -119,6 +124,8 @@ def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float
     times = k / hz
     if T - times[-1] > 1e-9:
         times = np.append(times, T)
+    if report:
+        report(f"exporting: path '{path_name}', {len(times):,} samples at {hz:g} Hz ({T:.3f} s of motion)")
     q, qd, qdd = traj.evaluate(times)
     cfg, m = robot.config, robot.model
     scale = cfg.scale

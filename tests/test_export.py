@@ -236,3 +236,15 @@ def test_export_table_in_python_checks_its_path_and_rate(planned):
             export_table(planned["doc"], planned["json"], "optimal", hz)
     table = export_table(planned["doc"], planned["json"], None, 50)  # None: the last path, as the command
     assert np.all(np.isfinite(table.columns["time_s"])) and table.columns["time_s"][1] == pytest.approx(0.02)
+
+
+def test_export_says_what_it_is_doing(planned):
+    """`export --hz 100000` of a 2 s path worked 5-10 s without a word (timing, inverse dynamics of every sample,
+    writing); it now reports each step, with the number of samples."""
+    from foam_mj.export import export_table
+
+    messages: list[str] = []
+    table = export_table(planned["doc"], planned["json"], "optimal", 2000, report=messages.append)
+    duration = table.metadata["duration_s"]
+    assert messages == ["exporting: timing path 'optimal'",
+                        f"exporting: path 'optimal', {table.n_rows:,} samples at 2000 Hz ({duration:.3f} s of motion)"]
