@@ -111,27 +111,24 @@ def collision_pairs(m: mujoco.MjModel) -> list[tuple[int, int]]:
     unless one is the world or ``mjDSBL_FILTERPARENT`` is set, the body pair is not in a
     ``<contact><exclude>``. ``tests/test_certificate.py`` checks this against mj_collision.
     """
-    out: set[tuple[int, int]] = set()
-    for a, b in zip(m.pair_geom1, m.pair_geom2):
-        out.add((min(int(a), int(b)), max(int(a), int(b))))
-    weld, parent = m.body_weldid, m.body_parentid
+    out = {(min(int(a), int(b)), max(int(a), int(b))) for a, b in zip(m.pair_geom1, m.pair_geom2)}
     filter_parent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
-    excluded = {int(s) for s in m.exclude_signature}
-    ct, ca, body = m.geom_contype, m.geom_conaffinity, m.geom_bodyid
-    live = [g for g in range(m.ngeom) if ct[g] or ca[g]]
-    for i, a in enumerate(live):
-        for b in live[i + 1 :]:
-            if not ((ct[a] & ca[b]) or (ct[b] & ca[a])):
-                continue
-            ba, bb = int(body[a]), int(body[b])
-            wa, wb = int(weld[ba]), int(weld[bb])
-            if wa == wb:
-                continue
-            if filter_parent and wa and wb and (wa == int(weld[parent[wb]]) or wb == int(weld[parent[wa]])):
-                continue
-            if ((min(ba, bb) << 16) + max(ba, bb)) in excluded:
-                continue
-            out.add((a, b))
+    excluded = np.array(sorted({int(s) for s in m.exclude_signature}), dtype=np.int64)
+    ct, ca = np.asarray(m.geom_contype), np.asarray(m.geom_conaffinity)
+    live = np.flatnonzero((ct != 0) | (ca != 0))
+    body = np.asarray(m.geom_bodyid, dtype=np.int64)[live]
+    weld = np.asarray(m.body_weldid)[body]
+    parent_weld = np.asarray(m.body_weldid)[np.asarray(m.body_parentid)[weld]]
+    # Geom a against every later geom b at once: a scene of many static obstacles has ngeom^2 / 2 pairs (a Python
+    # loop over them took 1.3 s for 1,000 boxes), nearly all on the world body and dropped by the weld test.
+    for i in range(len(live) - 1):
+        b = slice(i + 1, None)
+        ok = (((ct[live[i]] & ca[live[b]]) | (ct[live[b]] & ca[live[i]])) != 0) & (weld[b] != weld[i])
+        if filter_parent:
+            ok &= ~((weld[i] != 0) & (weld[b] != 0) & ((weld[i] == parent_weld[b]) | (weld[b] == parent_weld[i])))
+        if excluded.size:
+            ok &= ~np.isin((np.minimum(body[i], body[b]) << 16) + np.maximum(body[i], body[b]), excluded)
+        out.update((int(live[i]), int(g)) for g in live[b][ok])
     return sorted(out)
 
 

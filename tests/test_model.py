@@ -456,3 +456,19 @@ def test_a_collision_with_a_non_convex_mesh_says_that_mujoco_measures_its_hull(t
     with pytest.raises(ScenarioError, match=r"'q_init' = \[0.0\] is in collision: .* between hand and notch .*; notch is a "
                                             r"non-convex mesh: MuJoCo measures distances to its convex hull, which fills notches"):
         scenario_from_dict({"scene": str(scene), "q_init": [0.0], "q_goal": [-1.0]}, tmp_path)
+
+def test_collision_pairs_of_a_scene_of_many_static_obstacles_are_the_robot_against_each():
+    """A study's scene of hundreds of boxes: the pairs were found by a Python loop over every geom pair (1.3 s for
+    1,000 boxes, before any planning); geom against geom in numpy now. Static boxes never pair with each other."""
+    import mujoco
+
+    from foam_mj.model import collision_pairs
+
+    boxes = "".join(f'<geom type="box" size="0.05 0.05 0.05" pos="{0.2 * (i % 20)} {0.2 * (i // 20)} -1"/>' for i in range(500))
+    m = mujoco.MjModel.from_xml_string(
+        f'<mujoco><worldbody>{boxes}<body name="arm"><joint type="hinge"/><geom name="link" type="capsule" size="0.05" '
+        'fromto="0 0 0 1 0 0"/><body><joint type="hinge"/><geom name="tip" type="sphere" size="0.05" pos="1 0 0"/>'
+        '</body></body></worldbody><contact><exclude body1="world" body2="arm"/></contact></mujoco>'
+    )
+    link, tip = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("link", "tip"))
+    assert collision_pairs(m) == [(g, tip) for g in range(500)]  # the link's pairs excluded; link/tip are parent and child
