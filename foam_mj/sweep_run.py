@@ -254,9 +254,13 @@ def read_rows(out: str | Path, columns: Iterable[str] = ("key",)):
 
 
 class SweepProgress:
-    """Plans done/total, failures, rate and ETA: a rich bar on a terminal, else a plain line every ``interval`` s."""
+    """Plans done/total, failures, rate and ETA: a rich bar on a terminal, else a plain line every ``interval`` s.
+    ``stop``: where this run ends when ``--limit`` ends it before ``total``; the bar and the ETA count to it."""
 
-    def __init__(self, total: int, done: int, *, terminal: bool | None = None, interval: float = 5.0, label: str = "sweep") -> None:
+    def __init__(self, total: int, done: int, *, terminal: bool | None = None, interval: float = 5.0, label: str = "sweep",
+                 stop: int | None = None) -> None:
+        if stop is not None and stop < total:
+            label, total = f"{label} (--limit: to {stop} of {total})", stop
         self.total, self.done, self.failed = total, done, 0
         self.start_done = done
         self.t0 = time.monotonic()
@@ -561,7 +565,8 @@ def run_sweep(
             if done and progress is not False:
                 print(f"sweep: finding which of the {total:,} plans are done ({len(done):,} rows in {store.dir})", file=sys.stderr, flush=True)
             already = sum(1 for t in sweep.tasks() if done.issuperset(t.keys)) if done else 0
-        bar = SweepProgress(total, already, interval=interval) if progress is not False else None
+        stop = None if limit is None else already + (len(pending) if pending is not None else limit)
+        bar = SweepProgress(total, already, interval=interval, stop=stop) if progress is not False else None
         source = iter(pending) if pending is not None else todo()
         events = local_engine(source, workers) if engine == "local" else ray_engine(source, workers, ray_address)
         try:

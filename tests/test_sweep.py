@@ -648,3 +648,18 @@ def test_a_corrupt_or_foreign_parquet_file_is_named_by_report_and_by_a_rerun(stu
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and message in err and "move it out of" in err, err
     assert sorted(p.name for p in (out / "rows").iterdir()) == before and not (tmp_path / "figs").exists()
+
+
+def test_with_limit_the_progress_and_its_eta_count_to_where_this_run_stops(tmp_path, capsys):
+    """`--limit 100` on a 270-plan study showed "42/270 plans ... ETA 55 s" while the run ended 14 s later: the
+    bar and its ETA now count to the run's end, and say that --limit ends it there."""
+    from foam_mj.sweep_run import SweepProgress
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = 3\nsmoothers = "none"\nreplay = "none"\n')
+    run_sweep(load_sweep(spec), tmp_path / "out", workers=1, interval=0.0, limit=1)
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines[0].startswith("sweep (--limit: to 1 of 3): 0/1 plans, 0 failed") and lines[-1].startswith("sweep (--limit: to 1 of 3): 1/1 plans")
+    bar = SweepProgress(270, 100, terminal=False, stop=200)  # a second run of --limit 100: 100 done before it
+    bar.done, bar.start_done, bar.t0 = 150, 100, bar.t0 - 10.0  # 50 plans in 10 s: 50 left to its end, 10 s
+    assert re.fullmatch(r"sweep \(--limit: to 200 of 270\): 150/200 plans, 0 failed, [\d.]+ plans/s, ETA 1[01] s", bar.line())
+    assert SweepProgress(270, 0, terminal=False, stop=300).line().startswith("sweep: 0/270 plans")  # the study ends first
