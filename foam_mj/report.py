@@ -292,7 +292,7 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
 def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, formats, dpi) -> list[Path]:
     from matplotlib.figure import Figure
 
-    panels = [(None, mask)] if panel is None else [(lab, mask & (panel.index == k)) for k, lab in enumerate(panel.labels[:MAX_PANELS])]
+    panels = [(None, mask)] if panel is None else [(lab, mask & (panel.index == k)) for k, lab in enumerate(panel.labels)]
     grids = [grid_values(x, y, m, agg) for _, m in panels]
     finite = np.concatenate([g[np.isfinite(g)] for g in grids]) if grids else np.array([])
     if not finite.size:  # nothing measured (e.g. no replay, so no clearance): no figure
@@ -302,8 +302,12 @@ def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, formats
         vmax = vmin + 1e-9
     ncell_x = len(x.labels)
     ny = 1 if y is None else len(y.labels)
-    fig = Figure(figsize=(1.2 + len(panels) * max(2.6, 0.62 * ncell_x + 1.2), 1.3 + max(1.2, 0.45 * ny + 0.8)), layout="constrained")
-    axs = fig.subplots(1, len(panels), squeeze=False)[0]
+    ncols = min(len(panels), MAX_PANELS)  # rows of at most MAX_PANELS panels: every value of the third key is drawn
+    nrows = -(-len(panels) // ncols)
+    fig = Figure(figsize=(1.2 + ncols * max(2.6, 0.62 * ncell_x + 1.2), 1.3 + nrows * max(1.2, 0.45 * ny + 0.8)), layout="constrained")
+    axs = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    for ax in axs[len(panels):]:
+        ax.set_visible(False)
     import matplotlib
 
     cm = matplotlib.colormaps[cmap].with_extremes(bad="#d0d0d0")
@@ -327,7 +331,7 @@ def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, formats
                     ink = "white" if 0.299 * r + 0.587 * gg + 0.114 * b < 0.5 else "black"
                     ax.text(i, j, f"{v:.2f}" if abs(v) < 10 else f"{v:.0f}", ha="center", va="center", fontsize=7, color=ink)
     if im is not None:
-        fig.colorbar(im, ax=list(axs), label=f"{title.split(' (')[0]}{f' ({unit})' if unit else ''}", shrink=0.9)
+        fig.colorbar(im, ax=list(axs[: len(panels)]), label=f"{title.split(' (')[0]}{f' ({unit})' if unit else ''}", shrink=0.9)
     fig.suptitle(title, fontsize=10)
     out = []
     for fmt in formats:

@@ -663,3 +663,42 @@ def test_with_limit_the_progress_and_its_eta_count_to_where_this_run_stops(tmp_p
     bar.done, bar.start_done, bar.t0 = 150, 100, bar.t0 - 10.0  # 50 plans in 10 s: 50 left to its end, 10 s
     assert re.fullmatch(r"sweep \(--limit: to 200 of 270\): 150/200 plans, 0 failed, [\d.]+ plans/s, ETA 1[01] s", bar.line())
     assert SweepProgress(270, 0, terminal=False, stop=300).line().startswith("sweep: 0/270 plans")  # the study ends first
+
+
+def test_every_value_of_the_panel_key_gets_its_panel(tmp_path, monkeypatch):
+    """Only the first MAX_PANELS (6) values of the third key were drawn: 8 bins of the box's height lost their two
+    tallest, where the plans fail. Panels now wrap into rows of at most MAX_PANELS."""
+    from matplotlib.figure import Figure
+
+    from foam_mj.report import MAX_PANELS, write_report
+    from foam_mj.sweep_run import RowStore
+
+    deltas = [0.002, 0.003, 0.004, 0.005, 0.006, 0.007, 0.008]
+    assert len(deltas) > MAX_PANELS
+    spec = write(tmp_path, f"""
+scenario = "obstacle"
+smoothers = "none"
+replay = "none"
+[grid]
+"planner.K" = [4, 5, 6, 7, 8, 9, 10, 11, 12]
+"planner.r_min" = [0.03, 0.035, 0.04, 0.045, 0.05, 0.055, 0.06, 0.065]
+"planner.delta" = {deltas}
+""")
+    sweep = load_sweep(spec)
+    out = tmp_path / "out"
+    store = RowStore(out, sweep, batch=500)
+    store.open(sweep)
+    for task in sweep.tasks():
+        store.add([{"key": k, **dict(task.params), "seed": task.seed, "smoother": path, "outcome": "reached", "f": 3.0}
+                   for k, path in zip(task.keys, task.paths)])
+    store.flush()
+    store.close()
+    drawn = {}
+
+    def savefig(fig, where, **kw):
+        drawn[Path(where).name] = [ax.get_title() for ax in fig.axes if ax.get_visible() and ax.images]
+        Path(where).write_bytes(b"")
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    write_report(out)
+    assert drawn and all(titles == [f"planner.delta = {d:g}" for d in deltas] for titles in drawn.values())
