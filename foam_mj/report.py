@@ -136,10 +136,20 @@ def _measures(data: dict[str, np.ndarray], torque: str | None):
 
 
 def _column(table, name: str) -> np.ndarray:
-    values = table.column(name).to_pylist()
-    if table.schema.field(name).type in (_pa().float64(), _pa().int64()):
-        return np.array([np.nan if v is None else v for v in values], dtype=float)
-    return np.array(values, dtype=object)
+    column = table.column(name)
+    if column.type in (_pa().float64(), _pa().int64()):
+        return column.cast(_pa().float64()).to_numpy()  # nulls are nan
+    return np.array(column.to_pylist(), dtype=object)
+
+
+#: The columns the summary and the figures read, besides the knee torque's.
+READ = ("smoother", "outcome", "f", "length", "min_clearance", "plan_time", "task_time")
+
+
+def _data(table) -> dict[str, np.ndarray]:
+    """The columns the report reads, as numpy arrays (not every column of every row as Python objects: memory)."""
+    names = [n for n in (*READ, _torque_column(table.column_names)) if n is not None and n in table.column_names]
+    return {n: _column(table, n) for n in names}
 
 
 def _pa():
@@ -163,7 +173,7 @@ def load(out: str | Path) -> tuple[dict, Any]:
 
 def summary(manifest: dict, table) -> list[dict]:
     """One line per smoother: plans, reached share, failures by outcome, medians and extremes."""
-    data = {n: _column(table, n) for n in table.column_names}
+    data = _data(table)
     torque = _torque_column(table.column_names)
     lines = []
     for path in _paths(manifest, data):
@@ -279,7 +289,7 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
         return text, written
     x, y = axes[0], (axes[1] if len(axes) > 1 else None)
     panel = axes[2] if len(axes) > 2 else None
-    data = {n: _column(table, n) for n in table.column_names}
+    data = _data(table)
     torque = _torque_column(table.column_names)
     figures = [(path, measure) for path in _paths(manifest, data) for measure in _measures(data, torque)]
     for k, (path, (stem, title, unit, cmap, agg, lims)) in enumerate(figures, 1):
