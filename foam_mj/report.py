@@ -284,6 +284,7 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
     lines = summary(manifest, table)
     text = format_summary(lines)
     written = [_write_text(figures_dir / "summary.txt", text + "\n"), _write_text(figures_dir / "summary.json", json.dumps(lines, indent=1) + "\n")]
+    say(f"binning the swept keys of {table.num_rows:,} rows")
     axes = envelope_axes(manifest, table)
     if not axes:
         return text, written

@@ -470,8 +470,8 @@ seed = 0
         assert np.all(np.abs(sizes[:, i] - centres[axis.index]) <= half + 1e-4)  # each row in its element's bin (labels: 4 digits)
     messages: list[str] = []
     write_report(out, progress=messages.append)
-    assert messages[:2] == [f"reading the rows of {out}", "summarising 40 rows"]
-    assert messages[2:] == [f"drawing {m}-centre ({k} of 3, 40 rows)" for k, m in enumerate(("success", "min_clearance", "f"), 1)]
+    assert messages[:3] == [f"reading the rows of {out}", "summarising 40 rows", "binning the swept keys of 40 rows"]
+    assert messages[3:] == [f"drawing {m}-centre ({k} of 3, 40 rows)" for k, m in enumerate(("success", "min_clearance", "f"), 1)]
 
 
 def test_the_envelope_uses_the_most_varied_keys_and_one_panel_per_value_of_a_third(tmp_path):
