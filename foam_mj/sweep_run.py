@@ -259,8 +259,9 @@ class SweepProgress:
 
     def __init__(self, total: int, done: int, *, terminal: bool | None = None, interval: float = 5.0, label: str = "sweep",
                  stop: int | None = None) -> None:
+        bar = label  # the bar's own label is short: the bar, its counts and ETA share one terminal line
         if stop is not None and stop < total:
-            label, total = f"{label} (--limit: to {stop} of {total})", stop
+            label, bar, total = f"{label} (--limit: to {stop} of {total})", f"{label} --limit", stop
         self.total, self.done, self.failed = total, done, 0
         self.start_done = done
         self.t0 = time.monotonic()
@@ -285,7 +286,7 @@ class SweepProgress:
                 transient=False,
             )
             self._rich.start()
-            self._task = self._rich.add_task(label, total=total, completed=done, failed=0, rate="- plans/s")
+            self._task = self._rich.add_task(bar, total=total, completed=done, failed=0, rate="- plans/s")
 
     @property
     def rate(self) -> float:
