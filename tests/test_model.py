@@ -457,6 +457,7 @@ def test_a_collision_with_a_non_convex_mesh_says_that_mujoco_measures_its_hull(t
                                             r"non-convex mesh: MuJoCo measures distances to its convex hull, which fills notches"):
         scenario_from_dict({"scene": str(scene), "q_init": [0.0], "q_goal": [-1.0]}, tmp_path)
 
+
 def test_collision_pairs_of_a_scene_of_many_static_obstacles_are_the_robot_against_each():
     """A study's scene of hundreds of boxes: the pairs were found by a Python loop over every geom pair (1.3 s for
     1,000 boxes, before any planning); geom against geom in numpy now. Static boxes never pair with each other."""
