@@ -29,7 +29,6 @@ their own modules, imported when they run: ``plan`` in :mod:`foam_mj.plan_comman
 from __future__ import annotations
 
 import argparse
-import atexit
 import os
 import re
 import signal
@@ -38,12 +37,13 @@ from pathlib import Path
 
 from foam_mj import __version__
 from foam_mj.errors import FoamError, PlanningFailed
+from foam_mj.interrupts import EXIT_INTERRUPTED, RETURNED, SIGNALLED, caused_by_interrupt, exit_now, install, interrupt
 
 #: ``foam-mj plan``'s smoother when none is named; equal to foam_mj.pipeline.DEFAULT_SMOOTHER (a test checks),
 #: repeated here because the command line imports the pipeline (and MuJoCo) only when it runs.
 DEFAULT_SMOOTHER = "optimal"
 
-EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_PLANNING_FAILED, EXIT_UNSAFE, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 130
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_PLANNING_FAILED, EXIT_UNSAFE = 0, 1, 2, 3, 4
 EXIT_CODES = {
     EXIT_OK: "success",
     EXIT_INTERNAL: "internal error (a bug; FOAM_MJ_DEBUG=1 shows the traceback)",
@@ -296,7 +296,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             raise FoamError(f"{flag} must be a number of seconds > 0, got {value}")
     sweep = load_sweep(args.sweep)  # every key and value checked: exit 2 naming it, before any plan
     engine = "local" if args.ray is None else "ray"
-    signal.signal(signal.SIGTERM, _interrupt)  # `kill` stops it like Ctrl-C: completed rows kept
+    signal.signal(signal.SIGTERM, interrupt)  # `kill` stops it like Ctrl-C: completed rows kept
     where = Path(args.out) / "rows"
     try:
         s = run_sweep(
@@ -528,11 +528,7 @@ def main(argv: list[str] | None = None) -> int:
         # It never renders with MuJoCo's OpenGL; without this, `import mujoco` also loads GLFW (a tenth
         # of a second of start-up). A user's own MUJOCO_GL wins.
         os.environ.setdefault("MUJOCO_GL", "disable")
-        # `kill` (SIGTERM) stops a command as Ctrl-C does: exit 130, temporary files removed, no output half-written
-        # (it ended the process at once, exit 143, leaving a write's temporary file).
-        signal.signal(signal.SIGTERM, _interrupt)
-        signal.signal(signal.SIGINT, _interrupt)
-        atexit.register(_ignore_signals)  # registered first, so it runs after every library's exit handler
+        install()  # Ctrl-C and `kill` stop a command: exit 130, no output half-written
         import warnings
 
         from foam_mj.mujoco_warnings import route_to_python, show_once
@@ -545,64 +541,14 @@ def main(argv: list[str] | None = None) -> int:
     ran: list[str] = []
     code = _main(argv, ran)
     if command and ran and ran[0] in FAST_EXIT_COMMANDS:
-        _exit_now(code)
+        exit_now(code)
     return code
-
-
-def _ignore_signals() -> None:
-    """The ``foam-mj`` process's last exit handler: ignore Ctrl-C and SIGTERM from here on. Python then clears its
-    modules with the default handlers back (a SIGTERM there killed the finished process, exit 143); an ignored signal
-    stays ignored, and the process ends with its command's exit code."""
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def _exit_now(code: int) -> None:
-    """End the process with ``code`` at once, its standard streams flushed (:data:`FAST_EXIT_COMMANDS`)."""
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):  # a closed pipe (`| head`) or a closed stream: nothing more to show
-            pass
-    os._exit(code)
-
-
-#: The signals (SIGINT, SIGTERM) the ``foam-mj`` process has received: once the user has asked it to stop, an
-#: exception on the way out (a library that catches the KeyboardInterrupt and raises its own) is still an interruption.
-_SIGNALLED: list[int] = []
-
-#: Set once the command has returned (or failed): its files are complete or removed.
-_RETURNED: list[bool] = []
-
-
-def _interrupt(signum: int, frame) -> None:
-    """The ``foam-mj`` process's handler of Ctrl-C and SIGTERM: note the signal, then stop as Ctrl-C does; once the
-    command has returned, end the process at once with 130 (a KeyboardInterrupt raised in the interpreter's teardown,
-    joining threads or in a library's exit handler, printed "Exception ignored ... Traceback" and exited 0)."""
-    _SIGNALLED.append(signum)
-    if _RETURNED:
-        _exit_now(EXIT_INTERRUPTED)
-    raise KeyboardInterrupt
-
-
-def _caused_by_interrupt(exc: BaseException) -> bool:
-    """True when a KeyboardInterrupt (Ctrl-C, SIGTERM) is among the causes of ``exc``, or the process was signalled."""
-    if _SIGNALLED:
-        return True
-    seen: set[int] = set()
-    cause: BaseException | None = exc
-    while cause is not None and id(cause) not in seen:
-        if isinstance(cause, KeyboardInterrupt):
-            return True
-        seen.add(id(cause))
-        cause = cause.__cause__ or cause.__context__
-    return False
 
 
 def _main(argv: list[str], ran: list[str]) -> int:
     """Parse ``argv`` and run its command (its name appended to ``ran``); errors become exit codes."""
-    _SIGNALLED.clear()  # a signal of an earlier call from Python is not this call's
-    _RETURNED.clear()
+    SIGNALLED.clear()  # a signal of an earlier call from Python is not this call's
+    RETURNED.clear()
     try:
         try:
             parser = build_parser()
@@ -610,7 +556,7 @@ def _main(argv: list[str], ran: list[str]) -> int:
             ran.append(getattr(args, "command", None) or args.func.__name__.removeprefix("cmd_"))
             return args.func(args)
         finally:  # a signal before this line is a KeyboardInterrupt, handled below
-            _RETURNED.append(True)
+            RETURNED.append(True)
     except PlanningFailed as exc:  # e.g. a saved path that no timing fits the limits (replay, export)
         print(f"foam-mj: planning failed: {_one_line(exc)}", file=sys.stderr)
         return EXIT_PLANNING_FAILED
@@ -627,7 +573,7 @@ def _main(argv: list[str], ran: list[str]) -> int:
         print("foam-mj: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except Exception as exc:  # pragma: no cover - the last line of defence
-        if _caused_by_interrupt(exc):  # Ctrl-C inside a C extension's import: "ImportError: initialization failed"
+        if caused_by_interrupt(exc):  # Ctrl-C inside a C extension's import: "ImportError: initialization failed"
             print("foam-mj: interrupted", file=sys.stderr)
             return EXIT_INTERRUPTED
         if os.environ.get("FOAM_MJ_DEBUG"):

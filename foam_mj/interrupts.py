@@ -1,0 +1,70 @@
+"""How the ``foam-mj`` process stops: Ctrl-C and SIGTERM become a KeyboardInterrupt (exit 130, temporary files
+removed, no output half-written) while a command runs, and end the process at once after it has returned."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+
+EXIT_INTERRUPTED = 130
+
+
+def install() -> None:
+    """Make Ctrl-C and `kill` (SIGTERM) stop the command as Ctrl-C does (SIGTERM ended the process at once, exit
+    143, leaving a write's temporary file); from the interpreter's exit on, both are ignored (:func:`ignore_signals`)."""
+    import atexit
+
+    signal.signal(signal.SIGTERM, interrupt)
+    signal.signal(signal.SIGINT, interrupt)
+    atexit.register(ignore_signals)  # registered first, so it runs after every library's exit handler
+
+
+def ignore_signals() -> None:
+    """The ``foam-mj`` process's last exit handler: ignore Ctrl-C and SIGTERM from here on. Python then clears its
+    modules with the default handlers back (a SIGTERM there killed the finished process, exit 143); an ignored signal
+    stays ignored, and the process ends with its command's exit code."""
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def exit_now(code: int) -> None:
+    """End the process with ``code`` at once, its standard streams flushed (:data:`foam_mj.cli.FAST_EXIT_COMMANDS`)."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe (`| head`) or a closed stream: nothing more to show
+            pass
+    os._exit(code)
+
+
+#: The signals (SIGINT, SIGTERM) the ``foam-mj`` process has received: once the user has asked it to stop, an
+#: exception on the way out (a library that catches the KeyboardInterrupt and raises its own) is still an interruption.
+SIGNALLED: list[int] = []
+
+#: Set once the command has returned (or failed): its files are complete or removed.
+RETURNED: list[bool] = []
+
+
+def interrupt(signum: int, frame) -> None:
+    """The ``foam-mj`` process's handler of Ctrl-C and SIGTERM: note the signal, then stop as Ctrl-C does; once the
+    command has returned, end the process at once with 130 (a KeyboardInterrupt raised in the interpreter's teardown,
+    joining threads or in a library's exit handler, printed "Exception ignored ... Traceback" and exited 0)."""
+    SIGNALLED.append(signum)
+    if RETURNED:
+        exit_now(EXIT_INTERRUPTED)
+    raise KeyboardInterrupt
+
+
+def caused_by_interrupt(exc: BaseException) -> bool:
+    """True when a KeyboardInterrupt (Ctrl-C, SIGTERM) is among the causes of ``exc``, or the process was signalled."""
+    if SIGNALLED:
+        return True
+    seen: set[int] = set()
+    cause: BaseException | None = exc
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return True
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return False
