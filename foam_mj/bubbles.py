@@ -11,9 +11,12 @@ where the configuration coordinates are split into groups grp. For a hinge, rho 
 valid in every configuration within the joint ranges, on the distance from the joint's axis to any
 point of geom g (a point at distance rho from the axis moves at most rho |dtheta|); for a slide, rho is
 the metres of travel per unit of q (the normalization scale). Slides on one body whose axes are
-mutually orthogonal and that have equal scales form one group: together they translate the body by
-exactly the Euclidean length of their displacement, so their group norm is the 2-norm (for a planar
-mobile base this gives Nascimento and Alsina 2021 Eq. 5's sqrt(dx^2 + dy^2) + r_robot |dtheta|). Every other
+mutually orthogonal and that have equal scales form one group, provided no configuration hinge of that body
+comes between them in its joint order: together they translate the body by exactly the Euclidean length of
+their displacement, so their group norm is the 2-norm (for a planar mobile base this gives Nascimento and
+Alsina 2021 Eq. 5's sqrt(dx^2 + dy^2) + r_robot |dtheta|). MuJoCo turns a slide's axis by every hinge before it
+on its body, so a hinge between two slides can make their axes parallel (slide x, hinge z, slide y at 90 degrees:
+both move along x, |dx| + |dy|, up to sqrt(2) times the 2-norm): such slides stay apart. Every other
 coordinate is a group of its own. A joint that does not move g has rho_(g, j) = 0.
 
 Derivation of the hinge bound for any serial chain. Only configuration joints move; every other
@@ -238,8 +241,15 @@ def _hinge_reach(m: mujoco.MjModel, d: mujoco.MjData, cfg, chain: list[int], g: 
 
 
 def _slide_groups(m: mujoco.MjModel, d: mujoco.MjData, robot: RobotModel) -> list[tuple[int, ...]]:
-    """Group slides on one body with mutually orthogonal axes and equal scales; others stand alone."""
+    """Group slides on one body with mutually orthogonal axes and equal scales and no configuration hinge between
+    them in the body's joint order (a hinge turns the axes of the slides after it); others stand alone."""
     cfg = robot.config
+    config_hinges = {int(j) for j in cfg.joint_ids if int(m.jnt_type[int(j)]) == _HINGE}
+
+    def hinges_before(j: int) -> int:
+        """Configuration hinges before joint j on its body (MuJoCo applies a body's joints in id order)."""
+        return sum(1 for k in range(int(m.body_jntadr[m.jnt_bodyid[j]]), j) if k in config_hinges)
+
     groups: list[list[int]] = []
     for i, j in enumerate(cfg.joint_ids):
         j = int(j)
@@ -250,6 +260,7 @@ def _slide_groups(m: mujoco.MjModel, d: mujoco.MjData, robot: RobotModel) -> lis
                 if (
                     int(m.jnt_type[k]) == _SLIDE
                     and m.jnt_bodyid[k] == m.jnt_bodyid[j]
+                    and hinges_before(k) == hinges_before(j)
                     and np.isclose(abs(cfg.scale[grp[0]]), abs(cfg.scale[i]))
                     and all(abs(np.dot(d.xaxis[int(cfg.joint_ids[x])], d.xaxis[j])) < _PARALLEL_TOL for x in grp)
                 ):

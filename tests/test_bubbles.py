@@ -388,6 +388,37 @@ def test_a_hinge_reach_holds_where_a_crossed_hinge_below_swings_the_geom_off_its
         assert np.linalg.norm(p1 - p0) <= bound.per_geom[ball] @ [1.0, 0.0] + 1e-9
 
 
+SLIDE_HINGE_SLIDE = """<mujoco><compiler angle="radian"/><worldbody>
+  <!-- One body with three joints in this order: a slide along x, a hinge about z, a slide along y. MuJoCo turns the
+       second slide's axis by the hinge: at 90 degrees both slides move the 5 cm ball along x. -->
+  <body name="base"><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
+    <joint name="sx" type="slide" axis="1 0 0" range="-1 1"/>
+    <joint name="hz" axis="0 0 1" range="-3 3"/>
+    <joint name="sy" type="slide" axis="0 1 0" range="-0.5 0.5"/>
+    <geom name="ball" type="sphere" size="0.05"/>
+  </body>
+  <!-- A wall whose near face is at x = 0.3. -->
+  <geom name="wall" type="box" pos="0.35 0 0" size="0.05 2 0.5"/>
+</worldbody></mujoco>"""
+
+
+def test_slides_with_a_hinge_between_them_on_one_body_are_not_one_euclidean_group(tmp_path):
+    """Two orthogonal slides form one group (their 2-norm bounds the motion) only while no hinge turns one against
+    the other: with the hinge at 90 degrees, dx = -dy moves the ball |dx| + |dy| along x, sqrt(2) times that norm.
+    The bubble at q = (0, 90 degrees, 0), 0.25 m from the wall, keeps delta along that diagonal (as a group, its
+    radius was 0.215 and the ball went 4 cm into the wall)."""
+    robot = _robot_from_xml(tmp_path, SLIDE_HINGE_SLIDE)
+    oracle = BubbleOracle(robot, delta=0.005)
+    assert oracle.bound.groups == ((0,), (1,), (2,))
+    q = np.array([0.0, np.pi / 2, 0.0])
+    assert oracle.clearance(q) == pytest.approx(0.25)
+    r = oracle.radius(q)
+    for u in (np.array([1.0, 0.0, -1.0]), np.array([-1.0, 0.0, 1.0])):
+        for s in np.linspace(0.0, 1.0, 21):
+            assert oracle.clearance(q + s * r * u / np.linalg.norm(u)) >= 0.005 - 1e-9
+    oracle.close()
+
+
 # -- one oracle, many plans: threads, pickling, edited scenes -------------------------------------------
 
 def _bubbletree_rosary(problem, seed: int):
