@@ -102,6 +102,7 @@ class DisplacementBound:
     weights: np.ndarray  # (G,) metres per unit of q
     per_geom: np.ndarray | None = None  # (ngeom, G)
     rho: np.ndarray | None = None  # (ngeom, n)
+    reach: float = 0.0  # metres: the farthest a robot point can be from a configuration hinge's axis (the robot's size)
 
     @property
     def ball_factor(self) -> float:
@@ -145,7 +146,9 @@ class DisplacementBound:
         per_geom = tmp.group_weights(rho)
         robot_geoms = np.asarray(robot.robot_geoms, dtype=int)
         weights = per_geom[robot_geoms].max(axis=0) if len(robot_geoms) else np.zeros(len(groups))
-        return cls(tuple(groups), weights, per_geom, rho)
+        hinge = np.array([int(m.jnt_type[int(j)]) == _HINGE for j in cfg.joint_ids], dtype=bool)
+        metres = rho[np.ix_(robot_geoms, np.flatnonzero(hinge))] / np.abs(cfg.scale[hinge])  # per radian, not per unit of q
+        return cls(tuple(groups), weights, per_geom, rho, float(metres.max(initial=0.0)))
 
 
 def reference_qpos(robot: RobotModel) -> np.ndarray:
@@ -272,10 +275,19 @@ def _slide_groups(m: mujoco.MjModel, d: mujoco.MjData, robot: RobotModel) -> lis
     return [tuple(g) for g in groups]
 
 
-def default_distmax(delta: float) -> float:
-    """The cap of measured distances (metres) for a margin ``delta``: 1 m, or 2 delta for a margin above half a metre
-    (a cap at or below delta would read every configuration as too close)."""
-    return max(1.0, 2.0 * float(delta))
+def default_distmax(delta: float, reach: float = 0.0) -> float:
+    """The cap of measured distances (metres) for a margin ``delta`` and a robot of size ``reach``
+    (:attr:`DisplacementBound.reach`): 1 m; half the reach for a robot larger than 2 m, so that a robot drawn in
+    kilometres plans as it does drawn in metres (a cap of 1 m held a 900 m arm's bubbles to 1 mrad, where its 0.9 m
+    copy had bubbles of 0.1-0.5 rad); 2 delta for a margin above half that (a cap at or below delta would read every
+    configuration as too close). The cap only saves MuJoCo work on far pairs: a smaller one gives smaller bubbles,
+    never unsafe ones."""
+    return max(1.0, 2.0 * float(delta), 0.5 * float(reach))
+
+
+def distance_cap(robot: RobotModel, delta: float) -> float:
+    """:func:`default_distmax` for ``robot``: the cap its oracle, scenario checks and replays measure with."""
+    return default_distmax(delta, DisplacementBound.from_model(robot).reach)
 
 
 class BubbleOracle:
@@ -294,7 +306,9 @@ class BubbleOracle:
     def __init__(self, robot: RobotModel, delta: float = 0.005, distmax: float | None = None) -> None:
         if not isinstance(robot, RobotModel):
             raise TypeError(f"BubbleOracle takes a foam_mj.model.RobotModel (RobotModel.from_xml(path)), got {type(robot).__name__}")
-        distmax = default_distmax(delta) if distmax is None and is_number(delta) else distmax
+        robot.check_unchanged()
+        bound = DisplacementBound.from_model(robot)
+        distmax = default_distmax(delta, bound.reach) if distmax is None and is_number(delta) else distmax
         for name, value in (("delta", delta), ("distmax", distmax)):
             if not is_number(value):
                 raise TypeError(f"`{name}` must be a number (metres), got {value!r}")
@@ -302,11 +316,10 @@ class BubbleOracle:
             raise ValueError(f"`delta` (safety margin, metres) must be >= 0, got {delta}")
         if not distmax > delta:  # every distance would read distmax <= delta: "too close" wherever the robot is
             raise ValueError(f"`distmax` (the cap of every measured distance, metres) must be > delta = {delta}, got {distmax}")
-        robot.check_unchanged()
         self.robot = robot
         self.delta = float(delta)
         self.clearance = Clearance(robot, distmax=distmax)
-        self.bound = DisplacementBound.from_model(robot)
+        self.bound = bound
         self.pair_rho = pair_rho(robot, self.bound)
         self.pair_factor = np.sqrt(np.sum(self.bound.group_weights(self.pair_rho) ** 2, axis=-1))
         # A pair no coordinate moves has factor 0 (the model leaves such pairs out); a tiny floor keeps

@@ -223,10 +223,10 @@ def _check(robot: RobotModel, trajectory: Trajectory) -> None:
 
 def replay_clearance(robot: RobotModel, delta: float) -> Clearance:
     """The clearance the replays of a plan with margin ``delta`` measure with: distances capped above delta
-    (:func:`~foam_mj.bubbles.default_distmax`; a cap of 1 m read a 1.2 m margin as broken). Close it after use."""
-    from foam_mj.bubbles import default_distmax
+    (:func:`~foam_mj.bubbles.distance_cap`; a cap of 1 m read a 1.2 m margin as broken). Close it after use."""
+    from foam_mj.bubbles import distance_cap
 
-    return Clearance(robot, distmax=default_distmax(delta))
+    return Clearance(robot, distmax=distance_cap(robot, delta))
 
 
 def replay_kinematic(robot: RobotModel, trajectory: Trajectory, clearance: Clearance | None = None) -> KinematicReplay:

@@ -72,7 +72,7 @@ from pathlib import Path
 
 import numpy as np
 
-from foam_mj.bubbles import BubbleOracle, default_distmax
+from foam_mj.bubbles import BubbleOracle, distance_cap
 from foam_mj.data import models_dir, scenarios_dir
 from foam_mj.clearance import Clearance
 from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioError, clearance_text, is_number
@@ -435,7 +435,7 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
         raise ScenarioError(f"{where}: field 'scene': {exc}") from None
     except ValueError as exc:
         raise ScenarioError(f"{where}: [limits] {exc}") from None
-    clearance = Clearance(robot, distmax=default_distmax(scenario.params.delta))
+    clearance = Clearance(robot, distmax=distance_cap(robot, scenario.params.delta))
     try:
         for field_name in ("q_init", "q_goal"):
             q = getattr(scenario, field_name)

@@ -548,3 +548,31 @@ def test_a_margin_above_the_default_distance_cap_measures_far_enough(tmp_path):
     assert oracle.clearance.distmax == 2.4 and oracle.radius([0.0]) > 0.5
     s = scenario_from_dict({"scene": "scene.xml", "q_init": [-0.5], "q_goal": [0.5], "planner": {"delta": 1.2}}, tmp_path)
     assert s.oracle().radius([0.0]) == oracle.radius([0.0])
+
+
+def _two_link_arm(scale: float) -> str:
+    """A two-link planar arm (0.5 m and 0.4 m links at scale 1) beside a post, every length times ``scale``."""
+    s = scale
+    return f"""<mujoco><compiler angle="radian"/><worldbody>
+      <geom name="post" type="box" pos="{0.7 * s} {0.5 * s} {0.1 * s}" size="{0.1 * s} {0.1 * s} {0.5 * s}"/>
+      <body name="l1" pos="0 0 {0.1 * s}"><joint name="j1" axis="0 0 1" range="-3 3"/>
+        <geom name="c1" type="capsule" fromto="0 0 0 {0.5 * s} 0 0" size="{0.03 * s}"/>
+        <body name="l2" pos="{0.5 * s} 0 0"><joint name="j2" axis="0 0 1" range="-2.5 2.5"/>
+          <geom name="c2" type="capsule" fromto="0 0 0 {0.4 * s} 0 0" size="{0.025 * s}"/></body></body>
+    </worldbody></mujoco>"""
+
+
+def test_a_robot_drawn_in_kilometres_gets_the_bubbles_of_its_copy_in_metres(tmp_path):
+    """The distance cap grows with the robot (half its reach, above 2 m): the 900 m arm, 0.44 km from the post, gets the
+    bubble its 0.9 m copy gets 0.44 m from it (margins scaled alike). With a cap of 1 m (10 m: twice its 5 m margin) it
+    read every distance as 10 m and got a bubble of 0.005 rad where the copy has 0.43 rad: every planner but bubbletree
+    refused the start, and bubbletree ran out of time."""
+    small = BubbleOracle(_robot_from_xml(tmp_path, _two_link_arm(1.0), "m.xml"), delta=0.005)
+    large = BubbleOracle(_robot_from_xml(tmp_path, _two_link_arm(1000.0), "km.xml"), delta=5.0)
+    assert small.bound.reach == pytest.approx(0.925) and large.bound.reach == pytest.approx(925.0)
+    assert small.clearance.distmax == 1.0 and large.clearance.distmax == pytest.approx(462.5)
+    q = np.array([-0.2, 0.3])
+    assert large.clearance(q) == pytest.approx(1000 * small.clearance(q))
+    assert large.radius(q) == pytest.approx(small.radius(q)) and small.radius(q) > 0.4
+    small.close()
+    large.close()
