@@ -600,6 +600,41 @@ def test_bubbletree_refuses_at_once_an_endpoint_too_near_the_margin_to_grow_from
     assert oracle.clearance.calls - calls < 10  # refused before any growth
 
 
+CARRIAGE = """<mujoco><compiler angle="radian"/><worldbody>
+  <geom name="block" type="box" pos="0.3 0.3 0" size="0.1 0.1 0.2"/>
+  <!-- A carriage (2 m of travel, 1 um of lift) carrying an arm that turns about z. -->
+  <body name="car"><inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/>
+    <joint name="big" type="slide" axis="1 0 0" range="-1 1"/>
+    <joint name="tiny" type="slide" axis="0 0 1" range="0 1e-6"/>
+    <body name="arm"><joint name="yaw" axis="0 0 1" range="-3 3"/>
+      <geom name="link" type="capsule" fromto="0 0 0 0.4 0 0" size="0.03" mass="1"/></body></body>
+</worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("normalize, q_init, q_goal, message", [
+    # 'tiny' mapped onto [0, 1e-9]: no bubble inside the joint box reaches SMALLEST, whatever the clearance (0.62 m).
+    ({"big": [1000.0], "tiny": [1e-9]}, [100.0, 0.0, 0.5], [900.0, 1e-9, 0.5],
+     r"q_init .* cannot be certified: the joint box is only 1e-09 wide in 'tiny' \(units of q\), so no bubble inside it "
+     r"reaches radius 3e-05, the smallest that grows: map that joint onto a longer span"),
+    # 'big' (2 m) mapped onto [0, 0.001]: a unit of q moves the link 2 km, so 4.5 cm above delta is a bubble of 1e-5.
+    ({"big": [0.001], "tiny": [1.0]}, [0.0001, 0.0, 0.5], [0.0009, 1.0, 2.5],
+     r"q_goal .* is too close to an obstacle to certify a path from it: clearance 0\.0495 m is 0\.0445 m above delta = "
+     r"0\.005 m, but a unit of q moves link / block up to \|\|rho\|\| = 2e\+03 m, so its certified bubble has radius "
+     r"1\.11e-05 < 3e-05 \(units of q\), too small to grow from .* map the coordinates onto longer spans"),
+])
+def test_bubbletree_says_why_an_endpoint_far_from_any_obstacle_is_too_small_to_grow_from(tmp_path, normalize, q_init, q_goal, message):
+    # Both end points are centimetres or more above delta; their bubbles are tiny because of how q is mapped onto the
+    # joints. The refusal named the clearance as "barely above delta", which it is not: it now names the cause.
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.model import RobotModel
+
+    (tmp_path / "carriage.xml").write_text(CARRIAGE)
+    oracle = BubbleOracle(RobotModel.from_xml(tmp_path / "carriage.xml", normalize=normalize))
+    problem = PlanningProblem(oracle, np.array(q_init), np.array(q_goal), delta=oracle.delta, time_limit=10.0)
+    with pytest.raises(ConfigurationError, match=message):
+        get_planner("bubbletree").plan(problem, seed=0)
+
+
 @pytest.mark.parametrize("above_mm", [0.05, 0.3])
 def test_a_start_a_fraction_of_a_millimetre_above_delta_is_reached_and_smoothed_safely(obstacle_robot, above_mm):
     # The start's bubble (1e-4 to 1e-3, under r_min) grows children of 1.5 x its radius out of its corner, then
