@@ -386,6 +386,28 @@ def small_goal_hint(oracle: BubbleOracle, q_goal: np.ndarray, r_min: float) -> s
             "r_min placed to reach it can hold it; lower r_min, or plan with bubbletree")
 
 
+def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str) -> str:
+    """Where a foam that did not reach q_goal came nearest to it: the bubble whose surface is nearest q_goal, the gap,
+    and what blocks the way there (the clearance and closest pair at that bubble's surface point toward q_goal); unless
+    the bubble budget stopped it (``outcome``), that every bubble has radius >= r_min, so a way that only smaller bubbles
+    fit through stays closed to the foam."""
+    if len(foam.radii) == 0:
+        return ""
+    to_goal = foam.q_goal - foam.centers
+    dist = np.linalg.norm(to_goal, axis=1)
+    i = int(np.argmin(dist - foam.radii))
+    c, r = foam.centers[i], float(foam.radii[i])
+    p = np.clip(c + r * to_goal[i] / dist[i], oracle.robot.lower, oracle.robot.upper)
+    report = oracle.explain(p)
+    near = (f": it came nearest with the bubble at q = {np.round(c, 4).tolist()} (radius {r:.3g}, its surface {dist[i] - r:.3g} "
+            f"from q_goal; clearance {clearance_text(report.clearance, oracle.delta)} between {report.closest_pair[0]} and "
+            f"{report.closest_pair[1]} there)")
+    if outcome == "bubble budget":
+        return near
+    return (f"{near}; every bubble has radius >= r_min = {r_min}, so a way narrower than that stays closed to it: lower "
+            "r_min, or plan with bubbletree")
+
+
 def plan(
     oracle: BubbleOracle,
     q_init,
@@ -543,7 +565,7 @@ def plan(
     if goal is None:
         foam = foam_now()
         raise PlanningFailed.after(f"the foam did not reach q_goal ({stats.outcome}) after {stats.bubbles} bubbles", stats,
-                                   small_goal_hint(oracle, q_goal, params.r_min), foam)
+                                   small_goal_hint(oracle, q_goal, params.r_min) or nearest_hint(oracle, foam, params.r_min, stats.outcome), foam)
     finish("reached")
     foam = foam_now(goal)
     return PlanResult(foam, foam.rosary(), stats)

@@ -154,6 +154,35 @@ def test_a_goal_just_beyond_the_root_bubble_is_not_taken_as_reached(oracle):
     res = plan(oracle, q0, q_goal, OBSTACLE.params, seed=0)
     assert res.rosary.k >= 2 and res.rosary.check_structure() == []
 
+PLATE = """<mujoco><compiler angle="radian"/><worldbody>
+  <!-- A 1 mm plate 0.58-0.98 m out along y = 0.3: the two-link arm folds its elbow to pass it, with a gap of a few cm. -->
+  <geom name="plate" type="box" pos="0.7 0.3 0.1" size="0.2 0.0005 0.2"/>
+  <body name="l1" pos="0 0 0.1"><joint name="j1" axis="0 0 1" range="-3 3"/>
+    <geom name="c1" type="capsule" fromto="0 0 0 0.5 0 0" size="0.03"/>
+    <body name="l2" pos="0.5 0 0"><joint name="j2" axis="0 0 1" range="-2.5 2.5"/>
+      <geom name="c2" type="capsule" fromto="0 0 0 0.4 0 0" size="0.025"/></body></body>
+</worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("variant", ["pfm", "rbpf", "hpf"])
+def test_a_foam_that_cannot_pass_a_narrow_way_says_where_it_stopped_and_why(tmp_path, variant):
+    """The way past the plate is narrower than bubbles of r_min = 0.07 (bubbletree plans it): the failure named only
+    the outcome ("queue empty after 157 bubbles"); it now names the bubble that came nearest q_goal, what blocks the
+    way there, and that r_min keeps every bubble larger than the way."""
+    from foam_mj.planners import PlanningProblem, get_planner
+
+    (tmp_path / "plate.xml").write_text(PLATE)
+    oracle = BubbleOracle(RobotModel.from_xml(tmp_path / "plate.xml"))
+    problem = PlanningProblem(oracle, np.array([-0.2, 0.3]), np.array([1.2, 0.3]), delta=oracle.delta, time_limit=20.0)
+    with pytest.raises(PlanningFailed, match=r"did not reach q_goal \(queue empty\) after \d+ bubbles in [0-9.]+ s: it came "
+                       r"nearest with the bubble at q = \[.*\] \(radius [0-9.]+, its surface [0-9.]+ from q_goal; clearance "
+                       r"0\.0\d+ m between c2 and plate there\); every bubble has radius >= r_min = 0.07, so a way narrower than "
+                       r"that stays closed to it: lower r_min, or plan with bubbletree"):
+        get_planner(variant).plan(problem, seed=0)
+    assert get_planner("bubbletree").plan(problem, seed=0).rosary.check_structure() == []
+    oracle.close()
+
+
 @pytest.mark.parametrize("field, value", [("K", 0), ("K", 2.5), ("r_min", 0.0), ("delta", -1.0), ("max_bubbles", 0), ("time_limit", 0)])
 def test_bad_planner_parameters_name_the_field(field, value):
     with pytest.raises(ValueError, match=field):

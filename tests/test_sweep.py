@@ -239,7 +239,7 @@ def test_a_failed_plan_gives_the_same_reason_on_every_run(tmp_path):
     (task,) = load_sweep(spec).tasks()
     first, second = run_task(task), run_task(task)
     assert [r["outcome"] for r in first] == ["failed"] and first[0]["plan_time"] > 0
-    assert first[0]["reason"] == "queue empty: the foam did not reach q_goal (queue empty) after 715 bubbles"
+    assert first[0]["reason"].startswith("queue empty: the foam did not reach q_goal (queue empty) after 715 bubbles: it came nearest")
     assert deterministic(first) == deterministic(second)
 
 

@@ -66,7 +66,7 @@ from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
-from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order, check_candidate_bound, seed_rng, small_goal_hint
+from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order, check_candidate_bound, nearest_hint, seed_rng, small_goal_hint
 from foam_mj.rosary import MEMBERSHIP_TOL
 
 #: Citation used in docstrings, the README and docs/references.md.
@@ -235,7 +235,7 @@ class _Growth:
                 else:  # the candidates drawn all failed; others might not
                     stuck = f": none of the candidates drawn on {bubble} had radius >= {r_min}; lower r_min, or plan with bubbletree"
             else:
-                stuck = small_goal_hint(self.oracle, self.q_goal, self.params.r_min)
+                stuck = small_goal_hint(self.oracle, self.q_goal, self.params.r_min) or nearest_hint(self.oracle, foam, self.params.r_min, outcome)
             raise PlanningFailed.after(f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles", st, stuck, foam)
         return PlanResult(foam, foam.rosary(), st)
 
