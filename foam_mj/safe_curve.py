@@ -211,8 +211,19 @@ def validate_path(path, rosary: Rosary, tol: float = MEMBERSHIP_TOL) -> np.ndarr
     return p
 
 
-def safe_curve(path, rosary: Rosary) -> SafeCurve:
-    """The C2 curve through ``path`` (k+1, n) that stays in ``rosary`` by construction (module docstring)."""
+def in_box(points: np.ndarray, lower: np.ndarray | None, upper: np.ndarray | None, tol: float = SAFETY_TOL) -> np.ndarray:
+    """Are ``points`` (..., n) within the joint bounds (to ``tol``)? All are when no bounds are given."""
+    if lower is None or upper is None:
+        return np.ones(np.shape(points)[:-1], dtype=bool)
+    return np.all((points >= lower - tol) & (points <= upper + tol), axis=-1)
+
+
+def safe_curve(path, rosary: Rosary, lower: np.ndarray | None = None, upper: np.ndarray | None = None) -> SafeCurve:
+    """The C2 curve through ``path`` (k+1, n) that stays in ``rosary`` by construction (module docstring) and, given
+    the joint bounds ``lower`` and ``upper``, in them too: an end bubble about a point on an edge or corner of the joint
+    box leaves the box (:meth:`foam_mj.bubbles.BubbleOracle.holding_bubble`), so a segment in it could bulge out past a
+    joint limit while its control points stayed in the ball; its control points must also lie in the box (the box is
+    convex too), else it is straight (its ends are in the box)."""
     p = validate_path(path, rosary)
     seg_len = np.linalg.norm(np.diff(p, axis=0), axis=1)
     keep_seg = seg_len > 1e-12
@@ -240,7 +251,7 @@ def safe_curve(path, rosary: Rosary) -> SafeCurve:
     linear = np.zeros(m - 1, dtype=bool)
     for _ in range(m):
         cp = _control_points(w, h, t, k)
-        ok = in_ball(cp, c[:, None, :], r[:, None], SAFETY_TOL).all(axis=1)
+        ok = (in_ball(cp, c[:, None, :], r[:, None], SAFETY_TOL) & in_box(cp, lower, upper)).all(axis=1)
         if ok.all():
             return SafeCurve(knots, cp, c, r, bubble, point_index, linear)
         bad = np.flatnonzero(~ok)

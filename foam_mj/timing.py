@@ -67,7 +67,7 @@ from foam_mj.errors import PlanningFailed
 from foam_mj.limits import Limits, as_limits
 from foam_mj.model import RobotModel
 from foam_mj.rosary import Rosary, in_ball
-from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError
+from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError, in_box
 from foam_mj.trajectory import JointLimits, Trajectory, _motion, make_trajectory, row_acceleration_cap
 
 #: Time laws accepted by :func:`retime` / :func:`timed_trajectory`.
@@ -388,8 +388,8 @@ def _sample(robot: RobotModel, rosary: Rosary, curve: SafeCurve, law, duration: 
     q, qd, qdd, u = _motion(curve, law, times / times[-1], times[-1])
     q[0], q[-1] = curve.control_points[0, 0], curve.control_points[-1, 5]
     seg = curve.segment_of(u)
-    if not in_ball(q, curve.centers[seg], curve.radii[seg], SAFETY_TOL).all():  # pragma: no cover - the curve is certified
-        raise TrajectoryError("a re-timed sample left its bubble")
+    if not (in_ball(q, curve.centers[seg], curve.radii[seg], SAFETY_TOL) & in_box(q, robot.lower, robot.upper)).all():  # pragma: no cover - the curve is certified
+        raise TrajectoryError("a re-timed sample left its bubble or the joint bounds")
     cfg, m = robot.config, robot.model
     dof = m.jnt_dofadr[cfg.joint_ids]
     qvel = np.zeros((len(times), m.nv))

@@ -39,7 +39,7 @@ from foam_mj.errors import ModelError
 from foam_mj.mjcf import _custom_numeric
 from foam_mj.model import RobotModel
 from foam_mj.rosary import Rosary, in_ball
-from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError, _with_linear, safe_curve
+from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError, _with_linear, in_box, safe_curve
 
 #: Largest distance (configuration units) between the straight line joining two consecutive samples (one
 #: timestep apart) and the certified curve between them: a consumer that interpolates the rows linearly
@@ -368,7 +368,7 @@ def make_trajectory(
     dt = float(robot.model.opt.timestep) if dt is None else dt
     if not (isinstance(dt, (int, float, np.floating)) and np.isfinite(dt) and dt > 0):
         raise ValueError(f"`dt` must be a finite number of seconds > 0, got {dt!r}")
-    curve = safe_curve(path, rosary)
+    curve = safe_curve(path, rosary, robot.lower, robot.upper)
     if rosary.dim != robot.dim:
         raise ValueError(f"`rosary` has dimension {rosary.dim}, the robot's configuration has {robot.dim}")
     vmax, amax = limits.resolve(robot)
@@ -396,7 +396,7 @@ def make_trajectory(
             raise TrajectoryError("could not meet the joint limits on the samples")
         q[0], q[-1] = curve.control_points[0, 0], curve.control_points[-1, 5]  # exact end points
         seg = curve.segment_of(u)
-        inside = in_ball(q, curve.centers[seg], curve.radii[seg], SAFETY_TOL)
+        inside = in_ball(q, curve.centers[seg], curve.radii[seg], SAFETY_TOL) & in_box(q, robot.lower, robot.upper)
         if inside.all():
             break
         curve = _with_linear(curve, np.unique(seg[~inside]))

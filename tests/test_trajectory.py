@@ -391,3 +391,33 @@ def test_rows_stay_close_to_the_curve_however_high_the_limits(robot, rosary, pat
         assert clearance.batch(chords).min() >= DELTA
     finally:
         clearance.close()
+
+
+TWO_LINK_ARM = """<mujoco><compiler angle="radian"/><worldbody>
+  <geom name="post" type="box" pos="0.7 0.5 0.1" size="0.1 0.1 0.5"/>
+  <body name="l1" pos="0 0 0.1"><joint name="j1" axis="0 0 1" range="-3 3"/>
+    <geom name="c1" type="capsule" fromto="0 0 0 0.5 0 0" size="0.03"/>
+    <body name="l2" pos="0.5 0 0"><joint name="j2" axis="0 0 1" range="-2.5 2.5"/>
+      <geom name="c2" type="capsule" fromto="0 0 0 0.4 0 0" size="0.025"/></body></body>
+</worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("method", ["toppra", "own"])
+def test_a_trajectory_from_a_corner_of_the_joint_box_stays_within_the_joint_ranges(tmp_path, method):
+    """A start at a corner of the joint box (both joints at a limit) has an end bubble that leaves the box (no ball in
+    the box holds a corner). The curve's first segment, in that bubble, turned sharply into the next waypoint and bent
+    the elbow 0.062 rad past its limit (j2 down to -2.562 of -2.5) with every control point in the ball; its control
+    points must lie in the box too, so every sample of the timed trajectory is within the ranges."""
+    from foam_mj.planners import PlanningProblem, get_planner
+    from foam_mj.timing import timed_trajectory
+
+    (tmp_path / "arm.xml").write_text(TWO_LINK_ARM)
+    robot = RobotModel.from_xml(tmp_path / "arm.xml")
+    oracle = BubbleOracle(robot)
+    problem = PlanningProblem(oracle, np.array([3.0, -2.5]), np.array([-2.75415886, -2.41736182]), delta=oracle.delta)
+    rosary = get_planner("bubbletree").plan(problem, seed=0).rosary
+    oracle.close()
+    path = rosary.path(rosary.center_waypoints())
+    traj = timed_trajectory(robot, path, rosary, method=method)
+    assert np.all(traj.q >= robot.lower - 1e-9) and np.all(traj.q <= robot.upper + 1e-9)
+    assert np.all(make_trajectory(robot, path, rosary).q >= robot.lower - 1e-9)
