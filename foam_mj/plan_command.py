@@ -13,7 +13,7 @@ from pathlib import Path
 from foam_mj.cli import EXIT_OK, EXIT_PLANNING_FAILED, EXIT_UNSAFE
 from foam_mj.progress import Progress
 from foam_mj.errors import FoamError, PlanningFailed
-from foam_mj.summary import print_certificates, print_fronts, print_replay_notes, summary_table
+from foam_mj.summary import fmt_mm, print_certificates, print_fronts, print_replay_notes, summary_table
 
 
 def record(path: Path, outcome=None, *, scenario=None, foam=None, recorder=None) -> None:
@@ -252,5 +252,5 @@ def unsafe_paths(outcome, margin: float) -> list[str]:
         contacts = len(po.dynamic.contacts) if po.dynamic is not None else 0
         clear = po.kinematic.min_clearance if po.kinematic is not None else float("inf")
         if contacts or clear < margin:
-            bad.append(f"{name} ({contacts} contacts, min clearance {clear * 1000:.1f} mm)")
+            bad.append(f"{name} ({contacts} contacts, min clearance {fmt_mm(clear)})")
     return bad

@@ -10,6 +10,13 @@ def fmt_q(q) -> str:
     return "[" + ", ".join(f"{v:g}" for v in np.asarray(q)) + "]"
 
 
+def fmt_mm(metres: float) -> str:
+    """A clearance in millimetres: one decimal from 1 mm up, three significant digits below (a 50 um clearance of a
+    millimetre-sized robot, margin 5 um, read "0.0 mm", as if it touched)."""
+    mm = metres * 1000
+    return f"{mm:.1f} mm" if abs(mm) >= 1 else f"{mm:.3g} mm"
+
+
 def summary_table(outcome) -> str:
     """The per-path summary printed by ``plan`` and ``replay``."""
     import numpy as np
@@ -18,7 +25,7 @@ def summary_table(outcome) -> str:
     lines = [head, "-" * len(head)]
     for po in outcome.paths.values():
         m = po.metrics
-        clear = f"{po.kinematic.min_clearance * 1000:.1f} mm" if po.kinematic is not None else "-"
+        clear = fmt_mm(po.kinematic.min_clearance) if po.kinematic is not None else "-"
         dur = f"{po.trajectory.duration:.2f} s" if po.trajectory is not None else "-"
         err = "-" if po.dynamic is None else "unstable" if po.dynamic.diverged else f"{np.max(po.dynamic.max_error) * 1000:.2f}"
         con = str(len(po.dynamic.contacts)) if po.dynamic is not None else "-"

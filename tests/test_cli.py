@@ -453,3 +453,12 @@ def test_plan_exits_4_when_its_own_replay_finds_a_trajectory_below_the_margin(tm
     err = capsys.readouterr().err
     assert "foam-mj: a planned trajectory comes closer than the margin 5 mm: " in err and "certification fault" in err
     assert out.is_file()  # everything is still written, for the report
+
+
+@pytest.mark.parametrize("metres, text", [(0.0848, "84.8 mm"), (0.0052, "5.2 mm"), (0.001, "1.0 mm"), (4.91e-5, "0.0491 mm"),
+                                          (-3e-4, "-0.3 mm"), (0.0, "0 mm")])
+def test_the_summary_prints_a_sub_millimetre_clearance_with_its_digits(metres, text):
+    # A millimetre-sized arm (margin 5 um) printed its 49 um clearance as "0.0 mm", as if it touched the obstacle.
+    from foam_mj.summary import fmt_mm
+
+    assert fmt_mm(metres) == text
