@@ -71,11 +71,13 @@ def format_report(doc: dict) -> list[str]:
     """The four lines ``foam-mj bubble`` prints: clearance, closest pair, rho per joint, radius."""
     rho = ", ".join(f"{j} {v:.4f}" for j, v in zip(doc["joints"], doc["rho"]))
     limit = " / ".join(doc["limiting_pair"])
-    bound = " (the joint bounds cap it)" if doc["radius"] >= doc["to_bounds"] - 1e-15 and doc["radius"] > 0 else ""
+    pair_term = min((p["radius"] for p in doc["pairs"]), default=float("inf"))
+    # The joint bounds set the radius where q is nearer to them than the pairs allow (on a bound: radius 0).
+    setter = f"the joint bounds (pair {limit} alone: {pair_term:.6f})" if doc["to_bounds"] < pair_term else limit
     return [
         f"clearance: {doc['clearance']:.6f} m",
         f"closest pair: {' / '.join(doc['closest_pair'])}",
         f"rho per joint (m per unit, pair {limit}): {rho}; ||rho||_2 = {doc['rho_norm']:.4f}",
-        f"certified radius: {doc['radius']:.6f} (delta {doc['delta']:g} m, set by {limit}{bound}; "
+        f"certified radius: {doc['radius']:.6f} (delta {doc['delta']:g} m, set by {setter}; "
         f"distance to the joint bounds {doc['to_bounds']:.6f})",
     ]

@@ -38,6 +38,17 @@ def test_the_reproducer_reports_the_sound_radius_and_it_holds(tmp_path, capsys):
         assert mujoco.mj_geomDistance(m, d, ball, wall, 1.0, None) >= doc["delta"] - 1e-9
 
 
+@pytest.mark.parametrize("q, setter", [("0 2", "the joint bounds (pair ball / wall alone: 0.154218)"),  # the slide at its limit
+                                       ("-3.04 1.8", "the joint bounds (pair ball / wall alone: 0.473557)"),  # 0.1 from one
+                                       ("0 1.8", "ball / wall;")])
+def test_the_report_names_the_joint_bounds_when_they_set_the_radius(tmp_path, capsys, q, setter):
+    # On a joint limit (radius 0) it said "set by ball / wall", whose term was 0.154: the bounds set it.
+    scene = tmp_path / "reach.xml"
+    scene.write_text(REPRODUCER)
+    assert main(["bubble", "--mjcf", str(scene), f"--q={q}"]) == 0
+    assert f"set by {setter}" in capsys.readouterr().out.splitlines()[3]
+
+
 def test_a_scene_report_lists_every_pair_and_agrees_with_mujoco(tmp_path, capsys, obstacle_robot):
     out = tmp_path / "b.json"
     q = [0.2, 0.3, 0.08]
