@@ -118,13 +118,24 @@ def _ray_exit(p: np.ndarray, d: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.
     return np.maximum(-b + np.sqrt(np.maximum(b * b - cc, 0.0)), 0.0)
 
 
+def _box_exit(p: np.ndarray, d: np.ndarray, lower: np.ndarray | None, upper: np.ndarray | None) -> np.ndarray:
+    """Distance from p (inside the box [lower, upper]) along direction d to the box's boundary; rows broadcast. >= 0;
+    infinite without bounds."""
+    if lower is None or upper is None:
+        return np.full(np.shape(p)[:-1], np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        step = np.where(d > 0, (upper - p) / d, np.where(d < 0, (lower - p) / d, np.inf))
+    return np.maximum(np.min(step, axis=-1), 0.0)
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return np.where(n > 1e-15, v / np.where(n > 1e-15, n, 1.0), 0.0)
 
 
-def _fit_derivatives(w, h, c_in, r_in, c_out, r_out, has_in, has_out, t0, k0):
-    """Scaled tangents and curvatures at the knots so that P1..P4 lie in the neighbouring balls."""
+def _fit_derivatives(w, h, c_in, r_in, c_out, r_out, has_in, has_out, t0, k0, lower=None, upper=None):
+    """Scaled tangents and curvatures at the knots so that P1..P4 lie in the neighbouring balls and, given the joint
+    bounds, in the box (an in-box ball's exits come first, so the box only binds in an end ball that leaves it)."""
     m = len(w)
     big = np.inf
     h_in = np.concatenate([[0.0], h])  # length of the incoming segment of each knot
@@ -140,9 +151,11 @@ def _fit_derivatives(w, h, c_in, r_in, c_out, r_out, has_in, has_out, t0, k0):
         """Largest tangent scale keeping w + 2 h t / 5 (outgoing) and w - 2 h t / 5 (incoming) in their balls."""
         reach_out = 0.4 * h_out * tn
         reach_in = 0.4 * h_in * tn
+        exit_out = np.minimum(_ray_exit(w, d, c_out, r_out), _box_exit(w, d, lower, upper))
+        exit_in = np.minimum(_ray_exit(w, -d, c_in, r_in), _box_exit(w, -d, lower, upper))
         with np.errstate(divide="ignore", invalid="ignore"):
-            a_out = np.where(has_out & (reach_out > 0), _ray_exit(w, d, c_out, r_out) / reach_out, big)
-            a_in = np.where(has_in & (reach_in > 0), _ray_exit(w, -d, c_in, r_in) / reach_in, big)
+            a_out = np.where(has_out & (reach_out > 0), exit_out / reach_out, big)
+            a_in = np.where(has_in & (reach_in > 0), exit_in / reach_in, big)
         return np.minimum(a_out, a_in)
 
     best_score = np.full(m, -1.0)
@@ -161,11 +174,14 @@ def _fit_derivatives(w, h, c_in, r_in, c_out, r_out, has_in, has_out, t0, k0):
     # Curvature: P2 = w + 0.4 h_out t + h_out^2 kappa / 20 in the outgoing ball, P3 likewise in the incoming.
     kn = np.linalg.norm(k0, axis=1)
     k_hat = _unit(k0)
+    p_out, p_in = w + 0.4 * h_out[:, None] * t, w - 0.4 * h_in[:, None] * t
+    exit_out = np.minimum(_ray_exit(p_out, k_hat, c_out, r_out), _box_exit(p_out, k_hat, lower, upper))
+    exit_in = np.minimum(_ray_exit(p_in, k_hat, c_in, r_in), _box_exit(p_in, k_hat, lower, upper))
     with np.errstate(divide="ignore", invalid="ignore"):
         reach = h_out**2 * kn / 20.0
-        b_out = np.where(has_out & (reach > 0), _ray_exit(w + 0.4 * h_out[:, None] * t, k_hat, c_out, r_out) / reach, big)
+        b_out = np.where(has_out & (reach > 0), exit_out / reach, big)
         reach = h_in**2 * kn / 20.0
-        b_in = np.where(has_in & (reach > 0), _ray_exit(w - 0.4 * h_in[:, None] * t, k_hat, c_in, r_in) / reach, big)
+        b_in = np.where(has_in & (reach > 0), exit_in / reach, big)
     beta = np.minimum(1.0, GAMMA * np.minimum(b_out, b_in))
     return t, k0 * beta[:, None]
 
@@ -222,8 +238,9 @@ def safe_curve(path, rosary: Rosary, lower: np.ndarray | None = None, upper: np.
     """The C2 curve through ``path`` (k+1, n) that stays in ``rosary`` by construction (module docstring) and, given
     the joint bounds ``lower`` and ``upper``, in them too: an end bubble about a point on an edge or corner of the joint
     box leaves the box (:meth:`foam_mj.bubbles.BubbleOracle.holding_bubble`), so a segment in it could bulge out past a
-    joint limit while its control points stayed in the ball; its control points must also lie in the box (the box is
-    convex too), else it is straight (its ends are in the box)."""
+    joint limit while its control points stayed in the ball. The box is convex too: the tangents and curvatures are
+    scaled to keep the control points in it as in the balls, and the check holds them to it (else the segment is
+    straight: its ends are in the box)."""
     p = validate_path(path, rosary)
     seg_len = np.linalg.norm(np.diff(p, axis=0), axis=1)
     keep_seg = seg_len > 1e-12
@@ -247,7 +264,7 @@ def safe_curve(path, rosary: Rosary, lower: np.ndarray | None = None, upper: np.
     r_out = np.concatenate([r, r[-1:]])
     has_in = np.arange(m) > 0
     has_out = np.arange(m) < m - 1
-    t, k = _fit_derivatives(w, h, c_in, r_in, c_out, r_out, has_in, has_out, t0, k0)
+    t, k = _fit_derivatives(w, h, c_in, r_in, c_out, r_out, has_in, has_out, t0, k0, lower, upper)
     linear = np.zeros(m - 1, dtype=bool)
     for _ in range(m):
         cp = _control_points(w, h, t, k)
