@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from foam_mj.bubbles import BubbleOracle
@@ -99,10 +99,17 @@ def test_same_seed_same_foam_and_different_seeds_differ(scene_oracles, plans, va
 
 @settings(max_examples=9, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 2**31 - 1), variant=st.sampled_from(sorted(VARIANTS)), scene=st.sampled_from(SCENES))
+@example(seed=262144, variant="rbpf", scene="obstacle")
 def test_every_bubble_is_certified_and_none_grew_inside_an_older_one(scene_oracles, robots, seed, variant, scene):
+    """Also when the foam misses the goal (a rare seed: rbpf, obstacle, 262144 ends 'queue empty' 0.6 mm short of it,
+    the paper's probabilistic method): what it grew is certified all the same."""
     s = SCEN[scene]
-    res = VARIANTS[variant](scene_oracles[scene], s.q_init, s.q_goal, PARAMS[scene], seed=seed)
-    foam = res.foam
+    try:
+        res = VARIANTS[variant](scene_oracles[scene], s.q_init, s.q_goal, PARAMS[scene], seed=seed)
+        foam, balls = res.foam, (res.rosary.centers, res.rosary.radii)
+    except PlanningFailed as exc:
+        foam = exc.foam
+        balls = (foam.centers, foam.radii)
     fresh = BubbleOracle(RobotModel.from_xml(s.scene), delta=s.params.delta)
     assert np.all(foam.radii <= fresh.radii(foam.centers) + 1e-12)
     assert np.all(foam.radii[1:] >= s.params.r_min)
@@ -110,14 +117,14 @@ def test_every_bubble_is_certified_and_none_grew_inside_an_older_one(scene_oracl
     d2 = np.sum((foam.centers[:, None, :] - foam.centers[None, :, :]) ** 2, axis=2)
     inside = d2 < foam.radii[None, :] ** 2 * (1 - 1e-9)
     assert not np.any(inside & np.tril(np.ones_like(inside), -1))
-    # Random configurations inside rosary bubbles keep the margin under MuJoCo's own distance.
+    # Random configurations inside rosary bubbles (foam bubbles, for a failed plan) keep the margin under MuJoCo's own distance.
     rng = np.random.default_rng(seed)
-    ros = res.rosary
-    j = rng.integers(0, ros.k, 40)
-    u = rng.standard_normal((40, ros.dim))
-    u *= (ros.radii[j] * rng.random(40) ** (1 / ros.dim) / np.linalg.norm(u, axis=1))[:, None]
+    centers, radii = balls
+    j = rng.integers(0, len(radii), 40)
+    u = rng.standard_normal((40, centers.shape[1]))
+    u *= (radii[j] * rng.random(40) ** (1 / centers.shape[1]) / np.linalg.norm(u, axis=1))[:, None]
     check = MujocoChecker(robots[scene])
-    assert min(check.distance(q) for q in ros.centers[j] + u) >= s.params.delta - 1e-9
+    assert min(check.distance(q) for q in centers[j] + u) >= s.params.delta - 1e-9
 
 
 def test_the_papers_ordering_gbpf_fast_hpf_short_rbpf_wide(plans):
