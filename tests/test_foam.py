@@ -81,7 +81,10 @@ def test_child_counts_follow_eq_2(oracle):
 def test_every_bubble_is_certified_and_none_grew_inside_an_older_one(seed, thesis):
     scen = THESIS if thesis else OBSTACLE
     oracle = scen.oracle()
-    foam = plan(oracle, scen.q_init, scen.q_goal, scen.params, seed=seed).foam
+    try:
+        foam = plan(oracle, scen.q_init, scen.q_goal, scen.params, seed=seed).foam
+    except PlanningFailed as exc:  # a rare seed misses the goal (the paper's probabilistic method): its foam is checked too
+        foam = exc.foam
     fresh = BubbleOracle(RobotModel.from_xml(scen.scene), delta=scen.params.delta)
     certified = fresh.radii(foam.centers)
     assert np.all(foam.radii <= certified + 1e-12)
