@@ -56,7 +56,8 @@ import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
 from foam_mj.atomic import atomic_write_bytes
-from foam_mj.model import RobotModel, body_is_moving
+from foam_mj.geom_pairs import body_is_moving
+from foam_mj.model import RobotModel
 from foam_mj.replay import DynamicReplay, KinematicReplay
 from foam_mj.rosary import Rosary
 from foam_mj.trajectory import Trajectory

@@ -76,7 +76,8 @@ import mujoco
 import numpy as np
 
 from foam_mj.clearance import Clearance
-from foam_mj.model import RobotModel, body_is_moving
+from foam_mj.geom_pairs import body_is_moving
+from foam_mj.model import RobotModel
 from foam_mj.trajectory import Trajectory
 
 #: The trajectory's sample spacing must match the model's timestep to within this (seconds).

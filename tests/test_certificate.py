@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, ModelError
 from foam_mj.foam import FoamParams, plan
-from foam_mj.model import RobotModel, collision_pairs
+from foam_mj.geom_pairs import collision_pairs
+from foam_mj.model import RobotModel
 from foam_mj.planners import PlanningProblem, get_planner
 
 _INERTIAL = '<inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/>'

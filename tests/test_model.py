@@ -463,7 +463,7 @@ def test_collision_pairs_of_a_scene_of_many_static_obstacles_are_the_robot_again
     1,000 boxes, before any planning); geom against geom in numpy now. Static boxes never pair with each other."""
     import mujoco
 
-    from foam_mj.model import collision_pairs
+    from foam_mj.geom_pairs import collision_pairs
 
     boxes = "".join(f'<geom type="box" size="0.05 0.05 0.05" pos="{0.2 * (i % 20)} {0.2 * (i // 20)} -1"/>' for i in range(500))
     m = mujoco.MjModel.from_xml_string(

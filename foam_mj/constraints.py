@@ -1,0 +1,133 @@
+"""Constraints of a model that a plan moving each configuration joint on its own would cross unawares: equalities
+that couple a configuration joint to other motion, and tendon limits that bind within the joint ranges
+(:class:`foam_mj.model.RobotModel` refuses both, naming them)."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from foam_mj.configuration import ConfigurationMap, _joint_name
+from foam_mj.geom_pairs import body_subtree
+
+
+def coupling_equalities(m: mujoco.MjModel, config: ConfigurationMap) -> list[str]:
+    """Names of the active equality constraints that tie a configuration joint to other motion: a joint or tendon
+    coupling that involves a configuration joint (a mimic joint), or a connect/weld/distance constraint on a body
+    that a configuration joint moves (a closed loop). The planner moves each coordinate independently and holds
+    every other joint at its pose, so its path would not be the motion MuJoCo, or the robot, makes."""
+    moved = np.zeros(m.nbody, dtype=bool)
+    for j in config.joint_ids:
+        moved |= body_subtree(m, int(m.jnt_bodyid[int(j)]))
+    joints = {int(j) for j in config.joint_ids}
+    eq = mujoco.mjtEq
+
+    def tendon_touches(t: int) -> bool:
+        for w in range(int(m.tendon_adr[t]), int(m.tendon_adr[t]) + int(m.tendon_num[t])):
+            kind, obj = int(m.wrap_type[w]), int(m.wrap_objid[w])
+            if kind == int(mujoco.mjtWrap.mjWRAP_JOINT) and obj in joints:
+                return True
+            if kind == int(mujoco.mjtWrap.mjWRAP_SITE) and moved[int(m.site_bodyid[obj])]:
+                return True
+        return False
+
+    def body_of(kind: int, obj: int) -> int:
+        return int(m.site_bodyid[obj]) if kind == int(mujoco.mjtObj.mjOBJ_SITE) else obj
+
+    out = []
+    for e in range(m.neq):
+        if not m.eq_active0[e]:
+            continue
+        kind, a, b = int(m.eq_type[e]), int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        if kind == int(eq.mjEQ_JOINT):
+            hit = a in joints or b in joints
+        elif kind == int(eq.mjEQ_TENDON):
+            hit = tendon_touches(a) or (b >= 0 and tendon_touches(b))
+        elif kind in (int(eq.mjEQ_CONNECT), int(eq.mjEQ_WELD), int(eq.mjEQ_DISTANCE)):
+            objtype = int(m.eq_objtype[e])
+            hit = bool(moved[body_of(objtype, a)] or (b >= 0 and moved[body_of(objtype, b)]))
+        else:  # flex constraints act on flex vertices, not on the configuration's joints
+            hit = False
+        if hit:
+            out.append(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e) or f"equality {e}")
+    return out
+
+
+def binding_tendon_limits(m: mujoco.MjModel, config: ConfigurationMap) -> list[str]:
+    """The limited tendons whose range can bind inside the configuration's joint ranges, each as "name (why)": a
+    ``<fixed>`` tendon whose length sum_j coef_j qpos_j can leave its range while the configuration joints stay
+    within theirs (the others held at ``qpos0``), or a ``<spatial>`` one whose length a configuration joint can
+    change (between bodies the configuration moves differently). MuJoCo holds such a tendon within its range, as it
+    does a joint; the planner, which moves each joint within its own range, would not."""
+    moved = np.zeros((config.dim, m.nbody), dtype=bool)
+    for i, j in enumerate(config.joint_ids):
+        moved[i] = body_subtree(m, int(m.jnt_bodyid[int(j)]))
+    where = {int(j): i for i, j in enumerate(config.joint_ids)}
+    lo_q = config.offset + config.scale * config.lower
+    hi_q = config.offset + config.scale * config.upper
+    qlo, qhi = np.minimum(lo_q, hi_q), np.maximum(lo_q, hi_q)
+    wrap = mujoco.mjtWrap
+    out = []
+    for t in range(m.ntendon):
+        if not m.tendon_limited[t]:
+            continue
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_TENDON, t) or f"tendon {t}"
+        lo, hi = (float(v) for v in m.tendon_range[t])
+        wraps = range(int(m.tendon_adr[t]), int(m.tendon_adr[t]) + int(m.tendon_num[t]))
+        if all(int(m.wrap_type[w]) == int(wrap.mjWRAP_JOINT) for w in wraps):  # fixed: a linear function of qpos
+            least = most = 0.0
+            terms = []
+            for w in wraps:
+                j, coef = int(m.wrap_objid[w]), float(m.wrap_prm[w])
+                if j in where:
+                    i = where[j]
+                    ends = (coef * qlo[i], coef * qhi[i])
+                    least, most = least + min(ends), most + max(ends)
+                    terms.append(f"{coef:g} {_joint_name(m, j)}")
+                else:
+                    value = coef * float(config.qpos0[int(m.jnt_qposadr[j])])
+                    least, most = least + value, most + value
+                    terms.append(f"{coef:g} {_joint_name(m, j)} (held at {float(config.qpos0[int(m.jnt_qposadr[j])]):.6g})")
+            if any(int(m.wrap_objid[w]) in where for w in wraps) and (least < lo - 1e-12 or most > hi + 1e-12):
+                out.append(f"'{name}' ({' + '.join(terms)} ranges over [{least:.6g}, {most:.6g}] within the joint ranges, "
+                           f"its range is [{lo:.6g}, {hi:.6g}])")
+            continue
+        bodies = []
+        for w in wraps:
+            kind, obj = int(m.wrap_type[w]), int(m.wrap_objid[w])
+            if kind == int(wrap.mjWRAP_SITE):
+                bodies.append(int(m.site_bodyid[obj]))
+            elif kind in (int(wrap.mjWRAP_SPHERE), int(wrap.mjWRAP_CYLINDER)):
+                bodies.append(int(m.geom_bodyid[obj]))
+        if all(np.array_equal(moved[:, b], moved[:, bodies[0]]) for b in bodies[1:]):
+            continue  # no configuration joint changes its length
+        lengths, Q = _spatial_tendon_lengths(m, config, t, qlo, qhi)
+        k = int(np.argmax(np.maximum(lo - lengths, lengths - hi)))
+        if lengths[k] < lo - 1e-12 or lengths[k] > hi + 1e-12:
+            out.append(f"'{name}' (a spatial tendon of length {lengths[k]:.6g} at qpos {np.round(Q[k], 6).tolist()} of "
+                       f"{', '.join(config.joint_names)}, within the joint ranges; its range is [{lo:.6g}, {hi:.6g}])")
+    return out
+
+
+#: Configurations a spatial tendon's length is sampled at (besides the corners of the joint box) to find a limit that binds.
+TENDON_SAMPLES = 2000
+
+
+def _spatial_tendon_lengths(m: mujoco.MjModel, config: ConfigurationMap, t: int, qlo: np.ndarray, qhi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tendon t's length at the corners of the configuration joints' qpos box (up to 10 joints) and at
+    :data:`TENDON_SAMPLES` seeded random points of it: (lengths (N,), the configuration joints' qpos (N, n)). A sample,
+    not a bound: a length found outside the range is reached within the joint ranges; none found proves nothing."""
+    n = config.dim
+    corners = np.array(np.meshgrid(*[(0.0, 1.0)] * n, indexing="ij")).reshape(n, -1).T if n <= 10 else np.empty((0, n))
+    unit = np.vstack([corners, np.random.default_rng(0).random((TENDON_SAMPLES, n))])
+    Q = qlo + (qhi - qlo) * unit
+    d = mujoco.MjData(m)
+    lengths = np.empty(len(Q))
+    for k, qpos in enumerate(Q):
+        d.qpos[:] = config.qpos0
+        d.qpos[config.qpos_index] = qpos
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_tendon(m, d)
+        lengths[k] = d.ten_length[t]
+    return lengths, Q
