@@ -400,8 +400,11 @@ class RobotModel:
     def contact_reach(self) -> tuple[tuple[int, int, float], ...]:
         """(geom, geom, distance) of every checked pair MuJoCo's collision detection tests whose contact acts before
         the geoms touch: margin - gap > 0 (the larger margin and gap of the two geoms, the ``<contact><pair>``'s own,
-        or the ``o_margin`` override), the distance at which MuJoCo's contact force starts."""
+        or the ``o_margin`` override), the distance at which MuJoCo's contact force starts. None when the model disables
+        contacts or constraints (``<flag contact="disable"/>``, ``constraint``): no contact force ever acts then."""
         m = self.model
+        if int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT):
+            return ()
         explicit = {(min(int(a), int(b)), max(int(a), int(b))): i for i, (a, b) in enumerate(zip(m.pair_geom1, m.pair_geom2))}
         override = bool(int(m.opt.enableflags) & int(mujoco.mjtEnableBit.mjENBL_OVERRIDE))
         tested = set(collision_pairs(m))

@@ -233,6 +233,20 @@ def test_geom_margins_change_no_clearance_and_are_refused_only_when_their_contac
         padded.check_margins(0.005)
 
 
+@pytest.mark.parametrize("flag", ["contact", "constraint"])
+def test_geom_margins_are_accepted_when_the_model_disables_contact_forces(tmp_path, flag):
+    """A model with <flag contact="disable"/> (no collision detection) or constraint="disable" (contacts found, no
+    force) has no contact that could push the arm off its path, whatever its margins: it was refused as if it had."""
+    scene = tmp_path / "nocontact.xml"
+    scene.write_text(
+        f'<mujoco><include file="{MODELS / "obstacle.xml"}"/><option><flag {flag}="disable"/></option>'
+        '<worldbody><geom name="post" type="cylinder" size="0.03 0.2" pos="0.3 0 0.2" margin="0.05"/></worldbody></mujoco>'
+    )
+    robot = RobotModel.from_xml(scene)
+    assert robot.contact_reach == ()
+    robot.check_margins(0.005)
+
+
 def test_a_height_field_obstacle_is_refused_naming_it(tmp_path):
     """MuJoCo's distance sensors do not support height fields: refused (ModelError, exit 2) before any distance query,
     instead of MuJoCo's compile error for the distance sensors (an internal error, exit 1)."""
