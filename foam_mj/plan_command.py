@@ -27,8 +27,15 @@ def record(path: Path, outcome=None, *, scenario=None, foam=None, recorder=None)
         job.write()
 
 
-def parse_q(text: str, flag: str) -> list[float]:
-    """``--start "0.1 0.2 0.3"`` (spaces or commas) as a list of numbers."""
+#: A keyframe's name given for an end point (``--start home``): not a number.
+_KEYFRAME_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*")
+
+
+def parse_q(text: str, flag: str, *, keyframe: bool = False) -> list[float] | str:
+    """``--start "0.1 0.2 0.3"`` (spaces or commas) as a list of numbers; with ``keyframe``, a name such as ``home``
+    is returned as it is (the scene's keyframe of that name, resolved with the scene: foam_mj.scenarios)."""
+    if keyframe and _KEYFRAME_NAME.fullmatch(text.strip()) and text.strip().lower() not in ("nan", "inf", "infinity"):
+        return text.strip()
     parts = text.replace(",", " ").split()
     try:
         if any("_" in v for v in parts):  # float() reads "0_08" as 8: a typo must not become another number
@@ -99,7 +106,8 @@ def plan_scenario(args: argparse.Namespace):
         if args.start is None or args.goal is None:
             raise FoamError("--mjcf needs --start and --goal (one number per configuration joint each)")
         mjcf = mjcf_file(args.mjcf)
-        doc: dict = {"name": re.sub(r"[^A-Za-z0-9_.\-]", "_", mjcf.stem), "scene": str(mjcf.resolve()), "q_init": parse_q(args.start, "--start"), "q_goal": parse_q(args.goal, "--goal")}
+        doc: dict = {"name": re.sub(r"[^A-Za-z0-9_.\-]", "_", mjcf.stem), "scene": str(mjcf.resolve()), "q_init": parse_q(args.start, "--start", keyframe=True),
+                     "q_goal": parse_q(args.goal, "--goal", keyframe=True)}
         base, source = Path.cwd(), None
     else:
         if args.start is not None or args.goal is not None:

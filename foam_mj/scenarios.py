@@ -6,7 +6,7 @@ Format (every field is checked; an unknown or missing one is named in the error)
     description = "..."                    # optional
     scene = "../models/obstacle.xml"       # MJCF scene, relative to the TOML file
     q_init = [0.2, 0.3, 0.08]
-    q_goal = [0.45, 0.4536, 1.45]
+    q_goal = [0.45, 0.4536, 1.45]          # or a keyframe's name, e.g. "home": its configuration joints' qpos
     seed = 0                               # optional, default 0
     robot_root = "pelvis"                  # optional: the body whose subtree is the robot (default: every
                                            # body a configuration joint moves); other bodies are obstacles
@@ -171,6 +171,23 @@ def _number_list(value, where: str, n: int | None = None) -> np.ndarray:
     if n is not None and len(value) != n:
         raise ScenarioError(f"{where} must have {n} numbers, got {len(value)}")
     return np.array(value, dtype=float)
+
+
+def _end_point(value, where: str, robot) -> np.ndarray:
+    """q_init or q_goal: a list of numbers (q), or the name of one of the scene's keyframes (``<key name="home">``),
+    whose qpos gives the configuration joints' values (its other joints' values are not used: those joints are held
+    at qpos0, or at the scenario's own ``keyframe``). ``robot()`` compiles the scene."""
+    if not isinstance(value, str):
+        return _number_list(value, where)
+    import mujoco
+
+    m = robot().model
+    k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, value) if value else -1
+    if k < 0:
+        names = [n for n in (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, i) for i in range(m.nkey)) if n]
+        raise ScenarioError(f"{where} = {value!r} is no keyframe of the scene (its named keyframes: "
+                            f"{', '.join(names) if names else 'none'}); give one number per configuration joint or a keyframe's name")
+    return np.asarray(robot().config.to_q(m.key_qpos[k]), dtype=float)
 
 
 def _number(value, where: str, lo: float | None = None, hi: float | None = None) -> float:
@@ -371,9 +388,18 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
         params = PlannerConfig.from_dict(planner)
     except (PlannerError, ValueError) as exc:
         raise ScenarioError(f"{path}: [planner] {exc}") from None
-    q_init = _number_list(raw["q_init"], f"{path}: field 'q_init'")
-    q_goal = _number_list(raw["q_goal"], f"{path}: field 'q_goal'")
     edits = _scene_edits(raw, str(path), base_dir)
+    robots: list[RobotModel] = []  # the scene, compiled only when an end point names a keyframe
+
+    def robot() -> RobotModel:
+        if not robots:
+            try:
+                robots.append(build_robot(scene, edits, robot_root=robot_root, self_collision=self_collision, keyframe=keyframe))
+            except FoamError as exc:
+                raise ScenarioError(f"{path}: field 'scene': {exc}") from None
+        return robots[0]
+
+    q_init, q_goal = (_end_point(raw[f], f"{path}: field '{f}'", robot) for f in ("q_init", "q_goal"))
     scenario = Scenario(
         name, description, scene, q_init, q_goal, params, seed, source,
         robot_root=robot_root, self_collision=self_collision, keyframe=keyframe, edits=edits,

@@ -315,6 +315,20 @@ def test_time_limit_bounds_the_plan_and_a_bad_one_is_refused_before_any_work(tmp
     assert "the trees did not meet (time budget)" in capsys.readouterr().err
 
 
+def test_a_start_or_goal_may_name_a_keyframe_of_the_mjcf(tmp_path, capsys):
+    """`--start home` took only numbers ("must be numbers ... got 'home'"); a model's keyframe is where a user keeps a
+    robot's poses. Its qpos gives the configuration joints' values (ortholeg.xml's home: qpos 0 0.2 0.3 is q 0.2 0.3 0);
+    a name that is no keyframe is refused naming the ones there are."""
+    js = tmp_path / "k.json"
+    args = ["plan", "--mjcf", str(MODELS / "obstacle.xml"), "--goal", "0.45 0.4536 1.45", "--no-rrd", "--no-replay", "--smoother", "none"]
+    assert main([*args, "--start", "home", "--json", str(js)]) == 0
+    assert json.loads(js.read_text())["q_init"] == [0.2, 0.3, 0.0]
+    capsys.readouterr()
+    assert main([*args, "--start", "homy"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "--start = 'homy' is no keyframe of the scene (its named keyframes: home)" in err, err
+
+
 def test_replay_refuses_a_tampered_result(planned, tmp_path, capsys):
     doc = json.loads(planned["json"].read_text())
     doc["paths"]["centre"]["waypoints"][3] = [1.5, 0.0, 0.5]

@@ -235,3 +235,18 @@ def test_the_python_entry_points_name_an_argument_of_the_wrong_type():
         run(load_scenario("obstacle"), smoothers=None)
     with pytest.raises(TypeError, match="`report` must be None or a callable"):
         run(load_scenario("obstacle"), report="planning")
+
+
+def test_q_init_or_q_goal_may_name_a_keyframe_of_the_scene(tmp_path):
+    """A scenario's end point may be a keyframe's name: its qpos of the configuration joints, as q (hip displacement
+    normalized); a scene without such a keyframe is refused before any work, naming those it has."""
+    from foam_mj.data import models_dir
+    from foam_mj.scenarios import scenario_from_dict
+
+    scene = str(models_dir() / "obstacle.xml")
+    s = scenario_from_dict({"scene": scene, "q_init": "home", "q_goal": [0.45, 0.4536, 1.45]}, tmp_path)
+    np.testing.assert_allclose(s.q_init, [0.2, 0.3, 0.0])
+    with pytest.raises(ScenarioError, match=r"field 'q_goal' = 'stand' is no keyframe of the scene \(its named keyframes: home\)"):
+        scenario_from_dict({"scene": scene, "q_init": "home", "q_goal": "stand"}, tmp_path)
+    with pytest.raises(ScenarioError, match=r"its named keyframes: none"):
+        scenario_from_dict({"scene": str(models_dir() / "bench_arm6.xml"), "q_init": "home", "q_goal": "home"}, tmp_path)
