@@ -287,7 +287,7 @@ def default_distmax(delta: float, reach: float = 0.0) -> float:
 
 def distance_cap(robot: RobotModel, delta: float) -> float:
     """:func:`default_distmax` for ``robot``: the cap its oracle, scenario checks and replays measure with."""
-    return default_distmax(delta, DisplacementBound.from_model(robot).reach)
+    return default_distmax(delta, robot.displacement_bound.reach)
 
 
 class BubbleOracle:
@@ -307,7 +307,7 @@ class BubbleOracle:
         if not isinstance(robot, RobotModel):
             raise TypeError(f"BubbleOracle takes a foam_mj.model.RobotModel (RobotModel.from_xml(path)), got {type(robot).__name__}")
         robot.check_unchanged()
-        bound = DisplacementBound.from_model(robot)
+        bound = robot.displacement_bound
         distmax = default_distmax(delta, bound.reach) if distmax is None and is_number(delta) else distmax
         for name, value in (("delta", delta), ("distmax", distmax)):
             if not is_number(value):

@@ -156,6 +156,7 @@ class RobotModel:
         del state["_local"]
         state.pop("fixed_obstacle_distances", None)  # caches
         state.pop("contact_reach", None)
+        state.pop("displacement_bound", None)
         if self.spec is not None:  # MjSpec does not pickle: its MJCF text does
             state["spec"] = self.xml if self.xml is not None else scene_xml(self.spec.copy(), self.path)
         return state
@@ -365,6 +366,14 @@ class RobotModel:
 
     def geom_name(self, g: int) -> str:
         return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"geom{g}"
+
+    @cached_property
+    def displacement_bound(self):
+        """The bubble bound's rho per geom and coordinate (:class:`foam_mj.bubbles.DisplacementBound`), computed once
+        (5 ms on the leg): the oracle, the scenario checks' and replays' distance cap share it."""
+        from foam_mj.bubbles import DisplacementBound
+
+        return DisplacementBound.from_model(self)
 
     @cached_property
     def fixed_obstacle_distances(self) -> tuple[tuple[int, int, float], ...]:
