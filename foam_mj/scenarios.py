@@ -406,7 +406,7 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     )
     scenario.limits, scenario.time_law = _limits(raw.get("limits"), path)
     if check:
-        check_scenario(scenario)
+        check_scenario(scenario, robots[0] if robots else None)  # the scene compiled once, for a keyframe end point
     return scenario
 
 
