@@ -83,16 +83,37 @@ class Parser(argparse.ArgumentParser):
         """argparse's, but a value that starts with a minus sign stays its option's value: argparse took
         ``--start "-0.1,0.3,0.08"`` (or ``--delta -1e-3``) for an option of its own and said only 'expected one
         argument'; it passes a lone negative decimal or a value with a space. Here such a value is attached to an
-        option that takes one (``--start=-0.1,0.3,0.08``), up to a ``--``."""
+        option that takes one (``--start=-0.1,0.3,0.08``), up to a ``--``. A configuration given unquoted
+        (``--start 0.2 -0.3 0.08``: argparse said 'unrecognized arguments: -0.3 0.08') is read as one value: the
+        numbers that follow a configuration option (``metavar`` ``CONFIGURATION_METAVAR``) are joined."""
         if args is not None:
             args = list(args)
             i = 0
             while i < len(args) - 1 and args[i] != "--":
                 action = self._option_string_actions.get(args[i])
-                if action is not None and action.nargs is None and _NEGATIVE_VALUE.match(args[i + 1]):
-                    args[i : i + 2] = [f"{args[i]}={args[i + 1]}"]
+                if action is not None and action.nargs is None:
+                    end = i + 2
+                    if action.metavar == CONFIGURATION_METAVAR:
+                        while end < len(args) and _is_number_list(args[end]):
+                            end += 1
+                    if end > i + 2 or _NEGATIVE_VALUE.match(args[i + 1]):
+                        args[i:end] = [f"{args[i]}={' '.join(args[i + 1 : end])}"]
                 i += 1
         return super().parse_known_args(args, namespace)
+
+
+#: The metavar of an option whose value is a configuration (--start, --goal, --q): numbers, quoted or not.
+CONFIGURATION_METAVAR = '"q1 q2 ..."'
+
+
+def _is_number_list(text: str) -> bool:
+    """True for "0.3", "-1e-3" or "0.1,0.2": a further number of an unquoted configuration."""
+    parts = text.replace(",", " ").split()
+    try:
+        [float(v) for v in parts]
+    except ValueError:
+        return False
+    return bool(parts)
 
 
 #: A value that begins like a negative number ("-0.1,0.3", "-1e-3", "-.5"), which argparse reads as an option.
@@ -368,8 +389,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--scene", default=None, help="a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: obstacle)")
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="plan on any MJCF scene without a scenario file (needs --start and --goal; default planner parameters)")
-    p.add_argument("--start", metavar='"q1 q2 ..."', help="with --mjcf: the start configuration, one number per configuration joint (radians, metres)")
-    p.add_argument("--goal", metavar='"q1 q2 ..."', help="with --mjcf: the goal configuration")
+    p.add_argument("--start", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the start configuration, one number per configuration joint (radians, metres)")
+    p.add_argument("--goal", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the goal configuration")
     p.add_argument("--joints", metavar="a,b,c", help="the configuration joints, in order (default: the scenario's or the MJCF's declaration, else every limited hinge/slide joint)")
     p.add_argument("--delta", type=float, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
     p.add_argument("--time-limit", type=float, metavar="S", help="the planner's time budget in seconds: a plan that has not "
@@ -420,7 +441,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--scene", default=None, help="a scenario name or TOML path (its scene, joints, margin and robot options)")
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="any MJCF scene instead of a scenario")
-    p.add_argument("--q", required=True, metavar='"q1 q2 ..."', help='the configuration, one number per configuration joint (write --q="-0.1 0.2" for a leading minus)')
+    p.add_argument("--q", required=True, metavar=CONFIGURATION_METAVAR, help="the configuration, one number per configuration joint, separated by spaces or commas")
     p.add_argument("--joints", metavar="a,b,c", help="the configuration joints, in order (default: the scenario's or the MJCF's declaration, else every limited hinge/slide joint)")
     p.add_argument("--delta", type=float, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
     p.add_argument("--robot-root", metavar="BODY", help="the body whose subtree is the robot (other bodies are obstacles)")
