@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.errors import ModelError
-from foam_mj.mujoco_warnings import install_if_routed
+from foam_mj.mujoco_warnings import install_if_routed, kept_unless_failed
 
 
 def load_mjcf(path: str | Path) -> mujoco.MjModel:
@@ -28,7 +28,8 @@ def load_spec(path: str | Path) -> mujoco.MjSpec:
         raise ModelError(f"MJCF file not found: {p}")
     install_if_routed()
     try:
-        return mujoco.MjSpec.from_file(str(p))
+        with kept_unless_failed():
+            return mujoco.MjSpec.from_file(str(p))
     except ValueError as exc:  # MuJoCo reports XML and compile errors as ValueError
         raise ModelError(f"could not load MJCF file {p}: {' '.join(str(exc).split())}") from None
 
@@ -36,7 +37,8 @@ def load_spec(path: str | Path) -> mujoco.MjSpec:
 def compile_spec(spec: mujoco.MjSpec, path: str | Path) -> mujoco.MjModel:
     """Compile a spec, turning MuJoCo's errors into a :class:`ModelError` naming ``path``."""
     try:
-        return spec.compile()
+        with kept_unless_failed():
+            return spec.compile()
     except ValueError as exc:
         raise ModelError(f"could not load MJCF file {path}: {exc}") from None
 

@@ -13,6 +13,8 @@ from __future__ import annotations
 import re
 import sys
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 _ROUTE = False
 
@@ -32,6 +34,18 @@ def install_if_routed() -> None:
 
     if mujoco.get_mju_user_warning() is None:
         mujoco.set_mju_user_warning(_warn)
+
+
+@contextmanager
+def kept_unless_failed() -> Iterator[None]:
+    """Hold the warnings raised inside; issue them if the block ends normally, drop them if it raises. A load that
+    fails is one error line: MuJoCo's warning on the way ('Must provide extension or content_type to
+    mjp_findDecoder' for a file that is no MJCF) only repeated it as a second line."""
+    with warnings.catch_warnings(record=True) as held:
+        warnings.simplefilter("always")
+        yield
+    for w in held:
+        warnings.warn(w.message, w.category, stacklevel=3)
 
 
 def _warn(text: str) -> None:

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from foam_mj import atomic
-from foam_mj.cli import EXIT_CODES, build_parser, main
+from foam_mj.cli import EXIT_CODES, UsageError, build_parser, main
 
 from conftest import MODELS
 
@@ -594,3 +594,25 @@ def test_a_value_that_starts_with_a_minus_sign_is_its_options_value(capsys):
     assert err == "foam-mj: error: --delta must be a margin >= 0 in metres, got -0.001"
     assert main(["plan", "--scene", "obstacle", "--no-rrd", "-1"]) == 2  # a flag without a value keeps argparse's message
     assert "unrecognized arguments: -1" in capsys.readouterr().err
+
+
+def test_a_configuration_may_be_given_unquoted():
+    """`--start 0.2 -0.3 0.08` (no quotes, as a user types numbers) said 'unrecognized arguments: -0.3 0.08'. The
+    numbers after --start/--goal/--q are one configuration, quoted or not; a word after them still ends it."""
+    args = build_parser().parse_args(["plan", "--mjcf", "r.xml", "--start", "0.2", "-0.3", "1e-3", "--goal", "-.5,0", "1"])
+    assert (args.start, args.goal) == ("0.2 -0.3 1e-3", "-.5,0 1")
+    args = build_parser().parse_args(["bubble", "--scene", "obstacle", "--q", "-0.1", "0.3", "0.08"])
+    assert args.q == "-0.1 0.3 0.08"
+    assert build_parser().parse_args(["plan", "--mjcf", "r.xml", "--start", "home", "--goal", "0", "1"]).start == "home"
+    with pytest.raises(UsageError, match="unrecognized arguments: x"):
+        build_parser().parse_args(["plan", "--mjcf", "r.xml", "--start", "0.2", "0.3", "x", "--goal", "0 1"])
+
+
+def test_a_file_that_is_no_mjcf_is_one_line(tmp_path, capsys):
+    """`--mjcf notes` (a file with no .xml suffix) printed MuJoCo's 'Must provide extension or content_type to
+    mjp_findDecoder' warning as a line of its own above the error: a failed load's warnings are dropped."""
+    notes = tmp_path / "notes"
+    notes.write_text("not a model\n")
+    assert main(["plan", "--mjcf", str(notes), "--start", "0", "--goal", "1", "--no-rrd"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "could not load MJCF file" in err, err
