@@ -541,6 +541,8 @@ def _one_line(exc: BaseException) -> str:
 #: wall time): every file they write is complete and closed before they return, and they start nothing
 #: that needs an exit handler (no Ray, no temporary folders; the recording helper is ended).
 FAST_EXIT_COMMANDS = ("plan",)
+#: The variables that set the threads of numpy's BLAS (OpenBLAS; MKL and OpenMP builds), 1 for the command (:func:`main`).
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -549,6 +551,12 @@ def main(argv: list[str] | None = None) -> int:
         # It never renders with MuJoCo's OpenGL; without this, `import mujoco` also loads GLFW (a tenth
         # of a second of start-up). A user's own MUJOCO_GL wins.
         os.environ.setdefault("MUJOCO_GL", "disable")
+        # numpy's BLAS in one thread (set before numpy loads; a user's own setting wins): the planners' products are
+        # a few dozen rows by thousands of bubbles, where a second OpenBLAS thread gains little, and with the other core
+        # busy (the recording's helper process, a sweep's other workers) it waits on it: a failing bubbletree search of
+        # 15 s on 2 cores grew 16,300 bubbles with it and 28,900 without it (half the CPU time per bubble).
+        for var in BLAS_THREADS:
+            os.environ.setdefault(var, "1")
         install()  # Ctrl-C and `kill` stop a command: exit 130, no output half-written
         import warnings
 

@@ -401,6 +401,24 @@ def test_import_and_help_load_nothing_heavy():
     assert out.stdout.splitlines()[-1] == "loaded: "
 
 
+def test_the_command_runs_numpys_blas_in_one_thread_unless_told_otherwise():
+    """The `foam-mj` command sets OPENBLAS_NUM_THREADS and OMP_NUM_THREADS to 1 before numpy loads (a second BLAS
+    thread waits on a busy core: a long bubbletree search grew half as many bubbles); a user's own value wins."""
+    code = (
+        "import os, sys\n"
+        "from foam_mj import cli\n"
+        "sys.argv = ['foam-mj', 'plan', '--no-such-flag']\n"
+        "cli.main()\n"
+        "import numpy\n"
+        "print(os.environ.get('OPENBLAS_NUM_THREADS'), os.environ.get('OMP_NUM_THREADS'))\n"
+    )
+    for given, expected in (({}, "1 1"), ({"OPENBLAS_NUM_THREADS": "2", "OMP_NUM_THREADS": "3"}, "2 3")):
+        env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env={**env, **given})
+        assert out.returncode == 0, out.stderr
+        assert out.stdout.split() == expected.split()
+
+
 def test_a_coarse_timestep_that_holds_the_accelerations_says_so(tmp_path, capsys):
     """At a 20 ms timestep the rows can follow the curve to 1e-3 only below 14 rad/s^2, under the 50 rad/s^2
     limit: plan says which joints the timestep holds and to what, so the slower swing is not a silent surprise;
