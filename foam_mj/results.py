@@ -18,7 +18,7 @@ Layout (format "foam-mj/result", version 1)::
       "q_init": [...], "q_goal": [...], "seed": 0,
       "planner": {"algorithm": "pfm", "delta": 0.005, "max_bubbles": ..., "time_limit": ..., "K": 10, "r_min": 0.07},  # + the algorithm's options
       "robot": {"robot_root": null, "self_collision": true, "keyframe": null},  # what the robot is (foam_mj.model); replay rebuilds the same pairs
-      "outcome": "reached" | "queue empty" | "bubble budget" | "time budget",
+      "outcome": "reached" | "queue empty" | "bubble budget" | "time budget" | "stalled",
       "foam": {"stats": {"planner", "outcome", "bubbles", "distance_queries", "elapsed", "time_to_first_path", ...},
                "centers": [[...], ...], "radii": [...], "parents": [...]},   # every bubble
       "rosary": {"centers": [[...], ...], "radii": [...], "bubble_ids": [...]},

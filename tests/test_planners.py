@@ -832,6 +832,32 @@ def test_trees_that_cannot_meet_name_where_they_came_nearest_and_what_blocks_it(
     assert MujocoChecker(s.robot).distance(q) == pytest.approx(float(m.group(2)), abs=1e-4) and float(m.group(2)) < 0
 
 
+def test_trees_that_stop_coming_closer_give_up_before_the_time_budget(tmp_path):
+    """The same 0.8 m box: the trees fill their own sides with their smallest gap unchanged, and used to do so for the
+    whole time budget (60 s by default). After `stall` iterations without coming r_min / 2 closer they give up (outcome
+    "stalled"), saying so and where they came nearest; stall = 0 searches on until a budget ends."""
+    from foam_mj.bubbles import BubbleOracle
+
+    toml = tmp_path / "tall.toml"
+    base = load_scenario("obstacle")
+    toml.write_text(f"scene = '{base.scene}'\nq_init = {base.q_init.tolist()}\nq_goal = {base.q_goal.tolist()}\n"
+                    "[planner]\nalgorithm = 'bubbletree'\n[obstacle]\nsize = [0.2, 0.5, 0.8]\n")
+    s = load_scenario(toml)
+    oracle = BubbleOracle(s.robot, delta=0.005)
+    problem = PlanningProblem(oracle, s.q_init, s.q_goal, time_limit=600.0)
+    with pytest.raises(PlanningFailed, match=r"the trees did not meet \(stalled: 200 iterations without coming r_min / 2 = "
+                                             r"0\.00104 closer\) after \d+ bubbles in .*they came nearest at q = .*: the goal may "
+                                             r"be unreachable .*; the \[planner\] option stall = 0 searches until the time budget ends$") as err:
+        get_planner("bubbletree", stall=200).plan(problem, seed=0)
+    assert err.value.stats.outcome == "stalled" and 200 <= err.value.stats.details["iterations"] < 1000
+    with pytest.raises(PlanningFailed, match=r"the trees did not meet \(bubble budget\)") as err:
+        get_planner("bubbletree", stall=0).plan(PlanningProblem(oracle, s.q_init, s.q_goal, max_bubbles=4000), seed=0)
+    assert err.value.stats.details["iterations"] > 200
+    for bad, expected in ((-1, "an integer >= 0, got -1"), (1.5, "an integer >= 0, got 1.5"), (True, "a number, got True")):
+        with pytest.raises(PlannerError, match=f"`stall` must be {expected}"):
+            get_planner("bubbletree", stall=bad)
+
+
 def test_a_problem_names_a_margin_budget_or_count_that_is_not_a_number(oracles):
     """delta="0.005" failed in numpy ("ufunc 'isfinite' not supported for the input types"), time_limit="5" with
     "'>' not supported between instances of 'str' and 'int'", and max_bubbles=True was a budget of one bubble."""

@@ -129,7 +129,7 @@ class PlanStats:
     (``None`` when none did); ``details`` holds the planner's own counters."""
 
     planner: str
-    outcome: str  # "reached", or why not: "queue empty", "bubble budget", "time budget", ...
+    outcome: str  # "reached", or why not: "queue empty", "bubble budget", "time budget", "stalled" (bubbletree), ...
     bubbles: int
     distance_queries: int
     elapsed: float

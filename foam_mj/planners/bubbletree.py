@@ -144,6 +144,15 @@ STALLED = 20
 #: (on the 3-joint obstacle scene 60 bubbles cut plan + optimal smoother by ~13 % CPU at the same median
 #: length; on the 5-joint leg a cap of 60 cost 6 % of length, 100 costs nothing).
 CHAIN_PER_JOINT = 20
+#: ``stall``: the search for a first path ends (outcome "stalled") after this many iterations in which the trees came no
+#: closer than their smallest gap so far less r_min / 2. Bubbles cannot prove a goal unreachable; a goal enclosed by
+#: obstacles or beyond a wall leaves that gap unchanged while the trees fill their own regions, and they used to do so
+#: for the whole time budget (60 s by default). Measured (iterations without such progress before the first path):
+#: feasible narrow passages, an obstacle box 0.50-0.51 m tall (9 seeds, first path at iteration 790-4,275) at most 720,
+#: a step_down start on an edge 7.4 mm from the floor (seeds 0-6; at delta 6.5 mm seeds 0-2) at most 587, the benchmark
+#: problems (obstacle ... arm7, shelf6, 10 seeds; first path at iteration 5-18) 1. Unreachable: the leg's foot shut in a
+#: cup, and the box 0.7 m tall, stall from iteration 240-260 on (now stopped at about 3,250, 7-12 s, not 60).
+STALL = 3_000
 #: Upper bounds of ``batch``/``connect`` and of ``explore`` (beyond them memory or time explode, nothing improves).
 MAX_EXTENSIONS = 1_000
 MAX_EXPLORE = 100.0
@@ -187,7 +196,8 @@ class BubbleTreeOptions:
     explore only where a shorter path can pass (the informed set); ``metric``: the length the corridor
     minimises, ``"qpos"`` (MuJoCo's joint units: radians and metres, through the configuration map's scale)
     or ``"q"`` (the planner's coordinates; the same unless a joint is normalized); ``refine_chain``: no new
-    refinement round once the chain holds this many bubbles (0: 20 per joint)."""
+    refinement round once the chain holds this many bubbles (0: 20 per joint); ``stall``: give up (outcome "stalled") when the
+    trees have come no closer (by r_min / 2) in this many iterations before they meet (0: search until a budget ends)."""
 
     batch: int = 24
     connect: int = 4
@@ -201,9 +211,10 @@ class BubbleTreeOptions:
     informed: bool = True
     refine_chain: int = 0
     metric: str = "qpos"
+    stall: int = STALL
 
     def __post_init__(self) -> None:
-        for name in ("batch", "connect", "refine_rounds", "refine_chain"):
+        for name in ("batch", "connect", "refine_rounds", "refine_chain", "stall"):
             v = getattr(self, name)
             if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= (1 if name == "batch" else 0)):
                 raise ValueError(f"`{name}` must be an integer >= {1 if name == 'batch' else 0}, got {v!r}")
@@ -261,6 +272,7 @@ class BubbleTreePlanner(Planner):
 
         B = Bubbles(n)
         counters = {"iterations": 0, "candidates": 0, "rejected_small": 0, "rejected_covered": 0}
+        closest = [np.inf]  # the smallest gap between the trees so far
 
         def update_gaps(new: list[np.ndarray], find: bool = True) -> tuple[int, int] | None:
             """Refresh the gaps with the new bubbles of each tree (the last of their tree); if ``find``, return a
@@ -278,6 +290,7 @@ class BubbleTreePlanner(Planner):
                 D -= O.r[None, : O.n]
                 j = D.argmin(axis=1)
                 g = D[np.arange(k), j]
+                closest[0] = min(closest[0], float(g.min()))
                 better = g < T.gap[sl]
                 np.copyto(T.gap[sl], g, where=better)
                 np.copyto(T.mate[sl], O.idx[j], where=better)
@@ -342,7 +355,10 @@ class BubbleTreePlanner(Planner):
         t_first: float | None = None
         it_first = 0
         foam_first = 0
+        gap_then, it_then = np.inf, 0  # the gap at the last progress (the trees came r_min / 2 closer), and its iteration
         while True:
+            if closest[0] <= gap_then - 0.5 * r_min:
+                gap_then, it_then = closest[0], counters["iterations"]
             if link is not None and t_first is None:
                 t_first, it_first, foam_first = timer.elapsed(), counters["iterations"], B.n
                 cpu_first = time.process_time() - cpu0
@@ -350,10 +366,12 @@ class BubbleTreePlanner(Planner):
                     sampler = InformedSampler(q0, q1, chain_length(link), metric)
             if t_first is not None and counters["iterations"] - it_first >= int(np.ceil(o.explore * min(it_first, EXPLORE_CAP))):
                 break  # the first path, then `explore` x as many iterations again (at most EXPLORE_CAP) for other routes
-            if timer.elapsed() > problem.time_limit or B.n >= problem.max_bubbles:
+            stalled = t_first is None and o.stall and counters["iterations"] - it_then >= o.stall
+            if timer.elapsed() > problem.time_limit or B.n >= problem.max_bubbles or stalled:
                 if t_first is not None:
                     break
-                outcome = "time budget" if timer.elapsed() > problem.time_limit else "bubble budget"
+                outcome = ("time budget" if timer.elapsed() > problem.time_limit else "bubble budget" if B.n >= problem.max_bubbles
+                           else "stalled")
                 st = stats(outcome, None)
                 stuck = "".join(
                     (f"; the {side} tree never grew: {name}'s certified bubble has radius {r:.3g} < r_min = {r_min:.3g}"
@@ -366,7 +384,11 @@ class BubbleTreePlanner(Planner):
                     for side, name, q, r, out, T in (("start", "q_init", q0, r0, outside[0], B.trees[0]), ("goal", "q_goal", q1, r1, outside[1], B.trees[1]))
                     if (T.n == 1 and r < r_min) or (T.n < STALLED and (out or oracle.to_bounds(q) < r_min))
                 )
-                raise PlanningFailed.after(f"the trees did not meet ({outcome}) after {B.n} bubbles", st, stuck or closest_approach(), B.foam(q0, q1))
+                why, tail = outcome, stuck or closest_approach()
+                if outcome == "stalled":
+                    why += f": {o.stall:,} iterations without coming r_min / 2 = {0.5 * r_min:.3g} closer"
+                    tail += "; the [planner] option stall = 0 searches until the time budget ends"
+                raise PlanningFailed.after(f"the trees did not meet ({why}) after {B.n} bubbles", st, tail, B.foam(q0, q1))
             timer.report(B.n)
             counters["iterations"] += 1
             parents, targets, target_r = [], [], []
