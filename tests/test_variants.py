@@ -335,3 +335,30 @@ def test_a_start_just_inside_a_joint_limit_with_no_room_for_r_min_fails_at_once(
     with pytest.raises(PlanningFailed, match=r"after 1 bubbles .*: no bubble of radius >= r_min = 0.07 fits on the start's bubble") as err:
         VARIANTS[variant](scene_oracles["obstacle"], near_limit, s.q_goal, params, seed=0)
     assert err.value.stats.elapsed < 5.0 and err.value.stats.outcome == "queue empty"
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_a_start_whose_every_neighbour_is_under_r_min_fails_at_once_by_a_cover_of_its_bubble(tmp_path, variant):
+    """A wall 34 mm beside the leg's plane: no motion in the plane changes that clearance, so every bubble has radius
+    0.0408 < r_min = 0.07. The bound on the root's children (0.0408 + 0.0408) does not prove it; a cover of the root's
+    surface does, with a few dozen distance queries. gbpf's samples searched the whole time budget (a start beside an
+    obstacle on a 1,000-obstacle scene: 20 s), and rbpf and hpf said only that the candidates drawn had failed."""
+    from foam_mj.data import models_dir
+    from foam_mj.planners.variants import surface_holds_no_child
+
+    scene = tmp_path / "side_wall.xml"
+    scene.write_text(f'<mujoco><include file="{models_dir() / "ortholeg.xml"}"/><worldbody>'
+                     '<geom name="floor" type="plane" size="3 3 0.1"/>'
+                     '<geom name="side_wall" type="box" pos="0.5 0.114 0.6" size="1.5 0.01 0.6"/></worldbody></mujoco>')
+    oracle = BubbleOracle(RobotModel.from_xml(scene), delta=0.005)
+    s = SCEN["obstacle"]
+    params = FoamParams(K=10, r_min=0.07, delta=0.005, time_limit=60.0)
+    calls = oracle.clearance.calls
+    with pytest.raises(PlanningFailed, match=r"\(queue empty\) after 1 bubbles .*: no bubble of radius >= r_min = 0.07 fits on "
+                                             r"the start's bubble \(radius 0.0408\); lower r_min, or plan with bubbletree") as err:
+        VARIANTS[variant](oracle, s.q_init, s.q_goal, params, seed=0)
+    assert oracle.clearance.calls - calls < 200
+    r0 = float(oracle.radii(s.q_init[None])[0])
+    assert surface_holds_no_child(oracle, s.q_init, r0, 0.07)
+    assert not surface_holds_no_child(oracle, s.q_init, r0, r0)  # a child of the root's radius fits: nothing proven
+    assert not surface_holds_no_child(oracle, s.q_init, r0, 0.07, budget=10)  # a proof that needs more queries: none
