@@ -362,3 +362,16 @@ def test_a_start_whose_every_neighbour_is_under_r_min_fails_at_once_by_a_cover_o
     assert surface_holds_no_child(oracle, s.q_init, r0, 0.07)
     assert not surface_holds_no_child(oracle, s.q_init, r0, r0)  # a child of the root's radius fits: nothing proven
     assert not surface_holds_no_child(oracle, s.q_init, r0, 0.07, budget=10)  # a proof that needs more queries: none
+
+
+def test_a_start_bubble_of_micrometres_is_named_by_its_radius(scene_oracles):
+    """A start 0.01 mm above the margin: its bubble (radius 8.3e-6) was named 'radius 0.0000', which reads as none."""
+    from foam_mj.foam import plan as plan_pfm
+
+    s = SCEN["obstacle"]
+    q_init = [0.2, 0.3, 0.31746503525494024]  # the foot 5.01 mm from the box
+    params = FoamParams(K=10, r_min=0.07, delta=0.005)
+    with pytest.raises(PlanningFailed, match=r"no bubble of radius >= r_min = 0.07 fits on the start's bubble \(radius 8.33e-06\)"):
+        plan_gbpf(scene_oracles["obstacle"], q_init, s.q_goal, params, seed=0)
+    with pytest.raises(ConfigurationError, match=r"admits a root bubble of radius 8.33e-06 < r_min = 0.07"):
+        plan_pfm(scene_oracles["obstacle"], q_init, s.q_goal, params, seed=0)

@@ -270,7 +270,7 @@ class _Growth:
         if self.goal is None:
             stuck = ""
             if self.count == 1 and outcome != "bubble budget":  # a budget of one bubble stopped it, not r_min
-                bubble, r_min = f"the start's bubble (radius {self.radii[0]:.4f})", f"r_min = {self.params.r_min}"
+                bubble, r_min = f"the start's bubble (radius {self.radii[0]:.3g})", f"r_min = {self.params.r_min}"
                 if self.root_cannot_grow():  # proven by the bound: no candidate could have been good
                     stuck = f": no bubble of radius >= {r_min} fits on {bubble}; lower r_min, or plan with bubbletree"
                 elif outcome == "time budget":  # the clock, not the geometry (a child may fit)
