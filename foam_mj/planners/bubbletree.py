@@ -148,10 +148,10 @@ CHAIN_PER_JOINT = 20
 #: closer than their smallest gap so far less r_min / 2. Bubbles cannot prove a goal unreachable; a goal enclosed by
 #: obstacles or beyond a wall leaves that gap unchanged while the trees fill their own regions, and they used to do so
 #: for the whole time budget (60 s by default). Measured (iterations without such progress before the first path):
-#: feasible narrow passages, an obstacle box 0.50-0.51 m tall (9 seeds, first path at iteration 790-4,275) at most 720,
+#: feasible narrow passages, an obstacle box 0.50-0.51 m tall (11 plans, first path at iteration 790-4,275) at most 720,
 #: a step_down start on an edge 7.4 mm from the floor (seeds 0-6; at delta 6.5 mm seeds 0-2) at most 587, the benchmark
 #: problems (obstacle ... arm7, shelf6, 10 seeds; first path at iteration 5-18) 1. Unreachable: the leg's foot shut in a
-#: cup, and the box 0.7 m tall, stall from iteration 240-260 on (now stopped at about 3,250, 7-12 s, not 60).
+#: cup, and the box 0.7 m tall, stall from iteration 240-260 on (now stopped at about 3,250: 4-16 s on a loaded 2-core machine, not 60).
 STALL = 3_000
 #: Upper bounds of ``batch``/``connect`` and of ``explore`` (beyond them memory or time explode, nothing improves).
 MAX_EXTENSIONS = 1_000
