@@ -834,8 +834,9 @@ def test_trees_that_cannot_meet_name_where_they_came_nearest_and_what_blocks_it(
 
 def test_trees_that_stop_coming_closer_give_up_before_the_time_budget(tmp_path):
     """The same 0.8 m box: the trees fill their own sides with their smallest gap unchanged, and used to do so for the
-    whole time budget (60 s by default). After `stall` iterations without coming r_min / 2 closer they give up (outcome
-    "stalled"), saying so and where they came nearest; stall = 0 searches on until a budget ends."""
+    whole time budget (60 s by default). After `stall` iterations without coming r_min / 2 closer (at least as many as
+    before) they give up (outcome "stalled"), saying so and where they came nearest; stall = 0 searches on until a
+    budget ends."""
     from foam_mj.bubbles import BubbleOracle
 
     toml = tmp_path / "tall.toml"
@@ -845,17 +846,46 @@ def test_trees_that_stop_coming_closer_give_up_before_the_time_budget(tmp_path):
     s = load_scenario(toml)
     oracle = BubbleOracle(s.robot, delta=0.005)
     problem = PlanningProblem(oracle, s.q_init, s.q_goal, time_limit=600.0)
-    with pytest.raises(PlanningFailed, match=r"the trees did not meet \(stalled: 200 iterations without coming r_min / 2 = "
+    with pytest.raises(PlanningFailed, match=r"the trees did not meet \(stalled: \d+ iterations without coming r_min / 2 = "
                                              r"0\.00104 closer\) after \d+ bubbles in .*they came nearest at q = .*: the goal may "
                                              r"be unreachable .*; the \[planner\] option stall = 0 searches until the time budget ends$") as err:
         get_planner("bubbletree", stall=200).plan(problem, seed=0)
     assert err.value.stats.outcome == "stalled" and 200 <= err.value.stats.details["iterations"] < 1000
+    # It stops after `stall` iterations without progress, or after as many as it had run when it last came closer
+    # (a slow search that keeps coming closer is not cut).
+    idle = int(re.search(r"stalled: (\d+) iterations", str(err.value)).group(1))
+    assert idle == max(200, err.value.stats.details["iterations"] - idle)
     with pytest.raises(PlanningFailed, match=r"the trees did not meet \(bubble budget\)") as err:
         get_planner("bubbletree", stall=0).plan(PlanningProblem(oracle, s.q_init, s.q_goal, max_bubbles=4000), seed=0)
     assert err.value.stats.details["iterations"] > 200
     for bad, expected in ((-1, "an integer >= 0, got -1"), (1.5, "an integer >= 0, got 1.5"), (True, "a number, got True")):
         with pytest.raises(PlannerError, match=f"`stall` must be {expected}"):
             get_planner("bubbletree", stall=bad)
+
+
+def test_a_goal_in_a_slot_whose_bubbles_are_under_r_min_names_r_min_as_the_way_out(tmp_path):
+    """A two-link arm's forearm down in a slot 2 mm wider than it and the margin on each side: q_goal's bubble (2.67e-3)
+    and every bubble beside it are under r_min (3.34e-3), so its tree never grows. The failure said only 'move it away';
+    a smaller r_min plans it (certified), and the failure now says so."""
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.model import RobotModel
+
+    half = 0.025 + 0.005 + 0.002  # the forearm's radius, delta, 2 mm
+    arm = ('<body pos="0 0 0.5"><joint name="shoulder" type="hinge" axis="0 1 0" range="-1.7 1.7"/>'
+           '<geom type="capsule" fromto="0 0 0 0.35 0 0" size="0.03"/><body pos="0.35 0 0">'
+           '<joint name="elbow" type="hinge" axis="0 1 0" range="-2.6 2.6"/><geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.025"/>'
+           '</body></body>')
+    walls = "".join(f'<geom name="wall_{i}" type="box" pos="{0.35 + s * (half + 0.02)} 0 0.225" size="0.02 0.2 0.125"/>'
+                    for i, s in enumerate((-1, 1)))
+    scene = tmp_path / "slot.xml"
+    scene.write_text(f'<mujoco><compiler angle="radian"/><worldbody><geom type="plane" size="2 2 0.1"/>{walls}{arm}</worldbody></mujoco>')
+    oracle = BubbleOracle(RobotModel.from_xml(scene), delta=0.005)
+    problem = PlanningProblem(oracle, np.array([-1.0, 0.5]), np.array([0.0, np.pi / 2]), time_limit=600.0)
+    with pytest.raises(PlanningFailed, match=r"the goal tree never grew: q_goal's certified bubble has radius 0.00267 < r_min = "
+                                             r"0.00334 .*: move it away, or lower r_min \(an option of the \[planner\] table\)"):
+        get_planner("bubbletree", stall=300).plan(problem, seed=0)
+    res = get_planner("bubbletree", r_min=0.0005).plan(problem, seed=0)
+    assert res.stats.outcome == "reached" and res.rosary.check_structure() == []
 
 
 def test_a_problem_names_a_margin_budget_or_count_that_is_not_a_number(oracles):

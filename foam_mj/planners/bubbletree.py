@@ -145,13 +145,16 @@ STALLED = 20
 #: length; on the 5-joint leg a cap of 60 cost 6 % of length, 100 costs nothing).
 CHAIN_PER_JOINT = 20
 #: ``stall``: the search for a first path ends (outcome "stalled") after this many iterations in which the trees came no
-#: closer than their smallest gap so far less r_min / 2. Bubbles cannot prove a goal unreachable; a goal enclosed by
+#: closer than their smallest gap so far less r_min / 2, or, if more, as many as it had run when they last came closer
+#: (a slow search that keeps progressing is not cut: the 0.52 m box below). Bubbles cannot prove a goal unreachable; a goal enclosed by
 #: obstacles or beyond a wall leaves that gap unchanged while the trees fill their own regions, and they used to do so
 #: for the whole time budget (60 s by default). Measured (iterations without such progress before the first path):
 #: feasible narrow passages, an obstacle box 0.50-0.51 m tall (11 plans, first path at iteration 790-4,275) at most 720,
 #: a step_down start on an edge 7.4 mm from the floor (seeds 0-6; at delta 6.5 mm seeds 0-2) at most 587, the benchmark
 #: problems (obstacle ... arm7, shelf6, 10 seeds; first path at iteration 5-18) 1. Unreachable: the leg's foot shut in a
 #: cup, and the box 0.7 m tall, stall from iteration 240-260 on (now stopped at about 3,250: 4-16 s on a loaded 2-core machine, not 60).
+#: A box 0.52 m tall is feasible but slow: seed 0's first path came at iteration 16,049 (126 s), after stalls of up to
+#: 1,821 iterations; seed 1 had not met at 150 s, stalls up to 2,297 (the relative rule keeps such runs going).
 STALL = 3_000
 #: Upper bounds of ``batch``/``connect`` and of ``explore`` (beyond them memory or time explode, nothing improves).
 MAX_EXTENSIONS = 1_000
@@ -197,7 +200,8 @@ class BubbleTreeOptions:
     minimises, ``"qpos"`` (MuJoCo's joint units: radians and metres, through the configuration map's scale)
     or ``"q"`` (the planner's coordinates; the same unless a joint is normalized); ``refine_chain``: no new
     refinement round once the chain holds this many bubbles (0: 20 per joint); ``stall``: give up (outcome "stalled") when the
-    trees have come no closer (by r_min / 2) in this many iterations before they meet (0: search until a budget ends)."""
+    trees have come no closer (by r_min / 2) in this many iterations before they meet, or in as many as the search had run
+    when they last came closer, if more (0: search until a budget ends)."""
 
     batch: int = 24
     connect: int = 4
@@ -366,7 +370,7 @@ class BubbleTreePlanner(Planner):
                     sampler = InformedSampler(q0, q1, chain_length(link), metric)
             if t_first is not None and counters["iterations"] - it_first >= int(np.ceil(o.explore * min(it_first, EXPLORE_CAP))):
                 break  # the first path, then `explore` x as many iterations again (at most EXPLORE_CAP) for other routes
-            stalled = t_first is None and o.stall and counters["iterations"] - it_then >= o.stall
+            stalled = t_first is None and o.stall and counters["iterations"] - it_then >= max(o.stall, it_then)
             if timer.elapsed() > problem.time_limit or B.n >= problem.max_bubbles or stalled:
                 if t_first is not None:
                     break
@@ -376,7 +380,8 @@ class BubbleTreePlanner(Planner):
                 stuck = "".join(
                     (f"; the {side} tree never grew: {name}'s certified bubble has radius {r:.3g} < r_min = {r_min:.3g}"
                      f"{f' and < {SMALLEST:g}, too small to grow from' if r < SMALLEST else ''} (its clearance "
-                     f"is barely above delta or it lies next to a joint bound; `foam-mj bubble` shows which): move it away")
+                     f"is barely above delta or it lies next to a joint bound; `foam-mj bubble` shows which): move it away"
+                     f"{'' if r < SMALLEST else ', or lower r_min (an option of the [planner] table)'}")
                     if T.n == 1 and r < r_min else
                     (f"; the {side} tree stopped at {T.n} bubbles: {name} lies on {'an edge or corner of the joint box' if out else 'a joint limit'} "
                      f"and its certified bubble has radius {r:.3g}, so the bubbles beside it are too small to grow (clearance "
@@ -386,7 +391,7 @@ class BubbleTreePlanner(Planner):
                 )
                 why, tail = outcome, stuck or closest_approach()
                 if outcome == "stalled":
-                    why += f": {o.stall:,} iterations without coming r_min / 2 = {0.5 * r_min:.3g} closer"
+                    why += f": {counters['iterations'] - it_then:,} iterations without coming r_min / 2 = {0.5 * r_min:.3g} closer"
                     tail += "; the [planner] option stall = 0 searches until the time budget ends"
                 raise PlanningFailed.after(f"the trees did not meet ({why}) after {B.n} bubbles", st, tail, B.foam(q0, q1))
             timer.report(B.n)
