@@ -124,6 +124,8 @@ def surface_holds_no_child(oracle: BubbleOracle, c: np.ndarray, r: float, r_min:
         if (radii >= r_min).any():
             return False
         closed[inside] = radii + rho < r_min
+        if np.count_nonzero(~closed) * len(corners) > budget:  # the next level would cost more than is left
+            return False
         half /= 2
         patches = [(k, sgn, m + half * d) for (k, sgn, m), done in zip(patches, closed) if not done for d in corners]
     return True
