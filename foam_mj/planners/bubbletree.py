@@ -390,9 +390,12 @@ class BubbleTreePlanner(Planner):
                     if (T.n == 1 and r < r_min) or (T.n < STALLED and (out or oracle.to_bounds(q) < r_min))
                 )
                 why, tail = outcome, stuck or closest_approach()
+                idle, total = counters["iterations"] - it_then, counters["iterations"]
                 if outcome == "stalled":
-                    why += f": {counters['iterations'] - it_then:,} iterations without coming r_min / 2 = {0.5 * r_min:.3g} closer"
+                    why += f": {idle:,} iterations without coming r_min / 2 = {0.5 * r_min:.3g} closer"
                     tail += "; the [planner] option stall = 0 searches until the time budget ends"
+                else:  # a budget ended it: whether they were still coming closer tells whether more could help
+                    tail += f"; they last came r_min / 2 closer at iteration {it_then:,} of {total:,}"
                 raise PlanningFailed.after(f"the trees did not meet ({why}) after {B.n} bubbles", st, tail, B.foam(q0, q1))
             timer.report(B.n)
             counters["iterations"] += 1
