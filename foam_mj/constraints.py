@@ -11,25 +11,33 @@ from foam_mj.configuration import ConfigurationMap, _joint_name
 from foam_mj.geom_pairs import body_subtree
 
 
+def moved_by(m: mujoco.MjModel, config: ConfigurationMap) -> np.ndarray:
+    """(dim, nbody) booleans: which configuration joint moves which body (the joint's body and everything below it)."""
+    moved = np.zeros((config.dim, m.nbody), dtype=bool)
+    for i, j in enumerate(config.joint_ids):
+        moved[i] = body_subtree(m, int(m.jnt_bodyid[int(j)]))
+    return moved
+
+
 def coupling_equalities(m: mujoco.MjModel, config: ConfigurationMap) -> list[str]:
     """Names of the active equality constraints that tie a configuration joint to other motion: a joint or tendon
-    coupling that involves a configuration joint (a mimic joint), or a connect/weld/distance constraint on a body
-    that a configuration joint moves (a closed loop). The planner moves each coordinate independently and holds
-    every other joint at its pose, so its path would not be the motion MuJoCo, or the robot, makes."""
-    moved = np.zeros(m.nbody, dtype=bool)
-    for j in config.joint_ids:
-        moved |= body_subtree(m, int(m.jnt_bodyid[int(j)]))
+    coupling whose value a configuration joint changes (a mimic joint), or a connect/weld/distance constraint between
+    two bodies that the configuration joints move differently (a closed loop through a configuration joint). The
+    planner moves each coordinate independently and holds every other joint at its pose, so its path would not be the
+    motion MuJoCo, or the robot, makes. A loop that closes below every configuration joint (a gripper's linkage at the
+    end of an arm) moves as one piece with the arm's links, and holds as it does at the held pose."""
+    moved = moved_by(m, config)
     joints = {int(j) for j in config.joint_ids}
     eq = mujoco.mjtEq
 
-    def tendon_touches(t: int) -> bool:
-        for w in range(int(m.tendon_adr[t]), int(m.tendon_adr[t]) + int(m.tendon_num[t])):
-            kind, obj = int(m.wrap_type[w]), int(m.wrap_objid[w])
-            if kind == int(mujoco.mjtWrap.mjWRAP_JOINT) and obj in joints:
-                return True
-            if kind == int(mujoco.mjtWrap.mjWRAP_SITE) and moved[int(m.site_bodyid[obj])]:
-                return True
-        return False
+    def apart(bodies: list[int]) -> bool:  # does some configuration joint move these bodies relative to each other?
+        return any(not np.array_equal(moved[:, b], moved[:, bodies[0]]) for b in bodies[1:])
+
+    def tendon_changes(t: int) -> bool:  # can a configuration joint change tendon t's length?
+        wraps = range(int(m.tendon_adr[t]), int(m.tendon_adr[t]) + int(m.tendon_num[t]))
+        if any(int(m.wrap_type[w]) == int(mujoco.mjtWrap.mjWRAP_JOINT) and int(m.wrap_objid[w]) in joints for w in wraps):
+            return True
+        return apart(_spatial_bodies(m, t))
 
     def body_of(kind: int, obj: int) -> int:
         return int(m.site_bodyid[obj]) if kind == int(mujoco.mjtObj.mjOBJ_SITE) else obj
@@ -42,15 +50,27 @@ def coupling_equalities(m: mujoco.MjModel, config: ConfigurationMap) -> list[str
         if kind == int(eq.mjEQ_JOINT):
             hit = a in joints or b in joints
         elif kind == int(eq.mjEQ_TENDON):
-            hit = tendon_touches(a) or (b >= 0 and tendon_touches(b))
+            hit = tendon_changes(a) or (b >= 0 and tendon_changes(b))
         elif kind in (int(eq.mjEQ_CONNECT), int(eq.mjEQ_WELD), int(eq.mjEQ_DISTANCE)):
             objtype = int(m.eq_objtype[e])
-            hit = bool(moved[body_of(objtype, a)] or (b >= 0 and moved[body_of(objtype, b)]))
+            hit = apart([body_of(objtype, a), body_of(objtype, b) if b >= 0 else 0])  # no second body: the world
         else:  # flex constraints act on flex vertices, not on the configuration's joints
             hit = False
         if hit:
             out.append(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e) or f"equality {e}")
     return out
+
+
+def _spatial_bodies(m: mujoco.MjModel, t: int) -> list[int]:
+    """The bodies of tendon t's sites and wrapping geoms (none for a fixed tendon)."""
+    bodies = []
+    for w in range(int(m.tendon_adr[t]), int(m.tendon_adr[t]) + int(m.tendon_num[t])):
+        kind, obj = int(m.wrap_type[w]), int(m.wrap_objid[w])
+        if kind == int(mujoco.mjtWrap.mjWRAP_SITE):
+            bodies.append(int(m.site_bodyid[obj]))
+        elif kind in (int(mujoco.mjtWrap.mjWRAP_SPHERE), int(mujoco.mjtWrap.mjWRAP_CYLINDER)):
+            bodies.append(int(m.geom_bodyid[obj]))
+    return bodies
 
 
 def binding_tendon_limits(m: mujoco.MjModel, config: ConfigurationMap) -> list[str]:
@@ -59,9 +79,7 @@ def binding_tendon_limits(m: mujoco.MjModel, config: ConfigurationMap) -> list[s
     within theirs (the others held at ``qpos0``), or a ``<spatial>`` one whose length a configuration joint can
     change (between bodies the configuration moves differently). MuJoCo holds such a tendon within its range, as it
     does a joint; the planner, which moves each joint within its own range, would not."""
-    moved = np.zeros((config.dim, m.nbody), dtype=bool)
-    for i, j in enumerate(config.joint_ids):
-        moved[i] = body_subtree(m, int(m.jnt_bodyid[int(j)]))
+    moved = moved_by(m, config)
     where = {int(j): i for i, j in enumerate(config.joint_ids)}
     lo_q = config.offset + config.scale * config.lower
     hi_q = config.offset + config.scale * config.upper
@@ -92,13 +110,7 @@ def binding_tendon_limits(m: mujoco.MjModel, config: ConfigurationMap) -> list[s
                 out.append(f"'{name}' ({' + '.join(terms)} ranges over [{least:.6g}, {most:.6g}] within the joint ranges, "
                            f"its range is [{lo:.6g}, {hi:.6g}])")
             continue
-        bodies = []
-        for w in wraps:
-            kind, obj = int(m.wrap_type[w]), int(m.wrap_objid[w])
-            if kind == int(wrap.mjWRAP_SITE):
-                bodies.append(int(m.site_bodyid[obj]))
-            elif kind in (int(wrap.mjWRAP_SPHERE), int(wrap.mjWRAP_CYLINDER)):
-                bodies.append(int(m.geom_bodyid[obj]))
+        bodies = _spatial_bodies(m, t)
         if all(np.array_equal(moved[:, b], moved[:, bodies[0]]) for b in bodies[1:]):
             continue  # no configuration joint changes its length
         lengths, Q = _spatial_tendon_lengths(m, config, t, qlo, qhi)

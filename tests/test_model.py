@@ -318,6 +318,39 @@ def test_an_equality_that_ties_a_configuration_joint_to_other_motion_is_refused_
     assert load('<equality><weld body1="mocap" body2="loose"/></equality>').dim == 3
 
 
+def test_a_closed_loop_below_every_configuration_joint_is_not_a_coupling(tmp_path):
+    """A gripper's four-bar linkage at the end of an arm (a <connect> between two finger links, as on the xArm7 of
+    MuJoCo Menagerie) was refused as tying the arm's joints to other motion: the arm moves the whole loop as one
+    piece, so the constraint holds along any path as it does at the held pose. A loop, or a tendon coupling, that a
+    configuration joint opens or closes (a finger joint planned too, a loop from the gripper to the world) is refused."""
+    arm = (
+        '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+        '<body name="b1" pos="0 0 .5"><joint name="a" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '<body name="b2" pos=".3 0 0"><joint name="b" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '<body name="f1" pos=".3 0 .03"><joint name="g1" axis="0 1 0" range="-30 30"/><geom type="capsule" fromto="0 0 0 .1 0 0" size=".01"/>'
+        '<site name="s1" pos=".1 0 0"/></body>'
+        '<body name="f2" pos=".3 0 -.03"><joint name="g2" axis="0 1 0" range="-30 30"/><geom type="capsule" fromto="0 0 0 .1 0 0" size=".01"/>'
+        '<site name="s2" pos=".1 0 0"/></body>'
+        '</body></body></worldbody>'
+        '<tendon><spatial name="span"><site site="s1"/><site site="s2"/></spatial></tendon>{eq}</mujoco>'
+    )
+
+    def load(eq: str, joints) -> RobotModel:
+        scene = tmp_path / "gripper.xml"
+        scene.write_text(arm.replace("{eq}", eq))
+        return RobotModel.from_xml(scene, joints=joints)
+
+    loop = '<equality><connect name="linkage" body1="f1" body2="f2" anchor=".1 0 0"/></equality>'
+    assert load(loop, ["a", "b"]).dim == 2
+    assert load('<equality><tendon name="tied" tendon1="span"/></equality>', ["a", "b"]).dim == 2
+    with pytest.raises(ModelError, match=r"\['linkage'\] tie a configuration joint"):
+        load(loop, ["a", "b", "g1"])
+    with pytest.raises(ModelError, match=r"\['tied'\] tie a configuration joint"):
+        load('<equality><tendon name="tied" tendon1="span"/></equality>', ["a", "g2"])
+    with pytest.raises(ModelError, match=r"\['anchored'\] tie a configuration joint"):
+        load('<equality><connect name="anchored" body1="f1" body2="world" anchor=".1 0 0"/></equality>', ["a"])
+
+
 def test_the_constructors_name_an_argument_of_the_wrong_type(obstacle_robot):
     import mujoco
 
