@@ -358,3 +358,39 @@ def test_a_law_toppra_leaves_just_over_a_limit_is_stretched_to_meet_it():
     assert np.all(np.abs(traj.qvel[:, dof]).max(axis=0) <= vmax * (1 + 1e-9))
     assert np.all(np.abs(traj.qacc[:, dof]).max(axis=0) <= amax * (1 + 1e-9))
     assert out.paths["convex"].kinematic.min_clearance >= s.params.delta
+
+
+def test_a_refinement_round_that_finds_no_timing_stretches_the_last_law(tmp_path, monkeypatch):
+    """On a jagged harmony-search path of the xArm7 (MuJoCo Menagerie) toppra's first law overshot joint4's torque limit
+    by 35 % between its grid points; the next round, its limit lowered by 1.2 x that overshoot to just above gravity,
+    found no timing, and plan exited 3 ('toppra found no timing under the limits') on a path a slower timing fits. A
+    round that finds none now ends the refinements, and the last law is stretched uniformly to meet every limit; the
+    stretch solves for the torque's gravity, damping and inertial parts (a stretch by the square root of the overshoot
+    undershot where gravity and friction take much of the limit: three left joint4, and this shoulder, over it)."""
+    import foam_mj.timing as timing
+
+    (tmp_path / "arm.xml").write_text(TWO_LINK_ARM.read_text().replace('damping="0.5"', 'damping="0.5" frictionloss="1" armature="0.2"'))
+    robot = RobotModel.from_xml(tmp_path / "arm.xml")
+    line = segment_rosary(np.array([-0.3, 0.2]), np.array([-1.5, 1.8]))  # raising the arm, above the post
+    base = make_trajectory(robot, line.path(np.empty((0, 2))), line)
+    free = retime(robot, base, line, Limits(torque=(1e6, 1e6)), "toppra")
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    peak = np.abs(inverse_dynamics(robot, free.qpos, free.qvel, free.qacc)[:, dof]).max(axis=0)
+    zero = np.zeros_like(free.qvel)
+    held = np.abs(inverse_dynamics(robot, free.qpos, zero, zero)[:, dof]).max(axis=0)
+    limit = held + 1.0 + 0.3 * (peak - held - 1.0)  # gravity and friction take much of it, as joint4's
+    calls = []
+    toppra_law = timing._toppra_law
+
+    def first_only(kin, vmax, amax, tmax, x0=None):  # the first law overshoots (timed as if unlimited), the next fails
+        calls.append(x0)
+        if len(calls) > 1:
+            raise TimingInfeasible("toppra found no timing of the path under the limits")
+        return toppra_law(kin, vmax, amax, np.full_like(tmax, np.inf), x0)
+
+    monkeypatch.setattr(timing, "_toppra_law", first_only)
+    traj = retime(robot, base, line, Limits(torque=tuple(limit)), "toppra")
+    assert len(calls) == 2
+    tau = np.abs(inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]).max(axis=0)
+    assert np.all(tau <= limit * (1 + 1e-9)) and traj.duration > free.duration
+    np.testing.assert_allclose(traj.qpos[[0, -1]], base.qpos[[0, -1]])
