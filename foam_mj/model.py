@@ -367,6 +367,15 @@ class RobotModel:
     def geom_name(self, g: int) -> str:
         return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"geom{g}"
 
+    def geom_label(self, g: int) -> str:
+        """The geom's name for a message: a geom the MJCF left unnamed (``geom<i>`` here, :func:`name_unnamed_geoms`)
+        with the body it is on, "geom16 (on body link1)", which a user can find in the MJCF."""
+        name = self.geom_name(g)
+        if name.rstrip("_") != f"geom{int(g)}":
+            return name
+        body = int(self.model.geom_bodyid[int(g)])
+        return f"{name} (on body {mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, body) or body})"
+
     @cached_property
     def displacement_bound(self):
         """The bubble bound's rho per geom and coordinate (:class:`foam_mj.bubbles.DisplacementBound`), computed once
@@ -399,7 +408,7 @@ class RobotModel:
         for a, b, dist in self.fixed_obstacle_distances:
             if dist <= delta:
                 raise ConfigurationError(
-                    f"robot geom {self.geom_name(a)} and obstacle {self.geom_name(b)} are {clearance_text(dist, delta)} "
+                    f"robot geom {self.geom_label(a)} and obstacle {self.geom_label(b)} are {clearance_text(dist, delta)} "
                     f"apart, within the safety margin delta {delta} m, and no configuration joint changes that distance, "
                     "so every path would break the margin (move one of them, give the geom contype=\"0\" conaffinity=\"0\" "
                     "if it never meets the obstacle, or make a joint between them a configuration joint)"
@@ -440,7 +449,7 @@ class RobotModel:
         for a, b, reach in self.contact_reach:
             if reach > delta:
                 raise ConfigurationError(
-                    f"collision geoms {self.geom_name(a)} and {self.geom_name(b)} have a contact margin: MuJoCo's contact "
+                    f"collision geoms {self.geom_label(a)} and {self.geom_label(b)} have a contact margin: MuJoCo's contact "
                     f"between them acts from {reach:.6g} m (margin less gap), farther out than the safety margin delta "
                     f"{delta} m, so a planned path would be pushed off in simulation; raise delta to at least {reach:.6g} m "
                     "(--delta), or set margin=\"0\" (or a gap as large) on those geoms"

@@ -440,6 +440,13 @@ def _meet_at_a_joint(robot: RobotModel, a: int, b: int) -> bool:
     return int(m.body_weldid[fixed]) == 0 and fixed == int(m.body_parentid[m.body_weldid[m.geom_bodyid[a]]])
 
 
+def _held(robot: RobotModel, g: int) -> bool:
+    """Is geom g on a body that a joint moves, none of them a configuration joint (a floating base, a stance leg)?"""
+    from foam_mj.geom_pairs import body_is_moving
+
+    return bool(body_is_moving(robot.model, int(robot.model.geom_bodyid[g])) and not robot.moves[g].any())
+
+
 def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check_clearance: bool = True) -> None:
     """Load the scene (unless its compiled ``robot`` is given, e.g. a sweep worker's cached one) and check
     q_init and q_goal: shape, bounds, and (unless ``check_clearance`` is false) clearance above the margin."""
@@ -486,11 +493,16 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
                             "self_collision = false in a scenario)")
                 elif _meet_at_a_joint(robot, int(a), int(b)):
                     hint += (f"; {robot.geom_name(int(a))} is on a link jointed to the fixed body of {robot.geom_name(int(b))}: they "
-                            "are checked like any robot/obstacle pair (<contact><exclude> does not apply), so shorten one so they do "
-                            "not overlap, or give the fixed one contype=\"0\" conaffinity=\"0\"")
+                            "are checked like any robot/obstacle pair (<contact><exclude> does not apply), so shorten one so they "
+                            "keep delta apart, or give the fixed one contype=\"0\" conaffinity=\"0\"")
+                elif _held(robot, int(b)):
+                    hint += (f"; {robot.geom_name(int(b))} is on a body that a joint outside the configuration moves, held at its pose "
+                            "as an obstacle whatever contype/conaffinity say: if it is part of the robot (a floating base, the other "
+                            "leg), name the robot's root body (--robot-root; robot_root in a scenario), and its pairs with the planned "
+                            "links follow MuJoCo's contact filters as self-collision")
                 raise ScenarioError(
                     f"{where}: field '{field_name}' = {q.tolist()} is {state}: clearance {clearance_text(d, scenario.params.delta)} "
-                    f"between {robot.geom_name(int(a))} and {robot.geom_name(int(b))} "
+                    f"between {robot.geom_label(int(a))} and {robot.geom_label(int(b))} "
                     f"(the safety margin delta is {scenario.params.delta} m; `foam-mj bubble` shows more){hint}"
                 )
         if check_clearance:  # a per-plan check in a sweep, as the clearance's (see check_clearance)

@@ -153,6 +153,34 @@ def test_a_first_link_overlapping_its_fixed_base_is_refused_with_the_way_out(tmp
         load_scenario(p)
 
 
+def test_pair_messages_name_the_body_of_an_unnamed_geom_and_the_way_out_of_a_held_base(tmp_path):
+    """MuJoCo Menagerie's robots leave collision geoms unnamed: "between geom9 and geom4" (Cassie) or "robot geom geom45
+    and obstacle floor" sent a user counting geoms in several included files; the message now adds the body. A planned
+    hip link overlapping its floating pelvis, which the planner holds as an obstacle (its free joint is no configuration
+    joint) whatever contype/conaffinity say, is refused with the way out: the robot's root body as robot_root."""
+    (tmp_path / "hip.xml").write_text(
+        '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 0.1"/>'
+        '<body name="pelvis" pos="0 0 1"><freejoint/><geom type="capsule" fromto="0 -0.1 0 0 0.1 0" size="0.08" contype="1" conaffinity="0"/>'
+        '<body name="roll" pos="0 0.1 0"><joint name="roll" axis="1 0 0"/><inertial pos="0 0 0" mass="0.1" diaginertia="1e-4 1e-4 1e-4"/><body name="thigh"><joint name="hip" axis="0 1 0" range="-60 60"/>'
+        '<geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.05" contype="2" conaffinity="4"/></body></body>'
+        '<body name="stance" pos="0 -0.1 0"><joint name="other" axis="0 1 0"/>'
+        '<geom type="capsule" fromto="0 0 0 0 0 -0.{drop}" size="0.05" contype="2" conaffinity="4"/></body></body></worldbody></mujoco>'
+    )
+    xml = (tmp_path / "hip.xml").read_text()
+    (tmp_path / "hip.xml").write_text(xml.replace("{drop}", "5"))
+    p = tmp_path / "hip.toml"
+    p.write_text('name = "hip"\nscene = "hip.xml"\nq_init = [-0.5]\nq_goal = [0.5]\n')
+    with pytest.raises(ScenarioError, match=r"in collision: clearance -0\.\d+ m between geom2 \(on body thigh\) and geom1 \(on body pelvis\) "
+                                            r".*; geom1 is on a body that a joint outside the configuration moves.*--robot-root; robot_root"):
+        load_scenario(p)
+    p.write_text('name = "hip"\nscene = "hip.xml"\nrobot_root = "pelvis"\nq_init = [-0.5]\nq_goal = [0.5]\n')
+    (tmp_path / "hip.xml").write_text(xml.replace("{drop}", "97"))  # the held stance leg 2 cm into the floor
+    with pytest.raises(ScenarioError, match=r"robot geom geom3 \(on body stance\) and obstacle floor are -0\.0\d+ m apart"):
+        load_scenario(p)
+    (tmp_path / "hip.xml").write_text(xml.replace("{drop}", "5"))
+    assert load_scenario(p).name == "hip"  # the pelvis/thigh pair is a robot/robot one, filtered as MuJoCo does
+
+
 def test_two_links_overlapping_at_a_universal_joint_are_refused_with_both_ways_out(tmp_path, capsys):
     """Links meeting at a two-body universal joint overlap by design (grandparent and grandchild, which MuJoCo's
     parent/child filter does not exempt): the message names the <exclude> to add and the flag that drops
