@@ -361,6 +361,9 @@ def servo_model(robot: RobotModel) -> tuple[mujoco.MjModel, str]:
         return spec.compile(), ""
     for act in list(spec.actuators):
         spec.delete(act)
+    for sensor in list(spec.sensors):  # an actuator sensor (Cassie's actuatorpos) would name a deleted actuator
+        if sensor.objtype == mujoco.mjtObj.mjOBJ_ACTUATOR:
+            spec.delete(sensor)
     inertia = effective_inertia(robot)
     omega = 2 * np.pi * SERVO_HZ
     gains = []

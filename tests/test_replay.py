@@ -380,3 +380,24 @@ def test_added_servos_have_a_gain_when_two_hinges_share_an_axis(tmp_path):
     line = segment_rosary(a, b)
     dyn = replay_dynamic(robot, make_trajectory(robot, line.path(np.empty((0, 3))), line))
     assert np.all(np.isfinite(dyn.qpos))
+
+
+def test_servos_replace_motors_that_sensors_refer_to(tmp_path):
+    """Cassie (MuJoCo Menagerie) reads its motors with <actuatorpos> sensors: replacing the motors by position servos
+    for the replay left the sensors naming deleted actuators, the copy did not compile, and `plan` ended in an internal
+    error (exit 1) after planning. The copy drops the actuator sensors (the others stay)."""
+    scene = tmp_path / "sensed.xml"
+    scene.write_text(
+        '<mujoco><worldbody><geom type="plane" size="1 1 0.1" pos="0 0 -1"/><body>'
+        '<joint name="a" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>'
+        '<body pos="0.3 0 0"><joint name="b" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02"/>'
+        '</body></body></worldbody><actuator><motor name="ma" joint="a"/><motor name="mb" joint="b"/><motor name="mx" joint="b"/></actuator>'
+        '<sensor><actuatorpos name="pa" actuator="ma"/><jointpos name="jb" joint="b"/></sensor>'
+        '</mujoco>'
+    )
+    robot = RobotModel.from_xml(scene)
+    m, note = servo_model(robot)
+    assert "added position servo" in note and m.nu == 2 and m.nsensor == 1
+    line = segment_rosary(np.zeros(2), np.array([0.3, 0.4]))
+    dyn = replay_dynamic(robot, make_trajectory(robot, line.path(np.empty((0, 2))), line))
+    assert dyn.warnings == () and np.all(dyn.max_error < 5e-3)
