@@ -15,7 +15,9 @@ joint that is not a configuration coordinate is an obstacle where the rows put i
 contype/conaffinity filtering, as the planner (only a geom on the same or the parent or child
 body of a moving one is left out, as by MuJoCo: they meet at their joint); and, unless the result says the robot was planned
 with ``self_collision`` false, between the robot's own geoms, for the pairs MuJoCo's collision detection
-tests whose distance a configuration joint changes (:func:`collision_pairs`). A sample is a *violation*
+tests whose distance a configuration joint changes (:func:`collision_pairs`). A result planned with a ``robot_root``
+counts that body's subtree as the robot, as the planner does: its geoms no configuration joint moves (a held floating
+base) are checked against the static ones, and against the moving ones as robot/robot pairs. A sample is a *violation*
 when some pair is closer than the result's margin ("planner" / "delta").
 
 Speed: poses of all samples come from one ``mj_kinematics`` call each; a bounding-sphere lower bound
@@ -162,7 +164,8 @@ def _attached(m: mujoco.MjModel, a: int, b: int) -> bool:
     return bool(filter_parent and wa and wb and (wa == int(m.body_weldid[m.body_parentid[wb]]) or wb == int(m.body_weldid[m.body_parentid[wa]])))
 
 
-def collision_pairs(m: mujoco.MjModel, qpos_index: np.ndarray | None = None, self_collision: bool = False) -> np.ndarray:
+def collision_pairs(m: mujoco.MjModel, qpos_index: np.ndarray | None = None, self_collision: bool = False,
+                    root: int | None = None) -> np.ndarray:
     """(P, 2) geom ids: every moving collision geom against every static one, and with ``self_collision``
     the robot/robot pairs.
 
@@ -176,20 +179,39 @@ def collision_pairs(m: mujoco.MjModel, qpos_index: np.ndarray | None = None, sel
     Robot/robot pairs cannot be checked unfiltered (a thigh touches its shank at the knee by design), so
     they are the pairs MuJoCo's own collision detection tests (explicit ``<contact><pair>`` elements, and
     :func:`_mujoco_tests`) whose distance some configuration joint can change (a joint moves one geom and
-    not the other)."""
+    not the other).
+
+    ``root`` (the result's ``robot_root`` body): the geoms of its subtree that no configuration joint moves (a floating
+    base, the other leg) are the robot too, as the planner has them: held where the rows put them, checked against the
+    static geoms, and against the moving ones only as robot/robot pairs."""
     moved = None if qpos_index is None else {int(i) for i in qpos_index}
     coll = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
     joints = {g: _moving_joints(m, int(m.geom_bodyid[g]), moved) for g in coll}
+    in_root = _subtree(m, root)
     moving = [g for g in coll if joints[g]]
-    static = [g for g in coll if not joints[g]]
-    out = [(a, b) for a in moving for b in static if not _attached(m, a, b)]
+    held = [g for g in coll if not joints[g] and in_root[int(m.geom_bodyid[g])]]  # the robot's, moved by no coordinate
+    static = [g for g in coll if not joints[g] and not in_root[int(m.geom_bodyid[g])]]
+    out = [(a, b) for a in moving + held for b in static if not _attached(m, a, b)]
     if self_collision:
         explicit = {(min(int(a), int(b)), max(int(a), int(b))) for a, b in zip(m.pair_geom1, m.pair_geom2)}
+        robot = moving + held
         for i, a in enumerate(moving):
-            for b in moving[i + 1:]:
-                if joints[a] != joints[b] and ((a, b) in explicit or _mujoco_tests(m, a, b)):
-                    out.append((a, b))
+            for b in robot[i + 1:]:
+                pair = (min(a, b), max(a, b))
+                if joints[a] != joints[b] and (pair in explicit or _mujoco_tests(m, a, b)):
+                    out.append(pair)
     return np.array(out, dtype=int).reshape(-1, 2)
+
+
+def _subtree(m: mujoco.MjModel, root: int | None) -> np.ndarray:
+    """Boolean mask over bodies: ``root`` and the bodies below it (none without a root)."""
+    inside = np.zeros(m.nbody, dtype=bool)
+    if root is None:
+        return inside
+    inside[root] = True
+    for b in range(1, m.nbody):  # MuJoCo numbers parents before children
+        inside[b] |= inside[int(m.body_parentid[b])]
+    return inside
 
 
 def _configuration_map(doc: dict, m: mujoco.MjModel, source: Path):
@@ -319,8 +341,14 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         raise _fail(source, "field 'paths' is empty: nothing to verify")
     robot = doc.get("robot")
     self_collision = not (isinstance(robot, dict) and robot.get("self_collision") is False)
-    pairs = collision_pairs(m, idx, self_collision)
-    n_self = len(pairs) - len(collision_pairs(m, idx))
+    root_name = robot.get("robot_root") if isinstance(robot, dict) else None
+    root = None
+    if root_name is not None:
+        root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, str(root_name))
+        if root < 0:
+            raise _fail(source, f"field 'robot.robot_root' names {root_name!r}, which is no body of the scene {mjcf}")
+    pairs = collision_pairs(m, idx, self_collision, root)
+    n_self = len(pairs) - len(collision_pairs(m, idx, root=root))
     if len(pairs) == 0:
         raise _fail(source, f"the scene {mjcf} has no pair of moving and static collision geoms")
     checker = _Checker(m, pairs)

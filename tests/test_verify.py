@@ -309,3 +309,47 @@ def test_the_readme_shows_what_verify_prints(planned_result, capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[0].split(": ", 1)[1] == block[0].split(": ", 1)[1]
     assert out[1:] == block[1:]
+
+
+FLOATING_HIP = """<mujoco model="a hip link overlapping its floating pelvis, which the MJCF's contype/conaffinity keep apart">
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <geom name="post" type="box" size="0.05 0.05 0.3" pos="0.45 0.1 0.3"/>
+    <body name="pelvis" pos="0 0 1">
+      <freejoint/>
+      <geom name="pelvis" type="capsule" fromto="0 -0.1 0 0 0.1 0" size="0.08" contype="1" conaffinity="0"/>
+      <body name="roll" pos="0 0.1 0">
+        <joint name="roll" axis="1 0 0"/>
+        <inertial pos="0 0 0" mass="0.1" diaginertia="1e-4 1e-4 1e-4"/>
+        <body name="thigh">
+          <joint name="hip" axis="0 1 0" range="-60 60"/>
+          <geom name="thigh" type="capsule" fromto="0 0 0 0 0 -0.6" size="0.05" contype="2" conaffinity="4"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_result_planned_with_a_robot_root_is_checked_as_that_robot(tmp_path, capsys):
+    """With robot_root the planner counts the held pelvis as part of the robot, so its pair with the planned thigh is
+    a robot/robot one, which the MJCF's contype/conaffinity filter out (Cassie of MuJoCo Menagerie: the hip link lies
+    66 mm inside the pelvis capsule). verify took the pelvis for an obstacle and reported every sample of a clean
+    plan as a violation (exit 4); it now reads robot_root too, and still checks the pelvis against the world."""
+    (tmp_path / "hip.xml").write_text(FLOATING_HIP)
+    scenario = tmp_path / "hip.toml"
+    scenario.write_text('name = "hip"\nscene = "hip.xml"\nrobot_root = "pelvis"\nq_init = [-0.6]\nq_goal = [0.9]\n')
+    out = tmp_path / "hip.json"
+    assert main(["plan", "--scene", str(scenario), "--smoother", "none", "--no-replay", "--no-rrd", "--json", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["verify", str(out)]) == 0
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "hip.xml"))
+    idx = np.array([m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "hip")]])
+
+    def named(pairs) -> set[frozenset[str]]:
+        return {frozenset(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(g)) for g in p) for p in pairs}
+
+    pairs = named(collision_pairs(m, idx, True, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "pelvis")))
+    assert pairs == {frozenset(p) for p in (("thigh", "floor"), ("thigh", "post"), ("pelvis", "floor"), ("pelvis", "post"))}
+    assert frozenset(("pelvis", "thigh")) in named(collision_pairs(m, idx, True))  # without the root: an obstacle
