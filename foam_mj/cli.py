@@ -389,8 +389,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--scene", default=None, help="a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: obstacle)")
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="plan on any MJCF scene without a scenario file (needs --start and --goal; default planner parameters)")
-    p.add_argument("--start", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the start configuration, one number per configuration joint (radians, metres)")
-    p.add_argument("--goal", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the goal configuration")
+    p.add_argument("--start", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the start configuration, one number per configuration joint (radians, metres), or a keyframe's name (home: its configuration joints' values; the other joints are held there)")
+    p.add_argument("--goal", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the goal configuration (numbers or a keyframe's name)")
     p.add_argument("--joints", metavar="a,b,c", help="the configuration joints, in order (default: the scenario's or the MJCF's declaration, else every limited hinge/slide joint)")
     p.add_argument("--delta", type=float, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
     p.add_argument("--time-limit", type=float, metavar="S", help="the planner's time budget in seconds: a plan that has not "

@@ -13,7 +13,7 @@ Format (every field is checked; an unknown or missing one is named in the error)
     self_collision = true                  # optional, default true: also check robot/robot pairs MuJoCo
                                            # lets collide (foam_mj.model)
     keyframe = "home"                      # optional: pose of the joints that are not configuration
-                                           # coordinates (default: qpos0)
+                                           # coordinates (default: the keyframe q_init or q_goal names, else qpos0)
     [planner]                              # optional
     algorithm = "pfm"                      # a planner of foam_mj.planners.PLANNERS (see below)
     K = 10                                 # pfm's own options; other planners have others
@@ -82,6 +82,7 @@ from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, plann
 from foam_mj.planners.base import COMMON_FIELDS, option_names
 from foam_mj.scene_edits import BoxObstacle, MeshObstacle, SceneEdits, Subject, build_robot
 from foam_mj.limits import Limits
+from foam_mj.mjcf import load_spec
 from foam_mj.timing import METHODS as TIME_LAWS
 
 SCENARIO_DIR = scenarios_dir()
@@ -173,10 +174,11 @@ def _number_list(value, where: str, n: int | None = None) -> np.ndarray:
     return np.array(value, dtype=float)
 
 
-def _end_point(value, where: str, robot) -> np.ndarray:
+def _end_point(value, where: str, robot, held_at: str | None = None) -> np.ndarray:
     """q_init or q_goal: a list of numbers (q), or the name of one of the scene's keyframes (``<key name="home">``),
-    whose qpos gives the configuration joints' values (its other joints' values are not used: those joints are held
-    at qpos0, or at the scenario's own ``keyframe``). ``robot()`` compiles the scene."""
+    whose qpos gives the configuration joints' values; its other joints are held at the scenario's own ``keyframe``,
+    or without one at the first end point's keyframe (``held_at``): a second keyframe that puts them elsewhere is
+    refused, since they stay at one pose along a path. ``robot()`` compiles the scene."""
     if not isinstance(value, str):
         return _number_list(value, where)
     import mujoco
@@ -187,7 +189,39 @@ def _end_point(value, where: str, robot) -> np.ndarray:
         names = [n for n in (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, i) for i in range(m.nkey)) if n]
         raise ScenarioError(f"{where} = {value!r} is no keyframe of the scene (its named keyframes: "
                             f"{', '.join(names) if names else 'none'}); give one number per configuration joint or a keyframe's name")
-    return np.asarray(robot().config.to_q(m.key_qpos[k]), dtype=float)
+    config = robot().config
+    if held_at is not None and value != held_at:
+        held = np.setdiff1d(np.arange(m.nq), config.qpos_index)
+        apart = held[np.abs(m.key_qpos[k][held] - config.qpos0[held]) > 1e-9]
+        if len(apart):
+            joints = [f"{_qpos_joint(m, int(a))} {m.key_qpos[k][a]:.6g} (not {config.qpos0[a]:.6g})" for a in apart[:4]]
+            raise ScenarioError(
+                f"{where} = {value!r}: that keyframe puts joints outside the configuration elsewhere than keyframe {held_at!r}, "
+                f"where the other end point holds them ({', '.join(joints)}{', ...' if len(apart) > 4 else ''}), and they stay "
+                "at one pose along a path: name the pose to hold them at (keyframe = \"NAME\" in a scenario), plan over them "
+                "too (joints), or give this end point as numbers")
+    return np.asarray(config.to_q(m.key_qpos[k]), dtype=float)
+
+
+def _qpos_joint(m, adr: int) -> str:
+    """The name of the joint whose qpos holds address ``adr`` (with its component for a free or ball joint)."""
+    import mujoco
+
+    j = int(np.searchsorted(m.jnt_qposadr, adr, side="right") - 1)
+    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint {j}"
+    return name if adr == int(m.jnt_qposadr[j]) and int(m.jnt_type[j]) > 1 else f"{name}[{adr - int(m.jnt_qposadr[j])}]"
+
+
+def _first_keyframe(scene: Path, raw: dict) -> str:
+    """The name of the first end point (q_init, then q_goal) that names a keyframe of the scene, or ""."""
+    names = [raw.get(f) for f in ("q_init", "q_goal") if isinstance(raw.get(f), str)]
+    if not names:
+        return ""
+    try:
+        keys = {k.name for k in load_spec(scene).keys}
+    except ModelError:
+        return ""  # the scene's own error is reported where it compiles
+    return next((n for n in names if n in keys), "")
 
 
 def _number(value, where: str, lo: float | None = None, hi: float | None = None) -> float:
@@ -389,6 +423,9 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     except (PlannerError, ValueError) as exc:
         raise ScenarioError(f"{path}: [planner] {exc}") from None
     edits = _scene_edits(raw, str(path), base_dir)
+    implied = keyframe is None and _first_keyframe(scene, raw)
+    if implied:  # an end point is a keyframe: the other joints stay at that pose, as the model keeps the robot there
+        keyframe = implied
     robots: list[RobotModel] = []  # the scene, compiled only when an end point names a keyframe
 
     def robot() -> RobotModel:
@@ -399,7 +436,7 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
                 raise ScenarioError(f"{path}: field 'scene': {exc}") from None
         return robots[0]
 
-    q_init, q_goal = (_end_point(raw[f], f"{path}: field '{f}'", robot) for f in ("q_init", "q_goal"))
+    q_init, q_goal = (_end_point(raw[f], f"{path}: field '{f}'", robot, implied or None) for f in ("q_init", "q_goal"))
     scenario = Scenario(
         name, description, scene, q_init, q_goal, params, seed, source,
         robot_root=robot_root, self_collision=self_collision, keyframe=keyframe, edits=edits,

@@ -7,7 +7,7 @@ import pytest
 
 from foam_mj.errors import ScenarioError
 from foam_mj.foam import plan
-from foam_mj.scenarios import available_scenarios, load_scenario
+from foam_mj.scenarios import available_scenarios, load_scenario, scenario_from_dict
 
 
 def test_the_built_in_scenarios():
@@ -263,6 +263,32 @@ def test_the_python_entry_points_name_an_argument_of_the_wrong_type():
         run(load_scenario("obstacle"), smoothers=None)
     with pytest.raises(TypeError, match="`report` must be None or a callable"):
         run(load_scenario("obstacle"), report="planning")
+
+
+def test_an_end_point_named_after_a_keyframe_holds_the_other_joints_at_that_keyframe(tmp_path):
+    """A Kinova Gen3 (MuJoCo Menagerie) planned from --start home over its three limited joints kept its continuous
+    joints at qpos0 (joint_3 at 0, not home's pi): the plan started from another pose than home, silently. Without a
+    scenario keyframe, the first end point's keyframe now holds the other joints; a second keyframe that puts them
+    elsewhere is refused (they stay at one pose along a path), and a scenario's own keyframe still decides."""
+    (tmp_path / "arm.xml").write_text(
+        '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+        '<body pos="0 0 .5"><joint name="a" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '<body pos=".3 0 0"><joint name="b" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '<body pos=".3 0 0"><joint name="c" axis="1 0 0"/><geom type="capsule" fromto="0 0 0 .2 0 0" size=".02"/>'
+        '</body></body></body></worldbody><keyframe><key name="home" qpos="0.1 0.2 0.5"/><key name="reach" qpos="0.3 0.4 0.5"/>'
+        '<key name="twist" qpos="0.3 0.4 0.9"/></keyframe></mujoco>'
+    )
+    base = {"name": "arm", "scene": "arm.xml", "joints": ["a", "b"]}
+    s = scenario_from_dict({**base, "q_init": "home", "q_goal": [-0.5, -0.6]}, tmp_path)
+    assert s.keyframe == "home" and s.robot.config.qpos0.tolist() == [0.1, 0.2, 0.5]
+    np.testing.assert_allclose(s.q_init, [0.1, 0.2])
+    assert scenario_from_dict({**base, "q_init": [-0.5, -0.6], "q_goal": "reach"}, tmp_path).robot.config.qpos0[2] == 0.5
+    with pytest.raises(ScenarioError, match=r"field 'q_goal' = 'twist': that keyframe puts joints outside the configuration "
+                                            r"elsewhere than keyframe 'home', .*\(c 0\.9 \(not 0\.5\)\)"):
+        scenario_from_dict({**base, "q_init": "home", "q_goal": "twist"}, tmp_path)
+    s = scenario_from_dict({**base, "keyframe": "twist", "q_init": "home", "q_goal": "reach"}, tmp_path)
+    assert s.keyframe == "twist" and s.robot.config.qpos0[2] == 0.9
+    assert scenario_from_dict({**base, "q_init": [0.1, 0.2], "q_goal": [-0.5, -0.6]}, tmp_path).keyframe is None
 
 
 def test_q_init_or_q_goal_may_name_a_keyframe_of_the_scene(tmp_path):
