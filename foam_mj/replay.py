@@ -507,12 +507,12 @@ def replay_dynamic(
     cfg = robot.config
     error = qpos[:, cfg.qpos_index] - trajectory.qpos[:, cfg.qpos_index]
     lo, hi = m.actuator_forcerange.T
-    limited = m.actuator_forcelimited.astype(bool)
+    servo = np.zeros(m.nu, dtype=bool)
+    servo[_servos(robot, m).actuator] = True  # the other actuators (say a gripper's, a held joint's) are left at ctrl 0
+    limited = servo & m.actuator_forcelimited.astype(bool)  # a held joint's servo pulling to 0 moves nothing: held
     at_limit = limited & ((force <= lo + 1e-9 * np.abs(lo)) | (force >= hi - 1e-9 * np.abs(hi)))
     saturated = at_limit.sum(axis=0)
     clo, chi = m.actuator_ctrlrange.T
-    servo = np.zeros(m.nu, dtype=bool)
-    servo[_servos(robot, m).actuator] = True  # the other actuators (say a gripper's) are left at ctrl 0
     clamped = (servo & m.actuator_ctrllimited.astype(bool) & ((ctrl < clo) | (ctrl > chi))).sum(axis=0)
     warned = tuple(mujoco.mjtWarning(w).name for w in range(len(d.warning)) if d.warning[w].number > 0)
     own = clearance is None
