@@ -89,6 +89,29 @@ def robot_overrides(doc: dict, args: argparse.Namespace) -> None:
         doc["self_collision"] = False
 
 
+def no_obstacle_note(robot) -> str:
+    """A note when the robot is kept clear of no obstacle at all (only of itself), naming the static geoms MuJoCo
+    never collides (contype = conaffinity = 0, visual only) that a user may have meant as obstacles: a floor or a box
+    added beside an included model inherits its default class, which in MuJoCo Menagerie's Cassie makes every geom
+    visual, and the plan went through them without a word. "" otherwise."""
+    import mujoco
+    import numpy as np
+
+    from foam_mj.geom_pairs import body_is_moving
+
+    if not np.all(np.asarray(robot.self_pair, dtype=bool)) or robot.fixed_obstacle_distances:
+        return ""
+    m = robot.model
+    visual = [g for g in range(m.ngeom) if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0
+              and not body_is_moving(m, int(m.geom_bodyid[g]))]
+    if not visual:
+        return ""
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in visual]
+    return (f"note: no obstacle was checked, only the robot against itself: the scene's static geoms ({', '.join(names[:5])}"
+            f"{', ...' if len(names) > 5 else ''}) have contype = conaffinity = 0, visual only (MuJoCo never collides them; "
+            "an included model's default class may set that): give an obstacle contype=\"1\" conaffinity=\"1\"")
+
+
 def plan_scenario(args: argparse.Namespace):
     """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta, --time-limit,
     --subject-height/--subject-mass, --robot-root and --no-self-collision override the scenario's fields."""
@@ -218,6 +241,9 @@ def _plan(args: argparse.Namespace, recorder) -> int:
             f"note: {', '.join(skipped)} left out: the rosary adjustment (T_RA) moves the centres of a foam's rosary "
             f"(each bubble on its parent's surface); planner {scenario.params.algorithm}'s chain is not one (use --planner pfm)"
         )
+    note = no_obstacle_note(scenario.robot)
+    if note:
+        print(note)
     print_replay_notes(outcome)
     print_fronts(outcome)
     print_certificates(outcome)

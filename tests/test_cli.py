@@ -494,3 +494,24 @@ def test_the_summary_prints_a_sub_millimetre_clearance_with_its_digits(metres, t
     from foam_mj.summary import fmt_mm
 
     assert fmt_mm(metres) == text
+
+
+def test_plan_says_so_when_no_obstacle_is_checked_because_the_scene_s_geoms_are_visual(tmp_path, capsys):
+    """A floor and a box added beside an included model inherit its default class; Cassie's (MuJoCo Menagerie) makes
+    every geom contype = conaffinity = 0, visual only, so the plan checked the robot against itself alone and went
+    through the box without a word. plan now names those geoms in a note; a scene with an obstacle gets none."""
+    xml = ('<mujoco><default><geom contype="0" conaffinity="0"/></default><worldbody>'
+           '<geom name="floor" type="plane" size="2 2 .1"/><geom name="box" type="box" size=".1 .1 .1" pos=".5 0 .3"/>'
+           '<body pos="0 0 1"><joint name="j1" axis="0 1 0" range="-60 60"/>'
+           '<geom type="capsule" fromto="0 0 0 .4 0 0" size=".03" contype="1" conaffinity="1"/>'
+           '<body pos=".4 0 0"><joint name="j2" axis="0 1 0" range="-170 170"/><geom type="capsule" fromto="0 0 0 .1 0 0" size=".03" contype="1" conaffinity="1"/>'
+           '<body pos=".1 0 0"><joint name="j3" axis="0 1 0" range="-170 170"/>'
+           '<geom type="capsule" fromto="0 0 0 .35 0 0" size=".03" contype="1" conaffinity="1"/></body></body></body></worldbody></mujoco>')
+    args = ["--start", "0 0 0", "--goal", "0.3 0.5 0.5", "--smoother", "none", "--no-replay", "--no-rrd"]
+    (tmp_path / "visual.xml").write_text(xml)
+    assert main(["plan", "--mjcf", str(tmp_path / "visual.xml"), *args]) == 0
+    out = capsys.readouterr().out
+    assert "note: no obstacle was checked, only the robot against itself: the scene's static geoms (floor, box) have contype = conaffinity = 0" in out
+    (tmp_path / "solid.xml").write_text(xml.replace('size=".1 .1 .1"', 'size=".1 .1 .1" contype="1" conaffinity="1"'))
+    assert main(["plan", "--mjcf", str(tmp_path / "solid.xml"), *args]) == 0
+    assert "no obstacle was checked" not in capsys.readouterr().out
