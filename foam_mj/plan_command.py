@@ -112,6 +112,38 @@ def no_obstacle_note(robot) -> str:
             "an included model's default class may set that): give an obstacle contype=\"1\" conaffinity=\"1\"")
 
 
+def held_pose_note(robot, delta: float) -> str:
+    """A note naming the held bodies (on joints outside the configuration and outside the robot: a floating base, a
+    stance foot, a joint left out) that lie within ``delta`` of a fixed geom where they are held. Neither moves along
+    the path, so the planner does not check them, but a MuJoCo-only checker that counts every jointed body as moving
+    (MuJoCo Menagerie's H1 standing at its home keyframe: the stance foot 1 mm into the floor) reads that clearance at
+    every sample. "" when there is none."""
+    import mujoco
+
+    from foam_mj.geom_pairs import attached, body_is_moving
+
+    m = robot.model
+    robot_geoms = {int(g) for g in robot.robot_geoms}
+    live = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    moving = {g: body_is_moving(m, int(m.geom_bodyid[g])) for g in live}
+    held = [g for g in live if moving[g] and g not in robot_geoms]
+    fixed = [g for g in live if not moving[g]]
+    if not held or not fixed:
+        return ""
+    d = mujoco.MjData(m)
+    d.qpos[:] = robot.config.qpos0
+    mujoco.mj_kinematics(m, d)
+    close = sorted((mujoco.mj_geomDistance(m, d, a, b, delta, None), a, b) for a in held for b in fixed if not attached(m, a, b))
+    close = [c for c in close if c[0] < delta]
+    if not close:
+        return ""
+    pairs = ", ".join(f"{robot.geom_label(a)} / {robot.geom_label(b)} {dist * 1000:.2f} mm" for dist, a, b in close[:3])
+    return (f"note: {len(close)} pair(s) of a held body (moved by a joint outside the configuration) and a fixed geom are within "
+            f"the margin where they are held ({pairs}{', ...' if len(close) > 3 else ''}): neither moves along the path, so the "
+            "planner leaves them out, but a MuJoCo-only checker that counts every jointed body as moving reads that clearance at "
+            "every sample (lift the held body clear, or plan over its joints)")
+
+
 def plan_scenario(args: argparse.Namespace):
     """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta, --time-limit,
     --subject-height/--subject-mass, --robot-root and --no-self-collision override the scenario's fields."""
@@ -241,9 +273,9 @@ def _plan(args: argparse.Namespace, recorder) -> int:
             f"note: {', '.join(skipped)} left out: the rosary adjustment (T_RA) moves the centres of a foam's rosary "
             f"(each bubble on its parent's surface); planner {scenario.params.algorithm}'s chain is not one (use --planner pfm)"
         )
-    note = no_obstacle_note(scenario.robot)
-    if note:
-        print(note)
+    for note in (no_obstacle_note(scenario.robot), held_pose_note(scenario.robot, scenario.params.delta)):
+        if note:
+            print(note)
     print_replay_notes(outcome)
     print_fronts(outcome)
     print_certificates(outcome)

@@ -515,3 +515,24 @@ def test_plan_says_so_when_no_obstacle_is_checked_because_the_scene_s_geoms_are_
     (tmp_path / "solid.xml").write_text(xml.replace('size=".1 .1 .1"', 'size=".1 .1 .1" contype="1" conaffinity="1"'))
     assert main(["plan", "--mjcf", str(tmp_path / "solid.xml"), *args]) == 0
     assert "no obstacle was checked" not in capsys.readouterr().out
+
+
+def test_plan_names_a_held_body_within_the_margin_of_a_fixed_geom(tmp_path, capsys):
+    """A standing humanoid (MuJoCo Menagerie's H1 at its home keyframe) planned over one leg: the held stance foot is
+    1 mm into the floor. Neither moves, so the planner leaves the pair out and verify passes, but a MuJoCo-only checker
+    that counts every jointed body as moving read -1.05 mm at every sample without a word from plan; plan names it."""
+    xml = ('<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/><geom name="post" type="box" size=".05 .05 .3" pos=".6 0 .3"/>'
+           '<body name="base" pos="0 0 .8"><freejoint/><geom type="box" size=".1 .1 .1"/>'
+           '<body name="stance" pos="0 -.2 0"><joint name="s" axis="0 1 0"/><geom name="foot" type="capsule" fromto="0 0 0 0 0 -{reach}" size=".03"/></body>'
+           '<body name="arm" pos="0 .2 0"><joint name="a" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".03"/>'
+           '<body pos=".3 0 0"><joint name="b" axis="0 1 0" range="-150 150"/><geom type="capsule" fromto="0 0 0 .2 0 0" size=".03"/>'
+           '</body></body></body></worldbody></mujoco>')
+    args = ["--start", "0 0", "--goal", "-0.8 0.5", "--smoother", "none", "--no-replay", "--no-rrd"]
+    (tmp_path / "stand.xml").write_text(xml.replace("{reach}", ".771"))  # the foot 1 mm into the floor
+    assert main(["plan", "--mjcf", str(tmp_path / "stand.xml"), *args]) == 0
+    out = capsys.readouterr().out
+    assert "note: 1 pair(s) of a held body (moved by a joint outside the configuration) and a fixed geom are within the margin " \
+           "where they are held (foot / floor -1.00 mm)" in out
+    (tmp_path / "lifted.xml").write_text(xml.replace("{reach}", ".76"))
+    assert main(["plan", "--mjcf", str(tmp_path / "lifted.xml"), *args]) == 0
+    assert "held body" not in capsys.readouterr().out
