@@ -56,16 +56,15 @@ rather than slowed to an absurd duration.
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from foam_mj.dynamics import inverse_dynamics, joint_units
 from foam_mj.errors import PlanningFailed
 from foam_mj.limits import Limits, as_limits
 from foam_mj.model import RobotModel
+from foam_mj.path_kinematics import PathKinematics
 from foam_mj.rosary import Rosary, in_ball
 from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError, in_box
 from foam_mj.trajectory import JointLimits, Trajectory, _motion, make_trajectory, row_acceleration_cap
@@ -104,58 +103,7 @@ class TimingInfeasible(PlanningFailed):
         self.excess = excess
 
 
-# -- the path seen in joint units -----------------------------------------------------------------------
-class _Kinematics:
-    """The curve at path positions in MuJoCo's units: qpos (N, nq) and dq/du, d2q/du2 (N, n).
-
-    The torque coefficients come from a copy of the model without joint friction (``frictionloss``), which
-    is no term of the form a sdd + b sd^2: MuJoCo's friction force is nearly constant while a joint moves
-    (up to its frictionloss), so read off at qacc = q' it would be scaled by sdd. ``friction`` (n,) bounds it
-    instead, taken off the torque limits given to toppra (module docstring)."""
-
-    def __init__(self, robot: RobotModel, curve: SafeCurve) -> None:
-        self.robot, self.curve = robot, curve
-        self.scale = robot.config.scale
-        m = robot.model
-        self.dof = m.jnt_dofadr[robot.config.joint_ids]
-        self.damping = m.dof_damping[self.dof].copy()
-        self.friction = m.dof_frictionloss[self.dof].copy()
-        self.model = m
-        if np.any(m.dof_frictionloss > 0):
-            self.model = copy.copy(m)
-            self.model.dof_frictionloss[:] = 0.0
-
-    def at(self, u: np.ndarray):
-        q, qu, quu = self.curve.evaluate(u)
-        return self.robot.config.to_qpos(q), qu * self.scale, quu * self.scale
-
-    def coefficients(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """a(u), b(u), g(u), D(u) (N, n): tau = a sdd + b sd^2 + g + D sd, D = B q' (module docstring);
-        cached per grid."""
-        key = (len(u), float(u[0]), float(u[-1]), float(np.sum(u)))
-        if getattr(self, "_cache_key", None) != key:
-            self._cache = self._coefficients(u)
-            self._cache_key = key
-        return self._cache
-
-    def _coefficients(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        m = self.model
-        qpos, qu, quu = self.at(u)
-        N = len(u)
-        zero = np.zeros((N, m.nv))
-        vel = zero.copy()
-        acc = zero.copy()
-        d = mujoco.MjData(m)
-        g = inverse_dynamics(self.robot, qpos, zero, zero, d, m)[:, self.dof]
-        acc[:, self.dof] = qu
-        a = inverse_dynamics(self.robot, qpos, zero, acc, d, m)[:, self.dof] - g
-        vel[:, self.dof] = qu
-        acc[:, self.dof] = quu
-        b = inverse_dynamics(self.robot, qpos, vel, acc, d, m)[:, self.dof] - g - self.damping * qu
-        return a, b, g, self.damping * qu
-
-
-def _held_loads(robot: RobotModel, kin: _Kinematics, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _held_loads(robot: RobotModel, kin: PathKinematics, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """|gravity| (N, n) at rest along the curve, and the joint friction (frictionloss) each joint must overcome
     where it moves (0 where the curve leaves it still): what no timing can avoid."""
     qpos, qu, _ = kin.at(u)
@@ -174,7 +122,7 @@ def check_gravity(robot: RobotModel, curve: SafeCurve, torque: np.ndarray, sampl
     joint's torque limit on the curve."""
     if not np.any(np.isfinite(torque)):
         return
-    kin = _Kinematics(robot, curve)
+    kin = PathKinematics(robot, curve)
     u = np.linspace(0.0, curve.length, samples)
     g, f = _held_loads(robot, kin, u)
     over = g + f - torque
@@ -294,7 +242,7 @@ def _import_toppra():
     return toppra
 
 
-def _toppra_law(kin: _Kinematics, vmax, amax, tmax, x0: np.ndarray | None = None) -> PathTiming:
+def _toppra_law(kin: PathKinematics, vmax, amax, tmax, x0: np.ndarray | None = None) -> PathTiming:
     """toppra's time-optimal law under the limits; damping enters the torque constraint through the
     tangent bound sd <= (x + x0) / (2 sqrt(x0)) (x = sd^2, any x0 > 0; equality at x = x0), on the side
     of each bound where it adds torque: a conservative linear constraint, exact where x = x0. ``x0`` (at
@@ -353,7 +301,7 @@ def _toppra_law(kin: _Kinematics, vmax, amax, tmax, x0: np.ndarray | None = None
         tc.JointAccelerationConstraint(np.stack([-amax, amax], axis=1), discretization_scheme=tc.DiscretizationType.Interpolation),
     ]
     limited = np.isfinite(tmax)
-    if np.any(limited):  # joint friction takes up to its frictionloss of the limit (class _Kinematics)
+    if np.any(limited):  # joint friction takes up to its frictionloss of the limit (class PathKinematics)
         room = np.maximum(tmax - kin.friction, 1e-9 * np.where(limited, tmax, 1.0))
         constraints.append(TorqueConstraint(np.where(limited, room, 1e12), np.maximum(x0, 1e-12)))
     algo = toppra.algorithm.TOPPRA(constraints, CurvePath(), gridpoints=grid, solver_wrapper="seidel")
@@ -373,7 +321,7 @@ def _grid(curve: SafeCurve) -> np.ndarray:
     return np.unique(np.concatenate([np.linspace(0.0, curve.length, GRID_POINTS + 1), curve.knots]))
 
 
-def _speed_bound(kin: _Kinematics, grid: np.ndarray, vmax: np.ndarray) -> np.ndarray:
+def _speed_bound(kin: PathKinematics, grid: np.ndarray, vmax: np.ndarray) -> np.ndarray:
     """The largest x = sd^2 the velocity limits allow at each grid position."""
     _, qu, _ = kin.at(grid)
     with np.errstate(divide="ignore"):
@@ -418,7 +366,7 @@ def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Tra
     tangent at the last solution's speeds (tighter) and limits lowered where a sample overshot (toppra
     meets the limits at its grid points only); the fastest timing meeting every limit is kept."""
     curve = base.curve
-    kin = _Kinematics(robot, curve)
+    kin = PathKinematics(robot, curve)
     knots_of_points = np.searchsorted(curve.point_index, np.arange(rosary.k + 1), side="right") - 1
     limited = np.isfinite(tmax)
     # A lower bound of the unlimited timing: every joint's total travel at its velocity limit.
@@ -485,13 +433,13 @@ def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Tra
     )
 
 
-def _report_slowdown(robot, kin: _Kinematics, law: PathTiming, free: PathTiming, tmax) -> None:
+def _report_slowdown(robot, kin: PathKinematics, law: PathTiming, free: PathTiming, tmax) -> None:
     """The torque limits only fit with an absurd slowdown: name the joint with the least margin over gravity."""
     _report_margin(robot, kin, tmax, f"the timing would take {law.native:.1f} s, over {MAX_SLOWDOWN:g} times the "
                    f"{free.native:.2f} s without torque limits")
 
 
-def _report_margin(robot, kin: _Kinematics, tmax, what: str) -> None:
+def _report_margin(robot, kin: PathKinematics, tmax, what: str) -> None:
     """Raise TimingInfeasible naming the joint whose torque limit leaves the least room above gravity (and the
     friction of a moving joint)."""
     u = np.linspace(0.0, kin.curve.length, 2001)
@@ -569,7 +517,7 @@ def _retime_own(robot, rosary, base: Trajectory, tmax, dt) -> Trajectory:
         roots = [_smallest_positive_root(R, D, g - L), _smallest_positive_root(R, D, g + L)]
         x_max = min(x_max, float(np.min(np.minimum(*roots)))) * (1 - 1e-6)
         if T0 / x_max > MAX_SLOWDOWN * T0:
-            _report_margin(robot, _Kinematics(robot, base.curve), tmax,
+            _report_margin(robot, PathKinematics(robot, base.curve), tmax,
                            f"the smooth timing would take {T0 / x_max:.1f} s, over {MAX_SLOWDOWN:g} times its "
                            f"{T0:.2f} s without torque limits")
         T = _whole_steps(T0 / x_max, dt)

@@ -355,7 +355,7 @@ def test_a_start_whose_every_neighbour_is_under_r_min_fails_at_once_by_a_cover_o
     params = FoamParams(K=10, r_min=0.07, delta=0.005, time_limit=60.0)
     calls = oracle.clearance.calls
     with pytest.raises(PlanningFailed, match=r"\(queue empty\) after 1 bubbles .*: no bubble of radius >= r_min = 0.07 fits on "
-                                             r"the start's bubble \(radius 0.0408\); lower r_min, or plan with bubbletree") as err:
+                                             r"the start's bubble \(radius 0.0408\); lower r_min, or plan with bubbletree"):
         VARIANTS[variant](oracle, s.q_init, s.q_goal, params, seed=0)
     assert oracle.clearance.calls - calls < 200
     r0 = float(oracle.radii(s.q_init[None])[0])
