@@ -20,11 +20,21 @@ pair, ``foam_mj.bubbles``); ``__call__`` and ``batch`` their minimum. All return
 One :class:`Clearance` (and so one :class:`~foam_mj.bubbles.BubbleOracle`) may serve several threads at once
 (plans in a thread pool): each thread queries through its own ``MjData`` and batches, created on its first query.
 It pickles (for process pools and Ray) without them.
+
+MuJoCo's built-in profiler is off while a batch runs (:class:`_ProfilerOff`). The Python bindings install a clock
+as its callback (``mjcb_time``) whenever an ``MjData`` is made, and ``mujoco.set_mjcb_time(None)`` puts that clock
+back rather than removing it, so ``mj_fwdPosition`` reads the clock about ten times per configuration, for
+``mjData.timer`` statistics nobody reads here: 13 % of a query loop's time. With the callback unset during the
+batch (then restored), a query on the obstacle scene takes 2.1 instead of 2.6 us and plan + optimal smoother 3 %
+less CPU time (per-seed ratio 0.968, seeds 0-9), with the same distances to the last bit (the profiler only
+writes ``mjData.timer``). A callback the user set (``mujoco.set_mjcb_time(f)``) is left alone.
 """
 
 from __future__ import annotations
 
+import ctypes
 import threading
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -35,6 +45,54 @@ from foam_mj.model import RobotModel
 #: Batches at least this large are split over two threads (measured crossover on a 2-core machine).
 THREADED_BATCH = 256
 _STAGE_POS = int(mujoco.mjtStage.mjSTAGE_POS)
+
+
+class _ProfilerOff:
+    """A context that unsets MuJoCo's profiler callback ``mjcb_time`` while it is entered, if it is the bindings'
+    own clock (module docstring); nested and concurrent entries share one switch (a count under a lock), and the
+    last exit restores the clock unless someone set another callback meanwhile. MuJoCo loads the pointer once
+    per test and call, so another thread's MuJoCo call sees either the clock or none. Where the loaded MuJoCo
+    library or its ``mjcb_time`` cannot be found, it does nothing."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._depth = 0
+        self._saved: int | None = None
+        self._pointer = self._find()
+
+    @staticmethod
+    def _find() -> ctypes.c_void_p | None:
+        """``mjcb_time`` of the MuJoCo library that the mujoco package loaded (the one in its folder)."""
+        folder = Path(mujoco.__file__).parent
+        for pattern in ("libmujoco.so*", "libmujoco*.dylib", "mujoco.dll"):
+            for path in sorted(folder.glob(pattern)):
+                try:
+                    return ctypes.c_void_p.in_dll(ctypes.CDLL(str(path)), "mjcb_time")
+                except (OSError, ValueError):
+                    continue
+        return None
+
+    def __enter__(self) -> None:
+        if self._pointer is None:
+            return
+        with self._lock:
+            if self._depth == 0 and mujoco.get_mjcb_time() is None and self._pointer.value:
+                self._saved = self._pointer.value
+                self._pointer.value = None
+            self._depth += 1
+
+    def __exit__(self, *exc: object) -> None:
+        if self._pointer is None:
+            return
+        with self._lock:
+            self._depth -= 1
+            if self._depth == 0 and self._saved is not None:
+                if self._pointer.value is None:
+                    self._pointer.value = self._saved
+                self._saved = None
+
+
+_PROFILER_OFF = _ProfilerOff()
 
 
 class _ThreadState:
@@ -166,7 +224,8 @@ class Clearance:
         cfg = self.robot.config
         qpos[:n] = cfg.qpos0  # as ConfigurationMap.to_qpos, written straight into the batch's rows
         qpos[:n, cfg.qpos_index] = cfg.offset + cfg.scale * Q
-        batch.forward(None if n == batch.nsim else ids[:n], _STAGE_POS)
+        with _PROFILER_OFF:
+            batch.forward(None if n == batch.nsim else ids[:n], _STAGE_POS)
         return sensordata[:n, sensordata.shape[1] - P :].copy()  # our sensors come last, after any the model has
 
     def _batch(self, state: _ThreadState, n: int, nthread: int) -> tuple:
