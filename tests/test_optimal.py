@@ -9,9 +9,11 @@ from hypothesis import strategies as st
 
 from foam_mj import paths
 from foam_mj.foam import plan
+from foam_mj.planners import PlanningProblem, get_planner
+from foam_mj.planners.base import smoother_start
 from foam_mj.rosary import Rosary
 from foam_mj.scenarios import load_scenario
-from foam_mj.smoothing import ConvexShortestPath, GeneticAlgorithm, GradientSmoothing, HarmonySearch, Hatches, StopCriteria
+from foam_mj.smoothing import ConvexShortestPath, GeneticAlgorithm, GradientSmoothing, HarmonySearch, Hatches, StopCriteria, scp
 from foam_mj.smoothing.certificate import KKT_TOL, kkt_certificate
 from foam_mj.smoothing.objective import ObjectiveWeights, objective_and_gradient, objective_value
 from foam_mj.smoothing.optimal import OptimalSmoother
@@ -189,6 +191,25 @@ def test_starting_from_hs_reaches_the_same_optimum(scenario_rosaries, optimum):
     assert r.info["best_start"] == "initial"
     assert r.f <= hs.f
     assert r.f == pytest.approx(optimum["obstacle"].f, abs=1e-6)
+
+
+def test_a_step_the_model_held_that_converged_superlinearly_ends_the_run_on_its_duals(monkeypatch):
+    # bubbletree's obstacle corridor (seed 0) from the planner's waypoints, as foam-mj plan smooths it: the second step
+    # is predicted to gain 3.0e-6 |F|, 0.016 x the first; its duals certify its end point, and the third subproblem
+    # would only polish F by 2.6e-7 of itself.
+    sc = load_scenario("obstacle")
+    oracle = sc.oracle()
+    try:
+        res = get_planner("bubbletree").plan(PlanningProblem(oracle, sc.q_init, sc.q_goal, delta=oracle.delta), seed=0)
+    finally:
+        oracle.close()
+    start = smoother_start(res.rosary, res.waypoints)
+    fast = OptimalSmoother().smooth(res.rosary, initial=start)
+    monkeypatch.setattr(scp, "FAST", 0.0)  # no superlinear stop: the run polishes on
+    polished = OptimalSmoother().smooth(res.rosary, initial=start)
+    assert fast.info["certified"] and fast.iterations == polished.iterations - 1
+    F, F_polished = fast.info["objective_value"], polished.info["objective_value"]
+    assert 0.0 <= F - F_polished <= 3e-7 * F_polished
 
 
 def test_several_initial_starts_from_hs_and_ga(scenario_rosaries, optimum):
