@@ -30,12 +30,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import signal
 import sys
 from pathlib import Path
 
 from foam_mj import __version__
+from foam_mj.arguments import CONFIGURATION_METAVAR, Parser, UsageError, port_number, seed_number
 from foam_mj.errors import FoamError, PlanningFailed
 from foam_mj.interrupts import EXIT_INTERRUPTED, RETURNED, SIGNALLED, caused_by_interrupt, exit_now, install, interrupt
 
@@ -53,71 +53,6 @@ EXIT_CODES = {
     EXIT_INTERRUPTED: "interrupted",
 }
 EXIT_EPILOG = "exit codes: " + "; ".join(f"{k} {v}" for k, v in EXIT_CODES.items())
-
-#: Seeds are non-negative 64-bit integers (as in a scenario TOML, whose integers are 64-bit).
-MAX_SEED = 2**63 - 1
-
-
-def _seed(text: str) -> int:
-    """argparse type of ``--seed``: an integer in [0, 2**63 - 1]."""
-    try:
-        value = int(text, 0)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-    if not 0 <= value <= MAX_SEED:
-        raise argparse.ArgumentTypeError(f"must be an integer in [0, 2**63 - 1], got {text}")
-    return value
-
-
-class UsageError(FoamError):
-    """A command-line argument argparse refused (main prints it as one line and returns 2)."""
-
-
-class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (exit 2), like every other foam-mj error."""
-
-    def error(self, message: str):  # noqa: D401 - argparse's hook
-        raise UsageError(f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)")
-
-    def parse_known_args(self, args=None, namespace=None):
-        """argparse's, but a value that starts with a minus sign stays its option's value: argparse took
-        ``--start "-0.1,0.3,0.08"`` (or ``--delta -1e-3``) for an option of its own and said only 'expected one
-        argument'; it passes a lone negative decimal or a value with a space. Here such a value is attached to an
-        option that takes one (``--start=-0.1,0.3,0.08``), up to a ``--``. A configuration given unquoted
-        (``--start 0.2 -0.3 0.08``: argparse said 'unrecognized arguments: -0.3 0.08') is read as one value: the
-        numbers that follow a configuration option (``metavar`` ``CONFIGURATION_METAVAR``) are joined."""
-        if args is not None:
-            args = list(args)
-            i = 0
-            while i < len(args) - 1 and args[i] != "--":
-                action = self._option_string_actions.get(args[i])
-                if action is not None and action.nargs is None:
-                    end = i + 2
-                    if action.metavar == CONFIGURATION_METAVAR:
-                        while end < len(args) and _is_number_list(args[end]):
-                            end += 1
-                    if end > i + 2 or _NEGATIVE_VALUE.match(args[i + 1]):
-                        args[i:end] = [f"{args[i]}={' '.join(args[i + 1 : end])}"]
-                i += 1
-        return super().parse_known_args(args, namespace)
-
-
-#: The metavar of an option whose value is a configuration (--start, --goal, --q): numbers, quoted or not.
-CONFIGURATION_METAVAR = '"q1 q2 ..."'
-
-
-def _is_number_list(text: str) -> bool:
-    """True for "0.3", "-1e-3" or "0.1,0.2": a further number of an unquoted configuration."""
-    parts = text.replace(",", " ").split()
-    try:
-        [float(v) for v in parts]
-    except ValueError:
-        return False
-    return bool(parts)
-
-
-#: A value that begins like a negative number ("-0.1,0.3", "-1e-3", "-.5"), which argparse reads as an option.
-_NEGATIVE_VALUE = re.compile(r"-\.?[0-9]")
 
 #: Figure file formats and PNG resolution of ``foam-mj figures`` (foam_mj.figures uses these too).
 FIGURE_FORMATS = ("png", "svg", "pdf")
@@ -354,16 +289,6 @@ def cmd_report(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _port(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a port number, got {text!r}") from None
-    if not 0 <= value <= 65535:
-        raise argparse.ArgumentTypeError(f"must be a port number in [0, 65535], got {value}")
-    return value
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser(
         prog="foam-mj",
@@ -406,7 +331,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(default: optimal, the certified optimum of f; all: every method of the papers plus convex and optimal, "
         "for comparison). The centre path is always there.",
     )
-    p.add_argument("--seed", type=_seed, default=None, help="random seed of the planner and smoothers, an integer in [0, 2**63-1] (default: the scenario's)")
+    p.add_argument("--seed", type=seed_number, default=None, help="random seed of the planner and smoothers, an integer in [0, 2**63-1] (default: the scenario's)")
     p.add_argument(
         "--planner",
         metavar="NAME",
@@ -494,8 +419,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("recording", help="a .rrd file")
     p.add_argument("--web", action="store_true", help="serve Rerun's web viewer over HTTP instead of opening a window")
     p.add_argument("--bind", default="127.0.0.1", help="address the viewer's servers listen on (default: 127.0.0.1, this machine only; 0.0.0.0 exposes it to the network)")
-    p.add_argument("--web-port", type=_port, default=9090, help="HTTP port of the web viewer (default: 9090)")
-    p.add_argument("--grpc-port", type=_port, default=9876, help="gRPC port of the viewer's data server (default: 9876)")
+    p.add_argument("--web-port", type=port_number, default=9090, help="HTTP port of the web viewer (default: 9090)")
+    p.add_argument("--grpc-port", type=port_number, default=9876, help="gRPC port of the viewer's data server (default: 9876)")
     p.set_defaults(func=cmd_view)
     p = sub.add_parser("bench", help="run the smoothing benchmark", description="The smoothing benchmark (HS and GA runs, the thesis's methods, the convex reference); every argument is passed on to it (see `foam-mj bench --help`).", add_help=False)
     p.add_argument("bench_args", nargs=argparse.REMAINDER, help="arguments for the benchmark: --quick, --runs N, --json OUT.json, --no-progress")

@@ -1,0 +1,86 @@
+"""Command-line arguments: the parser whose errors are one line (exit 2), and the argument types the commands share
+(``--seed``, ``--port``, a configuration such as ``--start``)."""
+
+from __future__ import annotations
+
+import argparse
+import re
+
+from foam_mj.errors import FoamError
+
+
+#: Seeds are non-negative 64-bit integers (as in a scenario TOML, whose integers are 64-bit).
+MAX_SEED = 2**63 - 1
+
+
+def seed_number(text: str) -> int:
+    """argparse type of ``--seed``: an integer in [0, 2**63 - 1]."""
+    try:
+        value = int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be an integer in [0, 2**63 - 1], got {text}")
+    return value
+
+
+class UsageError(FoamError):
+    """A command-line argument argparse refused (main prints it as one line and returns 2)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (exit 2), like every other foam-mj error."""
+
+    def error(self, message: str):  # noqa: D401 - argparse's hook
+        raise UsageError(f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)")
+
+    def parse_known_args(self, args=None, namespace=None):
+        """argparse's, but a value that starts with a minus sign stays its option's value: argparse took
+        ``--start "-0.1,0.3,0.08"`` (or ``--delta -1e-3``) for an option of its own and said only 'expected one
+        argument'; it passes a lone negative decimal or a value with a space. Here such a value is attached to an
+        option that takes one (``--start=-0.1,0.3,0.08``), up to a ``--``. A configuration given unquoted
+        (``--start 0.2 -0.3 0.08``: argparse said 'unrecognized arguments: -0.3 0.08') is read as one value: the
+        numbers that follow a configuration option (``metavar`` ``CONFIGURATION_METAVAR``) are joined."""
+        if args is not None:
+            args = list(args)
+            i = 0
+            while i < len(args) - 1 and args[i] != "--":
+                action = self._option_string_actions.get(args[i])
+                if action is not None and action.nargs is None:
+                    end = i + 2
+                    if action.metavar == CONFIGURATION_METAVAR:
+                        while end < len(args) and _is_number_list(args[end]):
+                            end += 1
+                    if end > i + 2 or _NEGATIVE_VALUE.match(args[i + 1]):
+                        args[i:end] = [f"{args[i]}={' '.join(args[i + 1 : end])}"]
+                i += 1
+        return super().parse_known_args(args, namespace)
+
+
+#: The metavar of an option whose value is a configuration (--start, --goal, --q): numbers, quoted or not.
+CONFIGURATION_METAVAR = '"q1 q2 ..."'
+
+
+def _is_number_list(text: str) -> bool:
+    """True for "0.3", "-1e-3" or "0.1,0.2": a further number of an unquoted configuration."""
+    parts = text.replace(",", " ").split()
+    try:
+        [float(v) for v in parts]
+    except ValueError:
+        return False
+    return bool(parts)
+
+
+#: A value that begins like a negative number ("-0.1,0.3", "-1e-3", "-.5"), which argparse reads as an option.
+_NEGATIVE_VALUE = re.compile(r"-\.?[0-9]")
+
+
+def port_number(text: str) -> int:
+    """argparse type of ``--web-port`` and ``--grpc-port``: an integer in [0, 65535]."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a port number, got {text!r}") from None
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"must be a port number in [0, 65535], got {value}")
+    return value
