@@ -82,10 +82,10 @@ import mujoco
 import numpy as np
 
 from foam_mj.clearance import Clearance
+from foam_mj.configuration import HINGE
 from foam_mj.errors import is_number
 from foam_mj.model import RobotModel
 
-_HINGE = int(mujoco.mjtJoint.mjJNT_HINGE)
 _SLIDE = int(mujoco.mjtJoint.mjJNT_SLIDE)
 _PARALLEL_TOL = 1e-9
 
@@ -146,7 +146,7 @@ class DisplacementBound:
         per_geom = tmp.group_weights(rho)
         robot_geoms = np.asarray(robot.robot_geoms, dtype=int)
         weights = per_geom[robot_geoms].max(axis=0) if len(robot_geoms) else np.zeros(len(groups))
-        hinge = np.array([int(m.jnt_type[int(j)]) == _HINGE for j in cfg.joint_ids], dtype=bool)
+        hinge = np.array([int(m.jnt_type[int(j)]) == HINGE for j in cfg.joint_ids], dtype=bool)
         metres = rho[np.ix_(robot_geoms, np.flatnonzero(hinge))] / np.abs(cfg.scale[hinge])  # per radian, not per unit of q
         return cls(tuple(groups), weights, per_geom, rho, float(metres.max(initial=0.0)))
 
@@ -225,7 +225,7 @@ def _hinge_reach(m: mujoco.MjModel, d: mujoco.MjData, cfg, chain: list[int], g: 
     vertex). ``d`` holds the reference pose."""
     jid = [int(cfg.joint_ids[i]) for i in chain]
     axis = d.xaxis[jid[0]] / np.linalg.norm(d.xaxis[jid[0]])
-    hinges = [j for j in jid if int(m.jnt_type[j]) == _HINGE]
+    hinges = [j for j in jid if int(m.jnt_type[j]) == HINGE]
     planar = all(np.linalg.norm(np.cross(d.xaxis[k] / np.linalg.norm(d.xaxis[k]), axis)) < _PARALLEL_TOL for k in hinges)
 
     def length(v: np.ndarray) -> np.ndarray:
@@ -247,7 +247,7 @@ def _slide_groups(m: mujoco.MjModel, d: mujoco.MjData, robot: RobotModel) -> lis
     """Group slides on one body with mutually orthogonal axes and equal scales and no configuration hinge between
     them in the body's joint order (a hinge turns the axes of the slides after it); others stand alone."""
     cfg = robot.config
-    config_hinges = {int(j) for j in cfg.joint_ids if int(m.jnt_type[int(j)]) == _HINGE}
+    config_hinges = {int(j) for j in cfg.joint_ids if int(m.jnt_type[int(j)]) == HINGE}
 
     def hinges_before(j: int) -> int:
         """Configuration hinges before joint j on its body (MuJoCo applies a body's joints in id order)."""
@@ -479,7 +479,7 @@ def pair_rho(robot: RobotModel, bound: DisplacementBound) -> np.ndarray:
     """rho_p per coordinate for every checked pair (P, n): a coordinate that moves exactly one of the two
     geoms (a joint on the kinematic path between their bodies) contributes that geom's rho; one that moves
     both (above their common ancestor) or neither contributes nothing, nor one that cannot change the
-    distance to a plane (``foam_mj.model.pair_coordinates``; module docstring)."""
+    distance to a plane (``foam_mj.geom_pairs.pair_coordinates``; module docstring)."""
     a, b = robot.pairs[:, 0], robot.pairs[:, 1]
     ma, mb = robot.moves[a], robot.moves[b]
     return (bound.rho[a] * (ma & ~mb) + bound.rho[b] * (mb & ~ma)) * robot.pair_active

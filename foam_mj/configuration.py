@@ -33,7 +33,9 @@ from foam_mj.mjcf import _custom_numeric, _custom_text
 CONFIGURATION_FIELD = "foam_mj:configuration"
 NORMALIZE_PREFIX = "foam_mj:normalize:"
 
-_SUPPORTED_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+#: MuJoCo's joint type numbers of a hinge and a slide, the joints foam-mj plans over (one definition for the package).
+HINGE, SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
+_SUPPORTED_JOINTS = (HINGE, SLIDE)
 
 
 @dataclass(frozen=True)
@@ -170,7 +172,7 @@ def _configuration_map(
                 raise ModelError(f"{path}: {where} must hold 1 number (span) or 3 (qpos_lo qpos_hi span)")
             if not (span > 0 and b > a):
                 raise ModelError(f"{path}: {where} needs span > 0 and qpos_hi > qpos_lo")
-            hinge = int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE)
+            hinge = int(m.jnt_type[j]) == HINGE
             turn = max(2 * np.pi, abs(jlo), abs(jhi))
             if hinge and norm.size == 3 and max(abs(a), abs(b)) > turn:  # beyond a turn and the range: degrees
                 raise ModelError(

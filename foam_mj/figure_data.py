@@ -12,6 +12,7 @@ from typing import Iterable, Sequence
 import mujoco
 import numpy as np
 
+from foam_mj.configuration import HINGE
 from foam_mj.errors import FoamError
 from foam_mj.figure_geometry import robot_kind
 from foam_mj.model import RobotModel
@@ -198,7 +199,7 @@ def _coord_labels(robot: RobotModel) -> list[str]:
     labels = []
     for name, j, s, o in zip(cfg.joint_names, cfg.joint_ids, cfg.scale, cfg.offset):
         normalized = not (s == 1.0 and o == 0.0)
-        hinge = int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE)
+        hinge = int(m.jnt_type[j]) == HINGE
         if name in _SYMBOLS:
             sym = f"${_SYMBOLS[name]}$"
         else:
@@ -220,7 +221,7 @@ def _joint_labels(robot: RobotModel) -> list[tuple[str, str, str]]:
     m = robot.model
     out = []
     for name, j in zip(robot.config.joint_names, robot.config.joint_ids):
-        hinge = int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE)
+        hinge = int(m.jnt_type[j]) == HINGE
         nice = name.replace("_", " ")
         if name in _SYMBOLS:
             nice = f"{nice} (${_SYMBOLS[name]}$)" if hinge else nice

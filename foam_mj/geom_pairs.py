@@ -1,10 +1,18 @@
 """Which geom pairs MuJoCo's collision detection tests (:func:`collision_pairs`), which are attached by design
-(:func:`attached`), and which bodies a joint moves: the rules :mod:`foam_mj.model` picks its checked pairs by."""
+(:func:`attached`), which bodies a joint moves, and which coordinates can change a pair's distance
+(:func:`pair_coordinates`): the rules :mod:`foam_mj.model` picks its checked pairs by."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import mujoco
 import numpy as np
+
+from foam_mj.configuration import HINGE
+
+if TYPE_CHECKING:
+    from foam_mj.configuration import ConfigurationMap
 
 
 def body_is_moving(m: mujoco.MjModel, body: int) -> bool:
@@ -65,3 +73,53 @@ def attached(m: mujoco.MjModel, a: int, b: int) -> bool:
     filter_parent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
     weld, parent = m.body_weldid, m.body_parentid
     return bool(filter_parent and wa and wb and (wa == int(weld[parent[wb]]) or wb == int(weld[parent[wa]])))
+
+
+def _reference_data(m: mujoco.MjModel, config: "ConfigurationMap") -> mujoco.MjData:
+    d = mujoco.MjData(m)
+    d.qpos[:] = config.qpos0
+    d.qpos[config.qpos_index] = m.qpos0[config.qpos_index]
+    mujoco.mj_kinematics(m, d)
+    return d
+
+
+_PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
+
+
+def pair_coordinates(m: mujoco.MjModel, config: "ConfigurationMap", moves: np.ndarray, a: int, b: int) -> np.ndarray:
+    """(n,) bool: the coordinates that can change the distance between geoms a and b.
+
+    A coordinate whose joint moves exactly one of the two geoms (it lies on the kinematic path between
+    their bodies) can; one that moves both or neither cannot. Against a plane that no coordinate moves,
+    the distance changes only with the motion along the plane's normal n, so a hinge whose axis is
+    parallel to n or a slide perpendicular to it cannot change it either, provided every configuration
+    hinge above it also turns about an axis parallel to n (so that this holds in every configuration):
+    a vertical pan joint cannot bring a shoulder closer to the floor.
+    """
+    active = moves[a] ^ moves[b]
+    for plane, other in ((a, b), (b, a)):
+        if int(m.geom_type[plane]) != _PLANE or moves[plane].any():
+            continue
+        d = _reference_data(m, config)
+        normal = d.geom_xmat[plane].reshape(3, 3)[:, 2]
+        order = sorted(np.flatnonzero(moves[other]), key=lambda i: int(config.joint_ids[i]))  # root first
+        upstream_parallel = True
+        for i in order:
+            j = int(config.joint_ids[i])
+            axis = d.xaxis[j] / np.linalg.norm(d.xaxis[j])
+            hinge = int(m.jnt_type[j]) == HINGE
+            parallel = np.linalg.norm(np.cross(axis, normal)) < 1e-9
+            if upstream_parallel and ((hinge and parallel) or (not hinge and abs(axis @ normal) < 1e-9)):
+                active[i] = False
+            if hinge and not parallel:
+                upstream_parallel = False
+    return active
+
+
+def geom_moved_by(m: mujoco.MjModel, config: "ConfigurationMap") -> np.ndarray:
+    """(ngeom, n) bool: configuration coordinate i moves geom g (its joint's body is g's body or above it)."""
+    out = np.zeros((m.ngeom, config.dim), dtype=bool)
+    for i, j in enumerate(config.joint_ids):
+        below = body_subtree(m, int(m.jnt_bodyid[int(j)]))
+        out[:, i] = below[m.geom_bodyid]
+    return out

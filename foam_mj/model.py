@@ -42,6 +42,7 @@ import numpy as np
 from foam_mj.configuration import (
     _SUPPORTED_JOINTS,
     CONFIGURATION_FIELD,
+    HINGE,
     ConfigurationMap,
     _configuration_map,
     _joint_name,
@@ -49,7 +50,7 @@ from foam_mj.configuration import (
 from foam_mj.constraints import binding_tendon_limits, coupling_equalities
 from foam_mj.errors import ConfigurationError, ModelError, clearance_text
 from foam_mj.fingerprint import PARTS
-from foam_mj.geom_pairs import attached, body_subtree, collision_pairs
+from foam_mj.geom_pairs import attached, body_subtree, collision_pairs, geom_moved_by, pair_coordinates
 from foam_mj.mjcf import (
     _custom_text,
     compile_spec,
@@ -487,7 +488,7 @@ class RobotModel:
         """For a hinge coordinate in radians whose out-of-bounds value would be within them read as degrees: the
         hint that q is in radians whatever the MJCF's ``<compiler angle>`` (ranges in degrees are converted)."""
         cfg = self.config
-        hinge = int(self.model.jnt_type[int(cfg.joint_ids[i])]) == _HINGE_T
+        hinge = int(self.model.jnt_type[int(cfg.joint_ids[i])]) == HINGE
         if not (hinge and cfg.scale[i] == 1.0 and cfg.offset[i] == 0.0 and self.lower[i] <= np.radians(value) <= self.upper[i]):
             return ""
         return (f" radians (hinge angles are radians whatever the MJCF's <compiler angle>, whose degrees MuJoCo converts: "
@@ -562,54 +563,3 @@ def _real_numbers(values) -> bool:
     if a.dtype.kind == "O":
         return all(isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_)) for v in a.ravel())
     return a.dtype.kind in "iuf"
-
-
-def _reference_data(m: mujoco.MjModel, config: "ConfigurationMap") -> mujoco.MjData:
-    d = mujoco.MjData(m)
-    d.qpos[:] = config.qpos0
-    d.qpos[config.qpos_index] = m.qpos0[config.qpos_index]
-    mujoco.mj_kinematics(m, d)
-    return d
-
-
-_PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
-_HINGE_T = int(mujoco.mjtJoint.mjJNT_HINGE)
-
-
-def pair_coordinates(m: mujoco.MjModel, config: "ConfigurationMap", moves: np.ndarray, a: int, b: int) -> np.ndarray:
-    """(n,) bool: the coordinates that can change the distance between geoms a and b.
-
-    A coordinate whose joint moves exactly one of the two geoms (it lies on the kinematic path between
-    their bodies) can; one that moves both or neither cannot. Against a plane that no coordinate moves,
-    the distance changes only with the motion along the plane's normal n, so a hinge whose axis is
-    parallel to n or a slide perpendicular to it cannot change it either, provided every configuration
-    hinge above it also turns about an axis parallel to n (so that this holds in every configuration):
-    a vertical pan joint cannot bring a shoulder closer to the floor.
-    """
-    active = moves[a] ^ moves[b]
-    for plane, other in ((a, b), (b, a)):
-        if int(m.geom_type[plane]) != _PLANE or moves[plane].any():
-            continue
-        d = _reference_data(m, config)
-        normal = d.geom_xmat[plane].reshape(3, 3)[:, 2]
-        order = sorted(np.flatnonzero(moves[other]), key=lambda i: int(config.joint_ids[i]))  # root first
-        upstream_parallel = True
-        for i in order:
-            j = int(config.joint_ids[i])
-            axis = d.xaxis[j] / np.linalg.norm(d.xaxis[j])
-            hinge = int(m.jnt_type[j]) == _HINGE_T
-            parallel = np.linalg.norm(np.cross(axis, normal)) < 1e-9
-            if upstream_parallel and ((hinge and parallel) or (not hinge and abs(axis @ normal) < 1e-9)):
-                active[i] = False
-            if hinge and not parallel:
-                upstream_parallel = False
-    return active
-
-
-def geom_moved_by(m: mujoco.MjModel, config: "ConfigurationMap") -> np.ndarray:
-    """(ngeom, n) bool: configuration coordinate i moves geom g (its joint's body is g's body or above it)."""
-    out = np.zeros((m.ngeom, config.dim), dtype=bool)
-    for i, j in enumerate(config.joint_ids):
-        below = body_subtree(m, int(m.jnt_bodyid[int(j)]))
-        out[:, i] = below[m.geom_bodyid]
-    return out

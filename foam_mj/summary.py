@@ -79,9 +79,9 @@ def print_row_cap_note(outcome) -> None:
 def print_limits_note(outcome) -> None:
     """One line when an MJCF written in degrees declares a hinge's time-law limits in ``foam_mj:limits:<joint>``: MuJoCo
     converts the model's angles, never a custom field's numbers, so "180 720" is 180 rad/s (10,313 deg/s), not 180 deg/s."""
-    import mujoco
     import numpy as np
 
+    from foam_mj.configuration import HINGE
     from foam_mj.mjcf import _custom_numeric
     from foam_mj.trajectory import LIMITS_PREFIX
 
@@ -93,7 +93,7 @@ def print_limits_note(outcome) -> None:
     read = [
         f"{name} {v:g} rad/s ({np.degrees(v):,.0f} deg/s), {a:g} rad/s^2"
         for name, j, v, a in zip(robot.config.joint_names, robot.config.joint_ids, vel, acc)
-        if int(robot.model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE) and name not in limits.joint.per_joint
+        if int(robot.model.jnt_type[j]) == HINGE and name not in limits.joint.per_joint
         and limits.velocity is None and limits.acceleration is None and _custom_numeric(robot.model, LIMITS_PREFIX + name) is not None
     ]
     if read:
