@@ -52,6 +52,16 @@ def clearance_text(d: float, delta: float) -> str:
     return f"{text} m"
 
 
+def radius_text(r: float, bound: float) -> str:
+    """A radius ``r`` for a message beside a bound such as r_min: 3 significant digits, more where 3 would print it
+    equal to ``bound`` although it differs (0.06999 is "0.06999 < r_min = 0.07", not "0.07 < r_min = 0.07")."""
+    for k in range(3, 13):
+        text = f"{r:.{k}g}"
+        if r == bound or float(text) != float(f"{bound:.{k}g}"):
+            break
+    return text
+
+
 def is_number(value: Any) -> bool:
     """A real number (Python's or numpy's) and not a boolean: True is the integer 1 to Python, and a flag
     given where a number is expected (``K = true``) must be refused, not planned with as 1."""

@@ -39,7 +39,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
-from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_number
+from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_number, radius_text
 from foam_mj.rosary import MEMBERSHIP_TOL, Rosary
 
 
@@ -382,7 +382,7 @@ def small_goal_hint(oracle: BubbleOracle, q_goal: np.ndarray, r_min: float) -> s
     r_goal = float(oracle.radius(q_goal))
     if r_goal >= r_min:
         return ""
-    return (f": q_goal's own certified bubble has radius {r_goal:.3g} < r_min = {r_min}, so only a bubble of at least "
+    return (f": q_goal's own certified bubble has radius {radius_text(r_goal, r_min)} < r_min = {r_min}, so only a bubble of at least "
             "r_min placed to reach it can hold it; lower r_min, or plan with bubbletree")
 
 
@@ -451,7 +451,7 @@ def plan(
     r0 = float(oracle.radius(q_init))
     if r0 < r_min:
         raise ConfigurationError(
-            f"q_init {q_init.tolist()} admits a root bubble of radius {r0:.3g} < r_min = {r_min} "
+            f"q_init {q_init.tolist()} admits a root bubble of radius {radius_text(r0, r_min)} < r_min = {r_min} "
             f"(clearance {clearance_text(clear0, params.delta)}, margin {params.delta} m): move it away from obstacles and bounds or lower r_min"
         )
 

@@ -811,17 +811,22 @@ def test_a_tree_that_stalls_beside_an_end_point_on_an_edge_of_the_joint_box_is_n
         get_planner("bubbletree").plan(PlanningProblem(oracle, q_init, s.q_goal, delta=0.007, max_bubbles=2000), seed=0)
 
 
+def _tall_box_scenario(tmp_path):
+    """The obstacle scene with its box 0.8 m tall between start and goal: no step clears it."""
+    toml = tmp_path / "tall.toml"
+    base = load_scenario("obstacle")
+    toml.write_text(f"scene = '{base.scene}'\nq_init = {base.q_init.tolist()}\nq_goal = {base.q_goal.tolist()}\n"
+                    "[planner]\nalgorithm = 'bubbletree'\n[obstacle]\nsize = [0.2, 0.5, 0.8]\n")
+    return load_scenario(toml)
+
+
 def test_trees_that_cannot_meet_name_where_they_came_nearest_and_what_blocks_it(tmp_path):
     """A box 0.8 m tall between start and goal: no step clears it. The failure says where the trees came nearest and
     the clearance there, which MuJoCo confirms: the leg is inside the box."""
     from foam_mj.bubbles import BubbleOracle
     from tests.conftest import MujocoChecker
 
-    toml = tmp_path / "tall.toml"
-    base = load_scenario("obstacle")
-    toml.write_text(f"scene = '{base.scene}'\nq_init = {base.q_init.tolist()}\nq_goal = {base.q_goal.tolist()}\n"
-                    "[planner]\nalgorithm = 'bubbletree'\n[obstacle]\nsize = [0.2, 0.5, 0.8]\n")
-    s = load_scenario(toml)
+    s = _tall_box_scenario(tmp_path)
     oracle = BubbleOracle(s.robot, delta=0.005)
     with pytest.raises(PlanningFailed, match=r"the trees did not meet \(bubble budget\)") as err:
         get_planner("bubbletree").plan(PlanningProblem(oracle, s.q_init, s.q_goal, max_bubbles=1500), seed=0)
@@ -839,11 +844,7 @@ def test_trees_that_stop_coming_closer_give_up_before_the_time_budget(tmp_path):
     budget ends."""
     from foam_mj.bubbles import BubbleOracle
 
-    toml = tmp_path / "tall.toml"
-    base = load_scenario("obstacle")
-    toml.write_text(f"scene = '{base.scene}'\nq_init = {base.q_init.tolist()}\nq_goal = {base.q_goal.tolist()}\n"
-                    "[planner]\nalgorithm = 'bubbletree'\n[obstacle]\nsize = [0.2, 0.5, 0.8]\n")
-    s = load_scenario(toml)
+    s = _tall_box_scenario(tmp_path)
     oracle = BubbleOracle(s.robot, delta=0.005)
     problem = PlanningProblem(oracle, s.q_init, s.q_goal, time_limit=600.0)
     with pytest.raises(PlanningFailed, match=r"the trees did not meet \(stalled: \d+ iterations without coming r_min / 2 = "
@@ -963,3 +964,17 @@ def test_bubbletree_plans_with_a_margin_large_beside_the_robots_reach(tmp_path):
     oracle = BubbleOracle(RobotModel.from_xml(tmp_path / "far.xml"), delta=1.2)
     res = get_planner("bubbletree").plan(PlanningProblem(oracle, [-0.5], [0.5], delta=1.2), seed=0)
     assert res.stats.outcome == "reached" and res.stats.details["r_min"] == pytest.approx(0.1)
+
+
+def test_a_root_bubble_just_under_r_min_is_printed_with_the_digits_that_tell_them_apart(obstacle_robot):
+    """pfm refuses a root bubble under r_min; one 1e-5 under it read 'radius 0.0878 < r_min = 0.0878'."""
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.errors import radius_text
+
+    s = load_scenario("obstacle")
+    oracle = BubbleOracle(obstacle_robot, delta=0.005)
+    r0 = float(oracle.radius(s.q_init))
+    r_min = float(f"{r0 * (1 + 1e-5):.6g}")
+    assert radius_text(r0, r_min) != f"{r_min:.3g}" and float(radius_text(r0, r_min)) < r_min
+    with pytest.raises(ConfigurationError, match=rf"root bubble of radius {re.escape(radius_text(r0, r_min))} < r_min = {r_min}"):
+        get_planner("pfm", r_min=r_min).plan(PlanningProblem(oracle, s.q_init, s.q_goal, delta=0.005), seed=0)

@@ -98,7 +98,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from foam_mj.bubbles import BubbleOracle
-from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
+from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, radius_text
 from foam_mj.foam import seed_rng
 from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer, check_problem
 from foam_mj.planners.chains import HATCH
@@ -378,7 +378,7 @@ class BubbleTreePlanner(Planner):
                            else "stalled")
                 st = stats(outcome, None)
                 stuck = "".join(
-                    (f"; the {side} tree never grew: {name}'s certified bubble has radius {r:.3g} < r_min = {r_min:.3g}"
+                    (f"; the {side} tree never grew: {name}'s certified bubble has radius {radius_text(r, r_min)} < r_min = {r_min:.3g}"
                      f"{f' and < {SMALLEST:g}, too small to grow from' if r < SMALLEST else ''} (its clearance "
                      f"is barely above delta or it lies next to a joint bound; `foam-mj bubble` shows which): move it away"
                      f"{'' if r < SMALLEST else ', or lower r_min (an option of the [planner] table)'}")

@@ -65,7 +65,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
-from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text
+from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, radius_text
 from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order, check_candidate_bound, nearest_hint, seed_rng, small_goal_hint
 from foam_mj.rosary import MEMBERSHIP_TOL
 
@@ -272,7 +272,7 @@ class _Growth:
         if self.goal is None:
             stuck = ""
             if self.count == 1 and outcome != "bubble budget":  # a budget of one bubble stopped it, not r_min
-                bubble, r_min = f"the start's bubble (radius {self.radii[0]:.3g})", f"r_min = {self.params.r_min}"
+                bubble, r_min = f"the start's bubble (radius {radius_text(self.radii[0], self.params.r_min)})", f"r_min = {self.params.r_min}"
                 if self.root_cannot_grow():  # proven by the bound: no candidate could have been good
                     stuck = f": no bubble of radius >= {r_min} fits on {bubble}; lower r_min, or plan with bubbletree"
                 elif outcome == "time budget":  # the clock, not the geometry (a child may fit)
