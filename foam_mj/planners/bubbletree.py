@@ -108,9 +108,13 @@ from foam_mj.planners.trees import Bubbles, lifted
 
 #: Candidate centres per extension, at s r_p from the parent's centre along the direction to the target.
 STEPS = np.array([1.0, 2.0])
-#: The exploration after the first path counts at most this many iterations per unit of ``explore``
-#: (a hard 6-joint problem needs 40-90 iterations to its first path; doubling that is not worth it).
-EXPLORE_CAP = 20
+#: The exploration after the first path counts at most this many iterations per unit of ``explore``: a bound for
+#: slow narrow-passage searches (a box 0.52 m tall on the obstacle scene met after 16,049 iterations), not for a
+#: large configuration space. At 20, a UR5e (MuJoCo Menagerie, joints +-2 pi, a pillar between home and a pose
+#: 1.57 rad away) met after 70-130 iterations and explored 20: its corridor stayed on the first, wandering route
+#: (seeds 0-4, with CHAIN_FIRST: median final length in qpos 9.10; 200: 6.94, OMPL RRTConnect + simplify 8.23). The
+#: benchmark problems meet within 14 iterations (10 seeds), so the cap does not bind there.
+EXPLORE_CAP = 200
 #: A bubble is extended toward the other tree at most this many times (then others nearby get their turn).
 MAX_TRIES = 3
 #: A child needs radius r_min, or GROW x its parent's if that is less and the parent has at least SMALLEST
@@ -144,6 +148,12 @@ STALLED = 20
 #: (on the 3-joint obstacle scene 60 bubbles cut plan + optimal smoother by ~13 % CPU at the same median
 #: length; on the 5-joint leg a cap of 60 cost 6 % of length, 100 costs nothing).
 CHAIN_PER_JOINT = 20
+#: ... or, if more, this many times the bubbles of the first chain (the shortest chain of the trees' overlap graph):
+#: a path long beside its bubbles needs that many to hold it, and the chords that shorten it add as many again. A UR5e
+#: whose first chain held 85-110 bubbles (6 joints: a cap of 120) stopped after one round, its chords half spliced
+#: (seeds 0-4, EXPLORE_CAP 200: median final length in qpos 9.32 -> 6.94). The benchmark problems' first chains hold
+#: at most 9.7 bubbles per joint (10 seeds), so the per-joint cap still decides there.
+CHAIN_FIRST = 2.0
 #: ``stall``: the search for a first path ends (outcome "stalled") after this many iterations in which the trees came no
 #: closer than their smallest gap so far less r_min / 2, or, if more, as many as it had run when they last came closer
 #: (a slow search that keeps progressing is not cut: the 0.52 m box below). Bubbles cannot prove a goal unreachable; a goal enclosed by
@@ -199,7 +209,7 @@ class BubbleTreeOptions:
     explore only where a shorter path can pass (the informed set); ``metric``: the length the corridor
     minimises, ``"qpos"`` (MuJoCo's joint units: radians and metres, through the configuration map's scale)
     or ``"q"`` (the planner's coordinates; the same unless a joint is normalized); ``refine_chain``: no new
-    refinement round once the chain holds this many bubbles (0: 20 per joint); ``stall``: give up (outcome "stalled") when the
+    refinement round once the chain holds this many bubbles (0: 20 per joint, or twice the first chain's if more); ``stall``: give up (outcome "stalled") when the
     trees have come no closer (by r_min / 2) in this many iterations before they meet, or in as many as the search had run
     when they last came closer, if more (0: search until a budget ends)."""
 
@@ -514,12 +524,13 @@ class BubbleTreePlanner(Planner):
             problem, B.c[: B.n], B.r[: B.n], link,
             CorridorOptions(refine=o.refine, refine_tol=o.refine_tol, refine_rounds=o.refine_rounds, time_limit=o.refine_time,
                             floor_factor=o.refine_floor, metric=metric, max_chain=o.refine_chain or CHAIN_PER_JOINT * n,
+                            max_chain_first=0.0 if o.refine_chain else CHAIN_FIRST,
                             deadline=timer.t0 + problem.time_limit), rng,
         )
         if len(corridor.added_centers):
             B.add(corridor.added_centers, corridor.added_radii, corridor.added_parents, np.full(len(corridor.added_radii), 2, dtype=np.int8))
         corridor.stats["cpu_ms"] = {"first": round(1e3 * cpu_first, 2), "explore": round(1e3 * (cpu_tree - cpu_first), 2), **corridor.stats["cpu_ms"]}
-        st = stats("reached", t_first, {"bubbles_at_first_path": foam_first, **corridor.stats})
+        st = stats("reached", t_first, {"bubbles_at_first_path": foam_first, "iterations_at_first_path": it_first, **corridor.stats})
         foam = B.foam(q0, q1)
         return PlanResult(foam, corridor.rosary(problem.q_init, problem.q_goal), st, corridor.waypoints)
 

@@ -168,6 +168,8 @@ class CorridorOptions:
     #: No new round once the chain holds this many bubbles (the smoothers' time grows with it; the last
     #: rounds of a path sliding along an obstacle add many bubbles for a per cent or two).
     max_chain: int = 10**9
+    #: ... or, if more, this many times the bubbles of the first (Dijkstra) chain (0: ``max_chain`` alone).
+    max_chain_first: float = 0.0
 
 
 @dataclass
@@ -383,6 +385,7 @@ def build_corridor(
     w, length = shortest_path(C, R, q0, q1, M)
     clock.lap("socp")
     stats = {"chain_first": int(len(ids)), "length_first": length, "refine_rounds": 0, "refine_added": 0, "shortcuts": 0}
+    max_chain = max(options.max_chain, int(options.max_chain_first * len(ids)))
 
     def next_id() -> int:
         """The id of the next bubble the refinement adds (after the planner's and those added so far)."""
@@ -464,7 +467,7 @@ def build_corridor(
             stats["shortcuts"] += len(splices)
             # 3. Further chords on the spliced polyline (no cone program in between).
             for _step in range(CHORD_STEPS - 1):
-                if len(R2) >= options.max_chain:
+                if len(R2) >= max_chain:
                     break
                 more = pick_chords(P2, R2, STEP_GAIN * options.refine_tol)
                 if not more:
@@ -479,7 +482,7 @@ def build_corridor(
             # 3. Drop the bubbles the path no longer needs (not from a chain of max_chain bubbles: that ends the
             #    rounds, and the re-cover below prunes it; over obstacle, step_up and step_down seeds 0-19, this prune
             #    dropped more than PRUNE_GAIN of such a chain in 1 round of 37).
-            if options.prune and len(R2) < options.max_chain:
+            if options.prune and len(R2) < max_chain:
                 keep_pos = prune_chain(C2, R2, np.concatenate([[q0], w2, [q1]]))
                 clock.lap("prune")
                 if len(keep_pos) < PRUNE_GAIN * len(R2):
@@ -493,7 +496,7 @@ def build_corridor(
                 print(f"round: k {k} press {len(press)} chords {len(splices)} (+{sum(len(v[2]) for v in splices.values())} -{sum(v[0]-a for a, v in splices.items())}) chain {len(R2)} length {length:.4f} -> {length2:.4f}")
             if length2 <= length:
                 C, R, ids, w, length = C2, R2, ids2, w2, length2
-            if gain <= options.refine_tol or len(R) >= options.max_chain:
+            if gain <= options.refine_tol or len(R) >= max_chain:
                 break
     # 4. The last chain pruned (rounds skip a prune that drops few bubbles), then every hatch made deep enough
     #    to sample from: the smaller ball's centre inside the larger ball. One cone program for both.
