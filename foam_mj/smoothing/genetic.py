@@ -191,7 +191,9 @@ class GeneticAlgorithm(Smoother):
             subtract(x1, x2, diff)
             multiply(beta[cpos], diff, diff)
             add(x1, diff, child)
-            copyto(child, x1, where=outside(child))
+            bad = outside(child)
+            if bad.size:
+                child.reshape(n, -1)[:, bad] = x1.reshape(n, -1)[:, bad]
             # 3. mutation q' <- alpha q', reverted when it leaves the hatch (about one allele a generation:
             # plain float arithmetic, the same operations as on arrays)
             for ind, col, alpha, c_a, r_a2, c_b, r_b2 in muts[cpos]:
@@ -351,8 +353,10 @@ class _PopulationObjective:
 
 
 class _OutsideHatches:
-    """Which waypoints of a coordinate-major population X (n, b, L), b <= P, lie outside their hatch: bool
-    (b, L), False at the ends; the same test as ``Hatches.outside_cm(X[:, :, 1:-1])``."""
+    """Which waypoints of a coordinate-major population X (n, b, L), b <= P, lie outside their hatch: their
+    flat indices path * L + point (ascending; never an end), the same test as ``Hatches.outside_cm(X[:, :,
+    1:-1])``. Few waypoints leave their hatch (a handful of a generation's thousands), so the callers
+    revert them by index rather than with a mask over the whole population."""
 
     def __init__(self, h: Hatches, P: int, q_init: np.ndarray, q_goal: np.ndarray) -> None:
         m, n = h.ca.shape
@@ -381,12 +385,12 @@ class _OutsideHatches:
         if v is None:
             bL = b * self._L
             v = self._views[b] = (self._c[:, :, :bL], self._r2[:, :bL], self._d[:, :, :bL], self._q[:, :bL],
-                                  self._out[:, :bL], (X.shape[0], bL), (b, self._L))
-        c, r2, d, q, out, xshape, shape = v
+                                  self._out[:, :bL], (X.shape[0], bL))
+        c, r2, d, q, out, xshape = v
         np.subtract(X.reshape(xshape), c, d)
         _einsum("kij,kij->kj", d, d, out=q)  # |x - c|^2 for both balls, as Hatches.outside_cm's einsum
         np.greater(q, r2, out)
-        return np.logical_or(out[0], out[1], out[0]).reshape(shape)
+        return np.logical_or(out[0], out[1], out[0]).nonzero()[0]
 
 
 def _strided(buf: np.ndarray, shape: tuple[int, ...], strides: tuple[int, ...]) -> np.ndarray:

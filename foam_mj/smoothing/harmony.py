@@ -162,7 +162,10 @@ class HarmonySearch(Smoother):
                 ends_b = b
             cand = blk[:, :, 1:-1]
             np.add(base, offset[:, cpos : cpos + b], out=cand)  # pitch adjustment (offset 0 elsewhere)
-            np.copyto(cand, base, where=outside(blk)[:, 1:-1])  # revert infeasible adjustments
+            bad = outside(blk)  # revert infeasible adjustments
+            if bad.size:
+                path, point = np.divmod(bad, L)
+                cand[:, path, point - 1] = base[:, path, point - 1]
             f = objective(blk)
             spec_evals += b
             # Walk the block in order. A replacement of slot w invalidates the later harmonies that took a
