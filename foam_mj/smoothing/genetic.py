@@ -130,8 +130,7 @@ class GeneticAlgorithm(Smoother):
         fit = coordinate_major_objective(pop)
         objective = _PopulationObjective(n, P, L)
         outside = _OutsideHatches(h, P, rosary.q_init, rosary.q_goal)
-        x1, x2 = np.empty((n, P, L)), np.empty((n, P, L))  # parent 1 and parent 2 of every child (contiguous)
-        diff = np.empty((n, P, L))
+        x1 = np.empty((n, P, L))  # parent 1 of every child (contiguous); parent 2 is gathered into the child
         # hatch balls as Python floats, for the few mutated alleles of a generation
         ca, cb = h.ca.tolist(), h.cb.tolist()
         ra2, rb2 = (h.ra * h.ra).tolist(), (h.rb * h.rb).tolist()
@@ -185,12 +184,12 @@ class GeneticAlgorithm(Smoother):
             # numpy's default mode buffers the output)
             p1, p2 = np.where(fp[0] <= fp[1], pairs, pairs[::-1])
             take(pop, p1, axis=1, out=x1, mode="clip")
-            take(pop, p2, axis=1, out=x2, mode="clip")
-            # 2. heuristic crossover (Eq. 6): child = x1 + beta (x1 - x2); a waypoint leaving its hatch
-            # reverts to parent 1's
-            subtract(x1, x2, diff)
-            multiply(beta[cpos], diff, diff)
-            add(x1, diff, child)
+            take(pop, p2, axis=1, out=child, mode="clip")
+            # 2. heuristic crossover (Eq. 6): child = x1 + beta (x1 - x2), computed in place over x2 (fewer
+            # buffers: the generation's arrays stay in cache); a waypoint leaving its hatch reverts to parent 1's
+            subtract(x1, child, child)
+            multiply(beta[cpos], child, child)
+            add(x1, child, child)
             bad = outside(child)
             if bad.size:
                 child.reshape(n, -1)[:, bad] = x1.reshape(n, -1)[:, bad]
@@ -300,8 +299,8 @@ class _PopulationObjective:
         self._q = np.empty(2 * PL)
         self._al = np.empty(2 * PL + 1)  # [angles (P L), lengths (P L), 1.0]
         self._den = np.empty(PL)
-        self._eps = np.full(PL, _EPS * _EPS)
-        self._ones, self._minus_ones = np.ones(PL), -np.ones(PL)
+        # 0-d operands: no conversion of a Python float per call, and no constant arrays in the cache
+        self._eps, self._one, self._minus_one = np.array(_EPS * _EPS), np.array(1.0), np.array(-1.0)
         self._fused = L - 1 <= 128 and (L - 1) % 8 != 0
         self._views: dict[int, tuple] = {}
 
@@ -316,7 +315,7 @@ class _PopulationObjective:
                 # consecutive segments] (2, b L)
                 (_strided(self._seg, (n, 2, bL), (bL, 0, 1)), _strided(self._seg, (n, 2, bL), (bL, 1, 1))),
                 self._q[: 2 * bL].reshape(2, bL),
-                lens, self._den[:bL], ang, self._eps[:bL], self._ones[:bL], self._minus_ones[:bL],
+                lens, self._den[:bL], ang, self._eps, self._one, self._minus_one,
                 # per path: the L - 2 angles and the L - 1 segment lengths (the rest is junk); fused: the
                 # angles with a zero in column L - 2, then the lengths, (2 b, L - 1)
                 ang.reshape(b, L)[:, : L - 2], lens[:bL].reshape(b, L)[:, : L - 1],
@@ -328,7 +327,7 @@ class _PopulationObjective:
     def __call__(self, X: np.ndarray) -> np.ndarray:
         x = X.reshape(-1)
         b = X.shape[1]
-        pairs, q, lens, den, ang, eps, ones, minus_ones, ang_rows, len_rows, pad, both = self._views_for(b)
+        pairs, q, lens, den, ang, eps, one, minus_one, ang_rows, len_rows, pad, both = self._views_for(b)
         np.subtract(x[1:], x[:-1], self._seg[: x.size - 1])
         _einsum("ikj,ikj->kj", *pairs, out=q)
         lens[-1] = 1.0  # the last path's junk segment times 1
@@ -339,8 +338,8 @@ class _PopulationObjective:
             return coordinate_major_objective(X)
         np.maximum(den, eps, out=den)
         np.divide(q[1], den, ang)
-        np.minimum(ang, ones, out=ang)
-        np.maximum(ang, minus_ones, out=ang)
+        np.minimum(ang, one, out=ang)
+        np.maximum(ang, minus_one, out=ang)
         np.arccos(ang, ang)
         if self._fused:
             pad[...] = 0.0
@@ -373,7 +372,7 @@ class _OutsideHatches:
         cb, rb2 = full(h.cb, h.rb)
         self._c = np.ascontiguousarray(np.stack([ca, cb]))  # (2, n, P L): ball a and ball b
         self._r2 = np.ascontiguousarray(np.stack([ra2, rb2]))
-        self._d = np.empty((2, n, P * L))
+        self._d = np.empty((n, P * L))  # one ball at a time: a smaller working set
         self._q = np.empty((2, P * L))
         self._out = np.empty((2, P * L), dtype=bool)
         self._L = L
@@ -384,11 +383,13 @@ class _OutsideHatches:
         v = self._views.get(b)
         if v is None:
             bL = b * self._L
-            v = self._views[b] = (self._c[:, :, :bL], self._r2[:, :bL], self._d[:, :, :bL], self._q[:, :bL],
+            v = self._views[b] = (self._c[:, :, :bL], self._r2[:, :bL], self._d[:, :bL], self._q[:, :bL],
                                   self._out[:, :bL], (X.shape[0], bL))
         c, r2, d, q, out, xshape = v
-        np.subtract(X.reshape(xshape), c, d)
-        _einsum("kij,kij->kj", d, d, out=q)  # |x - c|^2 for both balls, as Hatches.outside_cm's einsum
+        x = X.reshape(xshape)
+        for ball in (0, 1):  # |x - c|^2, as Hatches.outside_cm's einsum
+            np.subtract(x, c[ball], d)
+            _einsum("ij,ij->j", d, d, out=q[ball])
         np.greater(q, r2, out)
         return np.logical_or(out[0], out[1], out[0]).nonzero()[0]
 
