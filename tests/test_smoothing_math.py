@@ -382,3 +382,49 @@ def test_hatch_sampling_reaches_thin_lenses_in_five_dimensions(gap):
     d1 = np.linalg.norm(pts - ros.centers[1], axis=1)
     assert np.all(d0 <= 1 + 1e-12) and np.all(d1 <= 1 + 1e-12)
     assert abs(pts[:, 0].mean() - (2 - gap) / 2) < 0.1 * gap + 1e-6
+
+
+def reference_sample(h: Hatches, rng: np.random.Generator, idx: np.ndarray) -> np.ndarray:
+    """Hatches.sample written plainly: rejection in the smaller ball of each hatch, every round's pending
+    points re-gathered, then (after BALL_ROUNDS) in the lens's bounding cylinder."""
+    from foam_mj.smoothing.base import BALL_ROUNDS, _lens_cylinder_points
+
+    n = h.ca.shape[1]
+    small_a = h.ra <= h.rb
+    cs = np.where(small_a[:, None], h.ca, h.cb)[idx]
+    rs = np.where(small_a, h.ra, h.rb)[idx]
+    co = np.where(small_a[:, None], h.cb, h.ca)[idx]
+    ro = np.where(small_a, h.rb, h.ra)[idx]
+    out = np.empty((len(idx), n))
+    todo = np.arange(len(idx))
+    for round_ in range(1000):
+        if todo.size == 0:
+            break
+        if round_ < BALL_ROUNDS:
+            g = rng.standard_normal((todo.size, n))
+            g /= np.linalg.norm(g, axis=1, keepdims=True)
+            pts = cs[todo] + g * (rs[todo] * rng.random(todo.size) ** (1.0 / n))[:, None]
+        else:
+            pts = _lens_cylinder_points(rng, cs[todo], rs[todo], co[todo], ro[todo])
+        ok = (np.sum((pts - co[todo]) ** 2, axis=1) <= ro[todo] ** 2) & (np.sum((pts - cs[todo]) ** 2, axis=1) <= rs[todo] ** 2)
+        out[todo[ok]] = pts[ok]
+        todo = todo[~ok]
+    return out
+
+
+@SETTINGS
+@given(st.integers(1, 6), st.integers(2, 6), st.floats(1e-4, 1.0), st.integers(0, 2**32 - 1))
+def test_hatch_sampling_equals_the_plain_rejection_loop_draw_for_draw(m, n, overlap, seed):
+    """Hatches.sample (its pending points' balls kept compacted) draws the same points as the plain loop and
+    leaves the generator in the same state; thin lenses (small ``overlap``) reach the cylinder rounds."""
+    rng = np.random.default_rng(seed)
+    steps = rng.normal(size=(m, n))
+    steps /= np.linalg.norm(steps, axis=1, keepdims=True)
+    centers = np.vstack([np.zeros(n), np.cumsum(steps, axis=0)])  # unit steps
+    radii = 0.5 + overlap * rng.uniform(0.1, 0.5, size=m + 1)  # overlapping neighbours, some lenses thin
+    ros = Rosary(centers, radii, centers[0], centers[-1])
+    h = Hatches.of(ros)
+    idx = rng.integers(0, m, size=40)
+    a, b = np.random.default_rng(seed), np.random.default_rng(seed)
+    np.testing.assert_array_equal(h.sample(a, idx), reference_sample(h, b, idx))
+    assert a.random() == b.random()

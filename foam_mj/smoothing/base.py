@@ -385,20 +385,24 @@ class Hatches:
         co = np.where(small_a[:, None], self.cb, self.ca)[flat]
         ro = np.where(small_a, self.rb, self.ra)[flat]
         todo = np.arange(flat.size)
+        rs2, ro2 = rs * rs, ro * ro
         for round_ in range(max_rounds):
             if todo.size == 0:
                 break
             if round_ < BALL_ROUNDS:
                 g = rng.standard_normal((todo.size, n))
-                g /= np.linalg.norm(g, axis=1, keepdims=True)
-                pts = cs[todo] + g * (rs[todo] * rng.random(todo.size) ** (1.0 / n))[:, None]
+                g /= np.sqrt(np.add.reduce(g * g, axis=1, keepdims=True))  # np.linalg.norm
+                pts = cs + g * (rs * rng.random(todo.size) ** (1.0 / n))[:, None]
             else:  # a thin lens holds a tiny share of the smaller ball (in 5-D and up): its bounding cylinder
-                pts = _lens_cylinder_points(rng, cs[todo], rs[todo], co[todo], ro[todo])
-            ok = (np.sum((pts - co[todo]) ** 2, axis=1) <= ro[todo] ** 2) & (
-                np.sum((pts - cs[todo]) ** 2, axis=1) <= rs[todo] ** 2
-            )
+                pts = _lens_cylinder_points(rng, cs, rs, co, ro)
+            d = pts - co
+            ok = np.add.reduce(d * d, axis=1) <= ro2
+            np.subtract(pts, cs, d)
+            ok &= np.add.reduce(d * d, axis=1) <= rs2
             out[todo[ok]] = pts[ok]
-            todo = todo[~ok]
+            # the points still to draw, and their balls
+            left = ~ok
+            todo, cs, rs, co, ro, rs2, ro2 = (a[left] for a in (todo, cs, rs, co, ro, rs2, ro2))
         else:
             if todo.size:
                 raise RuntimeError("hatch sampling did not converge: a hatch is empty or degenerate")
