@@ -2,16 +2,25 @@
 
 from __future__ import annotations
 
-from foam_mj.data import models_dir
+import os
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
+from hypothesis import settings
+
+from foam_mj.data import models_dir
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.model import RobotModel
 from foam_mj.rosary import Rosary
+
+#: CI (``CI`` set, as .ci/run does) runs the property tests on hypothesis's derandomized examples, so that whether a
+#: change lands does not depend on the day's draw; a local run draws new examples each time.
+settings.register_profile("ci", derandomize=True)
+if os.environ.get("CI"):
+    settings.load_profile("ci")
 
 MODELS = models_dir()
 SCENES = ("obstacle", "step_up", "step_down")
