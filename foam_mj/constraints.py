@@ -8,15 +8,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.configuration import ConfigurationMap, _joint_name
-from foam_mj.geom_pairs import body_subtree
-
-
-def moved_by(m: mujoco.MjModel, config: ConfigurationMap) -> np.ndarray:
-    """(dim, nbody) booleans: which configuration joint moves which body (the joint's body and everything below it)."""
-    moved = np.zeros((config.dim, m.nbody), dtype=bool)
-    for i, j in enumerate(config.joint_ids):
-        moved[i] = body_subtree(m, int(m.jnt_bodyid[int(j)]))
-    return moved
+from foam_mj.geom_pairs import bodies_moved_by
 
 
 def coupling_equalities(m: mujoco.MjModel, config: ConfigurationMap) -> list[str]:
@@ -26,7 +18,7 @@ def coupling_equalities(m: mujoco.MjModel, config: ConfigurationMap) -> list[str
     planner moves each coordinate independently and holds every other joint at its pose, so its path would not be the
     motion MuJoCo, or the robot, makes. A loop that closes below every configuration joint (a gripper's linkage at the
     end of an arm) moves as one piece with the arm's links, and holds as it does at the held pose."""
-    moved = moved_by(m, config)
+    moved = bodies_moved_by(m, config)
     joints = {int(j) for j in config.joint_ids}
     eq = mujoco.mjtEq
 
@@ -79,7 +71,7 @@ def binding_tendon_limits(m: mujoco.MjModel, config: ConfigurationMap) -> list[s
     within theirs (the others held at ``qpos0``), or a ``<spatial>`` one whose length a configuration joint can
     change (between bodies the configuration moves differently). MuJoCo holds such a tendon within its range, as it
     does a joint; the planner, which moves each joint within its own range, would not."""
-    moved = moved_by(m, config)
+    moved = bodies_moved_by(m, config)
     where = {int(j): i for i, j in enumerate(config.joint_ids)}
     lo_q = config.offset + config.scale * config.lower
     hi_q = config.offset + config.scale * config.upper

@@ -116,10 +116,14 @@ def pair_coordinates(m: mujoco.MjModel, config: "ConfigurationMap", moves: np.nd
     return active
 
 
+def bodies_moved_by(m: mujoco.MjModel, config: "ConfigurationMap") -> np.ndarray:
+    """(n, nbody) bool: configuration coordinate i moves body b (its joint's body is b or above it)."""
+    moved = np.zeros((config.dim, m.nbody), dtype=bool)
+    for i, j in enumerate(config.joint_ids):
+        moved[i] = body_subtree(m, int(m.jnt_bodyid[int(j)]))
+    return moved
+
+
 def geom_moved_by(m: mujoco.MjModel, config: "ConfigurationMap") -> np.ndarray:
     """(ngeom, n) bool: configuration coordinate i moves geom g (its joint's body is g's body or above it)."""
-    out = np.zeros((m.ngeom, config.dim), dtype=bool)
-    for i, j in enumerate(config.joint_ids):
-        below = body_subtree(m, int(m.jnt_bodyid[int(j)]))
-        out[:, i] = below[m.geom_bodyid]
-    return out
+    return bodies_moved_by(m, config)[:, m.geom_bodyid].T.copy()

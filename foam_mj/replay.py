@@ -78,7 +78,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.clearance import Clearance
-from foam_mj.geom_pairs import body_is_moving, body_subtree
+from foam_mj.geom_pairs import bodies_moved_by, body_is_moving
 from foam_mj.model import RobotModel
 from foam_mj.trajectory import Trajectory
 
@@ -318,9 +318,7 @@ def _exclude_held_contacts(spec: mujoco.MjSpec, m: mujoco.MjModel, robot: RobotM
     but MuJoCo's contact would push them apart by accelerations that no armature resists, and the held base's
     jolts reached the planned leg (34 mrad of tracking error on a Go2's swing leg, 1.1 without those contacts).
     Unnamed bodies are named in the copy for the exclusion."""
-    moved = np.zeros(m.nbody, dtype=bool)
-    for j in robot.config.joint_ids:
-        moved |= body_subtree(m, int(m.jnt_bodyid[int(j)]))
+    moved = bodies_moved_by(m, robot.config).any(axis=0)
     live = np.zeros(m.nbody, dtype=bool)
     live[m.geom_bodyid[(m.geom_contype != 0) | (m.geom_conaffinity != 0)]] = True
     fixed = [b for b in range(m.nbody) if live[b] and not moved[b]]
