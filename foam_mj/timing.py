@@ -465,23 +465,19 @@ def _stretch_to_limits(robot, rosary, curve, law: PathTiming, vmax, amax, tmax, 
     fits is a root (aimed A_MARGIN inside the limit), as are the velocity and acceleration ones. Up to three stretches (the torque model leaves out
     joint friction's change with speed); None when they do not fit the limits within the 10x slowdown."""
     limited = np.isfinite(tmax)
-    m = robot.model
-    dof = m.jnt_dofadr[robot.config.joint_ids]
-    damping = m.dof_damping[dof]
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
     L = np.where(limited, tmax, np.inf)
     traj = _sample(robot, rosary, curve, law, law.duration, dt, law.time_at(curve.knots)[knots_of_points])
     for stretch in range(4):
         qd, qdd = np.abs(traj.qvel[:, dof]), np.abs(traj.qacc[:, dof])
-        zero = np.zeros_like(traj.qvel)
-        g = inverse_dynamics(robot, traj.qpos, zero, zero)[:, dof]
-        tau = inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]
+        g, tau, damped = _torque_terms(robot, traj)
         if np.all(qd <= vmax * (1 + 1e-9)) and np.all(qdd <= amax * (1 + 1e-9)) and np.all(np.abs(tau) <= L * (1 + 1e-9)):
             return traj
         if stretch == 3:
             return None
         x_tau = 1.0
         if np.any(limited):
-            D = (damping * traj.qvel[:, dof])[:, limited]
+            D = damped[:, limited]
             R = tau[:, limited] - g[:, limited] - D
             gl, lim = g[:, limited], L[limited] * (1 - A_MARGIN)  # aimed inside: the samples fall elsewhere on the curve
             x_tau = float(np.min(np.minimum(_smallest_positive_root(R, D, gl - lim), _smallest_positive_root(R, D, gl + lim)), initial=1.0))
@@ -499,18 +495,13 @@ def _retime_own(robot, rosary, base: Trajectory, tmax, dt) -> Trajectory:
     T0 = base.duration
     if not np.any(np.isfinite(tmax)):
         return base
-    m = robot.model
-    dof = m.jnt_dofadr[robot.config.joint_ids]
-    B = m.dof_damping[dof]
     x_max = 1.0
     traj = base
     for _ in range(REFINE_ROUNDS):
-        zero = np.zeros_like(traj.qvel)
-        g = inverse_dynamics(robot, traj.qpos, zero, zero)[:, dof]
-        tau = inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]
+        g, tau, damped = _torque_terms(robot, traj)
         x0 = T0 / traj.duration  # speed factor of these samples relative to T0
-        D = B * traj.qvel[:, dof] / x0
-        R = (tau - g - B * traj.qvel[:, dof]) / x0**2
+        D = damped / x0
+        R = (tau - g - damped) / x0**2
         L = np.where(np.isfinite(tmax), tmax, np.inf)
         if np.all(np.abs(tau) <= L * (1 + 1e-9)):
             return traj
@@ -524,6 +515,16 @@ def _retime_own(robot, rosary, base: Trajectory, tmax, dt) -> Trajectory:
         law = type(base.time_law)(base.time_law.grid, base.time_law.weight, T)
         traj = _sample(robot, rosary, base.curve, law, T, dt, base.waypoint_times * T / T0)
     raise TimingInfeasible("the stretched time law still exceeds the torque limits")  # pragma: no cover
+
+
+def _torque_terms(robot: RobotModel, traj: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """At every sample of ``traj`` (N, n, configuration joints): gravity g, the torque tau (``mj_inverse``) and the
+    damping torque B qd, so that a uniform stretch to speed factor x gives g + x (B qd) + x^2 (tau - g - B qd)."""
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    zero = np.zeros_like(traj.qvel)
+    g = inverse_dynamics(robot, traj.qpos, zero, zero)[:, dof]
+    tau = inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]
+    return g, tau, robot.model.dof_damping[dof] * traj.qvel[:, dof]
 
 
 def _smallest_positive_root(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
