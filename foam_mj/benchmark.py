@@ -377,19 +377,32 @@ def format_tables(res: dict) -> str:
 
 #: The most runs per stochastic method ``--runs`` takes (a typo of a few zeros would run for days).
 MAX_RUNS = 10_000
+#: Runs per stochastic method without ``--runs`` (Table 1's 50), and with ``--quick``.
+RUNS, QUICK_RUNS = 50, 3
+
+
+def build_parser():
+    """``foam-mj bench``'s own parser (:class:`foam_mj.arguments.Parser`: one-line errors)."""
+    from foam_mj.cli import Parser
+
+    ap = Parser(prog="foam-mj bench", description=__doc__.splitlines()[0],
+                epilog="exit codes: 0 done; 1 a smoothed path left its hatches, a method found a lower f than the optimal "
+                "smoother, or an internal error; 2 bad argument or --json location; 130 interrupted.")
+    ap.add_argument("--runs", type=int, default=None,
+                    help=f"runs per stochastic method, 1-{MAX_RUNS:,} (default: {RUNS}; with --quick, {QUICK_RUNS})")
+    ap.add_argument("--quick", action="store_true", help="a few runs, for CI")
+    ap.add_argument("--json", default=str(DEFAULT_JSON), help=f"where to write the JSON (default: {DEFAULT_JSON})")
+    ap.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    return ap
 
 
 def main(argv: list[str] | None = None) -> int:
-    from foam_mj.cli import Parser, UsageError  # one-line argument errors, exit 2
+    from foam_mj.cli import UsageError  # one-line argument errors, exit 2
 
-    ap = Parser(prog="foam-mj bench", description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=None, help="runs per stochastic method (default 50, --quick 3)")
-    ap.add_argument("--quick", action="store_true", help="a few runs, for CI")
-    ap.add_argument("--json", default=str(DEFAULT_JSON), help=f"where to write the JSON (default {DEFAULT_JSON})")
-    ap.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    ap = build_parser()
     try:
         args = ap.parse_args(argv)
-        runs = args.runs if args.runs is not None else (3 if args.quick else 50)
+        runs = args.runs if args.runs is not None else (QUICK_RUNS if args.quick else RUNS)
         if not 1 <= runs <= MAX_RUNS:
             ap.error(f"--runs must be in [1, {MAX_RUNS}] (runs per stochastic method; 50 take minutes), got {runs}")
     except UsageError as exc:

@@ -42,6 +42,8 @@ from foam_mj.interrupts import EXIT_INTERRUPTED, RETURNED, SIGNALLED, caused_by_
 #: ``foam-mj plan``'s smoother when none is named; equal to foam_mj.pipeline.DEFAULT_SMOOTHER (a test checks),
 #: repeated here because the command line imports the pipeline (and MuJoCo) only when it runs.
 DEFAULT_SMOOTHER = "optimal"
+#: ``foam-mj plan``'s scenario when neither --scene nor --mjcf is given.
+DEFAULT_SCENE = "obstacle"
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_PLANNING_FAILED, EXIT_UNSAFE = 0, 1, 2, 3, 4
 EXIT_CODES = {
@@ -53,6 +55,8 @@ EXIT_CODES = {
     EXIT_INTERRUPTED: "interrupted",
 }
 EXIT_EPILOG = "exit codes: " + "; ".join(f"{k} {v}" for k, v in EXIT_CODES.items())
+#: The end of every command's exit codes: any command can meet a bug or an interrupt.
+EXIT_ANY = f"{EXIT_INTERNAL} internal error (a bug); {EXIT_INTERRUPTED} interrupted (no output half-written)"
 
 #: Figure file formats and PNG resolution of ``foam-mj figures`` (foam_mj.figures uses these too).
 FIGURE_FORMATS = ("png", "svg", "pdf")
@@ -217,11 +221,12 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
         help="draw publication figures from a plan's JSON result",
         description="Draw the foam, rosary, leg-pose strobe, convergence, joint and (walker) map figures "
         "from a result written by `foam-mj plan --json` (needs matplotlib: pip install 'foam-mj[figures]').",
+        epilog=f"exit codes: 0 success; 2 bad input (result file, --paths, --dpi, unwritable DIR, matplotlib missing); {EXIT_ANY}.",
     )
     p.add_argument("result", metavar="RESULT.json", help="a result written by `foam-mj plan --json`")
     p.add_argument("out_dir", metavar="DIR", help="folder for the figures (created if missing)")
     p.add_argument("--format", nargs="+", choices=FIGURE_FORMATS, default=["png"], dest="formats",
-                   help="one or more of png (default), svg, pdf")
+                   help="figure file formats, one or more of png, svg, pdf (default: png)")
     p.add_argument("--paths", nargs="+", metavar="NAME", default=None, help="only these paths (default: all in the result)")
     p.add_argument("--dpi", type=int, default=FIGURE_DPI, help=f"resolution of PNG files, at most {FIGURE_MAX_DPI} (default {FIGURE_DPI})")
     p.set_defaults(func=_cmd_figures)
@@ -310,9 +315,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="exit codes: 0 success; 2 bad input or an output that could not be written; 3 planning failed "
         "(the foam did not reach the goal: the foam so far is still written; or no timing of a path fits the joint "
         "limits); 4 plan's own replay found a planned trajectory below the margin (a certification fault: everything "
-        "is still written, for a report); 1 internal error; 130 interrupted.",
+        f"is still written, for a report); {EXIT_ANY}.",
     )
-    p.add_argument("--scene", default=None, help="a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: obstacle)")
+    p.add_argument("--scene", default=None, help=f"a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: {DEFAULT_SCENE})")
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="plan on any MJCF scene without a scenario file (needs --start and --goal; default planner parameters)")
     p.add_argument("--start", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the start configuration, one number per configuration joint (radians, metres), or a keyframe's name (home: its configuration joints' values; the other joints are held there)")
     p.add_argument("--goal", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the goal configuration (numbers or a keyframe's name)")
@@ -353,7 +358,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(time-optimal) or own (smooth minimum-jerk, stretched to fit); default: the scenario's [limits] time_law, else toppra",
     )
     p.add_argument("--figures", metavar="DIR", help="also draw the paper-style figures into DIR (needs foam-mj[figures])")
-    p.add_argument("--figure-format", nargs="+", default=["png"], choices=["png", "svg", "pdf"], help="figure file formats (default: png)")
+    p.add_argument("--figure-format", nargs="+", default=["png"], choices=FIGURE_FORMATS, help="figure file formats, one or more of png, svg, pdf (default: png)")
     p.set_defaults(func=cmd_plan)
     p = sub.add_parser(
         "bubble",
@@ -361,8 +366,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Print the clearance at q, the closest geom pair, rho per joint (of the pair that sets the radius) "
         "and the certified radius: every configuration within that distance of q keeps at least delta of clearance "
         "on every checked pair.",
-        epilog="Exit codes: 0 success, 2 bad input (unknown scene, unreadable MJCF, q of the wrong length or outside "
-        "the joint bounds, unwritable --json).",
+        epilog="exit codes: 0 success; 2 bad input (unknown scene, unreadable MJCF, q of the wrong length or outside "
+        f"the joint bounds, unwritable --json); {EXIT_ANY}.",
     )
     p.add_argument("--scene", default=None, help="a scenario name or TOML path (its scene, joints, margin and robot options)")
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="any MJCF scene instead of a scenario")
@@ -379,7 +384,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Rebuild the joint trajectories of a `plan --json` result and replay them on the scene it names. "
         "Refuses (exit 2) a result of an unknown format version, or whose scene file now compiles to a different model.",
         epilog="exit codes: 0 clean; 2 bad input; 3 no timing of a saved path fits the result's joint limits; 4 the "
-        "replay has contacts or clearance below the result's margin.",
+        f"replay has contacts or clearance below the result's margin; {EXIT_ANY}.",
     )
     p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
     p.add_argument("--rrd", metavar="OUT.rrd", help="write a Rerun recording of the replay")
@@ -390,7 +395,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="write a result's trajectory as CSV, NPZ or Parquet",
         description="Write the timed trajectory of one path of a `plan --json` result, one row per sample: time_s, then "
         "<joint>.q, .qd, .qdd, .tau (mj_inverse), .power per configuration joint, in qpos units (units in the file).",
-        epilog="Exit codes: 0 success, 2 bad input (unknown path, bad --hz, unwritable --out), 3 no timing fits the limits.",
+        epilog=f"exit codes: 0 success; 2 bad input (unknown path, bad --hz, unwritable --out); 3 no timing fits the limits; {EXIT_ANY}.",
     )
     p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
     p.add_argument("--path", default=None, help="which path of the result (default: the last one, plan's smoothed path)")
@@ -405,7 +410,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Independent check of a `plan --json` result, with none of the planner's code (MuJoCo, numpy and "
         "the JSON only): every path's waypoints (piecewise linear) and its timed trajectory (qpos rows), sampled "
         "densely, and mj_geomDistance over every pair of moving and static collision geoms.",
-        epilog="exit codes: 0 every sample keeps the result's margin; 4 some sample is closer; 2 bad input.",
+        epilog=f"exit codes: 0 every sample keeps the result's margin; 4 some sample is closer; 2 bad input; {EXIT_ANY}.",
     )
     p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
     p.add_argument("--step", type=float, default=1e-3, help="largest step between samples, in q and in qpos (default: 1e-3)")
@@ -415,6 +420,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="open a recording in the Rerun viewer",
         description="Open a .rrd recording in the Rerun viewer (shipped with rerun-sdk). Without a display, "
         "use --web: it serves Rerun's web viewer on 127.0.0.1 and prints the URL.",
+        epilog=f"exit codes: 0 the viewer closed; 2 bad input (missing recording, no display without --web, a port in use); {EXIT_ANY}.",
     )
     p.add_argument("recording", help="a .rrd file")
     p.add_argument("--web", action="store_true", help="serve Rerun's web viewer over HTTP instead of opening a window")
@@ -431,7 +437,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Plan every combination of a sweep file's values and seeds (a grid and/or random samples over "
         "any scenario field, as dotted keys) and write one row per plan and smoother to a Parquet dataset under "
         "--out. Re-running the same command skips the rows already there.",
-        epilog="Exit codes: 0 done, 1 workers kept dying, 2 bad sweep file, key or value (before any plan), 130 interrupted (completed rows kept).",
+        epilog="exit codes: 0 done; 1 workers kept dying (the rows received are kept), or an internal error; 2 bad input "
+        "(sweep file, key or value, an --out folder of another sweep or in use: before any plan), or rows that could not "
+        "be written; 130 interrupted (completed rows kept: run the same command again to continue).",
     )
     p.add_argument("sweep", metavar="SWEEP.toml", help="the sweep file (see README, 'Studies')")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder: DIR/rows/*.parquet and DIR/sweep.json")
@@ -447,11 +455,11 @@ def build_parser() -> argparse.ArgumentParser:
         "report",
         help="feasibility-envelope figures and a summary of a sweep",
         description="Heatmaps (success rate, min clearance, f, peak knee torque) over the two most varied swept keys, one panel per value of a third, and a summary table per smoother.",
-        epilog="Exit codes: 0 done, 2 not a sweep folder or matplotlib missing.",
+        epilog=f"exit codes: 0 done; 2 bad input (not a sweep folder, unwritable --figures, matplotlib missing); {EXIT_ANY}.",
     )
     p.add_argument("dir", metavar="DIR", help="a folder written by foam-mj sweep")
     p.add_argument("--figures", metavar="FIGDIR", default=None, help="where to write the figures (default: DIR/report)")
-    p.add_argument("--format", nargs="+", default=["png"], choices=["png", "svg", "pdf"], help="figure formats (default: png)")
+    p.add_argument("--format", nargs="+", default=["png"], choices=FIGURE_FORMATS, help="figure file formats, one or more of png, svg, pdf (default: png)")
     p.set_defaults(func=cmd_report)
     add_figures_parser(sub)  # foam-mj figures RESULT.json DIR [--format png svg pdf] [--paths ...] [--dpi N]
     return parser

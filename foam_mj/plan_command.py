@@ -10,7 +10,7 @@ import sys
 import time
 from pathlib import Path
 
-from foam_mj.cli import EXIT_OK, EXIT_PLANNING_FAILED, EXIT_UNSAFE
+from foam_mj.cli import DEFAULT_SCENE, EXIT_OK, EXIT_PLANNING_FAILED, EXIT_UNSAFE
 from foam_mj.progress import Progress
 from foam_mj.errors import FoamError, PlanningFailed
 from foam_mj.summary import fmt_mm, print_certificates, print_fronts, print_replay_notes, summary_table
@@ -167,7 +167,7 @@ def plan_scenario(args: argparse.Namespace):
     else:
         if args.start is not None or args.goal is not None:
             raise FoamError("--start and --goal go with --mjcf (a scenario has its own q_init and q_goal)")
-        doc, source = read_scenario_doc("obstacle" if args.scene is None else args.scene)
+        doc, source = read_scenario_doc(DEFAULT_SCENE if args.scene is None else args.scene)
         base = source.parent
     robot_overrides(doc, args)
     if args.delta is not None:

@@ -192,6 +192,69 @@ def test_each_commands_help_names_every_exit_code_it_can_return(command, codes, 
         assert re.search(rf"[:;,] {code} ", epilog), f"{command} --help: exit {code} not named in {epilog!r}"
 
 
+def _parsers():
+    """(command, parser) for every command, bench's own parser included."""
+    import argparse
+
+    from foam_mj.benchmark import build_parser as bench_parser
+    from foam_mj.cli import build_parser
+
+    top = build_parser()
+    subs = next(a for a in top._actions if isinstance(a, argparse._SubParsersAction)).choices
+    return [(name, bench_parser() if name == "bench" else sub) for name, sub in subs.items()]
+
+
+def _stated_default(text: str) -> str | None:
+    """The default a help text names: '(default: X, ...)', '(default X)' or '; default: X', up to , ; or )."""
+    m = re.search(r"default:? ([^,;)]+)", " ".join(text.split()))
+    return m.group(1).strip() if m else None
+
+
+def test_every_help_text_states_the_parsers_own_default():
+    """Every option with a default names it in its help, and the help's value is the parser's (lists: their one
+    item; numbers: equal, a unit after them allowed). An option whose default is found at run time (None) states
+    the rule in words, and its fallback (', else X') is the code's: a help text cannot drift from the code."""
+    import argparse
+
+    from foam_mj.benchmark import RUNS
+    from foam_mj.cli import DEFAULT_SCENE
+    from foam_mj.planners.base import PlannerConfig
+    from foam_mj.pipeline import DEFAULT_TIME_LAW
+
+    fallbacks = {"--delta": PlannerConfig.delta, "--time-limit": PlannerConfig.time_limit, "--time-law": DEFAULT_TIME_LAW}
+    run_time = {"plan --scene": DEFAULT_SCENE, "bench --runs": str(RUNS)}  # applied by the command when the option is absent
+    checked = 0
+    for command, parser in _parsers():
+        for action in parser._actions:
+            if action.help in (None, argparse.SUPPRESS) or isinstance(action, argparse._HelpAction):
+                continue
+            name = f"{command} {'/'.join(action.option_strings) or action.dest}"
+            stated, default = _stated_default(action.help), action.default
+            if default is None or default is False:
+                if stated is None:
+                    continue
+                words = " ".join(action.help.split())
+                if name in run_time:
+                    assert stated == run_time[name], (name, stated)
+                elif (rule := re.search(r", else ([\w.]+)", words)) and action.option_strings[0] in fallbacks:
+                    want = fallbacks[action.option_strings[0]]
+                    got = rule.group(1)
+                    assert (float(got) == want) if isinstance(want, float) else got == want, (name, got, want)
+                else:  # a rule in words, not a value the parser would hold
+                    assert not re.fullmatch(r"[\d.e+-]+( \w+)?", stated), (name, stated)
+                checked += 1
+                continue
+            assert stated is not None, f"{name}: default {default!r} not named in its help {action.help!r}"
+            if isinstance(default, list):
+                assert [stated] == default, (name, stated, default)
+            elif isinstance(default, (int, float)):
+                assert float(stated.split()[0]) == float(default), (name, stated, default)
+            else:
+                assert stated == str(default), (name, stated, default)
+            checked += 1
+    assert checked >= 25
+
+
 def test_every_recorded_path_is_collision_free_under_an_independent_check(planned, obstacle_robot):
     """Dense check of every joint trajectory in the JSON with mj_collision (step 1e-3 in qpos)."""
     doc = planned["doc"]

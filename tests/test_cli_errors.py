@@ -288,6 +288,29 @@ def test_view_says_when_a_recording_was_cut_short(tmp_path, monkeypatch, capsys)
     assert f"note: {cut} does not end with Rerun's footer: the file was cut short" in err and len(served) == 2
 
 
+@pytest.mark.parametrize("flag", ["--web-port", "--grpc-port"])
+def test_view_refuses_a_port_in_use_before_serving(flag, tmp_path, monkeypatch, capsys):
+    """A --web-port another program listens on: view printed 'serving ... open URL', then Rerun's own
+    'Error: Failed to create server: Address already in use' and exit 1. Now one line, exit 2, nothing started."""
+    import socket
+
+    from foam_mj.recording import Recording
+
+    rrd = tmp_path / "v.rrd"
+    with Recording(rrd) as rec:
+        rec.log_path("p", [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]])
+    served: list = []
+    monkeypatch.setattr("foam_mj.viewer._run_viewer", lambda cmd: served.append(cmd) or 0)
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        assert main(["view", "--web", str(rrd), flag, str(port)]) == 2
+    out, err = capsys.readouterr()
+    assert len(err.strip().splitlines()) == 1 and f"{flag} {port}: cannot listen on 127.0.0.1:{port}" in err, err
+    assert f"{flag} 0 for a free one" in err and "serving" not in out and served == []
+
+
 def test_view_web_serves_on_localhost_only_and_prints_the_url(tmp_path):
     import time
     import urllib.request
