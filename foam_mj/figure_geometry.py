@@ -54,7 +54,7 @@ _ARC = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise convex hull of 2-D points (Andrew's monotone chain), without repeated or
+    """Counter-clockwise convex hull of 2-D points (the monotone chain of Andrew 1979), without repeated or
     collinear vertices."""
     p = np.unique(np.round(np.asarray(points, dtype=float), 12), axis=0)
     if len(p) <= 2:

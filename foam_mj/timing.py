@@ -27,7 +27,7 @@ torque limit less the joint's frictionloss, and the samples are checked with the
 
 Two time laws (``method``)
 --------------------------
-* ``"toppra"`` (the default): time-optimal path parametrization by reachability analysis (Pham & Pham,
+* ``"toppra"`` (the default): time-optimal path parametrization by reachability analysis (Pham and Pham 2018,
   "A new approach to time-optimal path parameterization based on reachability analysis", IEEE T-RO 2018;
   the ``toppra`` package), on a grid of :data:`GRID_POINTS` path positions, with the velocity,
   acceleration and torque constraints above. toppra's constraints are linear in (sdd, sd^2), so the

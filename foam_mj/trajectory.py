@@ -6,7 +6,7 @@ Timing: a smooth time law under joint limits
 --------------------------------------------
 The curve is traversed with a weight w(u) > 0 (seconds per unit of u) and its integral S(u): the time
 law is S(u(t)) = S(L) sigma(t / T) with sigma(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5, the minimum-jerk
-profile (Flash & Hogan 1985). Hence du/dt = dS/dt / w(u): rest to rest with zero acceleration at both
+profile (Flash and Hogan 1985). Hence du/dt = dS/dt / w(u): rest to rest with zero acceleration at both
 ends, and slow where w is large. w starts as the time per unit of u at the velocity limits or with half
 the acceleration budget spent on the curve's bending (joint units), dilated and smoothed so the motion
 slows before a tight turn; a few rounds then lower w where the limits are not used, which about halves
@@ -134,7 +134,7 @@ def _edge_padded(x: np.ndarray, size: int) -> np.ndarray:
 
 def _max_filter(x: np.ndarray, size: int) -> np.ndarray:
     """Running maximum over a centred window of ``size`` (odd) samples, ends extended by their values
-    (``scipy.ndimage.maximum_filter1d(x, size, mode="nearest")``): van Herk's block prefix/suffix maxima, O(len)."""
+    (``scipy.ndimage.maximum_filter1d(x, size, mode="nearest")``): the block prefix/suffix maxima of van Herk 1992, O(len)."""
     n = len(x)
     if size >= 2 * n - 1:  # every window holds the whole array (a path far shorter than the window): exact
         return np.full(n, x.max())

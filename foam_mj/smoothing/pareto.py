@@ -8,7 +8,7 @@
 * Filtering (:func:`nondominated_mask`): the K x K dominance matrix; for two objectives the same rule
   by sorting (O(K log K), the same mask: comparisons only), which the archives of MGOA and MOPSO use.
 * :class:`Archive` (Eq. 15-16): the non-dominated solutions found so far, bounded in size. Pruning
-  rule: while over capacity, drop the member with the smallest **crowding distance** (NSGA-II,
+  rule: while over capacity, drop the member with the smallest **crowding distance** (NSGA-II, Deb et al. 2002;
   recomputed after every removal; exact and O(K log K) for two objectives via a heap). The two
   extremes have infinite crowding distance, so the ends of the front are never pruned. Objective
   vectors that repeat one already held are not added (GOA's swarm collapses onto its target and would
@@ -323,7 +323,7 @@ def error_ratio(front: np.ndarray, reference: np.ndarray) -> float:
 
 
 def set_coverage(A: np.ndarray, B: np.ndarray) -> float:
-    """SCM(A, B) of Elmi and Efe 2018 Eq. 19 (Zitzler's C metric): the share of B weakly dominated by some member
+    """SCM(A, B) of Elmi and Efe 2018 Eq. 19 (the C metric of Zitzler and Thiele 1999): the share of B weakly dominated by some member
     of A (a <= b in every objective). 1: A covers all of B; 0: none of it."""
     A, B = _as_set(A, "A"), _as_set(B, "B")
     if len(B) == 0:

@@ -6,9 +6,9 @@ Every particle i moves with (Eq. 9, then Eq. 8)
 
 r1, r2 ~ U[0, 1] drawn per particle and coordinate. ``inertia`` is w, a constant or a pair (w_start,
 w_end) decreasing linearly over the iterations (w_l = w_start + (w_end - w_start) l / L); ``c1``, ``c2``
-are the individual and group learning rates. Elmi and Efe 2018 gives no values; defaults: Shi and Eberhart's
-inertia decreasing from 0.9 to 0.4 with Clerc and Kennedy's c1 = c2 = 1.49618 (the constant
-w = 0.7298 of Clerc and Kennedy, ``inertia=CLERC_W``, ends about twice as far from the convex length
+are the individual and group learning rates. Elmi and Efe 2018 gives no values; defaults: the inertia of
+Shi and Eberhart 1999, decreasing from 0.9 to 0.4, with the c1 = c2 = 1.49618 of Clerc and Kennedy 2002 (their
+constant w = 0.7298, ``inertia=CLERC_W``, ends about twice as far from the convex length
 bound on the obstacle rosary and slightly worse on the planar maps).
 
 Choices: velocities start at 0 and are clamped to ``v_max`` (ub - lb) per coordinate (None: no
@@ -36,7 +36,7 @@ from foam_mj.smoothing.goa import OptimizeResult, _check_box
 from foam_mj.smoothing.multiobjective import ParetoRun, ParetoSmoother, Problem, RunRecorder, finish_run
 from foam_mj.smoothing.pareto import Archive, dominates
 
-#: Clerc and Kennedy's constriction-equivalent constants.
+#: The constriction-equivalent constants of Clerc and Kennedy 2002.
 CLERC_W = 0.7298
 CLERC_C = 1.49618
 
