@@ -1,6 +1,6 @@
 """Tests for examples/: every command in every example's README runs as written (from a scratch folder)
-and exits 0; every JSON it verifies passes `foam-mj verify` and an independent MuJoCo check; the tables that list
-the examples show their commands."""
+and exits 0, and so does its Python; every JSON it verifies passes `foam-mj verify` and an independent MuJoCo
+check; the tables that list the examples show their commands."""
 
 from __future__ import annotations
 
@@ -27,10 +27,12 @@ def _commands(readme: Path) -> list[str]:
 
 
 def test_every_example_has_a_readme_with_commands():
-    assert {p.parent.name for p in READMES} >= {"two_link_arm", "industrial_arm", "ortholeg5"}
+    """A robot's example plans and verifies; the study's sweeps and reports (examples/sweep had only comments)."""
+    assert {p.parent.name for p in READMES} >= {"two_link_arm", "industrial_arm", "ortholeg5", "sweep"}
     for readme in READMES:
-        assert any(c.startswith("foam-mj plan") for c in _commands(readme)), readme
-        assert any(c.startswith("foam-mj verify") for c in _commands(readme)), readme
+        pair = ("foam-mj sweep", "foam-mj report") if readme.parent.name == "sweep" else ("foam-mj plan", "foam-mj verify")
+        for start in pair:
+            assert any(c.startswith(start) for c in _commands(readme)), (readme, start)
 
 
 @pytest.mark.slow
@@ -41,11 +43,15 @@ def test_the_readme_commands_run(readme, tmp_path, monkeypatch):
         argv = [a.replace("examples/", f"{EXAMPLES}/", 1) if a.startswith("examples/") else a for a in shlex.split(command)[1:]]
         if argv[0] == "plan":
             argv.append("--no-rrd")  # the recording is not what is tested here
+        if argv[0] == "sweep":  # a few plans of the study in this process, as the first command does
+            argv += ["--workers", "1", "--quiet"] + ([] if "--limit" in argv else ["--limit", "2"])
         assert main(argv) == 0, command
         if argv[0] == "verify":  # and a check that shares no code with foam-mj
             doc = json.loads((tmp_path / argv[1]).read_text())
             for name, entry in doc["paths"].items():
                 assert _independent_clearance(doc["mjcf"], np.asarray(entry["qpos"])) >= doc["planner"]["delta"] - 1e-9, name
+    for code in re.findall(r"```python\n(.*?)```", readme.read_text(), flags=re.S):  # the study's DuckDB query
+        exec(compile(code, str(readme), "exec"), {})
 
 
 def _table_commands(text: str) -> list[str]:
