@@ -418,6 +418,23 @@ def test_the_console_script_runs(tmp_path):
         assert subprocess.run([str(exe), *cmd], capture_output=True, timeout=60).returncode == 0
 
 
+def test_a_command_whose_output_reader_has_gone_still_writes_its_files(tmp_path):
+    """`foam-mj plan --json r.json | head` (or any reader that exits early): the first print after the reader had
+    gone raised BrokenPipeError, which ended the command with exit 0 and no r.json. Now the rest of the output is
+    dropped, the files are written and the exit code is the command's own; nothing on stderr."""
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    read, write = os.pipe()
+    os.close(read)  # the reader has gone before the command prints anything
+    try:
+        run = subprocess.run([sys.executable, "-m", "foam_mj.cli", "plan", "--smoother", "none", "--no-replay", "--no-rrd",
+                              "--json", "r.json"], stdout=write, stderr=subprocess.PIPE, text=True, cwd=tmp_path, env=env, timeout=300)
+    finally:
+        os.close(write)
+    assert run.returncode == 0 and run.stderr == "", run.stderr
+    assert read_result(tmp_path / "r.json")["outcome"] == "reached"
+
+
 def test_view_refuses_a_missing_file(capsys):
     assert main(["view", "nowhere.rrd"]) == 2
     assert "not found" in capsys.readouterr().err
