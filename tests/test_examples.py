@@ -69,3 +69,32 @@ def test_the_example_tables_show_commands_of_the_example_readmes(index):
         folder = re.search(r"examples/(\w+)/", command).group(1)
         own = [c.split(" --json")[0] for c in _commands(EXAMPLES / folder / "README.md")]
         assert command.split(" --json")[0] in own, (index, command)
+
+
+def _section(text: str, heading: str) -> str:
+    start = text.index(heading)
+    return text[start:text.index("\n## ", start + len(heading))]
+
+
+@pytest.mark.slow
+def test_the_readmes_first_session_and_own_robot_run(tmp_path, monkeypatch):
+    """The README's Using foam-mj: the first session's commands (all but `view`, which needs a display) exit 0 in
+    a scratch folder, its Python reads the result they wrote, and its scenario TOML for a user's arm (the two-link
+    arm of examples/ saved as my_arm.xml) plans, and its `bubble` check runs."""
+    using = _section((ROOT / "README.md").read_text(), "## Using foam-mj")
+    monkeypatch.chdir(tmp_path)
+    session = [shlex.split(line.split("#")[0])[1:] for line in re.findall(r"```bash\n(.*?)```", using, flags=re.S)[0].splitlines()]
+    assert [argv[0] for argv in session] == ["scenes", "plan", "verify", "export", "view"]
+    for argv in session[:-1]:
+        assert main(argv) == 0, argv
+    assert (tmp_path / session[-1][1]).is_file()  # the recording view opens
+    (code,) = re.findall(r"```python\n(.*?)```", using, flags=re.S)
+    exec(compile(code, "README.md", "exec"), {})
+    (toml,) = re.findall(r"```toml\n(.*?)```", using, flags=re.S)
+    (tmp_path / "my_arm.toml").write_text(toml)
+    (tmp_path / "my_arm.xml").write_text((EXAMPLES / "two_link_arm" / "arm.xml").read_text())
+    check = shlex.split(re.search(r"`(foam-mj bubble --scene my_arm\.toml [^`]*)`", using).group(1))[1:]
+    assert main(check) == 0
+    assert main(["plan", "--scene", "my_arm.toml", "--no-rrd", "--json", "my_arm.json"]) == 0
+    doc = json.loads((tmp_path / "my_arm.json").read_text())
+    assert doc["planner"]["delta"] == 0.01 and doc["limits"]["torque"] == [20.0, 10.0]
