@@ -98,3 +98,16 @@ def test_the_readmes_first_session_and_own_robot_run(tmp_path, monkeypatch):
     assert main(["plan", "--scene", "my_arm.toml", "--no-rrd", "--json", "my_arm.json"]) == 0
     doc = json.loads((tmp_path / "my_arm.json").read_text())
     assert doc["planner"]["delta"] == 0.01 and doc["limits"]["torque"] == [20.0, 10.0]
+
+
+@pytest.mark.slow
+def test_the_readmes_python_api_runs():
+    """The Planners section's Python (a problem, a planner, a result; a scenario from a dict; pipeline.run and what
+    its outcome holds) runs as written, its blocks in order in one namespace."""
+    planners = _section((ROOT / "README.md").read_text(), "## Planners")
+    blocks = re.findall(r"```python\n(.*?)```", planners, flags=re.S)
+    assert len(blocks) == 2
+    namespace: dict = {}
+    for code in blocks:
+        exec(compile(code, "README.md", "exec"), namespace)
+    assert namespace["result"].stats.outcome == "reached" and namespace["po"].kinematic.min_clearance >= 0.005
