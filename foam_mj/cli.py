@@ -325,8 +325,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--delta", type=float, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
     p.add_argument("--time-limit", type=float, metavar="S", help="the planner's time budget in seconds: a plan that has not "
                    "reached the goal by then fails (exit 3) (default: the scenario's [planner] time_limit, else 60)")
-    p.add_argument("--subject-height", type=float, metavar="M", help="scale the leg to a subject this tall (m; Winter's segment fractions)")
-    p.add_argument("--subject-mass", type=float, metavar="KG", help="scale the leg's segment masses to a subject this heavy (kg)")
+    p.add_argument("--subject-height", type=float, metavar="M", help="scale the leg to a subject this tall, 1.2-2.2 m (Winter's segment fractions; a model that declares foam_mj:segments)")
+    p.add_argument("--subject-mass", type=float, metavar="KG", help="scale the leg's segment masses to a subject this heavy, 25-200 kg")
     p.add_argument("--robot-root", metavar="BODY", help="the body whose subtree is the robot (other moving bodies are fixed obstacles at their qpos0 pose)")
     p.add_argument("--no-self-collision", action="store_true", help="do not check robot/robot pairs (the scenario's self_collision = false)")
     p.add_argument(

@@ -253,6 +253,12 @@ def test_every_help_text_states_the_parsers_own_default():
                 assert stated == str(default), (name, stated, default)
             checked += 1
     assert checked >= 25
+    from foam_mj.scenarios import SUBJECT_HEIGHT_RANGE, SUBJECT_MASS_RANGE
+
+    plan = dict(_parsers())["plan"]
+    helps = {a.option_strings[0]: " ".join(a.help.split()) for a in plan._actions if a.option_strings}
+    for flag, (lo, hi), unit in (("--subject-height", SUBJECT_HEIGHT_RANGE, "m"), ("--subject-mass", SUBJECT_MASS_RANGE, "kg")):
+        assert f"{lo:g}-{hi:g} {unit}" in helps[flag], (flag, helps[flag])
 
 
 def test_every_recorded_path_is_collision_free_under_an_independent_check(planned, obstacle_robot):
