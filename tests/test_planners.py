@@ -462,7 +462,7 @@ def test_the_corridors_cone_program_is_the_convex_smoothers_for_any_chain():
 
 
 def test_the_corridors_cone_program_template_is_build_socps_program():
-    """_socp_template sorts build_socp's own entries (socp_pattern) into CSC arrays: the same P, q, A (segment rows
+    """_socp_template writes build_socp's own entries in CSC order directly: the same P, q, A (segment rows
     weighted by the metric), cones and b rows, entry for entry."""
     from foam_mj.planners.corridor import _socp_template
     from foam_mj.rosary import Rosary
