@@ -891,6 +891,38 @@ def test_a_goal_in_a_slot_whose_bubbles_are_under_r_min_names_r_min_as_the_way_o
     assert res.stats.outcome == "reached" and res.rosary.check_structure() == []
 
 
+def test_an_end_bubble_under_r_min_climbs_up_its_radius_where_no_random_step_gains_half_of_it(tmp_path):
+    """A 6 m rod on a swing hinge and a reach slide, its tip 6.5 mm from a block straight ahead (delta 5 mm): the goal's
+    bubble (2.26e-4) is under r_min (3.77e-4). The hinge's 6 m lever makes ||rho|| six times the rate at which any
+    step raises the clearance (only backing off the slide does), so no child on the goal bubble's surface reaches
+    GROW x its radius: the goal tree never grew and the plan stalled on every seed (generated 8-joint arms whose goal
+    sat beside a wrist self pair failed so after the whole budget, where RRT-Connect found a path in 0.3 s). The
+    largest bubble of a tree still under r_min is now also extended up its radius's gradient (ESCAPE x its radius):
+    every seed plans, and the paths keep delta."""
+    from conftest import MujocoChecker
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.model import RobotModel
+
+    scene = tmp_path / "rod.xml"
+    scene.write_text(
+        '<mujoco><compiler angle="radian"/><worldbody><geom name="block" type="box" pos="6.3 0 0" size="0.05 0.3 0.3"/>'
+        '<body name="arm"><joint name="swing" type="hinge" axis="0 0 1" range="-1 1"/>'
+        '<inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/><body name="rod">'
+        '<joint name="reach" type="slide" axis="1 0 0" range="-0.5 0.3"/><geom name="tip" type="sphere" pos="6 0 0" size="0.05"/>'
+        '</body></body></worldbody></mujoco>')
+    robot = RobotModel.from_xml(scene)
+    oracle = BubbleOracle(robot, delta=0.005)
+    q_goal = np.array([0.0, 0.1935])  # the tip 6.5 mm from the block
+    assert oracle.clearance(q_goal) == pytest.approx(0.0065, abs=1e-6)
+    r_min = 0.005 / oracle.bound.ball_factor / 2
+    assert 0.5 * r_min < oracle.radius(q_goal) < r_min
+    checker = MujocoChecker(robot)
+    for seed in range(3):
+        res = get_planner("bubbletree", stall=300).plan(PlanningProblem(oracle, np.array([0.8, -0.4]), q_goal, time_limit=60.0), seed=seed)
+        assert res.stats.outcome == "reached"
+        _check_paths(checker, oracle, res, 0.005)
+
+
 def test_a_problem_names_a_margin_budget_or_count_that_is_not_a_number(oracles):
     """delta="0.005" failed in numpy ("ufunc 'isfinite' not supported for the input types"), time_limit="5" with
     "'>' not supported between instances of 'str' and 'int'", and max_bubbles=True was a budget of one bubble."""

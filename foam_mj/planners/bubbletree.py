@@ -142,6 +142,15 @@ MAX_TRIES = 3
 #: paths are certified and keep their own clearance. Plans from other starts are unchanged (hashall.py).
 GROW = 1.5
 SMALLEST = 3e-5
+#: ESCAPE: GROW asks a child on its parent's surface (s <= 2) to gain half the parent's radius, which needs the certified
+#: radius to rise at a quarter of the bound's rate along the step; where the closest pair's distance changes far slower
+#: than ||rho|| allows (a self pair of an 8-joint arm moved by two wrist joints: the best of 4,000 directions reaches 1.33
+#: x the parent's radius at s = 2), no direction can, and an end bubble below r_min never grew: the tree failed after
+#: the whole budget while RRT-Connect found a path in 0.3 s. So while every bubble of a tree is below r_min (and its root
+#: lies in the joint box), its largest bubble is also extended once per iteration up the radius's gradient (central
+#: differences, 2n distance queries), keeping a child of ESCAPE x its radius: the tree climbs out of the small regime
+#: in log(r_min / r) / log(ESCAPE) such steps. Trees whose roots reach r_min are unchanged (hashall.py).
+ESCAPE = 1.1
 #: A root that leaves the joint box (an end point on an edge or corner of it: foam_mj.bubbles.BubbleOracle.holding_bubble)
 #: has children of radius r_min, or CORNER x its own if that is less: next to the corner the bounds keep every bubble
 #: in the box small (a child on the root's surface is about r / sqrt(2) from two faces), and from such a child GROW
@@ -371,8 +380,20 @@ class BubbleTreePlanner(Planner):
             P = np.array([q0] + pts[0][::-1] + pts[1] + [q1])
             return float(np.sum(np.linalg.norm(np.diff(P, axis=0) * metric, axis=1)))
 
+        def escape_target(c: np.ndarray, r: float) -> np.ndarray:
+            """The point 2 r up the certified radius's gradient at c (central differences of step r / 10, kept in the
+            joint box), where ESCAPE's extension from the bubble (c, r) aims; c itself where the radius is flat there."""
+            h = 0.1 * r
+            X = np.clip(np.concatenate([c + h * np.eye(n), c - h * np.eye(n)]), lo, hi)
+            R = oracle.radius_from_distances(oracle.clearance.batch_pairs(X), X)
+            counters["candidates"] += len(X)
+            step = X[:n].diagonal() - X[n:].diagonal()
+            g = np.divide(R[:n] - R[n:], step, out=np.zeros(n), where=step > 0)
+            norm = float(np.linalg.norm(g))
+            return c if norm == 0.0 else np.clip(c + 2 * r * g / norm, lo, hi)
+
         sampler: InformedSampler | None = None
-        k_max = o.batch + 2 * o.connect  # extensions per tree per iteration
+        k_max = o.batch + 2 * o.connect + 1  # extensions per tree per iteration (one ESCAPE)
         later = ~np.tri(k_max, k_max, -1, dtype=bool)  # later[i, j]: sibling j is not earlier than i
         newest = B.add(np.stack([c0, c1]), np.array([r0, r1]), np.array([-1, -1]), np.array([0, 1], dtype=np.int8))
         link = update_gaps(newest)
@@ -423,10 +444,17 @@ class BubbleTreePlanner(Planner):
                 raise PlanningFailed.after(f"the trees did not meet ({why}) after {B.n} bubbles", st, tail, B.foam(q0, q1))
             timer.report(B.n)
             counters["iterations"] += 1
-            parents, targets, target_r = [], [], []
+            parents, targets, target_r, escaping = [], [], [], []
             for t in (0, 1):
                 T = B.trees[t]
                 mine = T.idx[: T.n]
+                if not outside[t] and B.r[mine].max() < r_min:  # ESCAPE: up the radius's gradient from its largest bubble
+                    top = int(mine[B.r[mine].argmax()])
+                    parents.append(np.array([top]))
+                    targets.append(escape_target(B.c[top], B.r[top])[None])
+                    escaping.append(np.ones(1, dtype=bool))
+                    if corner_roots:
+                        target_r.append(np.full(1, np.inf))
                 # Exploration: uniform samples (after the first path: only where a shorter path can pass).
                 if sampler is None:
                     X = lo + span * rng.random((o.batch, n))
@@ -453,25 +481,29 @@ class BubbleTreePlanner(Planner):
                 par = mine[(lifted(Y) @ T.pw[: T.n].T).argmin(axis=1)]
                 parents.append(par[: len(X)])
                 targets.append(X)
+                escaping.append(np.zeros(len(X), dtype=bool))
                 if corner_roots:
                     target_r.append(np.full(len(X), np.inf))
                 if near is not None:
                     parents.append(near)
                     targets.append(toward)
+                    escaping.append(np.zeros(len(near), dtype=bool))
                     if corner_roots:
                         target_r.append(toward_r)
                 if pick is not None:
                     parents.append(par[len(X):])
                     targets.append(pick)
+                    escaping.append(np.zeros(len(pick), dtype=bool))
                     if corner_roots:
                         target_r.append(pick_r)
             P = np.concatenate(parents)  # the start tree's extensions first, then the goal tree's
             cP, rP = B.c[P], B.r[P]
             v = np.concatenate(targets) - cP
+            esc = np.concatenate(escaping)
             dist = np.sqrt(np.einsum("ij,ij->i", v, v))
             ok = dist > rP * (1 + 1e-9)  # a target inside its parent adds nothing
             if not ok.all():
-                P, cP, rP, v, dist = P[ok], cP[ok], rP[ok], v[ok], dist[ok]
+                P, cP, rP, v, dist, esc = P[ok], cP[ok], rP[ok], v[ok], dist[ok], esc[ok]
             m = len(P)
             if m == 0:
                 continue
@@ -490,6 +522,8 @@ class BubbleTreePlanner(Planner):
                 floor[root] = np.where(outside[P[root]], np.minimum(r_min, CORNER * rP[root]), floor[root])
                 tr = np.concatenate(target_r)[ok]  # toward a bubble of the other tree below r_min
                 floor = np.where(tr < r_min, np.minimum(floor, CORNER * np.maximum(tr, r_corner)), floor)
+            if esc.any():
+                floor = np.where(esc, np.minimum(r_min, ESCAPE * rP), floor)
             floor = floor[:, None]
             ask = np.flatnonzero((wall >= floor) & (s <= reach + (1 - HATCH) * wall))
             flat = flat.take(ask, axis=0)
