@@ -485,11 +485,13 @@ class RobotModel:
         return arr
 
     def _degrees_hint(self, i: int, value: float) -> str:
-        """For a hinge coordinate in radians whose out-of-bounds value would be within them read as degrees: the
-        hint that q is in radians whatever the MJCF's ``<compiler angle>`` (ranges in degrees are converted)."""
+        """For a hinge coordinate in radians whose out-of-bounds value would be within them read as degrees, and is
+        more than half a turn outside them (not a radian value just past a limit): the hint that q is in radians
+        whatever the MJCF's ``<compiler angle>`` (ranges in degrees are converted)."""
         cfg = self.config
         hinge = int(self.model.jnt_type[int(cfg.joint_ids[i])]) == HINGE
-        if not (hinge and cfg.scale[i] == 1.0 and cfg.offset[i] == 0.0 and self.lower[i] <= np.radians(value) <= self.upper[i]):
+        if not (hinge and cfg.scale[i] == 1.0 and cfg.offset[i] == 0.0 and self.lower[i] <= np.radians(value) <= self.upper[i]
+                and not self.lower[i] - np.pi <= value <= self.upper[i] + np.pi):
             return ""
         return (f" radians (hinge angles are radians whatever the MJCF's <compiler angle>, whose degrees MuJoCo converts: "
                 f"{value:.6g} degrees is {np.radians(value):.6g})")

@@ -470,6 +470,10 @@ def test_a_start_out_of_bounds_says_radians_when_degrees_were_meant_and_a_wrong_
         robot.validate([17, 1.0])
     with pytest.raises(ConfigurationError, match=r"= 300 is outside its bounds \[-1.74533, 1.74533\]$"):
         robot.validate([300, 1.0])  # not an angle in degrees either: no hint
+    # A radian value just past a limit (a goal 0.2 rad beyond it) is no angle in degrees: the hint ("1.94478 degrees is
+    # 0.0339") read as if the user had typed degrees, on models written in radians too.
+    with pytest.raises(ConfigurationError, match=r"= 1.94533 is outside its bounds \[-1.74533, 1.74533\]$"):
+        robot.validate([1.94533, 1.0])
     scene.write_text(scene.read_text().replace('range="-100 100"', ""))
     with pytest.raises(ConfigurationError, match=r"must have shape \(1,\) \(elbow\), got shape \(2,\); not configuration joints "
                                                  r"\(no range: held at qpos0\): shoulder$"):
