@@ -284,7 +284,8 @@ def check_candidate_bound(params: FoamParams, lower, upper) -> None:
         raise ConfigurationError(
             f"K = {params.K} and r_min = {params.r_min} give up to {bound:.3g} candidates per bubble "
             f"(N = K floor(r / r_min)^(n-1), r up to the bounds' diagonal {diag:.3g}), more than the "
-            f"{MAX_CANDIDATES_PER_BUBBLE:,} the planner allows (memory): lower K or raise r_min"
+            f"{MAX_CANDIDATES_PER_BUBBLE:,} the planner allows (memory): lower K or raise r_min "
+            f"(options of a scenario's [planner] table), or plan with bubbletree or gbpf, which grow one candidate per sample"
         )
 
 

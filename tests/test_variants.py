@@ -311,9 +311,13 @@ def test_a_scenario_names_a_variant_and_its_options(tmp_path):
 def test_rbpf_and_hpf_refuse_a_candidate_count_beyond_memory_before_any_work(scene_oracles, variant):
     """PFM's expansion draws K floor(r / r_min)^(n-1) candidates per bubble: settings that allow more than the
     planner's cap are refused up front, as pfm refuses them. A 7-joint robot with K = 3, r_min = 1 mm ended in
-    a MemoryError (38 GiB for one bubble's candidates) from get_planner('rbpf' or 'hpf').plan (fuzz seed 402)."""
+    a MemoryError (38 GiB for one bubble's candidates) from get_planner('rbpf' or 'hpf').plan (fuzz seed 402). The
+    refusal says where K and r_min are set and which planners have no such bound (`plan --mjcf` on a generated 5-joint
+    arm with the defaults read only 'lower K or raise r_min', options it cannot set)."""
     s = SCEN["obstacle"]
-    with pytest.raises(ConfigurationError, match=r"K = 10 and r_min = 0.0001 give up to .* candidates per bubble"):
+    with pytest.raises(ConfigurationError, match=r"K = 10 and r_min = 0.0001 give up to .* candidates per bubble .*: lower K or "
+                                                 r"raise r_min \(options of a scenario's \[planner\] table\), or plan with "
+                                                 r"bubbletree or gbpf, which grow one candidate per sample$"):
         VARIANTS[variant](scene_oracles["obstacle"], s.q_init, s.q_goal, FoamParams(K=10, r_min=1e-4), seed=0)
 
 
