@@ -66,16 +66,37 @@ def resize_box(spec: mujoco.MjSpec, scene: Path, box: "BoxObstacle") -> None:
     if g.parent.name != "world":
         raise ScenarioError(f"[obstacle]: box '{g.name}' sits in body '{g.parent.name}'; only boxes in <worldbody> can be moved")
     old_half = np.asarray(g.size[:3], dtype=float)
-    old_pos = np.asarray(g.pos, dtype=float)
+    old_pos = np.asarray(g.pos, dtype=float)  # in its <frame>'s coordinates, if it sits in one
     half = old_half if box.size is None else np.asarray(box.size, dtype=float) / 2
-    if box.pos is not None:
-        pos = np.asarray(box.pos, dtype=float)
+    origin, R = _frame_pose(spec, g)
+    if box.pos is not None:  # a world position, written in the frame's coordinates
+        pos = R.T @ (np.asarray(box.pos, dtype=float) - origin)
     else:  # same centre in x and y, same lowest point (for a box turned about a horizontal axis too)
-        pos = old_pos.copy()
         tilt = np.abs(_world_rotation(spec, g)[2])  # |R_zi|: the lowest point lies sum_i |R_zi| h_i below the centre
-        pos[2] = old_pos[2] - tilt @ old_half + tilt @ half
+        pos = old_pos + R.T @ np.array([0.0, 0.0, tilt @ half - tilt @ old_half])
     g.size = half
     g.pos = pos
+
+
+def _frame_pose(spec: mujoco.MjSpec, g) -> tuple[np.ndarray, np.ndarray]:
+    """World position and rotation matrix of the <frame> (nested ones composed) in which geom ``g`` of <worldbody>
+    is written, as MuJoCo resolves them (zero and identity outside any frame): read off a compiled copy with a
+    probe geom at the frame's origin."""
+    if g.frame is None:
+        return np.zeros(3), np.eye(3)
+    probe = g.frame.add_geom()
+    probe.name = "foam_mj_frame_probe"
+    probe.type = mujoco.mjtGeom.mjGEOM_SPHERE
+    probe.size = [1e-3, 0, 0]
+    try:
+        m = spec.compile()
+        k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, probe.name)
+        origin, quat = np.array(m.geom_pos[k]), np.array(m.geom_quat[k])
+    finally:
+        spec.delete(probe)
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, quat)
+    return origin, R.reshape(3, 3)
 
 
 def _world_rotation(spec: mujoco.MjSpec, g) -> np.ndarray:

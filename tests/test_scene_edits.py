@@ -110,6 +110,38 @@ def test_a_turned_box_resized_keeps_its_lowest_point(tmp_path):
         assert lowest(after) == pytest.approx(before, abs=1e-6), orientation
 
 
+def test_a_box_written_in_a_frame_is_placed_and_kept_on_the_floor_in_world_coordinates(tmp_path):
+    """A box written inside a turned, shifted <frame> (a generated scene, a menagerie-style assembly): its `pos` in
+    MJCF is in the frame's coordinates, and [obstacle] pos = [0.45, 0, 0.125] put its centre at world (0.3, 0.45,
+    0.125) under a frame at (0.3, 0, 0) turned 90 degrees about z. pos is the world centre, as the README says, and a
+    resize without pos keeps the lowest point in the world, also under a tilted frame."""
+    def scene(frame: str) -> str:
+        path = tmp_path / "framed.xml"
+        path.write_text(
+            f'<mujoco><compiler angle="radian"/><worldbody><geom type="plane" size="2 2 0.1"/><frame {frame}>'
+            '<geom name="post" type="box" pos="0.1 0 0.125" size="0.04 0.2 0.125"/></frame><body pos="0 0 0.5">'
+            '<joint name="shoulder" type="hinge" axis="0 1 0" range="-1.7 1.7"/><geom type="capsule" fromto="0 0 0 0.35 0 0" '
+            'size="0.03"/></body></worldbody></mujoco>')
+        return str(path)
+
+    def world(robot: RobotModel) -> tuple[np.ndarray, float]:
+        m, d = robot.model, mujoco.MjData(robot.model)
+        mujoco.mj_kinematics(m, d)
+        g = m.geom("post").id
+        corners = np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T * m.geom_size[g]
+        return d.geom_xpos[g].copy(), float((d.geom_xpos[g] + corners @ d.geom_xmat[g].reshape(3, 3).T)[:, 2].min())
+
+    task = {"q_init": [0.3], "q_goal": [-0.3]}
+    moved = scenario_from_dict({**task, "scene": scene('pos="0.3 0 0" euler="0 0 1.5707963"'),
+                                "obstacle": {"pos": [0.45, 0.0, 0.125]}}, tmp_path, check=False).robot
+    np.testing.assert_allclose(world(moved)[0], [0.45, 0.0, 0.125], atol=1e-6)
+    tilted = scene('pos="0.2 0.1 0.05" euler="0.3 0.2 0.5"')
+    before = world(scenario_from_dict({**task, "scene": tilted}, tmp_path, check=False).robot)
+    after = world(scenario_from_dict({**task, "scene": tilted, "obstacle": {"size": [0.1, 0.3, 0.4]}}, tmp_path, check=False).robot)
+    np.testing.assert_allclose(after[0][:2], before[0][:2], atol=1e-6)  # the same centre in x and y (MJCF's 6 digits)
+    assert after[1] == pytest.approx(before[1], abs=1e-6)  # and the same lowest point
+
+
 def test_an_obstacle_name_is_checked_even_when_the_table_changes_nothing_else():
     """A misspelt box name alone is refused (it was ignored: the scene planned on was not the one meant);
     the right name alone leaves the box as it is."""
