@@ -100,7 +100,7 @@ class _ThreadState:
 
     def __init__(self, m: mujoco.MjModel) -> None:
         self.data = mujoco.MjData(m)
-        self.batches: dict[int, tuple] = {}  # threads -> (Batch, its qpos rows, its sensordata rows, ids)
+        self.batches: dict[int, tuple] = {}  # threads -> (Batch, its qpos rows, its sensordata rows, ids, its cutoffs)
         self.calls = 0
 
 
@@ -211,8 +211,18 @@ class Clearance:
         D = self.batch_pairs(Q)
         return D.min(axis=1) if len(D) else np.empty(0)
 
-    def batch_pairs(self, Q: np.ndarray) -> np.ndarray:
-        """d_p(q) for every row of Q (shape (N, n)) and every checked pair: shape (N, P), one batched MuJoCo call."""
+    def batch_pairs(self, Q: np.ndarray, cap: np.ndarray | None = None) -> np.ndarray:
+        """d_p(q) for every row of Q (shape (N, n)) and every checked pair: shape (N, P), one batched MuJoCo call.
+
+        ``cap`` (N, P), positive metres: per configuration and pair, a smaller cap than ``distmax`` (values above it
+        read as ``distmax``). A pair farther than its cap reads the cap, and MuJoCo's query stops as soon as it has
+        proven the pair that far: the cap is the distance sensor's cutoff, set per configuration
+        (``Batch.expand("sensor_cutoff")``), which ends GJK once its lower bound reaches the cutoff (mesh pairs
+        far apart cost a fraction of a full query). A pair nearer than its cap reads the same value to the last bit
+        as without a cap: the cutoff takes no part in the iterations before that exit, nor in a primitive pair's
+        closed form. A penetration deeper than the cap reads minus the cap (MuJoCo clamps a sensor to its cutoff
+        both ways; as it does at ``distmax``). So a capped value is never more than d_p where d_p >= 0, and stays
+        negative where d_p < 0."""
         Q = np.asarray(Q, dtype=float)
         n = len(Q)
         P = len(self._pairs)
@@ -220,21 +230,28 @@ class Clearance:
             return np.empty((0, P))
         state = self._state()
         state.calls += n
-        batch, qpos, sensordata, ids = self._batch(state, n, min(self.threads, 2) if n >= THREADED_BATCH else 1)
+        batch, qpos, sensordata, ids, cutoff = self._batch(state, n, min(self.threads, 2) if n >= THREADED_BATCH else 1)
         cfg = self.robot.config
         qpos[:n] = cfg.qpos0  # as ConfigurationMap.to_qpos, written straight into the batch's rows
         qpos[:n, cfg.qpos_index] = cfg.offset + cfg.scale * Q
+        ours = cutoff[:n, cutoff.shape[1] - P :]
+        if cap is None:
+            ours.fill(self.distmax)
+        else:
+            np.minimum(cap, self.distmax, out=ours)
         with _PROFILER_OFF:
             batch.forward(None if n == batch.nsim else ids[:n], _STAGE_POS)
         return sensordata[:n, sensordata.shape[1] - P :].copy()  # our sensors come last, after any the model has
 
     def _batch(self, state: _ThreadState, n: int, nthread: int) -> tuple:
-        """The calling thread's Batch of ``nthread`` threads with room for n configurations (grown by doubling)."""
+        """The calling thread's Batch of ``nthread`` threads with room for n configurations (grown by doubling): the
+        batch, its qpos and sensordata rows, the simulation ids and the sensors' cutoffs per simulation."""
         b = state.batches.get(nthread)
         if b is None or b[0].nsim < n:
             size = max(n, 2 * b[0].nsim if b is not None else 64)
             batch = mj_batch.Batch(self._batch_model, size, nthread=nthread)
-            b = state.batches[nthread] = (batch, batch.bind("qpos"), batch.bind("sensordata"), np.arange(size, dtype=np.int32))
+            b = state.batches[nthread] = (batch, batch.bind("qpos"), batch.bind("sensordata"), np.arange(size, dtype=np.int32),
+                                          batch.expand("sensor_cutoff"))
         return b
 
     def close(self) -> None:

@@ -235,6 +235,64 @@ def test_random_chains_keep_the_margin_inside_every_bubble(tmp_path, seed, delta
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much])
+@given(seed=st.integers(0, 2**32 - 1), delta=st.sampled_from([0.0, 0.005, 0.02]), self_collision=st.booleans())
+def test_the_radius_is_1_lipschitz_so_a_bubble_bounds_its_neighbours_radii(tmp_path, seed, delta, self_collision):
+    """r(a) <= r(q) + |a - q| for configurations of random chains (what BubbleOracle.radii_below is given as an upper
+    bound by the planners: a parent's radius plus the step to its child), along the 1-2 radius steps the growth takes."""
+    from chains import random_chain_xml
+
+    rng = np.random.default_rng(seed)
+    robot = _robot_from_xml(tmp_path, random_chain_xml(rng, self_collision=self_collision), f"chain{seed}.xml")
+    oracle = BubbleOracle(robot, delta=delta)
+    Q = rng.uniform(robot.lower, robot.upper, (40, robot.dim))
+    r = oracle.radii(Q)
+    u = rng.standard_normal(Q.shape)
+    step = np.where(r > 0, r, 0.05)[:, None] * rng.uniform(0.0, 2.0, (len(Q), 1)) * u / np.linalg.norm(u, axis=1, keepdims=True)
+    A = np.clip(Q + step, robot.lower, robot.upper)
+    assert np.all(oracle.radii(A) <= r + np.linalg.norm(A - Q, axis=1) + 1e-12)
+    oracle.close()
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much])
+@given(seed=st.integers(0, 2**32 - 1), delta=st.sampled_from([0.0, 0.005, 0.02]), self_collision=st.booleans(),
+       scale=st.sampled_from([0.0, 0.5, 1.0, 1.5, 4.0, np.inf]))
+def test_radii_below_an_upper_bound_are_the_full_radii_where_they_are_below_it_and_never_more(tmp_path, seed, delta,
+                                                                                              self_collision, scale):
+    """Pairs measured only as far as they could set the radius (BubbleOracle.radii_below): the full query's radius
+    to the last bit wherever it is at most the upper bound, and never more than it anywhere (certified whatever the
+    bound), on random chains of primitive geoms, boxes and ellipsoids included (MuJoCo's GJK with its cutoff)."""
+    from chains import random_chain_xml
+
+    rng = np.random.default_rng(seed)
+    robot = _robot_from_xml(tmp_path, random_chain_xml(rng, self_collision=self_collision), f"chain{seed}.xml")
+    oracle = BubbleOracle(robot, delta=delta)
+    Q = rng.uniform(robot.lower, robot.upper, (60, robot.dim))
+    full = oracle.radii(Q)
+    upper = full * scale * rng.uniform(0.8, 1.2, len(Q)) if np.isfinite(scale) else np.full(len(Q), np.inf)
+    capped = oracle.radii_below(Q, upper)
+    assert np.all(capped <= full)
+    assert np.array_equal(capped[full <= upper], full[full <= upper])
+    assert np.all(capped >= np.minimum(full, upper))
+    oracle.close()
+
+
+def test_radii_below_match_the_full_radii_on_a_mesh_obstacle(tmp_path):
+    """The same with a mesh obstacle (GJK on its vertices; the cutoff ends it early for far configurations)."""
+    (tmp_path / "assets").mkdir()
+    (tmp_path / "assets" / "rock.obj").write_text(ROCK)
+    robot = _robot_from_xml(tmp_path, MESH_ARM)
+    oracle = BubbleOracle(robot, delta=0.005)
+    rng = np.random.default_rng(1)
+    Q = rng.uniform(robot.lower, robot.upper, (500, robot.dim))
+    full = oracle.radii(Q)
+    for scale in (0.0, 1.0, 1.3, 3.0):
+        upper = full * scale
+        capped = oracle.radii_below(Q, upper)
+        assert np.all(capped <= full) and np.array_equal(capped[full <= upper], full[full <= upper])
+    oracle.close()
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much])
 @given(seed=st.integers(0, 2**32 - 1), at=st.sampled_from(["lower", "upper", "beside"]))
 def test_a_bubble_holding_a_point_on_a_joint_limit_stays_in_the_bounds_and_keeps_the_margin(tmp_path, seed, at):
     """An end point with one joint at (or 1e-9 beside) a limit: the bubble that holds it is certified at its own

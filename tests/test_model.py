@@ -152,6 +152,26 @@ def test_batch_pair_distances_are_every_pairs_distance_and_survive_later_calls(o
         np.testing.assert_allclose(D[-1], c.pair_distances(Q[-1]), rtol=0, atol=1e-12)
 
 
+def test_a_capped_pair_reads_its_cap_and_a_pair_below_its_cap_the_full_distance_bit_for_bit(obstacle_robot, robots):
+    """Per configuration and pair, a cap (the distance sensor's cutoff in that simulation): the uncapped query's
+    value d_p to the last bit where |d_p| is below the cap, else the cap with d_p's sign (MuJoCo clamps a
+    penetration deeper than the cutoff to minus it); caps above distmax read distmax, and a later query without
+    caps measures every pair in full again."""
+    for robot in (obstacle_robot, robots["step_down"]):
+        c = Clearance(robot, threads=1)
+        rng = np.random.default_rng(6)
+        Q = rng.uniform(robot.lower, robot.upper, size=(400, robot.dim))
+        full = c.batch_pairs(Q)
+        cap = rng.uniform(0.0, 1.5, size=full.shape) * full.max()
+        capped = c.batch_pairs(Q, cap)
+        cap = np.minimum(cap, c.distmax)
+        below = np.abs(full) < cap * (1 - 1e-9)
+        assert below.any() and (~below).any() and (full < -cap).any()
+        assert np.array_equal(capped[below], full[below])
+        assert np.array_equal(capped[~below], np.copysign(cap, full)[~below])
+        assert np.array_equal(c.batch_pairs(Q), full)
+
+
 def test_the_lean_sensor_model_gives_the_full_models_distances_bit_for_bit(obstacle_robot):
     c = Clearance(obstacle_robot)
     full = Clearance(obstacle_robot)
