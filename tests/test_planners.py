@@ -503,6 +503,27 @@ def test_overlap_graph_brute_force_and_kd_tree_agree(monkeypatch):
     assert a == b and len(a) > 100
 
 
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1), dim=st.integers(2, 7), decades=st.floats(0.0, 4.0))
+def test_the_overlap_graph_of_a_large_foam_holds_exactly_the_pairs_that_overlap_with_a_hatch(monkeypatch, seed, dim, decades):
+    """Beyond BRUTE_FORCE bubbles the pairs come from k-d trees of radius classes: exactly the pairs (i < j, each
+    once) with |c_i - c_j| <= r_i + r_j - HATCH min(r_i, r_j), for radii spread over up to four decades (a foam's
+    bubbles beside obstacles are thousands of times smaller than its largest)."""
+    import foam_mj.planners.corridor as corridor
+
+    rng = np.random.default_rng(seed)
+    n = 400
+    C = rng.random((n, dim))
+    R = 0.3 * 10.0 ** -(decades * rng.random(n)) * n ** (-1.0 / dim)
+    monkeypatch.setattr(corridor, "BRUTE_FORCE", 10)
+    i, j = corridor.overlap_pairs(C, R)
+    I, J = np.triu_indices(n, 1)
+    d = np.linalg.norm(C[I] - C[J], axis=1)
+    want = d <= R[I] + R[J] - corridor.HATCH * np.minimum(R[I], R[J])
+    assert np.all(i < j) and len(set(zip(i.tolist(), j.tolist()))) == len(i)
+    assert set(zip(i.tolist(), j.tolist())) == set(zip(I[want].tolist(), J[want].tolist()))
+
+
 @pytest.mark.slow
 def test_the_default_plans_the_five_joint_leg():
     from conftest import MujocoChecker
