@@ -40,10 +40,13 @@ lengths, so the triangle inequality gives
 
 where T_s = max(|lo_s - qpos0_s|, |hi_s - qpos0_s|) is the largest travel the slide's range allows,
 measured from the reference pose (not max(|lo|, |hi|): a slide with ref = -0.5 and range [-1, 2]
-carries its geom up to 2.5 m from where the model draws it). When every hinge h_i is parallel to k's
-axis (a planar chain; rotations about parallel axes keep parallel axes parallel and commute with the
-projection P orthogonal to the axis) the lengths are taken after P, and a slide contributes
-T_s |P u_s|: dist(p, axis_k) = |P (p - a_0)|. The farthest point of a convex geom from an axis or a
+carries its geom up to 2.5 m from where the model draws it). Tighter: dist(p, axis_k) = |P (p - a_0)| with
+P the projection orthogonal to k's axis, and where the hinges h_0 .. h_i are all parallel to that axis, R_i
+turns about it and commutes with P, so |P R_i v| = |P v|: the terms of segment i (its anchor step and a slide's
+T_s |P u_s|) are taken after P; the segments after the first hinge not parallel to k stay whole (|P R_i v| <= |v|).
+For a planar chain (every hinge parallel) every term is, the geom's farthest vertex too. A UR arm's wrist_2 sits
+0.127 m from wrist_1 along wrist_1's axis: no lever for wrist_1 (the wrist_2 capsule's rho for wrist_1, 0.267 m
+with that step whole, is 0.14). The farthest point of a convex geom from an axis or a
 point is a vertex of it (both distances are convex): box corners, capsule end centres plus the
 radius, sphere centre plus radius, mesh vertices, and the bounding box's corners for cylinders and
 ellipsoids. The bound holds in every configuration within the ranges; a bubble never leaves the
@@ -222,25 +225,28 @@ def _hinge_reach(m: mujoco.MjModel, d: mujoco.MjData, cfg, chain: list[int], g: 
     """Upper bound, valid in every configuration within the ranges, of the distance from the axis of the
     hinge ``chain[0]`` to geom g; ``chain`` lists the configuration coordinates from it down to g (module
     docstring: the sum over anchors, slide travels from the reference pose, and the geom's farthest
-    vertex). ``d`` holds the reference pose."""
+    vertex; a segment turned only by hinges parallel to the axis measured in the plane normal to it). ``d``
+    holds the reference pose."""
     jid = [int(cfg.joint_ids[i]) for i in chain]
     axis = d.xaxis[jid[0]] / np.linalg.norm(d.xaxis[jid[0]])
-    hinges = [j for j in jid if int(m.jnt_type[j]) == HINGE]
-    planar = all(np.linalg.norm(np.cross(d.xaxis[k] / np.linalg.norm(d.xaxis[k]), axis)) < _PARALLEL_TOL for k in hinges)
 
-    def length(v: np.ndarray) -> np.ndarray:
-        if planar:
+    def length(v: np.ndarray, flat: bool) -> np.ndarray:
+        if flat:
             v = v - np.outer(v @ axis, axis) if v.ndim == 2 else v - (v @ axis) * axis
         return np.linalg.norm(v, axis=-1)
 
     total = 0.0
-    for a, b in zip(hinges[:-1], hinges[1:]):
-        total += float(length(d.xanchor[b] - d.xanchor[a]))
-    for i, j in zip(chain, jid):
+    flat = True  # every hinge so far (h_0 .. h_i) parallel to the axis: segment i is measured normal to it
+    last = jid[0]  # h_i
+    for i, j in zip(chain[1:], jid[1:]):
         if int(m.jnt_type[j]) == _SLIDE:
-            total += float(travel[i]) * float(length(d.xaxis[j] / np.linalg.norm(d.xaxis[j])))
+            total += float(travel[i]) * float(length(d.xaxis[j] / np.linalg.norm(d.xaxis[j]), flat))
+        else:
+            total += float(length(d.xanchor[j] - d.xanchor[last], flat))
+            flat = flat and np.linalg.norm(np.cross(d.xaxis[j] / np.linalg.norm(d.xaxis[j]), axis)) < _PARALLEL_TOL
+            last = j
     points, radius = _geom_extreme_points(m, d, g)
-    return total + float(np.max(length(points - d.xanchor[hinges[-1]]))) + radius
+    return total + float(np.max(length(points - d.xanchor[last], flat))) + radius
 
 
 def _slide_groups(m: mujoco.MjModel, d: mujoco.MjData, robot: RobotModel) -> list[tuple[int, ...]]:

@@ -446,6 +446,63 @@ def test_a_hinge_reach_holds_where_a_crossed_hinge_below_swings_the_geom_off_its
         assert np.linalg.norm(p1 - p0) <= bound.per_geom[ball] @ [1.0, 0.0] + 1e-9
 
 
+UR_WRIST = """<mujoco><compiler angle="radian"/><worldbody>
+  <!-- A UR-like wrist: wrist_1 about y; wrist_2, about z, 0.127 m from it along wrist_1's own axis; on wrist_2 a
+       capsule from its anchor 0.1 m up (radius 4 cm). -->
+  <body name="w1"><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
+    <joint name="wrist_1" axis="0 1 0" range="-3 3"/>
+    <body name="w2" pos="0 0.127 0"><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
+      <joint name="wrist_2" axis="0 0 1" range="-3 3"/>
+      <geom name="cap" type="capsule" fromto="0 0 0 0 0 0.1" size="0.04"/>
+    </body>
+  </body>
+  <geom name="wall" type="box" pos="1 0 0" size="0.1 1 1"/>
+</worldbody></mujoco>"""
+
+
+def test_a_step_along_the_hinge_axis_before_any_crossed_hinge_is_no_lever(tmp_path):
+    """wrist_1 turns the step to wrist_2 about that step itself: it stays on wrist_1's axis whatever wrist_2 does, so
+    the capsule is at most 0.1 + 0.04 m from wrist_1's axis (reached with wrist_2 anywhere: the capsule points along
+    z), not 0.127 + 0.14 m as with the step counted whole; the bound holds and is reached in every configuration."""
+    robot = _robot_from_xml(tmp_path, UR_WRIST)
+    bound = DisplacementBound.from_model(robot)
+    m, d = robot.model, mujoco.MjData(robot.model)
+    cap = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "cap")
+    np.testing.assert_allclose(bound.rho[cap], [0.14, 0.04], atol=1e-12)
+    for q in np.random.default_rng(8).uniform(robot.lower, robot.upper, (50, 2)):
+        robot.set_configuration(q, d)
+        u, a = d.xaxis[0], d.xanchor[0]
+        v = _points_in_geom(m, d, cap) - a
+        off_axis = np.linalg.norm(v - np.outer(v @ u, u), axis=1)
+        assert off_axis.max() <= 0.14 and off_axis.max() >= 0.999 * 0.14 - 1e-9
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1))
+def test_no_point_of_a_random_chain_is_farther_from_a_hinge_axis_than_its_reach(tmp_path, seed):
+    """The hinge reach rho_(g, k) / |scale| (module docstring: a segment turned only by hinges parallel to k's axis
+    measured normal to it, the others whole) bounds the distance from k's axis of every point of geom g in every
+    configuration of random chains (half of their axes coordinate axes: parallel runs of hinges, crossed ones after)."""
+    from chains import random_chain_xml
+
+    rng = np.random.default_rng(seed)
+    robot = _robot_from_xml(tmp_path, random_chain_xml(rng, joints=(2, 5)), f"chain{seed}.xml")
+    bound = DisplacementBound.from_model(robot)
+    m, d, cfg = robot.model, mujoco.MjData(robot.model), robot.config
+    hinges = [i for i, j in enumerate(cfg.joint_ids) if int(m.jnt_type[int(j)]) == mujoco.mjtJoint.mjJNT_HINGE]
+    for q in rng.uniform(robot.lower, robot.upper, (20, robot.dim)):
+        robot.set_configuration(q, d)
+        for g in robot.robot_geoms:
+            for i in hinges:
+                if bound.rho[g, i] == 0.0:
+                    continue
+                j = int(cfg.joint_ids[i])
+                u, a = d.xaxis[j] / np.linalg.norm(d.xaxis[j]), d.xanchor[j]
+                v = _points_in_geom(m, d, g) - a
+                off_axis = float(np.linalg.norm(v - np.outer(v @ u, u), axis=1).max())
+                assert off_axis <= bound.rho[g, i] / abs(cfg.scale[i]) + 1e-9, f"geom {robot.geom_name(g)}, joint {i}"
+
+
 SLIDE_HINGE_SLIDE = """<mujoco><compiler angle="radian"/><worldbody>
   <!-- One body with three joints in this order: a slide along x, a hinge about z, a slide along y. MuJoCo turns the
        second slide's axis by the hinge: at 90 degrees both slides move the 5 cm ball along x. -->
