@@ -82,7 +82,16 @@ Cheaper queries for the same radii: a candidate's radius is at most its parent's
 (:meth:`foam_mj.bubbles.BubbleOracle.radii_below`, the distance sensors' cutoff per configuration: GJK stops once it
 has proven a pair that far). The same radii to the last bit; on the UR5e 20 -> 12-15 us a query (47 mesh pairs, the
 recorded candidates of a plan), its whole plan (seeds 0-2) 0.71-0.85x the CPU time; on the 3-joint leg (6 primitive
-pairs) no change.
+pairs) no change. With the hinge reach's steps along the hinge's own axis no longer counted as a lever
+(:mod:`foam_mj.bubbles`; the UR5e's forearm/wrist_2 pair had held 90 % of its bubbles to 0.163 rad), the UR5e's first
+path came after 41-80 iterations and 136-260 ms of CPU (seeds 0-4; 65-112 and 267-534 ms before both changes), its
+whole plan took 390-778 ms (815-1,504) and its path's median length in qpos went from 7.08 to 5.04.
+Still linear in the foam, per iteration: the parents' power distances, the coverage test and the gaps' update are each
+one product against every bubble of a tree (37-40 % of the UR5e's growth CPU at 7,000-10,500 bubbles; on a 7-joint arm
+searching a caged goal, session 14: 12 ms an iteration at 2,000-4,000 bubbles, 33 at 45,000). An index would change the plans in
+the last bits (a BLAS product over a subset of the rows rounds differently), and a k-d tree of the centres lifted to
+[c, sqrt(R^2 - r^2)] was no faster at 28,000 bubbles in 7-D (the largest radius widens every query); the overlap graph
+beyond 4,096 bubbles is built from k-d trees by radius class (:func:`foam_mj.planners.corridor.overlap_pairs`).
 
 Lengths (Dijkstra's weights, the informed set, the cone program of the corridor) are measured in
 MuJoCo's qpos by default (``metric = "qpos"``: q scaled by the configuration map, e.g. the leg's
