@@ -125,7 +125,7 @@ def cmd_bubble(args: argparse.Namespace) -> int:
 
 def cmd_replay(args: argparse.Namespace) -> int:
     from foam_mj.atomic import check_output
-    from foam_mj.plan_command import record as _record, unsafe_paths as _unsafe_paths
+    from foam_mj.plan_command import record as _record, unsafe_paths as _unsafe_paths, untimed_exit as _untimed_exit
     from foam_mj.progress import Progress
     from foam_mj.results import outcome_from_result, read_result
     from foam_mj.summary import print_replay_notes, summary_table
@@ -142,7 +142,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
         outcome = outcome_from_result(doc, args.result, dynamic=not args.kinematic_only, report=progress)
     finally:
         progress.done()
-    print(f"replayed {len(outcome.paths)} path(s) of {args.result} on {outcome.scenario.scene}")
+    timed = sum(po.trajectory is not None for po in outcome.paths.values())
+    count = f"{len(outcome.paths)}" if timed == len(outcome.paths) else f"{timed} of {len(outcome.paths)}"
+    print(f"replayed {count} path(s) of {args.result} on {outcome.scenario.scene}")
     print(summary_table(outcome))
     print_replay_notes(outcome)
     if rrd is not None:
@@ -157,7 +159,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     if bad:
         print(f"foam-mj: replay found contacts or clearance below the margin {margin * 1000:g} mm: {'; '.join(bad)}", file=sys.stderr)
         return EXIT_UNSAFE
-    return EXIT_OK
+    return _untimed_exit(outcome)
 
 
 def cmd_export(args: argparse.Namespace) -> int:

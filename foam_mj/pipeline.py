@@ -123,6 +123,7 @@ class PathOutcome:
     kinematic: KinematicReplay | None = None
     dynamic: DynamicReplay | None = None
     loads: JointLoads | None = None  # torques, power and work along the trajectory (foam_mj.dynamics)
+    timing_error: TimingInfeasible | None = None  # why no timing of this path fits the limits (then no trajectory)
 
     @property
     def label(self) -> str:
@@ -252,7 +253,8 @@ def run(
 
     ``smoothers`` are path names of :data:`PATH_NAMES`, or a ``--smoother`` value (:func:`parse_smoothers`);
     by default those of :data:`DEFAULT_SMOOTHER`, as ``foam-mj plan``. The centre path is always there; every
-    path is time-parametrized and replayed. Unknown path names, a ``time_law`` not in ("toppra", "own") and
+    path is time-parametrized and replayed; a path that no timing fits keeps its ``timing_error`` (and no trajectory)
+    while the others are replayed, and TimingInfeasible is raised only when no path has a timing. Unknown path names, a ``time_law`` not in ("toppra", "own") and
     ``limits`` of the wrong length are refused before any planning, by an error that names the argument.
     """
     if not isinstance(scenario, Scenario):
@@ -289,10 +291,15 @@ def run(
     try:
         for name, res in smoothed.items():
             po = PathOutcome(name, res, metrics(res.path))
+            outcome.paths[name] = po
             if replay:
                 if report:
                     report(f"replaying: {LABELS.get(name, name)}")
-                po.trajectory = time_path(robot, name, res.path, res.rosary, lim, time_law)
+                try:
+                    po.trajectory = time_path(robot, name, res.path, res.rosary, lim, time_law)
+                except TimingInfeasible as exc:  # this path only: the others are still timed and replayed
+                    po.timing_error = exc
+                    continue
                 if report:  # a slow timing makes a long replay: say how long, so a wait of minutes is expected
                     times = po.trajectory.times
                     report(f"replaying: {LABELS.get(name, name)} ({times[-1]:,.1f} s of motion, {len(times):,} steps)")
@@ -300,12 +307,25 @@ def run(
                 po.kinematic = replay_kinematic(robot, po.trajectory, clearance)
                 if dynamic:
                     po.dynamic = replay_dynamic(robot, po.trajectory, clearance=clearance)
-            outcome.paths[name] = po
     finally:
         clearance.close()
+    require_a_timing(outcome.paths)
     outcome.timings["replay"] = time.perf_counter() - t2
     outcome.timings["total"] = time.perf_counter() - t0
     return outcome
+
+
+def require_a_timing(paths: dict[str, PathOutcome]) -> None:
+    """Raise the first path's TimingInfeasible when no path has a timing (the limits fit none of them: nothing
+    was replayed). A path that no timing fits among timed ones keeps its ``timing_error``, and the others their results."""
+    failed = [po.timing_error for po in paths.values() if po.timing_error is not None]
+    if failed and len(failed) == len(paths):
+        raise failed[0]
+
+
+def untimed_paths(outcome: Outcome) -> list[str]:
+    """One line per path that no timing fits (``PathOutcome.timing_error``), for the failure message of ``plan`` and ``replay``."""
+    return [" ".join(str(po.timing_error).split()) for po in outcome.paths.values() if po.timing_error is not None]
 
 
 def time_path(robot, name: str, path, rosary: Rosary, limits: Limits, time_law: str = DEFAULT_TIME_LAW) -> Trajectory:

@@ -301,7 +301,21 @@ def _plan(args: argparse.Namespace, recorder) -> int:
         print(f"foam-mj: a planned trajectory comes closer than the margin {scenario.params.delta * 1000:g} mm: {'; '.join(below)} "
               "(a certification fault: please report it with the files written above)", file=sys.stderr)
         return EXIT_UNSAFE
-    return EXIT_OK
+    return untimed_exit(outcome)
+
+
+def untimed_exit(outcome) -> int:
+    """EXIT_PLANNING_FAILED, with one line naming each path that no timing fits, when some path has none (the others
+    are timed, replayed and written: a failure of one smoother's path loses nothing else); else EXIT_OK."""
+    from foam_mj.pipeline import untimed_paths
+
+    untimed = untimed_paths(outcome)
+    if not untimed:
+        return EXIT_OK
+    print(f"foam-mj: planning failed: no timing fits {len(untimed)} of {len(outcome.paths)} paths: {'; '.join(untimed)} (the other "
+          "paths are timed, replayed and written; these are written untimed, as their certified waypoints: raise the limits "
+          "([limits] in the scenario) to time them)", file=sys.stderr)
+    return EXIT_PLANNING_FAILED
 
 
 def below_margin(outcome, margin: float) -> list[str]:

@@ -60,7 +60,9 @@ a scene that compiles to a different model (exit 2 naming the part that differs)
 than :data:`VERSION` is refused too.
 
 When ``plan`` has no time-parametrized trajectory (``--no-replay``), "qpos" holds the waypoints'
-qpos rows (a polyline in qpos, which is affine in q) and "times" is absent.
+qpos rows (a polyline in qpos, which is affine in q) and "times" is absent; so it is for a path that no timing
+fits the limits (``plan --smoother all`` with tight torque limits), whose "timing_error" says why: the other paths
+keep their trajectories.
 
 "certificate" (the optimal smoother's path only): "certified" is true when the path is a local optimum of
 its objective (f, Nascimento et al. 2020 Eq. 5, by default) over the hatches to the tolerance "kkt_tol": the first-order
@@ -182,6 +184,8 @@ def outcome_dict(outcome) -> dict:
             entry["times"] = po.trajectory.times.tolist()
         else:
             entry["qpos"] = cfg.to_qpos(np.asarray(res.path)).tolist()
+        if getattr(po, "timing_error", None) is not None:
+            entry["timing_error"] = " ".join(str(po.timing_error).split())
         if len(res.history_best) > 1:
             entry["convergence"] = {"best": np.asarray(res.history_best).tolist(), "mean": np.asarray(res.history_mean).tolist()}
         front = res.info.get("front") if res.info else None
@@ -376,9 +380,9 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, rep
     from foam_mj.scenarios import Scenario
     from foam_mj.smoothing import SmoothingResult
     from foam_mj.dynamics import joint_loads
-    from foam_mj.pipeline import time_path
+    from foam_mj.pipeline import require_a_timing, time_path
     from foam_mj.limits import Limits
-    from foam_mj.timing import METHODS
+    from foam_mj.timing import METHODS, TimingInfeasible
 
     try:
         # Results written before the torque-limited time laws have neither field: they were timed by "own".
@@ -433,7 +437,11 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, rep
         for k, (name, po) in enumerate(outcome.paths.items(), 1):
             if report:
                 report(f"replaying: {LABELS.get(name, name)} ({k} of {len(outcome.paths)})")
-            po.trajectory = time_path(robot, name, waypoints[name], po.rosary, limits, time_law)
+            try:
+                po.trajectory = time_path(robot, name, waypoints[name], po.rosary, limits, time_law)
+            except TimingInfeasible as exc:  # as plan's: this path only
+                po.timing_error = exc
+                continue
             if report:  # as plan's: a slow timing makes a long replay
                 report(f"replaying: {LABELS.get(name, name)} ({k} of {len(outcome.paths)}; {po.trajectory.times[-1]:,.1f} s of motion, "
                        f"{len(po.trajectory.times):,} steps)")
@@ -443,4 +451,5 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, rep
                 po.dynamic = replay_dynamic(robot, po.trajectory, clearance=clearance)
     finally:
         clearance.close()
+    require_a_timing(outcome.paths)
     return outcome

@@ -31,7 +31,8 @@ one *row* per path (``centre`` always, plus the smoothers' paths), identified by
 the hash of (parameters, seed, path) (:func:`row_key`); the engines (foam_mj.sweep_run) skip rows whose
 key is already in the output. The row's columns (:func:`row_schema`) are plain: one per swept key (the
 dotted key is the column name; list values are stored as their JSON text), then ``seed``, ``smoother``
-(the path name), ``outcome`` and ``reason`` (why not reached), the
+(the path name), ``outcome`` and ``reason`` (why not reached; a path that no timing fits the limits is ``failed``
+while the task's other paths keep theirs), the
 times, the foam's size, the path's measures, its replay and, when replayed, the peak joint torque along
 the timed trajectory by inverse dynamics (``peak_torque_<joint>``, foam_mj.dynamics: N m for hinges, N for
 slides).
@@ -372,6 +373,8 @@ def run_task(task: Task) -> list[dict]:
             tc=float(m.tc),
             sv=float(m.sv),
         )
+        if po.timing_error is not None:  # the path is planned and smoothed, but no timing fits the limits
+            row.update(outcome="failed", reason=po.timing_error.reason)
         if po.trajectory is not None:
             row["duration"] = float(po.trajectory.duration)
         if po.kinematic is not None:

@@ -622,3 +622,27 @@ def test_plan_names_a_held_body_within_the_margin_of_a_fixed_geom(tmp_path, caps
     (tmp_path / "lifted.xml").write_text(xml.replace("{reach}", ".76"))
     assert main(["plan", "--mjcf", str(tmp_path / "lifted.xml"), *args]) == 0
     assert "held body" not in capsys.readouterr().out
+
+
+def test_a_path_that_no_timing_fits_is_reported_alone_and_every_other_path_is_kept(tmp_path, capsys):
+    """A hip torque limit of 52 N m fits obstacle's convex and optimal paths but not its centre path (gravity alone
+    asks 56 N m). plan ended with exit 3 and nothing but that one message: no table, no JSON, the other smoothers'
+    results lost. Now it prints every path (the untimed one reads 'no timing'), writes the JSON (the untimed path as its
+    waypoints, with its 'timing_error') and exits 3 naming that path; replay of the result does the same."""
+    scene = tmp_path / "hip52.toml"
+    scene.write_text(f'name = "hip52"\nscene = "{MODELS / "obstacle.xml"}"\nq_init = [0.2, 0.3, 0.08]\nq_goal = [0.45, 0.4536, 1.45]\n'
+                     '[planner]\nalgorithm = "pfm"\nK = 10\nr_min = 0.07\n[limits]\ntorque = [52.0, 400.0, 3000.0]\n')
+    js = tmp_path / "out.json"
+    assert main(["plan", "--scene", str(scene), "--smoother", "convex,optimal", "--no-rrd", "--json", str(js)]) == 3
+    out, err = capsys.readouterr()
+    assert re.search(r"^centre \(T\) .* no timing ", out, re.M) and re.search(r"^optimal \(certified f\) .* \d\.\d\d s ", out, re.M)
+    assert err.startswith("foam-mj: planning failed: no timing fits 1 of 3 paths: path 'centre': no timing fits the torque limit of hip_flexion")
+    doc = read_result(js)
+    assert "hip_flexion" in doc["paths"]["centre"]["timing_error"] and "times" not in doc["paths"]["centre"]
+    for name in ("convex", "optimal"):
+        assert "timing_error" not in doc["paths"][name] and len(doc["paths"][name]["times"]) == len(doc["paths"][name]["qpos"])
+    assert main(["verify", str(js)]) == 0
+    capsys.readouterr()
+    assert main(["replay", str(js), "--kinematic-only"]) == 3
+    out, err = capsys.readouterr()
+    assert "replayed 2 of 3 path(s)" in out and "path 'centre': no timing fits" in err

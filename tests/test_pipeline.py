@@ -129,3 +129,24 @@ def test_the_replays_measure_a_margin_above_one_metre(tmp_path):
     out = run(s, smoothers="convex")
     for po in out.paths.values():
         assert po.kinematic.min_clearance > 1.2 and po.dynamic.min_clearance > 1.2
+
+
+def test_a_path_that_no_timing_fits_fails_alone_and_the_others_keep_their_results():
+    """With the hip's torque limit at 52 N m, gravity alone asks 56 N m along obstacle's centre path, and less along the
+    convex and optimal paths. One path's TimingInfeasible ended the whole run: the other smoothers' timed, replayed
+    paths were lost. Now that path keeps its error and no trajectory, and the others are timed and replayed."""
+    out = run(load_scenario("obstacle"), 0, ("convex", "optimal"), dynamic=False, limits=Limits(torque=(52.0, 400.0, 3000.0)))
+    centre = out.paths["centre"]
+    assert centre.trajectory is None and centre.kinematic is None
+    assert "no timing fits the torque limit of hip_flexion" in str(centre.timing_error) and centre.timing_error.joint == "hip_flexion"
+    for name in ("convex", "optimal"):
+        po = out.paths[name]
+        assert po.timing_error is None and po.trajectory is not None and po.kinematic.min_clearance > 0.005
+
+
+def test_when_no_path_has_a_timing_the_run_fails():
+    """Limits that fit no path leave nothing to replay: run raises the first path's TimingInfeasible, as before."""
+    from foam_mj.timing import TimingInfeasible
+
+    with pytest.raises(TimingInfeasible, match=r"path 'centre': no timing fits the torque limit of hip_flexion"):
+        run(load_scenario("obstacle"), 0, ("optimal",), dynamic=False, limits=Limits(torque=(40.0, 400.0, 3000.0)))
