@@ -555,7 +555,22 @@ def retime(robot: RobotModel, trajectory: Trajectory, rosary: Rosary, limits: Li
     check_gravity(robot, trajectory.curve, tmax)
     if method == "own":
         return _retime_own(robot, rosary, trajectory, tmax, dt)
-    return _retime_toppra(robot, rosary, trajectory, vmax, amax, tmax, dt)
+    try:
+        return _retime_toppra(robot, rosary, trajectory, vmax, amax, tmax, dt)
+    except TimingInfeasible:
+        if not _within_one_step(robot, trajectory.curve, vmax, amax, dt):
+            raise
+        # toppra's solver works to absolute tolerances in path position and speed: on a motion of 1e-8 rad (a goal
+        # that close to the start) it finds no timing at all. Any law then moves in one sample step: the own law's.
+        return _retime_own(robot, rosary, trajectory, tmax, dt)
+
+
+def _within_one_step(robot: RobotModel, curve: SafeCurve, vmax: np.ndarray, amax: np.ndarray, dt: float) -> bool:
+    """True when every joint's travel along ``curve`` fits in one step ``dt`` at its velocity limit and, accelerating
+    and braking at its acceleration limit, its travel is at most amax dt^2 / 4."""
+    qpos, _, _ = PathKinematics(robot, curve).at(np.linspace(0.0, curve.length, 201))
+    travel = np.abs(np.diff(qpos[:, robot.config.qpos_index], axis=0)).sum(axis=0)
+    return bool(np.all(travel <= vmax * dt) and np.all(travel <= amax * dt**2 / 4))
 
 
 def timed_trajectory(robot: RobotModel, path, rosary: Rosary, limits: Limits | JointLimits | None = None,

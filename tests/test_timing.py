@@ -394,3 +394,17 @@ def test_a_refinement_round_that_finds_no_timing_stretches_the_last_law(tmp_path
     tau = np.abs(inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]).max(axis=0)
     assert np.all(tau <= limit * (1 + 1e-9)) and traj.duration > free.duration
     np.testing.assert_allclose(traj.qpos[[0, -1]], base.qpos[[0, -1]])
+
+
+@pytest.mark.parametrize("method", ["toppra", "own"])
+@pytest.mark.parametrize("step", [1e-5, 1e-7, 1e-9])
+def test_a_motion_shorter_than_one_step_is_timed_by_both_laws(method, step):
+    """A goal 1e-8 rad from the start (every planner reaches it at once): toppra, whose solver works to absolute
+    tolerances, found no timing, and plan failed with exit 3 ('toppra found no timing', 'leaves only 391.74 N m above
+    gravity') on a trivial problem. Such a motion fits in one sample step under the limits: it is timed, the own way."""
+    robot = load_scenario("obstacle").robot
+    a = np.array([0.2, 0.3, 0.08])
+    line = segment_rosary(a, a + np.array([step, 0.0, 0.0]))
+    traj = timed_trajectory(robot, line.path(np.empty((0, 3))), line, Limits(), method=method)
+    assert traj.duration <= 2 * traj.dt
+    np.testing.assert_allclose(traj.q[[0, -1]], [a, a + [step, 0.0, 0.0]], rtol=0, atol=1e-15)
