@@ -41,6 +41,7 @@ from scipy.spatial import cKDTree
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_number, radius_text
 from foam_mj.rosary import MEMBERSHIP_TOL, Rosary
+from foam_mj.safe_curve import apart_text, coincide
 
 
 @dataclass(frozen=True)
@@ -429,8 +430,8 @@ def plan(
     q_goal = robot.validate(q_goal, "q_goal")
     if oracle.delta != params.delta:
         raise ValueError(f"the oracle's margin delta={oracle.delta} differs from params.delta={params.delta}")
-    if np.array_equal(q_init, q_goal):
-        raise ConfigurationError(f"q_goal equals q_init ({q_init.tolist()}): nothing to plan")
+    if coincide(q_init, q_goal):
+        raise ConfigurationError(f"q_goal equals q_init{apart_text(q_init, q_goal)} ({q_init.tolist()}): nothing to plan")
     robot.check_fixed_pairs(params.delta)
     robot.check_margins(params.delta)
     check_candidate_bound(params, robot.lower, robot.upper)

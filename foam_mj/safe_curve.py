@@ -43,6 +43,9 @@ from foam_mj.rosary import MEMBERSHIP_TOL, Rosary, in_ball
 #: Slack (configuration units) allowed when checking that a sample or control point lies in its bubble.
 #: Far below the bubbles' safety margin (delta = 5 mm of workspace clearance).
 SAFETY_TOL = 1e-9
+#: Segments of a path at most this long (configuration units) are dropped from the curve: a start and goal this
+#: close have nothing to move, and every planner refuses them as equal (:func:`coincide`).
+MIN_SEGMENT = 1e-12
 #: Fraction of the feasible tangent/curvature scale used, leaving room inside the ball.
 GAMMA = 0.9
 #: Tangent-direction blends tried at each waypoint (0 = the spline's own direction).
@@ -227,6 +230,19 @@ def validate_path(path, rosary: Rosary, tol: float = MEMBERSHIP_TOL) -> np.ndarr
     return p
 
 
+def coincide(a, b) -> bool:
+    """True when configurations ``a`` and ``b`` (of one shape) are at most :data:`MIN_SEGMENT` apart: no curve moves
+    between them."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return a.shape == b.shape and bool(np.linalg.norm(b - a) <= MIN_SEGMENT)
+
+
+def apart_text(a, b) -> str:
+    """For a refusal of coinciding end points: "" when ``a`` equals ``b``, else how far apart they are."""
+    d = float(np.linalg.norm(np.asarray(b, dtype=float) - np.asarray(a, dtype=float)))
+    return "" if d == 0 else f" to within {MIN_SEGMENT:g} ({d:.3g} apart: less than any path moves)"
+
+
 def in_box(points: np.ndarray, lower: np.ndarray | None, upper: np.ndarray | None, tol: float = SAFETY_TOL) -> np.ndarray:
     """Are ``points`` (..., n) within the joint bounds (to ``tol``)? All are when no bounds are given."""
     if lower is None or upper is None:
@@ -243,7 +259,7 @@ def safe_curve(path, rosary: Rosary, lower: np.ndarray | None = None, upper: np.
     straight: its ends are in the box)."""
     p = validate_path(path, rosary)
     seg_len = np.linalg.norm(np.diff(p, axis=0), axis=1)
-    keep_seg = seg_len > 1e-12
+    keep_seg = seg_len > MIN_SEGMENT
     if not keep_seg.any():
         raise ValueError("`path` has zero length (start and goal coincide): there is nothing to move")
     point_index = np.concatenate([[0], 1 + np.flatnonzero(keep_seg)])

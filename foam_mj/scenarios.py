@@ -80,6 +80,7 @@ from foam_mj.foam import check_candidate_bound
 from foam_mj.model import RobotModel
 from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
 from foam_mj.planners.base import COMMON_FIELDS, option_names
+from foam_mj.safe_curve import apart_text, coincide
 from foam_mj.scene_edits import BoxObstacle, MeshObstacle, SceneEdits, Subject, build_robot
 from foam_mj.limits import Limits
 from foam_mj.mjcf import load_spec
@@ -493,8 +494,9 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
             robot = build_robot(scenario.scene, scenario.edits, **scenario.robot_options)
         except FoamError as exc:
             raise ScenarioError(f"{where}: field 'scene': {exc}") from None
-    if np.array_equal(scenario.q_init, scenario.q_goal):
-        raise ScenarioError(f"{where}: fields 'q_goal' and 'q_init' are equal ({np.asarray(scenario.q_init).tolist()}): nothing to plan")
+    if coincide(scenario.q_init, scenario.q_goal):
+        raise ScenarioError(f"{where}: fields 'q_goal' and 'q_init' are equal{apart_text(scenario.q_init, scenario.q_goal)} "
+                            f"({np.asarray(scenario.q_init).tolist()}): nothing to plan")
     try:
         check_candidate_bound(scenario.params, robot.lower, robot.upper)
     except ConfigurationError as exc:

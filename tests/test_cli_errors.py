@@ -504,6 +504,8 @@ def test_replay_export_and_figures_refuse_a_malformed_result_before_any_output(p
         (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3", "--goal", "0.45 0.4536 1.45"], "--start: q_init must have shape (3,)"),
         (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0.08", "--goal", "0 0 0.785"], "--goal = [0.0, 0.0, 0.785] is in collision"),
         (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0.08", "--goal", "0.2 0.3 0.08"], "--start and --goal are equal"),
+        (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0.08", "--goal", "0.2000000000001 0.3 0.08"],
+         "--start and --goal are equal to within 1e-12 (1e-13 apart"),
         (["--mjcf", str(MODELS / "obstacle.xml"), "--joints", "a,b,c", "--start", "0.2 0.3 0.08", "--goal", "0.45 0.4536 1.45"],
          "--mjcf: " + str(MODELS / "obstacle.xml") + ": configuration joint 'a' is not in the model"),
     ],

@@ -1002,6 +1002,15 @@ def test_a_goal_equal_to_the_start_is_refused_for_every_planner(oracles):
         PlanningProblem(oracles["obstacle"], [0.2, 0.3, 0.08], np.array([0.2, 0.3, 0.08]))
 
 
+def test_a_goal_closer_to_the_start_than_any_path_moves_is_refused_as_equal(oracles):
+    """A goal 1e-13 from the start is below the curve's shortest segment (safe_curve.MIN_SEGMENT): every planner
+    "reached" it and the timing then failed with an internal error (exit 1, "`path` has zero length"). It is refused
+    up front as equal, with the distance; a goal 1e-9 away plans (next test, and test_timing)."""
+    with pytest.raises(ConfigurationError, match=r"q_goal equals q_init to within 1e-12 \(1e-13 apart: less than any path moves\)"):
+        PlanningProblem(oracles["obstacle"], [0.2, 0.3, 0.08], [0.2 + 1e-13, 0.3, 0.08])
+    PlanningProblem(oracles["obstacle"], [0.2, 0.3, 0.08], [0.2 + 1e-9, 0.3, 0.08])
+
+
 FAR_WALL = """<mujoco><compiler angle="radian"/><worldbody><geom name="wall" type="box" pos="3 0 0.5" size="0.1 2 0.5"/>
   <body name="arm" pos="0 0 0.5"><joint name="yaw" axis="0 0 1" range="-1 1"/>
     <geom name="link" type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1"/></body></worldbody></mujoco>"""

@@ -28,6 +28,7 @@ from foam_mj.bubbles import BubbleOracle, EndBubble
 from foam_mj.errors import ConfigurationError, FoamError, clearance_text, is_number
 from foam_mj.foam import Foam
 from foam_mj.rosary import Rosary
+from foam_mj.safe_curve import apart_text, coincide
 
 
 class PlannerError(FoamError, ValueError):
@@ -61,8 +62,8 @@ class PlanningProblem:
             q = robot.validate(getattr(self, name), name)
             q.flags.writeable = False  # a frozen problem: no change after validation
             object.__setattr__(self, name, q)
-        if np.array_equal(self.q_init, self.q_goal):  # as pfm, the CLI and scenarios: one answer from every planner
-            raise ConfigurationError(f"q_goal equals q_init ({self.q_init.tolist()}): nothing to plan")
+        if coincide(self.q_init, self.q_goal):  # as pfm, the CLI and scenarios: one answer from every planner
+            raise ConfigurationError(f"q_goal equals q_init{apart_text(self.q_init, self.q_goal)} ({self.q_init.tolist()}): nothing to plan")
         for name, value in (("delta", self.delta), ("time_limit", self.time_limit), ("max_bubbles", self.max_bubbles)):
             if not is_number(value):
                 raise TypeError(f"`{name}` must be a number, got {value!r}")
