@@ -303,17 +303,23 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 
-@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(
-    dx=st.floats(-0.05, 0.05), sx=st.floats(1.0, 1.5), sz=st.floats(1.0, 1.5), seed=st.integers(0, 2**31 - 1),
-    name=st.sampled_from(sorted(PLANNERS)),
-)
-def test_random_boxes_and_seeds_every_returned_path_is_collision_free(dx, sx, sz, seed, name):
-    """Every planner on a moved and enlarged box: the default always plans; the foam family may refuse
-    (its r_min rule) or run out of its budget; any path returned is certified and MuJoCo finds it free."""
+@pytest.mark.parametrize("name", sorted(PLANNERS))
+@settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(dx=st.floats(-0.1, 0.1), sx=st.floats(0.05, 1.5), sz=st.floats(0.5, 1.8), seed=st.integers(0, 2**31 - 1))
+def test_random_boxes_and_seeds_every_returned_path_is_collision_free(name, dx, sx, sz, seed):
+    """Every planner, each on its own draws (12 draws of a sampled planner name could leave one out), on a box moved
+    10 cm either way, 1-30 cm deep (a thin wall) and 7.5-27 cm tall: an end point closer than delta is refused naming
+    its clearance; else the default always plans, the foam family may refuse (its r_min rule) or run out of its
+    budget, and any path returned is certified and MuJoCo finds it free."""
     from conftest import MujocoChecker
 
-    s = _variant(dx, sx, sz)
+    from foam_mj.errors import ScenarioError
+
+    try:
+        s = _variant(dx, sx, sz)
+    except ScenarioError as exc:
+        assert re.search(r"field 'q_(init|goal)' = .* (is in collision|is too close to an obstacle): clearance -?\d", str(exc)), exc
+        return
     oracle = s.oracle()
     default = name == "bubbletree"
     problem = _problem(oracle, s, time_limit=30.0 if default else 3.0)
