@@ -136,9 +136,15 @@ def check_gravity(robot: RobotModel, curve: SafeCurve, torque: np.ndarray, sampl
         raise TimingInfeasible(
             f"no timing fits the torque limit of {name}: {need} at "
             f"{100 * u[i] / curve.length:.0f}% of the path, over its limit {torque[j]:.1f} {unit} by "
-            f"{over[i, j]:.1f} {unit} ({100 * over[i, j] / torque[j]:.0f}%)",
+            f"{over[i, j]:.1f} {unit} ({_percent(over[i, j] / torque[j])})",
             joint=name, excess=float(over[i, j]),
         )
+
+
+def _percent(fraction: float) -> str:
+    """A share as a percentage: whole from 1 % up, two significant digits below (an excess of 0.4 % read "0%")."""
+    pct = 100 * fraction
+    return f"{pct:.0f}%" if pct >= 1 else f"{pct:.2g}%"
 
 
 # -- toppra -----------------------------------------------------------------------------------------------------

@@ -408,3 +408,10 @@ def test_a_motion_shorter_than_one_step_is_timed_by_both_laws(method, step):
     traj = timed_trajectory(robot, line.path(np.empty((0, 3))), line, Limits(), method=method)
     assert traj.duration <= 2 * traj.dt
     np.testing.assert_allclose(traj.q[[0, -1]], [a, a + [step, 0.0, 0.0]], rtol=0, atol=1e-15)
+
+
+def test_an_excess_below_one_percent_is_not_printed_as_zero():
+    """A path over its 52 N m hip limit by 0.2 N m read '(0%)', as if it were not over at all."""
+    from foam_mj.timing import _percent
+
+    assert [_percent(x) for x in (0.0038, 0.08, 1.87)] == ["0.38%", "8%", "187%"]
