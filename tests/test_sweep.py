@@ -243,6 +243,19 @@ def test_a_failed_plan_gives_the_same_reason_on_every_run(tmp_path):
     assert deterministic(first) == deterministic(second)
 
 
+def test_a_path_that_no_timing_fits_fails_its_row_alone(tmp_path):
+    """A 52 N m hip limit fits obstacle's convex path but not its centre path: the whole task's rows said 'failed'
+    (the pipeline raised on the first untimed path). Now only the centre row fails, with the timing's reason."""
+    from foam_mj.sweep import run_task
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = [0]\nsmoothers = "convex"\nreplay = "kinematic"\n[grid]\n'
+                           '"limits.torque" = [[52.0, 400.0, 3000.0]]\n')
+    (task,) = load_sweep(spec).tasks()
+    rows = {r["smoother"]: r for r in run_task(task)}
+    assert rows["centre"]["outcome"] == "failed" and "path 'centre': no timing fits the torque limit of hip_flexion" in rows["centre"]["reason"]
+    assert rows["convex"]["outcome"] == "reached" and rows["convex"]["duration"] > 0 and rows["convex"]["min_clearance"] > 0.005
+
+
 @pytest.mark.parametrize("table, named", [
     ("seeds = 1000000000000", "field 'seeds' = 1,000,000,000,000 is more plans than one sweep takes (10,000,000)"),
     ('seeds = 2\n[random]\nsamples = 100000000000\n[random.uniform]\n"planner.delta" = [0.001, 0.01]',
