@@ -254,8 +254,9 @@ def run(
     ``smoothers`` are path names of :data:`PATH_NAMES`, or a ``--smoother`` value (:func:`parse_smoothers`);
     by default those of :data:`DEFAULT_SMOOTHER`, as ``foam-mj plan``. The centre path is always there; every
     path is time-parametrized and replayed; a path that no timing fits keeps its ``timing_error`` (and no trajectory)
-    while the others are replayed, and TimingInfeasible is raised only when no path has a timing. Unknown path names, a ``time_law`` not in ("toppra", "own") and
-    ``limits`` of the wrong length are refused before any planning, by an error that names the argument.
+    while the others are replayed, and TimingInfeasible is raised only when no path has a timing. Unknown path names,
+    a ``time_law`` not in ("toppra", "own") and ``limits`` of the wrong length are refused before any planning, by an
+    error that names the argument.
     """
     if not isinstance(scenario, Scenario):
         raise TypeError(f"run() takes a Scenario (load_scenario(name) or scenario_from_dict(...)), got {type(scenario).__name__}")
