@@ -378,14 +378,23 @@ def _row_sq_sums(d: np.ndarray) -> np.ndarray:
     return out
 
 
-def small_goal_hint(oracle: BubbleOracle, q_goal: np.ndarray, r_min: float) -> str:
+def small_goal_hint(oracle: BubbleOracle, q_goal: np.ndarray, r_min: float, outcome: str = "") -> str:
     """The reason a foam that did not reach q_goal may have missed it: its own certified bubble is below r_min, so
-    only a bubble of at least r_min placed just so can hold it (and the coverage rule drops most candidates there)."""
+    only a bubble of at least r_min placed just so can hold it (and the coverage rule drops most candidates there);
+    and, when the time budget ended the search (``outcome``), that more time lets the foam grow on."""
     r_goal = float(oracle.radius(q_goal))
     if r_goal >= r_min:
         return ""
     return (f": q_goal's own certified bubble has radius {radius_text(r_goal, r_min)} < r_min = {r_min}, so only a bubble of at least "
-            "r_min placed to reach it can hold it; lower r_min, or plan with bubbletree")
+            f"r_min placed to reach it can hold it; lower r_min, or plan with bubbletree{time_hint(outcome)}")
+
+
+def time_hint(outcome: str) -> str:
+    """When the time budget ended a foam's search (``outcome``), that more time lets it grow on: a limit of 0.01 s
+    stopped it after a few bubbles, and the hint about r_min alone read as if the geometry had."""
+    if outcome != "time budget":
+        return ""
+    return "; the time limit ended the search: with more (--time-limit, the [planner] time_limit) the foam grows on"
 
 
 def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str) -> str:
@@ -406,6 +415,9 @@ def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str)
             f"{report.closest_pair[1]} there)")
     if outcome == "bubble budget":
         return near
+    if outcome == "time budget":
+        return (f"{near}{time_hint(outcome)}, but every bubble has radius >= r_min = {r_min}, so a way narrower than that "
+                "stays closed to it either way: lower r_min, or plan with bubbletree")
     return (f"{near}; every bubble has radius >= r_min = {r_min}, so a way narrower than that stays closed to it: lower "
             "r_min, or plan with bubbletree")
 
@@ -567,7 +579,8 @@ def plan(
     if goal is None:
         foam = foam_now()
         raise PlanningFailed.after(f"the foam did not reach q_goal ({stats.outcome}) after {stats.bubbles} bubbles", stats,
-                                   small_goal_hint(oracle, q_goal, params.r_min) or nearest_hint(oracle, foam, params.r_min, stats.outcome), foam)
+                                   small_goal_hint(oracle, q_goal, params.r_min, stats.outcome) or nearest_hint(oracle, foam, params.r_min, stats.outcome),
+                                   foam)
     finish("reached")
     foam = foam_now(goal)
     return PlanResult(foam, foam.rosary(), stats)

@@ -893,6 +893,24 @@ def test_trees_that_stop_coming_closer_give_up_before_the_time_budget(tmp_path):
             get_planner("bubbletree", stall=bad)
 
 
+@pytest.mark.parametrize("name", sorted(PLANNERS))
+def test_a_time_limit_too_short_to_reach_the_goal_says_more_time_helps(oracles, name):
+    """--time-limit 0.01 on the obstacle scene: bubbletree said "the goal may be unreachable from the start" after 2
+    bubbles, and the foam family blamed r_min alone ("a way narrower than that stays closed to it"), as if the geometry,
+    not the clock, had stopped them. Each now says the time limit ended the search and that more time goes on."""
+    s = load_scenario("obstacle")
+    with pytest.raises(PlanningFailed) as err:
+        get_planner(name).plan(PlanningProblem(oracles["obstacle"], s.q_init, s.q_goal, time_limit=1e-6), seed=0)
+    text = str(err.value)
+    assert err.value.stats.outcome == "time budget" and "may be unreachable" not in text
+    if name == "bubbletree":
+        assert text.endswith("the time limit (1e-06 s) ended the search before the trees stalled; with more (--time-limit, "
+                             "the [planner] time_limit) it goes on until they meet or stall"), text
+    else:  # grown on, or stopped on the start's bubble (the variants' own words for that)
+        assert re.search(r"; the time limit ended the search: with more \(--time-limit, the \[planner\] time_limit\) the foam grows on"
+                         r"|: the time budget ended before a bubble .*; raise time_limit", text), text
+
+
 def test_a_goal_in_a_slot_whose_bubbles_are_under_r_min_names_r_min_as_the_way_out(tmp_path):
     """A two-link arm's forearm down in a slot 2 mm wider than it and the margin on each side: q_goal's bubble (2.67e-3)
     and every bubble beside it are under r_min (3.34e-3), so its tree never grows. The failure said only 'move it away';

@@ -364,9 +364,10 @@ class BubbleTreePlanner(Planner):
             details.update(extra or {})
             return PlanStats(self.name, outcome, B.n, oracle.clearance.calls - calls0, timer.elapsed(), t_first, details)
 
-        def closest_approach() -> str:
+        def closest_approach(unreachable: bool) -> str:
             """Where the trees came nearest: the configuration halfway across the gap between the two bubbles
-            nearest each other, its clearance and the pair that sets it (what blocks the way, for the user)."""
+            nearest each other, its clearance and the pair that sets it (what blocks the way, for the user); with
+            ``unreachable``, that the goal may be unreachable (not said when the time budget cut the search short)."""
             T = B.trees[0]
             if T.n == 0 or not np.isfinite(T.gap[: T.n]).any():
                 return ""
@@ -380,7 +381,7 @@ class BubbleTreePlanner(Planner):
             hint = robot.hull_hint(*(int(g) for g in robot.pairs[int(np.argmin(report.pair_distances))]))
             return (f"; they came nearest at q = {np.round(q, 4).tolist()} (a gap of {T.gap[i]:.3g} between their bubbles), with "
                     f"clearance {clearance_text(report.clearance, problem.delta)} between {report.closest_pair[0]} and {report.closest_pair[1]}"
-                    f": the goal may be unreachable from the start (`foam-mj bubble` shows more){hint}")
+                    f"{': the goal may be unreachable from the start' if unreachable else ''} (`foam-mj bubble` shows more){hint}")
 
         def chain_length(pair: tuple[int, int]) -> float:
             """Length of the polyline q_init -> centres of the tree chain through ``pair`` -> q_goal (an upper
@@ -449,13 +450,16 @@ class BubbleTreePlanner(Planner):
                     for side, name, q, r, out, T in (("start", "q_init", q0, r0, outside[0], B.trees[0]), ("goal", "q_goal", q1, r1, outside[1], B.trees[1]))
                     if (T.n == 1 and r < r_min) or (T.n < STALLED and (out or oracle.to_bounds(q) < r_min))
                 )
-                why, tail = outcome, stuck or closest_approach()
+                why, tail = outcome, stuck or closest_approach(outcome != "time budget")
                 idle, total = counters["iterations"] - it_then, counters["iterations"]
                 if outcome == "stalled":
                     why += f": {idle:,} iterations without coming r_min / 2 = {0.5 * r_min:.3g} closer"
                     tail += "; the [planner] option stall = 0 searches until the time budget ends"
                 else:  # a budget ended it: whether they were still coming closer tells whether more could help
                     tail += f"; they last came r_min / 2 closer at iteration {it_then:,} of {total:,}"
+                    if outcome == "time budget" and o.stall and idle < max(o.stall, it_then):
+                        tail += (f": the time limit ({problem.time_limit:g} s) ended the search before the trees stalled; with more "
+                                 "(--time-limit, the [planner] time_limit) it goes on until they meet or stall")
                 raise PlanningFailed.after(f"the trees did not meet ({why}) after {B.n} bubbles", st, tail, B.foam(q0, q1))
             timer.report(B.n)
             counters["iterations"] += 1

@@ -281,7 +281,8 @@ class _Growth:
                 else:  # the candidates drawn all failed; others might not
                     stuck = f": none of the candidates drawn on {bubble} had radius >= {r_min}; lower r_min, or plan with bubbletree"
             else:
-                stuck = small_goal_hint(self.oracle, self.q_goal, self.params.r_min) or nearest_hint(self.oracle, foam, self.params.r_min, outcome)
+                stuck = (small_goal_hint(self.oracle, self.q_goal, self.params.r_min, outcome)
+                         or nearest_hint(self.oracle, foam, self.params.r_min, outcome))
             raise PlanningFailed.after(f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles", st, stuck, foam)
         return PlanResult(foam, foam.rosary(), st)
 
