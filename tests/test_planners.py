@@ -287,6 +287,32 @@ def test_a_start_bubble_far_below_r_min_is_accepted_by_the_default_and_refused_b
     _check_paths(MujocoChecker(s.robot), oracle, res, 0.005)
 
 
+def test_a_start_a_tenth_of_a_millimetre_above_delta_with_the_foot_flat_on_a_block_plans(tmp_path):
+    """The foot rests flat 5.127 mm above a block (delta 5 mm): the start's bubble is 1.06e-4, and near the straight
+    leg no direction lifts a flat foot fast, so the best child within two radii of it had 1.485 x its radius, under
+    the 1.5 x that a child of a bubble below r_min needed: the start tree never grew and the plan stalled (exit 3)
+    on a feasible problem. A child now needs 1.25 x its parent's radius (GROW); the plan is certified."""
+    import shutil
+
+    from conftest import MODELS, MujocoChecker
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.model import RobotModel
+
+    for name in ("ortholeg.xml", "scene_common.xml"):
+        shutil.copy(MODELS / name, tmp_path / name)
+    (tmp_path / "block.xml").write_text(
+        '<mujoco><include file="ortholeg.xml"/><include file="scene_common.xml"/><worldbody>'
+        '<geom name="floor" class="obstacle" type="plane" size="3 3 0.05"/>'
+        '<geom name="obstacle_box" class="obstacle" type="box" pos="0.5 0 0.075" size="0.1 0.25 0.075"/>'
+        '<geom name="block" class="obstacle" type="box" pos="0.15 0 0.0625" size="0.05 0.25 0.0625"/></worldbody></mujoco>')
+    robot = RobotModel.from_xml(tmp_path / "block.xml")
+    oracle = BubbleOracle(robot, delta=0.005)
+    q_init, q_goal = np.array([0.2, 0.3, 0.08]), np.array([0.45, 0.4536, 1.45])
+    assert 0.005 < oracle.clearance(q_init) < 0.0052 and oracle.radius(q_init) < 1.1e-4
+    res = get_planner("bubbletree").plan(PlanningProblem(oracle, q_init, q_goal, time_limit=60.0), seed=0)
+    _check_paths(MujocoChecker(robot), oracle, res, 0.005)
+
+
 def test_a_start_closer_than_delta_is_refused_by_every_planner(obstacle_robot):
     from foam_mj.bubbles import BubbleOracle
 
