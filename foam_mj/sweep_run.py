@@ -498,7 +498,7 @@ class SweepSummary:
     tasks: int  # tasks in the sweep
     skipped: int  # already done before this run
     run: int  # run now
-    failed: int  # of those, tasks whose plan did not reach (outcome != reached)
+    failed: int  # of those, tasks with a row not reached (the plan did not reach, or a path has no timing)
     rows_written: int
     files_written: int
     elapsed: float
