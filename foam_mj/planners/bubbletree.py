@@ -164,7 +164,7 @@ SMALLEST = 3e-5
 #: pair's distance changes far slower than ||rho|| allows, no direction may (measured when GROW was 1.5: a self pair of
 #: an 8-joint arm moved by two wrist joints, the best of 4,000 directions reached 1.33 x the parent's radius at s = 2),
 #: and an end bubble below r_min never grew: the tree failed after the whole budget while RRT-Connect found a path in
-#: 0.3 s (GROW 1.25 alone now passes that case; ESCAPE stays for pairs slower still). So while every bubble of a tree is below r_min (and its root
+#: 0.3 s (a child of 1.33 x now meets GROW 1.25; ESCAPE stays for pairs slower still). So while every bubble of a tree is below r_min (and its root
 #: lies in the joint box), its largest bubble is also extended once per iteration up the radius's gradient (central
 #: differences, 2n distance queries), keeping a child of ESCAPE x its radius: the tree climbs out of the small regime
 #: in log(r_min / r) / log(ESCAPE) such steps. Trees whose roots reach r_min are unchanged (hashall.py).
