@@ -71,8 +71,8 @@ def _is_number_list(text: str) -> bool:
     return bool(parts)
 
 
-#: A value that begins like a negative number ("-0.1,0.3", "-1e-3", "-.5"), which argparse reads as an option.
-_NEGATIVE_VALUE = re.compile(r"-\.?[0-9]")
+#: A value that begins like a negative number ("-0.1,0.3", "-1e-3", "-.5", "-inf"), which argparse reads as an option.
+_NEGATIVE_VALUE = re.compile(r"-(\.?[0-9]|inf|nan)", re.IGNORECASE)
 
 
 def port_number(text: str) -> int:

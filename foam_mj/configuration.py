@@ -27,7 +27,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.errors import ModelError
+from foam_mj.errors import ModelError, unknown_names
 from foam_mj.mjcf import _custom_numeric, _custom_text
 
 CONFIGURATION_FIELD = "foam_mj:configuration"
@@ -109,7 +109,7 @@ def check_configuration_joint(m: mujoco.MjModel, path: str | Path, name: str) ->
                 f"{path}: configuration joint '{name}' is a tendon, not a joint; foam-mj plans over hinge and slide joints"
             )
         known = [_joint_name(m, k) for k in range(m.njnt)]
-        raise ModelError(f"{path}: configuration joint '{name}' is not in the model (joints: {known})")
+        raise ModelError(f"{path}: configuration joint {unknown_names([name], known)} is not in the model (joints: {known})")
     kind = int(m.jnt_type[j])
     if kind not in _SUPPORTED_JOINTS:
         raise ModelError(
@@ -149,10 +149,11 @@ def _configuration_map(
     typos = sorted(n[len(NORMALIZE_PREFIX):] for n in declared
                    if n.startswith(NORMALIZE_PREFIX) and n[len(NORMALIZE_PREFIX):] not in joint_names)
     if typos:  # a [normalize] entry (or an MJCF field) for a joint the model does not have would be ignored
-        raise ModelError(f"{path}: normalization given for {typos}, which are not joints of the model {sorted(joint_names)}")
+        raise ModelError(f"{path}: normalization given for {unknown_names(typos, joint_names)}, which are not joints of the model "
+                         f"{sorted(joint_names)}")
     unknown = set(normalize) - set(names)
     if unknown:
-        raise ModelError(f"{path}: normalization given for {sorted(unknown)}, which are not configuration joints {names}")
+        raise ModelError(f"{path}: normalization given for {unknown_names(unknown, names)}, which are not configuration joints {names}")
     ids, adr, scale, offset, lo, hi = [], [], [], [], [], []
     for name in names:
         j = check_configuration_joint(m, path, name)
@@ -170,8 +171,9 @@ def _configuration_map(
                 a, b, span = (float(v) for v in norm)
             else:
                 raise ModelError(f"{path}: {where} must hold 1 number (span) or 3 (qpos_lo qpos_hi span)")
-            if not (span > 0 and b > a):
-                raise ModelError(f"{path}: {where} needs span > 0 and qpos_hi > qpos_lo")
+            if not (np.all(np.isfinite(norm)) and span > 0 and b > a and (b - a) / span > 0):  # an infinite span divided by 0
+                raise ModelError(f"{path}: {where} needs finite numbers, span > 0 and qpos_hi > qpos_lo "
+                                 f"(qpos_hi - qpos_lo over span > 0), got {norm.tolist()}")
             hinge = int(m.jnt_type[j]) == HINGE
             turn = max(2 * np.pi, abs(jlo), abs(jhi))
             if hinge and norm.size == 3 and max(abs(a), abs(b)) > turn:  # beyond a turn and the range: degrees

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from typing import Any
+import difflib
+import os
+import stat
+from typing import Any, Iterable
 
 
 class FoamError(Exception):
@@ -68,3 +71,40 @@ def is_number(value: Any) -> bool:
     import numbers
 
     return isinstance(value, numbers.Real) and not isinstance(value, bool)  # numpy's bool_ is no Real
+
+
+def file_problem(path: str | os.PathLike) -> str | None:
+    """Why ``path`` names no regular file, for a message ("not found", "a folder, not a file", "File name too long"), or
+    None for a regular file. Never raises: Python 3.11's ``Path.is_file`` raised OSError for a name longer than the file
+    system allows and ValueError for a NUL byte, which reached the user as an internal error."""
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return "not found"
+    except OSError as exc:
+        return exc.strerror or type(exc).__name__
+    except ValueError:
+        return "not a file name (it holds a NUL byte)"
+    if stat.S_ISDIR(mode):
+        return "a folder, not a file"
+    if not stat.S_ISREG(mode):
+        return "not a regular file"
+    return None
+
+
+def unknown_names(unknown: Iterable[str], known: Iterable[str], elsewhere: dict[str, str] | None = None) -> str:
+    """The unknown names, each with the known one it most looks like ("'q_goals' (did you mean 'q_goal'?)"), or with
+    where it belongs when ``elsewhere`` (name -> place) holds it, for a message that lists ``known`` after it."""
+    known = sorted(str(k) for k in known)
+    folded = {k.lower().replace("-", "_"): k for k in known}
+    parts = []
+    for name in sorted(unknown, key=str):
+        text, key = repr(name), str(name).lower().replace("-", "_")
+        if elsewhere and name in elsewhere:
+            text += f" ({elsewhere[name]})"
+        else:
+            close = [folded[key]] if key in folded else difflib.get_close_matches(str(name), known, n=1, cutoff=0.6)
+            if close:
+                text += f" (did you mean {close[0]!r}?)"
+        parts.append(text)
+    return ", ".join(parts)

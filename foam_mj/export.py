@@ -36,7 +36,7 @@ from typing import Callable
 
 import numpy as np
 
-from foam_mj.errors import FoamError
+from foam_mj.errors import FoamError, unknown_names
 
 FORMATS = ("csv", "npz", "parquet")
 DEFAULT_HZ = 500.0
@@ -77,7 +77,7 @@ def pick_path(doc: dict, name: str | None) -> str:
     if name is None:
         return names[-1]
     if name not in names:
-        raise FoamError(f"--path '{name}' is not in the result; its paths: {', '.join(names)}")
+        raise FoamError(f"--path {unknown_names([name], names)} is not in the result; its paths: {', '.join(names)}")
     return name
 
 
@@ -101,6 +101,7 @@ def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float
     entry = doc["paths"][path_name]
     try:
         limits = Limits.from_dict(doc["limits"]) if doc.get("limits") else Limits()
+        limits.resolve(robot)  # one number per joint (the timing's ValueError was an internal error, exit 1)
         time_law = doc.get("time_law") or "own"
         if time_law not in METHODS:
             raise FoamError(f"{source}: field 'time_law' must be one of {list(METHODS)}, got {time_law!r}")

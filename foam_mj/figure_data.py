@@ -86,6 +86,8 @@ def _as_doc(doc) -> dict:
     for key in ("mjcf", "paths", "q_init", "q_goal"):
         if doc.get(key) is None:
             raise FoamError(f"the result document has no field '{key}'")
+    if not isinstance(doc["mjcf"], str) or not doc["mjcf"]:
+        raise FoamError(f"the result document's field 'mjcf' must be the path of the MJCF scene (a string), got {doc['mjcf']!r}")
     return doc
 
 

@@ -48,7 +48,7 @@ from foam_mj.configuration import (
     _joint_name,
 )
 from foam_mj.constraints import binding_tendon_limits, coupling_equalities
-from foam_mj.errors import ConfigurationError, ModelError, clearance_text
+from foam_mj.errors import ConfigurationError, ModelError, clearance_text, unknown_names
 from foam_mj.fingerprint import PARTS
 from foam_mj.geom_pairs import attached, body_subtree, collision_pairs, geom_moved_by, pair_coordinates
 from foam_mj.mjcf import (
@@ -251,7 +251,7 @@ class RobotModel:
             root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, robot_root)
             if root < 0:
                 known = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, m.nbody)]
-                raise ModelError(f"{p}: robot_root '{robot_root}' is not a body of the model (bodies: {known})")
+                raise ModelError(f"{p}: robot_root {unknown_names([robot_root], known)} is not a body of the model (bodies: {known})")
         if root is not None and joints is None and _custom_text(m, CONFIGURATION_FIELD) is None:
             in_root = body_subtree(m, root)
             joints = [

@@ -40,7 +40,7 @@ from typing import Callable
 
 import numpy as np
 
-from foam_mj.errors import ConfigurationError, FoamError
+from foam_mj.errors import ConfigurationError, FoamError, unknown_names
 from foam_mj.planners import PlanResult
 from foam_mj.planners.base import check_result, smoother_start
 from foam_mj.paths import PathMetrics, metrics
@@ -107,7 +107,7 @@ def parse_smoothers(spec: str) -> tuple[str, ...]:
             raise FoamError(f"an empty smoother name in '{spec}' (a stray comma?); choose from {', '.join(SMOOTHERS)} "
                             "(or a comma-separated list)")
         if part not in SMOOTHERS:
-            raise FoamError(f"unknown smoother '{part}'; choose from {', '.join(SMOOTHERS)} (or a comma-separated list)")
+            raise FoamError(f"unknown smoother {unknown_names([part], SMOOTHERS)}; choose from {', '.join(SMOOTHERS)} (or a comma-separated list)")
         names += [p for p in SMOOTHERS[part] if p not in names]
     return tuple(names)
 

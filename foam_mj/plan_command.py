@@ -12,7 +12,7 @@ from pathlib import Path
 
 from foam_mj.cli import DEFAULT_SCENE, EXIT_OK, EXIT_PLANNING_FAILED, EXIT_UNSAFE
 from foam_mj.progress import Progress
-from foam_mj.errors import FoamError, PlanningFailed
+from foam_mj.errors import FoamError, PlanningFailed, file_problem
 from foam_mj.summary import fmt_mm, print_certificates, print_fronts, print_replay_notes, summary_table
 
 
@@ -56,10 +56,13 @@ def mjcf_file(text: str) -> Path:
     if not text:
         raise FoamError("--mjcf: empty file name; give an MJCF file")
     mjcf = Path(text)
-    if mjcf.is_dir():
+    problem = file_problem(mjcf)
+    if problem == "a folder, not a file":
         raise FoamError(f"--mjcf: {mjcf} is a folder, not an MJCF file")
-    if not mjcf.is_file():
+    if problem == "not found":
         raise FoamError(f"--mjcf: MJCF file not found: {mjcf}")
+    if problem:
+        raise FoamError(f"--mjcf: {mjcf}: {problem}")
     return mjcf
 
 

@@ -24,6 +24,7 @@ clearance) gets no figure. The knee figure is drawn when the rows carry a ``peak
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -163,7 +164,7 @@ def load(out: str | Path) -> tuple[dict, Any]:
     from foam_mj.sweep_run import read_manifest, read_rows
 
     out = Path(out)
-    if not out.is_dir():
+    if not os.path.isdir(out):  # never raises (Path.is_dir raised OSError for a name too long on Python 3.11)
         raise FoamError(f"sweep folder not found: {out}")
     manifest = read_manifest(out)
     if manifest is None:

@@ -282,6 +282,11 @@ def read_result(path: str | Path) -> dict:
             raise FoamError(f"{p}: missing field '{key}'")
     if not isinstance(doc["paths"], dict):
         raise FoamError(f"{p}: field 'paths' must be an object")
+    if not isinstance(doc["mjcf"], str) or not doc["mjcf"]:  # a number here was a TypeError in `figures` (exit 1)
+        raise FoamError(f"{p}: field 'mjcf' must be the path of the MJCF scene (a string), got {doc['mjcf']!r}")
+    seed = doc.get("seed", 0)
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:  # "x" was "malformed result: invalid literal for int()"
+        raise FoamError(f"{p}: field 'seed' must be an integer >= 0, got {seed!r}")
     for key in ("planner", "limits"):
         if key in doc and not isinstance(doc[key], dict):
             raise FoamError(f"{p}: field '{key}' must be an object, got {type(doc[key]).__name__}")
@@ -335,7 +340,7 @@ def resolve_model(doc: dict, source: str | Path) -> Path:
         candidates.append(("mjcf_relative", (src.parent / doc["mjcf_relative"]).resolve()))
     if isinstance(doc.get("mjcf"), str) and doc["mjcf"]:
         candidates.append(("mjcf", Path(doc["mjcf"])))
-    existing = [(k, p) for k, p in candidates if p.is_file()]
+    existing = [(k, p) for k, p in candidates if os.path.isfile(p)]  # never raises, as Path.is_file did for a name too long
     if not existing:
         named = ", ".join(f"{k} = {p}" for k, p in candidates) or "none"
         raise FoamError(f"{src}: the scene file it was planned on is not found ({named})")

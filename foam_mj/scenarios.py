@@ -75,7 +75,7 @@ import numpy as np
 from foam_mj.bubbles import BubbleOracle, distance_cap
 from foam_mj.data import models_dir, scenarios_dir
 from foam_mj.clearance import Clearance
-from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioError, clearance_text, is_number
+from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioError, clearance_text, file_problem, is_number, unknown_names
 from foam_mj.foam import check_candidate_bound
 from foam_mj.model import RobotModel
 from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
@@ -100,6 +100,8 @@ _MESH_FIELDS = {"file", "pos", "euler", "scale", "name", "decompose", "threshold
 SUBJECT_HEIGHT_RANGE = (1.2, 2.2)  # m
 SUBJECT_MASS_RANGE = (25.0, 200.0)  # kg
 _LIMITS_FIELDS = {"velocity", "acceleration", "torque", "time_law"}
+#: A top-level field written under a table: TOML puts every key after ``[planner]`` into that table.
+_TOP_LEVEL = {f: "a top-level field: write it above the first [table]" for f in _TOP_FIELDS}
 
 
 @dataclass
@@ -153,15 +155,19 @@ def resolve_scenario_path(name_or_path: str | Path) -> Path:
     if not str(name_or_path).strip():
         raise ScenarioError(f"empty scenario name; known scenarios: {', '.join(available_scenarios())}")
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists() or len(p.parts) > 1:
-        if p.is_dir():
+    if p.suffix == ".toml" or os.path.lexists(p) or len(p.parts) > 1:
+        problem = file_problem(p)
+        if problem == "a folder, not a file":
             raise ScenarioError(f"scenario {p} is a directory, not a scenario TOML file")
-        if not p.is_file():
+        if problem == "not found":
             raise ScenarioError(f"scenario file not found: {p}")
+        if problem:
+            raise ScenarioError(f"scenario file {p}: {problem}")
         return p
     builtin = SCENARIO_DIR / f"{name_or_path}.toml"
-    if not builtin.is_file():
-        raise ScenarioError(f"unknown scenario '{name_or_path}'; known scenarios: {', '.join(available_scenarios())}")
+    if file_problem(builtin):
+        raise ScenarioError(f"unknown scenario {unknown_names([str(name_or_path)], available_scenarios())}; known scenarios: "
+                            f"{', '.join(available_scenarios())}")
     return builtin
 
 
@@ -241,7 +247,7 @@ def _table(raw: dict, key: str, fields: set[str], where: str) -> dict | None:
         raise ScenarioError(f"{where}: [{key}] must be a table")
     unknown = set(value) - fields
     if unknown:
-        raise ScenarioError(f"{where}: unknown [{key}] field(s) {sorted(unknown)}; expected {sorted(fields)}")
+        raise ScenarioError(f"{where}: unknown [{key}] field(s) {unknown_names(unknown, fields, _TOP_LEVEL)}; expected {sorted(fields)}")
     return value
 
 
@@ -295,12 +301,13 @@ def _scene_edits(raw: dict, where: str, base_dir: Path) -> SceneEdits:
             raise ScenarioError(f"{w} must be a table")
         unknown = set(t) - _MESH_FIELDS
         if unknown:
-            raise ScenarioError(f"{w}: unknown field(s) {sorted(unknown)}; expected {sorted(_MESH_FIELDS)}")
+            raise ScenarioError(f"{w}: unknown field(s) {unknown_names(unknown, _MESH_FIELDS, _TOP_LEVEL)}; expected {sorted(_MESH_FIELDS)}")
         if not isinstance(t.get("file"), str):
             raise ScenarioError(f"{w}: field 'file' (a mesh file path) is missing")
         f = (base_dir / t["file"]).resolve()
-        if not f.is_file():
-            raise ScenarioError(f"{w}: field 'file': mesh file not found: {f}")
+        problem = file_problem(f)
+        if problem:
+            raise ScenarioError(f"{w}: field 'file': mesh file not found: {f}" if problem == "not found" else f"{w}: field 'file': mesh file {f}: {problem}")
         if f.suffix.lower() not in (".stl", ".obj", ".ply"):
             raise ScenarioError(f"{w}: field 'file': {f.name} is not an STL, OBJ or PLY file")
         scale = t.get("scale", 1.0)
@@ -363,7 +370,7 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
         raise ScenarioError(f"{path}: a scenario must be a table, got {type(raw).__name__}")
     unknown = set(raw) - _TOP_FIELDS
     if unknown:
-        raise ScenarioError(f"{path}: unknown field(s) {sorted(unknown)}; expected {sorted(_TOP_FIELDS)}")
+        raise ScenarioError(f"{path}: unknown field(s) {unknown_names(unknown, _TOP_FIELDS)}; expected {sorted(_TOP_FIELDS)}")
     for req in ("scene", "q_init", "q_goal"):
         if req not in raw:
             raise ScenarioError(f"{path}: missing field '{req}'")
@@ -380,10 +387,11 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     if not isinstance(raw["scene"], (str, Path)):
         raise ScenarioError(f"{path}: field 'scene' must be a path string")
     scene = (base_dir / raw["scene"]).resolve()
-    if scene.is_dir():  # scene = "" or a folder: "MJCF file not found" named an existing folder
+    problem = file_problem(scene)
+    if problem == "a folder, not a file":  # scene = "" or a folder: "MJCF file not found" named an existing folder
         raise ScenarioError(f"{path}: field 'scene' = {str(raw['scene'])!r} names the folder {scene}, not an MJCF file")
-    if not scene.is_file():
-        raise ScenarioError(f"{path}: field 'scene': MJCF file not found: {scene}")
+    if problem:
+        raise ScenarioError(f"{path}: field 'scene': MJCF file not found: {scene}" if problem == "not found" else f"{path}: field 'scene': MJCF file {scene}: {problem}")
     seed = raw.get("seed", 0)
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or not 0 <= seed <= 2**63 - 1:
         raise ScenarioError(f"{path}: field 'seed' must be an integer in [0, 2**63 - 1], got {seed!r}")
@@ -411,7 +419,8 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     unknown = set(planner) - set(COMMON_FIELDS) - set(own)
     if unknown:
         expected = sorted(COMMON_FIELDS) + sorted(own)
-        raise ScenarioError(f"{path}: unknown [planner] field(s) {sorted(unknown)} for algorithm '{algorithm}'; expected {expected}")
+        raise ScenarioError(f"{path}: unknown [planner] field(s) {unknown_names(unknown, expected, _TOP_LEVEL)} for algorithm "
+                            f"'{algorithm}'; expected {expected}")
     defaults = {f.name: f.default for f in dataclasses.fields(cls.Options)}
     for key, value in planner.items():
         numeric = key in ("delta", "max_bubbles", "time_limit") or (
@@ -456,7 +465,7 @@ def _limits(table, path: Path) -> tuple[Limits | None, str | None]:
         raise ScenarioError(f"{path}: [limits] must be a table")
     unknown = set(table) - _LIMITS_FIELDS
     if unknown:
-        raise ScenarioError(f"{path}: unknown [limits] field(s) {sorted(unknown)}; expected {sorted(_LIMITS_FIELDS)}")
+        raise ScenarioError(f"{path}: unknown [limits] field(s) {unknown_names(unknown, _LIMITS_FIELDS, _TOP_LEVEL)}; expected {sorted(_LIMITS_FIELDS)}")
     lists = {}
     for key in ("velocity", "acceleration", "torque"):
         if key in table:

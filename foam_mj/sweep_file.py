@@ -8,7 +8,7 @@ import math
 import tomllib
 from pathlib import Path
 
-from foam_mj.errors import FoamError, ScenarioError
+from foam_mj.errors import FoamError, ScenarioError, file_problem, unknown_names
 from foam_mj.sweep import (
     MAX_TASKS,
     REPLAYS,
@@ -32,8 +32,9 @@ def load_sweep(path: str | Path) -> Sweep:
     from foam_mj.scenarios import read_scenario_doc
 
     path = Path(path)
-    if not path.is_file():
-        raise SweepError(f"sweep file not found: {path}")
+    problem = file_problem(path)
+    if problem:
+        raise SweepError(f"sweep file not found: {path}" if problem == "not found" else f"sweep file {path}: {problem}")
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # TOML is UTF-8; a byte-order mark is let through
     except tomllib.TOMLDecodeError as exc:
@@ -43,7 +44,7 @@ def load_sweep(path: str | Path) -> Sweep:
     where = str(path)
     unknown = set(raw) - _TOP_FIELDS
     if unknown:
-        raise SweepError(f"{where}: unknown field(s) {sorted(unknown)}; expected {sorted(_TOP_FIELDS)}")
+        raise SweepError(f"{where}: unknown field(s) {unknown_names(unknown, _TOP_FIELDS)}; expected {sorted(_TOP_FIELDS)}")
     if "scenario" not in raw or not isinstance(raw["scenario"], str):
         raise SweepError(f"{where}: field 'scenario' (a built-in scenario name or a TOML path) is required")
     ref = raw["scenario"]
@@ -102,7 +103,8 @@ def load_sweep(path: str | Path) -> Sweep:
         raise SweepError(f"{where}: [random] has no key in [random.uniform] or [random.choice], or leave the table out")
     unknown = set(rnd) - _RANDOM_FIELDS
     if unknown:
-        raise SweepError(f"{where}: unknown [random] field(s) {sorted(unknown)}; expected {sorted(_RANDOM_FIELDS)} (keys go in [random.uniform] or [random.choice])")
+        raise SweepError(f"{where}: unknown [random] field(s) {unknown_names(unknown, _RANDOM_FIELDS)}; expected {sorted(_RANDOM_FIELDS)} "
+                         "(keys go in [random.uniform] or [random.choice])")
     random_axes = []
     for key, spec in (rnd.get("uniform") or {}).items():
         if not (isinstance(spec, list) and len(spec) == 2):

@@ -40,7 +40,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.errors import FoamError, is_number
+from foam_mj.errors import FoamError, file_problem, is_number
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 #: The most samples of one polyline (a path's waypoints or its qpos rows): --step 1e-3, the default, takes a few
@@ -111,7 +111,7 @@ def _scene(doc: dict, source: Path) -> tuple[Path, mujoco.MjModel]:
         candidates.append(("mjcf_relative", (source.parent / doc["mjcf_relative"]).resolve()))
     if isinstance(doc.get("mjcf"), str) and doc["mjcf"]:
         candidates.append(("mjcf", Path(doc["mjcf"])))
-    existing = [(k, p) for k, p in candidates if p.is_file()]
+    existing = [(k, p) for k, p in candidates if file_problem(p) is None]  # Path.is_file raised OSError for a name too long
     if not existing:
         raise _fail(source, "the scene file it was planned on is not found (" + (", ".join(f"{k} = {p}" for k, p in candidates) or "no 'mjcf' field") + ")")
     stored = doc.get("model_hash")
@@ -231,16 +231,20 @@ def _configuration_map(doc: dict, m: mujoco.MjModel, source: Path):
     return idx, scale, offset, qpos0
 
 
-def _densify(points: np.ndarray, extra: np.ndarray, step: float) -> np.ndarray:
+def _densify(points: np.ndarray, extra: np.ndarray, step: float, what: str = "a path") -> np.ndarray:
     """Linear samples along a polyline of ``points`` (rows), consecutive ones at most ``step`` apart in
-    both the Euclidean norm of ``points`` and the max norm of ``extra`` (the same polyline in other units)."""
+    both the Euclidean norm of ``points`` and the max norm of ``extra`` (the same polyline in other units);
+    ``what`` (e.g. "path 'optimal': waypoints") names it in the error when that takes too many samples."""
     if len(points) == 1:
         return extra.copy()
-    d_pts = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    d_ext = np.max(np.abs(np.diff(extra, axis=0)), axis=1)
-    counts_f = np.maximum(1.0, np.ceil(np.maximum(d_pts, d_ext) / step))
-    if counts_f.sum() > MAX_SAMPLES:  # --step 1e-12 asked numpy for 33.6 TiB (a MemoryError, exit 1)
-        raise FoamError(f"--step {step:g} would take {counts_f.sum():.3g} samples on one path (at most {MAX_SAMPLES:,}): use a larger step")
+    with np.errstate(over="ignore"):  # a coordinate of 1e308 (a damaged file): its square overflows, the count below says so
+        d_pts = np.linalg.norm(np.diff(points, axis=0), axis=1)
+        d_ext = np.max(np.abs(np.diff(extra, axis=0)), axis=1)
+        counts_f = np.maximum(1.0, np.ceil(np.maximum(d_pts, d_ext) / step))
+        total = counts_f.sum()
+    if total > MAX_SAMPLES:  # --step 1e-12 asked numpy for 33.6 TiB (a MemoryError, exit 1)
+        raise FoamError(f"{what}: its longest segment is {np.max(np.maximum(d_pts, d_ext)):.3g} long, {total:.3g} samples at "
+                        f"--step {step:g} (at most {MAX_SAMPLES:,} on one path): use a larger step, or check those numbers")
     counts = counts_f.astype(int)
     seg = np.repeat(np.arange(len(counts)), counts)
     t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(counts, counts)
@@ -324,10 +328,12 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     doc = _load(source)
     mjcf, m = _scene(doc, source)
     idx, scale, offset, qpos0 = _configuration_map(doc, m, source)
-    try:
-        margin = float(doc["planner"]["delta"])
-    except (KeyError, TypeError, ValueError):
-        raise _fail(source, "missing field 'planner.delta' (the safety margin)") from None
+    planner = doc.get("planner")
+    if not isinstance(planner, dict) or "delta" not in planner:
+        raise _fail(source, "missing field 'planner.delta' (the safety margin)")
+    if not is_number(planner["delta"]):
+        raise _fail(source, f"field 'planner.delta' must be a margin >= 0 in metres, got {planner['delta']!r}")
+    margin = float(planner["delta"])
     if not (np.isfinite(margin) and margin >= 0):
         # A negative or NaN margin would let every sample pass: refuse it rather than call the result clean.
         raise _fail(source, f"field 'planner.delta' must be a margin >= 0 in metres, got {margin}")
@@ -355,20 +361,24 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     names = lambda g: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"geom{int(g)}"  # noqa: E731
     checks = []
     for name, entry in paths.items():
-        try:
-            wp = np.asarray(entry["waypoints"], dtype=float)
-            rows = np.asarray(entry.get("qpos", []), dtype=float)
-        except (KeyError, TypeError, ValueError, AttributeError):
-            raise _fail(source, f"path '{name}': 'waypoints' and 'qpos' must be lists of numbers") from None
+        if not isinstance(entry, dict) or "waypoints" not in entry:
+            raise _fail(source, f"path '{name}' misses field 'waypoints'")
+        arrays = []
+        for key, value, width in (("waypoints", entry["waypoints"], len(idx)), ("qpos", entry.get("qpos", []), m.nq)):
+            try:
+                arrays.append(np.asarray(value, dtype=float))
+            except (TypeError, ValueError):
+                raise _fail(source, f"path '{name}': field '{key}' must be a list of rows of {width} numbers each") from None
+        wp, rows = arrays
         if wp.ndim != 2 or wp.shape[1] != len(idx) or len(wp) < 2 or not np.all(np.isfinite(wp)):
             raise _fail(source, f"path '{name}': waypoints of shape {wp.shape}, expected (N >= 2, {len(idx)}) finite numbers")
         wp_qpos = np.broadcast_to(qpos0, (len(wp), m.nq)).copy()
         wp_qpos[:, idx] = offset + scale * wp
-        samples_wp = _densify(wp, wp_qpos, step)
+        samples_wp = _densify(wp, wp_qpos, step, f"{source}: path '{name}': waypoints")
         if rows.size:
             if rows.ndim != 2 or rows.shape[1] != m.nq or not np.all(np.isfinite(rows)):
                 raise _fail(source, f"path '{name}': qpos rows of shape {rows.shape}, expected (N, {m.nq}) finite numbers")
-            samples_tr = _densify((rows[:, idx] - offset) / scale, rows, step)
+            samples_tr = _densify((rows[:, idx] - offset) / scale, rows, step, f"{source}: path '{name}': qpos rows")
         else:
             samples_tr = np.empty((0, m.nq))
         allq = np.vstack([samples_wp, samples_tr])

@@ -9,7 +9,7 @@ import signal
 import sys
 from pathlib import Path
 
-from foam_mj.errors import FoamError
+from foam_mj.errors import FoamError, file_problem
 
 
 def _has_display() -> bool:
@@ -63,8 +63,9 @@ RRD_FOOTER = b"FOOT"
 def cmd_view(args: argparse.Namespace) -> int:
     """``foam-mj view``: open a recording in the Rerun viewer (native window, or the web viewer with --web)."""
     p = Path(args.recording)
-    if not p.is_file():
-        raise FoamError(f"recording not found: {p}" if not p.exists() else f"{p} is not a file")
+    problem = file_problem(p)
+    if problem:
+        raise FoamError(f"recording not found: {p}" if problem == "not found" else f"recording {p}: {problem}")
     if p.suffix != ".rrd":
         raise FoamError(f"{p} is not a Rerun recording (.rrd)")
     try:

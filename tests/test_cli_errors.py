@@ -61,6 +61,11 @@ def _bad_inputs(d: Path) -> dict[str, tuple[list[str], str]]:
         "--json ending in /": (["--json", f"{d}/out/"], "ends in '/': it names a folder"),
         "--start with an empty field": (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2,,0.3,0.08", "--goal", "0.45 0.4536 1.45"],
                                         "--start must be numbers separated by spaces or commas, got '0.2,,0.3,0.08'"),
+        "--scene 300-char path": (["--scene", str(d / ("s" * 300 + ".toml"))], "File name too long"),
+        "--mjcf 300-char name": (["--mjcf", str(d / ("m" * 300 + ".xml")), "--start", "0.2 0.3 0.08", "--goal", "0.45 0.4536 1.45"],
+                                 "File name too long"),
+        "--delta -inf": (["--delta", "-inf"], "--delta must be a margin >= 0 in metres, got -inf"),
+        "a planner name one letter off": (["--planner", "pfmx"], "unknown planner 'pfmx' (did you mean 'pfm'?)"),
         "--start with _": (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0_08", "--goal", "0.45 0.4536 1.45"],
                            "--start must be numbers separated by spaces or commas, got '0.2 0.3 0_08'"),
     }
@@ -610,6 +615,24 @@ def test_an_mjcf_that_is_a_folder_or_an_empty_name_is_named_as_such(command, tmp
         assert main([command[0], "--mjcf", value, *command[1:]]) == 2
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and message in err, err
+
+
+@pytest.mark.parametrize("argv", [
+    ["bubble", "--scene", "LONG.toml", "--q", "0.2 0.3 0.08"],
+    ["bubble", "--mjcf", "LONG.xml", "--q", "0.2 0.3 0.08"],
+    ["view", "LONG.rrd"],
+    ["sweep", "LONG.toml", "--out", "study"],
+    ["report", "LONG"],
+    ["verify", "LONG.json"],
+    ["replay", "LONG.json"],
+])
+def test_an_input_name_too_long_for_the_file_system_is_one_line_exit_2(argv, tmp_path, capsys, monkeypatch):
+    """Python 3.11's Path.is_file/exists raise OSError (File name too long) where a shorter name is just missing:
+    --scene, --mjcf, view, sweep ended as internal errors (exit 1)."""
+    monkeypatch.chdir(tmp_path)
+    assert main([a.replace("LONG", str(tmp_path / ("y" * 300))) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "internal error" not in err, err
 
 
 def test_a_value_that_starts_with_a_minus_sign_is_its_options_value(capsys):

@@ -128,6 +128,26 @@ def test_bad_export_input_is_one_line_and_exit_2_with_no_file(planned, tmp_path,
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("edit, message", [
+    (lambda d: d["limits"]["velocity"].pop(), "limits `velocity` must have 3 numbers"),
+    (lambda d: d.__setitem__("mjcf", 5), "field 'mjcf' must be the path of the MJCF scene (a string), got 5"),
+    (lambda d: d.__setitem__("seed", "x"), "field 'seed' must be an integer >= 0, got 'x'"),
+])
+def test_a_damaged_result_is_one_line_and_exit_2_with_no_file(planned, tmp_path, capsys, edit, message):
+    """A limits list one short reached the timing (a ValueError: internal error, exit 1); a number for 'mjcf' and a
+    string for 'seed' were a TypeError and an int() message that named no field."""
+    doc = json.loads(json.dumps(planned["doc"]))
+    edit(doc)
+    (tmp_path / "in").mkdir()
+    src = tmp_path / "in" / "r.json"
+    src.write_text(json.dumps(doc))
+    out = tmp_path / "x.csv"
+    assert main(["export", str(src), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1, err
+    assert not out.exists()
+
+
 def test_the_format_follows_the_out_suffix_and_a_mismatch_is_refused(planned, tmp_path, capsys):
     out = tmp_path / "t.npz"
     assert main(["export", str(planned["json"]), "--out", str(out), "--hz", "100"]) == 0

@@ -159,6 +159,10 @@ def test_bad_requests_are_foam_errors(planned, tmp_path):
     bad["paths"]["centre"]["times"] = [0.0, 1.0]
     with pytest.raises(FoamError, match="times for"):
         write_figures(bad, tmp_path / "bad")
+    bad = copy.deepcopy(planned)
+    bad["mjcf"] = 5  # was RobotModel.from_xml's TypeError: an internal error, exit 1, from `foam-mj figures`
+    with pytest.raises(FoamError, match=r"field 'mjcf' must be the path of the MJCF scene \(a string\), got 5"):
+        write_figures(bad, tmp_path / "bad")
 
 
 # -- the strobe's geometry is MuJoCo's ----------------------------------------------------------------------

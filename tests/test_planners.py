@@ -28,8 +28,12 @@ def test_unknown_planner_lists_the_known_names():
 
 
 def test_unknown_and_invalid_options_are_named():
-    with pytest.raises(PlannerError, match=r"planner 'pfm' has no option\(s\) \['speed'\]; its options: K, r_min"):
+    with pytest.raises(PlannerError, match=r"planner 'pfm' has no option\(s\) 'speed'; its options: K, r_min"):
         get_planner("pfm", speed=3)
+    with pytest.raises(PlannerError, match=r"planner 'bubbletree' has no option\(s\) 'refine_tols' \(did you mean 'refine_tol'\?\)"):
+        get_planner("bubbletree", refine_tols=0.01)
+    with pytest.raises(PlannerError, match=r"unknown planner 'bubble_tree' \(did you mean 'bubbletree'\?\)"):
+        get_planner("bubble_tree")
     with pytest.raises(PlannerError, match="planner 'pfm': `r_min` must be > 0"):
         get_planner("pfm", r_min=-1.0)
 
@@ -223,7 +227,7 @@ def test_the_scenario_names_its_algorithm(tmp_path):
     [
         ('algorithm = "nope"', r"field 'algorithm': unknown planner 'nope'; known planners: .*pfm"),
         ("algorithm = 3", "field 'algorithm' must be a planner name"),
-        ('algorithm = "pfm"\nspeed = 3', r"unknown \[planner\] field\(s\) \['speed'\] for algorithm 'pfm'"),
+        ('algorithm = "pfm"\nspeed = 3', r"unknown \[planner\] field\(s\) 'speed' for algorithm 'pfm'"),
         ('algorithm = "pfm"\nr_min = -1.0', r"\[planner\] planner 'pfm': `r_min` must be > 0"),
     ],
 )

@@ -73,7 +73,10 @@ def test_a_scenario_file_loads(tmp_path):
         (lambda t: t.replace("[0.45, 0.4536, 1.45]", "[0.0, 0.0, 1.1219973762820265]"), "q_goal.*in collision: clearance -0.0180 m between foot_collision and obstacle_box"),
         (lambda t: t.replace("q_init =", "q_init = = "), "malformed TOML"),
         (lambda t: "seed = 18446744073709551616\n" + t, r"'seed' must be an integer in \[0, 2\*\*63 - 1\]"),
-        (lambda t: t + "[normalize]\nhip_displacment = [0.0, 0.7, 1.5707963267948966]\n", r"normalization given for \['hip_displacment'\], which are not joints"),
+        (lambda t: t + "[normalize]\nhip_displacment = [0.0, 0.7, 1.5707963267948966]\n",
+         r"normalization given for 'hip_displacment' \(did you mean 'hip_displacement'\?\), which are not joints"),
+        (lambda t: t + "[normalize]\nhip_displacement = [inf]\n", r"normalize.hip_displacement needs finite numbers"),
+        (lambda t: t + "[normalize]\nhip_displacement = [0.0, inf, 1.0]\n", r"normalize.hip_displacement needs finite numbers"),
         (lambda t: t.replace('scene = "', 'scene = "/nowhere/'), "scene.*not found"),
     ],
 )
@@ -82,6 +85,37 @@ def test_bad_scenario_files_name_the_file_and_the_field(tmp_path, edit, message)
     with pytest.raises(ScenarioError, match=message) as err:
         load_scenario(p)
     assert "s.toml" in str(err.value)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda t: "q_goals = [0.45, 0.4536, 1.45]\n" + t, "unknown field(s) 'q_goals' (did you mean 'q_goal'?)"),
+    (lambda t: "self-collision = false\n" + t, "unknown field(s) 'self-collision' (did you mean 'self_collision'?)"),
+    (lambda t: t.replace("[planner]", "[planer]"), "unknown field(s) 'planer' (did you mean 'planner'?)"),
+    (lambda t: t.replace("r_min = 0.07", "rmin = 0.07"), "unknown [planner] field(s) 'rmin' (did you mean 'r_min'?) for algorithm 'pfm'"),
+    (lambda t: t.replace("K = 10", "k = 10"), "unknown [planner] field(s) 'k' (did you mean 'K'?)"),
+    (lambda t: t + "seed = 3\n", "unknown [planner] field(s) 'seed' (a top-level field: write it above the first [table])"),
+    (lambda t: t + "[limits]\nvelocty = [1, 1, 1]\n", "unknown [limits] field(s) 'velocty' (did you mean 'velocity'?)"),
+    (lambda t: t + "[subject]\nhieght = 1.7\n", "unknown [subject] field(s) 'hieght' (did you mean 'height'?)"),
+    (lambda t: t + "[obstacle]\nsizes = [0.2, 0.5, 0.1]\n", "unknown [obstacle] field(s) 'sizes' (did you mean 'size'?)"),
+])
+def test_a_misspelt_field_is_named_with_the_one_it_looks_like(tmp_path, edit, message):
+    """An unknown field listed the expected ones only; a misspelling (or a top-level field written under a table, where
+    TOML puts it) now also gets the field meant."""
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(_write(tmp_path, edit(GOOD)))
+    assert message in str(err.value)
+
+
+def test_a_scene_or_scenario_name_too_long_for_the_file_system_is_bad_input(tmp_path):
+    """Python 3.11's Path.is_file raised OSError (File name too long): an internal error, exit 1."""
+    long = "y" * 300
+    p = _write(tmp_path, GOOD.replace('scene = "{scene}"', f'scene = "{long}.xml"'))
+    with pytest.raises(ScenarioError, match=r"field 'scene': MJCF file .*yyy\.xml: File name too long"):
+        load_scenario(p)
+    with pytest.raises(ScenarioError, match=r"scenario file .*yyy\.toml: File name too long"):
+        load_scenario(tmp_path / f"{long}.toml")
+    with pytest.raises(ScenarioError, match=r"unknown scenario 'yyy"):
+        load_scenario(long)
 
 
 def test_a_missing_scenario_file_is_named(tmp_path):

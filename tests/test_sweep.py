@@ -311,7 +311,7 @@ def test_bad_random_tables_and_fields_are_named(tmp_path):
         '[random]\nsamples = 3\n[random.uniform]\n"planner.r_min" = [0.09, 0.05]\n': "low <= high",
         '[random]\nsamples = 0\n[random.uniform]\n"planner.r_min" = [0.05, 0.09]\n': "'samples'",
         '[random]\nsamples = 2\n[random.uniform]\n"planner.r_min" = [0.0, 0.09]\n': "'planner.r_min' = 0.0",
-        'grids = 1\n': "unknown field(s) ['grids']",
+        'grids = 1\n': "unknown field(s) 'grids' (did you mean 'grid'?)",
         'replay = "sometimes"\n': "'replay'",
         'smoothers = "best"\n': "unknown smoother 'best'",
         '[grid]\n': "[grid] is empty",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import ast
 import json
 import re
+import warnings
 from pathlib import Path
 
 import mujoco
@@ -119,7 +120,7 @@ def test_verify_uses_none_of_the_planners_code():
     assert _imports(ROOT / "foam_mj" / "verify.py") <= {
         "__future__", "json", "dataclasses", "pathlib", "mujoco", "numpy", "foam_mj.errors", "foam_mj.fingerprint"}
     assert _imports(ROOT / "foam_mj" / "fingerprint.py") <= {"__future__", "hashlib", "mujoco", "numpy"}
-    assert _imports(ROOT / "foam_mj" / "errors.py") <= {"__future__", "numbers", "typing"}  # the standard library only
+    assert _imports(ROOT / "foam_mj" / "errors.py") <= {"__future__", "difflib", "numbers", "os", "stat", "typing"}  # the standard library only
 
 
 def test_verify_refuses_bad_input(tmp_path, planned_result, capsys):
@@ -145,8 +146,37 @@ def test_a_step_too_small_to_sample_is_refused_before_any_allocation(planned_res
     for step in ("1e-12", "1e-300"):
         assert main(["verify", str(planned_result), "--step", step]) == 2
         err = capsys.readouterr().err.strip()
-        assert err.startswith(f"foam-mj: error: --step {step} would take") and "(at most 1,000,000): use a larger step" in err, err
+        assert f"samples at --step {step} (at most 1,000,000 on one path): use a larger step" in err and "\n" not in err, err
     assert main(["verify", str(planned_result), "--step", "1e-4"]) == 0
+
+
+def test_a_waypoint_far_beyond_the_scene_is_named_in_one_line(tmp_path, planned_result, capsys):
+    """A waypoint of 1e308 (a damaged file) overflowed numpy's norm: a RuntimeWarning line, then a message that
+    blamed --step. One line now names the path and the segment."""
+    doc = json.loads(planned_result.read_text())
+    name = next(iter(doc["paths"]))
+    doc["paths"][name]["waypoints"][1][0] = 1e308
+    (tmp_path / "far.json").write_text(json.dumps(doc))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # an overflow warning would fail the test
+        assert main(["verify", str(tmp_path / "far.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"path '{name}': waypoints: its longest segment is inf long" in err and "\n" not in err, err
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda d, p: d["planner"].__setitem__("delta", "5 mm"), "field 'planner.delta' must be a margin >= 0 in metres, got '5 mm'"),
+    (lambda d, p: d["paths"][p].__setitem__("qpos", [[0.1, "x", 0.2]]), "field 'qpos' must be a list of rows of 3 numbers each"),
+    (lambda d, p: d["paths"][p]["waypoints"][1].append([1]), "field 'waypoints' must be a list of rows of 3 numbers each"),
+    (lambda d, p: d["paths"].__setitem__(p, [1, 2]), "misses field 'waypoints'"),
+])
+def test_a_damaged_field_is_named_as_it_is(tmp_path, planned_result, capsys, edit, words):
+    """A margin that is a string was called missing; a bad qpos row was blamed on 'waypoints and qpos' together."""
+    doc = json.loads(planned_result.read_text())
+    edit(doc, next(iter(doc["paths"])))
+    (tmp_path / "bad.json").write_text(json.dumps(doc))
+    assert main(["verify", str(tmp_path / "bad.json")]) == 2
+    assert words in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("edit, words", [

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 
+from foam_mj.errors import unknown_names
 from foam_mj.planners.base import (
     Planner,
     PlannerConfig,
@@ -65,7 +66,7 @@ def planner_class(name: str) -> type[Planner]:
     try:
         return PLANNERS[name]
     except (KeyError, TypeError):
-        raise PlannerError(f"unknown planner '{name}'; known planners: {', '.join(sorted(PLANNERS))}") from None
+        raise PlannerError(f"unknown planner {unknown_names([name], PLANNERS)}; known planners: {', '.join(sorted(PLANNERS))}") from None
 
 
 def get_planner(name: str, **options) -> Planner:

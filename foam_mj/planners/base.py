@@ -25,7 +25,7 @@ from typing import Any, Callable, ClassVar, Mapping
 import numpy as np
 
 from foam_mj.bubbles import BubbleOracle, EndBubble
-from foam_mj.errors import ConfigurationError, FoamError, clearance_text, is_number
+from foam_mj.errors import ConfigurationError, FoamError, clearance_text, is_number, unknown_names
 from foam_mj.foam import Foam
 from foam_mj.rosary import Rosary
 from foam_mj.safe_curve import apart_text, coincide
@@ -269,7 +269,7 @@ def make_options(cls: type[Planner], values: Mapping[str, Any]) -> Any:
     unknown = sorted(set(values) - set(known))
     if unknown:
         expected = ", ".join(known) if known else "none"
-        raise PlannerError(f"planner '{cls.name}' has no option(s) {unknown}; its options: {expected}")
+        raise PlannerError(f"planner '{cls.name}' has no option(s) {unknown_names(unknown, known)}; its options: {expected}")
     flags = {f.name for f in dataclasses.fields(cls.Options) if f.type in (bool, "bool")}
     for key, value in values.items():  # Python's True is the integer 1: K = true would plan with K = 1
         if isinstance(value, (bool, np.bool_)) and key not in flags:
