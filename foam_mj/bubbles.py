@@ -86,7 +86,7 @@ import numpy as np
 
 from foam_mj.clearance import Clearance
 from foam_mj.configuration import HINGE
-from foam_mj.errors import is_number
+from foam_mj.errors import is_finite_number, is_number
 from foam_mj.model import RobotModel
 
 _SLIDE = int(mujoco.mjtJoint.mjJNT_SLIDE)
@@ -318,7 +318,7 @@ class BubbleOracle:
         for name, value in (("delta", delta), ("distmax", distmax)):
             if not is_number(value):
                 raise TypeError(f"`{name}` must be a number (metres), got {value!r}")
-        if not (np.isfinite(delta) and delta >= 0):
+        if not (is_finite_number(delta) and delta >= 0):
             raise ValueError(f"`delta` (safety margin, metres) must be >= 0, got {delta}")
         if not distmax > delta:  # every distance would read distmax <= delta: "too close" wherever the robot is
             raise ValueError(f"`distmax` (the cap of every measured distance, metres) must be > delta = {delta}, got {distmax}")

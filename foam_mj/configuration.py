@@ -153,7 +153,7 @@ def _configuration_map(
                          f"{sorted(joint_names)}")
     unknown = set(normalize) - set(names)
     if unknown:
-        raise ModelError(f"{path}: normalization given for {unknown_names(unknown, names)}, which are not configuration joints {names}")
+        raise ModelError(f"{path}: normalization given for {sorted(unknown)}, which are not configuration joints {names}")
     ids, adr, scale, offset, lo, hi = [], [], [], [], [], []
     for name in names:
         j = check_configuration_joint(m, path, name)

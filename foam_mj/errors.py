@@ -73,6 +73,17 @@ def is_number(value: Any) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)  # numpy's bool_ is no Real
 
 
+def is_finite_number(value: Any) -> bool:
+    """:func:`is_number` and finite. Never raises: ``np.isfinite(2**70)`` is a TypeError ("ufunc 'isfinite' not
+    supported"), ``math.isfinite(10**400)`` an OverflowError; such an integer is simply not a finite float."""
+    import math
+
+    try:
+        return is_number(value) and math.isfinite(value)
+    except OverflowError:
+        return False
+
+
 def file_problem(path: str | os.PathLike) -> str | None:
     """Why ``path`` names no regular file, for a message ("not found", "a folder, not a file", "File name too long"), or
     None for a regular file. Never raises: Python 3.11's ``Path.is_file`` raised OSError for a name longer than the file

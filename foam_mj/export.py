@@ -60,6 +60,8 @@ class ExportTable:
 def check_hz(hz) -> float:
     """``hz`` as a float in (0, MAX_HZ], or FoamError (exit 2)."""
     try:
+        if isinstance(hz, (bool, np.bool_)):  # True is 1.0 to float(): a table at 1 Hz
+            raise TypeError
         v = float(hz)
     except (TypeError, ValueError):
         raise FoamError(f"--hz must be a number of samples per second, got {hz!r}") from None
@@ -86,6 +88,8 @@ def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float
     """The table of ``path_name`` of a result document (module docstring; None: :func:`pick_path`'s default).
     ``path_name`` and ``hz`` are checked as ``--path`` and ``--hz`` (:func:`pick_path`, :func:`check_hz`); ``report``
     is told what is being done (timing the path, the inverse dynamics of its samples)."""
+    if not isinstance(doc, dict):  # a path was "'str' object has no attribute 'get'"
+        raise TypeError(f"`doc` must be a result document (foam_mj.results.read_result(path)), got {type(doc).__name__}")
     path_name = pick_path(doc, path_name)  # an unknown name was a KeyError, hz = 0 a table of NaN
     hz = check_hz(hz)
     import mujoco

@@ -525,6 +525,11 @@ def write_figures(doc, out_dir, formats: Sequence[str] = ("png",), paths: Sequen
 
     Raises :class:`~foam_mj.errors.FoamError` when matplotlib is missing, the document is malformed, a
     format or path name is unknown, or the folder cannot be written."""
+    if not (isinstance(dpi, (int, np.integer)) and not isinstance(dpi, bool) and 0 < dpi <= FIGURE_MAX_DPI):
+        # NaN, inf, 1.5 or True reached matplotlib: a ValueError, an OverflowError, FreeType's "invalid ppem value"
+        raise FoamError(f"`dpi` (--dpi) must be an integer in [1, {FIGURE_MAX_DPI}], got {dpi!r}")
+    if isinstance(paths, str):  # one name, not its letters
+        paths = (paths,)
     mpl = _matplotlib()
     formats = tuple(formats) if not isinstance(formats, str) else (formats,)
     bad = [f for f in formats if f not in FORMATS]
@@ -575,7 +580,7 @@ def cmd_figures(args: argparse.Namespace) -> int:
 
     from foam_mj.atomic import check_output_dir
 
-    if not 0 < args.dpi <= FIGURE_MAX_DPI:
+    if not 0 < args.dpi <= FIGURE_MAX_DPI:  # before the folder is made (write_figures checks it too)
         raise FoamError(f"--dpi must be in [1, {FIGURE_MAX_DPI}], got {args.dpi}")
     check_output_dir(args.out_dir, "DIR")
     doc = read_result(args.result)

@@ -39,7 +39,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
-from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_number, radius_text
+from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_finite_number, is_number, radius_text
 from foam_mj.rosary import MEMBERSHIP_TOL, Rosary
 from foam_mj.safe_curve import apart_text, coincide
 
@@ -57,9 +57,9 @@ class FoamParams:
     def __post_init__(self) -> None:
         if not (isinstance(self.K, (int, np.integer)) and is_number(self.K) and self.K >= 1):
             raise ValueError(f"`K` must be an integer >= 1, got {self.K!r}")
-        if not (is_number(self.r_min) and np.isfinite(self.r_min) and self.r_min > 0):
+        if not (is_finite_number(self.r_min) and self.r_min > 0):
             raise ValueError(f"`r_min` must be > 0, got {self.r_min!r}")
-        if not (is_number(self.delta) and np.isfinite(self.delta) and self.delta >= 0):
+        if not (is_finite_number(self.delta) and self.delta >= 0):
             raise ValueError(f"`delta` must be >= 0 (metres), got {self.delta!r}")
         if not (isinstance(self.max_bubbles, (int, np.integer)) and is_number(self.max_bubbles) and self.max_bubbles >= 1):
             raise ValueError(f"`max_bubbles` must be an integer >= 1, got {self.max_bubbles!r}")

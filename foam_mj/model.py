@@ -231,6 +231,11 @@ class RobotModel:
             raise TypeError(f"RobotModel.from_spec takes a mujoco.MjSpec, got {type(spec).__name__}")
         if isinstance(joints, str):
             raise TypeError(f"`joints` must be a sequence of joint names, got the string {joints!r} (write [{joints!r}])")
+        for name, value in (("robot_root", robot_root), ("keyframe", keyframe)):  # an int was mj_name2id's TypeError
+            if value is not None and not isinstance(value, str):
+                raise TypeError(f"`{name}` must be a name (a string) or None, got {value!r}")
+        if not isinstance(self_collision, (bool, np.bool_)):  # "no" is truthy: self-collision would stay on
+            raise TypeError(f"`self_collision` must be True or False, got {self_collision!r}")
         p = Path(path)
         compile_spec(spec, p)
         name_unnamed_geoms(spec)

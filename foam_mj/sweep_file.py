@@ -31,6 +31,8 @@ def load_sweep(path: str | Path) -> Sweep:
     from foam_mj.pipeline import SMOOTHERS, parse_smoothers
     from foam_mj.scenarios import read_scenario_doc
 
+    if not isinstance(path, (str, Path)) and not hasattr(path, "__fspath__"):
+        raise TypeError(f"`path` must be the path of a sweep file, got {type(path).__name__}")
     path = Path(path)
     problem = file_problem(path)
     if problem:

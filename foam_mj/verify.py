@@ -322,6 +322,8 @@ class _Checker:
 
 def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     """Check every path of a result densely with MuJoCo (see the module docstring)."""
+    if not isinstance(result, (str, Path)) and not hasattr(result, "__fspath__"):
+        raise TypeError(f"`result` must be the path of a result file (plan --json), got {type(result).__name__}")
     source = Path(result)
     if not (is_number(step) and np.isfinite(step) and step > 0):
         raise FoamError(f"--step must be a positive number, got {step!r}")

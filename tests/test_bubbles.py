@@ -643,6 +643,14 @@ def test_an_oracle_names_a_wrong_argument_type(obstacle_robot, args, message):
         BubbleOracle(*args)
 
 
+def test_a_margin_beyond_any_float_is_refused_by_name(obstacle_robot):
+    """A Python integer beyond numpy's int64 (2**70 m) was numpy's "ufunc 'isfinite' not supported for the input types"."""
+    with pytest.raises(ValueError, match=r"`delta` \(safety margin, metres\) must be >= 0, got 1000000"):
+        BubbleOracle(obstacle_robot, delta=10**400, distmax=1.0)  # no float holds it
+    with pytest.raises(ValueError, match=r"`distmax` .* must be > delta = 1180591620717411303424, got 1.0"):
+        BubbleOracle(obstacle_robot, delta=2**70, distmax=1.0)  # a finite float: checked as any margin
+
+
 def test_a_distance_cap_at_or_below_the_margin_is_refused(obstacle_robot):
     # Every distance then read distmax, so a start 0.11 m clear was refused as "too close to an obstacle: clearance 0.0050 m".
     for distmax in (0.005, 0.004):

@@ -258,6 +258,17 @@ def test_export_table_in_python_checks_its_path_and_rate(planned):
     assert np.all(np.isfinite(table.columns["time_s"])) and table.columns["time_s"][1] == pytest.approx(0.02)
 
 
+def test_export_table_in_python_names_a_document_or_rate_of_the_wrong_type(planned):
+    """A path given for the document was "'str' object has no attribute 'get'"; hz = True made a table at 1 Hz."""
+    from foam_mj.errors import FoamError
+    from foam_mj.export import export_table
+
+    with pytest.raises(TypeError, match=r"`doc` must be a result document \(foam_mj.results.read_result\(path\)\), got PosixPath"):
+        export_table(planned["json"], planned["json"], None)
+    with pytest.raises(FoamError, match="--hz must be a number of samples per second, got True"):
+        export_table(planned["doc"], planned["json"], None, True)
+
+
 def test_export_says_what_it_is_doing(planned):
     """`export --hz 100000` of a 2 s path worked 5-10 s without a word (timing, inverse dynamics of every sample,
     writing); it now reports each step, with the number of samples."""

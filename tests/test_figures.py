@@ -159,6 +159,12 @@ def test_bad_requests_are_foam_errors(planned, tmp_path):
     bad["paths"]["centre"]["times"] = [0.0, 1.0]
     with pytest.raises(FoamError, match="times for"):
         write_figures(bad, tmp_path / "bad")
+    for dpi in (float("nan"), float("inf"), 1.5, True, 0, 601, None):  # were matplotlib's ValueError, OverflowError,
+        with pytest.raises(FoamError, match=r"`dpi` \(--dpi\) must be an integer in \[1, 600\]"):  # FreeType's error
+            write_figures(planned, tmp_path / "dpi", dpi=dpi)
+    assert not (tmp_path / "dpi").exists()
+    with pytest.raises(FoamError, match=r"no path named \['nope'\]"):  # one name, not ['n', 'o', 'p', 'e']
+        write_figures(planned, tmp_path / "unmade", paths="nope")
     bad = copy.deepcopy(planned)
     bad["mjcf"] = 5  # was RobotModel.from_xml's TypeError: an internal error, exit 1, from `foam-mj figures`
     with pytest.raises(FoamError, match=r"field 'mjcf' must be the path of the MJCF scene \(a string\), got 5"):

@@ -443,6 +443,13 @@ def test_the_constructors_name_an_argument_of_the_wrong_type(obstacle_robot):
     # A single name was read letter by letter ("configuration joint 'k' is not in the model").
     with pytest.raises(TypeError, match=r"`joints` must be a sequence of joint names, got the string 'knee_flexion'"):
         RobotModel.from_xml(MODELS / "obstacle.xml", joints="knee_flexion")
+    # An integer name was mj_name2id's TypeError listing its overloads; "no" is truthy and kept self-collision on.
+    with pytest.raises(TypeError, match=r"`robot_root` must be a name \(a string\) or None, got 5"):
+        RobotModel.from_xml(MODELS / "obstacle.xml", robot_root=5)
+    with pytest.raises(TypeError, match=r"`keyframe` must be a name \(a string\) or None, got 3"):
+        RobotModel.from_xml(MODELS / "obstacle.xml", keyframe=3)
+    with pytest.raises(TypeError, match=r"`self_collision` must be True or False, got 'no'"):
+        RobotModel.from_xml(MODELS / "obstacle.xml", self_collision="no")
     assert isinstance(obstacle_robot.spec_copy(), mujoco.MjSpec)
 
 

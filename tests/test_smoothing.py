@@ -21,6 +21,9 @@ from foam_mj.smoothing import (
     GradientSmoothing,
     HarmonySearch,
     Hatches,
+    MGOASmoother,
+    MOPSOSmoother,
+    OptimalSmoother,
     RosaryAdjustment,
     SmoothingResult,
     StopCriteria,
@@ -264,6 +267,21 @@ def test_adjustment_rejects_a_rosary_whose_last_bubble_does_not_hold_the_goal(sm
         RosaryAdjustment(r_min=R_MIN).adjust(away, oracle)
 
 # -- determinism and stopping ------------------------------------------------------------------------
+@pytest.mark.parametrize("smoother", [HarmonySearch(), GeneticAlgorithm(), GradientSmoothing(), ConvexShortestPath(),
+                                      OptimalSmoother(), MGOASmoother(), MOPSOSmoother()], ids=lambda s: type(s).__name__)
+def test_smoothing_something_else_than_a_rosary_names_the_argument(smoothing_setup, smoother):
+    """A plan's result.foam (or None) given for the rosary was an AttributeError ('Foam' object has no attribute
+    'n_hatches') from inside the smoother."""
+    robot, oracle, rosary = smoothing_setup
+    foam = plan(oracle, Q_INIT, Q_GOAL, FoamParams(K=10, r_min=R_MIN, delta=0.005), seed=0).foam
+    with pytest.raises(TypeError, match=r"`rosary` must be a foam_mj.rosary.Rosary \(a plan's result.rosary, not result.foam\), got Foam"):
+        smoother.smooth(foam)
+    with pytest.raises(TypeError, match=r"`rosary` must be a foam_mj.rosary.Rosary \(a plan's result.rosary\), got NoneType"):
+        smoother.smooth(None)
+    with pytest.raises(TypeError, match=r"initial waypoints must be an array of numbers"):
+        smoother.smooth(rosary, "centre")
+
+
 @pytest.mark.parametrize("name", list(STOCHASTIC))
 def test_same_seed_same_result(rosary, stochastic_results, name):
     again = STOCHASTIC[name].smooth(rosary, seed=SEEDS[1])

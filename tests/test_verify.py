@@ -120,7 +120,7 @@ def test_verify_uses_none_of_the_planners_code():
     assert _imports(ROOT / "foam_mj" / "verify.py") <= {
         "__future__", "json", "dataclasses", "pathlib", "mujoco", "numpy", "foam_mj.errors", "foam_mj.fingerprint"}
     assert _imports(ROOT / "foam_mj" / "fingerprint.py") <= {"__future__", "hashlib", "mujoco", "numpy"}
-    assert _imports(ROOT / "foam_mj" / "errors.py") <= {"__future__", "difflib", "numbers", "os", "stat", "typing"}  # the standard library only
+    assert _imports(ROOT / "foam_mj" / "errors.py") <= {"__future__", "difflib", "math", "numbers", "os", "stat", "typing"}  # the standard library only
 
 
 def test_verify_refuses_bad_input(tmp_path, planned_result, capsys):
@@ -133,6 +133,13 @@ def test_verify_refuses_bad_input(tmp_path, planned_result, capsys):
     assert main(["verify", str(tmp_path / "old.json")]) == 2
     assert "q -> qpos map" in capsys.readouterr().err
     assert main(["verify", str(planned_result), "--step", "0"]) == 2
+
+
+def test_verify_result_in_python_names_a_result_that_is_no_path(planned_result):
+    """A dict or None was "expected str, bytes or os.PathLike object"."""
+    for result in (None, 5, {"format": "foam-mj/result"}):
+        with pytest.raises(TypeError, match=r"`result` must be the path of a result file \(plan --json\)"):
+            verify_result(result)
 
 
 def test_verify_result_in_python_names_a_step_that_is_no_number(planned_result):

@@ -25,7 +25,7 @@ from typing import Any, Callable, ClassVar, Mapping
 import numpy as np
 
 from foam_mj.bubbles import BubbleOracle, EndBubble
-from foam_mj.errors import ConfigurationError, FoamError, clearance_text, is_number, unknown_names
+from foam_mj.errors import ConfigurationError, FoamError, clearance_text, is_finite_number, is_number, unknown_names
 from foam_mj.foam import Foam
 from foam_mj.rosary import Rosary
 from foam_mj.safe_curve import apart_text, coincide
@@ -67,7 +67,7 @@ class PlanningProblem:
         for name, value in (("delta", self.delta), ("time_limit", self.time_limit), ("max_bubbles", self.max_bubbles)):
             if not is_number(value):
                 raise TypeError(f"`{name}` must be a number, got {value!r}")
-        if not (np.isfinite(self.delta) and self.delta >= 0):
+        if not (is_finite_number(self.delta) and self.delta >= 0):
             raise ValueError(f"`delta` must be >= 0 (metres), got {self.delta!r}")
         if self.oracle.delta != self.delta:
             raise ValueError(f"the oracle's margin delta={self.oracle.delta} differs from the problem's delta={self.delta}")
@@ -326,7 +326,7 @@ class PlannerConfig:
     options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if not (is_number(self.delta) and np.isfinite(self.delta) and self.delta >= 0):
+        if not (is_finite_number(self.delta) and self.delta >= 0):
             raise ValueError(f"`delta` must be >= 0 (metres), got {self.delta!r}")
         if not (isinstance(self.max_bubbles, (int, np.integer)) and not isinstance(self.max_bubbles, bool) and self.max_bubbles >= 1):
             raise ValueError(f"`max_bubbles` must be an integer >= 1, got {self.max_bubbles!r}")

@@ -125,7 +125,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from foam_mj.bubbles import BubbleOracle
-from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, radius_text
+from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_finite_number, radius_text
 from foam_mj.foam import seed_rng
 from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer, check_problem
 from foam_mj.planners.chains import HATCH
@@ -276,7 +276,7 @@ class BubbleTreeOptions:
         for name in ("batch", "connect"):  # candidates are sized in one MuJoCo batch: memory grows with them
             if getattr(self, name) > MAX_EXTENSIONS:
                 raise ValueError(f"`{name}` must be at most {MAX_EXTENSIONS} extensions per tree per iteration, got {getattr(self, name)!r}")
-        if not (isinstance(self.r_min, (int, float)) and np.isfinite(self.r_min) and self.r_min >= 0):
+        if not (isinstance(self.r_min, (int, float)) and is_finite_number(self.r_min) and self.r_min >= 0):
             raise ValueError(f"`r_min` must be >= 0 (0: derived from delta), got {self.r_min!r}")
         if not isinstance(self.refine, bool):
             raise ValueError(f"`refine` must be true or false, got {self.refine!r}")

@@ -229,6 +229,14 @@ class Smoother(ABC):
         """Smooth the path through ``rosary``."""
 
 
+def check_rosary_type(rosary: Rosary) -> None:
+    """TypeError naming the argument unless ``rosary`` is a :class:`Rosary` (smoothing a plan's ``result.foam``, or None,
+    was an AttributeError deep inside the smoother)."""
+    if not isinstance(rosary, Rosary):
+        hint = " (a plan's result.rosary, not result.foam)" if type(rosary).__name__ == "Foam" else " (a plan's result.rosary)"
+        raise TypeError(f"`rosary` must be a foam_mj.rosary.Rosary{hint}, got {type(rosary).__name__}")
+
+
 def check_rosary(rosary: Rosary) -> None:
     """Refuse a rosary whose path would leave its bubbles: q_init outside the first bubble, q_goal outside the
     last, or two consecutive bubbles that do not overlap (every smoother's path keeps to the bubbles only then)."""
@@ -421,10 +429,15 @@ def _any_normal(u: np.ndarray) -> np.ndarray:
 
 
 def check_initial(rosary: Rosary, initial: np.ndarray | None, default: np.ndarray | None = None) -> np.ndarray | None:
-    """Validate ``initial`` waypoints: shape (k-1, n), finite, every waypoint in its hatch."""
+    """Validate ``rosary`` (a :class:`Rosary`) and ``initial`` waypoints: shape (k-1, n), finite, every waypoint in its
+    hatch. Every smoother's ``smooth`` calls this first."""
+    check_rosary_type(rosary)
     if initial is None:
         return None if default is None else np.array(default, dtype=float)
-    w = np.array(initial, dtype=float)
+    try:
+        w = np.array(initial, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"initial waypoints must be an array of numbers, shape {(rosary.n_hatches, rosary.dim)}, got {initial!r:.80}") from None
     want = (rosary.n_hatches, rosary.dim)
     if w.shape != want:
         raise ValueError(f"initial waypoints must have shape {want} (one per hatch), got {w.shape}")

@@ -47,6 +47,7 @@ from foam_mj.smoothing.base import (
     _check_positive,
     check_initial,
     check_rosary,
+    check_rosary_type,
     check_seed,
     trivial_result,
 )
@@ -395,6 +396,7 @@ class GradientSmoothing(Smoother):
     def smooth(self, rosary: Rosary, initial: np.ndarray | None = None, seed: SeedLike = 0) -> SmoothingResult:
         t_start = time.perf_counter()
         check_seed(seed)
+        check_rosary_type(rosary)
         w = check_initial(rosary, initial, default=rosary.center_waypoints())
         if rosary.n_hatches == 0:
             return trivial_result(self.name, rosary, t_start, objective="SV")

@@ -33,6 +33,7 @@ from foam_mj.smoothing.base import (
     _check_positive,
     check_initial,
     check_rosary,
+    check_rosary_type,
     trivial_result,
 )
 from foam_mj.smoothing.pareto import _EPS, Archive, hypervolume_2d, knee_index
@@ -368,6 +369,7 @@ class ParetoSmoother(Smoother):
         return ParetoResult.from_run(run, problem)
 
     def smooth(self, rosary: Rosary, initial: np.ndarray | None = None, seed: SeedLike = 0) -> SmoothingResult:
+        check_rosary_type(rosary)
         if rosary.n_hatches == 0:
             check_initial(rosary, initial)
             return trivial_result(self.name, rosary, time.perf_counter())

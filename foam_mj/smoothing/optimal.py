@@ -39,6 +39,7 @@ from foam_mj.smoothing.base import (
     as_generator,
     check_initial,
     check_rosary,
+    check_rosary_type,
     trivial_result,
 )
 from foam_mj.smoothing.certificate import KKT_TOL, Certificate, kkt_certificate
@@ -113,10 +114,15 @@ class OptimalSmoother(Smoother):
 
     def smooth(self, rosary: Rosary, initial: np.ndarray | None = None, seed: SeedLike = 0) -> SmoothingResult:
         t_start = time.perf_counter()
+        check_rosary_type(rosary)
         weights = self.resolved_weights
         given = None
         if initial is not None:
-            arr = np.asarray(initial, dtype=float)
+            try:
+                arr = np.asarray(initial, dtype=float)
+            except (TypeError, ValueError):
+                raise TypeError(f"initial waypoints must be an array of numbers, shape ({rosary.n_hatches}, {rosary.dim}) or "
+                                f"(starts, {rosary.n_hatches}, {rosary.dim}), got {initial!r:.80}") from None
             # One set of waypoints (k-1, n), or a stack of them (S, k-1, n): several starts (e.g. HS and GA results).
             stack = arr[None] if arr.ndim == 2 else arr
             if arr.ndim not in (2, 3) or len(stack) == 0:
