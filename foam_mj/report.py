@@ -279,7 +279,7 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
         except OutputError as exc:  # e.g. a sweep folder on read-only storage: say how to write elsewhere
             raise OutputError(f"{exc} (the default report folder; write elsewhere with --figures FIGDIR)") from None
     else:
-        figures_dir = check_output_dir(Path(figures_dir), "--figures")
+        figures_dir = check_output_dir(figures_dir, "--figures")  # not Path(""): that is ".", and "" wrote into the current folder
     figures_dir.mkdir(exist_ok=True)
     say(f"summarising {table.num_rows:,} rows")
     lines = summary(manifest, table)

@@ -29,19 +29,20 @@ def _free_port(bind: str) -> int:
         return int(s.getsockname()[1])
 
 
-def _check_port_free(bind: str, port: int, flag: str) -> None:
-    """Refuse a port another program already listens on (the viewer printed its URL, then failed with Rerun's own
-    error and exit 1)."""
+def _check_port(bind: str, port: int, flag: str) -> None:
+    """FoamError unless ``port`` can be bound on ``bind`` now: Rerun's viewer said "Address already in use" in a log line
+    and exited 1 (an internal error by foam-mj's exit codes) when another viewer held its port."""
+    import errno
     import socket
 
     family = socket.AF_INET6 if ":" in bind else socket.AF_INET
     with socket.socket(family, socket.SOCK_STREAM) as s:
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # a port a closed viewer left in TIME_WAIT is free
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as a server binds: a port in TIME_WAIT is free
         try:
             s.bind((bind, port))
         except OSError as exc:
-            raise FoamError(f"{flag} {port}: cannot listen on {bind}:{port}: {exc.strerror or exc} "
-                            f"(another viewer or program has it?): choose another port, or {flag} 0 for a free one") from None
+            why = "is in use (another viewer?)" if exc.errno == errno.EADDRINUSE else f"cannot be bound: {exc.strerror}"
+            raise FoamError(f"{flag} {port} on {bind} {why}: give another port, or 0 for a free one") from None
 
 
 def _rerun_executable() -> str:
@@ -98,9 +99,11 @@ def cmd_view(args: argparse.Namespace) -> int:
     from urllib.parse import quote
 
     host = "127.0.0.1" if args.bind in ("0.0.0.0", "::") else args.bind
+    if args.web_port and args.web_port == args.grpc_port:  # Rerun refused it only once started (exit 1)
+        raise FoamError(f"--web-port and --grpc-port are both {args.web_port}: the web viewer and its data server need two ports")
     for flag, port in (("--web-port", args.web_port), ("--grpc-port", args.grpc_port)):
         if port:
-            _check_port_free(args.bind, port, flag)
+            _check_port(args.bind, port, flag)
     web_port, grpc_port = (p or _free_port(args.bind) for p in (args.web_port, args.grpc_port))
     host = f"[{host}]" if ":" in host else host
     url = f"http://{host}:{web_port}?url={quote(f'rerun+http://{host}:{grpc_port}/proxy', safe='')}"

@@ -404,6 +404,14 @@ def test_report_into_a_sweep_folder_that_cannot_take_it_says_how_to_write_elsewh
     assert not (study["out"] / "report").exists()
 
 
+def test_report_with_an_empty_figures_name_is_refused_as_plan_refuses_one(study, tmp_path, capsys, monkeypatch):
+    """--figures "" became Path("") = ".": the figures and summaries went into the current folder without a word."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["report", str(study["out"]), "--figures", ""]) == 2
+    assert capsys.readouterr().err.strip() == "foam-mj: error: --figures: empty folder name"
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_full_disk_while_writing_rows_is_exit_2_naming_the_folder_and_leaves_no_partial_file(tmp_path, capsys, monkeypatch):
     """A batch that hit a full disk (pyarrow's OSError, errno 28) was an internal error, exit 1."""
     import errno
