@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 import os
 import stat
 from typing import Any, Iterable
@@ -106,6 +105,8 @@ def file_problem(path: str | os.PathLike) -> str | None:
 def unknown_names(unknown: Iterable[str], known: Iterable[str], elsewhere: dict[str, str] | None = None) -> str:
     """The unknown names, each with the known one it most looks like ("'q_goals' (did you mean 'q_goal'?)"), or with
     where it belongs when ``elsewhere`` (name -> place) holds it, for a message that lists ``known`` after it."""
+    import difflib  # here, not at the top: the command line imports this module at start-up
+
     known = sorted(str(k) for k in known)
     folded = {k.lower().replace("-", "_"): k for k in known}
     parts = []
