@@ -102,6 +102,24 @@ def file_problem(path: str | os.PathLike) -> str | None:
     return None
 
 
+#: The first bytes of files foam-mj writes that are not JSON, and what they are (for "not a readable JSON result").
+_FOREIGN = ((b"RRF", "a Rerun recording (.rrd)"), (b"PAR1", "a Parquet table"), (b"PK\x03\x04", "a ZIP/NPZ archive"),
+            (b"\x89PNG", "a PNG image"), (b"%PDF", "a PDF file"))
+
+
+def foreign_file_hint(path: str | os.PathLike) -> str:
+    """" (the file is empty)", " (it is a Rerun recording (.rrd), not JSON)" and the like for a file given where a JSON
+    result was expected, else ""."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(8)
+    except OSError:
+        return ""
+    if not head:
+        return " (the file is empty)"
+    return next((f" (it is {what}, not JSON)" for magic, what in _FOREIGN if head.startswith(magic)), "")
+
+
 def unknown_names(unknown: Iterable[str], known: Iterable[str], elsewhere: dict[str, str] | None = None) -> str:
     """The unknown names, each with the known one it most looks like ("'q_goals' (did you mean 'q_goal'?)"), or with
     where it belongs when ``elsewhere`` (name -> place) holds it, for a message that lists ``known`` after it."""

@@ -81,7 +81,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.atomic import atomic_write_text
-from foam_mj.errors import FoamError
+from foam_mj.errors import FoamError, foreign_file_hint
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 FORMAT = "foam-mj/result"
@@ -272,7 +272,7 @@ def read_result(path: str | Path) -> dict:
     except FileNotFoundError:
         raise FoamError(f"result file not found: {p}") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise FoamError(f"{p}: not a readable JSON result: {exc}") from None
+        raise FoamError(f"{p}: not a readable JSON result{foreign_file_hint(p)}: {exc}") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise FoamError(f"{p}: not a foam-mj result (field 'format' should be '{FORMAT}')")
     if doc.get("version") != VERSION:

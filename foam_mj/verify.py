@@ -40,7 +40,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.errors import FoamError, file_problem, is_number
+from foam_mj.errors import FoamError, file_problem, foreign_file_hint, is_number
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 #: The most samples of one polyline (a path's waypoints or its qpos rows): --step 1e-3, the default, takes a few
@@ -97,7 +97,7 @@ def _load(source: Path) -> dict:
     except FileNotFoundError:
         raise FoamError(f"result file not found: {source}") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise _fail(source, f"not a readable JSON result: {' '.join(str(exc).split())}") from None
+        raise _fail(source, f"not a readable JSON result{foreign_file_hint(source)}: {' '.join(str(exc).split())}") from None
     if not isinstance(doc, dict) or doc.get("format") != "foam-mj/result":
         raise _fail(source, "not a foam-mj result (field 'format' should be 'foam-mj/result')")
     if doc.get("version") != 1:

@@ -626,6 +626,21 @@ def test_an_input_name_too_long_for_the_file_system_is_one_line_exit_2(argv, tmp
     assert len(err.strip().splitlines()) == 1 and "internal error" not in err, err
 
 
+@pytest.mark.parametrize("command", [["verify"], ["replay"], ["export", "--out", "x.csv"], ["figures", "DIR"]])
+@pytest.mark.parametrize("content, what", [(b"RRF2\x00\x00\x00\x00rest", "(it is a Rerun recording (.rrd), not JSON)"),
+                                           (b"PAR1\x15\x04", "(it is a Parquet table, not JSON)"),
+                                           (b"", "(the file is empty)")])
+def test_a_recording_or_table_given_as_the_result_is_named_as_what_it_is(command, content, what, tmp_path, capsys, monkeypatch):
+    """A .rrd given where the JSON result goes said only "'utf-8' codec can't decode byte 0xcc in position 31"."""
+    monkeypatch.chdir(tmp_path)
+    given = tmp_path / "result.json"
+    given.write_bytes(content)
+    argv = [command[0], str(given), *[str(tmp_path / "figs") if a == "DIR" else a for a in command[1:]]]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"{given}: not a readable JSON result {what}" in err and len(err.strip().splitlines()) == 1, err
+
+
 def test_a_value_that_starts_with_a_minus_sign_is_its_options_value(capsys):
     """README: --start/--goal/--q take numbers separated by spaces or commas. argparse read a comma-separated
     value with a negative first number ('-0.1,0.3,0.08'), or '-1e-3', as an option of its own: 'argument --start:
