@@ -37,10 +37,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import count, parser, run_script  # noqa: E402
+from _common import check_json, count, parser, run_script  # noqa: E402
 
 from foam_mj import paths  # noqa: E402
-from foam_mj.atomic import atomic_path, atomic_write_text
+from foam_mj.atomic import OutputError, atomic_path, atomic_write_text, check_output
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.data import model_path
 from foam_mj.foam import FoamParams, plan
@@ -616,6 +616,12 @@ def main(argv: list[str] | None = None) -> int:
         folder.mkdir(parents=True, exist_ok=True)
         if not os.access(folder, os.W_OK):
             p.error(f"cannot write to {folder}")
+    # A folder, /dev/null or a .txt for --json was refused only when written, after minutes of runs.
+    check_json(p, args.json)
+    try:
+        check_output(args.out, "--out", suffix=".md")
+    except OutputError as exc:
+        p.error(str(exc))
     t0 = time.perf_counter()
     res = {"settings": {"quick": args.quick, "seeds": seeds, "machine": platform.machine(), "cores": os.cpu_count(),
                         "python": platform.python_version(), "numpy": np.__version__, "date": time.strftime("%Y-%m-%d"),

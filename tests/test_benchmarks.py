@@ -113,6 +113,8 @@ def test_the_dense_check_counts_a_loose_object_as_an_obstacle_and_checks_self_co
     ("speed.py", ["--repeats", "0"], "argument --repeats: expected an integer in [1, 10,000], got 0"),
     ("sweep.py", ["--plans", "0"], "argument --plans: expected an integer in [2, 10,000], got 0"),
     ("reproduce.py", ["--seeds", "1"], "argument --seeds: expected an integer in [2, 10,000], got 1"),
+    ("reproduce.py", ["--quick", "--json", "out.txt"], "--json output out.txt must end in .json"),  # was after the runs
+    ("reproduce.py", ["--quick", "--out", "report.txt"], "--out output report.txt must end in .md"),
     ("smoothing.py", ["--runs", "0"], "--runs must be in [1, 10000]"),
 ])
 def test_every_benchmark_script_refuses_a_bad_argument_in_one_line_before_any_work(script, args, message, tmp_path):
