@@ -281,9 +281,9 @@ def main(argv: list[str] | None = None) -> int:
     args.sizes = (50, 100) if q else (50, 100, 200, 300, 500)
     args.swarm = 100 if q else 500
     args.iterations = 40 if q else 100
-    if args.json is not None:  # its folder is made (e.g. out/benchmarks), then checked, before any run
-        if args.json:
-            Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+    if args.json is not None:  # checked before any run; the default folder out/benchmarks is made, as `foam-mj bench` makes
+        if args.json and Path(args.json).parent == DEFAULT_JSON.parent:  # its own (--json /nowhere/x.json made /nowhere)
+            DEFAULT_JSON.parent.mkdir(parents=True, exist_ok=True)
         check_json(p, args.json)
 
     n_planar = 2 * 3 * (len(args.sizes) * args.sweep_runs + args.runs)

@@ -109,6 +109,7 @@ def test_the_dense_check_counts_a_loose_object_as_an_obstacle_and_checks_self_co
     ("clearance.py", ["--repeats", "0"], "argument --repeats: expected an integer in [1, 10,000], got 0"),
     ("timing.py", ["--paths", "no_such"], "argument --paths: invalid choice: 'no_such'"),
     ("mgoa.py", ["--runs", "0"], "argument --runs: expected an integer in [1, 10,000], got 0"),
+    ("mgoa.py", ["--quick", "--json", "nowhere/out.json"], "folder nowhere does not exist"),  # it made the folder, and ran
     ("optimal_solvers.py", ["--json", "nowhere/out.json"], "folder nowhere does not exist"),
     ("speed.py", ["--repeats", "0"], "argument --repeats: expected an integer in [1, 10,000], got 0"),
     ("sweep.py", ["--plans", "0"], "argument --plans: expected an integer in [2, 10,000], got 0"),
