@@ -51,9 +51,8 @@ def print_servo_note(outcome) -> None:
             print(f"note: {po.label}: dynamic replay: {po.dynamic.limit_note}")
         if po.dynamic is not None and po.dynamic.diverged:
             print(f"note: {po.label}: dynamic replay: MuJoCo's simulation diverged ({', '.join(po.dynamic.diverged)}) and "
-                  "restarted from the model's initial state, so its tracking error and contacts mean nothing (check the "
-                  "model's inertias: a singular inertia matrix, as two hinges on one axis give, cannot be simulated); the "
-                  "planned path and its clearance do not depend on this replay")
+                  f"restarted from the model's initial state, so its tracking error and contacts mean nothing (likely cause: "
+                  f"{po.dynamic.divergence_cause}); the planned path and its clearance do not depend on this replay")
 
 
 def print_row_cap_note(outcome) -> None:

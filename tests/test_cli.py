@@ -549,6 +549,7 @@ def test_mujoco_warnings_are_shown_once_and_a_diverged_replay_is_named(tmp_path)
     table = [line for line in run.stdout.splitlines() if line.startswith(("centre (T)", "optimal"))][:2]  # the summary's rows
     assert all(" unstable " in line for line in table), run.stdout
     assert "(T): dynamic replay: MuJoCo's simulation diverged (mjWARN_BADQACC) and restarted" in run.stdout
+    assert "likely cause: MuJoCo found the inertia matrix singular" in run.stdout  # not the added servos' gains
 
 
 def test_plan_exits_4_when_its_own_replay_finds_a_trajectory_below_the_margin(tmp_path, monkeypatch, capsys):
