@@ -415,7 +415,8 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=f"exit codes: 0 every sample keeps the result's margin; 4 some sample is closer; 2 bad input; {EXIT_ANY}.",
     )
     p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
-    p.add_argument("--step", type=float, default=1e-3, help="largest step between samples, in q and in qpos (default: 1e-3)")
+    p.add_argument("--step", type=float, default=1e-3, help="largest step between samples, in q and in qpos, "
+                   "at most 0.1 (rad or m; default: 1e-3)")
     p.set_defaults(func=cmd_verify)
     p = sub.add_parser(
         "view",

@@ -47,6 +47,10 @@ from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 #: thousand; a million keeps the (sample, pair) bounds within a few hundred MB.
 MAX_SAMPLES = 1_000_000
 
+#: The largest --step (rad or m, in q and in qpos): a coarser one would sample little more than the waypoints
+#: (--step 1e308 checked only the vertices and said "clean"), and 0.1 rad already moves a 1 m link 10 cm.
+MAX_STEP = 0.1
+
 #: How many (sample, pair) candidates with the smallest lower bounds are evaluated first, to bound the minimum.
 _PROBES = 32
 
@@ -325,8 +329,8 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     if not isinstance(result, (str, Path)) and not hasattr(result, "__fspath__"):
         raise TypeError(f"`result` must be the path of a result file (plan --json), got {type(result).__name__}")
     source = Path(result)
-    if not (is_number(step) and np.isfinite(step) and step > 0):
-        raise FoamError(f"--step must be a positive number, got {step!r}")
+    if not (is_number(step) and np.isfinite(step) and 0 < step <= MAX_STEP):
+        raise FoamError(f"--step must be a positive number at most {MAX_STEP:g} (rad or m, in q and in qpos), got {step!r}")
     doc = _load(source)
     mjcf, m = _scene(doc, source)
     idx, scale, offset, qpos0 = _configuration_map(doc, m, source)

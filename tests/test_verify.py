@@ -144,7 +144,7 @@ def test_verify_result_in_python_names_a_result_that_is_no_path(planned_result):
 
 def test_verify_result_in_python_names_a_step_that_is_no_number(planned_result):
     for step in ("1e-3", None, True):  # a string was numpy's "ufunc 'isfinite' not supported"
-        with pytest.raises(FoamError, match=r"--step must be a positive number, got"):
+        with pytest.raises(FoamError, match=r"--step must be a positive number at most 0\.1 .*, got"):
             verify_result(planned_result, step=step)
 
 
@@ -155,6 +155,23 @@ def test_a_step_too_small_to_sample_is_refused_before_any_allocation(planned_res
         err = capsys.readouterr().err.strip()
         assert f"samples at --step {step} (at most 1,000,000 on one path): use a larger step" in err and "\n" not in err, err
     assert main(["verify", str(planned_result), "--step", "1e-4"]) == 0
+
+
+def test_a_step_too_coarse_to_sample_between_waypoints_is_refused_before_any_work(tmp_path, planned_result, capsys):
+    """--step 1e308 checked only the waypoints and said "clean". A step above 0.1 (rad or m) is refused in one line,
+    exit 2, before the result is read (a missing file is not even looked at)."""
+    for step in ("1e308", "0.5", "inf"):
+        assert main(["verify", str(tmp_path / "none.json"), "--step", step]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "--step must be a positive number at most 0.1 (rad or m, in q and in qpos), got" in err, err
+        assert "\n" not in err and "not found" not in err, err
+    with pytest.raises(FoamError, match=r"at most 0\.1"):
+        verify_result(planned_result, step=1e308)
+    assert main(["verify", str(planned_result), "--step", "0.1"]) == 0
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        main(["verify", "--help"])
+    assert "at most 0.1" in " ".join(capsys.readouterr().out.split())  # the help states the bound
 
 
 def test_a_waypoint_far_beyond_the_scene_is_named_in_one_line(tmp_path, planned_result, capsys):
