@@ -458,7 +458,8 @@ def build_parser() -> argparse.ArgumentParser:
         "report",
         help="feasibility-envelope figures and a summary of a sweep",
         description="Heatmaps (success rate, min clearance, f, peak knee torque) over the two most varied swept keys, one panel per value of a third, and a summary table per smoother.",
-        epilog=f"exit codes: 0 done; 2 bad input (not a sweep folder, unwritable --figures, matplotlib missing); {EXIT_ANY}.",
+        epilog=f"exit codes: 0 done; 2 bad input (not a sweep folder, a sweep with no rows, unwritable --figures, matplotlib "
+        f"missing); {EXIT_ANY}.",
     )
     p.add_argument("dir", metavar="DIR", help="a folder written by foam-mj sweep")
     p.add_argument("--figures", metavar="FIGDIR", default=None, help="where to write the figures (default: DIR/report)")

@@ -242,12 +242,17 @@ class _interrupts_deferred:
 
 
 def read_rows(out: str | Path, columns: Iterable[str] = ("key",)):
-    """Every row of a sweep folder as one pyarrow Table; every file must hold ``columns`` (the manifest's)."""
+    """Every row of a sweep folder as one pyarrow Table; every file must hold ``columns`` (the manifest's).
+    SweepError when there is no row: no Parquet file, or only files of 0 rows."""
     pa = _pyarrow()
-    files = _row_files(Path(out) / ROWS)
+    rows = Path(out) / ROWS
+    files = _row_files(rows)
     if not files:
-        raise SweepError(f"{out}: no rows (expected Parquet files in {Path(out) / ROWS})")
-    return pa.concat_tables([_read_batch(f, columns) for f in files], promote_options="default")
+        raise SweepError(f"{out}: no rows to report: no Parquet file in {rows}")
+    table = pa.concat_tables([_read_batch(f, columns) for f in files], promote_options="default")
+    if table.num_rows == 0:  # was "wrote 0 figure(s)", exit 0
+        raise SweepError(f"{out}: no rows to report: the {len(files)} Parquet file(s) in {rows} hold 0 rows")
+    return table
 
 
 # ----------------------------------------------------------------------------------------- progress

@@ -671,6 +671,29 @@ def test_a_corrupt_or_foreign_parquet_file_is_named_by_report_and_by_a_rerun(stu
     assert sorted(p.name for p in (out / "rows").iterdir()) == before and not (tmp_path / "figs").exists()
 
 
+@pytest.mark.parametrize("rows, message", [
+    ("empty", r"no rows to report: the \d+ Parquet file\(s\) in {rows} hold 0 rows"),
+    ("none", r"no rows to report: no Parquet file in {rows}"),
+])
+def test_report_on_a_sweep_with_no_rows_is_exit_2_naming_the_rows_folder(study, tmp_path, capsys, rows, message):
+    """Row files of 0 rows (real Parquet files of the sweep's schema) were reported as "wrote 0 figure(s)", exit 0.
+    A sweep with no row to report, empty files or none, is one line naming its rows folder, exit 2, and no figure."""
+    import shutil
+
+    out = tmp_path / "study"
+    shutil.copytree(study["out"], out)
+    for f in (out / "rows").glob("*.parquet"):
+        if rows == "empty":
+            pq.write_table(pq.read_table(f).slice(0, 0), f)
+        else:
+            f.unlink()
+    assert main(["report", str(out), "--figures", str(tmp_path / "figs")]) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert len(err.splitlines()) == 1 and re.search(message.format(rows=re.escape(str(out / "rows"))), err), err
+    assert "figure(s)" not in captured.out and not (tmp_path / "figs").exists()
+
+
 def test_with_limit_the_progress_and_its_eta_count_to_where_this_run_stops(tmp_path, capsys):
     """`--limit 100` on a 270-plan study showed "42/270 plans ... ETA 55 s" while the run ended 14 s later: the
     bar and its ETA now count to the run's end, and say that --limit ends it there."""
