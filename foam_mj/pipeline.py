@@ -35,6 +35,8 @@ with MuJoCo.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -179,6 +181,15 @@ def _iterations(report: Report | None, method: str, unit: str, stop: StopCriteri
     return lambda t, best: report(f"smoothing: {method}, {unit} {t:,}{cap}, best f {best:.4f}")
 
 
+@contextmanager
+def _stage(say: Report, text: str) -> Iterator[None]:
+    """``say`` ``text`` as a stage starts, and that it is done with its time when it ends (a line of its own off a terminal)."""
+    say(text)
+    t0 = time.perf_counter()
+    yield
+    say(f"{text} done in {time.perf_counter() - t0:.1f} s")
+
+
 def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], seed: int, report: Report | None = None,
                  start: np.ndarray | None = None) -> dict[str, SmoothingResult]:
     """Run the smoothers that produce ``names`` (the centre path always comes first). ``start``: the
@@ -187,10 +198,11 @@ def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], see
     out: dict[str, SmoothingResult] = {"centre": center_path_result(rosary, "centre")}
     say = report or (lambda _s: None)
     if "gradient" in names:
-        say("smoothing: gradient (T_CA)")
-        out["gradient"] = GradientSmoothing().smooth(rosary)
+        with _stage(say, "smoothing: gradient (T_CA)"):
+            out["gradient"] = GradientSmoothing().smooth(rosary)
     if "adjusted" in names or "adjusted_gradient" in names:
         say("smoothing: rosary adjustment (T_RA)")
+        t0 = time.perf_counter()
         oracle = scenario.oracle()
         try:
             # Nascimento and Alsina 2021 keeps every adjusted bubble at least r_min; a planner without r_min keeps the rosary's
@@ -208,30 +220,31 @@ def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], see
         finally:
             oracle.close()
         if adj is not None:
+            say(f"smoothing: rosary adjustment (T_RA) done in {time.perf_counter() - t0:.1f} s")
             out["adjusted"] = adj.path
             if "adjusted_gradient" in names:
-                say("smoothing: adjusted + gradient (T_RCA)")
-                out["adjusted_gradient"] = GradientSmoothing().smooth(adj.rosary)
+                with _stage(say, "smoothing: adjusted + gradient (T_RCA)"):
+                    out["adjusted_gradient"] = GradientSmoothing().smooth(adj.rosary)
     if "hs" in names:
-        say("smoothing: harmony search")
-        hs = HarmonySearch()
-        out["hs"] = hs.smooth(rosary, seed=seed, progress=_iterations(report, "harmony search", "improvisation", hs.stop))
+        with _stage(say, "smoothing: harmony search"):
+            hs = HarmonySearch()
+            out["hs"] = hs.smooth(rosary, seed=seed, progress=_iterations(report, "harmony search", "improvisation", hs.stop))
     if "ga" in names:
-        say("smoothing: genetic algorithm")
-        ga = GeneticAlgorithm()
-        out["ga"] = ga.smooth(rosary, seed=seed, progress=_iterations(report, "genetic algorithm", "generation", ga.stop))
+        with _stage(say, "smoothing: genetic algorithm"):
+            ga = GeneticAlgorithm()
+            out["ga"] = ga.smooth(rosary, seed=seed, progress=_iterations(report, "genetic algorithm", "generation", ga.stop))
     if "convex" in names:
-        say("smoothing: convex shortest path")
-        out["convex"] = ConvexShortestPath().smooth(rosary)
+        with _stage(say, "smoothing: convex shortest path"):
+            out["convex"] = ConvexShortestPath().smooth(rosary)
     if "optimal" in names:
-        say("smoothing: optimal f (sequential convex programming)")
-        out["optimal"] = OptimalSmoother().smooth(rosary, initial=smoother_start(rosary, start), seed=seed)
+        with _stage(say, "smoothing: optimal f (sequential convex programming)"):
+            out["optimal"] = OptimalSmoother().smooth(rosary, initial=smoother_start(rosary, start), seed=seed)
     if "mgoa" in names:
-        say("smoothing: multi-objective grasshopper optimisation (MGOA)")
-        out["mgoa"] = MGOASmoother().smooth(rosary, seed=seed)
+        with _stage(say, "smoothing: multi-objective grasshopper optimisation (MGOA)"):
+            out["mgoa"] = MGOASmoother().smooth(rosary, seed=seed)
     if "mopso" in names:
-        say("smoothing: multi-objective particle swarm (MOPSO)")
-        out["mopso"] = MOPSOSmoother().smooth(rosary, seed=seed)
+        with _stage(say, "smoothing: multi-objective particle swarm (MOPSO)"):
+            out["mopso"] = MOPSOSmoother().smooth(rosary, seed=seed)
     for name, res in out.items():
         if not res.rosary.all_in_hatches(res.waypoints):  # the smoothers guarantee it; a last guard
             raise RuntimeError(f"path '{name}' has a waypoint outside its hatch")

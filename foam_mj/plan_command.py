@@ -243,7 +243,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
                     "--json's scene file": json_out.with_name(json_out.stem + ".scene.xml") if json_out is not None and scenario.edits.changes_scene else None},
                    {"the scenario file": scenario.source, "the scene (MJCF)": scenario.scene})
     seed = scenario.seed if args.seed is None else args.seed
-    progress = Progress()
+    progress = Progress(lines=True)  # off a terminal: a line per stage (planning, each smoother, each replay)
     t0 = time.perf_counter()
     try:
         outcome = run(scenario, seed, names, replay=not args.no_replay, dynamic=not args.no_replay, time_law=args.time_law, report=progress)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 import mujoco
@@ -24,6 +25,15 @@ if os.environ.get("CI"):
 
 MODELS = models_dir()
 SCENES = ("obstacle", "step_up", "step_down")
+#: A line of ``plan``'s progress log off a terminal (foam_mj.progress): "[12.3 s] smoothing: convex shortest path".
+PROGRESS_LINE = re.compile(r"\[\d+\.\d s\] ")
+
+
+def messages(err: str) -> list[str]:
+    """The lines of a command's stderr besides its progress log: its warnings and errors."""
+    return [line for line in err.splitlines() if not PROGRESS_LINE.match(line)]
+
+
 #: The bring-your-own-robot example's two-link arm (a post in front of it), the base of the odd-actuator tests.
 TWO_LINK_ARM = Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml"
 

@@ -18,7 +18,7 @@ from foam_mj.cli import main
 from foam_mj.recording import read_blueprint, read_component, read_recording
 from foam_mj.results import read_result
 
-from conftest import MODELS, MujocoChecker
+from conftest import MODELS, MujocoChecker, messages
 
 #: The project's external checker, when this checkout sits inside the project's work folder.
 VERIFY = next((p / "shared" / "tools" / "verify_result.py" for p in Path(__file__).resolve().parents
@@ -542,7 +542,7 @@ def test_mujoco_warnings_are_shown_once_and_a_diverged_replay_is_named(tmp_path)
     run = subprocess.run([str(exe), "plan", "--mjcf", "coaxial.xml", "--start", "0,0,0", "--goal=-0.5,-0.3,0.4", "--rrd", "c.rrd"],
                          capture_output=True, text=True, cwd=tmp_path, timeout=300)
     assert run.returncode == 0, run.stderr
-    err = run.stderr.splitlines()
+    err = messages(run.stderr)
     assert sum("Inertia matrix is too close to singular" in line for line in err) == 1, run.stderr
     assert all(line.startswith("foam-mj: warning: ") for line in err), run.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.rrd", "coaxial.xml"]  # no MUJOCO_LOG.TXT
@@ -637,7 +637,7 @@ def test_a_path_that_no_timing_fits_is_reported_alone_and_every_other_path_is_ke
     assert main(["plan", "--scene", str(scene), "--smoother", "convex,optimal", "--no-rrd", "--json", str(js)]) == 3
     out, err = capsys.readouterr()
     assert re.search(r"^centre \(T\) .* no timing ", out, re.M) and re.search(r"^optimal \(certified f\) .* \d\.\d\d s ", out, re.M)
-    assert err.startswith("foam-mj: planning failed: no timing fits 1 of 3 paths: path 'centre': no timing fits the torque limit of hip_flexion")
+    assert messages(err)[0].startswith("foam-mj: planning failed: no timing fits 1 of 3 paths: path 'centre': no timing fits the torque limit of hip_flexion")
     doc = read_result(js)
     assert "hip_flexion" in doc["paths"]["centre"]["timing_error"] and "times" not in doc["paths"]["centre"]
     for name in ("convex", "optimal"):

@@ -17,7 +17,7 @@ import pytest
 from foam_mj import atomic
 from foam_mj.cli import EXIT_CODES, UsageError, build_parser, main
 
-from conftest import MODELS
+from conftest import MODELS, messages
 
 ROOT = Path(__file__).resolve().parents[1]
 GOOD = "q_init = [0.2, 0.3, 0.08]\nq_goal = [0.45, 0.4536, 1.45]\n"
@@ -145,7 +145,7 @@ def test_a_write_failure_after_planning_leaves_no_file_and_exits_2(tmp_path, mon
     monkeypatch.setenv("FOAM_MJ_RECORDER", "inline")
     code = main(["plan", "--smoother", "none", "--no-replay", "--rrd", str(tmp_path / "r.rrd"), "--json", str(tmp_path / "r.json")])
     err = capsys.readouterr().err
-    assert code == 2 and "No space left on device" in err and len(err.strip().splitlines()) == 1
+    assert code == 2 and "No space left on device" in err and len(messages(err)) == 1
     assert list(tmp_path.iterdir()) == []
 
 
@@ -169,7 +169,7 @@ def test_a_really_full_file_system_leaves_no_file(small_tmpfs, monkeypatch, caps
     monkeypatch.setattr(atomic, "MIN_FREE_BYTES", 0)
     assert main(["plan", "--smoother", "none", "--no-replay", "--rrd", str(rrd), "--json", str(js)]) == 2
     err = capsys.readouterr().err
-    assert "No space left on device" in err and len(err.strip().splitlines()) == 1
+    assert "No space left on device" in err and len(messages(err)) == 1
     assert list(small_tmpfs.iterdir()) == []
 
 
