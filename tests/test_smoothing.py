@@ -643,4 +643,5 @@ def test_plan_reports_the_generations_of_the_genetic_algorithm(smoothing_setup, 
     monkeypatch.setattr(pipeline, "GeneticAlgorithm", lambda: GA)
     said: list[str] = []
     pipeline.smooth_paths(load_scenario("obstacle"), smoothing_setup[2], ("ga",), 0, report=said.append)
-    assert "smoothing: genetic algorithm, generation 300 of at most 300, best f " in said[-1]
+    assert "smoothing: genetic algorithm, generation 300 of at most 300, best f " in said[-2]
+    assert said[-1].startswith("smoothing: genetic algorithm done in ")
