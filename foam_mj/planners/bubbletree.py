@@ -327,41 +327,6 @@ class BubbleTreePlanner(Planner):
 
         B = Bubbles(n)
         counters = {"iterations": 0, "candidates": 0, "rejected_small": 0, "rejected_covered": 0}
-        closest = [np.inf]  # the smallest gap between the trees so far
-
-        def update_gaps(new: list[np.ndarray], find: bool = True) -> tuple[int, int] | None:
-            """Refresh the gaps with the new bubbles of each tree (the last of their tree); if ``find``, return a
-            connecting pair (a in tree 0, b in tree 1) if any (the first found, the start tree's new bubbles first)."""
-            best = None
-            for t in (0, 1):
-                T, O = B.trees[t], B.trees[1 - t]
-                k = len(new[t])
-                if k == 0 or O.n == 0:
-                    continue
-                sl = slice(T.n - k, T.n)
-                D = T.lift[sl] @ O.d2[: O.n].T
-                np.sqrt(np.maximum(D, 0.0, out=D), out=D)
-                D -= T.r[sl, None]
-                D -= O.r[None, : O.n]
-                j = D.argmin(axis=1)
-                g = D[np.arange(k), j]
-                closest[0] = min(closest[0], float(g.min()))
-                better = g < T.gap[sl]
-                np.copyto(T.gap[sl], g, where=better)
-                np.copyto(T.mate[sl], O.idx[j], where=better)
-                g2 = D.min(axis=0)  # the other tree's bubbles may now be nearer to a new one
-                better = g2 < O.gap[: O.n]
-                np.copyto(O.gap[: O.n], g2, where=better)
-                O.mate[: O.n][better] = new[t][D[:, better].argmin(axis=0)]
-                if find and best is None:  # a connection: overlap with a hatch of HATCH * the smaller radius
-                    over = (g < 0).nonzero()[0]
-                    if over.size:
-                        hit = np.argwhere(D[over] <= -HATCH * np.minimum(T.r[sl][over, None], O.r[None, : O.n]))
-                        if hit.size:
-                            a, b = int(new[t][over[hit[0, 0]]]), int(O.idx[hit[0, 1]])
-                            best = (a, b) if t == 0 else (b, a)
-            return best
-
         def stats(outcome: str, t_first: float | None, extra: dict | None = None) -> PlanStats:
             details = dict(counters, r_min=r_min, tree_start=int(np.sum(B.tree[: B.n] == 0)), tree_goal=int(np.sum(B.tree[: B.n] == 1)))
             details.update(extra or {})
@@ -415,7 +380,7 @@ class BubbleTreePlanner(Planner):
         k_max = o.batch + 2 * o.connect + 1  # extensions per tree per iteration (one ESCAPE)
         later = ~np.tri(k_max, k_max, -1, dtype=bool)  # later[i, j]: sibling j is not earlier than i
         newest = B.add(np.stack([c0, c1]), np.array([r0, r1]), np.array([-1, -1]), np.array([0, 1], dtype=np.int8))
-        link = update_gaps(newest)
+        link = B.update_gaps(newest)
         if link is None:  # an end bubble below SMALLEST never grows, and no other bubble comes to hold its centre
             for name, q, r in (("q_init", q0, r0), ("q_goal", q1, r1)):
                 if r < SMALLEST:
@@ -425,8 +390,8 @@ class BubbleTreePlanner(Planner):
         foam_first = 0
         gap_then, it_then = np.inf, 0  # the gap at the last progress (the trees came r_min / 2 closer), and its iteration
         while True:
-            if closest[0] <= gap_then - 0.5 * r_min:
-                gap_then, it_then = closest[0], counters["iterations"]
+            if B.closest <= gap_then - 0.5 * r_min:
+                gap_then, it_then = B.closest, counters["iterations"]
             if link is not None and t_first is None:
                 t_first, it_first, foam_first = timer.elapsed(), counters["iterations"], B.n
                 cpu_first = time.process_time() - cpu0
@@ -588,7 +553,7 @@ class BubbleTreePlanner(Planner):
             if sel.size == 0:
                 continue
             newest = B.add(cc[sel], cr[sel], cp[sel], ct[sel], L[sel])
-            met = update_gaps(newest, link is None)
+            met = B.update_gaps(newest, link is None)
             link = link if link is not None else met
 
         cpu_tree = time.process_time() - cpu0

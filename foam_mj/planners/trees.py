@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from foam_mj.foam import Foam
+from foam_mj.planners.chains import HATCH
 
 
 def grow(obj, names: tuple[str, ...], size: int) -> None:
@@ -85,6 +86,7 @@ class Bubbles:
         self.pos = np.empty(cap, dtype=np.int64)
         self.trees = (Tree(dim), Tree(dim))
         self.n = 0
+        self.closest = np.inf  # the smallest gap between the trees so far (update_gaps)
 
     def add(self, c: np.ndarray, r: np.ndarray, parent: np.ndarray, tree: np.ndarray, lift: np.ndarray | None = None) -> list[np.ndarray]:
         """Append bubbles, ``tree`` in non-decreasing order (the start tree's first, then the goal tree's, then
@@ -106,6 +108,42 @@ class Bubbles:
                 T.add(out[t], lift[a:b], r[a:b])
         self.n += m
         return out
+
+    def update_gaps(self, new: list[np.ndarray], find: bool = True) -> tuple[int, int] | None:
+        """Refresh every bubble's gap to the other tree (``Tree.gap``, the nearest other bubble in ``Tree.mate``:
+        |c_a - c_b| - r_a - r_b) with ``new``, each tree's bubbles just added (the last of their tree), and
+        ``closest``, the smallest gap so far; if ``find``, return a connecting pair (a in tree 0, b in tree 1)
+        overlapping with a hatch of HATCH x the smaller radius, if any (the first found, the start tree's new
+        bubbles first)."""
+        best = None
+        for t in (0, 1):
+            T, O = self.trees[t], self.trees[1 - t]
+            k = len(new[t])
+            if k == 0 or O.n == 0:
+                continue
+            sl = slice(T.n - k, T.n)
+            D = T.lift[sl] @ O.d2[: O.n].T
+            np.sqrt(np.maximum(D, 0.0, out=D), out=D)
+            D -= T.r[sl, None]
+            D -= O.r[None, : O.n]
+            j = D.argmin(axis=1)
+            g = D[np.arange(k), j]
+            self.closest = min(self.closest, float(g.min()))
+            better = g < T.gap[sl]
+            np.copyto(T.gap[sl], g, where=better)
+            np.copyto(T.mate[sl], O.idx[j], where=better)
+            g2 = D.min(axis=0)  # the other tree's bubbles may now be nearer to a new one
+            better = g2 < O.gap[: O.n]
+            np.copyto(O.gap[: O.n], g2, where=better)
+            O.mate[: O.n][better] = new[t][D[:, better].argmin(axis=0)]
+            if find and best is None:
+                over = (g < 0).nonzero()[0]
+                if over.size:
+                    hit = np.argwhere(D[over] <= -HATCH * np.minimum(T.r[sl][over, None], O.r[None, : O.n]))
+                    if hit.size:
+                        a, b = int(new[t][over[hit[0, 0]]]), int(O.idx[hit[0, 1]])
+                        best = (a, b) if t == 0 else (b, a)
+        return best
 
     def foam(self, q_init: np.ndarray, q_goal: np.ndarray) -> Foam:
         n = self.n
