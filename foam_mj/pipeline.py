@@ -307,26 +307,35 @@ def run(
             po = PathOutcome(name, res, metrics(res.path))
             outcome.paths[name] = po
             if replay:
-                if report:
-                    report(f"replaying: {LABELS.get(name, name)}")
-                try:
-                    po.trajectory = time_path(robot, name, res.path, res.rosary, lim, time_law)
-                except TimingInfeasible as exc:  # this path only: the others are still timed and replayed
-                    po.timing_error = exc
-                    continue
-                if report:  # a slow timing makes a long replay: say how long, so a wait of minutes is expected
-                    times = po.trajectory.times
-                    report(f"replaying: {LABELS.get(name, name)} ({times[-1]:,.1f} s of motion, {len(times):,} steps)")
-                po.loads = joint_loads(robot, po.trajectory, limit=lim.resolve(robot)[2])  # mass: the (scaled) model's
-                po.kinematic = replay_kinematic(robot, po.trajectory, clearance)
-                if dynamic:
-                    po.dynamic = replay_dynamic(robot, po.trajectory, clearance=clearance)
+                time_and_replay(po, robot, res.path, lim, time_law, clearance, dynamic, report)
     finally:
         clearance.close()
     require_a_timing(outcome.paths)
     outcome.timings["replay"] = time.perf_counter() - t2
     outcome.timings["total"] = time.perf_counter() - t0
     return outcome
+
+
+def time_and_replay(po: PathOutcome, robot, path, limits: Limits, time_law: str, clearance, dynamic: bool,
+                    report: Report | None = None, where: str = "") -> None:
+    """Time ``path`` (po's waypoints with its ends) under ``limits``, then its joint loads (the robot's mass: a scaled
+    model's) and its kinematic and, with ``dynamic``, servo replay, into ``po``; a TimingInfeasible is kept in
+    ``po.timing_error`` (this path only: the caller times and replays the others). ``where`` ("2 of 5") goes into the
+    progress messages."""
+    say = report or (lambda _s: None)
+    label = LABELS.get(po.name, po.name)
+    say(f"replaying: {label}{f' ({where})' if where else ''}")
+    try:
+        po.trajectory = time_path(robot, po.name, path, po.rosary, limits, time_law)
+    except TimingInfeasible as exc:
+        po.timing_error = exc
+        return
+    times = po.trajectory.times  # a slow timing makes a long replay: say how long, so a wait of minutes is expected
+    say(f"replaying: {label} ({f'{where}; ' if where else ''}{times[-1]:,.1f} s of motion, {len(times):,} steps)")
+    po.loads = joint_loads(robot, po.trajectory, limit=limits.resolve(robot)[2])
+    po.kinematic = replay_kinematic(robot, po.trajectory, clearance)
+    if dynamic:
+        po.dynamic = replay_dynamic(robot, po.trajectory, clearance=clearance)
 
 
 def require_a_timing(paths: dict[str, PathOutcome]) -> None:

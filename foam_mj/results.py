@@ -379,15 +379,14 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, rep
     from foam_mj.foam import Foam
     from foam_mj.planners import PlannerConfig, PlanResult, PlanStats
     from foam_mj.paths import metrics
-    from foam_mj.pipeline import LABELS, Outcome, PathOutcome
-    from foam_mj.replay import replay_clearance, replay_dynamic, replay_kinematic
+    from foam_mj.pipeline import Outcome, PathOutcome
+    from foam_mj.replay import replay_clearance
     from foam_mj.rosary import Rosary
     from foam_mj.scenarios import Scenario
     from foam_mj.smoothing import SmoothingResult
-    from foam_mj.dynamics import joint_loads
-    from foam_mj.pipeline import require_a_timing, time_path
+    from foam_mj.pipeline import require_a_timing, time_and_replay
     from foam_mj.limits import Limits
-    from foam_mj.timing import METHODS, TimingInfeasible
+    from foam_mj.timing import METHODS
 
     try:
         # Results written before the torque-limited time laws have neither field: they were timed by "own".
@@ -431,7 +430,7 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, rep
             )
             outcome.paths[name] = PathOutcome(name, res, metrics(path))
             waypoints[name] = path
-        torque_limit = limits.resolve(robot)[2]
+        limits.resolve(robot)  # here: limits that do not fit the model are the file's fault (a malformed result)
     except (KeyError, TypeError, ValueError) as exc:
         if isinstance(exc, FoamError):
             raise
@@ -440,20 +439,7 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, rep
     clearance = replay_clearance(robot, params.delta)
     try:
         for k, (name, po) in enumerate(outcome.paths.items(), 1):
-            if report:
-                report(f"replaying: {LABELS.get(name, name)} ({k} of {len(outcome.paths)})")
-            try:
-                po.trajectory = time_path(robot, name, waypoints[name], po.rosary, limits, time_law)
-            except TimingInfeasible as exc:  # as plan's: this path only
-                po.timing_error = exc
-                continue
-            if report:  # as plan's: a slow timing makes a long replay
-                report(f"replaying: {LABELS.get(name, name)} ({k} of {len(outcome.paths)}; {po.trajectory.times[-1]:,.1f} s of motion, "
-                       f"{len(po.trajectory.times):,} steps)")
-            po.loads = joint_loads(robot, po.trajectory, limit=torque_limit)
-            po.kinematic = replay_kinematic(robot, po.trajectory, clearance)
-            if dynamic:
-                po.dynamic = replay_dynamic(robot, po.trajectory, clearance=clearance)
+            time_and_replay(po, robot, waypoints[name], limits, time_law, clearance, dynamic, report, f"{k} of {len(outcome.paths)}")
     finally:
         clearance.close()
     require_a_timing(outcome.paths)

@@ -242,7 +242,7 @@ def test_a_failure_of_the_replay_itself_is_not_blamed_on_the_result(planned_resu
     def broken(*_args, **_kwargs):
         raise ValueError("the simulation went wrong")
 
-    monkeypatch.setattr("foam_mj.replay.replay_dynamic", broken)
+    monkeypatch.setattr("foam_mj.pipeline.replay_dynamic", broken)  # where plan and replay call it (time_and_replay)
     assert main(["replay", str(planned_result)]) == 1
     err = capsys.readouterr().err
     assert "internal error: ValueError: the simulation went wrong" in err and "malformed" not in err
