@@ -102,6 +102,15 @@ def file_problem(path: str | os.PathLike) -> str | None:
     return None
 
 
+def file_problem_text(path: str | os.PathLike, what: str) -> str | None:
+    """:func:`file_problem` as a message about ``what`` ("MJCF file not found: x.xml", "MJCF file x: a folder, not a
+    file"), or None for a regular file."""
+    problem = file_problem(path)
+    if problem is None:
+        return None
+    return f"{what} not found: {path}" if problem == "not found" else f"{what} {path}: {problem}"
+
+
 #: The first bytes of files foam-mj writes that are not JSON, and what they are (for "not a readable JSON result").
 _FOREIGN = ((b"RRF", "a Rerun recording (.rrd)"), (b"PAR1", "a Parquet table"), (b"PK\x03\x04", "a ZIP/NPZ archive"),
             (b"\x89PNG", "a PNG image"), (b"%PDF", "a PDF file"))

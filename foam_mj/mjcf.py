@@ -12,7 +12,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.errors import ModelError, file_problem
+from foam_mj.errors import ModelError, file_problem_text
 from foam_mj.mujoco_warnings import install_if_routed, kept_unless_failed
 
 
@@ -24,9 +24,9 @@ def load_mjcf(path: str | Path) -> mujoco.MjModel:
 def load_spec(path: str | Path) -> mujoco.MjSpec:
     """Parse an MJCF file into a :class:`mujoco.MjSpec` (errors as :class:`ModelError` naming the file)."""
     p = Path(path)
-    problem = file_problem(p)
+    problem = file_problem_text(p, "MJCF file")
     if problem:
-        raise ModelError(f"MJCF file not found: {p}" if problem == "not found" else f"MJCF file {p}: {problem}")
+        raise ModelError(problem)
     install_if_routed()
     try:
         with kept_unless_failed():

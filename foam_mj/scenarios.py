@@ -75,7 +75,7 @@ import numpy as np
 from foam_mj.bubbles import BubbleOracle, distance_cap
 from foam_mj.data import models_dir, scenarios_dir
 from foam_mj.clearance import Clearance
-from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioError, clearance_text, file_problem, is_number, unknown_names
+from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioError, clearance_text, file_problem, file_problem_text, is_number, unknown_names
 from foam_mj.foam import check_candidate_bound
 from foam_mj.model import RobotModel
 from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
@@ -305,9 +305,9 @@ def _scene_edits(raw: dict, where: str, base_dir: Path) -> SceneEdits:
         if not isinstance(t.get("file"), str):
             raise ScenarioError(f"{w}: field 'file' (a mesh file path) is missing")
         f = (base_dir / t["file"]).resolve()
-        problem = file_problem(f)
+        problem = file_problem_text(f, "mesh file")
         if problem:
-            raise ScenarioError(f"{w}: field 'file': mesh file not found: {f}" if problem == "not found" else f"{w}: field 'file': mesh file {f}: {problem}")
+            raise ScenarioError(f"{w}: field 'file': {problem}")
         if f.suffix.lower() not in (".stl", ".obj", ".ply"):
             raise ScenarioError(f"{w}: field 'file': {f.name} is not an STL, OBJ or PLY file")
         scale = t.get("scale", 1.0)
@@ -391,7 +391,7 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     if problem == "a folder, not a file":  # scene = "" or a folder: "MJCF file not found" named an existing folder
         raise ScenarioError(f"{path}: field 'scene' = {str(raw['scene'])!r} names the folder {scene}, not an MJCF file")
     if problem:
-        raise ScenarioError(f"{path}: field 'scene': MJCF file not found: {scene}" if problem == "not found" else f"{path}: field 'scene': MJCF file {scene}: {problem}")
+        raise ScenarioError(f"{path}: field 'scene': {file_problem_text(scene, 'MJCF file')}")
     seed = raw.get("seed", 0)
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or not 0 <= seed <= 2**63 - 1:
         raise ScenarioError(f"{path}: field 'seed' must be an integer in [0, 2**63 - 1], got {seed!r}")

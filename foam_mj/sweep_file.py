@@ -8,7 +8,7 @@ import math
 import tomllib
 from pathlib import Path
 
-from foam_mj.errors import FoamError, ScenarioError, file_problem, unknown_names
+from foam_mj.errors import FoamError, ScenarioError, file_problem_text, unknown_names
 from foam_mj.sweep import (
     MAX_TASKS,
     REPLAYS,
@@ -34,9 +34,9 @@ def load_sweep(path: str | Path) -> Sweep:
     if not isinstance(path, (str, Path)) and not hasattr(path, "__fspath__"):
         raise TypeError(f"`path` must be the path of a sweep file, got {type(path).__name__}")
     path = Path(path)
-    problem = file_problem(path)
+    problem = file_problem_text(path, "sweep file")
     if problem:
-        raise SweepError(f"sweep file not found: {path}" if problem == "not found" else f"sweep file {path}: {problem}")
+        raise SweepError(problem)
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # TOML is UTF-8; a byte-order mark is let through
     except tomllib.TOMLDecodeError as exc:

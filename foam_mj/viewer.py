@@ -9,7 +9,7 @@ import signal
 import sys
 from pathlib import Path
 
-from foam_mj.errors import FoamError, file_problem
+from foam_mj.errors import FoamError, file_problem_text
 
 
 def _has_display() -> bool:
@@ -64,9 +64,9 @@ RRD_FOOTER = b"FOOT"
 def cmd_view(args: argparse.Namespace) -> int:
     """``foam-mj view``: open a recording in the Rerun viewer (native window, or the web viewer with --web)."""
     p = Path(args.recording)
-    problem = file_problem(p)
+    problem = file_problem_text(p, "recording")
     if problem:
-        raise FoamError(f"recording not found: {p}" if problem == "not found" else f"recording {p}: {problem}")
+        raise FoamError(problem)
     if p.suffix != ".rrd":
         raise FoamError(f"{p} is not a Rerun recording (.rrd)")
     try:
