@@ -184,7 +184,7 @@ def outcome_dict(outcome) -> dict:
             entry["times"] = po.trajectory.times.tolist()
         else:
             entry["qpos"] = cfg.to_qpos(np.asarray(res.path)).tolist()
-        if getattr(po, "timing_error", None) is not None:
+        if po.timing_error is not None:
             entry["timing_error"] = " ".join(str(po.timing_error).split())
         if len(res.history_best) > 1:
             entry["convergence"] = {"best": np.asarray(res.history_best).tolist(), "mean": np.asarray(res.history_mean).tolist()}

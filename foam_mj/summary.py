@@ -26,7 +26,7 @@ def summary_table(outcome) -> str:
     for po in outcome.paths.values():
         m = po.metrics
         clear = fmt_mm(po.kinematic.min_clearance) if po.kinematic is not None else "-"
-        dur = f"{po.trajectory.duration:.2f} s" if po.trajectory is not None else "no timing" if getattr(po, "timing_error", None) else "-"
+        dur = f"{po.trajectory.duration:.2f} s" if po.trajectory is not None else "no timing" if po.timing_error is not None else "-"
         err = "-" if po.dynamic is None else "unstable" if po.dynamic.diverged else f"{np.max(po.dynamic.max_error) * 1000:.2f}"
         con = str(len(po.dynamic.contacts)) if po.dynamic is not None else "-"
         lines.append(
