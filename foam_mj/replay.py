@@ -39,20 +39,26 @@ Models without servos
 ---------------------
 When some configuration joint has no position servo (a user's MJCF often has no actuators, or motors),
 the dynamic replay runs on a copy of the model, made with :class:`mujoco.MjSpec`, whose actuators are
-replaced by one position servo per configuration joint (:func:`servo_model`): kp = I_j (2 pi f)^2 with
-f = :data:`SERVO_HZ` and I_j the joint's effective inertia at ``qpos0`` (:func:`effective_inertia`:
-1 / (M^-1)_jj over the configuration joints, armature included, the inertia the joint drives when the
-others are free), critically damped (dampratio 1), no force limit. The diagonal entry M_jj instead would
-give a proximal joint of a long chain, or any joint of a millimetre robot, a servo far stiffer than
-f for what it moves, and the simulation would blow up at the model's timestep. The replay's
-``servo_note`` says so in one line. Nothing fails after planning for want of actuators.
+replaced by one position servo per configuration joint (:func:`servo_model`), sized for the path it replays:
 
-An arm's inertia changes along the path, the servos' gains do not: where it is far smaller than at ``qpos0``
-(a generated 6-joint arm: 1.15 against 5.87 kg m^2), the damping kv, explicit under MuJoCo's Euler (which is
-implicit in joint damping only), made eig(M^-1 kv) dt about 3.5 > 2 at dt = 5 ms and the replay diverged. A copy
-of an Euler model with added servos is therefore stepped with the ``implicitfast`` integrator, implicit in the
-servos' damping too (stable for any kv; 30 mrad of tracking error on that arm). A model with its own servos keeps
-its integrator. When a replay still diverges, :attr:`DynamicReplay.divergence_cause` names the likely cause.
+    kp_j = I_j omega^2,    kv_j = 2 I_j omega = (2 / omega) kp_j,    omega = 2 pi f,
+
+f = :data:`SERVO_HZ`, I_j the largest effective inertia of joint j over the trajectory's frames
+(:func:`effective_inertia`: 1 / (M^-1)_jj over the configuration joints from ``mj_fullM``, armature included, the
+inertia the joint drives when the others are free; M_jj would make a long chain's proximal joint, or a millimetre
+robot's, far stiffer than f), no force limit: critically damped where the inertia is largest, overdamped and at
+least f elsewhere. Sized at ``qpos0`` alone, a generated arm's second joint (0.03 kg m^2 there, 2.1 on the path) got
+128 N m/rad and lagged 30 mrad; sized over the path, 3.6. ``servo_note`` gives the gains in one line.
+
+Integrator (a choice, for every integrator of the model): the copy is stepped with ``implicitfast`` (an ``implicit``
+model keeps ``implicit``), implicit in the servos' damping. Where the inertia is far below I_j the servos are stiff
+and heavily damped: explicitly, eig(M^-1 kv) dt exceeds 2 (Euler, implicit in joint damping only) or 2.8 (RK4) and
+the replay diverged (the generated arm at dt = 5 ms: every path under Euler; under RK4 errors of 2.3 to 4.8 rad or
+a blow-up, some without MuJoCo's warning). Implicitly, (M + dt kv) v' = M v - dt kp q, q' = q + dt v', and as
+kv = (2 / omega) kp every mode of M^-1 kp (eigenvalue lambda, any inertia and coupling) is stable when
+lambda dt (dt - 4 / omega) < 4, for every lambda when omega dt < 4: omega is capped at 2 / dt (:func:`servo_omega`).
+All four integrators then track alike. A model with its own servos keeps its integrator and gains (the Ortholeg's
+Euler). When a replay still diverges, :attr:`DynamicReplay.divergence_cause` names the likely cause.
 
 Joints outside the configuration
 --------------------------------
@@ -194,9 +200,8 @@ class DynamicReplay(_ReplayMeasures):
         if "mjWARN_INERTIA" in self.warnings:
             return "MuJoCo found the inertia matrix singular, as two hinges on one axis make it: check the model's inertias"
         if self.servo_note:
-            return (f"the servos added for the replay ({SERVO_HZ:g} Hz at qpos0) are too stiff for the model's timestep "
-                    "where the robot's inertia is far below the one at qpos0: a smaller timestep or the robot's own "
-                    "position servos avoid it")
+            return ("the servos added for the replay (sized from the robot's inertia along the path, module docstring of "
+                    "foam_mj.replay) did not hold it: check the model's inertias, or give it its own position servos")
         return "the model's position servos are too stiff or too strongly damped for its timestep: check their kp and kv"
 
 
@@ -311,27 +316,32 @@ def _servo_problem(m: mujoco.MjModel, robot: RobotModel) -> str | None:
     return None
 
 
-def effective_inertia(robot: RobotModel) -> np.ndarray:
-    """(n,) the inertia each configuration joint drives at the configuration's ``qpos0`` when the other
-    configuration joints are free and every other joint is held: 1 / (M_cc^-1)_jj, M_cc the joint-space
-    inertia matrix (armature included) restricted to the configuration's dofs (kg m^2 or kg). Where M_cc is
-    singular (two coaxial hinges on one body: either turns the body, so the other, free, drives nothing), a
-    joint's inertia is M_jj, the inertia it drives with the others held."""
+def effective_inertia(robot: RobotModel, qpos: np.ndarray | None = None) -> np.ndarray:
+    """(n,) the largest inertia each configuration joint drives over the configurations ``qpos`` (T, nq) (default:
+    the configuration's ``qpos0`` alone) when the other configuration joints are free and every other joint is held:
+    1 / (M_cc^-1)_jj, M_cc the joint-space inertia matrix (armature included) restricted to the configuration's dofs
+    (kg m^2 or kg). Where M_cc is singular (two coaxial hinges on one body: either turns the body, so the other, free,
+    drives nothing), a joint's inertia is M_jj, the inertia it drives with the others held."""
     m = robot.model
+    qpos = np.atleast_2d(robot.config.qpos0 if qpos is None else np.asarray(qpos, dtype=float))
     d = mujoco.MjData(m)
-    d.qpos[:] = robot.config.qpos0
-    mujoco.mj_forward(m, d)
     full = np.zeros((m.nv, m.nv))
-    mujoco.mj_fullM(m, d, full)
     dof = m.jnt_dofadr[robot.config.joint_ids]
-    M = full[np.ix_(dof, dof)]
-    held = np.diag(M).copy()
-    with np.errstate(divide="ignore", invalid="ignore"):
-        try:
-            free = 1.0 / np.diag(np.linalg.inv(M))
-        except np.linalg.LinAlgError:
-            free = np.zeros_like(held)
-    return np.where(np.isfinite(free) & (free > 1e-9 * held), free, held)
+    out = np.zeros(len(dof))
+    for row in qpos:
+        d.qpos[:] = row
+        for stage in (mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_tendon, mujoco.mj_makeM):  # mj_forward's M
+            stage(m, d)
+        mujoco.mj_fullM(m, d, full)
+        M = full[np.ix_(dof, dof)]
+        held = np.diag(M).copy()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            try:
+                free = 1.0 / np.diag(np.linalg.inv(M))
+            except np.linalg.LinAlgError:
+                free = np.zeros_like(held)
+        out = np.maximum(out, np.where(np.isfinite(free) & (free > 1e-9 * held), free, held))
+    return out
 
 
 def _exclude_held_contacts(spec: mujoco.MjSpec, m: mujoco.MjModel, robot: RobotModel) -> None:
@@ -357,15 +367,15 @@ def _exclude_held_contacts(spec: mujoco.MjSpec, m: mujoco.MjModel, robot: RobotM
                 spec.add_exclude(bodyname1=bodies[a].name, bodyname2=bodies[b].name)
 
 
-def servo_model(robot: RobotModel) -> tuple[mujoco.MjModel, str]:
+def servo_model(robot: RobotModel, qpos: np.ndarray | None = None) -> tuple[mujoco.MjModel, str]:
     """The model the dynamic replay drives, and a one-line note ("" when no servo was added).
 
     ``robot.model`` itself when it has a position servo on every configuration joint and no other joint;
     else a copy in which the joints outside the configuration get the armature that makes them a fixed
-    mount (:data:`HOLD_ARMATURE`, before the servos' damping is computed from the inertia they drive) and,
-    when some configuration joint lacks a position servo, all actuators are replaced by position servos
-    with gains from the joints' inertia, and an Euler model is stepped with ``implicitfast``, implicit in the
-    servos' damping (module docstring).
+    mount (:data:`HOLD_ARMATURE`) and, when some configuration joint lacks a position servo, all actuators are
+    replaced by position servos sized from the joints' largest inertia over the configurations ``qpos`` (T, nq) the
+    replay will visit (default: ``qpos0`` alone), with damping proportional to their stiffness, and an Euler or RK4
+    model is stepped with ``implicitfast``, implicit in the servos' damping (module docstring).
     """
     m = robot.model
     problem = _servo_problem(m, robot)
@@ -385,27 +395,34 @@ def servo_model(robot: RobotModel) -> tuple[mujoco.MjModel, str]:
     for sensor in list(spec.sensors):  # an actuator sensor (Cassie's actuatorpos) would name a deleted actuator
         if sensor.objtype == mujoco.mjtObj.mjOBJ_ACTUATOR:
             spec.delete(sensor)
-    euler = int(m.opt.integrator) == int(mujoco.mjtIntegrator.mjINT_EULER)
-    if euler:
+    explicit = int(m.opt.integrator) in (int(mujoco.mjtIntegrator.mjINT_EULER), int(mujoco.mjtIntegrator.mjINT_RK4))
+    if explicit:
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    inertia = effective_inertia(robot)
-    omega = 2 * np.pi * SERVO_HZ
+    omega = servo_omega(m.opt.timestep)
     gains = []
-    for name, I in zip(robot.config.joint_names, inertia):
-        kp = float(I * omega**2)
+    for name, inertia in zip(robot.config.joint_names, effective_inertia(robot, qpos)):
+        kp = float(inertia * omega**2)
         act = spec.add_actuator()
         act.name = f"foam_mj_servo_{name}"
         act.target = name
         act.trntype = mujoco.mjtTrn.mjTRN_JOINT
-        act.set_to_position(kp=kp, dampratio=1.0)
+        act.set_to_position(kp=kp, kv=2.0 * kp / omega)
         gains.append(f"{name} {kp:.4g}")
     out = spec.compile()
+    former = mujoco.mjtIntegrator(int(m.opt.integrator)).name.removeprefix("mjINT_")
     note = (
         f"dynamic replay: {problem}, so every configuration joint is driven by an added position servo, "
-        f"kp = effective joint inertia x (2 pi {SERVO_HZ:g} Hz)^2, critically damped: {', '.join(gains)} (N m/rad or N/m)"
-        + (", stepped with MuJoCo's implicitfast integrator (implicit in their damping) instead of Euler" if euler else "")
+        f"kp = the joint's largest effective inertia along the path x (2 pi {omega / (2 * np.pi):.3g} Hz)^2, "
+        f"critically damped there: {', '.join(gains)} (N m/rad or N/m)"
+        + (f", stepped with MuJoCo's implicitfast integrator (implicit in their damping) instead of {former}" if explicit else "")
     )
     return out, note
+
+
+def servo_omega(timestep: float) -> float:
+    """The added servos' natural frequency (rad/s): 2 pi :data:`SERVO_HZ`, at most 2 / timestep (module docstring:
+    with omega timestep < 4 the implicit step is stable for any inertia)."""
+    return min(2 * np.pi * SERVO_HZ, 2.0 / timestep)
 
 
 def _servos(robot: RobotModel, m: mujoco.MjModel | None = None) -> _Servo:
@@ -473,7 +490,7 @@ def replay_dynamic(
     """Simulate the leg's servos tracking ``trajectory`` under gravity (module docstring); servos are added
     to a copy of the model when it has none (:func:`servo_model`, noted in ``servo_note``)."""
     _check(robot, trajectory)
-    m, note = servo_model(robot)
+    m, note = servo_model(robot, trajectory.qpos)
     if np.any(np.abs(np.diff(trajectory.times) - m.opt.timestep) > DT_TOL):
         raise ValueError(
             f"`trajectory.times` must be spaced by the model's timestep {m.opt.timestep} s, got dt = {trajectory.dt}"

@@ -85,7 +85,7 @@ def test_servos_added_to_a_model_without_actuators_have_gains_from_the_joint_ine
     robot = RobotModel.from_xml(ARM)
     m, note = servo_model(robot)
     assert m is not robot.model and m.nu == 2 and note.startswith("dynamic replay:")
-    # kp = the inertia each joint drives with the other free, 1 / (M^-1)_jj at qpos0, times (2 pi f)^2
+    # kp = the inertia each joint drives with the other free, 1 / (M^-1)_jj, times (2 pi f)^2: at qpos0 without a path
     d = mujoco.MjData(robot.model)
     mujoco.mj_forward(robot.model, d)
     M = np.zeros((2, 2))
