@@ -327,21 +327,20 @@ def effective_inertia(robot: RobotModel, qpos: np.ndarray | None = None) -> np.n
     d = mujoco.MjData(m)
     full = np.zeros((m.nv, m.nv))
     dof = m.jnt_dofadr[robot.config.joint_ids]
-    out = np.zeros(len(dof))
-    for row in qpos:
+    M = np.empty((len(qpos), len(dof), len(dof)))
+    for i, row in enumerate(qpos):
         d.qpos[:] = row
         for stage in (mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_tendon, mujoco.mj_makeM):  # mj_forward's M
             stage(m, d)
         mujoco.mj_fullM(m, d, full)
-        M = full[np.ix_(dof, dof)]
-        held = np.diag(M).copy()
-        with np.errstate(divide="ignore", invalid="ignore"):
-            try:
-                free = 1.0 / np.diag(np.linalg.inv(M))
-            except np.linalg.LinAlgError:
-                free = np.zeros_like(held)
-        out = np.maximum(out, np.where(np.isfinite(free) & (free > 1e-9 * held), free, held))
-    return out
+        M[i] = full[np.ix_(dof, dof)]
+    held = np.diagonal(M, axis1=1, axis2=2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        try:
+            free = 1.0 / np.diagonal(np.linalg.inv(M), axis1=1, axis2=2)
+        except np.linalg.LinAlgError:  # M_cc singular at some frame (coaxial hinges: at all): the held inertia
+            free = np.zeros_like(held)
+    return np.where(np.isfinite(free) & (free > 1e-9 * held), free, held).max(axis=0)
 
 
 def _exclude_held_contacts(spec: mujoco.MjSpec, m: mujoco.MjModel, robot: RobotModel) -> None:
