@@ -48,7 +48,7 @@ f = :data:`SERVO_HZ`, I_j the largest effective inertia of joint j over the traj
 inertia the joint drives when the others are free; M_jj would make a long chain's proximal joint, or a millimetre
 robot's, far stiffer than f), no force limit: critically damped where the inertia is largest, overdamped and at
 least f elsewhere. Sized at ``qpos0`` alone, a generated arm's second joint (0.03 kg m^2 there, 2.1 on the path) got
-128 N m/rad and lagged 30 mrad; sized over the path, 3.6. ``servo_note`` gives the gains in one line.
+128 N m/rad and lagged 30 mrad; sized over the path, 3.6. ``servo_note`` and ``servo_kp`` state them.
 
 Integrator (a choice, for every integrator of the model): the copy is stepped with ``implicitfast`` (an ``implicit``
 model keeps ``implicit``), implicit in the servos' damping. Where the inertia is far below I_j the servos are stiff
@@ -181,6 +181,7 @@ class DynamicReplay(_ReplayMeasures):
     saturated_frames: np.ndarray  # (nu,) frames at which each actuator's force sat at its force range
     warnings: tuple[str, ...]  # MuJoCo warnings raised during the simulation (e.g. "mjWARN_BADQACC")
     servo_note: str = ""  # set when servos were added to the model for this replay (module docstring)
+    servo_kp: np.ndarray | None = None  # (n,) the added servos' kp per configuration joint (N m/rad, N/m), else None
     clamped_frames: np.ndarray | None = None  # (nu,) frames at which each actuator's ctrl lay outside its ctrlrange
     limit_note: str = ""  # set when a servo could not do what tracking asked (ctrl or force range; module docstring)
 
@@ -398,7 +399,6 @@ def servo_model(robot: RobotModel, qpos: np.ndarray | None = None) -> tuple[mujo
     if explicit:
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     omega = servo_omega(m.opt.timestep)
-    gains = []
     for name, inertia in zip(robot.config.joint_names, effective_inertia(robot, qpos)):
         kp = float(inertia * omega**2)
         act = spec.add_actuator()
@@ -406,16 +406,14 @@ def servo_model(robot: RobotModel, qpos: np.ndarray | None = None) -> tuple[mujo
         act.target = name
         act.trntype = mujoco.mjtTrn.mjTRN_JOINT
         act.set_to_position(kp=kp, kv=2.0 * kp / omega)
-        gains.append(f"{name} {kp:.4g}")
-    out = spec.compile()
-    former = mujoco.mjtIntegrator(int(m.opt.integrator)).name.removeprefix("mjINT_")
-    note = (
+    former = "RK4" if int(m.opt.integrator) == int(mujoco.mjtIntegrator.mjINT_RK4) else "Euler"
+    note = (  # the same for every path of the model; the gains are the path's (DynamicReplay.servo_kp)
         f"dynamic replay: {problem}, so every configuration joint is driven by an added position servo, "
         f"kp = the joint's largest effective inertia along the path x (2 pi {omega / (2 * np.pi):.3g} Hz)^2, "
-        f"critically damped there: {', '.join(gains)} (N m/rad or N/m)"
+        "critically damped there"
         + (f", stepped with MuJoCo's implicitfast integrator (implicit in their damping) instead of {former}" if explicit else "")
     )
-    return out, note
+    return spec.compile(), note
 
 
 def servo_omega(timestep: float) -> float:
@@ -548,8 +546,9 @@ def replay_dynamic(
     cfg = robot.config
     error = qpos[:, cfg.qpos_index] - trajectory.qpos[:, cfg.qpos_index]
     lo, hi = m.actuator_forcerange.T
+    servos = _servos(robot, m)
     servo = np.zeros(m.nu, dtype=bool)
-    servo[_servos(robot, m).actuator] = True  # the other actuators (say a gripper's, a held joint's) are left at ctrl 0
+    servo[servos.actuator] = True  # the other actuators (say a gripper's, a held joint's) are left at ctrl 0
     limited = servo & m.actuator_forcelimited.astype(bool)  # a held joint's servo pulling to 0 moves nothing: held
     at_limit = limited & ((force <= lo + 1e-9 * np.abs(lo)) | (force >= hi - 1e-9 * np.abs(hi)))
     saturated = at_limit.sum(axis=0)
@@ -580,6 +579,7 @@ def replay_dynamic(
         saturated_frames=saturated,
         warnings=warned,
         servo_note=note,
+        servo_kp=servos.gain * servos.gear**2 if note else None,
         clamped_frames=clamped,
         limit_note=_limit_note(m, clamped, saturated, T),
     )

@@ -41,11 +41,18 @@ def summary_table(outcome) -> str:
 
 
 def print_servo_note(outcome) -> None:
-    """One line when the dynamic replay had to add servos to the model (foam_mj.replay.servo_model), and one
-    per path whose servos ran into their ctrl or force range (DynamicReplay.limit_note)."""
-    notes = {po.dynamic.servo_note for po in outcome.paths.values() if po.dynamic is not None and po.dynamic.servo_note}
-    for note in sorted(notes):
-        print(f"note: {note}")
+    """One line when the dynamic replay had to add servos to the model (foam_mj.replay.servo_model), with each
+    joint's kp (its range over the paths: they are sized per path), and one per path whose servos ran into their
+    ctrl or force range (DynamicReplay.limit_note)."""
+    import numpy as np
+
+    added = [po.dynamic for po in outcome.paths.values() if po.dynamic is not None and po.dynamic.servo_note]
+    for note in sorted({dyn.servo_note for dyn in added}):
+        kp = np.array([dyn.servo_kp for dyn in added if dyn.servo_note == note])
+        lo, hi = kp.min(axis=0), kp.max(axis=0)
+        gains = ", ".join(f"{name} {a:.4g}" if f"{a:.4g}" == f"{b:.4g}" else f"{name} {a:.4g}-{b:.4g}"
+                          for name, a, b in zip(added[0].joint_names, lo, hi))
+        print(f"note: {note}: kp {gains} (N m/rad or N/m)")
     for po in outcome.paths.values():
         if po.dynamic is not None and po.dynamic.limit_note:
             print(f"note: {po.label}: dynamic replay: {po.dynamic.limit_note}")

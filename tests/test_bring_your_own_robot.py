@@ -47,6 +47,8 @@ def test_plan_on_an_unmodified_mjcf_from_the_command_line(tmp_path, capsys):
     assert main(["plan", "--mjcf", str(ARM), "--start", START, "--goal", GOAL, "--delta", "0.01", "--no-rrd", "--json", str(js)]) == 0
     out = capsys.readouterr().out
     assert "note: dynamic replay:" in out and "added position servo" in out
+    # The servos are sized per path: one note for all paths, each joint's kp (or its range over them) in it.
+    assert out.count("added position servo") == 1 and ": kp shoulder " in out
     assert "mm for slides); contacts: robot/obstacle contacts" in out  # not the Ortholeg's "hip slide" and "leg"
     doc = json.loads(js.read_text())
     assert doc["mjcf"] == str(ARM.resolve()) and doc["planner"]["delta"] == 0.01

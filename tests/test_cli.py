@@ -583,6 +583,22 @@ def test_the_summary_prints_a_sub_millimetre_clearance_with_its_digits(metres, t
     assert fmt_mm(metres) == text
 
 
+def test_the_added_servos_are_noted_once_with_each_joint_s_gains_over_the_paths(capsys):
+    """Added servos are sized per path (the joint's largest inertia along it): one note per path, each with its own
+    gains, printed c256's note six times. One note now, each joint's kp or its range over the paths."""
+    from types import SimpleNamespace
+
+    from foam_mj.summary import print_servo_note
+
+    def path(kp):
+        dyn = SimpleNamespace(servo_note="dynamic replay: added servos", servo_kp=np.array(kp), joint_names=("a", "b"),
+                              limit_note="", diverged=())
+        return SimpleNamespace(dynamic=dyn, label="p")
+
+    print_servo_note(SimpleNamespace(paths={"centre": path([100.0, 7.0]), "optimal": path([250.0, 7.0]), "none": SimpleNamespace(dynamic=None)}))
+    assert capsys.readouterr().out == "note: dynamic replay: added servos: kp a 100-250, b 7 (N m/rad or N/m)\n"
+
+
 def test_plan_says_so_when_no_obstacle_is_checked_because_the_scene_s_geoms_are_visual(tmp_path, capsys):
     """A floor and a box added beside an included model inherit its default class; Cassie's (MuJoCo Menagerie) makes
     every geom contype = conaffinity = 0, visual only, so the plan checked the robot against itself alone and went
