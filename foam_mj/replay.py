@@ -48,7 +48,9 @@ f = :data:`SERVO_HZ`, I_j the largest effective inertia of joint j over the traj
 inertia the joint drives when the others are free; M_jj would make a long chain's proximal joint, or a millimetre
 robot's, far stiffer than f), no force limit: critically damped where the inertia is largest, overdamped and at
 least f elsewhere. Sized at ``qpos0`` alone, a generated arm's second joint (0.03 kg m^2 there, 2.1 on the path) got
-128 N m/rad and lagged 30 mrad; sized over the path, 3.6. ``servo_note`` and ``servo_kp`` state them.
+128 N m/rad and lagged 30 mrad; sized over the path, 3.6. ``servo_note`` and ``servo_kp`` state them. What
+is left (1-7 mrad on generated arms) is the continuous feed-forward's mismatch above, not the gains (0 with a
+feed-forward consistent with the discrete steps).
 
 Integrator (a choice, for every integrator of the model): the copy is stepped with ``implicitfast`` (an ``implicit``
 model keeps ``implicit``), implicit in the servos' damping. Where the inertia is far below I_j the servos are stiff
@@ -368,15 +370,12 @@ def _exclude_held_contacts(spec: mujoco.MjSpec, m: mujoco.MjModel, robot: RobotM
 
 
 def servo_model(robot: RobotModel, qpos: np.ndarray | None = None) -> tuple[mujoco.MjModel, str]:
-    """The model the dynamic replay drives, and a one-line note ("" when no servo was added).
-
-    ``robot.model`` itself when it has a position servo on every configuration joint and no other joint;
-    else a copy in which the joints outside the configuration get the armature that makes them a fixed
-    mount (:data:`HOLD_ARMATURE`) and, when some configuration joint lacks a position servo, all actuators are
-    replaced by position servos sized from the joints' largest inertia over the configurations ``qpos`` (T, nq) the
-    replay will visit (default: ``qpos0`` alone), with damping proportional to their stiffness, and an Euler or RK4
-    model is stepped with ``implicitfast``, implicit in the servos' damping (module docstring).
-    """
+    """The model the dynamic replay drives, and a one-line note ("" when no servo was added): ``robot.model`` itself
+    when it has a position servo on every configuration joint and no other joint; else a copy in which the joints
+    outside the configuration get the armature that makes them a fixed mount (:data:`HOLD_ARMATURE`) and, when some
+    configuration joint lacks a position servo, all actuators are replaced by position servos sized from the joints'
+    largest inertia over the configurations ``qpos`` (T, nq) the replay visits (default: ``qpos0``), stepped with
+    ``implicitfast`` where the model is Euler or RK4 (module docstring)."""
     m = robot.model
     problem = _servo_problem(m, robot)
     held = held_joints(robot)
