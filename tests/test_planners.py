@@ -897,22 +897,30 @@ def test_trees_that_cannot_meet_name_where_they_came_nearest_and_what_blocks_it(
 def test_trees_that_stop_coming_closer_give_up_before_the_time_budget(tmp_path):
     """The same 0.8 m box: the trees fill their own sides with their smallest gap unchanged, and used to do so for the
     whole time budget (60 s by default). After `stall` iterations without coming r_min / 2 closer (at least as many as
-    before) they give up (outcome "stalled"), saying so and where they came nearest; stall = 0 searches on until a
-    budget ends."""
+    before) the resolution is refined (r_min / FINER, FINER_LEVELS times, each with a tenth of the window), then they
+    give up (outcome "stalled"), saying so, the resolutions tried and where they came nearest; stall = 0 searches on
+    until a budget ends."""
     from foam_mj.bubbles import BubbleOracle
+    from foam_mj.planners.bubbletree import FINER, FINER_LEVELS, FINER_STALL
 
     s = _tall_box_scenario(tmp_path)
     oracle = BubbleOracle(s.robot, delta=0.005)
     problem = PlanningProblem(oracle, s.q_init, s.q_goal, time_limit=600.0)
     with pytest.raises(PlanningFailed, match=r"the trees did not meet \(stalled: \d+ iterations without coming r_min / 2 = "
-                                             r"0\.00104 closer\) after \d+ bubbles in .*they came nearest at q = .*: the goal may "
-                                             r"be unreachable .*; the \[planner\] option stall = 0 searches until the time budget ends$") as err:
+                                             r"0\.00104 closer, r_min refined from 0\.00208 to 3\.26e-05 at iterations [\d,]+, [\d,]+, "
+                                             r"[\d,]+\) after \d+ bubbles in .*they came nearest at q = .*: the goal may "
+                                             r"be unreachable .*; a passage whose free bubbles all have radius below 3\.26e-05 "
+                                             r"\(clearance less than about [0-9.e-]+ m above delta\) stays closed to this search; "
+                                             r"the \[planner\] option stall = 0 searches until the time budget ends$") as err:
         get_planner("bubbletree", stall=200).plan(problem, seed=0)
-    assert err.value.stats.outcome == "stalled" and 200 <= err.value.stats.details["iterations"] < 1000
-    # It stops after `stall` iterations without progress, or after as many as it had run when it last came closer
-    # (a slow search that keeps coming closer is not cut).
-    idle = int(re.search(r"stalled: (\d+) iterations", str(err.value)).group(1))
-    assert idle == max(200, err.value.stats.details["iterations"] - idle)
+    details = err.value.stats.details
+    assert err.value.stats.outcome == "stalled" and 200 <= details["iterations"] < 1500
+    assert len(details["finer_at"]) == FINER_LEVELS and details["r_min"] == pytest.approx(0.00208 / FINER**FINER_LEVELS, rel=2e-3)
+    # The first level stops after `stall` iterations without progress, or after as many as it had run when it last
+    # came closer (a slow search that keeps coming closer is not cut); each finer one after stall / FINER_STALL, or as
+    # many as that level had run when it last came closer.
+    assert details["finer_at"][0] >= 200
+    assert all(b - a >= 200 // FINER_STALL for a, b in zip(details["finer_at"], details["finer_at"][1:] + [details["iterations"]]))
     # A budget that ends the search says when the trees last came closer (whether more could help).
     with pytest.raises(PlanningFailed, match=r"the trees did not meet \(bubble budget\) .*; they last came r_min / 2 closer at "
                                              r"iteration \d+ of \d+$") as err:
@@ -941,10 +949,11 @@ def test_a_time_limit_too_short_to_reach_the_goal_says_more_time_helps(oracles, 
                          r"|: the time budget ended before a bubble .*; raise time_limit", text), text
 
 
-def test_a_goal_in_a_slot_whose_bubbles_are_under_r_min_names_r_min_as_the_way_out(tmp_path):
+def test_a_goal_in_a_slot_whose_bubbles_are_under_r_min_plans_at_a_finer_resolution(tmp_path):
     """A two-link arm's forearm down in a slot 2 mm wider than it and the margin on each side: q_goal's bubble (2.67e-3)
-    and every bubble beside it are under r_min (3.34e-3), so its tree never grows. The failure said only 'move it away';
-    a smaller r_min plans it (certified), and the failure now says so."""
+    and every bubble beside it are under r_min (3.34e-3), so its tree never grew, and the plan failed (stalled) on a
+    feasible problem. r_min is a resolution, not a precondition: after the stall it is refined, and the plan reaches
+    the goal (certified). A plan that ends before any refinement still names r_min as a way out."""
     from foam_mj.bubbles import BubbleOracle
     from foam_mj.model import RobotModel
 
@@ -959,11 +968,11 @@ def test_a_goal_in_a_slot_whose_bubbles_are_under_r_min_names_r_min_as_the_way_o
     scene.write_text(f'<mujoco><compiler angle="radian"/><worldbody><geom type="plane" size="2 2 0.1"/>{walls}{arm}</worldbody></mujoco>')
     oracle = BubbleOracle(RobotModel.from_xml(scene), delta=0.005)
     problem = PlanningProblem(oracle, np.array([-1.0, 0.5]), np.array([0.0, np.pi / 2]), time_limit=600.0)
+    res = get_planner("bubbletree", stall=300).plan(problem, seed=0)
+    assert res.stats.outcome == "reached" and res.rosary.check_structure() == [] and len(res.stats.details["finer_at"]) >= 1
     with pytest.raises(PlanningFailed, match=r"the goal tree never grew: q_goal's certified bubble has radius 0.00267 < r_min = "
                                              r"0.00334 .*: move it away, or lower r_min \(an option of the \[planner\] table\)"):
-        get_planner("bubbletree", stall=300).plan(problem, seed=0)
-    res = get_planner("bubbletree", r_min=0.0005).plan(problem, seed=0)
-    assert res.stats.outcome == "reached" and res.rosary.check_structure() == []
+        get_planner("bubbletree", stall=300).plan(PlanningProblem(oracle, problem.q_init, problem.q_goal, max_bubbles=300), seed=0)
 
 
 def test_an_end_bubble_under_r_min_climbs_up_its_radius_where_no_random_step_gains_half_of_it(tmp_path):
@@ -1129,3 +1138,41 @@ def test_bubbletree_explores_and_refines_in_proportion_to_a_large_configuration_
     path = np.vstack([q0, res.waypoints, q1])
     samples = np.concatenate([a + (b - a) * np.linspace(0, 1, 20)[:, None] for a, b in zip(path[:-1], path[1:])])
     assert min(oracle.clearance(q) for q in samples) > 0.005
+
+
+def _puck_behind_a_wall(tmp_path, gap: float | None):
+    """A sphere of radius 5 cm on two slides (x, y in [0, 2] m) and a wall across the whole y range at x = 1, with a slot
+    ``gap`` wide about y = 1 (None: no slot); start and goal on either side."""
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.model import RobotModel
+
+    box = '<geom name="{}" type="box" pos="1 {} 0.1" size="0.01 {} 0.1"/>'
+    walls = box.format("wall", 1.0, 1.5) if gap is None else "".join(
+        box.format(name, 1.0 + sign * (gap / 2 + 0.75), 0.75) for name, sign in (("low", -1), ("high", 1)))
+    scene = tmp_path / "puck.xml"
+    scene.write_text(f'<mujoco><worldbody>{walls}<body name="puck" pos="0 0 0.1">'
+                     '<joint name="x" type="slide" axis="1 0 0" range="0 2"/><joint name="y" type="slide" axis="0 1 0" range="0 2"/>'
+                     '<geom name="puck" type="sphere" size="0.05" mass="1"/></body></worldbody></mujoco>')
+    robot = RobotModel.from_xml(scene)
+    oracle = BubbleOracle(robot, delta=0.005)
+    return robot, oracle, PlanningProblem(oracle, np.array([0.3, 1.0]), np.array([1.7, 1.0]), time_limit=600.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_slot_narrower_than_r_min_bubbles_is_threaded(tmp_path, seed):
+    """A puck through a slot 2 mm wider than itself and the margin on each side: every bubble in the slot has radius
+    1e-3, under r_min (2.5e-3), so the trees stalled on either side and the plan said "the goal may be unreachable" on a
+    feasible problem. After the stall r_min is refined (FINER) and the trees meet through the slot; the paths keep
+    delta, by MuJoCo. Without a slot the plan still stalls, naming the finest resolution it tried."""
+    from tests.conftest import MujocoChecker
+
+    robot, oracle, problem = _puck_behind_a_wall(tmp_path, 2 * 0.05 + 2 * 0.005 + 0.002)
+    res = get_planner("bubbletree", stall=300).plan(problem, seed=seed)
+    assert res.stats.outcome == "reached" and res.stats.details["finer_at"]
+    assert res.rosary.radii.min() < 0.0025
+    _check_paths(MujocoChecker(robot), oracle, res, 0.005)
+    _, _, problem = _puck_behind_a_wall(tmp_path, None)
+    with pytest.raises(PlanningFailed, match=r"\(stalled: \d+ iterations without coming r_min / 2 = 0.00125 closer, r_min refined from "
+                                             r"0.0025 to 3.91e-05 at iterations .*clearance -0.0\d+ m between puck and wall: the goal may "
+                                             r"be unreachable .*a passage whose free bubbles all have radius below 3.91e-05"):
+        get_planner("bubbletree", stall=300).plan(problem, seed=seed)

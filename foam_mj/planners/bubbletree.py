@@ -207,6 +207,19 @@ CHAIN_FIRST = 2.0
 #: A box 0.52 m tall is feasible but slow: seed 0's first path came at iteration 16,049 (126 s), after stalls of up to
 #: 1,821 iterations; seed 1 had not met at 150 s, stalls up to 2,297 (the relative rule keeps such runs going).
 STALL = 3_000
+#: FINER: a stall is not yet a failure while the resolution can be refined: r_min is divided by FINER and the search goes
+#: on, at most FINER_LEVELS times (and not below SMALLEST), the nearest pairs' tries reset; the gap must still shrink by
+#: the first r_min / 2 to count as progress, and a finer level's window is stall / FINER_STALL (or as many iterations as
+#: that level had run when the trees last came closer, if more). r_min is a resolution of the growth, not a
+#: precondition: a puck's slot 1-4 mm wider than the puck and its margin on each side (bubbles of 0.5-2 mm, r_min 2.5 mm)
+#: is feasible, and the plans stalled there, "maybe unreachable". Measured (2 seeds each): after a refinement, a slot
+#: through a 2 cm wall was threaded within 8-30 iterations, one through a 30 cm wall within 85-325; unreachable goals now
+#: cost 900 iterations more at the finer levels (the leg's cup and 0.7 m wall: 26-37 s on a loaded machine, not 8-16 s).
+#: A slot between a joint limit and a wall (bubbles of at most 2.5 mm) planned on one of two seeds. The benchmark
+#: problems never stall: their plans are unchanged.
+FINER = 4.0
+FINER_LEVELS = 3
+FINER_STALL = 10
 #: Upper bounds of ``batch``/``connect`` and of ``explore`` (beyond them memory or time explode, nothing improves).
 MAX_EXTENSIONS = 1_000
 MAX_EXPLORE = 100.0
@@ -328,7 +341,7 @@ class BubbleTreePlanner(Planner):
         B = Bubbles(n)
         counters = {"iterations": 0, "candidates": 0, "rejected_small": 0, "rejected_covered": 0}
         def stats(outcome: str, t_first: float | None, extra: dict | None = None) -> PlanStats:
-            details = dict(counters, r_min=r_min, tree_start=int(np.sum(B.tree[: B.n] == 0)), tree_goal=int(np.sum(B.tree[: B.n] == 1)))
+            details = dict(counters, r_min=r_min, finer_at=list(finer_at), tree_start=int(np.sum(B.tree[: B.n] == 0)), tree_goal=int(np.sum(B.tree[: B.n] == 1)))
             details.update(extra or {})
             return PlanStats(self.name, outcome, B.n, oracle.clearance.calls - calls0, timer.elapsed(), t_first, details)
 
@@ -389,9 +402,20 @@ class BubbleTreePlanner(Planner):
         it_first = 0
         foam_first = 0
         gap_then, it_then = np.inf, 0  # the gap at the last progress (the trees came r_min / 2 closer), and its iteration
+        r_coarse, it_level = r_min, 0  # the first resolution, and the iteration at which the present one began (FINER)
+        finer_at: list[int] = []  # the iterations at which the resolution was refined
         while True:
-            if B.closest <= gap_then - 0.5 * r_min:
+            if B.closest <= gap_then - 0.5 * r_coarse:
                 gap_then, it_then = B.closest, counters["iterations"]
+            window = o.stall if not finer_at else -(-o.stall // FINER_STALL)  # a finer level's window is shorter (FINER)
+            stalled = t_first is None and o.stall and counters["iterations"] - it_then >= max(window, it_then - it_level)
+            if stalled and r_min / FINER >= max(SMALLEST, r_coarse / FINER**FINER_LEVELS) * (1 - 1e-12):
+                r_min /= FINER  # a finer resolution: a passage narrower than the last one's bubbles may open (FINER)
+                gap_then, it_then, it_level = B.closest, counters["iterations"], counters["iterations"]
+                finer_at.append(it_level)
+                for T in B.trees:  # the nearest pairs' extensions failed at the coarser resolution: try them again
+                    T.tries[: T.n] = 0
+                stalled = False
             if link is not None and t_first is None:
                 t_first, it_first, foam_first = timer.elapsed(), counters["iterations"], B.n
                 cpu_first = time.process_time() - cpu0
@@ -399,7 +423,6 @@ class BubbleTreePlanner(Planner):
                     sampler = InformedSampler(q0, q1, chain_length(link), metric)
             if t_first is not None and counters["iterations"] - it_first >= int(np.ceil(o.explore * min(it_first, EXPLORE_CAP))):
                 break  # the first path, then `explore` x as many iterations again (at most EXPLORE_CAP) for other routes
-            stalled = t_first is None and o.stall and counters["iterations"] - it_then >= max(o.stall, it_then)
             if timer.elapsed() > problem.time_limit or B.n >= problem.max_bubbles or stalled:
                 if t_first is not None:
                     break
@@ -420,12 +443,18 @@ class BubbleTreePlanner(Planner):
                 )
                 why, tail = outcome, stuck or closest_approach(outcome != "time budget")
                 idle, total = counters["iterations"] - it_then, counters["iterations"]
+                finer = (f"r_min refined from {r_coarse:.3g} to {r_min:.3g} at iteration{'s' if len(finer_at) > 1 else ''} "
+                         f"{', '.join(f'{i:,}' for i in finer_at)}") if finer_at else ""
                 if outcome == "stalled":
-                    why += f": {idle:,} iterations without coming r_min / 2 = {0.5 * r_min:.3g} closer"
-                    tail += "; the [planner] option stall = 0 searches until the time budget ends"
+                    why += f": {idle:,} iterations without coming r_min / 2 = {0.5 * r_coarse:.3g} closer{f', {finer}' if finer else ''}"
+                    tail += (f"; a passage whose free bubbles all have radius below {r_min:.3g} (clearance less than about "
+                             f"{r_min * factor:.2g} m above delta) stays closed to this search; the [planner] option stall = 0 "
+                             "searches until the time budget ends")
+                elif finer:
+                    tail += f"; {finer}"
                 else:  # a budget ended it: whether they were still coming closer tells whether more could help
                     tail += f"; they last came r_min / 2 closer at iteration {it_then:,} of {total:,}"
-                    if outcome == "time budget" and o.stall and idle < max(o.stall, it_then):
+                    if outcome == "time budget" and o.stall and idle < max(window, it_then - it_level):
                         tail += (f": the time limit ({problem.time_limit:g} s) ended the search before the trees stalled; with more "
                                  "(--time-limit, the [planner] time_limit) it goes on until they meet or stall")
                 raise PlanningFailed.after(f"the trees did not meet ({why}) after {B.n} bubbles", st, tail, B.foam(q0, q1))
