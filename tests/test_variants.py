@@ -386,3 +386,55 @@ def test_a_start_bubble_of_micrometres_is_named_by_its_radius(scene_oracles):
         plan_gbpf(scene_oracles["obstacle"], q_init, s.q_goal, params, seed=0)
     with pytest.raises(ConfigurationError, match=r"admits a root bubble of radius 8.33e-06 < r_min = 0.07"):
         plan_pfm(scene_oracles["obstacle"], q_init, s.q_goal, params, seed=0)
+
+
+def _puck_behind_a_wall(tmp_path):
+    """A sphere of radius 5 cm on two slides (x, y in [0, 2] m) and a wall across the whole y range at x = 1."""
+    scene = tmp_path / "puck.xml"
+    scene.write_text('<mujoco><worldbody><geom name="wall" type="box" pos="1 1 0.1" size="0.025 1.5 0.1"/>'
+                     '<body name="puck" pos="0 0 0.1"><joint name="x" type="slide" axis="1 0 0" range="0 2"/>'
+                     '<joint name="y" type="slide" axis="0 1 0" range="0 2"/><geom name="puck" type="sphere" size="0.05" mass="1"/>'
+                     '</body></worldbody></mujoco>')
+    return BubbleOracle(RobotModel.from_xml(scene), delta=0.005)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_gbpf_stops_once_its_foam_is_proven_closed(tmp_path, seed):
+    """A puck behind a wall across the whole joint range: GBPF's foam stops growing after some 25 bubbles, and it drew
+    samples until the time budget ended (10 s, 20 s: whatever the limit). Once no bubble has been added for a while,
+    it proves the foam closed (no point of any bubble's surface in the box and outside the other bubbles has a
+    certified radius >= r_min, so no sample can ever add one) and fails at once, "queue empty", saying so. The proof
+    is checked here by sampling every surface densely."""
+    oracle = _puck_behind_a_wall(tmp_path)
+    params = FoamParams(r_min=0.07, delta=0.005, time_limit=60.0)
+    with pytest.raises(PlanningFailed, match=r"\(queue empty\) after (\d+) bubbles in .*: the foam is closed at r_min = 0.07: no bubble "
+                                             r"of radius >= r_min fits on the surface of any of its \1 bubbles outside the others "
+                                             r"\(proven by a cover of each surface, [\d,]+ distance queries\), so no sample can add one; "
+                                             r"it came nearest .*a way narrower than that stays closed to it") as err:
+        plan_gbpf(oracle, np.array([0.3, 1.0]), np.array([1.7, 1.0]), params, seed=seed)
+    foam = err.value.foam
+    assert err.value.stats.elapsed < 30.0
+    lo, hi = oracle.robot.lower, oracle.robot.upper
+    angles = np.linspace(0.0, 2 * np.pi, 4000, endpoint=False)
+    for i, (c, r) in enumerate(zip(foam.centers, foam.radii)):
+        p = c + r * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        p = p[np.all((p >= lo) & (p <= hi), axis=1)]
+        others = np.arange(len(foam.radii)) != i
+        d2 = np.sum((p[:, None, :] - foam.centers[others][None]) ** 2, axis=2)
+        p = p[~(d2 < foam.radii[others] ** 2).any(axis=1)]
+        assert len(p) == 0 or oracle.radii(p).max() < 0.07
+
+
+def test_a_surface_inside_other_bubbles_holds_no_child(tmp_path):
+    """surface_holds_no_child with the foam's other bubbles: a bubble in open space whose sphere lies inside four others
+    (a candidate there is dropped as covered) is closed, though every point of it has a radius far above r_min; a gap
+    between the four leaves it open."""
+    from foam_mj.planners.variants import surface_holds_no_child
+
+    oracle = _puck_behind_a_wall(tmp_path)
+    c, r = np.array([0.5, 1.0]), 0.1
+    assert oracle.radii(c[None])[0] > 0.3
+    around = c + 0.1 * np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+    assert not surface_holds_no_child(oracle, c, r, 0.07)
+    assert surface_holds_no_child(oracle, c, r, 0.07, others=(around, np.full(4, 0.16)))
+    assert not surface_holds_no_child(oracle, c, r, 0.07, others=(around, np.full(4, 0.07)))

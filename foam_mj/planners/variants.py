@@ -99,7 +99,8 @@ class GoalBias:
 COVER_QUERIES = 2_048
 
 
-def surface_holds_no_child(oracle: BubbleOracle, c: np.ndarray, r: float, r_min: float, budget: int = COVER_QUERIES) -> bool:
+def surface_holds_no_child(oracle: BubbleOracle, c: np.ndarray, r: float, r_min: float, budget: int = COVER_QUERIES,
+                           others: tuple[np.ndarray, np.ndarray] | None = None) -> bool:
     """True when no point of the sphere |x - c| = r inside the joint box has a certified radius >= r_min, proven by a
     cover: the sphere is the radial image of the faces of the cube [-1, 1]^n, cut into patches (sub-cubes of a face,
     halved until proven); the image of a patch of half-diagonal h lies within rho = r h of the image p of its centre
@@ -109,8 +110,13 @@ def surface_holds_no_child(oracle: BubbleOracle, c: np.ndarray, r: float, r_min:
     False as soon as a point has radius >= r_min (a child fits), or beyond ``budget`` distance queries (not proven).
     gbpf's random samples of such a root searched the whole time budget: a start beside an obstacle 3.4 cm to the
     leg's side, whose clearance no in-plane motion changes (every bubble there 0.0433 < r_min = 0.07), took 20 s
-    to fail where 126 queries prove it."""
+    to fail where 126 queries prove it. With ``others`` (the centres and radii of the foam's other bubbles), a patch
+    strictly inside one of them (|p - c_j| + rho < r_j) is closed too: a candidate there is dropped as covered."""
     n, lo, hi = len(c), oracle.robot.lower, oracle.robot.upper
+    if others is not None:  # only the bubbles that reach the sphere can cover a patch of it
+        oc, orr = others
+        near = np.linalg.norm(oc - c, axis=1) < r + orr
+        oc, orr = oc[near], orr[near]
     faces = [(k, s) for k in range(n) for s in (-1.0, 1.0)]
     patches = [(k, sgn, np.zeros(n - 1)) for k, sgn in faces]
     half = 1.0
@@ -121,19 +127,29 @@ def surface_holds_no_child(oracle: BubbleOracle, c: np.ndarray, r: float, r_min:
         rho = r * half * np.sqrt(n - 1)
         out = np.maximum(lo - p, p - hi).max(axis=1)  # > 0: outside the box by that much
         closed = np.where(out > 0, rho - out < r_min, False)
-        inside = np.flatnonzero(out <= 0)
+        if others is not None and len(orr):
+            closed |= (np.linalg.norm(p[:, None, :] - oc[None], axis=2) + rho < orr).any(axis=1)
+        inside = np.flatnonzero((out <= 0) & ~closed)
         if inside.size > budget:
             return False
         budget -= inside.size
         radii = oracle.radii(p[inside])
-        if (radii >= r_min).any():
-            return False
+        big = radii >= r_min
+        if big.any() and (others is None or not _covered(p[inside[big]], oc, orr).all()):
+            return False  # a point of the box, outside the other bubbles, where a child fits
         closed[inside] = radii + rho < r_min
         if np.count_nonzero(~closed) * len(corners) > budget:  # the next level would cost more than is left
             return False
         half /= 2
         patches = [(k, sgn, m + half * d) for (k, sgn, m), done in zip(patches, closed) if not done for d in corners]
     return True
+
+
+def _covered(points: np.ndarray, centers: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """For each point: strictly inside one of the balls (the test of :meth:`foam_mj.foam.CoverageIndex.covered`)?"""
+    if len(radii) == 0:
+        return np.zeros(len(points), dtype=bool)
+    return (np.sum((points[:, None, :] - centers[None]) ** 2, axis=2) < radii**2).any(axis=1)
 
 
 def _unit(rng: np.random.Generator, count: int, dim: int) -> np.ndarray:
@@ -179,6 +195,7 @@ class _Growth:
         self.count = 0
         self.index = CoverageIndex(self.n)
         self.goal: int | None = None
+        self.closed = ""  # why the foam can grow no further, once proven (GBPF's _Closure)
         self.add(self.q_init, r0, -1)
         self.goal = 0 if self.holds_goal(self.q_init, r0) else None
 
@@ -288,6 +305,8 @@ class _Growth:
             else:
                 stuck = (small_goal_hint(self.oracle, self.q_goal, self.params.r_min, outcome)
                          or nearest_hint(self.oracle, foam, self.params.r_min, outcome))
+                if self.closed:
+                    stuck = f"{self.closed}; {stuck.removeprefix(': ')}"
             raise PlanningFailed.after(f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles", st, stuck, foam)
         return PlanResult(foam, foam.rosary(), st)
 
@@ -404,6 +423,8 @@ def plan_gbpf(
     B = int(goal_bias.batch)
     if g.goal is None and g.root_cannot_grow():
         return g.finish("queue empty")  # random samples would spend the whole time budget finding nothing
+    closure = _Closure(g)
+    idle = 0  # batches since a bubble was last added
     while g.goal is None:
         if (outcome := g.budget()) is not None:
             return g.finish(outcome)
@@ -423,11 +444,57 @@ def plan_gbpf(
         if len(aux) == 0:
             continue
         cand = g.centers[parent] + g.radii[parent, None] * step / norm[:, None]
-        rejected, _ = g.offer(cand, parent)
+        rejected, added = g.offer(cand, parent)
         dead_toward_goal[parent[to_goal & rejected]] = True
+        idle = 0 if len(added) else idle + 1
+        if idle >= closure.next_check and closure.proven():
+            return g.finish("queue empty")  # no sample can ever add a bubble
         if g.count > len(dead_toward_goal):
             dead_toward_goal = np.concatenate([dead_toward_goal, np.zeros(max(len(dead_toward_goal), g.count), dtype=bool)])
     return g.finish("reached")
+
+
+#: GBPF checks whether its foam is closed (:class:`_Closure`) once this many batches in a row added no bubble, then after
+#: twice as many each time the check fails. Reachable goals went at most 3 batches without a bubble (session 15's
+#: measurement); unreachable ones 51-501 on the 3-joint leg and the whole budget on a 2-joint puck.
+CLOSURE_IDLE = 16
+
+
+class _Closure:
+    """Whether GBPF's foam is closed at r_min: no point of any bubble's surface, inside the joint box and strictly
+    inside no other bubble, has a certified radius >= r_min (:func:`surface_holds_no_child` with the other bubbles,
+    bubble by bubble). Then no candidate GBPF can draw (a point of a bubble's surface) is ever kept: the foam can
+    grow no further, and waiting out the time budget would change nothing. Sound by construction, and monotone: a
+    bubble proven closed stays closed as bubbles are added (they only cover more), so each is proven once."""
+
+    def __init__(self, g: _Growth) -> None:
+        self.g = g
+        self.done = 0  # bubbles 0 .. done - 1 are proven closed
+        self.next_check = CLOSURE_IDLE
+        self.queries = 0
+
+    def proven(self) -> bool:
+        """Prove the remaining bubbles closed, in order; False at the first that is not (and check again later)."""
+        g = self.g
+        calls = g.oracle.clearance.calls
+        try:
+            while self.done < g.count:
+                if g.budget() is not None:  # a long proof stops with the budget (and reports progress)
+                    return False
+                i = self.done
+                others = np.ones(g.count, dtype=bool)
+                others[i] = False
+                if not surface_holds_no_child(g.oracle, g.centers[i], float(g.radii[i]), g.params.r_min,
+                                              others=(g.centers[: g.count][others], g.radii[: g.count][others])):
+                    self.next_check *= 2
+                    return False
+                self.done += 1
+        finally:
+            self.queries += g.oracle.clearance.calls - calls
+        g.closed = (f": the foam is closed at r_min = {g.params.r_min}: no bubble of radius >= r_min fits on the surface of any "
+                    f"of its {g.count} bubbles outside the others (proven by a cover of each surface, {self.queries:,} distance "
+                    "queries), so no sample can add one")
+        return True
 
 
 # ---------------------------------------------------------------------------------------------------
