@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -171,7 +173,9 @@ PLATE = """<mujoco><compiler angle="radian"/><worldbody>
 def test_a_foam_that_cannot_pass_a_narrow_way_says_where_it_stopped_and_why(tmp_path, variant):
     """The way past the plate is narrower than bubbles of r_min = 0.07 (bubbletree plans it): the failure named only
     the outcome ("queue empty after 157 bubbles"); it now names the bubble that came nearest q_goal, what blocks the
-    way there, and that r_min keeps every bubble larger than the way."""
+    way there, and that r_min keeps every bubble larger than the way. Its queue emptied with room left (each bubble
+    draws its candidates once): the failure also says where a bubble of r_min still fits, and that point is checked
+    here (on a bubble's surface, in the joint box, in no other bubble, a certified radius >= r_min)."""
     from foam_mj.planners import PlanningProblem, get_planner
 
     (tmp_path / "plate.xml").write_text(PLATE)
@@ -180,8 +184,20 @@ def test_a_foam_that_cannot_pass_a_narrow_way_says_where_it_stopped_and_why(tmp_
     with pytest.raises(PlanningFailed, match=r"did not reach q_goal \(queue empty\) after \d+ bubbles in [0-9.]+ s: it came "
                        r"nearest with the bubble at q = \[.*\] \(radius [0-9.]+, its surface [0-9.]+ from q_goal; clearance "
                        r"0\.0\d+ m between c2 and plate there\); every bubble has radius >= r_min = 0.07, so a way narrower than "
-                       r"that stays closed to it: lower r_min, or plan with bubbletree"):
+                       r"that stays closed to it: lower r_min, or plan with bubbletree; but the foam is not closed: its random "
+                       r"candidates missed room for a bubble of radius [0-9.]+ >= r_min at q = \[.*\], on the surface of the bubble "
+                       r"at q = \[.*\] \(each bubble is expanded once, with K floor\(r / r_min\)\^\(n-1\) = 10 floor\(r / 0.07\)\^1 "
+                       r"random candidates\): raise K, or plan with bubbletree$") as err:
         get_planner(variant).plan(problem, seed=0)
+    x, c = (np.array([float(v) for v in g.split(",")]) for g in re.search(
+        r"missed room for a bubble of radius [0-9.]+ >= r_min at q = \[([^]]+)\], on the surface of the bubble at q = \[([^]]+)\]",
+        str(err.value)).groups())
+    foam = err.value.foam
+    i = int(np.argmin(np.linalg.norm(foam.centers - c, axis=1)))
+    assert np.linalg.norm(foam.centers[i] - c) < 1e-4 and abs(np.linalg.norm(x - c) - foam.radii[i]) < 2e-4  # printed to 4 decimals
+    assert np.all((x >= oracle.robot.lower) & (x <= oracle.robot.upper)) and oracle.radii(x[None])[0] >= 0.07 - 2e-4
+    others = np.arange(len(foam.radii)) != i
+    assert np.all(np.linalg.norm(foam.centers[others] - x, axis=1) >= foam.radii[others] - 2e-4)
     assert get_planner("bubbletree").plan(problem, seed=0).rosary.check_structure() == []
     oracle.close()
 

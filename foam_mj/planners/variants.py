@@ -101,13 +101,20 @@ COVER_QUERIES = 2_048
 
 def surface_holds_no_child(oracle: BubbleOracle, c: np.ndarray, r: float, r_min: float, budget: int = COVER_QUERIES,
                            others: tuple[np.ndarray, np.ndarray] | None = None) -> bool:
+    """:func:`surface_cover`'s proof alone."""
+    return surface_cover(oracle, c, r, r_min, budget, others)[0]
+
+
+def surface_cover(oracle: BubbleOracle, c: np.ndarray, r: float, r_min: float, budget: int = COVER_QUERIES,
+                  others: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[bool, np.ndarray | None]:
     """True when no point of the sphere |x - c| = r inside the joint box has a certified radius >= r_min, proven by a
     cover: the sphere is the radial image of the faces of the cube [-1, 1]^n, cut into patches (sub-cubes of a face,
     halved until proven); the image of a patch of half-diagonal h lies within rho = r h of the image p of its centre
     (the radial map is 1-Lipschitz off the unit ball), and the radius is 1-Lipschitz in the box (each pair's term, as
     the bubbles' own bound, and the distance to the bounds), so the patch holds no child when r(p) + rho < r_min, or,
     for p outside the box by e, when rho - e < r_min (a point of the box within rho of p is within rho - e of a face).
-    False as soon as a point has radius >= r_min (a child fits), or beyond ``budget`` distance queries (not proven).
+    (True, None) when proven; (False, that point) as soon as a point has radius >= r_min (a child fits); (False, None)
+    beyond ``budget`` distance queries (not proven).
     gbpf's random samples of such a root searched the whole time budget: a start beside an obstacle 3.4 cm to the
     leg's side, whose clearance no in-plane motion changes (every bubble there 0.0433 < r_min = 0.07), took 20 s
     to fail where 126 queries prove it. With ``others`` (the centres and radii of the foam's other bubbles), a patch
@@ -131,18 +138,20 @@ def surface_holds_no_child(oracle: BubbleOracle, c: np.ndarray, r: float, r_min:
             closed |= (np.linalg.norm(p[:, None, :] - oc[None], axis=2) + rho < orr).any(axis=1)
         inside = np.flatnonzero((out <= 0) & ~closed)
         if inside.size > budget:
-            return False
+            return False, None
         budget -= inside.size
         radii = oracle.radii(p[inside])
-        big = radii >= r_min
-        if big.any() and (others is None or not _covered(p[inside[big]], oc, orr).all()):
-            return False  # a point of the box, outside the other bubbles, where a child fits
+        big = np.flatnonzero(radii >= r_min)
+        if big.size:  # a point of the box where a child fits, unless it lies in another bubble
+            free = big if others is None else big[~_covered(p[inside[big]], oc, orr)]
+            if free.size:
+                return False, p[inside[free[0]]]
         closed[inside] = radii + rho < r_min
         if np.count_nonzero(~closed) * len(corners) > budget:  # the next level would cost more than is left
-            return False
+            return False, None
         half /= 2
         patches = [(k, sgn, m + half * d) for (k, sgn, m), done in zip(patches, closed) if not done for d in corners]
-    return True
+    return True, None
 
 
 def _covered(points: np.ndarray, centers: np.ndarray, radii: np.ndarray) -> np.ndarray:
@@ -307,6 +316,8 @@ class _Growth:
                          or nearest_hint(self.oracle, foam, self.params.r_min, outcome))
                 if self.closed:
                     stuck = f"{self.closed}; {stuck.removeprefix(': ')}"
+                elif outcome == "queue empty":  # rbpf, hpf: every bubble expanded once
+                    stuck += queue_empty_text(self.oracle, foam, self.params.r_min, self.params.K)
             raise PlanningFailed.after(f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles", st, stuck, foam)
         return PlanResult(foam, foam.rosary(), st)
 
@@ -460,6 +471,58 @@ def plan_gbpf(
 CLOSURE_IDLE = 16
 
 
+def foam_closure(oracle: BubbleOracle, centers: np.ndarray, radii: np.ndarray, r_min: float, start: int = 0,
+                 queries: int | None = None, stop: Callable[[], bool] | None = None) -> tuple[int, tuple[int, np.ndarray] | None]:
+    """Prove bubbles ``start``, ``start`` + 1, ... of a foam closed at ``r_min`` (:func:`surface_cover` with the other
+    bubbles: no point of its surface in the box and outside the others has radius >= r_min), in order, until one is
+    not. Returns (the number of bubbles proven closed counted from 0, the first open bubble and a point of its surface
+    where a child fits, if one was found); stops early, proving nothing more, beyond ``queries`` distance queries or
+    when ``stop()`` says so. The foam is closed when the count is len(radii)."""
+    calls0 = oracle.clearance.calls
+    done = start
+    while done < len(radii):
+        left = None if queries is None else queries - (oracle.clearance.calls - calls0)
+        if (left is not None and left <= 0) or (stop is not None and stop()):
+            return done, None
+        others = np.arange(len(radii)) != done
+        proven, witness = surface_cover(oracle, centers[done], float(radii[done]), r_min,
+                                        COVER_QUERIES if left is None else min(COVER_QUERIES, left), (centers[others], radii[others]))
+        if not proven:
+            return done, None if witness is None else (done, witness)
+        done += 1
+    return done, None
+
+
+def closure_text(count: int, r_min: float, queries: int) -> str:
+    """That a foam of ``count`` bubbles is closed at ``r_min``, proven with ``queries`` distance queries."""
+    return (f"the foam is closed at r_min = {r_min}: no bubble of radius >= r_min fits on the surface of any of its {count} "
+            f"bubbles outside the others (proven by a cover of each surface, {queries:,} distance queries)")
+
+
+def open_text(oracle: BubbleOracle, foam: Foam, r_min: float, K: int, found: tuple[int, np.ndarray]) -> str:
+    """That a foam whose queue emptied is not closed: the candidates drawn missed room for a child at the point found."""
+    i, x = found
+    r = float(oracle.radii(x[None])[0])
+    return (f"; but the foam is not closed: its random candidates missed room for a bubble of radius {r:.3g} >= r_min at "
+            f"q = {np.round(x, 4).tolist()}, on the surface of the bubble at q = {np.round(foam.centers[i], 4).tolist()} "
+            f"(each bubble is expanded once, with K floor(r / r_min)^(n-1) = {K} floor(r / {r_min})^{foam.centers.shape[1] - 1} "
+            "random candidates): raise K, or plan with bubbletree")
+
+
+#: A foam whose queue emptied is checked for closure (:func:`foam_closure`) with at most this many distance queries.
+DIAGNOSIS_QUERIES = 10_000
+
+
+def queue_empty_text(oracle: BubbleOracle, foam: Foam, r_min: float, K: int) -> str:
+    """Whether a PFM-style foam whose queue emptied is closed at r_min (proven), or where its candidates missed room for a
+    child; "" when neither is settled within DIAGNOSIS_QUERIES."""
+    calls = oracle.clearance.calls
+    done, found = foam_closure(oracle, foam.centers, foam.radii, r_min, queries=DIAGNOSIS_QUERIES)
+    if done == len(foam.radii):
+        return f"; proven: {closure_text(done, r_min, oracle.clearance.calls - calls)}"
+    return "" if found is None else open_text(oracle, foam, r_min, K, found)
+
+
 class _Closure:
     """Whether GBPF's foam is closed at r_min: no point of any bubble's surface, inside the joint box and strictly
     inside no other bubble, has a certified radius >= r_min (:func:`surface_holds_no_child` with the other bubbles,
@@ -477,23 +540,14 @@ class _Closure:
         """Prove the remaining bubbles closed, in order; False at the first that is not (and check again later)."""
         g = self.g
         calls = g.oracle.clearance.calls
-        try:
-            while self.done < g.count:
-                if g.budget() is not None:  # a long proof stops with the budget (and reports progress)
-                    return False
-                i = self.done
-                others = np.ones(g.count, dtype=bool)
-                others[i] = False
-                if not surface_holds_no_child(g.oracle, g.centers[i], float(g.radii[i]), g.params.r_min,
-                                              others=(g.centers[: g.count][others], g.radii[: g.count][others])):
-                    self.next_check *= 2
-                    return False
-                self.done += 1
-        finally:
-            self.queries += g.oracle.clearance.calls - calls
-        g.closed = (f": the foam is closed at r_min = {g.params.r_min}: no bubble of radius >= r_min fits on the surface of any "
-                    f"of its {g.count} bubbles outside the others (proven by a cover of each surface, {self.queries:,} distance "
-                    "queries), so no sample can add one")
+        # a long proof stops with the budget (and reports progress)
+        self.done, _ = foam_closure(g.oracle, g.centers[: g.count], g.radii[: g.count], g.params.r_min, self.done,
+                                    stop=lambda: g.budget() is not None)
+        self.queries += g.oracle.clearance.calls - calls
+        if self.done < g.count:
+            self.next_check *= 2
+            return False
+        g.closed = f": {closure_text(g.count, g.params.r_min, self.queries)}, so no sample can add one"
         return True
 
 
