@@ -580,7 +580,7 @@ def plan(
         foam = foam_now()
         hint = small_goal_hint(oracle, q_goal, params.r_min, stats.outcome) or nearest_hint(oracle, foam, params.r_min, stats.outcome)
         if stats.outcome == "queue empty":  # closed at r_min, or its candidates missed room (foam_mj.planners.variants)
-            from foam_mj.planners.variants import queue_empty_text
+            from foam_mj.planners.closure import queue_empty_text
 
             hint += queue_empty_text(oracle, foam, params.r_min, params.K)
         raise PlanningFailed.after(f"the foam did not reach q_goal ({stats.outcome}) after {stats.bubbles} bubbles", stats, hint, foam)
