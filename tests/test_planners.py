@@ -1171,8 +1171,13 @@ def test_a_slot_narrower_than_r_min_bubbles_is_threaded(tmp_path, seed):
     assert res.stats.outcome == "reached" and res.stats.details["finer_at"]
     assert res.rosary.radii.min() < 0.0025
     _check_paths(MujocoChecker(robot), oracle, res, 0.005)
-    _, _, problem = _puck_behind_a_wall(tmp_path, None)
+    _, oracle, problem = _puck_behind_a_wall(tmp_path, None)
     with pytest.raises(PlanningFailed, match=r"\(stalled: \d+ iterations without coming r_min / 2 = 0.00125 closer, r_min refined from "
                                              r"0.0025 to 3.91e-05 at iterations .*clearance -0.0\d+ m between puck and wall: the goal may "
                                              r"be unreachable .*a passage whose free bubbles all have radius below 3.91e-05"):
         get_planner("bubbletree", stall=300).plan(problem, seed=seed)
+    # A budget that ends the search after a refinement names it, and the last real progress (not the refinement).
+    with pytest.raises(PlanningFailed, match=r"\(bubble budget\) .*; r_min refined from 0.0025 to [0-9.e-]+ at iterations? [\d, ]+; they "
+                                             r"last came r_min / 2 closer at iteration \d of \d+$") as err:
+        get_planner("bubbletree", stall=300).plan(PlanningProblem(oracle, problem.q_init, problem.q_goal, max_bubbles=360), seed=seed)
+    assert err.value.stats.details["finer_at"]

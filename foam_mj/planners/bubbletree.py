@@ -195,28 +195,21 @@ CHAIN_PER_JOINT = 20
 #: (seeds 0-4, EXPLORE_CAP 200: median final length in qpos 9.32 -> 6.94). The benchmark problems' first chains hold
 #: at most 9.7 bubbles per joint (10 seeds), so the per-joint cap still decides there.
 CHAIN_FIRST = 2.0
-#: ``stall``: the search for a first path ends (outcome "stalled") after this many iterations in which the trees came no
-#: closer than their smallest gap so far less r_min / 2, or, if more, as many as it had run when they last came closer
-#: (a slow search that keeps progressing is not cut: the 0.52 m box below). Bubbles cannot prove a goal unreachable; a goal enclosed by
-#: obstacles or beyond a wall leaves that gap unchanged while the trees fill their own regions, and they used to do so
-#: for the whole time budget (60 s by default). Measured (iterations without such progress before the first path):
-#: feasible narrow passages, an obstacle box 0.50-0.51 m tall (11 plans, first path at iteration 790-4,275) at most 720,
-#: a step_down start on an edge 7.4 mm from the floor (seeds 0-6; at delta 6.5 mm seeds 0-2) at most 587, the benchmark
-#: problems (obstacle ... arm7, shelf6, 10 seeds; first path at iteration 5-18) 1. Unreachable: the leg's foot shut in a
-#: cup, and the box 0.7 m tall, stall from iteration 240-260 on (now stopped at about 3,250: 4-16 s on a loaded 2-core machine, not 60).
-#: A box 0.52 m tall is feasible but slow: seed 0's first path came at iteration 16,049 (126 s), after stalls of up to
-#: 1,821 iterations; seed 1 had not met at 150 s, stalls up to 2,297 (the relative rule keeps such runs going).
+#: ``stall``: a level of the search for a first path ends (then FINER) after this many iterations in which the trees came
+#: no closer than their smallest gap so far less r_min / 2, or, if more, as many as it had run when they last came closer
+#: (a slow search that keeps progressing is not cut). Bubbles cannot prove a goal unreachable; a goal enclosed by obstacles
+#: or beyond a wall leaves that gap unchanged while the trees fill their own regions (they did so for the whole budget).
+#: Measured, iterations without progress before the first path: a box 0.50-0.51 m tall (11 plans) at most 720, a step_down
+#: start on an edge 7.4 mm from the floor at most 587, the benchmark problems (10 seeds, met at iteration 5-18) 1; a box
+#: 0.52 m tall met at iteration 16,049 after stalls of up to 1,821. The leg's cup and 0.7 m box stall from iteration 240-260.
 STALL = 3_000
-#: FINER: a stall is not yet a failure while the resolution can be refined: r_min is divided by FINER and the search goes
-#: on, at most FINER_LEVELS times (and not below SMALLEST), the nearest pairs' tries reset; the gap must still shrink by
-#: the first r_min / 2 to count as progress, and a finer level's window is stall / FINER_STALL (or as many iterations as
-#: that level had run when the trees last came closer, if more). r_min is a resolution of the growth, not a
-#: precondition: a puck's slot 1-4 mm wider than the puck and its margin on each side (bubbles of 0.5-2 mm, r_min 2.5 mm)
-#: is feasible, and the plans stalled there, "maybe unreachable". Measured (2 seeds each): after a refinement, a slot
-#: through a 2 cm wall was threaded within 8-30 iterations, one through a 30 cm wall within 85-325; unreachable goals now
-#: cost 900 iterations more at the finer levels (the leg's cup and 0.7 m wall: 26-37 s on a loaded machine, not 8-16 s).
-#: A slot between a joint limit and a wall (bubbles of at most 2.5 mm) planned on one of two seeds. The benchmark
-#: problems never stall: their plans are unchanged.
+#: FINER: a stall is not a failure while the resolution can be refined: r_min / FINER, at most FINER_LEVELS times (not
+#: below SMALLEST), tries reset, windows stall / FINER_STALL, progress still the first r_min / 2; a bubble of at least the
+#: first r_min keeps no smaller child toward a random sample (finer bubbles grow toward the other tree and on within narrow
+#: places, not along every obstacle). r_min is a resolution, not a precondition: a puck's slot 1-4 mm wider than the puck
+#: and its margin on each side (bubbles 0.5-2 mm, r_min 2.5 mm) stalled, "maybe unreachable"; now threaded 8-325 iterations
+#: after a refinement (walls 2 and 30 cm thick); a 10 mm channel between a joint limit and a wall on 5 seeds of 6.
+#: Unreachable goals cost 900 iterations more (the leg's 0.7 m wall: 14,606 -> 18,260 bubbles). Benchmarks never stall.
 FINER = 4.0
 FINER_LEVELS = 3
 FINER_STALL = 10
@@ -408,10 +401,11 @@ class BubbleTreePlanner(Planner):
             if B.closest <= gap_then - 0.5 * r_coarse:
                 gap_then, it_then = B.closest, counters["iterations"]
             window = o.stall if not finer_at else -(-o.stall // FINER_STALL)  # a finer level's window is shorter (FINER)
-            stalled = t_first is None and o.stall and counters["iterations"] - it_then >= max(window, it_then - it_level)
+            since = max(it_then, it_level)  # this level's last progress, or its start
+            stalled = t_first is None and o.stall and counters["iterations"] - since >= max(window, since - it_level)
             if stalled and r_min / FINER >= max(SMALLEST, r_coarse / FINER**FINER_LEVELS) * (1 - 1e-12):
                 r_min /= FINER  # a finer resolution: a passage narrower than the last one's bubbles may open (FINER)
-                gap_then, it_then, it_level = B.closest, counters["iterations"], counters["iterations"]
+                gap_then, it_level = B.closest, counters["iterations"]
                 finer_at.append(it_level)
                 for T in B.trees:  # the nearest pairs' extensions failed at the coarser resolution: try them again
                     T.tries[: T.n] = 0
@@ -443,24 +437,22 @@ class BubbleTreePlanner(Planner):
                 )
                 why, tail = outcome, stuck or closest_approach(outcome != "time budget")
                 idle, total = counters["iterations"] - it_then, counters["iterations"]
-                finer = (f"r_min refined from {r_coarse:.3g} to {r_min:.3g} at iteration{'s' if len(finer_at) > 1 else ''} "
+                finer = (f", r_min refined from {r_coarse:.3g} to {r_min:.3g} at iteration{'s' if len(finer_at) > 1 else ''} "
                          f"{', '.join(f'{i:,}' for i in finer_at)}") if finer_at else ""
                 if outcome == "stalled":
-                    why += f": {idle:,} iterations without coming r_min / 2 = {0.5 * r_coarse:.3g} closer{f', {finer}' if finer else ''}"
+                    why += f": {idle:,} iterations without coming r_min / 2 = {0.5 * r_coarse:.3g} closer{finer}"
                     tail += (f"; a passage whose free bubbles all have radius below {r_min:.3g} (clearance less than about "
                              f"{r_min * factor:.2g} m above delta) stays closed to this search; the [planner] option stall = 0 "
                              "searches until the time budget ends")
-                elif finer:
-                    tail += f"; {finer}"
                 else:  # a budget ended it: whether they were still coming closer tells whether more could help
-                    tail += f"; they last came r_min / 2 closer at iteration {it_then:,} of {total:,}"
-                    if outcome == "time budget" and o.stall and idle < max(window, it_then - it_level):
+                    tail += f"{finer.replace(',', ';', 1)}; they last came r_min / 2 closer at iteration {it_then:,} of {total:,}"
+                    if outcome == "time budget" and o.stall and total - since < max(window, since - it_level):
                         tail += (f": the time limit ({problem.time_limit:g} s) ended the search before the trees stalled; with more "
                                  "(--time-limit, the [planner] time_limit) it goes on until they meet or stall")
                 raise PlanningFailed.after(f"the trees did not meet ({why}) after {B.n} bubbles", st, tail, B.foam(q0, q1))
             timer.report(B.n)
             counters["iterations"] += 1
-            parents, targets, target_r, escaping = [], [], [], []
+            parents, targets, target_r, escaping, sampled = [], [], [], [], []
             for t in (0, 1):
                 T = B.trees[t]
                 mine = T.idx[: T.n]
@@ -469,6 +461,7 @@ class BubbleTreePlanner(Planner):
                     parents.append(np.array([top]))
                     targets.append(escape_target(B.c[top], B.r[top])[None])
                     escaping.append(np.ones(1, dtype=bool))
+                    sampled.append(np.zeros(1, dtype=bool))
                     if corner_roots:
                         target_r.append(np.full(1, np.inf))
                 # Exploration: uniform samples (after the first path: only where a shorter path can pass).
@@ -498,18 +491,21 @@ class BubbleTreePlanner(Planner):
                 parents.append(par[: len(X)])
                 targets.append(X)
                 escaping.append(np.zeros(len(X), dtype=bool))
+                sampled.append(np.ones(len(X), dtype=bool))
                 if corner_roots:
                     target_r.append(np.full(len(X), np.inf))
                 if near is not None:
                     parents.append(near)
                     targets.append(toward)
                     escaping.append(np.zeros(len(near), dtype=bool))
+                    sampled.append(np.zeros(len(near), dtype=bool))
                     if corner_roots:
                         target_r.append(toward_r)
                 if pick is not None:
                     parents.append(par[len(X):])
                     targets.append(pick)
                     escaping.append(np.zeros(len(pick), dtype=bool))
+                    sampled.append(np.zeros(len(pick), dtype=bool))
                     if corner_roots:
                         target_r.append(pick_r)
             P = np.concatenate(parents)  # the start tree's extensions first, then the goal tree's
@@ -532,7 +528,9 @@ class BubbleTreePlanner(Planner):
             flat = cand.reshape(-1, n)
             wall = oracle.to_bounds(flat).reshape(s.shape)
             reach = rP[:, None]
-            floor = np.where(rP >= SMALLEST, np.minimum(r_min, GROW * rP), r_min)  # (GROW, SMALLEST)
+            # Past a stall (FINER), a bubble of at least the first r_min keeps no child below it toward a random sample.
+            r_row = np.where(np.concatenate(sampled)[ok] & (rP >= r_coarse), r_coarse, r_min) if finer_at else r_min
+            floor = np.where(rP >= SMALLEST, np.minimum(r_row, GROW * rP), r_row)  # (GROW, SMALLEST)
             if corner_roots:  # children of a root on an edge or corner of the box (CORNER), and TOWARD_SMALL
                 root = P < 2
                 floor[root] = np.where(outside[P[root]], np.minimum(r_min, CORNER * rP[root]), floor[root])
