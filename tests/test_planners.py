@@ -1181,3 +1181,14 @@ def test_a_slot_narrower_than_r_min_bubbles_is_threaded(tmp_path, seed):
                                              r"last came r_min / 2 closer at iteration \d of \d+$") as err:
         get_planner("bubbletree", stall=300).plan(PlanningProblem(oracle, problem.q_init, problem.q_goal, max_bubbles=360), seed=seed)
     assert err.value.stats.details["finer_at"]
+
+
+def test_bubbletree_reports_how_its_search_stands(tmp_path):
+    """A search that cannot succeed (a puck behind a wall) ran for seconds reporting only its bubble count and time; its
+    progress now says how far apart the trees are, when they last came closer and, once refined, the resolution."""
+    _, _, problem = _puck_behind_a_wall(tmp_path, None)
+    notes = []
+    with pytest.raises(PlanningFailed):
+        get_planner("bubbletree", stall=1500).plan(problem, seed=0, progress=lambda p: notes.append(p.note))
+    assert notes and all(re.fullmatch(r"trees 0\.1\d* apart, last closer at iteration \d+ of [\d,]+(, r_min refined to [0-9.e-]+)?", n)
+                         for n in notes), notes

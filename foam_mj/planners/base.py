@@ -219,10 +219,12 @@ def smoother_start(rosary: Rosary, waypoints: np.ndarray | None) -> np.ndarray |
 
 @dataclass(frozen=True)
 class Progress:
-    """What a planner reports to a ``progress`` callback (about twice a second)."""
+    """What a planner reports to a ``progress`` callback (about twice a second); ``note``: how its search stands, in
+    its own words (bubbletree: how far apart the trees are, the resolution)."""
 
     bubbles: int
     elapsed: float
+    note: str = ""
 
 
 ProgressFn = Callable[[Progress], None]
@@ -298,12 +300,13 @@ class Timer:
     def elapsed(self) -> float:
         return time.perf_counter() - self.t0
 
-    def report(self, bubbles: int) -> None:
+    def report(self, bubbles: int, note: Callable[[], str] | None = None) -> None:
+        """Call the progress callback if it is due, with ``note()`` (computed only then) as its note."""
         if self._progress is None:
             return
         now = time.perf_counter()
         if now >= self._next:
-            self._progress(Progress(bubbles, now - self.t0))
+            self._progress(Progress(bubbles, now - self.t0, "" if note is None else note()))
             self._next = now + self._every
 
 

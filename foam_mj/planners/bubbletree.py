@@ -450,7 +450,8 @@ class BubbleTreePlanner(Planner):
                         tail += (f": the time limit ({problem.time_limit:g} s) ended the search before the trees stalled; with more "
                                  "(--time-limit, the [planner] time_limit) it goes on until they meet or stall")
                 raise PlanningFailed.after(f"the trees did not meet ({why}) after {B.n} bubbles", st, tail, B.foam(q0, q1))
-            timer.report(B.n)
+            timer.report(B.n, lambda: "the trees met, exploring" if t_first is not None else f"trees {B.closest:.3g} apart, last closer at "
+                         f"iteration {it_then:,} of {counters['iterations']:,}{f', r_min refined to {r_min:.3g}' if finer_at else ''}")
             counters["iterations"] += 1
             parents, targets, target_r, escaping, sampled = [], [], [], [], []
             for t in (0, 1):
