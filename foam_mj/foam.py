@@ -378,7 +378,7 @@ def _row_sq_sums(d: np.ndarray) -> np.ndarray:
     return out
 
 
-def small_goal_hint(oracle: BubbleOracle, q_goal: np.ndarray, r_min: float, outcome: str = "") -> str:
+def small_goal_hint(oracle: BubbleOracle, q_goal: np.ndarray, r_min: float, outcome: str = "", time_limit: float | None = None) -> str:
     """The reason a foam that did not reach q_goal may have missed it: its own certified bubble is below r_min, so
     only a bubble of at least r_min placed just so can hold it (and the coverage rule drops most candidates there);
     and, when the time budget ended the search (``outcome``), that more time lets the foam grow on."""
@@ -386,18 +386,20 @@ def small_goal_hint(oracle: BubbleOracle, q_goal: np.ndarray, r_min: float, outc
     if r_goal >= r_min:
         return ""
     return (f": q_goal's own certified bubble has radius {radius_text(r_goal, r_min)} < r_min = {r_min}, so only a bubble of at least "
-            f"r_min placed to reach it can hold it; lower r_min, or plan with bubbletree{time_hint(outcome)}")
+            f"r_min placed to reach it can hold it; lower r_min, or plan with bubbletree{time_hint(outcome, time_limit)}")
 
 
-def time_hint(outcome: str) -> str:
-    """When the time budget ended a foam's search (``outcome``), that more time lets it grow on: a limit of 0.01 s
-    stopped it after a few bubbles, and the hint about r_min alone read as if the geometry had."""
+def time_hint(outcome: str, time_limit: float | None = None) -> str:
+    """When the time budget ended a foam's search (``outcome``), that the limit (``time_limit`` seconds, if given) did and
+    that more time lets it grow on: a limit of 0.01 s stopped it after a few bubbles, and the hint about r_min alone
+    read as if the geometry had."""
     if outcome != "time budget":
         return ""
-    return "; the time limit ended the search: with more (--time-limit, the [planner] time_limit) the foam grows on"
+    limit = "" if time_limit is None else f" ({time_limit:g} s)"
+    return f"; the time limit{limit} ended the search: with more (--time-limit, the [planner] time_limit) the foam grows on"
 
 
-def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str) -> str:
+def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str, time_limit: float | None = None) -> str:
     """Where a foam that did not reach q_goal came nearest to it: the bubble whose surface is nearest q_goal, the gap,
     and what blocks the way there (the clearance and closest pair at that bubble's surface point toward q_goal); unless
     the bubble budget stopped it (``outcome``), that every bubble has radius >= r_min, so a way that only smaller bubbles
@@ -416,7 +418,7 @@ def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str)
     if outcome == "bubble budget":
         return near
     if outcome == "time budget":
-        return (f"{near}{time_hint(outcome)}, but every bubble has radius >= r_min = {r_min}, so a way narrower than that "
+        return (f"{near}{time_hint(outcome, time_limit)}, but every bubble has radius >= r_min = {r_min}, so a way narrower than that "
                 "stays closed to it either way: lower r_min, or plan with bubbletree")
     return (f"{near}; every bubble has radius >= r_min = {r_min}, so a way narrower than that stays closed to it: lower "
             "r_min, or plan with bubbletree")
@@ -578,7 +580,8 @@ def plan(
             goal = count - 1
     if goal is None:
         foam = foam_now()
-        hint = small_goal_hint(oracle, q_goal, params.r_min, stats.outcome) or nearest_hint(oracle, foam, params.r_min, stats.outcome)
+        hint = (small_goal_hint(oracle, q_goal, params.r_min, stats.outcome, params.time_limit)
+                or nearest_hint(oracle, foam, params.r_min, stats.outcome, params.time_limit))
         if stats.outcome == "queue empty":  # closed at r_min, or its candidates missed room (foam_mj.planners.variants)
             from foam_mj.planners.closure import queue_empty_text
 

@@ -945,7 +945,7 @@ def test_a_time_limit_too_short_to_reach_the_goal_says_more_time_helps(oracles, 
         assert text.endswith("the time limit (1e-06 s) ended the search before the trees stalled; with more (--time-limit, "
                              "the [planner] time_limit) it goes on until they meet or stall"), text
     else:  # grown on, or stopped on the start's bubble (the variants' own words for that)
-        assert re.search(r"; the time limit ended the search: with more \(--time-limit, the \[planner\] time_limit\) the foam grows on"
+        assert re.search(r"; the time limit \(1e-06 s\) ended the search: with more \(--time-limit, the \[planner\] time_limit\) the foam grows on"
                          r"|: the time budget ended before a bubble .*; raise time_limit", text), text
 
 

@@ -438,3 +438,14 @@ def test_a_surface_inside_other_bubbles_holds_no_child(tmp_path):
     assert not surface_holds_no_child(oracle, c, r, 0.07)
     assert surface_holds_no_child(oracle, c, r, 0.07, others=(around, np.full(4, 0.16)))
     assert not surface_holds_no_child(oracle, c, r, 0.07, others=(around, np.full(4, 0.07)))
+
+
+def test_gbpf_at_its_time_limit_names_the_limit_and_how_much_of_its_foam_is_proven_closed(tmp_path):
+    """The puck behind the wall, seed 0: GBPF's foam is not proven closed within 3 s. The failure said only "the time
+    limit ended the search"; it now names the limit and how many of its bubbles its closure checks proved closed."""
+    oracle = _puck_behind_a_wall(tmp_path)
+    params = FoamParams(r_min=0.07, delta=0.005, time_limit=3.0)
+    with pytest.raises(PlanningFailed, match=r"\(time budget\) after (\d+) bubbles .*; the time limit \(3 s\) ended the search: with more "
+                                             r".*; \d+ of its \1 bubbles are proven closed at r_min \(no bubble of r_min fits on their "
+                                             r"surfaces outside the others\)$"):
+        plan_gbpf(oracle, np.array([0.3, 1.0]), np.array([1.7, 1.0]), params, seed=0)

@@ -140,6 +140,7 @@ class _Growth:
         self.index = CoverageIndex(self.n)
         self.goal: int | None = None
         self.closed = ""  # why the foam can grow no further, once proven (GBPF's _Closure)
+        self.proven_closed: int | None = None  # bubbles proven closed so far, once GBPF's _Closure has checked
         self.add(self.q_init, r0, -1)
         self.goal = 0 if self.holds_goal(self.q_init, r0) else None
 
@@ -247,12 +248,15 @@ class _Growth:
                 else:  # the candidates drawn all failed; others might not
                     stuck = f": none of the candidates drawn on {bubble} had radius >= {r_min}; lower r_min, or plan with bubbletree"
             else:
-                stuck = (small_goal_hint(self.oracle, self.q_goal, self.params.r_min, outcome)
-                         or nearest_hint(self.oracle, foam, self.params.r_min, outcome))
+                stuck = (small_goal_hint(self.oracle, self.q_goal, self.params.r_min, outcome, self.params.time_limit)
+                         or nearest_hint(self.oracle, foam, self.params.r_min, outcome, self.params.time_limit))
                 if self.closed:
                     stuck = f"{self.closed}; {stuck.removeprefix(': ')}"
                 elif outcome == "queue empty":  # rbpf, hpf: every bubble expanded once
                     stuck += queue_empty_text(self.oracle, foam, self.params.r_min, self.params.K)
+                elif self.proven_closed is not None:  # gbpf's closure checks ran: how far the foam was from closed
+                    stuck += (f"; {self.proven_closed:,} of its {self.count:,} bubbles are proven closed at r_min (no bubble of "
+                              "r_min fits on their surfaces outside the others)")
             raise PlanningFailed.after(f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles", st, stuck, foam)
         return PlanResult(foam, foam.rosary(), st)
 
@@ -426,6 +430,7 @@ class _Closure:
         # a long proof stops with the budget (and reports progress)
         self.done, _ = foam_closure(g.oracle, g.centers[: g.count], g.radii[: g.count], g.params.r_min, self.done,
                                     stop=lambda: g.budget() is not None)
+        g.proven_closed = self.done
         self.queries += g.oracle.clearance.calls - calls
         if self.done < g.count:
             self.next_check *= 2
