@@ -7,6 +7,8 @@ bubble it keeps; and order its growth as the paper's algorithm says.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, example, given, settings
@@ -441,11 +443,16 @@ def test_a_surface_inside_other_bubbles_holds_no_child(tmp_path):
 
 
 def test_gbpf_at_its_time_limit_names_the_limit_and_how_much_of_its_foam_is_proven_closed(tmp_path):
-    """The puck behind the wall, seed 0: GBPF's foam is not proven closed within 3 s. The failure said only "the time
-    limit ended the search"; it now names the limit and how many of its bubbles its closure checks proved closed."""
+    """The puck behind the wall, seed 0: GBPF's foam is not closed, and its samples did not find the room left within 3 s.
+    The failure said only "the time limit ended the search"; it now names the limit, how many of its bubbles its closure
+    checks proved closed, and where a bubble of r_min still fits (checked: radius >= r_min, in no bubble)."""
     oracle = _puck_behind_a_wall(tmp_path)
     params = FoamParams(r_min=0.07, delta=0.005, time_limit=3.0)
     with pytest.raises(PlanningFailed, match=r"\(time budget\) after (\d+) bubbles .*; the time limit \(3 s\) ended the search: with more "
                                              r".*; \d+ of its \1 bubbles are proven closed at r_min \(no bubble of r_min fits on their "
-                                             r"surfaces outside the others\)$"):
+                                             r"surfaces outside the others\); the bubble at q = \[.*\] still has room for one of radius "
+                                             r"[0-9.]+ at q = \[(.*)\], which its samples have not hit$") as err:
         plan_gbpf(oracle, np.array([0.3, 1.0]), np.array([1.7, 1.0]), params, seed=0)
+    x = np.array([float(v) for v in re.search(r"room for one of radius [0-9.]+ at q = \[([^]]+)\]", str(err.value)).group(1).split(",")])
+    foam = err.value.foam
+    assert oracle.radii(x[None])[0] >= 0.07 - 2e-4 and np.all(np.linalg.norm(foam.centers - x, axis=1) >= foam.radii - 2e-4)

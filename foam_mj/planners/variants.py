@@ -141,6 +141,7 @@ class _Growth:
         self.goal: int | None = None
         self.closed = ""  # why the foam can grow no further, once proven (GBPF's _Closure)
         self.proven_closed: int | None = None  # bubbles proven closed so far, once GBPF's _Closure has checked
+        self.open_at: tuple[int, np.ndarray] | None = None  # a bubble and a point of its surface where a child fits (_Closure)
         self.add(self.q_init, r0, -1)
         self.goal = 0 if self.holds_goal(self.q_init, r0) else None
 
@@ -257,6 +258,10 @@ class _Growth:
                 elif self.proven_closed is not None:  # gbpf's closure checks ran: how far the foam was from closed
                     stuck += (f"; {self.proven_closed:,} of its {self.count:,} bubbles are proven closed at r_min (no bubble of "
                               "r_min fits on their surfaces outside the others)")
+                    if self.open_at is not None:  # a point where a child fits, found by the last check
+                        i, x = self.open_at
+                        stuck += (f"; the bubble at q = {np.round(self.centers[i], 4).tolist()} still has room for one of radius "
+                                  f"{float(self.oracle.radii(x[None])[0]):.3g} at q = {np.round(x, 4).tolist()}, which its samples have not hit")
             raise PlanningFailed.after(f"the foam did not reach q_goal ({outcome}) after {st.bubbles} bubbles", st, stuck, foam)
         return PlanResult(foam, foam.rosary(), st)
 
@@ -397,16 +402,16 @@ def plan_gbpf(
         rejected, added = g.offer(cand, parent)
         dead_toward_goal[parent[to_goal & rejected]] = True
         idle = 0 if len(added) else idle + 1
-        if idle >= closure.next_check and closure.proven():
+        if idle >= CLOSURE_IDLE and closure.proven():
             return g.finish("queue empty")  # no sample can ever add a bubble
         if g.count > len(dead_toward_goal):
             dead_toward_goal = np.concatenate([dead_toward_goal, np.zeros(max(len(dead_toward_goal), g.count), dtype=bool)])
     return g.finish("reached")
 
 
-#: GBPF checks whether its foam is closed (:class:`_Closure`) once this many batches in a row added no bubble, then after
-#: twice as many each time the check fails. Reachable goals went at most 3 batches without a bubble (session 15's
-#: measurement); unreachable ones 51-501 on the 3-joint leg and the whole budget on a 2-joint puck.
+#: GBPF checks whether its foam is closed (:class:`_Closure`) after each batch once this many in a row added no bubble.
+#: Reachable goals went at most 3 batches without a bubble (session 15's measurement); unreachable ones 51-501 on the
+#: 3-joint leg, and the rest of the budget on a 2-joint puck behind a wall.
 CLOSURE_IDLE = 16
 
 
@@ -420,20 +425,25 @@ class _Closure:
     def __init__(self, g: _Growth) -> None:
         self.g = g
         self.done = 0  # bubbles 0 .. done - 1 are proven closed
-        self.next_check = CLOSURE_IDLE
+        self.blocked = (-1, 0)  # the bubble last found open (or not proven), and the foam's size then
         self.queries = 0
 
     def proven(self) -> bool:
-        """Prove the remaining bubbles closed, in order; False at the first that is not (and check again later)."""
+        """Prove the remaining bubbles closed, in order; False at the first that is not. That bubble is examined again
+        only once a bubble added since reaches its surface: its proof depends on nothing else (the radius and the box
+        do not change), so until then the answer is the same, and a check costs no distance query."""
         g = self.g
+        i, size = self.blocked
+        if i >= 0 and not np.any(np.linalg.norm(g.centers[size : g.count] - g.centers[i], axis=1) < g.radii[size : g.count] + g.radii[i]):
+            return False
         calls = g.oracle.clearance.calls
         # a long proof stops with the budget (and reports progress)
-        self.done, _ = foam_closure(g.oracle, g.centers[: g.count], g.radii[: g.count], g.params.r_min, self.done,
-                                    stop=lambda: g.budget() is not None)
+        self.done, g.open_at = foam_closure(g.oracle, g.centers[: g.count], g.radii[: g.count], g.params.r_min, self.done,
+                                            stop=lambda: g.budget() is not None)
         g.proven_closed = self.done
         self.queries += g.oracle.clearance.calls - calls
         if self.done < g.count:
-            self.next_check *= 2
+            self.blocked = (self.done, g.count)
             return False
         g.closed = f": {closure_text(g.count, g.params.r_min, self.queries)}, so no sample can add one"
         return True
