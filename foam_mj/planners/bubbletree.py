@@ -400,6 +400,13 @@ class BubbleTreePlanner(Planner):
         while True:
             if B.closest <= gap_then - 0.5 * r_coarse:
                 gap_then, it_then = B.closest, counters["iterations"]
+            if link is not None and t_first is None:
+                t_first, it_first, foam_first = timer.elapsed(), counters["iterations"], B.n
+                cpu_first = time.process_time() - cpu0
+                if o.informed:
+                    sampler = InformedSampler(q0, q1, chain_length(link), metric)
+            if t_first is not None and counters["iterations"] - it_first >= int(np.ceil(o.explore * min(it_first, EXPLORE_CAP))):
+                break  # the first path, then `explore` x as many iterations again (at most EXPLORE_CAP) for other routes
             window = o.stall if not finer_at else -(-o.stall // FINER_STALL)  # a finer level's window is shorter (FINER)
             since = max(it_then, it_level)  # this level's last progress, or its start
             stalled = t_first is None and o.stall and counters["iterations"] - since >= max(window, since - it_level)
@@ -410,13 +417,6 @@ class BubbleTreePlanner(Planner):
                 for T in B.trees:  # the nearest pairs' extensions failed at the coarser resolution: try them again
                     T.tries[: T.n] = 0
                 stalled = False
-            if link is not None and t_first is None:
-                t_first, it_first, foam_first = timer.elapsed(), counters["iterations"], B.n
-                cpu_first = time.process_time() - cpu0
-                if o.informed:
-                    sampler = InformedSampler(q0, q1, chain_length(link), metric)
-            if t_first is not None and counters["iterations"] - it_first >= int(np.ceil(o.explore * min(it_first, EXPLORE_CAP))):
-                break  # the first path, then `explore` x as many iterations again (at most EXPLORE_CAP) for other routes
             if timer.elapsed() > problem.time_limit or B.n >= problem.max_bubbles or stalled:
                 if t_first is not None:
                     break
