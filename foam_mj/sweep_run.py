@@ -333,8 +333,24 @@ Event = tuple[Task | None, list[dict] | None]
 INTERRUPTED: Event = (None, [])
 
 
-def _ignore_sigint() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle (it flushes and stops us)
+def _worker_init() -> None:
+    """A pool worker ignores Ctrl-C (the sweep's to handle: it writes its rows and stops us) and ends when the
+    sweep's process dies (``kill -9``, out of memory): it would otherwise wait on the task queue forever."""
+    import multiprocessing as mp
+    import threading
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent = mp.parent_process()
+    if parent is not None:
+        threading.Thread(target=_exit_with, args=(parent.sentinel,), daemon=True, name="foam-mj-parent-watch").start()
+
+
+def _exit_with(sentinel: int) -> None:
+    """Wait until ``sentinel`` (the parent's end of the spawn pipe) closes, then end this process at once."""
+    from multiprocessing.connection import wait
+
+    wait([sentinel])
+    os._exit(1)
 
 
 def default_workers() -> int:
@@ -355,7 +371,7 @@ def local_engine(tasks: Iterator[Task], workers: int, *, poll: float = 0.5) -> I
     limit = 2 * workers
     retry: deque[Task] = deque()
     restarts = 0
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_ignore_sigint)
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
     inflight: dict = {}
     exhausted = False
     try:
@@ -402,7 +418,7 @@ def local_engine(tasks: Iterator[Task], workers: int, *, poll: float = 0.5) -> I
                     raise WorkersDied(f"local workers died {restarts} times; the rows received so far are kept, re-run to continue")
                 print(f"sweep: a worker died; restarting the pool ({len(retry)} unfinished tasks resent)", file=sys.stderr)
                 _terminate(pool)
-                pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_ignore_sigint)
+                pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
     finally:
         _terminate(pool)
 

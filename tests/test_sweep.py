@@ -177,6 +177,33 @@ def test_a_worker_that_dies_loses_no_row(tmp_path):
 
 
 @pytest.mark.slow
+def test_the_workers_end_when_the_sweep_is_killed_alone(tmp_path):
+    """`kill -9 PID` of the sweep alone (or the out-of-memory killer) left its pool workers waiting on the task queue
+    forever, each holding its MuJoCo models; they now end with the process that started them."""
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = 40\nsmoothers = "none"\nreplay = "none"\n')
+    out = tmp_path / "out"
+    proc = cli("sweep", str(spec), "--out", str(out), "--workers", "2", "--batch", "1")
+    wait_for_files(out / "rows", 1, proc)
+    children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()
+    workers = [int(c) for c in children if "spawn_main" in Path(f"/proc/{c}/cmdline").read_text()]
+    assert len(workers) == 2
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=60)  # not communicate: workers left alive would hold its pipes open
+
+    def alive() -> list[int]:
+        return [w for w in workers if Path(f"/proc/{w}").exists() and "spawn_main" in Path(f"/proc/{w}/cmdline").read_text()]
+
+    t0 = time.monotonic()
+    while alive() and time.monotonic() - t0 < 30:
+        time.sleep(0.1)
+    left = alive()
+    for w in left:  # ours: not left behind when the test fails
+        os.kill(w, signal.SIGKILL)
+    assert not left, "the workers outlived the killed sweep by 30 s"
+    check_folder(out)
+
+
+@pytest.mark.slow
 def test_ray_gives_the_same_rows_as_local(study, tmp_path):
     pytest.importorskip("ray")
     # a slice of the study (same keys, so the same row keys), as Ray tasks on a local Ray instance
