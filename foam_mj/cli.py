@@ -258,6 +258,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         if not 0 < value < float("inf"):
             raise FoamError(f"{flag} must be a number of seconds > 0, got {value}")
     sweep = load_sweep(args.sweep)  # every key and value checked: exit 2 naming it, before any plan
+    if sweep.repeated_draws and not args.quiet:
+        print(f"sweep: {sweep.repeated_draws} of the {sweep.samples} random samples repeat an earlier draw; "
+              f"the {len(sweep.draws)} distinct ones are planned", file=sys.stderr)
     engine = "local" if args.ray is None else "ray"
     signal.signal(signal.SIGTERM, interrupt)  # `kill` stops it like Ctrl-C: completed rows kept
     where = Path(args.out) / "rows"

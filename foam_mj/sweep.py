@@ -10,7 +10,8 @@ A sweep file (TOML) names a base scenario and the values to try::
     [grid]                           # every combination of these values
     "planner.delta" = [0.005, 0.01]
     "q_goal" = [[0.45, 0.4536, 1.45], [0.40, 0.45, 1.45]]
-    [random]                         # and/or `samples` random draws (each combined with every grid point)
+    [random]                         # and/or `samples` random draws (each combined with every grid point;
+                                     # a draw that repeats an earlier one is planned once)
     samples = 20
     seed = 0
     [random.uniform]                 # uniform in [low, high]; integers when both are; lists element-wise
@@ -47,6 +48,7 @@ import json
 import math
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -143,7 +145,12 @@ class Sweep:
     @property
     def n_points(self) -> int:
         n = math.prod(len(a.values) for a in self.grid)
-        return n * (self.samples if self.random else 1)
+        return n * (len(self.draws) if self.random else 1)
+
+    @property
+    def repeated_draws(self) -> int:
+        """Random samples that drew the values of an earlier one (left out of :attr:`draws`)."""
+        return self.samples - len(self.draws) if self.random else 0
 
     @property
     def n_tasks(self) -> int:
@@ -162,7 +169,7 @@ class Sweep:
     def points(self) -> Iterator[dict[str, Any]]:
         """Every parameter combination: the grid's product, each with every random sample."""
         grid = [[(a.key, v) for v in a.values] for a in self.grid]
-        samples = self._samples() if self.random else [{}]
+        samples = self.draws if self.random else [{}]
         for combo in itertools.product(*grid):
             for sample in samples:
                 yield {**dict(combo), **sample}
@@ -183,6 +190,20 @@ class Sweep:
                 lo, hi = np.asarray(a.low, float), np.asarray(a.high, float)
                 columns[a.key] = [[float(x) for x in row] for row in rng.uniform(lo, hi, size=(self.samples, lo.size))]
         return [{k: columns[k][i] for k in columns} for i in range(self.samples)]
+
+    @cached_property
+    def draws(self) -> tuple[dict[str, Any], ...]:
+        """The distinct random draws, in the order drawn. A draw that repeats an earlier one (a choice among few
+        values, integers in a narrow range) is the same plan with the same seeds: kept, it ran twice and wrote its
+        rows twice under one key."""
+        seen: set[str] = set()
+        out = []
+        for sample in self._samples():
+            ident = json.dumps(sample, sort_keys=True)
+            if ident not in seen:
+                seen.add(ident)
+                out.append(sample)
+        return tuple(out)
 
     def tasks(self) -> Iterator["Task"]:
         """Every task, in order: points, then seeds."""

@@ -381,6 +381,22 @@ seed = 7
     assert dict(a.columns())["q_goal"] == "string" and dict(a.columns())["planner.K"] == "int64"
 
 
+def test_a_random_draw_that_repeats_an_earlier_one_is_planned_once(tmp_path, capsys):
+    """Six draws from a choice of two values are at most two plans: each repeat ran again and wrote its rows again
+    under the same key (three rows of one key in the Parquet, counted three times by the report)."""
+    spec = write(tmp_path, 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "none"\n'
+                           '[random]\nsamples = 6\n[random.choice]\n"planner.K" = [6, 8]\n')
+    sweep = load_sweep(spec)
+    assert sweep.n_tasks == len(list(sweep.tasks())) == 2 and sweep.repeated_draws == 4
+    assert sorted(p["planner.K"] for p in sweep.points()) == [6, 8]
+    out = tmp_path / "out"
+    assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--batch", "1"]) == 0
+    std = capsys.readouterr()
+    assert "4 of the 6 random samples repeat an earlier draw; the 2 distinct ones are planned" in std.err
+    assert "2 plans in all" in std.out
+    assert sorted(r["planner.K"] for r in check_folder(out)) == [6, 8]
+
+
 def test_a_folder_of_another_sweep_is_refused(study, tmp_path):
     other = load_sweep(write(tmp_path, STUDY.replace('smoothers = "convex"', 'smoothers = "convex"\nreplay = "kinematic"')))
     with pytest.raises(SweepError, match="holds rows of another sweep"):
