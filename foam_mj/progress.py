@@ -1,4 +1,4 @@
-"""The progress display of the ``foam-mj`` commands (planning, smoothing, replaying, sweeping)."""
+"""The progress display of the ``foam-mj`` commands (planning, smoothing, replaying) and a sweep's bar or lines."""
 
 from __future__ import annotations
 
@@ -43,3 +43,79 @@ class Progress:
             sys.stderr.write("\r\033[K")
             sys.stderr.flush()
             self._shown = False
+
+
+def duration_text(seconds: float) -> str:
+    """A duration to read at a glance: seconds up to 99 s, then minutes, hours up to 48 h, then days."""
+    if seconds < 99.5:
+        return f"{seconds:.0f} s"
+    if seconds < 99.5 * 60:
+        return f"{seconds / 60:.0f} min"
+    if seconds < 48 * 3600:
+        return f"{seconds / 3600:.1f} h"
+    return f"{seconds / 86400:.1f} d"
+
+
+class SweepProgress:
+    """Plans done/total, failures, rate and ETA: a rich bar on a terminal, else a plain line every ``interval`` s.
+    ``stop``: where this run ends when ``--limit`` ends it before ``total``; the bar and the ETA count to it."""
+
+    def __init__(self, total: int, done: int, *, terminal: bool | None = None, interval: float = 5.0, label: str = "sweep",
+                 stop: int | None = None) -> None:
+        bar = label  # the bar's own label is short: the bar, its counts and ETA share one terminal line
+        if stop is not None and stop < total:
+            label, bar, total = f"{label} (--limit: to {stop} of {total})", f"{label} --limit", stop
+        self.total, self.done, self.failed = total, done, 0
+        self.start_done = done
+        self.t0 = time.monotonic()
+        self.interval = interval
+        self.label = label
+        self._last = self.t0
+        self.terminal = sys.stderr.isatty() if terminal is None else terminal
+        self._rich = None
+        if self.terminal:
+            from rich.console import Console
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+            self._rich = Progress(
+                TextColumn("[bold]{task.description}"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TextColumn("plans, {task.fields[failed]} failed, {task.fields[rate]}"),
+                TextColumn("ETA"),
+                TimeRemainingColumn(),
+                TimeElapsedColumn(),
+                console=Console(stderr=True),
+                transient=False,
+            )
+            self._rich.start()
+            self._task = self._rich.add_task(bar, total=total, completed=done, failed=0, rate="- plans/s")
+
+    @property
+    def rate(self) -> float:
+        dt = time.monotonic() - self.t0
+        return (self.done - self.start_done) / dt if dt > 0 else 0.0
+
+    def line(self) -> str:
+        rate = self.rate
+        left = self.total - self.done
+        eta = duration_text(left / rate) if rate > 0 else "-"
+        return f"{self.label}: {self.done:,}/{self.total:,} plans, {self.failed:,} failed, {rate:.2f} plans/s, ETA {eta}"
+
+    def update(self, n: int = 1, failed: int = 0) -> None:
+        self.done += n
+        self.failed += failed
+        if self._rich is not None:
+            self._rich.update(self._task, completed=self.done, failed=self.failed, rate=f"{self.rate:.2f} plans/s")
+        else:
+            self.tick()
+
+    def tick(self) -> None:
+        if self._rich is None and time.monotonic() - self._last >= self.interval:
+            self._last = time.monotonic()
+            print(self.line(), file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        if self._rich is not None:
+            self._rich.stop()
+            self._rich = None

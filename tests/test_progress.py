@@ -66,3 +66,14 @@ def test_plan_off_a_terminal_says_each_smoother_starting_and_done_with_its_time_
     assert "[" not in out and "smoothing:" not in out and "smoothing:" not in js.read_text()
     start = lines.index(next(line for line in lines if line.endswith("] smoothing: convex shortest path")))
     assert re.fullmatch(r"\[\d+\.\d s\] smoothing: convex shortest path done in \d+\.\d s", lines[start + 1]), lines
+
+
+def test_a_sweep_line_reads_at_a_glance_however_big_the_study():
+    """A million-plan study at 0.59 plans/s said "ETA 1693220 s" (19.6 days) and "1000/1000000 plans"."""
+    from foam_mj.progress import SweepProgress, duration_text
+
+    bar = SweepProgress(1_000_000, 0, terminal=False)
+    bar.done, bar.t0 = 1000, bar.t0 - 1000 / 0.59
+    assert re.fullmatch(r"sweep: 1,000/1,000,000 plans, 0 failed, 0\.59 plans/s, ETA 19\.6 d", bar.line())
+    assert [duration_text(s) for s in (28.4, 99.4, 100, 5940, 6000, 47.9 * 3600, 48 * 3600)] == [
+        "28 s", "99 s", "2 min", "99 min", "1.7 h", "47.9 h", "2.0 d"]

@@ -740,7 +740,7 @@ def test_report_on_a_sweep_with_no_rows_is_exit_2_naming_the_rows_folder(study, 
 def test_with_limit_the_progress_and_its_eta_count_to_where_this_run_stops(tmp_path, capsys):
     """`--limit 100` on a 270-plan study showed "42/270 plans ... ETA 55 s" while the run ended 14 s later: the
     bar and its ETA now count to the run's end, and say that --limit ends it there."""
-    from foam_mj.sweep_run import SweepProgress
+    from foam_mj.progress import SweepProgress
 
     spec = write(tmp_path, 'scenario = "obstacle"\nseeds = 3\nsmoothers = "none"\nreplay = "none"\n')
     run_sweep(load_sweep(spec), tmp_path / "out", workers=1, interval=0.0, limit=1)
