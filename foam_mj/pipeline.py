@@ -261,13 +261,15 @@ def run(
     limits: Limits | JointLimits | None = None,
     time_law: str | None = None,
     report: Report | None = None,
+    require_timing: bool = True,
 ) -> Outcome:
     """Plan, smooth, build trajectories and replay them (kinematically, and dynamically when asked).
 
     ``smoothers`` are path names of :data:`PATH_NAMES`, or a ``--smoother`` value (:func:`parse_smoothers`);
     by default those of :data:`DEFAULT_SMOOTHER`, as ``foam-mj plan``. The centre path is always there; every
     path is time-parametrized and replayed; a path that no timing fits keeps its ``timing_error`` (and no trajectory)
-    while the others are replayed, and TimingInfeasible is raised only when no path has a timing. Unknown path names,
+    while the others are replayed, and TimingInfeasible is raised only when no path has a timing (without
+    ``require_timing``, the outcome is returned then too, every path with its ``timing_error``: a sweep's rows). Unknown path names,
     a ``time_law`` not in ("toppra", "own") and ``limits`` of the wrong length are refused before any planning, by an
     error that names the argument.
     """
@@ -310,7 +312,8 @@ def run(
                 time_and_replay(po, robot, res.path, lim, time_law, clearance, dynamic, report)
     finally:
         clearance.close()
-    require_a_timing(outcome.paths)
+    if require_timing:
+        require_a_timing(outcome.paths)
     outcome.timings["replay"] = time.perf_counter() - t2
     outcome.timings["total"] = time.perf_counter() - t0
     return outcome

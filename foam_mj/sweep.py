@@ -364,7 +364,9 @@ def run_task(task: Task) -> list[dict]:
     except FoamError as exc:
         return fail("invalid", str(exc))
     try:
-        out = run(scenario, task.seed, task.smoother_paths, replay=task.replay != "none", dynamic=task.replay == "dynamic")
+        # require_timing=False: when the limits fit no path, each row keeps its path's measures and its own reason
+        out = run(scenario, task.seed, task.smoother_paths, replay=task.replay != "none", dynamic=task.replay == "dynamic",
+                  require_timing=False)
     except PlanningFailed as exc:
         st = exc.stats
         extra = {} if st is None else {"bubbles": int(st.bubbles), "plan_time": float(st.elapsed)}

@@ -283,6 +283,23 @@ def test_a_path_that_no_timing_fits_fails_its_row_alone(tmp_path):
     assert rows["convex"]["outcome"] == "reached" and rows["convex"]["duration"] > 0 and rows["convex"]["min_clearance"] > 0.005
 
 
+def test_when_no_timing_fits_any_path_each_row_keeps_its_measures_and_its_own_reason(tmp_path):
+    """A 5 N m knee limit (below gravity's load) fits no path: every row said "failed" with the centre path's reason,
+    the convex row included ("path 'centre': ..."), and none kept its bubbles, length or f, though both paths were planned."""
+    from foam_mj.sweep import run_task
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = [0]\nsmoothers = "convex"\nreplay = "kinematic"\n[grid]\n'
+                           '"limits.torque" = [[400.0, 5.0, 3000.0]]\n')
+    (task,) = load_sweep(spec).tasks()
+    rows = {r["smoother"]: r for r in run_task(task)}
+    for path, row in rows.items():
+        assert row["outcome"] == "failed"
+        assert row["reason"].startswith(f"path '{path}': no timing fits the torque limit of knee_flexion"), row["reason"]
+        assert row["bubbles"] > row["rosary"] > 1 and row["f"] >= row["length"] > 0 and row["plan_time"] > 0
+        assert row.get("duration") is None and row.get("min_clearance") is None
+    assert rows["convex"]["length"] <= rows["centre"]["length"]
+
+
 @pytest.mark.parametrize("table, named", [
     ("seeds = 1000000000000", "field 'seeds' = 1,000,000,000,000 is more plans than one sweep takes (10,000,000)"),
     ('seeds = 2\n[random]\nsamples = 100000000000\n[random.uniform]\n"planner.delta" = [0.001, 0.01]',
