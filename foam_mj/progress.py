@@ -58,14 +58,15 @@ def duration_text(seconds: float) -> str:
 
 class SweepProgress:
     """Plans done/total, failures, rate and ETA: a rich bar on a terminal, else a plain line every ``interval`` s.
-    ``stop``: where this run ends when ``--limit`` ends it before ``total``; the bar and the ETA count to it."""
+    ``failed``: plans among ``done`` with a row not reached. ``stop``: where this run ends when ``--limit`` ends it
+    before ``total``; the bar and the ETA count to it."""
 
-    def __init__(self, total: int, done: int, *, terminal: bool | None = None, interval: float = 5.0, label: str = "sweep",
+    def __init__(self, total: int, done: int, *, failed: int = 0, terminal: bool | None = None, interval: float = 5.0, label: str = "sweep",
                  stop: int | None = None) -> None:
         bar = label  # the bar's own label is short: the bar, its counts and ETA share one terminal line
         if stop is not None and stop < total:
             label, bar, total = f"{label} (--limit: to {stop} of {total})", f"{label} --limit", stop
-        self.total, self.done, self.failed = total, done, 0
+        self.total, self.done, self.failed = total, done, failed
         self.start_done = done
         self.t0 = time.monotonic()
         self.interval = interval
@@ -89,7 +90,7 @@ class SweepProgress:
                 transient=False,
             )
             self._rich.start()
-            self._task = self._rich.add_task(bar, total=total, completed=done, failed=0, rate="- plans/s")
+            self._task = self._rich.add_task(bar, total=total, completed=done, failed=failed, rate="- plans/s")
 
     @property
     def rate(self) -> float:

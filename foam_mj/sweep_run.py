@@ -149,15 +149,17 @@ class RowStore:
             self._lock.close()
             self._lock = None
 
-    def done_keys(self) -> set[str]:
-        """Keys of the rows already written."""
-        files = _row_files(self.dir)
-        if not files:
-            return set()
+    def done_keys(self) -> tuple[set[str], set[str]]:
+        """Keys of the rows already written, and of those among them whose outcome is not 'reached'."""
         keys: set[str] = set()
-        for f in files:
-            keys.update(_read_batch(f, self.schema.names, columns=["key"]).column("key").to_pylist())
-        return keys
+        not_reached: set[str] = set()
+        for f in _row_files(self.dir):
+            table = _read_batch(f, self.schema.names, columns=["key", "outcome"])
+            for key, outcome in zip(table.column("key").to_pylist(), table.column("outcome").to_pylist()):
+                keys.add(key)
+                if outcome != "reached":
+                    not_reached.add(key)
+        return keys, not_reached
 
     def add(self, rows: Iterable[dict]) -> None:
         self.pending.extend(rows)
@@ -494,19 +496,20 @@ def run_sweep(
     store = RowStore(Path(out), sweep, batch=batch, flush_seconds=flush_seconds)
     store.open(sweep)
     t0 = time.monotonic()
-    ran = failed = skipped = 0
+    ran = failed = skipped = skipped_failed = 0
     interrupted = False
     bar = None
     try:
-        done = store.done_keys()
+        done, not_reached = store.done_keys()
         total = sweep.n_tasks
 
         def todo() -> Iterator[Task]:
-            nonlocal skipped
+            nonlocal skipped, skipped_failed
             n = 0
             for task in sweep.tasks():
                 if done and done.issuperset(task.keys):  # (no keys to hash on a first run)
                     skipped += 1
+                    skipped_failed += not not_reached.isdisjoint(task.keys)
                     continue
                 if limit is not None and n >= limit:
                     return
@@ -515,14 +518,19 @@ def run_sweep(
 
         if total <= 200_000:  # the tasks to run, listed up front
             pending = list(todo())
-            already = skipped
+            already, already_failed = skipped, skipped_failed
         else:  # a big study: count what is done in a first pass (a re-run), then generate the tasks again as they are sent
             pending = None
             if done and progress is not False:
                 print(f"sweep: finding which of the {total:,} plans are done ({len(done):,} rows in {store.dir})", file=sys.stderr, flush=True)
-            already = sum(1 for t in sweep.tasks() if done.issuperset(t.keys)) if done else 0
+            already = already_failed = 0
+            for t in sweep.tasks() if done else ():
+                if done.issuperset(t.keys):
+                    already += 1
+                    already_failed += not not_reached.isdisjoint(t.keys)
         stop = None if limit is None else already + (len(pending) if pending is not None else limit)
-        bar = SweepProgress(total, already, interval=interval, stop=stop) if progress is not False else None
+        # failures counted over the same plans as done: those of the runs before too
+        bar = SweepProgress(total, already, failed=already_failed, interval=interval, stop=stop) if progress is not False else None
         source = iter(pending) if pending is not None else todo()
         events = local_engine(source, workers) if engine == "local" else ray_engine(source, workers, ray_address)
         try:

@@ -769,6 +769,20 @@ def test_with_limit_the_progress_and_its_eta_count_to_where_this_run_stops(tmp_p
     assert SweepProgress(270, 0, terminal=False, stop=300).line().startswith("sweep: 0/270 plans")  # the study ends first
 
 
+def test_a_rerun_counts_the_failures_of_the_plans_done_before(tmp_path, capsys):
+    """A re-run's progress counted the plans done before in "1/2 plans" but not their failures ("0 failed" while the
+    folder held an invalid plan); failures are now counted over the same plans as the done ones."""
+    spec = write(tmp_path, 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "none"\n'
+                           '[grid]\n"obstacle.pos" = [[0.9, 0.0, 0.1], [0.5, 0.0, 0.075]]\n')  # the first: goal in collision
+    out = tmp_path / "out"
+    run_sweep(load_sweep(spec), out, workers=1, limit=1, progress=False)
+    assert [r["outcome"] for r in read_rows(out).to_pylist()] == ["invalid"]
+    summary = run_sweep(load_sweep(spec), out, workers=1, interval=0.0)
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines[0].startswith("sweep: 1/2 plans, 1 failed") and lines[-1].startswith("sweep: 2/2 plans, 1 failed"), lines
+    assert (summary.skipped, summary.run, summary.failed) == (1, 1, 0)  # the run's own summary: this run's plans
+
+
 def test_every_value_of_the_panel_key_gets_its_panel(tmp_path, monkeypatch):
     """Only the first MAX_PANELS (6) values of the third key were drawn: 8 bins of the box's height lost their two
     tallest, where the plans fail. Panels now wrap into rows of at most MAX_PANELS."""
