@@ -334,7 +334,8 @@ def build_scenario(scenario: str, builtin: bool, base: dict, params, *, check: b
     from foam_mj.scenarios import check_scenario, scenario_from_dict
 
     doc = apply_overrides(base, params)
-    source = _base_dir(scenario, builtin) / f"{scenario}.toml" if builtin else Path(scenario)
+    # a built-in scenario by its name, not where this install keeps it: an 'invalid' row's reason is the same on every node
+    source = Path(f"{scenario}.toml") if builtin else Path(scenario)
     s = scenario_from_dict(doc, _base_dir(scenario, builtin), source=source, check=False)
     if check:
         try:

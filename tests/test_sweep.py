@@ -256,6 +256,19 @@ def test_an_obstacle_moved_onto_the_goal_gives_invalid_rows_not_a_refused_sweep(
     assert bad["outcome"] == "invalid" and "'q_goal'" in bad["reason"] and "in collision" in bad["reason"]
 
 
+def test_an_invalid_row_of_a_built_in_scenario_names_it_not_where_it_is_installed(tmp_path):
+    """The reason began with this install's path ('/.../scenarios/obstacle.toml: field 'q_goal' ...'), so the same row
+    differed between two installs (a cluster's nodes, two checkouts); it names the built-in scenario's file alone."""
+    from foam_mj.data import scenarios_dir
+    from foam_mj.sweep import run_task
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "none"\n[grid]\n"obstacle.pos" = [[0.9, 0.0, 0.1]]\n')
+    (task,) = load_sweep(spec).tasks()
+    (row,) = run_task(task)
+    assert row["outcome"] == "invalid" and row["reason"].startswith("obstacle.toml: field 'q_goal'"), row["reason"]
+    assert str(scenarios_dir()) not in row["reason"]
+
+
 def test_a_failed_plan_gives_the_same_reason_on_every_run(tmp_path):
     """A failed row's reason held the planner's wall time ("... after 715 bubbles in 0.17 s"), so the same row
     differed between runs and engines in a column that is not a timing column; the time is in plan_time."""
