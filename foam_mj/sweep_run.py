@@ -151,14 +151,15 @@ class RowStore:
 
     def done_keys(self) -> tuple[set[str], set[str]]:
         """Keys of the rows already written, and of those among them whose outcome is not 'reached'."""
+        import pyarrow.compute as pc
+
         keys: set[str] = set()
         not_reached: set[str] = set()
         for f in _row_files(self.dir):
             table = _read_batch(f, self.schema.names, columns=["key", "outcome"])
-            for key, outcome in zip(table.column("key").to_pylist(), table.column("outcome").to_pylist()):
-                keys.add(key)
-                if outcome != "reached":
-                    not_reached.add(key)
+            keys.update(table.column("key").to_pylist())
+            bad = pc.fill_null(pc.not_equal(table.column("outcome"), "reached"), True)
+            not_reached.update(table.filter(bad).column("key").to_pylist())
         return keys, not_reached
 
     def add(self, rows: Iterable[dict]) -> None:
