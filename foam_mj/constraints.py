@@ -11,45 +11,54 @@ from foam_mj.configuration import ConfigurationMap, _joint_name
 from foam_mj.geom_pairs import bodies_moved_by
 
 
-def coupling_equalities(m: mujoco.MjModel, config: ConfigurationMap) -> list[str]:
-    """Names of the active equality constraints that tie a configuration joint to other motion: a joint or tendon
-    coupling whose value a configuration joint changes (a mimic joint), or a connect/weld/distance constraint between
-    two bodies that the configuration joints move differently (a closed loop through a configuration joint). The
-    planner moves each coordinate independently and holds every other joint at its pose, so its path would not be the
-    motion MuJoCo, or the robot, makes. A loop that closes below every configuration joint (a gripper's linkage at the
-    end of an arm) moves as one piece with the arm's links, and holds as it does at the held pose."""
+def coupling_equalities(m: mujoco.MjModel, config: ConfigurationMap) -> dict[str, list[str]]:
+    """The active equality constraints that tie a configuration joint to other motion, each name with the
+    configuration joints it ties: a joint or tendon coupling whose value a configuration joint changes (a mimic joint),
+    or a connect/weld/distance constraint between two bodies that the configuration joints move differently (a closed
+    loop through a configuration joint). The planner moves each coordinate independently and holds every other joint
+    at its pose, so its path would not be the motion MuJoCo, or the robot, makes. A loop that closes below every
+    configuration joint (a gripper's linkage at the end of an arm) moves as one piece with the arm's links, and holds
+    as it does at the held pose."""
     moved = bodies_moved_by(m, config)
-    joints = {int(j) for j in config.joint_ids}
+    where = {int(j): i for i, j in enumerate(config.joint_ids)}
     eq = mujoco.mjtEq
 
-    def apart(bodies: list[int]) -> bool:  # does some configuration joint move these bodies relative to each other?
-        return any(not np.array_equal(moved[:, b], moved[:, bodies[0]]) for b in bodies[1:])
+    def apart(bodies: list[int]) -> np.ndarray:  # (n,) the coordinates that move these bodies relative to each other
+        out = np.zeros(config.dim, dtype=bool)
+        for b in bodies[1:]:
+            out |= moved[:, b] != moved[:, bodies[0]]
+        return out
 
-    def tendon_changes(t: int) -> bool:  # can a configuration joint change tendon t's length?
+    def tendon_changes(t: int) -> np.ndarray:  # (n,) the coordinates that can change tendon t's length
         wraps = range(int(m.tendon_adr[t]), int(m.tendon_adr[t]) + int(m.tendon_num[t]))
-        if any(int(m.wrap_type[w]) == int(mujoco.mjtWrap.mjWRAP_JOINT) and int(m.wrap_objid[w]) in joints for w in wraps):
-            return True
-        return apart(_spatial_bodies(m, t))
+        out = apart(_spatial_bodies(m, t))
+        for w in wraps:
+            if int(m.wrap_type[w]) == int(mujoco.mjtWrap.mjWRAP_JOINT) and int(m.wrap_objid[w]) in where:
+                out[where[int(m.wrap_objid[w])]] = True
+        return out
 
     def body_of(kind: int, obj: int) -> int:
         return int(m.site_bodyid[obj]) if kind == int(mujoco.mjtObj.mjOBJ_SITE) else obj
 
-    out = []
+    out = {}
     for e in range(m.neq):
         if not m.eq_active0[e]:
             continue
         kind, a, b = int(m.eq_type[e]), int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        tied = np.zeros(config.dim, dtype=bool)
         if kind == int(eq.mjEQ_JOINT):
-            hit = a in joints or b in joints
+            for j in (a, b):
+                if j in where:
+                    tied[where[j]] = True
         elif kind == int(eq.mjEQ_TENDON):
-            hit = tendon_changes(a) or (b >= 0 and tendon_changes(b))
+            tied = tendon_changes(a) | (tendon_changes(b) if b >= 0 else tied)
         elif kind in (int(eq.mjEQ_CONNECT), int(eq.mjEQ_WELD), int(eq.mjEQ_DISTANCE)):
             objtype = int(m.eq_objtype[e])
-            hit = apart([body_of(objtype, a), body_of(objtype, b) if b >= 0 else 0])  # no second body: the world
-        else:  # flex constraints act on flex vertices, not on the configuration's joints
-            hit = False
-        if hit:
-            out.append(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e) or f"equality {e}")
+            tied = apart([body_of(objtype, a), body_of(objtype, b) if b >= 0 else 0])  # no second body: the world
+        # flex constraints act on flex vertices, not on the configuration's joints
+        if tied.any():
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e) or f"equality {e}"
+            out[name] = [config.joint_names[i] for i in np.flatnonzero(tied)]
     return out
 
 

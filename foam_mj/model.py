@@ -128,6 +128,7 @@ class RobotModel:
     pair_active: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]  # (P, n) bool: coordinate i can change d_p
     robot_root: str | None = None
     self_collision: bool = True
+    held_by_equality: dict[str, list[str]] = field(default_factory=dict)  # equality -> the default joints it held
 
     def __post_init__(self) -> None:
         # Per-geom masks and the checked-pair table for in_collision, computed once rather than on every call.
@@ -257,7 +258,8 @@ class RobotModel:
             if root < 0:
                 known = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, m.nbody)]
                 raise ModelError(f"{p}: robot_root {unknown_names([robot_root], known)} is not a body of the model (bodies: {known})")
-        if root is not None and joints is None and _custom_text(m, CONFIGURATION_FIELD) is None:
+        by_default = joints is None and _custom_text(m, CONFIGURATION_FIELD) is None  # every limited hinge/slide
+        if root is not None and by_default:
             in_root = body_subtree(m, root)
             joints = [
                 _joint_name(m, j)
@@ -269,14 +271,23 @@ class RobotModel:
         config = _configuration_map(m, p, joints, normalize)
         if keyframe is not None:
             config = dataclasses.replace(config, qpos0=np.array(m.key_qpos[k]))
-        moves = geom_moved_by(m, config)
         coupled = coupling_equalities(m, config)
+        held_by_equality: dict[str, list[str]] = {}
+        if coupled and by_default:  # hold the joints they tie (a gripper's coupled fingers) if others remain
+            tied = {n for names in coupled.values() for n in names}
+            rest = [n for n in config.joint_names if n not in tied]
+            narrowed = _configuration_map(m, p, rest, normalize) if rest else None
+            if narrowed is not None and keyframe is not None:
+                narrowed = dataclasses.replace(narrowed, qpos0=np.array(m.key_qpos[k]))
+            if narrowed is not None and not coupling_equalities(m, narrowed):
+                config, held_by_equality, coupled = narrowed, coupled, {}
         if coupled:
             raise ModelError(
-                f"{p}: equality constraint(s) {coupled} tie a configuration joint ({', '.join(config.joint_names)}) to "
+                f"{p}: equality constraint(s) {list(coupled)} tie a configuration joint ({', '.join(config.joint_names)}) to "
                 "other motion (a coupled or mimic joint, a closed loop), which the planner, moving each joint on its own, "
                 "would not follow: deactivate them (active=\"false\") or plan over joints they do not touch (--joints)"
             )
+        moves = geom_moved_by(m, config)
         tendons = binding_tendon_limits(m, config)
         if tendons:
             raise ModelError(
@@ -344,6 +355,7 @@ class RobotModel:
             fixed_pairs=np.array(fixed, dtype=int).reshape(-1, 2),
             robot_root=robot_root,
             self_collision=self_collision,
+            held_by_equality=held_by_equality,
         )
         out.spec = spec.copy()
         out.xml = xml
@@ -474,6 +486,9 @@ class RobotModel:
             unlimited = [_joint_name(m, j) for j in range(m.njnt) if int(m.jnt_type[j]) in _SUPPORTED_JOINTS
                          and not m.jnt_limited[j] and j not in set(int(k) for k in self.config.joint_ids)]
             why = f"; not configuration joints (no range: held at qpos0): {', '.join(unlimited)}" if unlimited else ""
+            for eq, names in self.held_by_equality.items():
+                why += (f"; not configuration joints (tied to other motion by equality constraint '{eq}', which the "
+                        f"planner would not follow: held at their pose): {', '.join(names)}")
             raise ConfigurationError(
                 f"{name} must have shape ({self.dim},) ({', '.join(self.config.joint_names)}), got shape {arr.shape}{why}"
             )

@@ -115,6 +115,17 @@ def no_obstacle_note(robot) -> str:
             "an included model's default class may set that): give an obstacle contype=\"1\" conaffinity=\"1\"")
 
 
+def held_by_equality_note(robot) -> str:
+    """A note naming the joints left out of the default configuration (every limited hinge and slide) because an
+    equality constraint ties them to other motion (MuJoCo Menagerie's Panda: its two fingers, coupled to each other):
+    they are held at their pose, as a joint left out is. "" when there is none."""
+    return "".join(
+        f"note: {', '.join(names)} held at their pose, not planned: equality constraint '{eq}' ties them to other motion "
+        "(the planner moves each joint on its own and would not follow it)\n"
+        for eq, names in robot.held_by_equality.items()
+    ).rstrip("\n")
+
+
 def held_pose_note(robot, delta: float) -> str:
     """A note naming the held bodies (on joints outside the configuration and outside the robot: a floating base, a
     stance foot, a joint left out) that lie within ``delta`` of a fixed geom where they are held. Neither moves along
@@ -276,7 +287,8 @@ def _plan(args: argparse.Namespace, recorder) -> int:
             f"note: {', '.join(skipped)} left out: the rosary adjustment (T_RA) moves the centres of a foam's rosary "
             f"(each bubble on its parent's surface); planner {scenario.params.algorithm}'s chain is not one (use --planner pfm)"
         )
-    for note in (no_obstacle_note(scenario.robot), held_pose_note(scenario.robot, scenario.params.delta)):
+    for note in (held_by_equality_note(scenario.robot), no_obstacle_note(scenario.robot),
+                 held_pose_note(scenario.robot, scenario.params.delta)):
         if note:
             print(note)
     print_replay_notes(outcome)

@@ -390,12 +390,45 @@ def test_an_equality_that_ties_a_configuration_joint_to_other_motion_is_refused_
 
     mimic = '<equality><joint name="mimic" joint1="c" joint2="b"/></equality>'
     with pytest.raises(ModelError, match=r"equality constraint\(s\) \['mimic'\] tie a configuration joint \(a, b, c\) to other motion"):
-        load(mimic)
+        load(mimic, joints=["a", "b", "c"])
+    with pytest.raises(ModelError, match=r"\['loop'\] tie a configuration joint \(a, b, c\)"):  # it ties every joint
+        load('<equality><connect name="loop" body1="b3" body2="world" anchor="0 0 0"/></equality>')
     with pytest.raises(ModelError, match=r"\['loop'\] tie a configuration joint"):
         load('<equality><connect name="loop" body1="b3" body2="world" anchor="0 0 0"/></equality>', joints=["a"])
     assert load(mimic, joints=["a"]).dim == 1  # b and c held where they are: the constraint holds too
     assert load(mimic.replace('joint2="b"', 'joint2="b" active="false"')).dim == 3
     assert load('<equality><weld body1="mocap" body2="loose"/></equality>').dim == 3
+
+
+def test_the_default_configuration_holds_the_joints_an_equality_ties_to_other_motion(tmp_path):
+    """MuJoCo Menagerie's Panda couples its two finger slides (<equality><joint>): `plan --mjcf panda.xml` with seven
+    values per end point was refused, as the default configuration (every limited hinge and slide) took the fingers
+    too. The default now leaves out the joints an equality ties to other motion, held at their pose like any joint
+    left out (and says so), when joints remain; named joints are taken as named and refused as before."""
+    from foam_mj.plan_command import held_by_equality_note
+
+    arm = (
+        '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+        '<body name="b1" pos="0 0 .5"><joint name="a" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '<body name="b2" pos=".3 0 0"><joint name="b" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '<body name="f1" pos=".3 0 .03"><joint name="s1" type="slide" axis="0 0 1" range="0 .04"/><geom type="box" size=".01 .01 .01"/></body>'
+        '<body name="f2" pos=".3 0 -.03"><joint name="s2" type="slide" axis="0 0 -1" range="0 .04"/><geom type="box" size=".01 .01 .01"/></body>'
+        '</body></body></worldbody><equality><joint name="fingers" joint1="s1" joint2="s2"/></equality></mujoco>'
+    )
+    scene = tmp_path / "gripper_arm.xml"
+    scene.write_text(arm)
+    robot = RobotModel.from_xml(scene)
+    assert robot.config.joint_names == ("a", "b")
+    assert robot.held_by_equality == {"fingers": ["s1", "s2"]}
+    assert held_by_equality_note(robot) == (
+        "note: s1, s2 held at their pose, not planned: equality constraint 'fingers' ties them to other motion "
+        "(the planner moves each joint on its own and would not follow it)")
+    with pytest.raises(ConfigurationError, match=r"must have shape \(2,\) \(a, b\), got shape \(4,\); not configuration "
+                       r"joints \(tied to other motion by equality constraint 'fingers'.*\): s1, s2"):
+        robot.validate([0, 0, 0, 0])
+    with pytest.raises(ModelError, match=r"\['fingers'\] tie a configuration joint \(a, b, s1, s2\)"):
+        RobotModel.from_xml(scene, joints=["a", "b", "s1", "s2"])
+    assert RobotModel.from_xml(scene, joints=["a", "b"]).held_by_equality == {}
 
 
 def test_a_closed_loop_below_every_configuration_joint_is_not_a_coupling(tmp_path):
