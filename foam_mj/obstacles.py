@@ -65,6 +65,7 @@ def resize_box(spec: mujoco.MjSpec, scene: Path, box: "BoxObstacle") -> None:
     g = chosen[0]
     if g.parent.name != "world":
         raise ScenarioError(f"[obstacle]: box '{g.name}' sits in body '{g.parent.name}'; only boxes in <worldbody> can be moved")
+    _unfold_fromto(spec, g)
     old_half = np.asarray(g.size[:3], dtype=float)
     old_pos = np.asarray(g.pos, dtype=float)  # in its <frame>'s coordinates, if it sits in one
     half = old_half if box.size is None else np.asarray(box.size, dtype=float) / 2
@@ -76,6 +77,28 @@ def resize_box(spec: mujoco.MjSpec, scene: Path, box: "BoxObstacle") -> None:
         pos = old_pos + R.T @ np.array([0.0, 0.0, tilt @ half - tilt @ old_half])
     g.size = half
     g.pos = pos
+
+
+def _unfold_fromto(spec: mujoco.MjSpec, g) -> None:
+    """Write a box given by ``fromto`` (MuJoCo derives its centre, orientation and half-length from the segment and
+    refuses a ``pos`` beside it) as the same box by pos, quat and size, so that it can be moved and resized."""
+    if np.isnan(g.fromto[0]):
+        return
+    name = g.name
+    g.name = "foam_mj_resized_box"
+    try:
+        m = spec.compile()
+        k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, g.name)
+        pos, quat, size = np.array(m.geom_pos[k]), np.array(m.geom_quat[k]), np.array(m.geom_size[k])
+    finally:
+        g.name = name
+    origin, R = _frame_pose(spec, g)
+    frame_quat, local_quat = np.zeros(4), np.zeros(4)
+    mujoco.mju_mat2Quat(frame_quat, R.flatten())
+    mujoco.mju_negQuat(frame_quat, frame_quat)
+    mujoco.mju_mulQuat(local_quat, frame_quat, quat)
+    g.fromto = [np.nan, 0, 0, 0, 0, 0]
+    g.pos, g.quat, g.size = R.T @ (pos - origin), local_quat, size
 
 
 def _frame_pose(spec: mujoco.MjSpec, g) -> tuple[np.ndarray, np.ndarray]:

@@ -142,6 +142,35 @@ def test_a_box_written_in_a_frame_is_placed_and_kept_on_the_floor_in_world_coord
     assert after[1] == pytest.approx(before[1], abs=1e-6)  # and the same lowest point
 
 
+def test_a_box_given_by_fromto_is_moved_and_resized(tmp_path):
+    """A box written with fromto (MuJoCo derives its centre, orientation and length from the segment): [obstacle] set
+    its pos beside the fromto, which MuJoCo refuses, and the plan failed with "could not load MJCF file ...: both pos
+    and fromto defined", blaming a file that loads. The box is written out by pos, quat and size, then edited."""
+    path = tmp_path / "fromto.xml"
+    path.write_text(
+        '<mujoco><worldbody><geom type="plane" size="2 2 0.1"/><frame pos="0.1 0 0" euler="0 0 30">'
+        '<geom name="post" type="box" fromto="0.35 0 0 0.35 0 0.25" size="0.04 0.2 0.125"/></frame><body pos="0 0 0.5">'
+        '<joint name="shoulder" type="hinge" axis="0 1 0" range="-100 100"/><geom type="capsule" fromto="0 0 0 0.35 0 0" '
+        'size="0.03"/></body></worldbody></mujoco>')
+    task = {"q_init": [0.3], "q_goal": [-0.3], "scene": str(path)}
+
+    def box(**obstacle) -> tuple[np.ndarray, np.ndarray, float]:
+        m = scenario_from_dict({**task, **({"obstacle": obstacle} if obstacle else {})}, tmp_path, check=False).robot.model
+        d = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, d)
+        g = m.geom("post").id
+        corners = np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T * m.geom_size[g]
+        return d.geom_xpos[g].copy(), m.geom_size[g].copy(), float((d.geom_xpos[g] + corners @ d.geom_xmat[g].reshape(3, 3).T)[:, 2].min())
+
+    before = box()
+    moved = box(pos=[0.6, 0.1, 0.1], size=[0.1, 0.1, 0.2])
+    np.testing.assert_allclose(moved[0], [0.6, 0.1, 0.1], atol=1e-6)
+    np.testing.assert_allclose(moved[1], [0.05, 0.05, 0.1], atol=1e-6)
+    taller = box(size=[0.08, 0.08, 0.4])
+    np.testing.assert_allclose(taller[0][:2], before[0][:2], atol=1e-6)
+    assert taller[2] == pytest.approx(before[2], abs=1e-6) and taller[1][2] == pytest.approx(0.2, abs=1e-6)
+
+
 def test_an_obstacle_name_is_checked_even_when_the_table_changes_nothing_else():
     """A misspelt box name alone is refused (it was ignored: the scene planned on was not the one meant);
     the right name alone leaves the box as it is."""
