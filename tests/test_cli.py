@@ -641,6 +641,27 @@ def test_plan_names_a_held_body_within_the_margin_of_a_fixed_geom(tmp_path, caps
     assert "held body" not in capsys.readouterr().out
 
 
+def test_plan_names_a_static_robot_geom_within_the_margin_of_a_moving_one(tmp_path, capsys):
+    """MuJoCo Menagerie's LEAP hand planned with --robot-root palm: the palm (fixed to the world) rests on the finger
+    bases, a pair its <exclude>s leave out, so the planner (robot against itself as MuJoCo filters it) and verify pass,
+    but a MuJoCo-only checker that counts every geom on a static body as an obstacle read -0.00 mm at every sample
+    without a word from plan; plan names the pair."""
+    xml = ('<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/><body name="palm" pos="0 0 .5">'
+           '<geom name="palm" type="box" size=".05 .05 .02"/><body name="finger" pos="0 0 {gap}">'
+           '<joint name="f" axis="0 1 0" range="-90 90"/><geom name="base" type="box" size=".02 .02 .02" pos="0 0 .02"/>'
+           '<geom type="capsule" fromto="0 0 .04 .2 0 .04" size=".015"/></body></body></worldbody>'
+           '<contact><exclude body1="palm" body2="finger"/></contact></mujoco>')
+    args = ["--robot-root", "palm", "--start", "0", "--goal", "-0.8", "--smoother", "none", "--no-replay", "--no-rrd"]
+    (tmp_path / "resting.xml").write_text(xml.replace("{gap}", ".02"))
+    assert main(["plan", "--mjcf", str(tmp_path / "resting.xml"), *args]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"note: 1 pair\(s\) of a moving robot geom and a robot geom on a body no joint moves are within the "
+                     r"margin at an end point \(base / palm -14.35 mm\), left out as MuJoCo leaves them out", out)  # the goal's
+    (tmp_path / "apart.xml").write_text(xml.replace("{gap}", ".04"))
+    assert main(["plan", "--mjcf", str(tmp_path / "apart.xml"), *args]) == 0
+    assert "body no joint moves" not in capsys.readouterr().out
+
+
 def test_a_path_that_no_timing_fits_is_reported_alone_and_every_other_path_is_kept(tmp_path, capsys):
     """A hip torque limit of 52 N m fits obstacle's convex and optimal paths but not its centre path (gravity alone
     asks 56 N m). plan ended with exit 3 and nothing but that one message: no table, no JSON, the other smoothers'
