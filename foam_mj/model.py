@@ -273,8 +273,10 @@ class RobotModel:
             config = dataclasses.replace(config, qpos0=np.array(m.key_qpos[k]))
         coupled = coupling_equalities(m, config)
         held_by_equality: dict[str, list[str]] = {}
-        if coupled and by_default:  # hold the joints they tie (a gripper's coupled fingers) if others remain
-            tied = {n for names in coupled.values() for n in names}
+        # The default configuration holds the joints they tie (a gripper's coupled fingers) if others remain; a
+        # joint the user normalizes is meant to be planned, so the refusal below says why it cannot be.
+        tied = {n for names in coupled.values() for n in names}
+        if coupled and by_default and not tied & set(normalize or {}):
             rest = [n for n in config.joint_names if n not in tied]
             narrowed = _configuration_map(m, p, rest, normalize) if rest else None
             if narrowed is not None and keyframe is not None:

@@ -429,6 +429,8 @@ def test_the_default_configuration_holds_the_joints_an_equality_ties_to_other_mo
     with pytest.raises(ModelError, match=r"\['fingers'\] tie a configuration joint \(a, b, s1, s2\)"):
         RobotModel.from_xml(scene, joints=["a", "b", "s1", "s2"])
     assert RobotModel.from_xml(scene, joints=["a", "b"]).held_by_equality == {}
+    with pytest.raises(ModelError, match=r"\['fingers'\] tie a configuration joint \(a, b, s1, s2\)"):  # meant to be planned
+        RobotModel.from_xml(scene, normalize={"s1": [1.0]})
 
 
 def test_a_closed_loop_below_every_configuration_joint_is_not_a_coupling(tmp_path):
