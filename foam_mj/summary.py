@@ -41,7 +41,7 @@ def summary_table(outcome) -> str:
 
 
 def print_servo_note(outcome) -> None:
-    """One line when the dynamic replay had to add servos to the model (foam_mj.replay.servo_model), with each
+    """One line when the dynamic replay had to add servos to the model (foam_mj.servos.servo_model), with each
     joint's kp (its range over the paths: they are sized per path), and one per path whose servos ran into their
     ctrl or force range (DynamicReplay.limit_note)."""
     import numpy as np

@@ -1,5 +1,5 @@
 """Tests for planning on a user's own MJCF (README "Bring your own robot"): `foam-mj plan --mjcf`, servos
-added to a model without actuators (foam_mj.replay.servo_model), and bad robots refused before planning."""
+added to a model without actuators (foam_mj.servos.servo_model), and bad robots refused before planning."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 
 from foam_mj.cli import main
 from foam_mj.model import RobotModel
-from foam_mj.replay import SERVO_HZ, servo_model
+from foam_mj.servos import SERVO_HZ, servo_model
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 ARM = EXAMPLES / "two_link_arm" / "arm.xml"

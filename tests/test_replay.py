@@ -11,8 +11,8 @@ import pytest
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.foam import FoamParams, plan
 from foam_mj.model import RobotModel
-from foam_mj.replay import (DynamicReplay, KinematicReplay, SERVO_HZ, effective_inertia, replay_dynamic, replay_kinematic,
-                            servo_controls, servo_model, servo_omega)
+from foam_mj.replay import DynamicReplay, KinematicReplay, replay_dynamic, replay_kinematic, servo_controls
+from foam_mj.servos import SERVO_HZ, effective_inertia, servo_model, servo_omega
 from foam_mj.rosary import Rosary
 from foam_mj.trajectory import Trajectory, make_trajectory
 
