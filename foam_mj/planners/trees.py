@@ -133,9 +133,9 @@ class Bubbles:
             np.copyto(T.gap[sl], g, where=better)
             np.copyto(T.mate[sl], O.idx[j], where=better)
             g2 = D.min(axis=0)  # the other tree's bubbles may now be nearer to a new one
-            better = g2 < O.gap[: O.n]
-            np.copyto(O.gap[: O.n], g2, where=better)
-            O.mate[: O.n][better] = new[t][D[:, better].argmin(axis=0)]
+            better = np.flatnonzero(g2 < O.gap[: O.n])  # (indices: a boolean mask over D's columns copies slowly)
+            O.gap[better] = g2[better]
+            O.mate[better] = new[t][D[:, better].argmin(axis=0)]
             if find and best is None:
                 over = (g < 0).nonzero()[0]
                 if over.size:
