@@ -105,3 +105,38 @@ def test_splicing_a_chord_and_a_pressing_bubble_keeps_a_polyline_held_segment_by
         assert L(P2) <= L(P) + 1e-12
         n_new = sum(len(x) for x in nr)
         assert sorted(ids2[ids2 >= 100].tolist()) == list(range(100, 100 + n_new))
+
+
+@pytest.mark.parametrize("scene, q_init, q_goal", [
+    ("obstacle", None, None),
+    ("bench_arm6", [-0.7, 0.87, 1.12, -0.08, 0.0, 0.0], [0.7, 0.87, 1.12, -0.08, 0.0, 0.0]),
+])
+def test_every_upper_bound_given_to_radii_below_in_a_plan_bounds_the_full_radius(scene, q_init, q_goal):
+    """bubbletree's growth and its corridor (chords, pressing and deepening bubbles, the re-cover) measure a point's
+    pairs only up to a bound of its radius from a sized neighbour (r is 1-Lipschitz; BubbleOracle.radii_below): each
+    such bound is at least the full radius, so the capped radii are the full ones to the last bit."""
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.model import RobotModel
+    from foam_mj.data import models_dir
+    from foam_mj.planners import PlanningProblem, get_planner
+    from foam_mj.scenarios import load_scenario
+
+    if q_init is None:
+        s = load_scenario(scene)
+        robot, q_init, q_goal = s.robot, s.q_init, s.q_goal
+    else:
+        robot = RobotModel.from_xml(models_dir() / f"{scene}.xml")
+    oracle = BubbleOracle(robot, delta=0.005)
+    calls, capped = [], oracle.radii_below
+
+    def spy(Q, upper):
+        r = capped(Q, upper)
+        full = oracle.radii(Q)
+        assert np.all(full <= upper), f"an upper bound below the full radius: {np.max(full - upper):.3g}"
+        assert np.array_equal(r, full)
+        calls.append(len(Q))
+        return r
+
+    oracle.radii_below = spy
+    res = get_planner("bubbletree").plan(PlanningProblem(oracle, np.asarray(q_init, float), np.asarray(q_goal, float), delta=0.005), seed=0)
+    assert res.stats.outcome == "reached" and len(calls) > res.stats.details["iterations"]  # the corridor's calls too

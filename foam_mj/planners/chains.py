@@ -65,7 +65,17 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
     alive[cid[coarse & (r < floor)]] = False
     rest = ~coarse & alive[cid]
     if rest.any():
-        r[rest] = oracle.radii(pts[rest])
+        # r is 1-Lipschitz: a point's radius is at most a sized neighbour's (the nearest coarse points of its
+        # chord, before and after it) plus their distance, and MuJoCo measures each pair only that far.
+        at = np.arange(len(cid))
+        before = np.maximum.accumulate(np.where(coarse, at, -1))
+        after = np.minimum.accumulate(np.where(coarse, at, len(cid))[::-1])[::-1]
+        upper = np.full(len(cid), np.inf)
+        for near in (before, after):
+            ok = (near >= 0) & (near < len(cid))
+            ok[ok] = cid[near[ok]] == cid[ok]
+            upper[ok] = np.minimum(upper[ok], r[near[ok]] + row_norms(pts[ok] - pts[near[ok]]))
+        r[rest] = oracle.radii_below(pts[rest], upper[rest])
         alive[cid[rest & (r < floor)]] = False
 
     def gaps() -> tuple[np.ndarray, np.ndarray]:
@@ -91,12 +101,14 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
         tm = t[gi] + frac * (t[gi + 1] - t[gi])
         newp = A[cm] + V[cm] * tm[:, None]
         inb = np.all((newp >= lo) & (newp <= hi), axis=1)
+        # At most either end's radius plus the distance to it (r is 1-Lipschitz).
+        upper = np.minimum(r[gi] + row_norms(newp - pts[gi]), r[gi + 1] + row_norms(newp - pts[gi + 1]))
         if inb.all():
-            rn = oracle.radii(newp)
+            rn = oracle.radii_below(newp, upper)
         else:
             rn = np.zeros(len(newp))
             if inb.any():
-                rn[inb] = oracle.radii(newp[inb])
+                rn[inb] = oracle.radii_below(newp[inb], upper[inb])
         alive[cm[rn < floor]] = False
         cid, t = np.concatenate([cid, cm]), np.concatenate([t, tm])
         pts, r = np.concatenate([pts, newp]), np.concatenate([r, rn])
@@ -263,7 +275,7 @@ def deepen(oracle, C: np.ndarray, R: np.ndarray, ids: np.ndarray, new_ids) -> tu
     ca, cb, ra, rb, dd = C[thin], C[thin + 1], R[thin], R[thin + 1], d[thin]
     t = (dd**2 + ra**2 - rb**2) / (2 * dd)
     m = ca + (t / dd)[:, None] * (cb - ca)
-    rm = oracle.radii(m)
+    rm = oracle.radii_below(m, np.minimum(ra + row_norms(m - ca), rb + row_norms(m - cb)))  # (1-Lipschitz)
     good = rm > 2 * INSET
     thin, m, rm = thin[good], m[good], rm[good]
     nid = new_ids(len(rm))
@@ -281,7 +293,7 @@ def press_bubbles(oracle, C, R, w, floor):
     if press.size == 0:
         return press, np.empty((0, w.shape[1])), np.empty(0)
     wp = w[press]
-    rp = oracle.radii(wp)
+    rp = oracle.radii_below(wp, np.minimum(R[:-1][press] + da[press], R[1:][press] + db[press]))  # (1-Lipschitz)
     # Outward: away from the centres of the pressed balls. r is 1-Lipschitz (the Cauchy-Schwarz ball of
     # Nascimento and Alsina 2021 Eq. 4), so a centre pushed by t r with t <= 1/2 still holds w.
     nrm = (wp - C[press]) * on_a[press, None] + (wp - C[press + 1]) * on_b[press, None]
@@ -290,8 +302,8 @@ def press_bubbles(oracle, C, R, w, floor):
     flat = cands.reshape(-1, wp.shape[1])
     okb = np.all((flat >= oracle.robot.lower) & (flat <= oracle.robot.upper), axis=1)
     rc = np.zeros(len(flat))
-    if okb.any():
-        rc[okb] = oracle.radii(flat[okb])
+    if okb.any():  # each PUSH x rp from w: a radius at most (1 + PUSH) x rp
+        rc[okb] = oracle.radii_below(flat[okb], ((1.0 + PUSH)[None, :] * rp[:, None]).reshape(-1)[okb])
     rc = rc.reshape(len(press), len(PUSH))
     holds = rc * (1 - HATCH) > PUSH[None, :] * rp[:, None] + 2 * INSET  # holds w with a hatch of HATCH r
     reach = np.where(holds, PUSH[None, :] * rp[:, None] + rc, -np.inf)

@@ -528,7 +528,8 @@ def build_corridor(
         if RECOVER:
             D = path_samples(P, PIECES)
             at = np.arange(0, len(D), PIECES // RECOVER)
-            rE = oracle.radii(D[at])
+            X = D[at]  # each at most a chain bubble's radius plus its distance to the centre (r is 1-Lipschitz)
+            rE = oracle.radii_below(X, np.min(R[None, :] + np.linalg.norm(X[:, None, :] - C[None, :, :], axis=2), axis=1))
             ok = rE > 4 * INSET
             extra = (at[ok], rE[ok])
             clock.lap("recover")
