@@ -457,8 +457,8 @@ class BubbleTreePlanner(Planner):
             for t in (0, 1):
                 T = B.trees[t]
                 mine = T.idx[: T.n]
-                if not outside[t] and B.r[mine].max() < r_min:  # ESCAPE: up the radius's gradient from its largest bubble
-                    top = int(mine[B.r[mine].argmax()])
+                if not outside[t] and T.r[: T.n].max() < r_min:  # ESCAPE: up the radius's gradient from its largest bubble
+                    top = int(mine[T.r[: T.n].argmax()])
                     parents.append(np.array([top]))
                     targets.append(escape_target(B.c[top], B.r[top])[None])
                     escaping.append(np.ones(1, dtype=bool))
