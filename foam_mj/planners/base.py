@@ -384,3 +384,29 @@ class PlannerConfig:
             raise PlannerError(f"`algorithm` must be a planner name (a string), got {algorithm!r}")
         common = {k: table.pop(k) for k in ("delta", "max_bubbles", "time_limit") if k in table}
         return cls(algorithm, **common, options=table)
+
+
+def too_small_to_grow(oracle: BubbleOracle, name: str, q: np.ndarray, r: float, smallest: float) -> str:
+    """Why end point ``name`` at q, whose certified bubble has radius r < ``smallest`` (the smallest bubble a tree
+    grows from), is refused: a joint box narrower than that in some coordinate; else its clearance barely above delta
+    (within a tenth of delta); else a clearance well above delta over a pair that a unit of q moves that far (a
+    coordinate mapped onto a short span)."""
+    robot, delta = oracle.robot, oracle.delta
+    width = robot.upper - robot.lower
+    j = int(np.argmin(width))
+    if width[j] < 2 * smallest:
+        return (f"{name} {q.tolist()} cannot be certified: the joint box is only {width[j]:.3g} wide in "
+                f"'{robot.config.joint_names[j]}' (units of q), so no bubble inside it reaches radius {smallest:g}, the "
+                f"smallest that grows: map that joint onto a longer span ([normalize]) or leave it out of the configuration")
+    report = oracle.explain(q)
+    clearance = clearance_text(report.clearance, delta)
+    if report.clearance - delta <= 0.1 * delta:
+        return (f"{name} {q.tolist()} is too close to an obstacle to certify a path from it: clearance {clearance}, barely "
+                f"above delta = {delta} m, gives a certified bubble of radius {r:.3g} < {smallest:g}, too small to grow "
+                f"from (`foam-mj bubble` shows the limiting pair): move it away")
+    a, b = report.limiting_pair
+    return (f"{name} {q.tolist()} is too close to an obstacle to certify a path from it: clearance {clearance} is "
+            f"{report.clearance - delta:.3g} m above delta = {delta} m, but a unit of q moves {a} / {b} up to "
+            f"||rho|| = {report.rho_norm:.3g} m, so its certified bubble has radius {r:.3g} < {smallest:g} (units of q), "
+            f"too small to grow from (`foam-mj bubble` shows rho per joint): move it away, or map the coordinates onto "
+            f"longer spans ([normalize])")

@@ -124,10 +124,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_finite_number, radius_text
 from foam_mj.foam import seed_rng
-from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer, check_problem
+from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer, check_problem, too_small_to_grow
 from foam_mj.planners.chains import HATCH
 from foam_mj.planners.corridor import CorridorOptions, build_corridor, overlap_pairs
 from foam_mj.planners.informed import InformedSampler
@@ -216,31 +215,6 @@ FINER_STALL = 10
 #: Upper bounds of ``batch``/``connect`` and of ``explore`` (beyond them memory or time explode, nothing improves).
 MAX_EXTENSIONS = 1_000
 MAX_EXPLORE = 100.0
-
-
-def too_small_to_grow(oracle: BubbleOracle, name: str, q: np.ndarray, r: float) -> str:
-    """Why end point ``name`` at q, whose certified bubble has radius r < SMALLEST, is refused: a joint box narrower
-    than SMALLEST in some coordinate; else its clearance barely above delta (within a tenth of delta); else a clearance
-    well above delta over a pair that a unit of q moves that far (a coordinate mapped onto a short span)."""
-    robot, delta = oracle.robot, oracle.delta
-    width = robot.upper - robot.lower
-    j = int(np.argmin(width))
-    if width[j] < 2 * SMALLEST:
-        return (f"{name} {q.tolist()} cannot be certified: the joint box is only {width[j]:.3g} wide in "
-                f"'{robot.config.joint_names[j]}' (units of q), so no bubble inside it reaches radius {SMALLEST:g}, the "
-                f"smallest that grows: map that joint onto a longer span ([normalize]) or leave it out of the configuration")
-    report = oracle.explain(q)
-    clearance = clearance_text(report.clearance, delta)
-    if report.clearance - delta <= 0.1 * delta:
-        return (f"{name} {q.tolist()} is too close to an obstacle to certify a path from it: clearance {clearance}, barely "
-                f"above delta = {delta} m, gives a certified bubble of radius {r:.3g} < {SMALLEST:g}, too small to grow "
-                f"from (`foam-mj bubble` shows the limiting pair): move it away")
-    a, b = report.limiting_pair
-    return (f"{name} {q.tolist()} is too close to an obstacle to certify a path from it: clearance {clearance} is "
-            f"{report.clearance - delta:.3g} m above delta = {delta} m, but a unit of q moves {a} / {b} up to "
-            f"||rho|| = {report.rho_norm:.3g} m, so its certified bubble has radius {r:.3g} < {SMALLEST:g} (units of q), "
-            f"too small to grow from (`foam-mj bubble` shows rho per joint): move it away, or map the coordinates onto "
-            f"longer spans ([normalize])")
 
 
 @dataclass(frozen=True)
@@ -390,7 +364,7 @@ class BubbleTreePlanner(Planner):
         if link is None:  # an end bubble below SMALLEST never grows, and no other bubble comes to hold its centre
             for name, q, r in (("q_init", q0, r0), ("q_goal", q1, r1)):
                 if r < SMALLEST:
-                    raise ConfigurationError(too_small_to_grow(oracle, name, q, r))
+                    raise ConfigurationError(too_small_to_grow(oracle, name, q, r, SMALLEST))
         t_first: float | None = None
         it_first = 0
         foam_first = 0
