@@ -30,31 +30,19 @@ import time
 from dataclasses import replace
 from foam_mj.data import model_path
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
-import numpy as np
-
-from foam_mj import paths
 from foam_mj.atomic import OutputError, atomic_write_text, check_output
-from foam_mj.bubbles import BubbleOracle
-from foam_mj.foam import FoamParams, plan
-from foam_mj.model import RobotModel
-from foam_mj.rosary import Rosary
-from foam_mj.smoothing import (
-    ConvexShortestPath,
-    GeneticAlgorithm,
-    GradientSmoothing,
-    HarmonySearch,
-    OptimalSmoother,
-    RosaryAdjustment,
-    SmoothingResult,
-    StopCriteria,
-    center_path_result,
-)
+
+if TYPE_CHECKING:  # numpy, MuJoCo, the planner and the smoothers (scipy, Clarabel) are imported by the runs: `bench --help`
+    # and a bad argument load only the standard library
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.rosary import Rosary
+    from foam_mj.foam import FoamParams
+    from foam_mj.smoothing import SmoothingResult, StopCriteria
 
 Q_INIT = (0.2, 0.3, 0.08)
 Q_GOAL = (0.45, 0.4536, 1.45)
-FOAM = FoamParams(K=10, r_min=0.07, delta=0.005)
 PLANNER_SEED = 0
 DEFAULT_JSON = Path("out/benchmarks/smoothing.json")
 
@@ -65,7 +53,20 @@ PAPER_TABLE1 = {
     "GA": {"time": (27.112, 39.253, 16.7, 6.3739), "f": (3.9307, 3.985, 3.8576, 0.035699),
            "iterations": (3718.6, 5510, 2287, 935.18)},
 }
-TABLE1_STOP = StopCriteria()  # stall 200 (Table 1), capped at 2 x 10^4 (Nascimento et al. 2019's NI)
+
+
+def foam_params() -> FoamParams:
+    """The benchmark rosary's foam: K = 10, r_min = 0.07, delta = 5 mm."""
+    from foam_mj.foam import FoamParams
+
+    return FoamParams(K=10, r_min=0.07, delta=0.005)
+
+
+def table1_stop() -> StopCriteria:
+    """Table 1's stop criterion: stall 200, capped at 2 x 10^4 (Nascimento et al. 2019's NI)."""
+    from foam_mj.smoothing import StopCriteria
+
+    return StopCriteria()
 
 
 class Progress:
@@ -93,27 +94,47 @@ class Progress:
 
 
 def stats(x) -> dict:
+    import numpy as np
+
     a = np.asarray(x, dtype=float)
     return {"mean": float(a.mean()), "max": float(a.max()), "min": float(a.min()),
             "std": float(a.std(ddof=1)) if a.size > 1 else 0.0, "median": float(np.median(a))}
 
 
 def obstacle_rosary() -> tuple[BubbleOracle, Rosary, float]:
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.foam import plan
+    from foam_mj.model import RobotModel
+
+    foam = foam_params()
     robot = RobotModel.from_xml(model_path("obstacle.xml"))
-    oracle = BubbleOracle(robot, delta=FOAM.delta)
-    res = plan(oracle, Q_INIT, Q_GOAL, FOAM, seed=PLANNER_SEED)
+    oracle = BubbleOracle(robot, delta=foam.delta)
+    res = plan(oracle, Q_INIT, Q_GOAL, foam, seed=PLANNER_SEED)
     return oracle, res.rosary, res.stats.elapsed
 
 
 def run_benchmark(runs: int, quick: bool, progress: bool = True) -> dict:
+    import numpy as np
+
+    from foam_mj import paths
+    from foam_mj.smoothing import (
+        ConvexShortestPath,
+        GeneticAlgorithm,
+        GradientSmoothing,
+        HarmonySearch,
+        OptimalSmoother,
+        RosaryAdjustment,
+        center_path_result,
+    )
+
     oracle, rosary, plan_time = obstacle_rosary()
-    ga_stop = TABLE1_STOP
+    foam, stop = foam_params(), table1_stop()
     stochastic: dict[str, Callable[[int], SmoothingResult]] = {
-        "HS": lambda s: HarmonySearch(stop=TABLE1_STOP).smooth(rosary, seed=s),
-        "GA": lambda s: GeneticAlgorithm(stop=ga_stop).smooth(rosary, seed=s),
+        "HS": lambda s: HarmonySearch(stop=stop).smooth(rosary, seed=s),
+        "GA": lambda s: GeneticAlgorithm(stop=stop).smooth(rosary, seed=s),
     }
     if not quick:
-        stochastic["GA (beta~U[0,1])"] = lambda s: GeneticAlgorithm(beta=None, stop=ga_stop).smooth(rosary, seed=s)
+        stochastic["GA (beta~U[0,1])"] = lambda s: GeneticAlgorithm(beta=None, stop=stop).smooth(rosary, seed=s)
     repeats = 1 if quick else 3  # deterministic methods: median time over repeats
     deterministic = ["T", "T_CA", "T_RA", "T_RCA", "convex", "convex-smooth", "convex (adjusted rosary)",
                      "optimal", "optimal (adjusted rosary)"]
@@ -129,7 +150,7 @@ def run_benchmark(runs: int, quick: bool, progress: bool = True) -> dict:
                 bar.step(f"{name} run {s + 1}")
         times[name] = [r.wall_time for r in results[name]]
 
-    adjustment = RosaryAdjustment(r_min=FOAM.r_min)
+    adjustment = RosaryAdjustment(r_min=foam.r_min)
     grad = GradientSmoothing()
     adjusted = None
     det_fns: dict[str, Callable[[], SmoothingResult]] = {
@@ -162,11 +183,11 @@ def run_benchmark(runs: int, quick: bool, progress: bool = True) -> dict:
                  id(results["T_RA"][0].rosary): results["optimal (adjusted rosary)"][0].f}
 
     out: dict = {
-        "task": {"scene": "obstacle", "q_init": Q_INIT, "q_goal": Q_GOAL, "K": FOAM.K, "r_min": FOAM.r_min,
-                 "delta": FOAM.delta, "planner_seed": PLANNER_SEED, "bubbles_in_rosary": rosary.k,
+        "task": {"scene": "obstacle", "q_init": Q_INIT, "q_goal": Q_GOAL, "K": foam.K, "r_min": foam.r_min,
+                 "delta": foam.delta, "planner_seed": PLANNER_SEED, "bubbles_in_rosary": rosary.k,
                  "planning_time": plan_time},
-        "stop_criterion": {"stall_iterations": TABLE1_STOP.stall_iterations,
-                           "max_iterations": TABLE1_STOP.max_iterations, "f_threshold": TABLE1_STOP.f_threshold},
+        "stop_criterion": {"stall_iterations": stop.stall_iterations,
+                           "max_iterations": stop.max_iterations, "f_threshold": stop.f_threshold},
         "runs": runs,
         "quick": quick,
         "paper_table1": PAPER_TABLE1,
@@ -217,8 +238,11 @@ GAP_SCENES = ("obstacle", "step_up", "step_down")
 
 def run_scene_gaps(runs: int, quick: bool, progress: bool = True) -> dict:
     """Every method's f gap to the certified optimum on the obstacle, step-up and step-down rosaries."""
+    from foam_mj.foam import plan
     from foam_mj.scenarios import load_scenario
+    from foam_mj.smoothing import ConvexShortestPath, GeneticAlgorithm, GradientSmoothing, HarmonySearch, OptimalSmoother, center_path_result
 
+    stop = table1_stop()
     repeats = 1 if quick else 5
     stochastic = ("HS", "GA")
     deterministic = ("T", "T_CA", "convex", "convex-smooth", "optimal")
@@ -233,8 +257,8 @@ def run_scene_gaps(runs: int, quick: bool, progress: bool = True) -> dict:
         finally:
             oracle.close()
         fns: dict[str, Callable[[int], SmoothingResult]] = {
-            "HS": lambda s, r=rosary: HarmonySearch(stop=TABLE1_STOP).smooth(r, seed=s),
-            "GA": lambda s, r=rosary: GeneticAlgorithm(stop=TABLE1_STOP).smooth(r, seed=s),
+            "HS": lambda s, r=rosary: HarmonySearch(stop=stop).smooth(r, seed=s),
+            "GA": lambda s, r=rosary: GeneticAlgorithm(stop=stop).smooth(r, seed=s),
             "T": lambda s, r=rosary: center_path_result(r, "T"),
             "T_CA": lambda s, r=rosary: GradientSmoothing().smooth(r),
             "convex": lambda s, r=rosary: ConvexShortestPath().smooth(r),

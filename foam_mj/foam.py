@@ -33,15 +33,24 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass
-from typing import Callable
+from importlib import import_module
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_finite_number, is_number, radius_text
 from foam_mj.rosary import MEMBERSHIP_TOL, Rosary
 from foam_mj.safe_curve import apart_text, coincide
+
+if TYPE_CHECKING:  # scipy is imported where a k-d tree is built: reading a scenario (its planner's options) does not need it
+    from scipy.spatial import cKDTree
+
+
+def load_kd_tree() -> None:
+    """Import scipy's k-d tree, which the foams use; a planner calls this before its clock starts, so that the import
+    (0.3-1 s the first time) is neither counted as planning time nor taken from its time limit."""
+    import_module("scipy.spatial")
 
 
 @dataclass(frozen=True)
@@ -189,6 +198,8 @@ class CoverageIndex:
         lifted = np.empty((len(small), c.shape[1] + 1))
         lifted[:, :-1] = c[small]
         lifted[:, -1] = np.sqrt(np.maximum(R * R - rs * rs, 0.0))
+        from scipy.spatial import cKDTree
+
         self._tree = cKDTree(lifted, leafsize=TREE_LEAFSIZE)
         self._tree_ids = np.append(small, -1)
         self._n_tree = n
@@ -326,6 +337,8 @@ def accept_in_order(cand: np.ndarray, r: np.ndarray) -> np.ndarray:
     accepted = np.ones(m, dtype=bool)
     if m < 2:
         return accepted
+    from scipy.spatial import cKDTree
+
     pairs = cKDTree(cand).query_pairs(float(r.max()) * (1.0 + 1e-9), output_type="ndarray")  # (j, i), j < i
     if len(pairs) == 0:
         return accepted
@@ -454,6 +467,7 @@ def plan(
     lo, hi = robot.lower, robot.upper
     r_min = params.r_min
     diag = float(np.linalg.norm(hi - lo))  # a larger radius puts every candidate outside the bounds
+    load_kd_tree()
     t0 = time.perf_counter()
     stats = FoamStats()
     calls0 = oracle.clearance.calls

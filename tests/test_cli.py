@@ -469,13 +469,15 @@ HEAVY_MODULES = ("numpy", "mujoco", "scipy", "rerun", "toppra", "clarabel", "tri
 
 
 def test_import_and_help_load_nothing_heavy():
-    """`import foam_mj`, `foam-mj --help` and argument errors answer at once: they load only the standard library."""
+    """`import foam_mj`, `foam-mj --help`, `--version`, every command's `--help` and argument errors answer at once:
+    they load only the standard library."""
+    helps = [[c, "--help"] for c in ("scenes", "plan", "bubble", "replay", "export", "verify", "view", "bench", "figures", "sweep", "report")]
     code = (
         "import sys, foam_mj\n"
         f"heavy = {HEAVY_MODULES!r}\n"
         "assert not [m for m in heavy if m in sys.modules], 'import foam_mj'\n"
         "from foam_mj.cli import main\n"
-        "for argv in (['--help'], ['plan', '--help'], ['sweep', '--help'], ['plan', '--no-such-flag']):\n"
+        f"for argv in (['--help'], ['--version'], *{helps!r}, ['plan', '--no-such-flag'], ['bench', '--runs', '0']):\n"
         "    try:\n"
         "        main(argv)\n"
         "    except SystemExit:\n"
@@ -483,6 +485,30 @@ def test_import_and_help_load_nothing_heavy():
         "print('loaded:', ','.join(m for m in heavy if m in sys.modules))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines()[-1] == "loaded: "
+
+
+def test_listing_and_checking_scenarios_loads_no_solver_or_recording_package():
+    """`foam-mj scenes`, `foam-mj bubble` and loading a scenario read TOML and ask MuJoCo for distances: they load
+    neither scipy, Clarabel, toppra, Rerun nor any optional extra (a second of start-up before), nor the pipeline
+    or the smoothers; `scenes` still lists every built-in scenario."""
+    light_heavy = tuple(m for m in HEAVY_MODULES if m not in ("numpy", "mujoco")) + ("foam_mj.smoothing",)
+    code = (
+        "import contextlib, io, sys\n"
+        "from foam_mj.cli import main\n"
+        "from foam_mj.scenarios import available_scenarios, load_scenario\n"
+        "out = io.StringIO()\n"
+        "with contextlib.redirect_stdout(out):\n"
+        "    assert main(['scenes']) == 0\n"
+        "    assert main(['bubble', '--scene', 'obstacle', '--q', '0.2 0.3 0.08']) == 0\n"
+        "for name in available_scenarios():\n"
+        "    load_scenario(name)\n"
+        "listed = [line.split()[0] for line in out.getvalue().splitlines()[1:len(available_scenarios()) + 1]]\n"
+        "assert listed == available_scenarios(), listed\n"
+        f"print('loaded:', ','.join(m for m in {light_heavy!r} if m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.splitlines()[-1] == "loaded: "
 

@@ -128,7 +128,7 @@ from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, i
 from foam_mj.foam import seed_rng
 from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer, check_problem, too_small_to_grow
 from foam_mj.planners.chains import HATCH
-from foam_mj.planners.corridor import CorridorOptions, build_corridor, overlap_pairs
+from foam_mj.planners.corridor import CorridorOptions, build_corridor, load_solvers, overlap_pairs
 from foam_mj.planners.informed import InformedSampler
 from foam_mj.planners.trees import Bubbles, lifted
 
@@ -285,6 +285,7 @@ class BubbleTreePlanner(Planner):
         oracle = problem.oracle
         robot = oracle.robot
         rng = seed_rng(seed)
+        load_solvers()
         timer = Timer(progress)
         cpu0 = time.process_time()
         calls0 = oracle.clearance.calls

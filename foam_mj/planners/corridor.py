@@ -99,13 +99,10 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from functools import lru_cache
+from importlib import import_module
 
-import clarabel
 import numpy as np
-import scipy.sparse as sp
 from numpy.lib.stride_tricks import as_strided
-from scipy.sparse.csgraph import dijkstra
-from scipy.spatial import cKDTree
 
 from foam_mj.paths import row_norms
 from foam_mj.planners.chains import (
@@ -122,7 +119,17 @@ from foam_mj.planners.chains import (
     thin_line_chain,
 )
 from foam_mj.rosary import Rosary
-from foam_mj.smoothing.convex import csc_lists, to_csc
+
+# scipy, Clarabel and foam_mj.smoothing are imported inside the functions that use them: reading a scenario checks its
+# [planner] table against the planners' options, and `foam-mj scenes` or a bad flag should not wait for them.
+_SOLVERS = ("scipy.spatial", "scipy.sparse.csgraph", "clarabel", "foam_mj.smoothing.convex")
+
+
+def load_solvers() -> None:
+    """Import what the corridor uses (scipy's k-d tree and graph search, Clarabel); a planner calls this before its
+    clock starts, so that the imports are neither counted as planning time nor taken from its time limit."""
+    for name in _SOLVERS:
+        import_module(name)
 
 DEBUG = False
 #: A round's pruned chain is solved again only if it drops more than this share of the bubbles (else the
@@ -226,6 +233,8 @@ def overlap_pairs(centers: np.ndarray, radii: np.ndarray, hatch: float = HATCH) 
     # most twice its largest radius apart, of two classes at most the sum of their largest radii. (One tree asked for
     # every bubble's neighbours within r_i + r_max -- the largest radius widening every query -- gave a UR5e foam of
     # 8,700 bubbles 161,600 candidates in 68 ms; by class 28,500 in 38 ms, the same pairs.)
+    from scipy.spatial import cKDTree
+
     top = float(radii.max())
     k = np.floor(np.log2(top / np.maximum(radii, top * 2.0**-40))).astype(np.int64)
     order = np.argsort(k, kind="stable")
@@ -257,6 +266,11 @@ def shortest_chain(
 ) -> np.ndarray | None:
     """Bubble indices of the shortest chain q_init -> q_goal through the overlap graph, or None
     (edge weights: distances between centres, weighted by ``metric`` as :func:`shortest_path`)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import dijkstra
+
+    from foam_mj.smoothing.convex import to_csc
+
     n = len(radii)
     s = 1.0 if metric is None else np.asarray(metric, dtype=float)
     i, j = overlap_pairs(centers, radii)
@@ -298,6 +312,10 @@ def _socp_template(m: int, n: int, metric: tuple[float, ...] | None):
     (:func:`foam_mj.smoothing.convex.to_csc`, tested), in a third of the time (0.13 -> 0.04 ms at m = 60, n = 3) and
     far less than building the program on a rosary of zeros (0.83-0.86 ms per chain length, m 10-109, n 3). A
     benchmark pays it for most programs: each chain length's first program builds its template."""
+    import clarabel
+
+    from foam_mj.smoothing.convex import csc_lists
+
     cd = n + 1
     d = np.arange(n)
     nw, nt = m * n, m + 1
@@ -355,6 +373,8 @@ def shortest_path(
     b[brow] = -as_strided(centers, (m, 2, n), (centers.strides[0], *centers.strides)).ravel()
     if row_w is not None:
         b *= row_w
+    import clarabel
+
     settings = clarabel.DefaultSettings()
     settings.verbose = False
     # Without presolve (nothing to remove) and iterative refinement: 40 % less time for the same path to 1e-8.

@@ -59,16 +59,18 @@ from __future__ import annotations
 import heapq
 import time
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_number, radius_text
-from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order, check_candidate_bound, nearest_hint, seed_rng, small_goal_hint
+from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order, check_candidate_bound, load_kd_tree, nearest_hint, seed_rng, small_goal_hint
 from foam_mj.planners.closure import closure_text, foam_closure, queue_empty_text, surface_holds_no_child
 from foam_mj.rosary import MEMBERSHIP_TOL
+
+if TYPE_CHECKING:  # scipy is imported where a k-d tree is built (as in foam_mj.foam)
+    from scipy.spatial import cKDTree
 
 #: Citation used in docstrings, the README and docs/references.md.
 PAPER = (
@@ -116,6 +118,7 @@ class _Growth:
         self.rng = seed_rng(seed)
         self.n = robot.dim
         self.lo, self.hi = robot.lower, robot.upper
+        load_kd_tree()
         self.t0 = time.perf_counter()
         self.stats = FoamStats()
         self.calls0 = oracle.clearance.calls
@@ -347,6 +350,8 @@ class _NearestCentre:
 
     def query(self, centers: np.ndarray, count: int, points: np.ndarray) -> np.ndarray:
         if count - self._n_tree > max(64, self._n_tree // 8):
+            from scipy.spatial import cKDTree
+
             self._tree = cKDTree(centers[:count])
             self._n_tree = count
         best_d = np.full(len(points), np.inf)
