@@ -395,11 +395,15 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     return VerifyReport(source, mjcf, margin, step, len(pairs) - n_self, tuple(checks), n_self)
 
 
+def _count(n: int, noun: str) -> str:
+    return f"{n:,} {noun}{'' if n == 1 else 's'}"
+
+
 def format_report(r: VerifyReport) -> str:
     """The table ``foam-mj verify`` prints, and a last summary line."""
     head = f"{'path':<20}{'waypoint samples':>17}{'trajectory samples':>20}{'min clear':>11}{'violations':>11}  closest pair"
-    lines = [f"verify {r.result} on {r.mjcf}: {r.pairs} moving/static geom pairs"
-             f"{f' and {r.self_pairs} robot/robot pairs' if r.self_pairs else ''}, step {r.step:g}, margin {r.margin * 1000:g} mm",
+    pairs = _count(r.pairs, "moving/static geom pair") + (f" and {_count(r.self_pairs, 'robot/robot pair')}" if r.self_pairs else "")
+    lines = [f"verify {r.result} on {r.mjcf}: {pairs}, step {r.step:g}, margin {r.margin * 1000:g} mm",
              head, "-" * len(head)]
     for p in r.paths:
         lines.append(f"{p.name:<20}{p.waypoint_samples:>17,}{p.trajectory_samples:>20,}{p.min_clearance * 1000:>8.2f} mm"

@@ -292,7 +292,7 @@ def test_the_robot_touching_itself_is_a_violation_unless_planned_without_self_co
     """link3 folded back onto link1 (two links apart: MuJoCo tests that pair) is unsafe; the planner checked
     robot/robot pairs, and so does verify, with a rule of its own (MuJoCo's filter, not the planner's code)."""
     xml, out = _plan_folding_arm(tmp_path, capsys, "--start", "0 0 0", "--goal", "0.3 0.5 0.5")
-    assert "robot/robot pairs" in capsys.readouterr().out
+    assert "1 robot/robot pair," in capsys.readouterr().out
     m = mujoco.MjModel.from_xml_path(str(xml))
     gid = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)  # noqa: E731
     pairs = {tuple(p) for p in collision_pairs(m, np.array([0, 1, 2]), self_collision=True).tolist()}
@@ -407,3 +407,13 @@ def test_a_result_planned_with_a_robot_root_is_checked_as_that_robot(tmp_path, c
     pairs = named(collision_pairs(m, idx, True, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "pelvis")))
     assert pairs == {frozenset(p) for p in (("thigh", "floor"), ("thigh", "post"), ("pelvis", "floor"), ("pelvis", "post"))}
     assert frozenset(("pelvis", "thigh")) in named(collision_pairs(m, idx, True))  # without the root: an obstacle
+
+
+def test_the_header_counts_pairs_in_words_that_agree_with_the_number():
+    """'1 robot/robot pairs' read as a slip: one pair is 'pair', several 'pairs', none of robot/robot is left unsaid."""
+    from foam_mj.verify import VerifyReport, format_report
+
+    head = lambda pairs, self_pairs: format_report(VerifyReport(Path("r.json"), Path("s.xml"), 0.005, 1e-3, pairs, (), self_pairs)).splitlines()[0]  # noqa: E731
+    assert head(6, 1) == "verify r.json on s.xml: 6 moving/static geom pairs and 1 robot/robot pair, step 0.001, margin 5 mm"
+    assert head(1, 8) == "verify r.json on s.xml: 1 moving/static geom pair and 8 robot/robot pairs, step 0.001, margin 5 mm"
+    assert head(6, 0) == "verify r.json on s.xml: 6 moving/static geom pairs, step 0.001, margin 5 mm"
