@@ -277,7 +277,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return EXIT_INTERNAL
     on = f"{s.workers} local worker{'s' * (s.workers != 1)}" if engine == "local" else f"Ray ({args.ray or 'local'})"
     print(
-        f"sweep {args.sweep}: {s.tasks} plans in all, {s.skipped} already done, {s.run} run now ({s.failed} with a row not reached), "
+        f"sweep {args.sweep}: {s.tasks} plans in all, {s.skipped} already done, {s.run} run now ({s.failed} not reached), "
         f"{s.rows_written} rows in {s.files_written} file{'s' * (s.files_written != 1)} under {where}; {s.rate:.2f} plans/s on {on} ({s.elapsed:.1f} s)"
     )
     return EXIT_OK

@@ -57,7 +57,7 @@ def duration_text(seconds: float) -> str:
 
 
 class SweepProgress:
-    """Plans done/total, failures, rate and ETA: a rich bar on a terminal, else a plain line every ``interval`` s.
+    """Plans done/total, those not reached, rate and ETA: a rich bar on a terminal, else a plain line every ``interval`` s.
     ``failed``: plans among ``done`` with a row not reached. ``stop``: where this run ends when ``--limit`` ends it
     before ``total``; the bar and the ETA count to it."""
 
@@ -82,7 +82,7 @@ class SweepProgress:
                 TextColumn("[bold]{task.description}"),
                 BarColumn(),
                 MofNCompleteColumn(),
-                TextColumn("plans, {task.fields[failed]} failed, {task.fields[rate]}"),
+                TextColumn("plans, {task.fields[failed]} not reached, {task.fields[rate]}"),
                 TextColumn("ETA"),
                 TimeRemainingColumn(),
                 TimeElapsedColumn(),
@@ -101,7 +101,7 @@ class SweepProgress:
         rate = self.rate
         left = self.total - self.done
         eta = duration_text(left / rate) if rate > 0 else "-"
-        return f"{self.label}: {self.done:,}/{self.total:,} plans, {self.failed:,} failed, {rate:.2f} plans/s, ETA {eta}"
+        return f"{self.label}: {self.done:,}/{self.total:,} plans, {self.failed:,} not reached, {rate:.2f} plans/s, ETA {eta}"
 
     def update(self, n: int = 1, failed: int = 0) -> None:
         self.done += n

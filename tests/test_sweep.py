@@ -151,7 +151,7 @@ def test_ctrl_c_then_a_kill_midway_then_a_rerun_give_the_same_rows(study, tmp_pa
     stdout, err = proc.communicate(timeout=300)
     assert proc.returncode == 0, err
     assert f"{len(second) // 2} already done" in stdout
-    assert re.search(r"sweep: \d+/12 plans, 0 failed, [\d.]+ plans/s, ETA", err)
+    assert re.search(r"sweep: \d+/12 plans, 0 not reached, [\d.]+ plans/s, ETA", err)
     assert deterministic(check_folder(out)) == deterministic(study["rows"])
     assert not list((out / "rows").glob(".*"))  # no temporary file left behind after a clean run
 
@@ -243,13 +243,16 @@ def test_a_bad_key_or_value_is_exit_2_before_any_work_naming_it(tmp_path, capsys
     assert not out.exists()
 
 
-def test_an_obstacle_moved_onto_the_goal_gives_invalid_rows_not_a_refused_sweep(tmp_path):
+def test_an_obstacle_moved_onto_the_goal_gives_invalid_rows_not_a_refused_sweep(tmp_path, capsys):
     """A swept box position that puts q_goal in collision is a data point of the study (no path there), not a
-    bad value: its rows say 'invalid' and name the goal's clearance; the other positions are planned."""
+    bad value: its rows say 'invalid' and name the goal's clearance; the other positions are planned. The last line
+    counts it as not reached (it said "1 failed" / "with a row not reached", while the report's `failed` column,
+    a plan that did not reach, read 0)."""
     spec = write(tmp_path, 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "none"\n'
                            '[grid]\n"obstacle.pos" = [[0.5, 0.0, 0.075], [0.9, 0.0, 0.1]]\n')
     out = tmp_path / "out"
     assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    assert "2 plans in all, 0 already done, 2 run now (1 not reached), 2 rows" in capsys.readouterr().out
     rows = {r["obstacle.pos"]: r for r in read_rows(out).to_pylist()}
     assert rows["[0.5, 0.0, 0.075]"]["outcome"] == "reached"
     bad = rows["[0.9, 0.0, 0.1]"]
@@ -637,7 +640,7 @@ def test_on_a_terminal_progress_is_a_live_bar_with_rate_and_eta(tmp_path):
     os.close(master)
     assert proc.returncode == 0
     screen = b"".join(chunks).decode(errors="replace")
-    assert "2/2" in screen and "plans/s" in screen and "ETA" in screen and "0 failed" in screen
+    assert "2/2" in screen and "plans/s" in screen and "ETA" in screen and "0 not reached" in screen
     assert "━" in screen  # rich's bar, not the plain lines
 
 
@@ -775,10 +778,10 @@ def test_with_limit_the_progress_and_its_eta_count_to_where_this_run_stops(tmp_p
     spec = write(tmp_path, 'scenario = "obstacle"\nseeds = 3\nsmoothers = "none"\nreplay = "none"\n')
     run_sweep(load_sweep(spec), tmp_path / "out", workers=1, interval=0.0, limit=1)
     lines = capsys.readouterr().err.strip().splitlines()
-    assert lines[0].startswith("sweep (--limit: to 1 of 3): 0/1 plans, 0 failed") and lines[-1].startswith("sweep (--limit: to 1 of 3): 1/1 plans")
+    assert lines[0].startswith("sweep (--limit: to 1 of 3): 0/1 plans, 0 not reached") and lines[-1].startswith("sweep (--limit: to 1 of 3): 1/1 plans")
     bar = SweepProgress(270, 100, terminal=False, stop=200)  # a second run of --limit 100: 100 done before it
     bar.done, bar.start_done, bar.t0 = 150, 100, bar.t0 - 10.0  # 50 plans in 10 s: 50 left to its end, 10 s
-    assert re.fullmatch(r"sweep \(--limit: to 200 of 270\): 150/200 plans, 0 failed, [\d.]+ plans/s, ETA 1[01] s", bar.line())
+    assert re.fullmatch(r"sweep \(--limit: to 200 of 270\): 150/200 plans, 0 not reached, [\d.]+ plans/s, ETA 1[01] s", bar.line())
     assert SweepProgress(270, 0, terminal=False, stop=300).line().startswith("sweep: 0/270 plans")  # the study ends first
 
 
