@@ -111,3 +111,18 @@ def test_the_readmes_python_api_runs():
     for code in blocks:
         exec(compile(code, "README.md", "exec"), namespace)
     assert namespace["result"].stats.outcome == "reached" and namespace["po"].kinematic.min_clearance >= 0.005
+
+
+def test_the_ortholeg5_command_line_scaling_is_the_small_subject_toml(tmp_path, monkeypatch):
+    """examples/ortholeg5's "the same scaling from the command line" gives small_subject.toml's timed paths (its
+    command once lacked the TOML's `--time-law own`: toppra's faster swing, other joint loads)."""
+    monkeypatch.chdir(tmp_path)
+    text = " ".join((EXAMPLES / "ortholeg5" / "README.md").read_text().split())
+    command = re.search(r"The same scaling from the command line: `(foam-mj plan [^`]*)`", text).group(1)
+    quick = ["--smoother", "none", "--no-rrd"]
+    assert main([*shlex.split(command)[1:], *quick, "--json", "flags.json"]) == 0
+    assert main(["plan", "--scene", str(EXAMPLES / "ortholeg5" / "small_subject.toml"), *quick, "--json", "toml.json"]) == 0
+    flags, toml = (json.loads(Path(f).read_text()) for f in ("flags.json", "toml.json"))
+    assert flags["time_law"] == toml["time_law"] == "own"
+    a, b = flags["paths"]["centre"], toml["paths"]["centre"]
+    assert a["times"] == b["times"] and a["dynamics"]["peak_torque"] == b["dynamics"]["peak_torque"]
