@@ -491,9 +491,9 @@ class RobotModel:
             for eq, names in self.held_by_equality.items():
                 why += (f"; not configuration joints (tied to other motion by equality constraint '{eq}', which the "
                         f"planner would not follow: held at their pose): {', '.join(names)}")
-            raise ConfigurationError(
-                f"{name} must have shape ({self.dim},) ({', '.join(self.config.joint_names)}), got shape {arr.shape}{why}"
-            )
+            got = f"{arr.size}" if arr.ndim == 1 else f"an array of shape {arr.shape}"
+            raise ConfigurationError(f"{name} must be {self.dim} number{'s' * (self.dim != 1)}, one per configuration joint "
+                                     f"({', '.join(self.config.joint_names)}), got {got}{why}")
         if not np.all(np.isfinite(arr)):
             raise ConfigurationError(f"{name} must be finite, got {arr.tolist()}")
         if check_bounds:

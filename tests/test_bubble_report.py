@@ -68,7 +68,7 @@ def test_a_scene_report_lists_every_pair_and_agrees_with_mujoco(tmp_path, capsys
     [
         (["bubble", "--q=0 0 0"], "give one of --scene NAME or --mjcf FILE"),
         (["bubble", "--scene", "obstacle", "--mjcf", "x.xml", "--q=0 0 0"], "give one of"),
-        (["bubble", "--scene", "obstacle", "--q=0.2 0.3"], "--q must have shape (3,)"),
+        (["bubble", "--scene", "obstacle", "--q=0.2 0.3"], "--q must be 3 numbers, one per configuration joint (hip_flexion, knee_flexion, hip_displacement), got 2"),
         (["bubble", "--scene", "obstacle", "--q=0.2 0.3 9"], "--q[2] (hip_displacement) = 9 is outside its bounds"),
         (["bubble", "--scene", "obstacle", "--q=a b c"], "--q must be numbers"),
         (["bubble", "--scene", "nowhere", "--q=0 0 0"], "unknown scenario 'nowhere'"),

@@ -499,7 +499,7 @@ def test_replay_export_and_figures_refuse_a_malformed_result_before_any_output(p
         (["--subject-height", "50"], "--subject-height must be in [1.2, 2.2] m, got 50.0"),
         (["--subject-mass", "nan"], "--subject-mass must be in [25, 200] kg, got nan"),
         (["--robot-root", ""], "--robot-root must name a body of the model, got an empty name"),
-        (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3", "--goal", "0.45 0.4536 1.45"], "--start: q_init must have shape (3,)"),
+        (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3", "--goal", "0.45 0.4536 1.45"], "--start: q_init must be 3 numbers, one per configuration joint (hip_flexion, knee_flexion, hip_displacement), got 2"),
         (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0.08", "--goal", "0 0 0.785"], "--goal = [0.0, 0.0, 0.785] is in collision"),
         (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0.08", "--goal", "0.2 0.3 0.08"], "--start and --goal are equal"),
         (["--mjcf", str(MODELS / "obstacle.xml"), "--joints", "a,b,c", "--start", "0.2 0.3 0.08", "--goal", "0.45 0.4536 1.45"],

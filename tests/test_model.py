@@ -235,8 +235,8 @@ def test_a_models_own_sensors_do_not_take_the_place_of_the_distances(tmp_path):
 @pytest.mark.parametrize(
     "q, message",
     [
-        ([0.1, 0.2], "shape (3,)"),
-        ([[0.1, 0.2, 0.3]], "shape (3,)"),
+        ([0.1, 0.2], "must be 3 numbers, one per configuration joint (hip_flexion, knee_flexion, hip_displacement), got 2"),
+        ([[0.1, 0.2, 0.3]], "got an array of shape (1, 3)"),
         ([0.1, float("nan"), 0.3], "finite"),
         ([0.1, 0.2, 2.0], "q[2] (hip_displacement) = 2 is outside its bounds"),
         ([0.1, 0.2, -0.3], "hip_displacement"),
@@ -423,7 +423,7 @@ def test_the_default_configuration_holds_the_joints_an_equality_ties_to_other_mo
     assert held_by_equality_note(robot) == (
         "note: s1, s2 held at their pose, not planned: equality constraint 'fingers' ties them to other motion "
         "(the planner moves each joint on its own and would not follow it)")
-    with pytest.raises(ConfigurationError, match=r"must have shape \(2,\) \(a, b\), got shape \(4,\); not configuration "
+    with pytest.raises(ConfigurationError, match=r"must be 2 numbers, one per configuration joint \(a, b\), got 4; not configuration "
                        r"joints \(tied to other motion by equality constraint 'fingers'.*\): s1, s2"):
         robot.validate([0, 0, 0, 0])
     with pytest.raises(ModelError, match=r"\['fingers'\] tie a configuration joint \(a, b, s1, s2\)"):
@@ -489,8 +489,11 @@ def test_the_constructors_name_an_argument_of_the_wrong_type(obstacle_robot):
 
 
 def test_configurations_given_to_the_model_are_validated_with_the_reason(obstacle_robot):
-    with pytest.raises(ConfigurationError, match=r"q must have shape \(3,\)"):
-        obstacle_robot.in_collision([0.2, 0.3])  # was numpy's "operands could not be broadcast"
+    with pytest.raises(ConfigurationError, match=r"q must be 3 numbers, one per configuration joint \(hip_flexion, knee_flexion, "
+                                                 r"hip_displacement\), got 2$"):
+        obstacle_robot.in_collision([0.2, 0.3])  # was numpy's "operands could not be broadcast", then "must have shape (3,)"
+    with pytest.raises(ConfigurationError, match=r"got an array of shape \(2, 3\)$"):
+        obstacle_robot.validate([[0.2, 0.3, 0.08]] * 2)
     with pytest.raises(ConfigurationError, match=r"Q must be an \(N, 3\) array of real numbers"):
         obstacle_robot.validate_batch([["a", 0.3, 0.08]])  # was numpy's "could not convert string to float"
     with pytest.raises(ConfigurationError, match=r"Q must be an \(N, 3\) array of real numbers"):
@@ -555,7 +558,7 @@ def test_a_start_out_of_bounds_says_radians_when_degrees_were_meant_and_a_wrong_
     with pytest.raises(ConfigurationError, match=r"= 1.94533 is outside its bounds \[-1.74533, 1.74533\]$"):
         robot.validate([1.94533, 1.0])
     scene.write_text(scene.read_text().replace('range="-100 100"', ""))
-    with pytest.raises(ConfigurationError, match=r"must have shape \(1,\) \(elbow\), got shape \(2,\); not configuration joints "
+    with pytest.raises(ConfigurationError, match=r"must be 1 number, one per configuration joint \(elbow\), got 2; not configuration joints "
                                                  r"\(no range: held at qpos0\): shoulder$"):
         RobotModel.from_xml(scene).validate([0.3, 1.0])
 
