@@ -67,7 +67,7 @@ def test_a_scenario_file_loads(tmp_path):
         (lambda t: t.replace("r_min = 0.07", "r_min = 0.07\ndelta = -0.01"), r"\[planner\] `delta` must be >= 0"),
         (lambda t: "colour = 1\n" + t, "unknown field"),
         (lambda t: t.replace("q_init = [0.2, 0.3, 0.08]", ""), "missing field 'q_init'"),
-        (lambda t: t.replace("[0.2, 0.3, 0.08]", "[0.2, 0.3]"), "q_init.*shape"),
+        (lambda t: t.replace("[0.2, 0.3, 0.08]", "[0.2, 0.3]"), "q_init.*must be 3 numbers.*got 2"),
         (lambda t: t.replace("[0.2, 0.3, 0.08]", '[0.2, "a", 0.08]'), "q_init' must be a list of numbers"),
         (lambda t: t.replace("[0.45, 0.4536, 1.45]", "[0.45, 0.4536, 3.0]"), "q_goal.*outside its bounds"),
         (lambda t: t.replace("[0.45, 0.4536, 1.45]", "[0.0, 0.0, 1.1219973762820265]"), "q_goal.*in collision: clearance -0.0180 m between foot_collision and obstacle_box"),
