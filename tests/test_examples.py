@@ -98,6 +98,13 @@ def test_the_readmes_first_session_and_own_robot_run(tmp_path, monkeypatch):
     assert main(["plan", "--scene", "my_arm.toml", "--no-rrd", "--json", "my_arm.json"]) == 0
     doc = json.loads((tmp_path / "my_arm.json").read_text())
     assert doc["planner"]["delta"] == 0.01 and doc["limits"]["torque"] == [20.0, 10.0]
+    # The recording section's Python reads the first session's recording back: the torques the JSON holds.
+    (code,) = re.findall(r"```python\n(.*?)```", _section((ROOT / "README.md").read_text(), "### The recording"), flags=re.S)
+    namespace: dict = {}
+    exec(compile(code, "README.md", "exec"), namespace)
+    result = json.loads((tmp_path / session[1][-1]).read_text())
+    assert "cspace/foam" in namespace["rows"] and len(namespace["tau"]) == len(result["paths"]["optimal"]["times"])
+    assert max(v for (v,) in namespace["tau"]) == pytest.approx(result["paths"]["optimal"]["dynamics"]["peak_torque"][0])
 
 
 @pytest.mark.slow
