@@ -42,7 +42,7 @@ from typing import Callable
 
 import numpy as np
 
-from foam_mj.errors import ConfigurationError, FoamError, unknown_names
+from foam_mj.errors import ConfigurationError, FoamError
 from foam_mj.planners import PlanResult
 from foam_mj.planners.base import check_result, smoother_start
 from foam_mj.paths import PathMetrics, metrics
@@ -62,57 +62,11 @@ from foam_mj.smoothing import (
     StopCriteria,
 )
 from foam_mj.smoothing.gradient import center_path_result
+from foam_mj.smoother_names import DEFAULT_SMOOTHER, LABELS, PATH_NAMES, SMOOTHERS, parse_smoothers
 from foam_mj.dynamics import JointLoads, joint_loads
 from foam_mj.limits import Limits, as_limits
 from foam_mj.timing import DEFAULT_METHOD as DEFAULT_TIME_LAW, METHODS as TIME_LAWS, TimingInfeasible, retime
 from foam_mj.trajectory import JointLimits, Trajectory, make_trajectory
-
-#: Smoother names accepted by ``--smoother`` and what each adds to the centre path.
-SMOOTHERS: dict[str, tuple[str, ...]] = {
-    "none": (),
-    "hs": ("hs",),
-    "ga": ("ga",),
-    "gradient": ("gradient",),
-    "adjust": ("adjusted", "adjusted_gradient"),
-    "convex": ("convex",),
-    "optimal": ("optimal",),
-    "mgoa": ("mgoa",),
-    "mopso": ("mopso",),
-}
-SMOOTHERS["all"] = tuple(p for k in ("gradient", "adjust", "hs", "ga", "convex", "optimal") for p in SMOOTHERS[k])
-#: Every path name: the centre path (always there) and those the smoothers produce.
-PATH_NAMES: tuple[str, ...] = tuple(dict.fromkeys(("centre",) + tuple(p for paths in SMOOTHERS.values() for p in paths)))
-#: What ``foam-mj plan`` runs when no smoother is named: the certified optimum of f, the best f of all the
-#: methods and among the fastest (benchmarks/smoothing.py).
-DEFAULT_SMOOTHER = "optimal"
-
-LABELS = {
-    "centre": "centre (T)",
-    "gradient": "gradient (T_CA)",
-    "adjusted": "adjusted (T_RA)",
-    "adjusted_gradient": "adjusted+gradient (T_RCA)",
-    "hs": "harmony search",
-    "ga": "genetic algorithm",
-    "convex": "convex shortest",
-    "optimal": "optimal (certified f)",
-    "mgoa": "MGOA (Pareto knee)",
-    "mopso": "MOPSO (Pareto knee)",
-}
-
-
-def parse_smoothers(spec: str) -> tuple[str, ...]:
-    """Path names for a ``--smoother`` value: one name of :data:`SMOOTHERS` or a comma-separated list."""
-    names: list[str] = []
-    for part in spec.split(","):
-        part = part.strip()
-        if not part:
-            raise FoamError(f"an empty smoother name in '{spec}' (a stray comma?); choose from {', '.join(SMOOTHERS)} "
-                            "(or a comma-separated list)")
-        if part not in SMOOTHERS:
-            raise FoamError(f"unknown smoother {unknown_names([part], SMOOTHERS)}; choose from {', '.join(SMOOTHERS)} (or a comma-separated list)")
-        names += [p for p in SMOOTHERS[part] if p not in names]
-    return tuple(names)
-
 
 @dataclass
 class PathOutcome:

@@ -258,10 +258,10 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 def _plan(args: argparse.Namespace, recorder) -> int:
     from foam_mj.atomic import check_output
-    from foam_mj.pipeline import parse_smoothers, run
-    from foam_mj.results import write_failure, write_outcome
+    from foam_mj.smoother_names import parse_smoothers
 
-    # Every input and output is checked before any planning.
+    # Every input and output is checked before any planning, and before the pipeline (the smoothers, scipy, Clarabel,
+    # toppra) is imported: a mistyped name is answered at once.
     json_out = check_output(args.json, "--json", suffix=".json")
     rrd = check_output(args.rrd, "--rrd", suffix=".rrd")
     figures_dir = check_figures_dir(args.figures)
@@ -283,6 +283,9 @@ def _plan(args: argparse.Namespace, recorder) -> int:
                     "--json's scene file": json_out.with_name(json_out.stem + ".scene.xml") if json_out is not None and scenario.edits.changes_scene else None},
                    {"the scenario file": scenario.source, "the scene (MJCF)": scenario.scene})
     seed = scenario.seed if args.seed is None else args.seed
+    from foam_mj.pipeline import run
+    from foam_mj.results import write_failure, write_outcome
+
     progress = Progress(lines=True)  # off a terminal: a line per stage (planning, each smoother, each replay)
     t0 = time.perf_counter()
     try:

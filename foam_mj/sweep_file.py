@@ -28,7 +28,7 @@ _SPLIT = ": split the study into several sweep files, each with its own --out"
 
 def load_sweep(path: str | Path) -> Sweep:
     """Read and validate a sweep file; every swept value is tried on the base scenario (SweepError naming it)."""
-    from foam_mj.pipeline import SMOOTHERS, parse_smoothers
+    from foam_mj.smoother_names import SMOOTHERS, parse_smoothers
     from foam_mj.scenarios import read_scenario_doc
 
     if not isinstance(path, (str, Path)) and not hasattr(path, "__fspath__"):

@@ -492,25 +492,33 @@ def test_import_and_help_load_nothing_heavy():
 def test_listing_and_checking_scenarios_loads_no_solver_or_recording_package():
     """`foam-mj scenes`, `foam-mj bubble` and loading a scenario read TOML and ask MuJoCo for distances: they load
     neither scipy, Clarabel, toppra, Rerun nor any optional extra (a second of start-up before), nor the pipeline
-    or the smoothers; `scenes` still lists every built-in scenario."""
+    or the smoothers; `scenes` still lists every built-in scenario. Nor does `plan` or `sweep` refusing a mistyped
+    scenario or smoother name (they imported the pipeline first)."""
     light_heavy = tuple(m for m in HEAVY_MODULES if m not in ("numpy", "mujoco")) + ("foam_mj.smoothing",)
     code = (
-        "import contextlib, io, sys\n"
+        "import contextlib, io, os, sys, tempfile\n"
         "from foam_mj.cli import main\n"
         "from foam_mj.scenarios import available_scenarios, load_scenario\n"
         "out = io.StringIO()\n"
-        "with contextlib.redirect_stdout(out):\n"
+        "sweep = os.path.join(tempfile.mkdtemp(), 's.toml')\n"
+        "open(sweep, 'w').write('scenario = \"obstacle\"\\nsmoothers = \"optimall\"\\n[grid]\\n\"planner.delta\" = [0.005]\\n')\n"
+        "with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):\n"
         "    assert main(['scenes']) == 0\n"
         "    assert main(['bubble', '--scene', 'obstacle', '--q', '0.2 0.3 0.08']) == 0\n"
+        "    assert main(['plan', '--scene', 'obstacel', '--no-rrd']) == 2\n"
+        "    assert main(['plan', '--scene', 'obstacle', '--smoother', 'optimall', '--no-rrd']) == 2\n"
         "for name in available_scenarios():\n"
         "    load_scenario(name)\n"
         "listed = [line.split()[0] for line in out.getvalue().splitlines()[1:len(available_scenarios()) + 1]]\n"
         "assert listed == available_scenarios(), listed\n"
         f"print('loaded:', ','.join(m for m in {light_heavy!r} if m in sys.modules))\n"
+        "with contextlib.redirect_stderr(io.StringIO()):  # a sweep imports pyarrow (it writes Parquet) before reading its file\n"
+        "    assert main(['sweep', sweep, '--out', os.path.join(os.path.dirname(sweep), 'out')]) == 2\n"
+        f"print('sweep loaded:', ','.join(m for m in {light_heavy!r} if m in sys.modules and m != 'pyarrow'))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.splitlines()[-1] == "loaded: "
+    assert out.stdout.splitlines()[-2:] == ["loaded: ", "sweep loaded: "]
 
 
 def test_the_command_runs_numpys_blas_in_one_thread_unless_told_otherwise():
