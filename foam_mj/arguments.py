@@ -34,6 +34,17 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str):  # noqa: D401 - argparse's hook
         raise UsageError(f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)")
 
+    def parse_args(self, args=None, namespace=None):
+        """argparse's, but an argument the command does not take is refused by that command's parser: argparse's
+        top-level parser said 'foam-mj: error: unrecognized arguments: --no-rrd (see foam-mj --help)' for
+        ``foam-mj replay r.json --no-rrd``, whose flags that help does not list."""
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            commands = [a for a in self._actions if isinstance(a, argparse._SubParsersAction)]
+            command = commands[0].choices.get(getattr(parsed, commands[0].dest, None)) if commands else None
+            (command or self).error(f"unrecognized arguments: {' '.join(extras)}")
+        return parsed
+
     def parse_known_args(self, args=None, namespace=None):
         """argparse's, but a value that starts with a minus sign stays its option's value: argparse took
         ``--start "-0.1,0.3,0.08"`` (or ``--delta -1e-3``) for an option of its own and said only 'expected one

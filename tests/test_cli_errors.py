@@ -656,6 +656,15 @@ def test_a_value_that_starts_with_a_minus_sign_is_its_options_value(capsys):
     assert "unrecognized arguments: -1" in capsys.readouterr().err
 
 
+def test_a_flag_the_command_does_not_take_is_refused_by_that_command(capsys):
+    """`foam-mj replay r.json --no-rrd` (plan's flag; replay writes a recording only with --rrd) said 'foam-mj: error:
+    unrecognized arguments: --no-rrd (see foam-mj --help)', a help without replay's flags; the command's parser says it."""
+    assert main(["replay", "r.json", "--no-rrd"]) == 2
+    assert capsys.readouterr().err == "foam-mj replay: error: unrecognized arguments: --no-rrd (see foam-mj replay --help)\n"
+    assert main(["scenes", "extra", "--x"]) == 2
+    assert capsys.readouterr().err == "foam-mj scenes: error: unrecognized arguments: extra --x (see foam-mj scenes --help)\n"
+
+
 def test_a_configuration_may_be_given_unquoted():
     """`--start 0.2 -0.3 0.08` (no quotes, as a user types numbers) said 'unrecognized arguments: -0.3 0.08'. The
     numbers after --start/--goal/--q are one configuration, quoted or not; a word after them still ends it."""
