@@ -392,7 +392,7 @@ def build_parser() -> argparse.ArgumentParser:
         f"replay has contacts or clearance below the result's margin; {EXIT_ANY}.",
     )
     p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
-    p.add_argument("--rrd", metavar="OUT.rrd", help="write a Rerun recording of the replay")
+    p.add_argument("--rrd", metavar="OUT.rrd", help="write a Rerun recording of the replay (without it, none is written)")
     p.add_argument("--kinematic-only", action="store_true", help="skip the dynamic (servo) replay")
     p.set_defaults(func=cmd_replay)
     p = sub.add_parser(
