@@ -74,6 +74,6 @@ def test_a_sweep_line_reads_at_a_glance_however_big_the_study():
 
     bar = SweepProgress(1_000_000, 0, terminal=False)
     bar.done, bar.t0 = 1000, bar.t0 - 1000 / 0.59
-    assert re.fullmatch(r"sweep: 1,000/1,000,000 plans, 0 failed, 0\.59 plans/s, ETA 19\.6 d", bar.line())
+    assert re.fullmatch(r"sweep: 1,000/1,000,000 plans, 0 not reached, 0\.59 plans/s, ETA 19\.6 d", bar.line())
     assert [duration_text(s) for s in (28.4, 99.4, 100, 5940, 6000, 47.9 * 3600, 48 * 3600)] == [
         "28 s", "99 s", "2 min", "99 min", "1.7 h", "47.9 h", "2.0 d"]

@@ -795,7 +795,7 @@ def test_a_rerun_counts_the_failures_of_the_plans_done_before(tmp_path, capsys):
     assert [r["outcome"] for r in read_rows(out).to_pylist()] == ["invalid"]
     summary = run_sweep(load_sweep(spec), out, workers=1, interval=0.0)
     lines = capsys.readouterr().err.strip().splitlines()
-    assert lines[0].startswith("sweep: 1/2 plans, 1 failed") and lines[-1].startswith("sweep: 2/2 plans, 1 failed"), lines
+    assert lines[0].startswith("sweep: 1/2 plans, 1 not reached") and lines[-1].startswith("sweep: 2/2 plans, 1 not reached"), lines
     assert (summary.skipped, summary.run, summary.failed) == (1, 1, 0)  # the run's own summary: this run's plans
 
 

@@ -443,12 +443,13 @@ def test_a_surface_inside_other_bubbles_holds_no_child(tmp_path):
 
 
 def test_gbpf_at_its_time_limit_names_the_limit_and_how_much_of_its_foam_is_proven_closed(tmp_path):
-    """The puck behind the wall, seed 0: GBPF's foam is not closed, and its samples did not find the room left within 3 s.
-    The failure said only "the time limit ended the search"; it now names the limit, how many of its bubbles its closure
+    """The puck behind the wall, seed 0: GBPF's foam is not closed, and its samples did not find the room left within
+    0.5 s (they find it after 1.2-1.8 s of CPU on the 2-core machine, and the foam is then proven closed: a limit of 3 s
+    made this test depend on the machine's speed). The failure said only "the time limit ended the search"; it now names the limit, how many of its bubbles its closure
     checks proved closed, and where a bubble of r_min still fits (checked: radius >= r_min, in no bubble)."""
     oracle = _puck_behind_a_wall(tmp_path)
-    params = FoamParams(r_min=0.07, delta=0.005, time_limit=3.0)
-    with pytest.raises(PlanningFailed, match=r"\(time budget\) after (\d+) bubbles .*; the time limit \(3 s\) ended the search: with more "
+    params = FoamParams(r_min=0.07, delta=0.005, time_limit=0.5)
+    with pytest.raises(PlanningFailed, match=r"\(time budget\) after (\d+) bubbles .*; the time limit \(0.5 s\) ended the search: with more "
                                              r".*; \d+ of its \1 bubbles are proven closed at r_min \(no bubble of r_min fits on their "
                                              r"surfaces outside the others\); the bubble at q = \[.*\] still has room for one of radius "
                                              r"[0-9.]+ at q = \[(.*)\], which its samples have not hit$") as err:
