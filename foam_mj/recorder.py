@@ -90,9 +90,12 @@ def outcome_job(path: str | os.PathLike, outcome=None, *, scenario=None, foam=No
             job.add("log_joint_trajectory", name, po.trajectory)
         if getattr(po, "loads", None) is not None:
             job.add("log_joint_loads", name, po.loads)
-        replay = po.dynamic if po.dynamic is not None else po.kinematic
-        if replay is not None:
-            job.add("log_replay", name, robot, replay)
+        # The robot and its clearance along the planned trajectory (as the summary's min clear and `verify`); the
+        # servo replay adds its tracking errors and contacts (its own poses drifted up to millimetres from the plan).
+        if po.kinematic is not None:
+            job.add("log_replay", name, robot, po.kinematic)
+        if po.dynamic is not None:
+            job.add("log_tracking", name, po.dynamic)
         if name in ("hs", "ga") or len(po.result.history_best) > 1:
             job.add("log_convergence", name, po.result.history_best, po.result.history_mean)
         front = po.result.info.get("front") if po.result.info else None

@@ -9,6 +9,7 @@ Usage::
         rec.log_path("centre", path)
         rec.log_joint_trajectory("centre", trajectory)
         rec.log_replay("centre", robot, replay_kinematic(robot, trajectory))
+        rec.log_tracking("centre", replay_dynamic(robot, trajectory))
         rec.log_convergence("hs", best, mean)
     # closing writes the file (atomically: complete or not at all); open with `foam-mj view run.rrd`
 
@@ -19,7 +20,8 @@ sanitized to it):
 ``world``                                   view coordinates (right-handed, z up), static
 ``world/scene/<geom>``                      static geoms of the scene (floor, obstacles), world pose
 ``world/leg/<name>/<body>``                 Transform3D of each leg body per frame (timelines
-                                            ``time`` in seconds and ``frame``)
+                                            ``time`` in seconds and ``frame``); ``plan`` and ``replay``
+                                            log the planned trajectory (its kinematic replay)
 ``world/leg/<name>/<body>/<geom>``          the body's geoms, static, with their pose in the body
 ``world/contacts/<name>``                   leg/obstacle contacts of a dynamic replay (if any), per frame
 ``cspace/axes``                             the configuration axes, labelled with the joint names
@@ -32,7 +34,8 @@ sanitized to it):
 ``cspace/trajectories/<name>/now``          its current configuration per frame (Points3D)
 ``plots/convergence/<name>/best|mean``      a smoother's objective per iteration (timeline ``iteration``)
 ``plots/joints/<name>/<joint>``             joint positions in joint units (rad, m) over ``time``/``frame``
-``plots/clearance/<name>``                  a replay's clearance per frame (metres)
+``plots/clearance/<name>``                  a replay's clearance per frame (metres; of the planned
+                                            trajectory in ``plan`` and ``replay``: the summary's min clear)
 ``plots/tracking/<name>/<joint>``           a dynamic replay's tracking error (rad, m)
 ``plots/torque/<name>/<joint>``             joint torque (N m) or force (N) from mj_inverse over ``time``/``frame``
 ``plots/power/<name>/<joint>``              joint mechanical power tau qd (W)
@@ -260,7 +263,7 @@ class Recording:
 
     def log_replay(self, name: str, robot: RobotModel, replay: KinematicReplay | DynamicReplay) -> None:
         """The leg's geoms (static, per body) and the body poses of every frame of ``replay``; its clearance,
-        and for a dynamic replay its tracking errors and contacts."""
+        and for a dynamic replay its tracking errors and contacts (:meth:`log_tracking`)."""
         rec = self._check_open()
         name = _name(name)
         if not isinstance(replay, (KinematicReplay, DynamicReplay)):
@@ -288,18 +291,28 @@ class Recording:
             )
         self._scalars(f"plots/clearance/{name}", index, replay.clearance, "clearance (m)")
         if isinstance(replay, DynamicReplay):
-            for j, joint in enumerate(replay.joint_names):
-                self._scalars(f"plots/tracking/{name}/{_sanitize(joint)}", index, replay.error[:, j], f"{joint} error")
-            if replay.contacts:
-                frames = np.array([c.frame for c in replay.contacts])
-                uniq, start = np.unique(frames, return_index=True)
-                counts = np.diff(np.append(start, len(frames)))
-                pos = np.array([c.position for c in replay.contacts])
-                rec.send_columns(
-                    f"world/contacts/{name}",
-                    indexes=[rr.TimeColumn("time", duration=replay.times[uniq]), rr.TimeColumn("frame", sequence=uniq)],
-                    columns=rr.Points3D.columns(positions=pos).partition(counts),
-                )
+            self.log_tracking(name, replay)
+
+    def log_tracking(self, name: str, replay: DynamicReplay) -> None:
+        """A servo replay's tracking error per joint at ``plots/tracking/<name>/<joint>`` and its contacts at
+        ``world/contacts/<name>`` (no poses: :meth:`log_replay` of the kinematic replay shows the planned motion)."""
+        rec = self._check_open()
+        name = _name(name)
+        if not isinstance(replay, DynamicReplay):
+            raise ValueError(f"`replay` must be a DynamicReplay, got {type(replay).__name__}")
+        index = [rr.TimeColumn("time", duration=replay.times), rr.TimeColumn("frame", sequence=np.arange(replay.n_frames))]
+        for j, joint in enumerate(replay.joint_names):
+            self._scalars(f"plots/tracking/{name}/{_sanitize(joint)}", index, replay.error[:, j], f"{joint} error")
+        if replay.contacts:
+            frames = np.array([c.frame for c in replay.contacts])
+            uniq, start = np.unique(frames, return_index=True)
+            counts = np.diff(np.append(start, len(frames)))
+            pos = np.array([c.position for c in replay.contacts])
+            rec.send_columns(
+                f"world/contacts/{name}",
+                indexes=[rr.TimeColumn("time", duration=replay.times[uniq]), rr.TimeColumn("frame", sequence=uniq)],
+                columns=rr.Points3D.columns(positions=pos).partition(counts),
+            )
 
     # -- configuration space ---------------------------------------------------------------------------
     def log_foam(self, foam: Foam, rosary: Rosary | None = None) -> None:

@@ -50,6 +50,34 @@ def test_the_helper_writes_the_same_recording_as_the_command_itself(outcome, tmp
     assert not list(tmp_path.glob(".*"))  # no temporary file left behind
 
 
+def test_the_recorded_robot_and_clearance_are_the_planned_trajectory(outcome, tmp_path):
+    """The recording showed the servo replay's poses (0.2-0.5 mm off the plan on obstacle, 2 mm on a Panda) and its
+    clearance (84.95 mm where the summary's min clear said 84.85): the robot drawn and its clearance plot must be
+    the planned trajectory, pose for pose as MuJoCo puts it, with the servo replay's tracking errors beside it."""
+    import mujoco
+    import numpy as np
+
+    from foam_mj.recording import read_component
+
+    rrd = tmp_path / "o.rrd"
+    outcome_job(rrd, outcome).write()
+    robot = outcome.scenario.robot
+    m, d = robot.model, mujoco.MjData(robot.model)
+    rows = read_recording(rrd, static=False)
+    for name, po in outcome.paths.items():
+        assert po.dynamic is not None and np.max(np.abs(po.dynamic.qpos - po.trajectory.qpos)) > 1e-6  # they differ
+        foot = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "foot")
+        xyz = np.array(read_component(rrd, f"world/leg/{name}/foot", "Transform3D:translation")).reshape(-1, 3)
+        assert len(xyz) == len(po.trajectory)
+        for i in (0, len(xyz) // 3, len(xyz) // 2, len(xyz) - 1):
+            d.qpos[:] = po.trajectory.qpos[i]
+            mujoco.mj_kinematics(m, d)
+            np.testing.assert_allclose(xyz[i], d.xpos[foot], atol=1e-6)
+        clearance = np.array(read_component(rrd, f"plots/clearance/{name}", "Scalars:scalars")).ravel()
+        assert clearance.min() == pytest.approx(po.kinematic.min_clearance, abs=1e-9)
+        assert rows[f"plots/tracking/{name}/knee_flexion"] == po.dynamic.n_frames
+
+
 def test_the_foam_of_a_failed_plan_is_recorded_the_same_way(outcome, tmp_path):
     # `plan` records the foam grown so far when planning fails: scene, bubbles, q_init and q_goal.
     scenario, foam = outcome.scenario, outcome.plan.foam
