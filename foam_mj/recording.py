@@ -134,11 +134,25 @@ def _points3(points, field: str) -> np.ndarray:
     return p[..., :3]
 
 
+#: MuJoCo's default geom rgba: a geom that keeps it and has a material is drawn in the material's colour.
+_DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)
+
+
+def geom_rgba(m: mujoco.MjModel, g: int) -> np.ndarray:
+    """Geom g's colour as MuJoCo draws it: its own rgba, or its material's when it has one and its rgba is the default
+    (Menagerie's meshes are coloured by materials only: every one of them was drawn grey)."""
+    mat = int(m.geom_matid[g])
+    if mat >= 0 and np.array_equal(m.geom_rgba[g], np.float32(_DEFAULT_GEOM_RGBA)):
+        return m.mat_rgba[mat]
+    return m.geom_rgba[g]
+
+
 def geom_archetype(m: mujoco.MjModel, g: int, rgba=None) -> Any | None:
-    """The Rerun shape of geom g in its own frame (None for types not drawn: height fields, SDFs)."""
+    """The Rerun shape of geom g in its own frame (None for types not drawn: height fields, SDFs), in ``rgba``
+    (default: :func:`geom_rgba`)."""
     t = int(m.geom_type[g])
     size = m.geom_size[g]
-    color = [_rgba(m.geom_rgba[g] if rgba is None else rgba)]
+    color = [_rgba(geom_rgba(m, g) if rgba is None else rgba)]
     T = mujoco.mjtGeom
     if t == T.mjGEOM_PLANE:
         hx, hy = (s if s > 0 else INFINITE_PLANE for s in size[:2])

@@ -251,3 +251,38 @@ def test_more_than_three_joints_are_drawn_on_the_first_three(tmp_path):
     centers = np.array(read_component(tmp_path / "five.rrd", "cspace/foam", "Ellipsoids3D:centers")[0])
     np.testing.assert_allclose(centers, c[:, :3], rtol=1e-6)
     assert read_recording(tmp_path / "five.rrd").get("cspace/paths/p5") == 1
+
+
+MATERIALS_XML = """
+<mujoco model="materials">
+  <asset>
+    <material name="blue" rgba="0 0 1 1"/>
+    <mesh name="tetra" vertex="0 0 0  0.1 0 0  0 0.1 0  0 0 0.1"/>
+  </asset>
+  <worldbody>
+    <geom name="by_material" type="mesh" mesh="tetra" material="blue"/>
+    <geom name="own_rgba" type="box" size="0.1 0.1 0.1" pos="1 0 0" material="blue" rgba="1 0 0 1"/>
+    <geom name="plain" type="sphere" size="0.1" pos="2 0 0"/>
+    <body name="slider" pos="0 0 1">
+      <joint name="x" type="slide" axis="1 0 0" range="0 1"/>
+      <geom name="probe" type="sphere" size="0.05"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_geoms_are_drawn_in_the_colours_mujoco_gives_them(tmp_path):
+    """Menagerie's meshes are coloured by their materials alone (rgba left at MuJoCo's default grey): every robot was
+    drawn grey. A geom takes its material's rgba unless it sets its own, as MuJoCo's renderer does."""
+    (tmp_path / "materials.xml").write_text(MATERIALS_XML)
+    robot = RobotModel.from_xml(tmp_path / "materials.xml")
+    path = tmp_path / "materials.rrd"
+    with Recording(path) as rec:
+        rec.log_scene(robot)
+    packed = {  # Rerun's colours are 0xRRGGBBAA
+        "by_material": read_component(path, "world/scene/by_material", "Mesh3D:albedo_factor")[0][0],
+        "own_rgba": read_component(path, "world/scene/own_rgba", "Boxes3D:colors")[0][0],
+        "plain": read_component(path, "world/scene/plain", "Ellipsoids3D:colors")[0][0],
+    }
+    assert packed == {"by_material": 0x0000FFFF, "own_rgba": 0xFF0000FF, "plain": 0x808080FF}
