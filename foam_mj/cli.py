@@ -426,7 +426,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="open a recording in the Rerun viewer",
         description="Open a .rrd recording in the Rerun viewer (shipped with rerun-sdk). Without a display, "
         "use --web: it serves Rerun's web viewer on 127.0.0.1 and prints the URL.",
-        epilog=f"exit codes: 0 the viewer closed; 2 bad input (missing recording, no display without --web, a port in use); {EXIT_ANY}.",
+        epilog=f"exit codes: 0 the viewer closed; 2 bad input (missing or damaged recording, no display without --web, a port in use); {EXIT_ANY}.",
     )
     p.add_argument("recording", help="a .rrd file")
     p.add_argument("--web", action="store_true", help="serve Rerun's web viewer over HTTP instead of opening a window")

@@ -61,6 +61,19 @@ RRD_MAGIC = b"RRF"
 RRD_FOOTER = b"FOOT"
 
 
+def _check_decodes(p: Path) -> None:
+    """FoamError unless Rerun decodes every message of ``p``: a file with its header and footer but damaged between
+    (a bad copy, a disk error) was served with Rerun's warnings in its own log format, the viewer showing part of it."""
+    from rerun.chunk import RrdReader
+
+    try:
+        for _ in RrdReader(p).stream():
+            pass
+    except Exception as exc:  # Rerun raises RuntimeError ("Failed to read RRD file at ...: Codec error: ...")
+        reason = " ".join(str(exc).split()).removeprefix(f"Failed to read RRD file at {p}: ")
+        raise FoamError(f"{p} is damaged: Rerun cannot decode it ({reason})") from None
+
+
 def cmd_view(args: argparse.Namespace) -> int:
     """``foam-mj view``: open a recording in the Rerun viewer (native window, or the web viewer with --web)."""
     p = Path(args.recording)
@@ -79,6 +92,9 @@ def cmd_view(args: argparse.Namespace) -> int:
     if head != RRD_MAGIC:  # the viewer would open it and show nothing, or an error in its own window
         raise FoamError(f"{p} is not a Rerun recording: it does not start with Rerun's file header {RRD_MAGIC.decode()!r}"
                         f"{' (the file is empty)' if not head else ''}")
+    cut = tail[:3] != RRD_MAGIC or tail[4:8] != RRD_FOOTER
+    if not cut:
+        _check_decodes(p)
     import ipaddress
 
     try:
@@ -90,7 +106,7 @@ def cmd_view(args: argparse.Namespace) -> int:
             f"no display (DISPLAY and WAYLAND_DISPLAY are unset): serve the web viewer with `foam-mj view --web {p}` "
             f"(then open the URL it prints, e.g. through an SSH tunnel), or summarise the file with `rerun rrd stats {p}`"
         )
-    if tail[:3] != RRD_MAGIC or tail[4:8] != RRD_FOOTER:  # the viewer shows what the file holds, without a word
+    if cut:  # the viewer shows what the file holds, without a word
         print(f"note: {p} does not end with Rerun's footer: the file was cut short (a copy or a run that was stopped); "
               "the viewer shows only what it holds", file=sys.stderr)
     exe = _rerun_executable()

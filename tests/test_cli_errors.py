@@ -293,6 +293,30 @@ def test_view_says_when_a_recording_was_cut_short(tmp_path, monkeypatch, capsys)
     assert f"note: {cut} does not end with Rerun's footer: the file was cut short" in err and len(served) == 2
 
 
+def test_view_refuses_a_recording_damaged_between_its_header_and_footer(tmp_path, monkeypatch, capsys):
+    """A recording with Rerun's header and footer but zeros in between (a bad copy, a disk error) was served: Rerun
+    logged a warning and an error in its own format and the viewer showed part of it."""
+    from foam_mj.recording import Recording
+
+    rrd = tmp_path / "v.rrd"
+    with Recording(rrd) as rec:
+        for i in range(20):
+            rec.log_path(f"p{i}", [[float(i), float(k), float(k * k % 7)] for k in range(500)])
+    data = bytearray(rrd.read_bytes())
+    third = len(data) // 3
+    data[third:2 * third] = bytes(third)
+    damaged = tmp_path / "damaged.rrd"
+    damaged.write_bytes(bytes(data))
+    served: list = []
+    monkeypatch.setattr("foam_mj.viewer._run_viewer", lambda cmd: served.append(cmd) or 0)
+    assert main(["view", "--web", str(rrd), "--web-port", "0", "--grpc-port", "0"]) == 0  # the intact file is served
+    capsys.readouterr()
+    assert main(["view", "--web", str(damaged), "--web-port", "0", "--grpc-port", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"foam-mj: error: {damaged} is damaged: Rerun cannot decode it ("), err
+    assert len(served) == 1
+
+
 def test_view_refuses_a_port_in_use_or_one_port_for_both_servers(tmp_path, monkeypatch, capsys):
     """Rerun's viewer started, logged "Address already in use" (or "this port is already used by the server we're
     connecting to") and exited 1: an internal error by the exit codes, for a busy port or --web-port = --grpc-port."""
