@@ -25,7 +25,8 @@ sanitized to it):
 ``world/leg/<name>/<body>/<geom>``          the body's geoms, static, with their pose in the body
 ``world/contacts/<name>``                   leg/obstacle contacts of a dynamic replay (if any), per frame
 ``cspace/axes``                             the configuration axes, labelled with the joint names
-                                            (for more than 3 joints, cspace shows the first three)
+                                            (for more than 3 joints, cspace shows the first three;
+                                            1 or 2 joints: a line or plane, the others 0)
 ``cspace/foam``                             every bubble of the foam (Ellipsoids3D, equal half-sizes)
 ``cspace/rosary``                           the rosary's bubbles
 ``cspace/q_init``, ``cspace/q_goal``        start and goal configurations
@@ -121,16 +122,16 @@ def _xyzw(wxyz: np.ndarray) -> np.ndarray:
 
 
 def _points3(points, field: str) -> np.ndarray:
-    """Configuration points (..., n) as 3-D points: n = 3 as is, n = 2 padded with 0, n > 3 projected on
-    the first three coordinates (the projection of an n-ball of radius r is a 3-ball of radius r, so the
-    bubbles are drawn faithfully in that projection)."""
+    """Configuration points (..., n) as 3-D points: n = 3 as is, n = 1 or 2 padded with 0 (a line, a plane), n > 3
+    projected on the first three coordinates (the projection of an n-ball of radius r is a 3-ball of radius r, so
+    the bubbles are drawn faithfully in that projection)."""
     p = np.asarray(points, dtype=float)
-    if p.ndim < 1 or p.shape[-1] < 2:
-        raise ValueError(f"`{field}` must hold configurations of dimension 2 or more to draw, got shape {p.shape}")
+    if p.ndim < 1 or p.shape[-1] < 1:
+        raise ValueError(f"`{field}` must hold configurations of dimension 1 or more to draw, got shape {p.shape}")
     if not np.all(np.isfinite(p)):
         raise ValueError(f"`{field}` must be finite")
-    if p.shape[-1] == 2:
-        p = np.concatenate([p, np.zeros(p.shape[:-1] + (1,))], axis=-1)
+    if p.shape[-1] < 3:
+        p = np.concatenate([p, np.zeros(p.shape[:-1] + (3 - p.shape[-1],))], axis=-1)
     return p[..., :3]
 
 
@@ -226,6 +227,7 @@ class Recording:
         """Close without writing anything."""
         if self._open:
             self._open = False
+            self._stream.read(flush=True)  # taken and dropped: else Rerun warns, in its own log format, that it drops it
             rr.disconnect(recording=self._rec)
 
     def __enter__(self) -> "Recording":
@@ -265,15 +267,13 @@ class Recording:
                 shape,
                 static=True,
             )
-        n = robot.dim
-        if n >= 2:  # n > 3: the first three coordinates (a projection)
-            span = float(np.max(robot.upper - robot.lower))
-            k = min(n, 3)
-            rec.log(
-                "cspace/axes",
-                rr.Arrows3D(vectors=np.eye(3)[:k] * span, labels=list(robot.config.joint_names)[:k], colors=[[200, 60, 60], [60, 200, 60], [60, 60, 200]][:k]),
-                static=True,
-            )
+        span = float(np.max(robot.upper - robot.lower))
+        k = min(robot.dim, 3)  # n > 3: the first three coordinates (a projection)
+        rec.log(
+            "cspace/axes",
+            rr.Arrows3D(vectors=np.eye(3)[:k] * span, labels=list(robot.config.joint_names)[:k], colors=[[200, 60, 60], [60, 200, 60], [60, 60, 200]][:k]),
+            static=True,
+        )
 
     def log_replay(self, name: str, robot: RobotModel, replay: KinematicReplay | DynamicReplay) -> None:
         """The leg's geoms (static, per body) and the body poses of every frame of ``replay``; its clearance,
@@ -402,11 +402,10 @@ class Recording:
         values = trajectory.joint_positions
         for j, joint in enumerate(trajectory.joint_names):
             self._scalars(f"plots/joints/{name}/{_sanitize(joint)}", index, values[:, j], joint)
-        if trajectory.q.shape[1] >= 2:
-            q3 = _points3(trajectory.q, "trajectory.q")
-            rec.log(f"cspace/trajectories/{name}", rr.LineStrips3D([q3], radii=[0.003], labels=[name]), static=True)
-            rec.send_columns(f"cspace/trajectories/{name}/now", indexes=index, columns=rr.Points3D.columns(positions=q3))
-            rec.log(f"cspace/trajectories/{name}/now", rr.Points3D.from_fields(radii=[0.025]), static=True)
+        q3 = _points3(trajectory.q, "trajectory.q")
+        rec.log(f"cspace/trajectories/{name}", rr.LineStrips3D([q3], radii=[0.003], labels=[name]), static=True)
+        rec.send_columns(f"cspace/trajectories/{name}/now", indexes=index, columns=rr.Points3D.columns(positions=q3))
+        rec.log(f"cspace/trajectories/{name}/now", rr.Points3D.from_fields(radii=[0.025]), static=True)
 
     def log_joint_loads(self, name: str, loads) -> None:
         """Joint torques at ``plots/torque/<name>/<joint>`` and powers at ``plots/power/<name>/<joint>``

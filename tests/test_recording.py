@@ -210,8 +210,8 @@ def test_bad_calls_raise_clear_errors(tmp_path, run):
     try:
         with pytest.raises(ValueError, match="`name`"):
             rec.log_path("centre path", run["paths"]["centre"])
-        with pytest.raises(ValueError, match="dimension 2 or more"):
-            rec.log_path("p1", np.zeros((5, 1)))
+        with pytest.raises(ValueError, match="dimension 1 or more"):
+            rec.log_path("p0", np.zeros((5, 0)))
         with pytest.raises(ValueError, match="same length"):
             rec.log_convergence("hs", [3.0, 2.0], [4.0])
         with pytest.raises(ValueError, match="`best`"):
@@ -286,3 +286,21 @@ def test_geoms_are_drawn_in_the_colours_mujoco_gives_them(tmp_path):
         "plain": read_component(path, "world/scene/plain", "Ellipsoids3D:colors")[0][0],
     }
     assert packed == {"by_material": 0x0000FFFF, "own_rgba": 0xFF0000FF, "plain": 0x808080FF}
+
+
+def test_a_one_joint_robot_is_planned_and_recorded(tmp_path, capsys):
+    """A slider with one joint planned, then `plan` ended with exit 1 at the recording ("configurations of dimension 2
+    or more to draw"), after all its work and before writing its JSON: its configuration space is now a line."""
+    from foam_mj.cli import main
+
+    (tmp_path / "shapes.xml").write_text(SHAPES_XML)
+    rrd, out = tmp_path / "one.rrd", tmp_path / "one.json"
+    assert main(["plan", "--mjcf", str(tmp_path / "shapes.xml"), "--start", "0.1", "--goal", "0.9", "--smoother", "convex",
+                 "--rrd", str(rrd), "--json", str(out)]) == 0, capsys.readouterr().err
+    assert out.exists()
+    centers = np.array(read_component(rrd, "cspace/foam", "Ellipsoids3D:centers")[0])
+    assert len(centers) >= 1 and np.all(centers[:, 1:] == 0) and np.all((centers[:, 0] >= 0) & (centers[:, 0] <= 1))
+    strip = np.array(read_component(rrd, "cspace/paths/convex", "LineStrips3D:strips")[0][0])
+    np.testing.assert_allclose(strip[[0, -1]], [[0.1, 0, 0], [0.9, 0, 0]], atol=1e-6)
+    assert read_component(rrd, "cspace/axes", "Arrows3D:labels")[0] == ["x"]
+    assert read_recording(rrd, static=False)["world/leg/convex/slider"] >= 2
