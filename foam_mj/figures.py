@@ -152,7 +152,7 @@ def _fig_foam(mpl, doc, labels) -> Any | None:
     q0, q1 = np.asarray(doc.get("q_init"), dtype=float), np.asarray(doc.get("q_goal"), dtype=float)
     fig = Figure(figsize=(6.4, 5.4), layout="constrained")
     if c.shape[1] != 3:
-        return _fig_foam_2d(mpl, fig, c, r, q0, q1, labels)
+        return _fig_foam_2d(mpl, fig, _plane(c), r, _plane(q0), _plane(q1), labels)
     ax = fig.add_subplot(projection="3d")
     parents = foam.get("parents")
     if parents is not None:
@@ -176,6 +176,11 @@ def _fig_foam(mpl, doc, labels) -> Any | None:
     ax.set_title(f"Probabilistic foam: {len(c)} bubbles{extra}")
     ax.legend(loc="upper left")
     return fig
+
+
+def _plane(q: np.ndarray) -> np.ndarray:
+    """Configurations (..., n) with at least two coordinates: one joint's on the x axis of a plane, y = 0."""
+    return q if q.shape[-1] >= 2 else np.concatenate([q, np.zeros(q.shape[:-1] + (1,))], axis=-1)
 
 
 def _fig_foam_2d(mpl, fig, c, r, q0, q1, labels):
@@ -217,6 +222,8 @@ def _fig_rosary(mpl, doc, robot: RobotModel, paths: list[_Path], labels, rosary=
         return None
     q0, q1 = np.asarray(doc.get("q_init"), dtype=float), np.asarray(doc.get("q_goal"), dtype=float)
     n = robot.dim
+    if n == 1:  # one joint: its line in a plane
+        cr, pts, q0, q1 = _plane(cr), [_plane(w) for w in pts], _plane(q0), _plane(q1)
     wire = (0.35, 0.35, 0.35, 0.35)
     if n == 3:
         fig = Figure(figsize=(10.0, 8.0), layout="constrained")
@@ -237,7 +244,7 @@ def _fig_rosary(mpl, doc, robot: RobotModel, paths: list[_Path], labels, rosary=
         pairs, slots = [(0, 1), (0, 2), (1, 2)], [2, 3, 4]
     else:
         fig = Figure(figsize=(6.0, 5.0), layout="constrained")
-        pairs, slots = [(0, 1)] if n >= 2 else [], [1]
+        pairs, slots = [(0, 1)], [1]
     axes2 = []
     for (a, b), slot in zip(pairs, slots):
         ax2 = fig.add_subplot(2, 2, slot) if n == 3 else fig.add_subplot()
@@ -250,7 +257,8 @@ def _fig_rosary(mpl, doc, robot: RobotModel, paths: list[_Path], labels, rosary=
         ax2.plot(q0[a], q0[b], **_START_STYLE, label=r"$q_{init}$")
         ax2.plot(q1[a], q1[b], **_GOAL_STYLE, label=r"$q_{goal}$")
         ax2.set_xlabel(labels[a])
-        ax2.set_ylabel(labels[b])
+        if b < len(labels):
+            ax2.set_ylabel(labels[b])
         ax2.autoscale_view()
         ax2.set_aspect("equal", adjustable="box")
         ax2.grid(True, linewidth=0.3, alpha=0.5)

@@ -347,3 +347,30 @@ def test_only_a_base_sliding_in_x_and_y_gets_a_map(tmp_path, pitch, kind):
     walker = tmp_path / "walker.xml"
     walker.write_text(WALKER_XML)
     assert has_xy_base(RobotModel.from_xml(walker))
+
+
+ONE_JOINT_XML = """
+<mujoco model="one joint">
+  <worldbody>
+    <geom name="ground" type="plane" size="0 0 0.1"/>
+    <geom name="wall" type="box" size="0.05 0.5 0.5" pos="2 0 1"/>
+    <body name="slider" pos="0 0 1">
+      <joint name="x" type="slide" axis="1 0 0" range="0 1.5"/>
+      <geom name="probe" type="sphere" size="0.05" mass="1"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_one_joint_robot_gets_its_figures(tmp_path, capsys):
+    """plan --figures of a one-joint slider ended with exit 1 (matplotlib's IndexError: a disc centred on one number):
+    its foam and rosary are drawn on the x axis of a plane."""
+    (tmp_path / "one.xml").write_text(ONE_JOINT_XML)
+    out = tmp_path / "one.json"
+    assert cli.main(["plan", "--mjcf", str(tmp_path / "one.xml"), "--start", "0.1", "--goal", "1.2", "--smoother", "convex",
+                     "--no-replay", "--no-rrd", "--json", str(out)]) == 0
+    written = write_figures(json.loads(out.read_text()), tmp_path / "figs")
+    assert {p.name for p in written} >= {"foam.png", "rosary.png"}
+    for p in written:
+        check_png(p)
