@@ -60,6 +60,14 @@ class RecordingJob:
                 getattr(rec, method)(*args)
 
 
+def unique_recording_id(stem: str) -> str:
+    """``stem`` and 8 random hex digits: Rerun's viewer merges every file of one application and recording id into
+    one recording (two plans of one scene opened together showed one foam and a mix of both runs' motions)."""
+    import secrets
+
+    return f"{stem}-{secrets.token_hex(4)}"
+
+
 def _portable_robot(robot):
     """``robot`` without its MjSpec (which cannot be pickled; the recording reads only the compiled model)."""
     if getattr(robot, "spec", None) is None:
@@ -74,7 +82,7 @@ def outcome_job(path: str | os.PathLike, outcome=None, *, scenario=None, foam=No
     loads, replay, convergence and Pareto front), or with ``outcome`` None of the foam grown so far."""
     scenario = outcome.scenario if outcome is not None else scenario
     robot = _portable_robot(scenario.robot)
-    job = RecordingJob(Path(path), f"foam-mj-{scenario.name}")
+    job = RecordingJob(Path(path), unique_recording_id(f"foam-mj-{scenario.name}"))
     job.add("log_scene", robot)
     if outcome is not None:
         foam, rosary = outcome.plan.foam, outcome.plan.rosary

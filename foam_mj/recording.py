@@ -44,7 +44,8 @@ sanitized to it):
 
 The default blueprint (stored in the file) shows the workspace, the configuration space and the plots
 side by side. Log time and log tick are disabled and recording properties are not sent, so the
-recording store is reproducible; the blueprint store carries random view ids.
+recording store's content is reproducible; the blueprint store carries random view ids, and every file its own
+recording id (the stem and 8 random hex digits: Rerun's viewer merges files that share one).
 """
 
 from __future__ import annotations
@@ -201,7 +202,11 @@ class Recording:
         if not (isinstance(app_id, str) and app_id):
             raise ValueError(f"`app_id` must be a non-empty string, got {app_id!r}")
         self.path = p
-        self._rec = rr.RecordingStream(app_id, recording_id=recording_id or p.stem, send_properties=False)
+        if recording_id is None:
+            from foam_mj.recorder import unique_recording_id
+
+            recording_id = unique_recording_id(p.stem)
+        self._rec = rr.RecordingStream(app_id, recording_id=recording_id, send_properties=False)
         self._rec.set_log_time_enabled(False)
         self._rec.set_log_tick_enabled(False)
         # The stream goes to memory and reaches the file only in close(), atomically (foam_mj.atomic):

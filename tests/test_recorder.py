@@ -78,6 +78,20 @@ def test_the_recorded_robot_and_clearance_are_the_planned_trajectory(outcome, tm
         assert rows[f"plots/tracking/{name}/knee_flexion"] == po.dynamic.n_frames
 
 
+def test_two_recordings_of_one_scene_are_two_recordings_in_the_viewer(outcome, tmp_path):
+    """Every recording of a scene had the recording id foam-mj-<scene> (and every --mjcf scene.xml 'foam-mj-scene'):
+    Rerun's viewer merges the files of one application and recording id, so two runs opened together showed one foam
+    and a mix of both runs' motions. Each file now has its own id, still named after the scene."""
+    from rerun.chunk import RrdReader
+
+    a, b = tmp_path / "a.rrd", tmp_path / "b.rrd"
+    outcome_job(a, outcome).write()
+    outcome_job(b, outcome).write()
+    ids = [[s.recording_id for s in RrdReader(p).recordings()] for p in (a, b)]
+    assert len(ids[0]) == len(ids[1]) == 1 and ids[0] != ids[1]
+    assert all(i[0].startswith("foam-mj-obstacle-") for i in ids)
+
+
 def test_the_foam_of_a_failed_plan_is_recorded_the_same_way(outcome, tmp_path):
     # `plan` records the foam grown so far when planning fails: scene, bubbles, q_init and q_goal.
     scenario, foam = outcome.scenario, outcome.plan.foam
