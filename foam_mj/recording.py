@@ -140,13 +140,21 @@ def _points3(points, field: str) -> np.ndarray:
 _DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)
 
 
+#: Geom groups from this one on are hidden in MuJoCo's viewer by default (Menagerie's collision geoms: group 3); they
+#: are drawn with at most this opacity, so that the visual geoms they enclose show through.
+HIDDEN_GROUP = 3
+HIDDEN_ALPHA = 0.4
+
+
 def geom_rgba(m: mujoco.MjModel, g: int) -> np.ndarray:
     """Geom g's colour as MuJoCo draws it: its own rgba, or its material's when it has one and its rgba is the default
-    (Menagerie's meshes are coloured by materials only: every one of them was drawn grey)."""
+    (Menagerie's meshes are coloured by materials only: every one of them was drawn grey); translucent (alpha at most
+    :data:`HIDDEN_ALPHA`) in a group MuJoCo's viewer hides (a Panda's grey collision hulls hid its visual meshes)."""
     mat = int(m.geom_matid[g])
-    if mat >= 0 and np.array_equal(m.geom_rgba[g], np.float32(_DEFAULT_GEOM_RGBA)):
-        return m.mat_rgba[mat]
-    return m.geom_rgba[g]
+    rgba = np.array(m.mat_rgba[mat] if mat >= 0 and np.array_equal(m.geom_rgba[g], np.float32(_DEFAULT_GEOM_RGBA)) else m.geom_rgba[g])
+    if m.geom_group[g] >= HIDDEN_GROUP:
+        rgba[3] = min(rgba[3], HIDDEN_ALPHA)
+    return rgba
 
 
 def geom_archetype(m: mujoco.MjModel, g: int, rgba=None) -> Any | None:

@@ -263,6 +263,7 @@ MATERIALS_XML = """
     <geom name="by_material" type="mesh" mesh="tetra" material="blue"/>
     <geom name="own_rgba" type="box" size="0.1 0.1 0.1" pos="1 0 0" material="blue" rgba="1 0 0 1"/>
     <geom name="plain" type="sphere" size="0.1" pos="2 0 0"/>
+    <geom name="hull" type="sphere" size="0.1" pos="3 0 0" group="3"/>
     <body name="slider" pos="0 0 1">
       <joint name="x" type="slide" axis="1 0 0" range="0 1"/>
       <geom name="probe" type="sphere" size="0.05"/>
@@ -274,7 +275,8 @@ MATERIALS_XML = """
 
 def test_geoms_are_drawn_in_the_colours_mujoco_gives_them(tmp_path):
     """Menagerie's meshes are coloured by their materials alone (rgba left at MuJoCo's default grey): every robot was
-    drawn grey. A geom takes its material's rgba unless it sets its own, as MuJoCo's renderer does."""
+    drawn grey, and their collision hulls, grey and opaque, hid the visual meshes. A geom takes its material's rgba
+    unless it sets its own, as MuJoCo's renderer does."""
     (tmp_path / "materials.xml").write_text(MATERIALS_XML)
     robot = RobotModel.from_xml(tmp_path / "materials.xml")
     path = tmp_path / "materials.rrd"
@@ -284,8 +286,10 @@ def test_geoms_are_drawn_in_the_colours_mujoco_gives_them(tmp_path):
         "by_material": read_component(path, "world/scene/by_material", "Mesh3D:albedo_factor")[0][0],
         "own_rgba": read_component(path, "world/scene/own_rgba", "Boxes3D:colors")[0][0],
         "plain": read_component(path, "world/scene/plain", "Ellipsoids3D:colors")[0][0],
+        "hull": read_component(path, "world/scene/hull", "Ellipsoids3D:colors")[0][0],
     }
-    assert packed == {"by_material": 0x0000FFFF, "own_rgba": 0xFF0000FF, "plain": 0x808080FF}
+    # A geom in a group MuJoCo's viewer hides (group 3: Menagerie's collision hulls) is translucent: alpha 0.4.
+    assert packed == {"by_material": 0x0000FFFF, "own_rgba": 0xFF0000FF, "plain": 0x808080FF, "hull": 0x80808066}
 
 
 def test_a_one_joint_robot_is_planned_and_recorded(tmp_path, capsys):
