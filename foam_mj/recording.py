@@ -34,12 +34,15 @@ sanitized to it):
 ``cspace/trajectories/<name>``              a trajectory's samples (LineStrips3D)
 ``cspace/trajectories/<name>/now``          its current configuration per frame (Points3D)
 ``plots/convergence/<name>/best|mean``      a smoother's objective per iteration (timeline ``iteration``)
-``plots/joints/<name>/<joint>``             joint positions in joint units (rad, m) over ``time``/``frame``
+``plots/joints/<name>``                     joint positions in joint units (rad, m) over ``time``/``frame``:
+                                            one series per joint, named after it (one entity per path:
+                                            a row of n values per frame, not n rows with n index copies)
 ``plots/clearance/<name>``                  a replay's clearance per frame (metres; of the planned
                                             trajectory in ``plan`` and ``replay``: the summary's min clear)
-``plots/tracking/<name>/<joint>``           a dynamic replay's tracking error (rad, m)
-``plots/torque/<name>/<joint>``             joint torque (N m) or force (N) from mj_inverse over ``time``/``frame``
-``plots/power/<name>/<joint>``              joint mechanical power tau qd (W)
+``plots/tracking/<name>``                   a dynamic replay's tracking error (rad, m), a series per joint
+``plots/torque/<name>``                     joint torque (N m) or force (N) from mj_inverse over ``time``/``frame``,
+                                            a series per joint
+``plots/power/<name>``                      joint mechanical power tau qd (W), a series per joint
 ==========================================  ==========================================================
 
 The default blueprint (stored in the file) shows the workspace, the configuration space and the plots
@@ -316,20 +319,19 @@ class Recording:
                 indexes=index,
                 columns=rr.Transform3D.columns(translation=poses.xpos[:, k], quaternion=_xyzw(poses.xquat[:, k])),
             )
-        self._scalars(f"plots/clearance/{name}", index, replay.clearance, "clearance (m)")
+        self._scalars(f"plots/clearance/{name}", index, replay.clearance, ["clearance (m)"])
         if isinstance(replay, DynamicReplay):
             self.log_tracking(name, replay)
 
     def log_tracking(self, name: str, replay: DynamicReplay) -> None:
-        """A servo replay's tracking error per joint at ``plots/tracking/<name>/<joint>`` and its contacts at
+        """A servo replay's tracking error per joint at ``plots/tracking/<name>`` and its contacts at
         ``world/contacts/<name>`` (no poses: :meth:`log_replay` of the kinematic replay shows the planned motion)."""
         rec = self._check_open()
         name = _name(name)
         if not isinstance(replay, DynamicReplay):
             raise ValueError(f"`replay` must be a DynamicReplay, got {type(replay).__name__}")
         index = [rr.TimeColumn("time", duration=replay.times), rr.TimeColumn("frame", sequence=np.arange(replay.n_frames))]
-        for j, joint in enumerate(replay.joint_names):
-            self._scalars(f"plots/tracking/{name}/{_sanitize(joint)}", index, replay.error[:, j], f"{joint} error")
+        self._scalars(f"plots/tracking/{name}", index, replay.error, [f"{joint} error" for joint in replay.joint_names])
         if replay.contacts:
             frames = np.array([c.frame for c in replay.contacts])
             uniq, start = np.unique(frames, return_index=True)
@@ -404,7 +406,7 @@ class Recording:
             rec.log(f"cspace/fronts/{name}/{i}", rr.LineStrips3D([_points3(p, "paths")], colors=[colors[i]], radii=[0.002], labels=[labels[i]]), static=True)
 
     def log_joint_trajectory(self, name: str, trajectory: Trajectory) -> None:
-        """Joint positions over time (joint units) at ``plots/joints/<name>/<joint>``, and the samples in
+        """Joint positions over time (joint units) at ``plots/joints/<name>`` (a series per joint), and the samples in
         configuration space with a marker following the ``time``/``frame`` timelines."""
         rec = self._check_open()
         name = _name(name)
@@ -412,24 +414,22 @@ class Recording:
             raise ValueError(f"`trajectory` must be a Trajectory, got {type(trajectory).__name__}")
         T = len(trajectory)
         index = [rr.TimeColumn("time", duration=trajectory.times), rr.TimeColumn("frame", sequence=np.arange(T))]
-        values = trajectory.joint_positions
-        for j, joint in enumerate(trajectory.joint_names):
-            self._scalars(f"plots/joints/{name}/{_sanitize(joint)}", index, values[:, j], joint)
+        self._scalars(f"plots/joints/{name}", index, trajectory.joint_positions, list(trajectory.joint_names))
         q3 = _points3(trajectory.q, "trajectory.q")
         rec.log(f"cspace/trajectories/{name}", rr.LineStrips3D([q3], radii=[0.003], labels=[name]), static=True)
         rec.send_columns(f"cspace/trajectories/{name}/now", indexes=index, columns=rr.Points3D.columns(positions=q3))
         rec.log(f"cspace/trajectories/{name}/now", rr.Points3D.from_fields(radii=[0.025]), static=True)
 
     def log_joint_loads(self, name: str, loads) -> None:
-        """Joint torques at ``plots/torque/<name>/<joint>`` and powers at ``plots/power/<name>/<joint>``
+        """Joint torques at ``plots/torque/<name>`` and powers at ``plots/power/<name>`` (a series per joint)
         over the ``time``/``frame`` timelines (a :class:`foam_mj.dynamics.JointLoads`)."""
         self._check_open()
         name = _name(name)
         T = len(loads.times)
         index = [rr.TimeColumn("time", duration=loads.times), rr.TimeColumn("frame", sequence=np.arange(T))]
-        for j, joint in enumerate(loads.joint_names):
-            self._scalars(f"plots/torque/{name}/{_sanitize(joint)}", index, loads.tau[:, j], f"{joint} ({loads.torque_units[j]})")
-            self._scalars(f"plots/power/{name}/{_sanitize(joint)}", index, loads.power[:, j], f"{joint} (W)")
+        joints = list(loads.joint_names)
+        self._scalars(f"plots/torque/{name}", index, loads.tau, [f"{j} ({u})" for j, u in zip(joints, loads.torque_units)])
+        self._scalars(f"plots/power/{name}", index, loads.power, [f"{j} (W)" for j in joints])
 
     # -- plots -----------------------------------------------------------------------------------------
     def log_convergence(self, name: str, best, mean=None) -> None:
@@ -447,11 +447,12 @@ class Recording:
             raise ValueError(f"`best` and `mean` must have the same length, got {len(arrays['best'])} and {len(arrays['mean'])}")
         for key, a in arrays.items():
             index = [rr.TimeColumn("iteration", sequence=np.arange(len(a)))]
-            self._scalars(f"plots/convergence/{name}/{key}", index, a, f"{name} {key}")
+            self._scalars(f"plots/convergence/{name}/{key}", index, a, [f"{name} {key}"])
 
-    def _scalars(self, entity: str, index: list, values: np.ndarray, label: str) -> None:
+    def _scalars(self, entity: str, index: list, values: np.ndarray, names: list[str]) -> None:
+        """Series over ``index``: ``values`` (T,) or (T, k), one series per column, named ``names``."""
         rec = self._check_open()
-        rec.log(entity, rr.SeriesLines(names=[label]), static=True)
+        rec.log(entity, rr.SeriesLines(names=names), static=True)
         rec.send_columns(entity, indexes=index, columns=rr.Scalars.columns(scalars=np.asarray(values, dtype=float)))
 
 
