@@ -1,4 +1,5 @@
-"""Outlines of a MuJoCo model's geoms projected onto a plane, for the strobe and map figures (foam_mj.figures).
+"""Outlines of a MuJoCo model's geoms projected onto a plane, and the world (x, y) of a mobile base, for the strobe
+and map figures (foam_mj.figures).
 
 Geometry is MuJoCo's: every pose runs ``mj_kinematics`` and each geom is projected with its
 ``geom_xpos``/``geom_xmat`` (:func:`strobe_geometry`): boxes become rectangles (the convex hull of
@@ -207,3 +208,40 @@ def _bounds(shapes: Iterable[Shape]) -> np.ndarray | None:
         return None
     p = np.vstack(pts)
     return np.array([p.min(axis=0), p.max(axis=0)])
+
+
+def body_depth(m: mujoco.MjModel, b: int) -> int:
+    """How many bodies lie between body ``b`` and the world (the world: 0)."""
+    n = 0
+    while b != 0:
+        b = int(m.body_parentid[b])
+        n += 1
+    return n
+
+
+def base_xy(robot: RobotModel) -> tuple[int, tuple[float, float]]:
+    """The body whose (x, y) is the mobile base's position, and the (x, y) scales of q -> world."""
+    m, cfg = robot.model, robot.config
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    body, sx, sy = 0, 1.0, 1.0
+    for j, s in zip(cfg.joint_ids, cfg.scale):
+        body = max(body, int(m.jnt_bodyid[j]), key=lambda b: body_depth(m, b))
+        if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_SLIDE):
+            axis = np.abs(np.asarray(d.xaxis[j]))
+            if axis[0] > 0.99:
+                sx = abs(float(s))
+            elif axis[1] > 0.99:
+                sy = abs(float(s))
+    return body, (sx, sy)
+
+
+def xy_of(robot: RobotModel, body: int, qpos_rows: np.ndarray) -> np.ndarray:
+    """(T, 2) the world (x, y) of ``body`` at each row of ``qpos_rows`` (``mj_kinematics``)."""
+    d = mujoco.MjData(robot.model)
+    out = np.empty((len(qpos_rows), 2))
+    for i, row in enumerate(qpos_rows):
+        d.qpos[:] = row
+        mujoco.mj_kinematics(robot.model, d)
+        out[i] = d.xpos[body][:2]
+    return out

@@ -67,7 +67,8 @@ from foam_mj.figure_data import (
     _sample_qpos,
     path_style,
 )
-from foam_mj.figure_geometry import _PLANES, Shape, _bounds, _default_plane, _shapes, convex_hull, has_xy_base, robot_kind, strobe_geometry
+from foam_mj.figure_geometry import (_PLANES, Shape, _bounds, _default_plane, _shapes, base_xy, body_depth, convex_hull, has_xy_base,
+                                     robot_kind, strobe_geometry, xy_of)
 from foam_mj.model import RobotModel
 
 __all__ = [
@@ -309,7 +310,7 @@ def _fig_strobe(mpl, robot, paths: list[_Path], n_poses: int = N_POSES) -> Any |
     floors = [float(s.outline[0][1]) for s in obstacles if s.kind == "plane" and abs(s.outline[1][1] - s.outline[0][1]) < 1e-12]
     poses, traces, boxes = [], [], []
     # The trace follows the robot geom farthest down the kinematic chain (the foot for the leg).
-    depth = lambda g: _body_depth(robot.model, int(robot.model.geom_bodyid[g]))  # noqa: E731
+    depth = lambda g: body_depth(robot.model, int(robot.model.geom_bodyid[g]))  # noqa: E731
     tip = max((int(g) for g in robot.robot_geoms), key=depth)
     for p in paths:
         rows = _sample_qpos(p, robot, n_poses)
@@ -366,14 +367,6 @@ def _fig_strobe(mpl, robot, paths: list[_Path], n_poses: int = N_POSES) -> Any |
         axes[k // ncol][k % ncol].set_visible(False)
     fig.suptitle(title, fontsize=9)
     return fig
-
-
-def _body_depth(m: mujoco.MjModel, b: int) -> int:
-    n = 0
-    while b != 0:
-        b = int(m.body_parentid[b])
-        n += 1
-    return n
 
 
 def _is_metaheuristic(p: _Path) -> bool:
@@ -438,50 +431,23 @@ def _fig_joints(mpl, robot: RobotModel, paths: list[_Path]) -> Any | None:
     return fig
 
 
-def _base_xy(robot: RobotModel) -> tuple[int, tuple[float, float]]:
-    """The body whose (x, y) is the mobile base's position, and the (x, y) scales of q -> world."""
-    m, cfg = robot.model, robot.config
-    d = mujoco.MjData(m)
-    mujoco.mj_kinematics(m, d)
-    body, sx, sy = 0, 1.0, 1.0
-    for j, s in zip(cfg.joint_ids, cfg.scale):
-        body = max(body, int(m.jnt_bodyid[j]), key=lambda b: _body_depth(m, b))
-        if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_SLIDE):
-            axis = np.abs(np.asarray(d.xaxis[j]))
-            if axis[0] > 0.99:
-                sx = abs(float(s))
-            elif axis[1] > 0.99:
-                sy = abs(float(s))
-    return body, (sx, sy)
-
-
-def _xy_of(robot: RobotModel, body: int, qpos_rows: np.ndarray) -> np.ndarray:
-    d = mujoco.MjData(robot.model)
-    out = np.empty((len(qpos_rows), 2))
-    for i, row in enumerate(qpos_rows):
-        d.qpos[:] = row
-        mujoco.mj_kinematics(robot.model, d)
-        out[i] = d.xpos[body][:2]
-    return out
-
-
 def _fig_map(mpl, doc, robot: RobotModel, paths: list[_Path]) -> Any | None:
     """Planar mobile base: walls, the foam's (x, y) footprint, the rosary and the paths, from above."""
     _, Figure, patches, collections, _ = mpl
-    body, (sx, sy) = _base_xy(robot)
+    body, (sx, sy) = base_xy(robot)
     cfg = robot.config
     data = mujoco.MjData(robot.model)
     walls = _shapes(robot, data, cfg.qpos0, "xy", "obstacles")
     foam, ros = doc.get("foam"), doc.get("rosary")
     q0, q1 = np.asarray(doc.get("q_init"), dtype=float), np.asarray(doc.get("q_goal"), dtype=float)
-    start, goal = _xy_of(robot, body, cfg.to_qpos(np.stack([q0, q1])))
+    start, goal = xy_of(robot, body, cfg.to_qpos(np.stack([q0, q1])))
 
     def discs(key_doc, face, edge, lw):
         if not key_doc or not key_doc.get("centers"):
             return None, np.zeros((0, 2))
         c = np.asarray(key_doc["centers"], dtype=float)
         r = np.asarray(key_doc["radii"], dtype=float)
-        xy = _xy_of(robot, body, cfg.to_qpos(c))
+        xy = xy_of(robot, body, cfg.to_qpos(c))
         ps = [patches.Ellipse(p, 2 * rr * sx, 2 * rr * sy) for p, rr in zip(xy, r)]
         ext = np.vstack([xy - np.column_stack([r * sx, r * sy]), xy + np.column_stack([r * sx, r * sy])])
         return collections.PatchCollection(ps, facecolor=face, edgecolor=edge, linewidth=lw), ext
@@ -500,7 +466,7 @@ def _fig_map(mpl, doc, robot: RobotModel, paths: list[_Path]) -> Any | None:
         else:
             coll, ext = discs(ros, (0.5, 0.5, 0.5, 0.15), (0.3, 0.3, 0.3, 0.7), 0.6)
             for p in paths:
-                xy = _xy_of(robot, body, p.qpos if p.waypoints is None else cfg.to_qpos(p.waypoints))
+                xy = xy_of(robot, body, p.qpos if p.waypoints is None else cfg.to_qpos(p.waypoints))
                 ax.plot(xy[:, 0], xy[:, 1], color=p.colour, linewidth=1.5, label=p.label, zorder=5)
         if coll is not None:
             ax.add_collection(coll)

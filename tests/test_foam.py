@@ -10,8 +10,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from foam_mj.bubbles import BubbleOracle
+from foam_mj.coverage import CoverageIndex, accept_in_order
 from foam_mj.errors import ConfigurationError, PlanningFailed
-from foam_mj.foam import CoverageIndex, FoamParams, accept_in_order, plan
+from foam_mj.foam import FoamParams, plan
 from foam_mj.model import RobotModel
 from foam_mj.scenarios import load_scenario
 

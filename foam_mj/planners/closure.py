@@ -75,7 +75,7 @@ def surface_cover(oracle: BubbleOracle, c: np.ndarray, r: float, r_min: float, b
 
 
 def _covered(points: np.ndarray, centers: np.ndarray, radii: np.ndarray) -> np.ndarray:
-    """For each point: strictly inside one of the balls (the test of :meth:`foam_mj.foam.CoverageIndex.covered`)?"""
+    """For each point: strictly inside one of the balls (the test of :meth:`foam_mj.coverage.CoverageIndex.covered`)?"""
     if len(radii) == 0:
         return np.zeros(len(points), dtype=bool)
     return (np.sum((points[:, None, :] - centers[None]) ** 2, axis=2) < radii**2).any(axis=1)

@@ -64,8 +64,9 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from foam_mj.bubbles import BubbleOracle
+from foam_mj.coverage import CoverageIndex, accept_in_order
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_number, radius_text
-from foam_mj.foam import CoverageIndex, Foam, FoamParams, FoamStats, PlanResult, accept_in_order, check_candidate_bound, load_kd_tree, nearest_hint, seed_rng, small_goal_hint
+from foam_mj.foam import Foam, FoamParams, FoamStats, PlanResult, check_candidate_bound, load_kd_tree, nearest_hint, seed_rng, small_goal_hint
 from foam_mj.planners.closure import closure_text, foam_closure, queue_empty_text, surface_holds_no_child
 from foam_mj.rosary import MEMBERSHIP_TOL
 
