@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 
 from foam_mj.errors import FoamError
 
@@ -37,10 +38,19 @@ class Parser(argparse.ArgumentParser):
     def parse_args(self, args=None, namespace=None):
         """argparse's, but an argument the command does not take is refused by that command's parser: argparse's
         top-level parser said 'foam-mj: error: unrecognized arguments: --no-rrd (see foam-mj --help)' for
-        ``foam-mj replay r.json --no-rrd``, whose flags that help does not list."""
+        ``foam-mj replay r.json --no-rrd``, whose flags that help does not list. An option before the command that
+        this parser does not take is named: argparse said only 'the following arguments are required: COMMAND' for
+        ``foam-mj --bogus``."""
+        args = sys.argv[1:] if args is None else list(args)
+        commands = [a for a in self._actions if isinstance(a, argparse._SubParsersAction)]
+        if commands:
+            for arg in args:
+                if arg == "--" or not arg.startswith("-"):
+                    break
+                if not any(option.startswith(arg.split("=", 1)[0]) for option in self._option_string_actions):
+                    self.error(f"unrecognized arguments: {arg}")
         parsed, extras = self.parse_known_args(args, namespace)
         if extras:
-            commands = [a for a in self._actions if isinstance(a, argparse._SubParsersAction)]
             command = commands[0].choices.get(getattr(parsed, commands[0].dest, None)) if commands else None
             (command or self).error(f"unrecognized arguments: {' '.join(extras)}")
         return parsed

@@ -689,6 +689,16 @@ def test_a_flag_the_command_does_not_take_is_refused_by_that_command(capsys):
     assert capsys.readouterr().err == "foam-mj scenes: error: unrecognized arguments: extra --x (see foam-mj scenes --help)\n"
 
 
+def test_an_option_before_the_command_that_foam_mj_does_not_take_is_named(capsys):
+    """`foam-mj --bogus` said only 'the following arguments are required: COMMAND': the unknown option is named, on
+    one line, exit 2, with or without a command after it."""
+    for argv in (["--bogus"], ["--bogus", "plan"]):
+        assert main(argv) == 2
+        assert capsys.readouterr().err == "foam-mj: error: unrecognized arguments: --bogus (see foam-mj --help)\n"
+    assert main([]) == 2
+    assert "required: COMMAND" in capsys.readouterr().err
+
+
 def test_a_configuration_may_be_given_unquoted():
     """`--start 0.2 -0.3 0.08` (no quotes, as a user types numbers) said 'unrecognized arguments: -0.3 0.08'. The
     numbers after --start/--goal/--q are one configuration, quoted or not; a word after them still ends it."""
