@@ -449,7 +449,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("sweep", metavar="SWEEP.toml", help="the sweep file (see README, 'Studies')")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder: DIR/rows/*.parquet and DIR/sweep.json")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core); with --ray, the local Ray instance's CPUs")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default and at most: one per core this process may use; a larger number is capped, with a note); with --ray, the local Ray instance's CPUs (capped alike)")
     p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS", help="run the plans as Ray tasks (needs foam-mj[cluster]): alone, on a local Ray instance; with an address (auto, ray://host:10001), on that cluster")
     p.add_argument("--batch", type=int, default=200, help="rows per Parquet file (default 200)")
     p.add_argument("--flush-seconds", type=float, default=10.0, help="write the rows received at least this often (default 10 s)")

@@ -494,6 +494,12 @@ def run_sweep(
     workers = default_workers() if workers is None else int(workers)
     if workers < 1:
         raise SweepError(f"--workers must be >= 1, got {workers}")
+    if ray_address is None and workers > default_workers():
+        # More processes than cores on this machine only share the cores (each plan is one thread) and add their
+        # memory; a number written for a bigger machine still runs here.
+        if progress is not False:
+            print(f"sweep: --workers {workers} capped at {default_workers()}, the cores this process may use", file=sys.stderr)
+        workers = default_workers()
     store = RowStore(Path(out), sweep, batch=batch, flush_seconds=flush_seconds)
     store.open(sweep)
     t0 = time.monotonic()

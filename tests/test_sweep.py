@@ -186,7 +186,7 @@ def test_the_workers_end_when_the_sweep_is_killed_alone(tmp_path):
     wait_for_files(out / "rows", 1, proc)
     children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()
     workers = [int(c) for c in children if "spawn_main" in Path(f"/proc/{c}/cmdline").read_text()]
-    assert len(workers) == 2
+    assert len(workers) == min(2, len(os.sched_getaffinity(0)))  # --workers is capped at the cores
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait(timeout=60)  # not communicate: workers left alive would hold its pipes open
 
@@ -836,3 +836,15 @@ replay = "none"
     monkeypatch.setattr(Figure, "savefig", savefig)
     write_report(out)
     assert drawn and all(titles == [f"planner.delta = {d:g}" for d in deltas] for titles in drawn.values())
+
+
+def test_more_workers_than_cores_are_capped_at_the_cores_with_a_note(tmp_path, capsys):
+    """`--workers 64` on a 2-core machine was accepted, and the pool could start up to 128 processes that only share
+    the cores. Local workers are capped at the cores this process may use, and the run says so in one line."""
+    from foam_mj.sweep_run import default_workers
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = 1\nsmoothers = "none"\nreplay = "none"\n')
+    summary = run_sweep(load_sweep(spec), tmp_path / "out", workers=default_workers() + 62, limit=1, interval=3600.0)
+    assert summary.workers == default_workers()
+    note = f"sweep: --workers {default_workers() + 62} capped at {default_workers()}, the cores this process may use"
+    assert capsys.readouterr().err.splitlines()[0] == note
