@@ -12,7 +12,7 @@ and MuJoCo's qpos units,
     <joint>.power tau * qd      W
 
 The trajectory is rebuilt from the result's waypoints and rosary with the result's limits and time law
-(:func:`foam_mj.pipeline.time_path`, the same code ``plan`` ran), and evaluated exactly at the export's
+(:func:`foam_mj.timing.time_path`, the same code ``plan`` ran), and evaluated exactly at the export's
 times from its curve and time law, so any rate is exact, not interpolated between stored samples.
 
 Formats (units stored in the file):
@@ -95,11 +95,10 @@ def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float
     import mujoco
 
     from foam_mj.dynamics import inverse_dynamics, joint_units
-    from foam_mj.pipeline import time_path
     from foam_mj.results import outcome_robot
     from foam_mj.rosary import Rosary
     from foam_mj.limits import Limits
-    from foam_mj.timing import METHODS
+    from foam_mj.timing import METHODS, time_path
 
     robot = outcome_robot(doc, source)
     entry = doc["paths"][path_name]

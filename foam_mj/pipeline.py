@@ -65,8 +65,8 @@ from foam_mj.smoothing.gradient import center_path_result
 from foam_mj.smoother_names import DEFAULT_SMOOTHER, LABELS, PATH_NAMES, SMOOTHERS, parse_smoothers
 from foam_mj.dynamics import JointLoads, joint_loads
 from foam_mj.limits import Limits, as_limits
-from foam_mj.timing import DEFAULT_METHOD as DEFAULT_TIME_LAW, METHODS as TIME_LAWS, TimingInfeasible, retime
-from foam_mj.trajectory import JointLimits, Trajectory, make_trajectory
+from foam_mj.timing import DEFAULT_METHOD as DEFAULT_TIME_LAW, METHODS as TIME_LAWS, TimingInfeasible, time_path
+from foam_mj.trajectory import JointLimits, Trajectory
 
 @dataclass
 class PathOutcome:
@@ -306,12 +306,3 @@ def require_a_timing(paths: dict[str, PathOutcome]) -> None:
 def untimed_paths(outcome: Outcome) -> list[str]:
     """One line per path that no timing fits (``PathOutcome.timing_error``), for the failure message of ``plan`` and ``replay``."""
     return [" ".join(str(po.timing_error).split()) for po in outcome.paths.values() if po.timing_error is not None]
-
-
-def time_path(robot, name: str, path, rosary: Rosary, limits: Limits, time_law: str = DEFAULT_TIME_LAW) -> Trajectory:
-    """The safe curve through ``path`` timed by ``time_law`` under ``limits``; a TimingInfeasible names the path."""
-    base = make_trajectory(robot, path, rosary, limits.joint_limits(robot))
-    try:
-        return retime(robot, base, rosary, limits, time_law)
-    except TimingInfeasible as exc:
-        raise TimingInfeasible(f"path '{name}': {exc}", exc.joint, exc.excess) from None

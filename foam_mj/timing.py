@@ -586,3 +586,11 @@ def timed_trajectory(robot: RobotModel, path, rosary: Rosary, limits: Limits | J
     lim = as_limits(limits)
     base = make_trajectory(robot, path, rosary, lim.joint_limits(robot), dt)
     return retime(robot, base, rosary, lim, method, dt)
+
+
+def time_path(robot: RobotModel, name: str, path, rosary: Rosary, limits: Limits, time_law: str = DEFAULT_METHOD) -> Trajectory:
+    """:func:`timed_trajectory` of the path ``name`` (what plan and export time); a TimingInfeasible names the path."""
+    try:
+        return timed_trajectory(robot, path, rosary, limits, time_law)
+    except TimingInfeasible as exc:
+        raise TimingInfeasible(f"path '{name}': {exc}", exc.joint, exc.excess) from None

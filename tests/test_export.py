@@ -89,6 +89,23 @@ def test_the_done_when_command_exports_a_csv_with_units_and_reproducible_torques
         np.testing.assert_allclose(cols[f"{j}.q"], qpos[: len(t), names.index(j)], atol=1e-8)
 
 
+def test_export_loads_neither_the_pipeline_nor_its_smoothers_or_solvers(planned, tmp_path):
+    """`foam-mj export` re-times one saved path: it imported the whole pipeline (every smoother, Clarabel) for that,
+    about a third of a second of start-up; it loads only the timing code plan ran."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from foam_mj.cli import main\n"
+        f"assert main(['export', {str(planned['json'])!r}, '--out', {str(tmp_path / 't.csv')!r}]) == 0\n"
+        "print('loaded:', ','.join(m for m in ('foam_mj.pipeline', 'foam_mj.smoothing', 'clarabel') if m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines()[-1] == "loaded: "
+
+
 def test_npz_and_parquet_hold_the_same_table_and_their_units(planned):
     import pyarrow.parquet as pq
 
