@@ -187,6 +187,13 @@ def static_robot_note(robot, ends, delta: float) -> str:
             "them (give those static geoms contype=\"0\" conaffinity=\"0\" if they never meet the moving ones)")
 
 
+def default_recording(name: str, *, mjcf: bool = False) -> str:
+    """The recording ``plan`` writes without --rrd: ``foam-mj-<scenario>.rrd``, and ``foam-mj-mjcf-<file stem>.rrd`` for
+    --mjcf, whose scenario is named after its file: ``--mjcf models/obstacle.xml`` replaced the built-in obstacle
+    scenario's recording."""
+    return f"foam-mj-{'mjcf-' * mjcf}{name}.rrd"
+
+
 def plan_scenario(args: argparse.Namespace):
     """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta, --time-limit,
     --subject-height/--subject-mass, --robot-root and --no-self-collision override the scenario's fields."""
@@ -276,7 +283,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
 
         scenario = dataclasses.replace(scenario, params=scenario.params.with_algorithm(args.planner))
     if rrd is None and not args.no_rrd:
-        rrd = check_output(f"foam-mj-{scenario.name}.rrd", "--rrd (default)", suffix=".rrd")
+        rrd = check_output(default_recording(scenario.name, mjcf=args.mjcf is not None), "--rrd (default)", suffix=".rrd")
     from foam_mj.atomic import check_distinct
 
     check_distinct({"--json": json_out, "--rrd": rrd,

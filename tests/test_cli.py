@@ -115,6 +115,19 @@ def test_plan_says_that_foam_mj_limits_are_radians_in_a_model_written_in_degrees
             assert "shoulder 180 rad/s (10,313 deg/s), 720 rad/s^2" in out
 
 
+def test_an_mjcf_runs_default_recording_never_replaces_a_built_in_scenarios(tmp_path, monkeypatch, capsys):
+    """`plan --mjcf models/obstacle.xml` names its scenario after the file, "obstacle", and its default recording
+    replaced the built-in obstacle scenario's foam-mj-obstacle.rrd: an --mjcf run writes foam-mj-mjcf-<file>.rrd."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "foam-mj-obstacle.rrd").write_text("the built-in scenario's recording")
+    args = ["plan", "--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0.08", "--goal", "0.45 0.4536 1.45",
+            "--smoother", "none", "--no-replay"]
+    assert main(args) == 0
+    assert "wrote foam-mj-mjcf-obstacle.rrd" in capsys.readouterr().out
+    assert read_recording(tmp_path / "foam-mj-mjcf-obstacle.rrd")
+    assert (tmp_path / "foam-mj-obstacle.rrd").read_text() == "the built-in scenario's recording"
+
+
 def test_plan_optimal_writes_a_strict_json_certificate_that_replays_and_verifies(tmp_path, capsys):
     """``--smoother optimal`` on the obstacle scene: certified, in its hatches, strict JSON, replayable, verified."""
     from foam_mj.rosary import Rosary
