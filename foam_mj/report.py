@@ -10,14 +10,16 @@ per smoother (path name):
 =====================  ==============================================  =====================================
 file                   cell value                                      why this aggregate
 =====================  ==============================================  =====================================
-success-<path>         share of plans that reached the goal            the envelope itself
+success-<path>         share of the valid plans that reached the goal  the envelope itself
 min_clearance-<path>   smallest clearance (mm) over the cell's plans   safety is a worst case, not a mean
 f-<path>               median f (Nascimento et al. 2020 Eq. 5) of the reached ones  robust to the odd long detour
 knee_torque-<path>     largest peak knee torque (N m) of the reached   the actuator must cover the worst
 =====================  ==============================================  =====================================
 
-Empty cells (no plan, or none reached) are grey; a measure with no value at all (no replay: no
-clearance) gets no figure. The knee figure is drawn when the rows carry a ``peak_torque_*knee*`` column
+Empty cells (no plan, or none reached) are grey; cells whose plans were all ``invalid`` (start or goal not
+free: no problem to solve) are hatched grey, with a legend, in every figure, so that "no valid problem here" is not
+read as "the planner failed" (a success of 0). A measure with no value at all (no replay: no clearance) gets no
+figure. The knee figure is drawn when the rows carry a ``peak_torque_*knee*`` column
 (any replay).
 """
 
@@ -110,9 +112,10 @@ def _torque_column(columns: Sequence[str]) -> str | None:
 
 #: (file stem, title, unit, colormap, aggregate over a cell's rows -> value or nan)
 def _measures(data: dict[str, np.ndarray], torque: str | None):
-    reached = data["outcome"] == "reached"
+    reached, valid = data["outcome"] == "reached", data["outcome"] != "invalid"
 
     def success(rows):
+        rows = rows[valid[rows]]
         return float(np.mean(reached[rows])) if rows.size else np.nan
 
     def over_reached(column, fn, scale=1.0):
@@ -127,7 +130,7 @@ def _measures(data: dict[str, np.ndarray], torque: str | None):
         return agg
 
     out = [
-        ("success", "success rate", "", "RdYlGn", success, (0.0, 1.0)),
+        ("success", "success rate of valid plans", "", "RdYlGn", success, (0.0, 1.0)),
         ("min_clearance", "min clearance", "mm", "viridis", over_reached("min_clearance", np.min, 1000.0), None),
         ("f", "median f", "", "viridis_r", over_reached("f", np.median), None),
     ]
@@ -293,19 +296,26 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
     panel = axes[2] if len(axes) > 2 else None
     data = _data(table)
     torque = _torque_column(table.column_names)
+    invalid = data["outcome"] == "invalid"
     figures = [(path, measure) for path in _paths(manifest, data) for measure in _measures(data, torque)]
     for k, (path, (stem, title, unit, cmap, agg, lims)) in enumerate(figures, 1):
         say(f"drawing {stem}-{path} ({k} of {len(figures)}, {table.num_rows:,} rows)")
         mask = data["smoother"] == path
-        written += _draw(figures_dir, f"{stem}-{path}", f"{title} ({path})", unit, cmap, lims, agg, x, y, panel, mask, formats, dpi)
+        written += _draw(figures_dir, f"{stem}-{path}", f"{title} ({path})", unit, cmap, lims, agg, x, y, panel, mask, invalid, formats, dpi)
     return text, written
 
 
-def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, formats, dpi) -> list[Path]:
+#: The legend of a hatched cell: every plan of it was invalid.
+INVALID_LABEL = "every plan invalid (start or goal not free): no problem to solve"
+
+
+def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, invalid, formats, dpi) -> list[Path]:
     from matplotlib.figure import Figure
+    from matplotlib.patches import Patch, Rectangle
 
     panels = [(None, mask)] if panel is None else [(lab, mask & (panel.index == k)) for k, lab in enumerate(panel.labels)]
     grids = [grid_values(x, y, m, agg) for _, m in panels]
+    blocked = [grid_values(x, y, m, lambda idx: 1.0 if invalid[idx].all() else np.nan) == 1.0 for _, m in panels]
     finite = np.concatenate([g[np.isfinite(g)] for g in grids]) if grids else np.array([])
     if not finite.size:  # nothing measured (e.g. no replay, so no clearance): no figure
         return []
@@ -324,8 +334,11 @@ def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, formats
 
     cm = matplotlib.colormaps[cmap].with_extremes(bad="#d0d0d0")
     im = None
-    for ax, (lab, _), g in zip(axs, panels, grids):
+    hatch = {"facecolor": "#d0d0d0", "edgecolor": "#808080", "hatch": "///", "linewidth": 0}
+    for ax, (lab, _), g, no_problem in zip(axs, panels, grids, blocked):
         im = ax.imshow(np.ma.masked_invalid(g), origin="lower", cmap=cm, vmin=vmin, vmax=vmax, aspect="auto")
+        for j, i in zip(*np.nonzero(no_problem)):
+            ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, **hatch))
         ax.set_xticks(range(ncell_x), x.labels, rotation=30 if max(len(s) for s in x.labels) > 6 else 0, ha="right" if max(len(s) for s in x.labels) > 6 else "center")
         ax.set_xlabel(x.name)
         if y is not None:
@@ -344,6 +357,8 @@ def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, formats
                     ax.text(i, j, f"{v:.2f}" if abs(v) < 10 else f"{v:.0f}", ha="center", va="center", fontsize=7, color=ink)
     if im is not None:
         fig.colorbar(im, ax=list(axs[: len(panels)]), label=f"{title.split(' (')[0]}{f' ({unit})' if unit else ''}", shrink=0.9)
+    if any(b.any() for b in blocked):
+        fig.legend(handles=[Patch(**hatch, label=INVALID_LABEL)], loc="outside lower center", fontsize=8, frameon=False)
     fig.suptitle(title, fontsize=10)
     out = []
     for fmt in formats:

@@ -848,3 +848,49 @@ def test_more_workers_than_cores_are_capped_at_the_cores_with_a_note(tmp_path, c
     assert summary.workers == default_workers()
     note = f"sweep: --workers {default_workers() + 62} capped at {default_workers()}, the cores this process may use"
     assert capsys.readouterr().err.splitlines()[0] == note
+
+
+def test_the_envelope_tells_cells_without_a_valid_problem_from_cells_the_planner_failed(tmp_path, monkeypatch):
+    """A cell whose plans were all `invalid` (start or goal not free) was drawn as a success of 0.00, the colour of
+    a cell the planner failed. Success is the share of the valid plans that reached; a cell without a valid plan has
+    no success value and is hatched in every figure, with a legend saying why, and a failed cell stays 0."""
+    from matplotlib.figure import Figure
+
+    from foam_mj.report import INVALID_LABEL, _measures, _data, envelope_axes, grid_values, load, write_report
+    from foam_mj.sweep_run import RowStore
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = [0, 1]\nsmoothers = "none"\nreplay = "none"\n'
+                           '[grid]\n"planner.delta" = [0.005, 0.01]\n"planner.r_min" = [0.05, 0.06, 0.07]\n')
+    sweep = load_sweep(spec)
+    out = tmp_path / "out"
+    store = RowStore(out, sweep, batch=50)
+    store.open(sweep)
+
+    def outcome(p, seed):  # r_min 0.07: never a valid problem; delta 0.01: the planner fails; one seed invalid at 0.06
+        if p["planner.r_min"] == 0.07 or (p["planner.r_min"] == 0.06 and seed == 0):
+            return "invalid"
+        return "failed" if p["planner.delta"] == 0.01 else "reached"
+
+    for task in sweep.tasks():
+        p = dict(task.params)
+        o = outcome(p, task.seed)
+        store.add([{"key": k, **p, "seed": task.seed, "smoother": path, "outcome": o, "f": 3.0 if o == "reached" else None}
+                   for k, path in zip(task.keys, task.paths)])
+    store.flush()
+    store.close()
+    manifest, table = load(out)
+    x, y = envelope_axes(manifest, table)
+    assert (x.key, y.key) == ("planner.r_min", "planner.delta")
+    success = dict((m[0], m[4]) for m in _measures(_data(table), None))["success"]
+    cells = grid_values(x, y, np.ones(table.num_rows, dtype=bool), success)
+    assert np.array_equal(cells, [[1.0, 1.0, np.nan], [0.0, 0.0, np.nan]], equal_nan=True)  # rows: delta; columns: r_min
+
+    drawn = {}
+    real = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda fig, fname, **kw: drawn.setdefault(fig._suptitle.get_text(), fig) and real(fig, fname, **kw))
+    write_report(out)
+    for title in ("success rate of valid plans (centre)", "median f (centre)"):
+        fig = drawn[title]
+        hatched = [(p.get_x() + 0.5, p.get_y() + 0.5) for ax in fig.axes for p in ax.patches if p.get_hatch()]
+        assert sorted(hatched) == [(2.0, 0.0), (2.0, 1.0)]  # the r_min 0.07 column, and only it
+        assert [t.get_text() for t in fig.legends[0].get_texts()] == [INVALID_LABEL]
