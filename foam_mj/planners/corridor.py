@@ -548,8 +548,11 @@ def build_corridor(
         if RECOVER:
             D = path_samples(P, PIECES)
             at = np.arange(0, len(D), PIECES // RECOVER)
-            X = D[at]  # each at most a chain bubble's radius plus its distance to the centre (r is 1-Lipschitz)
-            rE = oracle.radii_below(X, np.min(R[None, :] + np.linalg.norm(X[:, None, :] - C[None, :, :], axis=2), axis=1))
+            # Segment j of P (w_j to w_(j+1), P[0] = q0) lies in chain bubble j, so a sample's radius is at most that
+            # bubble's plus its distance to the centre (r is 1-Lipschitz); the nearest of all bubbles, a (samples x
+            # chain) product, doubled the re-cover's instructions on the 3-joint leg for the same radii.
+            X, home = D[at], np.minimum(at // PIECES, len(R) - 1)
+            rE = oracle.radii_below(X, R[home] + row_norms(X - C[home]))
             ok = rE > 4 * INSET
             extra = (at[ok], rE[ok])
             clock.lap("recover")
