@@ -151,11 +151,16 @@ def held_pose_note(robot, delta: float) -> str:
     close = [c for c in close if c[0] < delta]
     if not close:
         return ""
-    pairs = ", ".join(f"{robot.geom_label(a)} / {robot.geom_label(b)} {dist * 1000:.2f} mm" for dist, a, b in close[:3])
     return (f"note: {len(close)} pair(s) of a held body (moved by a joint outside the configuration) and a fixed geom are within "
-            f"the margin where they are held ({pairs}{', ...' if len(close) > 3 else ''}): neither moves along the path, so the "
+            f"the margin where they are held ({_pairs_text(robot, close)}): neither moves along the path, so the "
             "planner leaves them out, but a MuJoCo-only checker that counts every jointed body as moving reads that clearance at "
             "every sample (lift the held body clear, or plan over its joints)")
+
+
+def _pairs_text(robot, close: list[tuple[float, int, int]]) -> str:
+    """The first three (distance, geom, geom) of ``close`` as 'a / b 1.23 mm', then ', ...' when there are more."""
+    named = ", ".join(f"{robot.geom_label(a)} / {robot.geom_label(b)} {dist * 1000:.2f} mm" for dist, a, b in close[:3])
+    return named + (", ..." if len(close) > 3 else "")
 
 
 def static_robot_note(robot, ends, delta: float) -> str:
@@ -180,9 +185,8 @@ def static_robot_note(robot, ends, delta: float) -> str:
     close = sorted((dist, a, b) for (a, b), dist in least.items() if dist < delta)
     if not close:
         return ""
-    named = ", ".join(f"{robot.geom_label(a)} / {robot.geom_label(b)} {dist * 1000:.2f} mm" for dist, a, b in close[:3])
     return (f"note: {len(close)} pair(s) of a moving robot geom and a robot geom on a body no joint moves are within the margin "
-            f"at an end point ({named}{', ...' if len(close) > 3 else ''}), left out as MuJoCo leaves them out (<exclude>, "
+            f"at an end point ({_pairs_text(robot, close)}), left out as MuJoCo leaves them out (<exclude>, "
             "contype/conaffinity), but a MuJoCo-only checker that counts every geom on a static body as an obstacle reads "
             "them (give those static geoms contype=\"0\" conaffinity=\"0\" if they never meet the moving ones)")
 
