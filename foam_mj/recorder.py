@@ -68,6 +68,17 @@ def unique_recording_id(stem: str) -> str:
     return f"{stem}-{secrets.token_hex(4)}"
 
 
+def primary_path(names) -> str | None:
+    """Of the paths ``names`` (in the summary's order), the one whose robot a recording draws in the model's colours
+    (the others' robots: translucent, in their path's colour): the default smoother's (``optimal``) when there, else
+    the last one; None for no path."""
+    from foam_mj.smoother_names import DEFAULT_SMOOTHER, SMOOTHERS
+
+    names = list(names)
+    default = SMOOTHERS[DEFAULT_SMOOTHER][-1]
+    return default if default in names else (names[-1] if names else None)
+
+
 def _portable_robot(robot):
     """``robot`` without its MjSpec (which cannot be pickled; the recording reads only the compiled model)."""
     if getattr(robot, "spec", None) is None:
@@ -79,7 +90,8 @@ def _portable_robot(robot):
 
 def outcome_job(path: str | os.PathLike, outcome=None, *, scenario=None, foam=None) -> RecordingJob:
     """The recording of a pipeline outcome (scene, foam and rosary, every path with its trajectory, joint
-    loads, replay, convergence and Pareto front), or with ``outcome`` None of the foam grown so far."""
+    loads, replay, convergence and Pareto front; every robot but the :func:`primary_path`'s tinted), or with
+    ``outcome`` None of the foam grown so far."""
     scenario = outcome.scenario if outcome is not None else scenario
     robot = _portable_robot(scenario.robot)
     job = RecordingJob(Path(path), unique_recording_id(f"foam-mj-{scenario.name}"))
@@ -92,6 +104,7 @@ def outcome_job(path: str | os.PathLike, outcome=None, *, scenario=None, foam=No
     job.add("log_bubbles", foam.centers, foam.radii, foam.q_init, foam.q_goal, rosary)
     if outcome is None:
         return job
+    primary = primary_path(name for name, po in outcome.paths.items() if po.kinematic is not None)
     for name, po in outcome.paths.items():
         job.add("log_path", name, po.result.path)
         if po.trajectory is not None:
@@ -101,7 +114,7 @@ def outcome_job(path: str | os.PathLike, outcome=None, *, scenario=None, foam=No
         # The robot and its clearance along the planned trajectory (as the summary's min clear and `verify`); the
         # servo replay adds its tracking errors and contacts (its own poses drifted up to millimetres from the plan).
         if po.kinematic is not None:
-            job.add("log_replay", name, robot, po.kinematic)
+            job.add("log_replay", name, robot, po.kinematic, name != primary)
         if po.dynamic is not None:
             job.add("log_tracking", name, po.dynamic)
         if name in ("hs", "ga") or len(po.result.history_best) > 1:

@@ -22,7 +22,9 @@ sanitized to it):
 ``world/leg/<name>/<body>``                 Transform3D of each leg body per frame (timelines
                                             ``time`` in seconds and ``frame``); ``plan`` and ``replay``
                                             log the planned trajectory (its kinematic replay)
-``world/leg/<name>/<body>/<geom>``          the body's geoms, static, with their pose in the body
+``world/leg/<name>/<body>/<geom>``          the body's geoms, static, with their pose in the body: in the
+                                            model's colours, or (``tint``) translucent in the path's colour
+``world/traces/<name>``                     the path of each end body (foot, hand) in the world, static
 ``world/contacts/<name>``                   leg/obstacle contacts of a dynamic replay (if any), per frame
 ``cspace/axes``                             the configuration axes, labelled with the joint names
                                             (for more than 3 joints, cspace shows the first three;
@@ -44,6 +46,14 @@ sanitized to it):
                                             a series per joint
 ``plots/power/<name>``                      joint mechanical power tau qd (W), a series per joint
 ==========================================  ==========================================================
+
+Colours: every path has one colour of :data:`PATH_PALETTE` (a paper's path always the same one, by its place in
+:data:`PATH_COLOR_ORDER`; any other name the first colour not yet taken), on its curves in ``cspace``, its end bodies'
+trace and its plots: the one series of a plot (clearance, convergence ``best``) in the colour itself, a plot's series
+per joint in shades of it (the first joint the colour itself, the next ones alternately darker and lighter; ``mean``
+darker). In ``foam-mj plan`` and ``replay`` recordings, the robot of the main path (``optimal`` when there, else the
+last: :func:`foam_mj.recorder.primary_path`) keeps the model's colours; every other path's robot is tinted,
+translucent (opacity :data:`TINT_ALPHA`), so overlaid robots are told apart at once.
 
 The default blueprint (stored in the file) shows the workspace, the configuration space and the plots
 side by side. Log time and log tick are disabled and recording properties are not sent, so the
@@ -81,7 +91,23 @@ INFINITE_PLANE = 5.0
 _PLANE_RGBA = (0.55, 0.6, 0.65, 1.0)
 _FOAM_RGBA = (0.6, 0.6, 0.6, 0.25)
 _ROSARY_RGBA = (0.2, 0.5, 0.9, 0.35)
-_PATH_COLORS = ((0.9, 0.3, 0.2), (0.2, 0.7, 0.3), (0.6, 0.3, 0.8), (0.9, 0.6, 0.1), (0.1, 0.6, 0.8), (0.8, 0.2, 0.6))
+#: The path colours (RGB), one per path of a recording: a path named in :data:`PATH_COLOR_ORDER` takes the colour at its
+#: place there (the same in every recording), any other name the first colour no path of the recording has taken yet.
+PATH_PALETTE = (
+    (0.89, 0.34, 0.35),  # red
+    (0.95, 0.56, 0.17),  # orange
+    (0.93, 0.79, 0.28),  # yellow
+    (0.61, 0.46, 0.37),  # brown
+    (0.35, 0.63, 0.31),  # green
+    (0.46, 0.72, 0.70),  # teal
+    (0.69, 0.48, 0.63),  # purple
+    (0.90, 0.20, 0.80),  # magenta
+    (0.30, 0.47, 0.65),  # blue
+    (1.00, 0.62, 0.65),  # pink
+)
+PATH_COLOR_ORDER = ("centre", "gradient", "adjusted", "adjusted_gradient", "hs", "ga", "convex", "optimal", "mgoa", "mopso")
+#: Opacity of a robot drawn in its path's colour (``log_replay(..., tint=True)``).
+TINT_ALPHA = 0.35
 
 
 def default_blueprint() -> rrb.Blueprint:
@@ -227,7 +253,7 @@ class Recording:
         self._rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._rec.log("cspace", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._open = True
-        self._paths = 0
+        self._colors: dict[str, int] = {}  # path name -> index in PATH_PALETTE
 
     # -- lifecycle -------------------------------------------------------------------------------------
     def close(self) -> None:
@@ -260,6 +286,36 @@ class Recording:
             raise ValueError(f"the recording {self.path} is closed")
         return self._rec
 
+    # -- colours ---------------------------------------------------------------------------------------
+    def path_color(self, name: str) -> np.ndarray:
+        """Path ``name``'s colour (RGBA, uint8; :data:`PATH_PALETTE`): its curves in configuration space, its robot's
+        trace and its plot series (a shade of it per joint) share it, so that overlaid paths are told apart."""
+        name = _name(name)
+        if name not in self._colors:
+            taken = set(self._colors.values())
+            n = len(PATH_PALETTE)
+            preferred = PATH_COLOR_ORDER.index(name) if name in PATH_COLOR_ORDER else None
+            free = [i for i in range(n) if i not in taken]
+            if preferred is not None and preferred not in taken:
+                self._colors[name] = preferred
+            elif free:
+                self._colors[name] = free[0]
+            else:  # more paths than colours: the palette again, in order
+                self._colors[name] = len(self._colors) % n
+        return _rgba((*PATH_PALETTE[self._colors[name]], 1.0))
+
+    def _series_colors(self, name: str, k: int) -> np.ndarray:
+        """k shades of path ``name``'s colour, one per series (joint): the first is the colour itself, then alternately
+        darker and lighter (mixed with black or white, which keeps its hue), at most 60 % of the way."""
+        base = self.path_color(name).astype(float)
+        steps = max(1, k // 2)
+        out = []
+        for j in range(k):
+            t = 0.6 * ((j + 1) // 2) / steps
+            target = 0.0 if j % 2 else 255.0
+            out.append(base if j == 0 else np.append(base[:3] + t * (target - base[:3]), 255.0))
+        return np.round(out).astype(np.uint8)
+
     # -- workspace -------------------------------------------------------------------------------------
     def log_scene(self, robot: RobotModel) -> None:
         """The static geoms of the scene at world poses, and the configuration axes named by the joints."""
@@ -291,21 +347,29 @@ class Recording:
             static=True,
         )
 
-    def log_replay(self, name: str, robot: RobotModel, replay: KinematicReplay | DynamicReplay) -> None:
-        """The leg's geoms (static, per body) and the body poses of every frame of ``replay``; its clearance,
-        and for a dynamic replay its tracking errors and contacts (:meth:`log_tracking`)."""
+    def log_replay(self, name: str, robot: RobotModel, replay: KinematicReplay | DynamicReplay, tint: bool = False) -> None:
+        """The leg's geoms (static, per body; with ``tint``, in the path's colour at opacity :data:`TINT_ALPHA` instead
+        of the model's colours) and the body poses of every frame of ``replay``; the trace of each end body (a moving
+        body with no moving child: a foot, a hand) at ``world/traces/<name>`` in the path's colour; its clearance, and
+        for a dynamic replay its tracking errors and contacts (:meth:`log_tracking`)."""
         rec = self._check_open()
         name = _name(name)
         if not isinstance(replay, (KinematicReplay, DynamicReplay)):
             raise ValueError(f"`replay` must be a KinematicReplay or DynamicReplay, got {type(replay).__name__}")
+        if not isinstance(tint, bool):
+            raise ValueError(f"`tint` must be True or False, got {tint!r}")
         m = robot.model
         poses = replay.poses
         T = replay.n_frames
+        color = self.path_color(name)
         index = [rr.TimeColumn("time", duration=replay.times), rr.TimeColumn("frame", sequence=np.arange(T))]
         for k, b in enumerate(poses.body_ids):
             body = f"world/leg/{name}/{_body_name(m, int(b))}"
             for g in np.flatnonzero(m.geom_bodyid == b):
-                shape = geom_archetype(m, int(g))
+                rgba = None
+                if tint:
+                    rgba = np.append(color[:3] / 255.0, min(TINT_ALPHA, float(geom_rgba(m, int(g))[3])))
+                shape = geom_archetype(m, int(g), rgba)
                 if shape is None:
                     continue
                 rec.log(
@@ -319,7 +383,10 @@ class Recording:
                 indexes=index,
                 columns=rr.Transform3D.columns(translation=poses.xpos[:, k], quaternion=_xyzw(poses.xquat[:, k])),
             )
-        self._scalars(f"plots/clearance/{name}", index, replay.clearance, ["clearance (m)"])
+        ids = [int(b) for b in poses.body_ids]
+        ends = [k for k, b in enumerate(ids) if not any(int(m.body_parentid[c]) == b for c in ids)]
+        rec.log(f"world/traces/{name}", rr.LineStrips3D([poses.xpos[:, k] for k in ends], colors=[color], radii=[0.003], labels=[name]), static=True)
+        self._scalars(f"plots/clearance/{name}", index, replay.clearance, ["clearance (m)"], self._series_colors(name, 1))
         if isinstance(replay, DynamicReplay):
             self.log_tracking(name, replay)
 
@@ -331,7 +398,8 @@ class Recording:
         if not isinstance(replay, DynamicReplay):
             raise ValueError(f"`replay` must be a DynamicReplay, got {type(replay).__name__}")
         index = [rr.TimeColumn("time", duration=replay.times), rr.TimeColumn("frame", sequence=np.arange(replay.n_frames))]
-        self._scalars(f"plots/tracking/{name}", index, replay.error, [f"{joint} error" for joint in replay.joint_names])
+        self._scalars(f"plots/tracking/{name}", index, replay.error, [f"{joint} error" for joint in replay.joint_names],
+                      self._series_colors(name, len(replay.joint_names)))
         if replay.contacts:
             frames = np.array([c.frame for c in replay.contacts])
             uniq, start = np.unique(frames, return_index=True)
@@ -386,8 +454,7 @@ class Recording:
         p = _points3(points, "points")
         if p.ndim != 2 or len(p) < 2:
             raise ValueError(f"`points` must have shape (m >= 2, n), got {np.shape(points)}")
-        color = _rgba(_PATH_COLORS[self._paths % len(_PATH_COLORS)])
-        self._paths += 1
+        color = self.path_color(name)
         rec.log(f"cspace/paths/{name}", rr.LineStrips3D([p], colors=[color], radii=[0.005], labels=[name]), static=True)
 
     def log_pareto_front(self, name: str, objectives, paths, knee: int | None = None, objective_names=("length", "angle term")) -> None:
@@ -414,11 +481,13 @@ class Recording:
             raise ValueError(f"`trajectory` must be a Trajectory, got {type(trajectory).__name__}")
         T = len(trajectory)
         index = [rr.TimeColumn("time", duration=trajectory.times), rr.TimeColumn("frame", sequence=np.arange(T))]
-        self._scalars(f"plots/joints/{name}", index, trajectory.joint_positions, list(trajectory.joint_names))
+        joints = list(trajectory.joint_names)
+        self._scalars(f"plots/joints/{name}", index, trajectory.joint_positions, joints, self._series_colors(name, len(joints)))
         q3 = _points3(trajectory.q, "trajectory.q")
-        rec.log(f"cspace/trajectories/{name}", rr.LineStrips3D([q3], radii=[0.003], labels=[name]), static=True)
+        color = self.path_color(name)
+        rec.log(f"cspace/trajectories/{name}", rr.LineStrips3D([q3], radii=[0.003], colors=[color], labels=[name]), static=True)
         rec.send_columns(f"cspace/trajectories/{name}/now", indexes=index, columns=rr.Points3D.columns(positions=q3))
-        rec.log(f"cspace/trajectories/{name}/now", rr.Points3D.from_fields(radii=[0.025]), static=True)
+        rec.log(f"cspace/trajectories/{name}/now", rr.Points3D.from_fields(radii=[0.025], colors=[color]), static=True)
 
     def log_joint_loads(self, name: str, loads) -> None:
         """Joint torques at ``plots/torque/<name>`` and powers at ``plots/power/<name>`` (a series per joint)
@@ -428,8 +497,9 @@ class Recording:
         T = len(loads.times)
         index = [rr.TimeColumn("time", duration=loads.times), rr.TimeColumn("frame", sequence=np.arange(T))]
         joints = list(loads.joint_names)
-        self._scalars(f"plots/torque/{name}", index, loads.tau, [f"{j} ({u})" for j, u in zip(joints, loads.torque_units)])
-        self._scalars(f"plots/power/{name}", index, loads.power, [f"{j} (W)" for j in joints])
+        colors = self._series_colors(name, len(joints))
+        self._scalars(f"plots/torque/{name}", index, loads.tau, [f"{j} ({u})" for j, u in zip(joints, loads.torque_units)], colors)
+        self._scalars(f"plots/power/{name}", index, loads.power, [f"{j} (W)" for j in joints], colors)
 
     # -- plots -----------------------------------------------------------------------------------------
     def log_convergence(self, name: str, best, mean=None) -> None:
@@ -445,14 +515,16 @@ class Recording:
             arrays[key] = a
         if mean is not None and len(arrays["mean"]) != len(arrays["best"]):
             raise ValueError(f"`best` and `mean` must have the same length, got {len(arrays['best'])} and {len(arrays['mean'])}")
-        for key, a in arrays.items():
-            index = [rr.TimeColumn("iteration", sequence=np.arange(len(a)))]
-            self._scalars(f"plots/convergence/{name}/{key}", index, a, [f"{name} {key}"])
+        shades = self._series_colors(name, 2)  # best in the path's colour, mean in a darker shade
+        for key, color in zip(arrays, shades):
+            index = [rr.TimeColumn("iteration", sequence=np.arange(len(arrays[key])))]
+            self._scalars(f"plots/convergence/{name}/{key}", index, arrays[key], [f"{name} {key}"], color[None])
 
-    def _scalars(self, entity: str, index: list, values: np.ndarray, names: list[str]) -> None:
-        """Series over ``index``: ``values`` (T,) or (T, k), one series per column, named ``names``."""
+    def _scalars(self, entity: str, index: list, values: np.ndarray, names: list[str], colors: np.ndarray) -> None:
+        """Series over ``index``: ``values`` (T,) or (T, k), one series per column, named ``names``, in ``colors``
+        (k, 4)."""
         rec = self._check_open()
-        rec.log(entity, rr.SeriesLines(names=names), static=True)
+        rec.log(entity, rr.SeriesLines(names=names, colors=colors), static=True)
         rec.send_columns(entity, indexes=index, columns=rr.Scalars.columns(scalars=np.asarray(values, dtype=float)))
 
 

@@ -11,6 +11,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -305,6 +306,74 @@ def test_the_recording_holds_foam_rosary_paths_poses_and_curves(planned):
         best = np.array(read_component(rrd, f"plots/convergence/{name}/best", "Scalars:scalars")).ravel()
         assert len(best) == len(doc["paths"][name]["convergence"]["best"]) > 1
     assert read_blueprint(rrd)
+
+
+def _rgba(packed: int) -> tuple[int, int, int, int]:
+    """Rerun's packed 0xRRGGBBAA colour as (r, g, b, a)."""
+    return tuple(int(packed) >> shift & 0xFF for shift in (24, 16, 8, 0))
+
+
+def _geom_colors(rrd, body_entity: str) -> dict[str, tuple]:
+    """Each geom under ``body_entity`` -> its drawn colour (any shape's colors, or a mesh's albedo), read from the file."""
+    from foam_mj.recording import _store_chunks
+
+    out = {}
+    for ch in _store_chunks(rrd):
+        entity = str(ch.entity_path).lstrip("/")
+        if not entity.startswith(body_entity + "/"):
+            continue
+        batch = ch.to_record_batch()
+        for column in batch.schema.names:
+            if column.endswith((":colors", ":albedo_factor")):
+                values = [v for v in batch.column(column).to_pylist() if v is not None]
+                out[entity.rsplit("/", 1)[1]] = _rgba(values[0][0] if isinstance(values[0], list) else values[0])
+    return out
+
+
+def test_every_path_of_a_recording_has_its_own_colour_and_only_the_optimal_robot_its_models(planned, obstacle_robot):
+    """With --smoother all, the eight robots were drawn in the same material colours, on top of each other, and
+    nothing told which path was which without selecting entities. Each path now has a colour of its own, shared by
+    its configuration-space curves, its foot's trace and its plot series (the first series exactly, the others in
+    shades of its hue); the optimal path's robot keeps the model's colours, every other robot is translucent in its
+    path's colour."""
+    import colorsys
+
+    from foam_mj.recording import PATH_PALETTE, TINT_ALPHA, _rgba as to_bytes, geom_rgba
+
+    rrd, doc = planned["rrd"], planned["doc"]
+    colors = {}
+    for name in doc["paths"]:
+        curve = _rgba(read_component(rrd, f"cspace/paths/{name}", "LineStrips3D:colors")[0][0])
+        colors[name] = curve
+        assert curve[3] == 255 and curve[:3] in {tuple(round(c * 255) for c in rgb) for rgb in PATH_PALETTE}, name
+        assert _rgba(read_component(rrd, f"cspace/trajectories/{name}", "LineStrips3D:colors")[0][0]) == curve, name
+        assert _rgba(read_component(rrd, f"cspace/trajectories/{name}/now", "Points3D:colors")[0][0]) == curve, name
+        trace = read_component(rrd, f"world/traces/{name}", "LineStrips3D:strips")[0]
+        assert len(trace) == 1 and len(trace[0]) == len(doc["paths"][name]["times"]), name  # the foot, every frame
+        assert _rgba(read_component(rrd, f"world/traces/{name}", "LineStrips3D:colors")[0][0]) == curve, name
+        assert _rgba(read_component(rrd, f"plots/clearance/{name}", "SeriesLines:colors")[0][0]) == curve, name
+        for plot in ("joints", "torque", "power", "tracking"):
+            series = [_rgba(c) for c in read_component(rrd, f"plots/{plot}/{name}", "SeriesLines:colors")[0]]
+            assert len(series) == 3 and series[0] == curve and len(set(series)) == 3, (plot, name)
+            hues = [colorsys.rgb_to_hsv(*(c / 255 for c in rgb[:3]))[0] for rgb in series]
+            assert all(min(abs(h - hues[0]), 1 - abs(h - hues[0])) < 0.01 for h in hues), (plot, name, series)  # shades of one hue
+        for key in ("best", "mean") if name in ("hs", "ga", "optimal") else ():
+            got = _rgba(read_component(rrd, f"plots/convergence/{name}/{key}", "SeriesLines:colors")[0][0])
+            assert (got == curve) == (key == "best"), (name, key)
+    assert len(set(colors.values())) == len(colors) == 8  # one colour per path
+    m = obstacle_robot.model
+    model = {}
+    for g in range(m.ngeom):
+        geom = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)
+        model[geom] = tuple(int(c) for c in to_bytes(geom_rgba(m, g)))
+    for name in doc["paths"]:
+        drawn = _geom_colors(rrd, f"world/leg/{name}")
+        assert "foot_visual" in drawn and "thigh_collision" in drawn, name
+        for geom, rgba in drawn.items():
+            if name == "optimal":
+                assert rgba == model[geom], geom
+            else:
+                assert rgba[:3] == colors[name][:3] and rgba[3] == min(round(TINT_ALPHA * 255), model[geom][3]), (name, geom)
 
 
 def test_replay_of_a_saved_result(planned, tmp_path, capsys):

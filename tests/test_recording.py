@@ -164,6 +164,36 @@ def test_the_blueprint_is_stored(run):
     assert {("3D", "world"), ("3D", "cspace"), ("TimeSeries", "plots/joints"), ("TimeSeries", "plots/convergence")} <= views
 
 
+def test_each_path_name_has_its_own_palette_colour_on_its_curves_and_plots(run):
+    """A path of the papers keeps its place in the palette (centre: the first colour, in every recording); any other
+    name takes the first colour no path of the recording has yet, so that up to ten paths never share one."""
+    from foam_mj.recording import PATH_PALETTE
+
+    palette = [tuple(int(round(c * 255)) for c in rgb) + (255,) for rgb in PATH_PALETTE]
+    expected = {"centre": palette[0], "portal": palette[1], "centre-dynamic": palette[2]}  # in the order first logged
+    unpack = lambda packed: tuple(int(packed) >> s & 0xFF for s in (24, 16, 8, 0))  # noqa: E731 (0xRRGGBBAA)
+    for name, color in expected.items():
+        assert unpack(read_component(run["path"], f"plots/clearance/{name}", "SeriesLines:colors")[0][0]) == color
+        assert unpack(read_component(run["path"], f"world/traces/{name}", "LineStrips3D:colors")[0][0]) == color
+    for name in run["paths"]:
+        assert unpack(read_component(run["path"], f"cspace/paths/{name}", "LineStrips3D:colors")[0][0]) == expected[name]
+        joints = [unpack(c) for c in read_component(run["path"], f"plots/joints/{name}", "SeriesLines:colors")[0]]
+        assert joints[0] == expected[name] and len(set(joints)) == len(JOINTS)
+
+
+def test_a_tinted_robot_is_drawn_translucent_in_its_paths_colour(tmp_path, run):
+    from foam_mj.recording import TINT_ALPHA
+
+    path = tmp_path / "tint.rrd"
+    with Recording(path) as rec:
+        rec.log_replay("convex", run["robot"], run["replays"]["centre"], tint=True)
+        color = rec.path_color("convex")
+        with pytest.raises(ValueError, match="`tint` must be True or False"):
+            rec.log_replay("x", run["robot"], run["replays"]["centre"], tint="yes")
+    drawn = read_component(path, "world/leg/convex/foot/foot_visual", "Boxes3D:colors")[0][0]
+    assert drawn == int.from_bytes(bytes([*color[:3], round(TINT_ALPHA * 255)]), "big")
+
+
 def test_every_geom_type_is_drawn(tmp_path):
     (tmp_path / "shapes.xml").write_text(SHAPES_XML)
     robot = RobotModel.from_xml(tmp_path / "shapes.xml")
@@ -321,7 +351,7 @@ def test_a_paths_joint_series_share_one_row_per_frame(tmp_path, run):
     with Recording(tmp_path / "apart.rrd") as rec:  # the former layout, for scale
         index = [rr.TimeColumn("time", duration=tr.times), rr.TimeColumn("frame", sequence=np.arange(len(tr)))]
         for j, joint in enumerate(JOINTS):
-            rec._scalars(f"plots/joints/centre/{joint}", index, tr.joint_positions[:, j], [joint])
+            rec._scalars(f"plots/joints/centre/{joint}", index, tr.joint_positions[:, j], [joint], rec.path_color("centre")[None])
     assert read_recording(one, static=False)["plots/joints/centre"] == len(tr)
     trajectory_only = [e for e in read_recording(one) if e.startswith("plots/")]
     assert trajectory_only == ["plots/joints/centre"]
