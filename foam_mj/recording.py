@@ -35,6 +35,8 @@ sanitized to it):
 ``cspace/paths/<name>``                     a configuration path (LineStrips3D)
 ``cspace/trajectories/<name>``              a trajectory's samples (LineStrips3D)
 ``cspace/trajectories/<name>/now``          its current configuration per frame (Points3D)
+``cspace/fronts/<name>/<i>``                each member of a Pareto front (mgoa, mopso), a line strip
+``pareto/<name>``                           the front's (length, angle term) pairs (Points2D)
 ``plots/convergence/<name>/best|mean``      a smoother's objective per iteration (timeline ``iteration``)
 ``plots/joints/<name>``                     joint positions in joint units (rad, m) over ``time``/``frame``:
                                             one series per joint, named after it (one entity per path:
@@ -51,7 +53,7 @@ Colours: every path has one colour of :data:`PATH_PALETTE` (a paper's path alway
 :data:`PATH_COLOR_ORDER`; any other name the first colour not yet taken), on its curves in ``cspace``, its end bodies'
 trace and its plots: the one series of a plot (clearance, convergence ``best``) in the colour itself, a plot's series
 per joint in shades of it (the first joint the colour itself, the next ones alternately darker and lighter; ``mean``
-darker). In ``foam-mj plan`` and ``replay`` recordings, the robot of the main path (``optimal`` when there, else the
+darker); a Pareto front's knee in the colour, its other members lighter. In ``foam-mj plan`` and ``replay`` recordings, the robot of the main path (``optimal`` when there, else the
 last: :func:`foam_mj.recorder.primary_path`) keeps the model's colours; every other path's robot is tinted,
 translucent (opacity :data:`TINT_ALPHA`), so overlaid robots are told apart at once.
 
@@ -459,14 +461,16 @@ class Recording:
 
     def log_pareto_front(self, name: str, objectives, paths, knee: int | None = None, objective_names=("length", "angle term")) -> None:
         """A Pareto front: the scatter of its objective pairs at ``pareto/<name>`` (a 2-D view) and every
-        member's path as its own line strip at ``cspace/fronts/<name>/<i>`` (selectable one by one)."""
+        member's path as its own line strip at ``cspace/fronts/<name>/<i>`` (selectable one by one): the knee in the
+        path's colour, the other members in a lighter shade of it."""
         rec = self._check_open()
         name = _name(name)
         F = np.asarray(objectives, dtype=float)
         P = np.asarray(paths, dtype=float)
         if F.ndim != 2 or F.shape[1] != 2 or len(P) != len(F):
             raise ValueError(f"`objectives` must be (F, 2) with one path per row, got {F.shape} and {P.shape}")
-        colors = [[230, 120, 30, 255] if i == knee else [90, 90, 200, 255] for i in range(len(F))]
+        own, lighter = self._series_colors(name, 3)[[0, 2]]
+        colors = [own if i == knee else lighter for i in range(len(F))]
         labels = [f"{i}{' (knee)' if i == knee else ''}: {objective_names[0]} {a:.4f}, {objective_names[1]} {b:.4f}" for i, (a, b) in enumerate(F)]
         rec.log(f"pareto/{name}", rr.Points2D(F, colors=colors, radii=[0.004], labels=labels), static=True)
         for i, p in enumerate(P):

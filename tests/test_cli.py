@@ -542,6 +542,13 @@ def test_multi_objective_smoothers_record_their_pareto_front(tmp_path, capsys):
     assert np.allclose(scatter, F)
     rows = read_recording(rrd)
     assert sum(1 for k in rows if k.startswith("cspace/fronts/mopso/")) == len(F)
+    # The knee in the path's colour, the other members in a lighter shade of it (they were blue and orange, whatever the path).
+    own = read_component(rrd, "cspace/paths/mopso", "LineStrips3D:colors")[0][0]
+    knee = front["knee"]
+    scatter_colors = read_component(rrd, "pareto/mopso", "Points2D:colors")[0]
+    lighter = [c for i, c in enumerate(scatter_colors) if i != knee]
+    assert scatter_colors[knee] == own and lighter and all(c != own and all(a >= b for a, b in zip(_rgba(c), _rgba(own))) for c in lighter)
+    assert read_component(rrd, f"cspace/fronts/mopso/{knee}", "LineStrips3D:colors")[0] == [own]
 
 
 #: What neither ``import foam_mj`` nor ``foam-mj --help`` may load: the numerical stack, every optional extra's package,
