@@ -104,7 +104,8 @@ def test_the_readmes_first_session_and_own_robot_run(tmp_path, monkeypatch):
     exec(compile(code, "README.md", "exec"), namespace)
     result = json.loads((tmp_path / session[1][-1]).read_text())
     assert "cspace/foam" in namespace["rows"] and len(namespace["tau"]) == len(result["paths"]["optimal"]["times"])
-    assert max(v for (v,) in namespace["tau"]) == pytest.approx(result["paths"]["optimal"]["dynamics"]["peak_torque"][0])
+    assert max(row[0] for row in namespace["tau"]) == pytest.approx(result["paths"]["optimal"]["dynamics"]["peak_torque"][0])
+    assert namespace["rgba"] & 0xFF == 255  # the optimal path's colour, opaque
 
 
 @pytest.mark.slow
