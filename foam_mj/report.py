@@ -19,7 +19,7 @@ knee_torque-<path>     largest peak knee torque (N m) of the reached   the actua
 Empty cells (no plan, or none reached) are grey; cells whose plans were all ``invalid`` (start or goal not
 free: no problem to solve) are hatched grey, with a legend, in every figure, so that "no valid problem here" is not
 read as "the planner failed" (a success of 0). A measure with no value at all (no replay: no clearance) gets no
-figure. The knee figure is drawn when the rows carry a ``peak_torque_*knee*`` column
+figure, but success is drawn even when every cell is hatched (a study without a valid problem). The knee figure is drawn when the rows carry a ``peak_torque_*knee*`` column
 (any replay).
 """
 
@@ -317,8 +317,8 @@ def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, invalid
     grids = [grid_values(x, y, m, agg) for _, m in panels]
     blocked = [grid_values(x, y, m, lambda idx: 1.0 if invalid[idx].all() else np.nan) == 1.0 for _, m in panels]
     finite = np.concatenate([g[np.isfinite(g)] for g in grids]) if grids else np.array([])
-    if not finite.size:  # nothing measured (e.g. no replay, so no clearance): no figure
-        return []
+    if not finite.size and (lims is None or not any(b.any() for b in blocked)):
+        return []  # nothing measured (no replay, so no clearance); success (fixed scale) still shows invalid cells
     vmin, vmax = lims if lims is not None else (float(finite.min()), float(finite.max()))
     if vmax <= vmin:
         vmax = vmin + 1e-9

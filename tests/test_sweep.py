@@ -894,3 +894,25 @@ def test_the_envelope_tells_cells_without_a_valid_problem_from_cells_the_planner
         hatched = [(p.get_x() + 0.5, p.get_y() + 0.5) for ax in fig.axes for p in ax.patches if p.get_hatch()]
         assert sorted(hatched) == [(2.0, 0.0), (2.0, 1.0)]  # the r_min 0.07 column, and only it
         assert [t.get_text() for t in fig.legends[0].get_texts()] == [INVALID_LABEL]
+
+
+def test_a_study_whose_every_cell_is_invalid_still_draws_its_success_figure_all_hatched(tmp_path):
+    """When no cell holds a valid problem (every start or goal in collision), no measure has a value; the report drew
+    no figure at all, so the study's only picture said nothing. The success figure is drawn with every cell hatched
+    and the legend saying why; measures without a fixed scale (f) still get no figure."""
+    from foam_mj.report import write_report
+    from foam_mj.sweep_run import RowStore
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = [0]\nsmoothers = "none"\nreplay = "none"\n'
+                           '[grid]\n"planner.delta" = [0.005, 0.01]\n')
+    sweep = load_sweep(spec)
+    out = tmp_path / "out"
+    store = RowStore(out, sweep, batch=50)
+    store.open(sweep)
+    for task in sweep.tasks():
+        store.add([{"key": k, **dict(task.params), "seed": task.seed, "smoother": path, "outcome": "invalid"}
+                   for k, path in zip(task.keys, task.paths)])
+    store.flush()
+    store.close()
+    _, written = write_report(out)
+    assert sorted(p.name for p in written if p.suffix == ".png") == ["success-centre.png"]
