@@ -120,8 +120,8 @@ def held_by_equality_note(robot) -> str:
     equality constraint ties them to other motion (MuJoCo Menagerie's Panda: its two fingers, coupled to each other):
     they are held at their pose, as a joint left out is. "" when there is none."""
     return "".join(
-        f"note: {', '.join(names)} held at their pose, not planned: equality constraint '{eq}' ties them to other motion "
-        "(the planner moves each joint on its own and would not follow it)\n"
+        f"note: {', '.join(names)} held at {('its', 'their')[len(names) > 1]} pose, not planned: equality constraint '{eq}' "
+        f"ties {('it', 'them')[len(names) > 1]} to other motion (the planner moves each joint on its own and would not follow it)\n"
         for eq, names in robot.held_by_equality.items()
     ).rstrip("\n")
 

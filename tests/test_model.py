@@ -433,6 +433,25 @@ def test_the_default_configuration_holds_the_joints_an_equality_ties_to_other_mo
         RobotModel.from_xml(scene, normalize={"s1": [1.0]})
 
 
+def test_the_note_on_one_joint_held_by_an_equality_speaks_of_it_in_the_singular(tmp_path):
+    """A single joint left out for an equality (a wrist slide tied to an unlimited joint) was "held at their pose ...
+    ties them"; one joint is "held at its pose ... ties it"."""
+    from foam_mj.plan_command import held_by_equality_note
+
+    scene = tmp_path / "one_tied.xml"
+    scene.write_text(
+        '<mujoco><compiler angle="radian"/><worldbody><geom name="wall" type="box" pos="0 .5 .5" size=".05 .05 .3"/>'
+        '<body pos="0 0 .5"><joint name="j1" axis="0 0 1" range="-1 1"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".03"/>'
+        '<body pos=".3 0 0"><joint name="j2" axis="0 0 1" range="-1 1"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".03"/>'
+        '<body pos=".3 0 0"><joint name="j3" axis="0 0 1"/><geom type="sphere" size=".03"/></body></body></body></worldbody>'
+        '<equality><joint name="tie" joint1="j2" joint2="j3"/></equality></mujoco>')
+    robot = RobotModel.from_xml(scene)
+    assert robot.held_by_equality == {"tie": ["j2"]}
+    assert held_by_equality_note(robot) == (
+        "note: j2 held at its pose, not planned: equality constraint 'tie' ties it to other motion "
+        "(the planner moves each joint on its own and would not follow it)")
+
+
 def test_a_closed_loop_below_every_configuration_joint_is_not_a_coupling(tmp_path):
     """A gripper's four-bar linkage at the end of an arm (a <connect> between two finger links, as on the xArm7 of
     MuJoCo Menagerie) was refused as tying the arm's joints to other motion: the arm moves the whole loop as one
