@@ -1216,6 +1216,29 @@ def test_a_slot_narrower_than_r_min_bubbles_is_threaded(tmp_path, seed):
     assert err.value.stats.details["finer_at"]
 
 
+def test_a_channel_between_a_joint_limit_and_a_wall_is_threaded_after_a_stall(tmp_path):
+    """A puck under a wall's end, its y joint limited to 0.44: the only way is a channel y in [0.44, 0.445] (bubbles at most
+    2.5 mm on its midline, = r_min). On seed 0 both trees reached the channel's ends at y 0.4453-0.4458, above it, and
+    aimed at each other along that line, where the clearance falls to delta: each refinement only lengthened chains of
+    ever smaller bubbles toward the wall's corner, and the plan stalled ("the goal may be unreachable") at every r_min.
+    After a stall, an extension toward the other tree from a bubble below the first r_min now turns halfway up the
+    radius's gradient (RIDGE): the trees descend to the midline and meet; the path keeps delta, by MuJoCo."""
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.model import RobotModel
+    from tests.conftest import MujocoChecker
+
+    scene = tmp_path / "channel.xml"
+    scene.write_text('<mujoco><worldbody><geom name="wall" type="box" pos="1.0 1.5 0.1" size="0.025 1.0 0.1"/>'
+                     '<body name="puck" pos="0 0 0.1"><joint name="x" type="slide" axis="1 0 0" range="0 2"/>'
+                     '<joint name="y" type="slide" axis="0 1 0" range="0.44 2"/><geom name="puck" type="sphere" size="0.05" mass="1"/>'
+                     '</body></worldbody></mujoco>')
+    robot = RobotModel.from_xml(scene)
+    oracle = BubbleOracle(robot, delta=0.005)
+    res = get_planner("bubbletree").plan(PlanningProblem(oracle, np.array([0.3, 1.0]), np.array([1.7, 1.0]), time_limit=600.0), seed=0)
+    assert res.stats.outcome == "reached" and res.stats.details["finer_at"]
+    _check_paths(MujocoChecker(robot), oracle, res, 0.005)
+
+
 def test_bubbletree_reports_how_its_search_stands(tmp_path):
     """A search that cannot succeed (a puck behind a wall) ran for seconds reporting only its bubble count and time; its
     progress now says how far apart the trees are, when they last came closer and, once refined, the resolution."""

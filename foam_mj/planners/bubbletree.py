@@ -209,6 +209,11 @@ STALL = 3_000
 #: and its margin on each side (bubbles 0.5-2 mm, r_min 2.5 mm) stalled, "maybe unreachable"; now threaded 8-325 iterations
 #: after a refinement (walls 2 and 30 cm thick); a 10 mm channel between a joint limit and a wall on 5 seeds of 6.
 #: Unreachable goals cost 900 iterations more (the leg's 0.7 m wall: 14,606 -> 18,260 bubbles). Benchmarks never stall.
+#: RIDGE: past a stall, a nearest-pair extension from a bubble below the first r_min aims halfway up the radius's gradient
+#: (2n queries; its direction to the other tree's bubble plus the unit gradient). Both trees of a puck's channel between a
+#: joint limit and a wall (y in [0.44, 0.445]) had reached its ends above it and aimed at each other along the clearance's
+#: edge: chains of ever smaller bubbles toward the wall's corner, stalled at every r_min (seed 0); now met 40 iterations
+#: after the second refinement. The leg's 0.7 m wall: 18,260 -> 18,493 bubbles, 4,067 -> 4,073 iterations.
 FINER = 4.0
 FINER_LEVELS = 3
 FINER_STALL = 10
@@ -357,6 +362,19 @@ class BubbleTreePlanner(Planner):
             norm = float(np.linalg.norm(g))
             return c if norm == 0.0 else np.clip(c + 2 * r * g / norm, lo, hi)
 
+        def uphill(c: np.ndarray, r: float, target: np.ndarray) -> np.ndarray:
+            """``target``'s direction from the bubble (c, r) turned halfway up the radius's gradient (RIDGE), at the
+            same distance, kept in the joint box."""
+            u = target - c
+            d = float(np.linalg.norm(u))
+            g = escape_target(c, r) - c
+            norm = float(np.linalg.norm(g))
+            if d == 0.0 or norm == 0.0:
+                return target
+            w = u / d + g / norm
+            wn = float(np.linalg.norm(w))
+            return target if wn == 0.0 else np.clip(c + d * w / wn, lo, hi)
+
         sampler: InformedSampler | None = None
         k_max = o.batch + 2 * o.connect + 1  # extensions per tree per iteration (one ESCAPE)
         later = ~np.tri(k_max, k_max, -1, dtype=bool)  # later[i, j]: sibling j is not earlier than i
@@ -457,6 +475,8 @@ class BubbleTreePlanner(Planner):
                         toward = B.c[T.mate[near]]
                         toward_r = B.r[T.mate[near]]
                         near = mine[near]
+                        if finer_at:  # RIDGE: a bubble below the first r_min aims up the radius's gradient as well
+                            toward = np.array([uphill(B.c[i], B.r[i], x) if B.r[i] < r_coarse else x for i, x in zip(near, toward)])
                     theirs = newest[1 - t]
                     if len(theirs):
                         chosen = theirs[rng.permutation(len(theirs))[: o.connect]]
