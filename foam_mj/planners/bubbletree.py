@@ -213,7 +213,8 @@ STALL = 3_000
 #: (2n queries; its direction to the other tree's bubble plus the unit gradient). Both trees of a puck's channel between a
 #: joint limit and a wall (y in [0.44, 0.445]) had reached its ends above it and aimed at each other along the clearance's
 #: edge: chains of ever smaller bubbles toward the wall's corner, stalled at every r_min (seed 0); now met 40 iterations
-#: after the second refinement. The leg's 0.7 m wall: 18,260 -> 18,493 bubbles, 4,067 -> 4,073 iterations.
+#: after the second refinement. Unreachable goals: as many iterations, more bubbles (the leg's 0.7 m wall 18,260 -> 18,493;
+#: puck behind a wall 858 -> 1,423, seed 0).
 FINER = 4.0
 FINER_LEVELS = 3
 FINER_STALL = 10
