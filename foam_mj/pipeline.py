@@ -120,7 +120,7 @@ def plan_scenario(scenario: Scenario, seed: int, report: Report | None = None) -
             seed=seed,
             progress=None if report is None else (lambda st: report(
                 f"planning ({planner.name}): {st.bubbles:,} of at most {problem.max_bubbles:,} bubbles, "
-                f"{st.elapsed:.1f} s of {problem.time_limit:g} s{f'; {st.note}' if getattr(st, 'note', '') else ''}")),
+                f"{st.elapsed:.1f} s of {problem.time_limit:g} s{f'; {st.note}' if st.note else ''}")),
         )
         return check_result(result, problem, planner.name)
     finally:

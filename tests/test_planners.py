@@ -1067,6 +1067,21 @@ def test_a_foam_that_misses_a_goal_whose_bubble_is_below_r_min_says_so(oracles, 
     assert get_planner("bubbletree").plan(PlanningProblem(oracles["obstacle"], q_init, q_goal, delta=0.005), seed=0).rosary.k >= 1
 
 
+def test_pfm_reports_its_progress_as_a_progress_like_every_planner():
+    """The seam's progress callback takes a Progress (bubbles, elapsed, note). pfm handed on the foam's own statistics
+    (FoamStats, no note), so a caller reading ``note`` (the plan command) needed a getattr for that one planner."""
+    from foam_mj.planners.base import Progress
+
+    scenario = load_scenario("obstacle")
+    got: list = []
+    problem = PlanningProblem(scenario.oracle(), scenario.q_init, scenario.q_goal, time_limit=2.0)
+    try:  # r_min 0.02: thousands of bubbles, past the first report at 0.5 s
+        get_planner("pfm", r_min=0.02).plan(problem, 0, progress=got.append)
+    except PlanningFailed:
+        pass
+    assert got and all(type(p) is Progress and p.note == "" and p.bubbles > 0 for p in got)
+
+
 # -- the problem: what a planner is handed ------------------------------------------------------------
 def test_a_problem_names_an_oracle_of_the_wrong_type(obstacle_robot):
     for oracle in (None, obstacle_robot):

@@ -14,7 +14,7 @@ import numpy as np
 
 from foam_mj.errors import PlanningFailed
 from foam_mj.foam import FoamParams, FoamStats, plan as foam_plan
-from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, check_problem
+from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, Progress, ProgressFn, check_problem
 
 
 @dataclass(frozen=True)
@@ -49,8 +49,9 @@ class PFMPlanner(Planner):
     def plan(self, problem: PlanningProblem, seed: int | np.random.Generator = 0, progress: ProgressFn | None = None) -> PlanResult:
         check_problem(problem, progress)
         problem.endpoint_radii()  # q_init or q_goal closer than delta: the same message as every planner's
+        report = None if progress is None else (lambda st: progress(Progress(st.bubbles, st.elapsed)))  # as every planner's
         try:
-            res = foam_plan(problem.oracle, problem.q_init, problem.q_goal, self.foam_params(problem), seed=seed, progress=progress)
+            res = foam_plan(problem.oracle, problem.q_init, problem.q_goal, self.foam_params(problem), seed=seed, progress=report)
         except PlanningFailed as exc:
             stats = _stats(exc.stats, False) if isinstance(exc.stats, FoamStats) else exc.stats
             raise PlanningFailed(str(exc), stats, exc.foam, exc.reason) from None
