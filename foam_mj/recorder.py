@@ -91,7 +91,7 @@ def _portable_robot(robot):
 def outcome_job(path: str | os.PathLike, outcome=None, *, scenario=None, foam=None) -> RecordingJob:
     """The recording of a pipeline outcome (scene, foam and rosary, every path with its trajectory, joint
     loads, replay, convergence and Pareto front; every robot but the :func:`primary_path`'s tinted), or with
-    ``outcome`` None of the foam grown so far."""
+    ``outcome`` None of the foam grown so far and the robot at q_init and q_goal."""
     scenario = outcome.scenario if outcome is not None else scenario
     robot = _portable_robot(scenario.robot)
     job = RecordingJob(Path(path), unique_recording_id(f"foam-mj-{scenario.name}"))
@@ -102,7 +102,8 @@ def outcome_job(path: str | os.PathLike, outcome=None, *, scenario=None, foam=No
         rosary = foam.rosary() if foam.goal_bubble is not None else None
     # The foam's arrays, not the Foam: the helper then never imports foam_mj.foam (and its scipy.spatial).
     job.add("log_bubbles", foam.centers, foam.radii, foam.q_init, foam.q_goal, rosary)
-    if outcome is None:
+    if outcome is None:  # a failed plan: the robot where it starts and where it was asked to go (it showed no robot)
+        job.add("log_configurations", robot, {"q_init": foam.q_init, "q_goal": foam.q_goal})
         return job
     primary = primary_path(name for name, po in outcome.paths.items() if po.kinematic is not None)
     for name, po in outcome.paths.items():

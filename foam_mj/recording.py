@@ -22,8 +22,15 @@ sanitized to it):
 ``world/leg/<name>/<body>``                 Transform3D of each leg body per frame (timelines
                                             ``time`` in seconds and ``frame``); ``plan`` and ``replay``
                                             log the planned trajectory (its kinematic replay)
-``world/leg/<name>/<body>/<geom>``          the body's geoms, static, with their pose in the body: in the
-                                            model's colours, or (``tint``) translucent in the path's colour
+``world/leg/<name>/<body>/<geom>``          the body's geoms but meshes, static, with their pose in the body:
+                                            in the model's colours, or (``tint``) translucent in the path's colour
+``world/meshes/<group>/<body>/<geom>``      each mesh geom ONCE per group (static), drawn once per robot by
+                                            instancing: ``InstancePoses3D``, the geom's world pose per robot
+                                            per frame (group ``model``: the main path's robot; ``tinted``: the
+                                            others, translucent in the model's colours; static ``q_init``,
+                                            ``q_goal``); a path that ended holds its last pose
+``world/leg/q_init|q_goal/<body>``          the robot at q_init (model colours) and q_goal (translucent red),
+                                            static: a failed plan's recording (:meth:`Recording.log_configurations`)
 ``world/traces/<name>``                     the path of each end body (foot, hand) in the world, static
 ``world/contacts/<name>``                   leg/obstacle contacts of a dynamic replay (if any), per frame
 ``cspace/axes``                             the configuration axes, labelled with the joint names
@@ -49,13 +56,15 @@ sanitized to it):
 ``plots/power/<name>``                      joint mechanical power tau qd (W), a series per joint
 ==========================================  ==========================================================
 
-Colours: every path has one colour of :data:`PATH_PALETTE` (a paper's path always the same one, by its place in
-:data:`PATH_COLOR_ORDER`; any other name the first colour not yet taken), on its curves in ``cspace``, its end bodies'
+Colours: every path has one colour, a function of its name only (:func:`path_color`: a paper's path the colour of
+:data:`PATH_PALETTE` at its place in :data:`PATH_COLOR_ORDER`; any other name a hue hashed from the name), on its curves in ``cspace``, its end bodies'
 trace and its plots: the one series of a plot (clearance, convergence ``best``) in the colour itself, a plot's series
 per joint in shades of it (the first joint the colour itself, the next ones alternately darker and lighter; ``mean``
 darker); a Pareto front's knee in the colour, its other members lighter. In ``foam-mj plan`` and ``replay`` recordings, the robot of the main path (``optimal`` when there, else the
 last: :func:`foam_mj.recorder.primary_path`) keeps the model's colours; every other path's robot is tinted,
-translucent (opacity :data:`TINT_ALPHA`), so overlaid robots are told apart at once.
+translucent (opacity :data:`TINT_ALPHA`), so overlaid robots are told apart at once. A robot's meshes are the
+exception: their geometry is in the file once (a Menagerie Panda's weighs about 5.5 MB; every path held a copy), so the
+tinted robots share one translucent copy in the model's colours (their primitive geoms keep the path's colour).
 
 The default blueprint (stored in the file) shows the workspace, the configuration space and the plots
 side by side. Log time and log tick are disabled and recording properties are not sent, so the
@@ -73,11 +82,14 @@ import mujoco
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
-from rerun.chunk import RrdReader
 
 from foam_mj.atomic import atomic_write_bytes
 from foam_mj.geom_pairs import body_is_moving
 from foam_mj.model import RobotModel
+from foam_mj.recording_geoms import (  # noqa: F401  (geom_rgba, HIDDEN_*, INFINITE_PLANE: re-exported)
+    HIDDEN_ALPHA, HIDDEN_GROUP, INFINITE_PLANE, MeshInstances, _body_name, _geom_name, _rgba, _xyzw, geom_archetype, geom_rgba, is_mesh,
+)
+from foam_mj.recording_read import _store_chunks, read_blueprint, read_component, read_recording  # noqa: F401  (re-exported)
 from foam_mj.replay import DynamicReplay, KinematicReplay
 from foam_mj.rosary import Rosary
 from foam_mj.trajectory import Trajectory
@@ -87,14 +99,11 @@ if TYPE_CHECKING:  # imported where used: a recording needs no k-d tree (foam_mj
 
 #: Names given to the log_* methods become entity path parts: letters, digits, '_', '-', '.'.
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_.\-]+$")
-#: Half-extent (metres) drawn for an infinite MuJoCo plane (size 0).
-INFINITE_PLANE = 5.0
-
-_PLANE_RGBA = (0.55, 0.6, 0.65, 1.0)
 _FOAM_RGBA = (0.6, 0.6, 0.6, 0.25)
 _ROSARY_RGBA = (0.2, 0.5, 0.9, 0.35)
-#: The path colours (RGB), one per path of a recording: a path named in :data:`PATH_COLOR_ORDER` takes the colour at its
-#: place there (the same in every recording), any other name the first colour no path of the recording has taken yet.
+_CONFIG_RGBA = {"q_init": (0.1, 0.8, 0.1, 1.0), "q_goal": (0.9, 0.1, 0.1, 1.0)}
+#: The colours (RGB) of the built-in paths: a path named in :data:`PATH_COLOR_ORDER` takes the colour at its place there;
+#: any other name a colour of its own hashed from the name (:func:`path_color`).
 PATH_PALETTE = (
     (0.89, 0.34, 0.35),  # red
     (0.95, 0.56, 0.17),  # orange
@@ -110,6 +119,24 @@ PATH_PALETTE = (
 PATH_COLOR_ORDER = ("centre", "gradient", "adjusted", "adjusted_gradient", "hs", "ga", "convex", "optimal", "mgoa", "mopso")
 #: Opacity of a robot drawn in its path's colour (``log_replay(..., tint=True)``).
 TINT_ALPHA = 0.35
+#: Saturation and value of a custom path name's colour (its hue hashed from the name).
+CUSTOM_SATURATION, CUSTOM_VALUE = 0.65, 0.8
+
+
+def path_color(name: str) -> np.ndarray:
+    """The colour (RGBA, uint8) of path ``name`` in every recording: a built-in path's place in :data:`PATH_PALETTE`
+    (by :data:`PATH_COLOR_ORDER`); any other name a hue taken from the BLAKE2 hash of the name (saturation and value
+    :data:`CUSTOM_SATURATION`, :data:`CUSTOM_VALUE`), so that a name keeps its colour whatever other paths a recording
+    holds and in whatever order they were logged (it took the first palette colour not yet taken: the same custom path
+    changed colour from one recording to the next). Two custom names may get close hues (one in 8 within 0.0625 of a
+    turn in hue, by chance)."""
+    import colorsys
+    import hashlib
+
+    if name in PATH_COLOR_ORDER:
+        return _rgba((*PATH_PALETTE[PATH_COLOR_ORDER.index(name)], 1.0))
+    hue = int.from_bytes(hashlib.blake2b(name.encode(), digest_size=4).digest(), "big") / 2**32
+    return _rgba((*colorsys.hsv_to_rgb(hue, CUSTOM_SATURATION, CUSTOM_VALUE), 1.0))
 
 
 def default_blueprint() -> rrb.Blueprint:
@@ -139,20 +166,6 @@ def _name(value: Any, field: str = "name") -> str:
     return value
 
 
-def _sanitize(name: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.\-]", "_", name) or "_"
-
-
-def _rgba(rgba) -> np.ndarray:
-    return (np.clip(np.asarray(rgba, dtype=float), 0.0, 1.0) * 255).round().astype(np.uint8)
-
-
-def _xyzw(wxyz: np.ndarray) -> np.ndarray:
-    """MuJoCo quaternions (w, x, y, z) -> Rerun's (x, y, z, w), any leading shape."""
-    q = np.asarray(wxyz, dtype=float)
-    return np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
-
-
 def _points3(points, field: str) -> np.ndarray:
     """Configuration points (..., n) as 3-D points: n = 3 as is, n = 1 or 2 padded with 0 (a line, a plane), n > 3
     projected on the first three coordinates (the projection of an n-ball of radius r is a 3-ball of radius r, so
@@ -165,67 +178,6 @@ def _points3(points, field: str) -> np.ndarray:
     if p.shape[-1] < 3:
         p = np.concatenate([p, np.zeros(p.shape[:-1] + (3 - p.shape[-1],))], axis=-1)
     return p[..., :3]
-
-
-#: MuJoCo's default geom rgba: a geom that keeps it and has a material is drawn in the material's colour.
-_DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)
-
-
-#: Geom groups from this one on are hidden in MuJoCo's viewer by default (Menagerie's collision geoms: group 3); they
-#: are drawn with at most this opacity, so that the visual geoms they enclose show through.
-HIDDEN_GROUP = 3
-HIDDEN_ALPHA = 0.4
-
-
-def geom_rgba(m: mujoco.MjModel, g: int) -> np.ndarray:
-    """Geom g's colour as MuJoCo draws it: its own rgba, or its material's when it has one and its rgba is the default
-    (Menagerie's meshes are coloured by materials only: every one of them was drawn grey); translucent (alpha at most
-    :data:`HIDDEN_ALPHA`) in a group MuJoCo's viewer hides (a Panda's grey collision hulls hid its visual meshes)."""
-    mat = int(m.geom_matid[g])
-    rgba = np.array(m.mat_rgba[mat] if mat >= 0 and np.array_equal(m.geom_rgba[g], np.float32(_DEFAULT_GEOM_RGBA)) else m.geom_rgba[g])
-    if m.geom_group[g] >= HIDDEN_GROUP:
-        rgba[3] = min(rgba[3], HIDDEN_ALPHA)
-    return rgba
-
-
-def geom_archetype(m: mujoco.MjModel, g: int, rgba=None) -> Any | None:
-    """The Rerun shape of geom g in its own frame (None for types not drawn: height fields, SDFs), in ``rgba``
-    (default: :func:`geom_rgba`)."""
-    t = int(m.geom_type[g])
-    size = m.geom_size[g]
-    color = [_rgba(geom_rgba(m, g) if rgba is None else rgba)]
-    T = mujoco.mjtGeom
-    if t == T.mjGEOM_PLANE:
-        hx, hy = (s if s > 0 else INFINITE_PLANE for s in size[:2])
-        return rr.Boxes3D(half_sizes=[[hx, hy, 0.0]], colors=[_rgba(_PLANE_RGBA)], fill_mode="solid")
-    if t == T.mjGEOM_BOX:
-        return rr.Boxes3D(half_sizes=[size[:3]], colors=color, fill_mode="solid")
-    if t == T.mjGEOM_SPHERE:
-        return rr.Ellipsoids3D(half_sizes=[[size[0]] * 3], colors=color, fill_mode="solid")
-    if t == T.mjGEOM_ELLIPSOID:
-        return rr.Ellipsoids3D(half_sizes=[size[:3]], colors=color, fill_mode="solid")
-    if t == T.mjGEOM_CAPSULE:  # MuJoCo's is centred on the origin; Rerun's runs from 0 to length along +z
-        return rr.Capsules3D(lengths=[2 * size[1]], radii=[size[0]], translations=[[0.0, 0.0, -size[1]]], colors=color)
-    if t == T.mjGEOM_CYLINDER:
-        return rr.Cylinders3D(lengths=[2 * size[1]], radii=[size[0]], colors=color, fill_mode="solid")
-    if t == T.mjGEOM_MESH:  # compiled mesh vertices are expressed in the geom's frame
-        mid = int(m.geom_dataid[g])
-        va, vn = int(m.mesh_vertadr[mid]), int(m.mesh_vertnum[mid])
-        fa, fn = int(m.mesh_faceadr[mid]), int(m.mesh_facenum[mid])
-        return rr.Mesh3D(
-            vertex_positions=m.mesh_vert[va : va + vn],
-            triangle_indices=m.mesh_face[fa : fa + fn],
-            albedo_factor=color[0],
-        )
-    return None
-
-
-def _geom_name(m: mujoco.MjModel, g: int) -> str:
-    return _sanitize(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}")
-
-
-def _body_name(m: mujoco.MjModel, b: int) -> str:
-    return _sanitize(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}")
 
 
 class Recording:
@@ -255,7 +207,7 @@ class Recording:
         self._rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._rec.log("cspace", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._open = True
-        self._colors: dict[str, int] = {}  # path name -> index in PATH_PALETTE
+        self._meshes = MeshInstances()  # the robots' meshes, logged once each in close()
 
     # -- lifecycle -------------------------------------------------------------------------------------
     def close(self) -> None:
@@ -263,6 +215,8 @@ class Recording:
         cannot be written, leaving nothing behind). Idempotent."""
         if self._open:
             self._open = False
+            if len(self._meshes):
+                self._meshes.log(self._rec)
             data = self._stream.read(flush=True) or b""
             rr.disconnect(recording=self._rec)
             atomic_write_bytes(self.path, data)
@@ -292,19 +246,7 @@ class Recording:
     def path_color(self, name: str) -> np.ndarray:
         """Path ``name``'s colour (RGBA, uint8; :data:`PATH_PALETTE`): its curves in configuration space, its robot's
         trace and its plot series (a shade of it per joint) share it, so that overlaid paths are told apart."""
-        name = _name(name)
-        if name not in self._colors:
-            taken = set(self._colors.values())
-            n = len(PATH_PALETTE)
-            preferred = PATH_COLOR_ORDER.index(name) if name in PATH_COLOR_ORDER else None
-            free = [i for i in range(n) if i not in taken]
-            if preferred is not None and preferred not in taken:
-                self._colors[name] = preferred
-            elif free:
-                self._colors[name] = free[0]
-            else:  # more paths than colours: the palette again, in order
-                self._colors[name] = len(self._colors) % n
-        return _rgba((*PATH_PALETTE[self._colors[name]], 1.0))
+        return path_color(_name(name))
 
     def _series_colors(self, name: str, k: int) -> np.ndarray:
         """k shades of path ``name``'s colour, one per series (joint): the first is the colour itself, then alternately
@@ -365,32 +307,64 @@ class Recording:
         T = replay.n_frames
         color = self.path_color(name)
         index = [rr.TimeColumn("time", duration=replay.times), rr.TimeColumn("frame", sequence=np.arange(T))]
+        self._log_geoms(name, m, poses.body_ids, color if tint else None)
         for k, b in enumerate(poses.body_ids):
-            body = f"world/leg/{name}/{_body_name(m, int(b))}"
-            for g in np.flatnonzero(m.geom_bodyid == b):
-                rgba = None
-                if tint:
-                    rgba = np.append(color[:3] / 255.0, min(TINT_ALPHA, float(geom_rgba(m, int(g))[3])))
-                shape = geom_archetype(m, int(g), rgba)
-                if shape is None:
-                    continue
-                rec.log(
-                    f"{body}/{_geom_name(m, int(g))}",
-                    rr.Transform3D(translation=m.geom_pos[g], quaternion=rr.Quaternion(xyzw=_xyzw(m.geom_quat[g]))),
-                    shape,
-                    static=True,
-                )
             rec.send_columns(
-                body,
+                f"world/leg/{name}/{_body_name(m, int(b))}",
                 indexes=index,
                 columns=rr.Transform3D.columns(translation=poses.xpos[:, k], quaternion=_xyzw(poses.xquat[:, k])),
             )
+        self._meshes.add("tinted" if tint else "model", m, poses.body_ids, poses.xpos, poses.xquat, replay.times,
+                         TINT_ALPHA if tint else None)
         ids = [int(b) for b in poses.body_ids]
         ends = [k for k, b in enumerate(ids) if not any(int(m.body_parentid[c]) == b for c in ids)]
         rec.log(f"world/traces/{name}", rr.LineStrips3D([poses.xpos[:, k] for k in ends], colors=[color], radii=[0.003], labels=[name]), static=True)
         self._scalars(f"plots/clearance/{name}", index, replay.clearance, ["clearance (m)"], self._series_colors(name, 1))
         if isinstance(replay, DynamicReplay):
             self.log_tracking(name, replay)
+
+    def _log_geoms(self, name: str, m: mujoco.MjModel, body_ids, tint) -> None:
+        """The geoms of ``body_ids`` but meshes (:class:`~foam_mj.recording_geoms.MeshInstances` draws those) at
+        ``world/leg/<name>/<body>/<geom>``, static: in the model's colours, or translucent in the colour ``tint``."""
+        rec = self._check_open()
+        for b in body_ids:
+            for g in np.flatnonzero(m.geom_bodyid == int(b)):
+                if is_mesh(m, int(g)):
+                    continue
+                rgba = None if tint is None else np.append(tint[:3] / 255.0, min(TINT_ALPHA, float(geom_rgba(m, int(g))[3])))
+                shape = geom_archetype(m, int(g), rgba)
+                if shape is None:
+                    continue
+                rec.log(
+                    f"world/leg/{name}/{_body_name(m, int(b))}/{_geom_name(m, int(g))}",
+                    rr.Transform3D(translation=m.geom_pos[g], quaternion=rr.Quaternion(xyzw=_xyzw(m.geom_quat[g]))),
+                    shape,
+                    static=True,
+                )
+
+    def log_configurations(self, robot: RobotModel, configurations: dict) -> None:
+        """The robot at fixed configurations (static; a failed plan's recording shows where the robot was asked to go):
+        ``{"q_init": q, "q_goal": q}`` at ``world/leg/<key>/<body>`` (each key a name; q in configuration
+        coordinates). The first in the model's colours, the others translucent (:data:`TINT_ALPHA`) in their colour
+        (:func:`path_color`; ``q_init`` green and ``q_goal`` red, as their points in configuration space)."""
+        rec = self._check_open()
+        if not isinstance(robot, RobotModel):
+            raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}")
+        from foam_mj.replay import leg_bodies
+
+        m = robot.model
+        d = mujoco.MjData(m)
+        ids = leg_bodies(robot)
+        for i, (key, q) in enumerate(configurations.items()):
+            key = _name(key, "configurations' key")
+            d.qpos[:] = robot.config.to_qpos(robot.validate(q, check_bounds=False))
+            mujoco.mj_kinematics(m, d)
+            color = _rgba(_CONFIG_RGBA[key]) if key in _CONFIG_RGBA else path_color(key)
+            self._log_geoms(key, m, ids, None if i == 0 else color)
+            for b in ids:
+                rec.log(f"world/leg/{key}/{_body_name(m, int(b))}",
+                        rr.Transform3D(translation=d.xpos[b], quaternion=rr.Quaternion(xyzw=_xyzw(d.xquat[b]))), static=True)
+            self._meshes.add(key, m, ids, d.xpos[ids][None], d.xquat[ids][None], None, None if i == 0 else TINT_ALPHA)
 
     def log_tracking(self, name: str, replay: DynamicReplay) -> None:
         """A servo replay's tracking error per joint at ``plots/tracking/<name>`` and its contacts at
@@ -446,8 +420,8 @@ class Recording:
                 rr.Ellipsoids3D(centers=rc, half_sizes=np.repeat(rosary.radii[:, None], 3, axis=1), colors=[_rgba(_ROSARY_RGBA)], fill_mode="solid"),
                 static=True,
             )
-        for key, q, color in (("q_init", q_init, (0.1, 0.8, 0.1, 1.0)), ("q_goal", q_goal, (0.9, 0.1, 0.1, 1.0))):
-            rec.log(f"cspace/{key}", rr.Points3D([_points3(q, f"foam.{key}")], radii=[0.02], colors=[_rgba(color)], labels=[key]), static=True)
+        for key, q in (("q_init", q_init), ("q_goal", q_goal)):
+            rec.log(f"cspace/{key}", rr.Points3D([_points3(q, f"foam.{key}")], radii=[0.02], colors=[_rgba(_CONFIG_RGBA[key])], labels=[key]), static=True)
 
     def log_path(self, name: str, points) -> None:
         """A configuration-space path (m, n) as a line strip at ``cspace/paths/<name>``."""
@@ -530,55 +504,3 @@ class Recording:
         rec = self._check_open()
         rec.log(entity, rr.SeriesLines(names=names, colors=colors), static=True)
         rec.send_columns(entity, indexes=index, columns=rr.Scalars.columns(scalars=np.asarray(values, dtype=float)))
-
-
-# -- reading back (tests, inspection) ----------------------------------------------------------------------
-def _store_chunks(path: str | Path, blueprint: bool = False):
-    reader = RrdReader(Path(path))
-    if blueprint:
-        stores = reader.blueprints()
-        if not stores:
-            return []
-        return list(reader.stream(store=stores[0]))
-    return list(reader.stream())
-
-
-def read_recording(path: str | Path, static: bool | None = None) -> dict[str, int]:
-    """Entity path (as logged, no leading '/') -> total rows over all chunks of the recording store of an
-    ``.rrd`` file: all rows (``static=None``), only static ones (True) or only temporal ones (False).
-    Internal entities (``__properties``) are left out. Raises on a file without its footer (not closed)."""
-    RrdReader(Path(path)).store()  # raises on a file without footer/manifest
-    rows: dict[str, int] = {}
-    for ch in _store_chunks(path):
-        entity = str(ch.entity_path).lstrip("/")
-        if entity.startswith("__") or (static is not None and bool(ch.is_static) != static):
-            continue
-        rows[entity] = rows.get(entity, 0) + int(ch.num_rows)
-    return rows
-
-
-def read_component(path: str | Path, entity: str, component: str) -> list:
-    """Every row's value of ``component`` (e.g. "Ellipsoids3D:centers") at ``entity``, in file order,
-    as Python lists (pyarrow ``to_pylist``); rows where the component is absent are skipped."""
-    out: list = []
-    for ch in _store_chunks(path):
-        if str(ch.entity_path).lstrip("/") != entity.lstrip("/"):
-            continue
-        batch = ch.to_record_batch()
-        if component in batch.schema.names:
-            out.extend(v for v in batch.column(component).to_pylist() if v is not None)
-    return out
-
-
-def read_blueprint(path: str | Path) -> list[dict[str, str | None]]:
-    """The views of the blueprint stored in an ``.rrd`` file: [{"class": "3D", "origin": "world", "name": ...}]."""
-    views: dict[str, dict[str, str | None]] = {}
-    for ch in _store_chunks(path, blueprint=True):
-        entity = str(ch.entity_path)
-        batch = ch.to_record_batch()
-        for column, key in (("ViewBlueprint:class_identifier", "class"), ("ViewBlueprint:space_origin", "origin"), ("ViewBlueprint:display_name", "name")):
-            if column in batch.schema.names:
-                for v in batch.column(column).to_pylist():
-                    if v:
-                        views.setdefault(entity, {"class": None, "origin": None, "name": None})[key] = v[0]
-    return list(views.values())

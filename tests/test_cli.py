@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from foam_mj.model import RobotModel
 from foam_mj.cli import main
 from foam_mj.recording import read_blueprint, read_component, read_recording
 from foam_mj.results import read_result
@@ -447,6 +448,13 @@ def test_a_planning_failure_exits_3_and_still_writes_the_foam(tmp_path, capsys):
     assert len(doc["foam"]["radii"]) == doc["foam"]["stats"]["bubbles"] > 1
     assert len(read_component(rrd, "cspace/foam", "Ellipsoids3D:centers")[0]) == len(doc["foam"]["radii"])
     assert "planning failed" in capsys.readouterr().err
+    # The robot is drawn where it starts and where it was asked to go (the recording showed the foam only).
+    robot = RobotModel.from_xml(scene)
+    for key, q in (("q_init", [0.2, 0.3, 0.08]), ("q_goal", [0.45, 0.4536, 1.45])):
+        d = robot.set_configuration(np.array(q))
+        foot = mujoco.mj_name2id(robot.model, mujoco.mjtObj.mjOBJ_BODY, "foot")
+        assert np.allclose(read_component(rrd, f"world/leg/{key}/foot", "Transform3D:translation")[0], d.xpos[foot], atol=1e-6)
+        assert read_recording(rrd, static=True)[f"world/leg/{key}/foot/foot_visual"] == 1
 
 
 def test_time_limit_bounds_the_plan_and_a_bad_one_is_refused_before_any_work(tmp_path, capsys):

@@ -164,21 +164,43 @@ def test_the_blueprint_is_stored(run):
     assert {("3D", "world"), ("3D", "cspace"), ("TimeSeries", "plots/joints"), ("TimeSeries", "plots/convergence")} <= views
 
 
+def _unpack(packed) -> tuple[int, int, int, int]:
+    """Rerun's packed 0xRRGGBBAA colour as (r, g, b, a)."""
+    return tuple(int(packed) >> s & 0xFF for s in (24, 16, 8, 0))
+
+
 def test_each_path_name_has_its_own_palette_colour_on_its_curves_and_plots(run):
     """A path of the papers keeps its place in the palette (centre: the first colour, in every recording); any other
-    name takes the first colour no path of the recording has yet, so that up to ten paths never share one."""
-    from foam_mj.recording import PATH_PALETTE
+    name has a colour of its own, a function of the name alone."""
+    from foam_mj.recording import PATH_PALETTE, path_color
 
     palette = [tuple(int(round(c * 255)) for c in rgb) + (255,) for rgb in PATH_PALETTE]
-    expected = {"centre": palette[0], "portal": palette[1], "centre-dynamic": palette[2]}  # in the order first logged
-    unpack = lambda packed: tuple(int(packed) >> s & 0xFF for s in (24, 16, 8, 0))  # noqa: E731 (0xRRGGBBAA)
+    expected = {"centre": palette[0], "portal": tuple(path_color("portal")), "centre-dynamic": tuple(path_color("centre-dynamic"))}
+    assert len(set(expected.values())) == 3
     for name, color in expected.items():
-        assert unpack(read_component(run["path"], f"plots/clearance/{name}", "SeriesLines:colors")[0][0]) == color
-        assert unpack(read_component(run["path"], f"world/traces/{name}", "LineStrips3D:colors")[0][0]) == color
+        assert _unpack(read_component(run["path"], f"plots/clearance/{name}", "SeriesLines:colors")[0][0]) == color
+        assert _unpack(read_component(run["path"], f"world/traces/{name}", "LineStrips3D:colors")[0][0]) == color
     for name in run["paths"]:
-        assert unpack(read_component(run["path"], f"cspace/paths/{name}", "LineStrips3D:colors")[0][0]) == expected[name]
-        joints = [unpack(c) for c in read_component(run["path"], f"plots/joints/{name}", "SeriesLines:colors")[0]]
+        assert _unpack(read_component(run["path"], f"cspace/paths/{name}", "LineStrips3D:colors")[0][0]) == expected[name]
+        joints = [_unpack(c) for c in read_component(run["path"], f"plots/joints/{name}", "SeriesLines:colors")[0]]
         assert joints[0] == expected[name] and len(set(joints)) == len(JOINTS)
+
+
+def test_a_custom_path_keeps_its_colour_whatever_other_paths_a_recording_holds(tmp_path, run):
+    """A custom name took the first palette colour not yet taken: 'portal' was orange after 'centre' and red alone, so
+    the same path changed colour between two recordings. Its colour is now the same in both, whatever was logged
+    before it, and never a built-in path's palette colour."""
+    from foam_mj.recording import PATH_PALETTE
+
+    colors = []
+    for i, names in enumerate((["centre", "portal"], ["portal"], ["ga", "hs", "zeta", "portal"])):
+        path = tmp_path / f"order{i}.rrd"
+        with Recording(path) as rec:
+            for name in names:
+                rec.log_path(name, run["paths"]["portal"])
+        colors.append(_unpack(read_component(path, "cspace/paths/portal", "LineStrips3D:colors")[0][0]))
+    assert len(set(colors)) == 1
+    assert colors[0][:3] not in {tuple(int(round(c * 255)) for c in rgb) for rgb in PATH_PALETTE}
 
 
 def test_a_tinted_robot_is_drawn_translucent_in_its_paths_colour(tmp_path, run):
@@ -364,3 +386,109 @@ def _chunks(path):
     from rerun.chunk import RrdReader
 
     return list(RrdReader(path).stream())
+
+
+# A two-link arm whose links are triangle meshes (an .obj written by trimesh), and a post to plan around.
+MESH_ARM_XML = """
+<mujoco model="mesh_arm">
+  <compiler angle="radian"/>
+  <asset><mesh name="link" file="link.obj"/></asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <geom name="post" type="box" size="0.05 0.05 0.3" pos="0.45 0.3 0.3"/>
+    <body name="upper" pos="0 0 0.3">
+      <joint name="shoulder" type="hinge" axis="0 0 1" range="-2 2"/>
+      <geom name="upper_mesh" type="mesh" mesh="link" pos="0.15 0 0" euler="0 1.5708 0"/>
+      <body name="fore" pos="0.3 0 0">
+        <joint name="elbow" type="hinge" axis="0 0 1" range="-2 2"/>
+        <geom name="fore_mesh" type="mesh" mesh="link" pos="0.12 0 0" euler="0 1.5708 0"/>
+        <geom name="tip" type="sphere" size="0.03" pos="0.26 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+ARM_Q_INIT, ARM_Q_GOAL = [-1.0, 0.3], [1.2, -0.3]
+
+
+def mesh_arm_xml(folder):
+    """The mesh arm's MJCF in ``folder``, with its link mesh: a capsule of 0.2 m, 0.03 m radius, about 33k triangles."""
+    trimesh = pytest.importorskip("trimesh")
+    trimesh.creation.capsule(height=0.2, radius=0.03, count=[128, 128]).export(folder / "link.obj")
+    (folder / "mesh_arm.xml").write_text(MESH_ARM_XML)
+    return folder / "mesh_arm.xml"
+
+
+@pytest.fixture(scope="module")
+def mesh_arm(tmp_path_factory):
+    robot = RobotModel.from_xml(mesh_arm_xml(tmp_path_factory.mktemp("arm")))
+    oracle = BubbleOracle(robot, delta=0.005)
+    try:
+        res = plan(oracle, ARM_Q_INIT, ARM_Q_GOAL, FoamParams(K=10, r_min=0.07, delta=0.005), seed=0)
+    finally:
+        oracle.close()
+    ros = res.rosary
+    replays = [replay_kinematic(robot, make_trajectory(robot, ros.path(w), ros)) for w in (ros.center_waypoints(), ros.portal_waypoints())]
+    return dict(robot=robot, replays=replays)
+
+
+def test_a_robots_meshes_are_in_the_file_once_whatever_the_number_of_paths(tmp_path, mesh_arm):
+    """Every path's robot held its own copy of the mesh geometry (a Menagerie Panda: about 5.5 MB per path). Each mesh
+    is now logged once for the main robot and once for the tinted ones, each robot an instance pose of it per frame:
+    four more paths weigh less than one more copy of the meshes, and every instance sits at its path's body."""
+    robot, replays = mesh_arm["robot"], mesh_arm["replays"]
+    m = robot.model
+    mesh_bytes = 2 * 4 * (m.mesh_vert.size + m.mesh_face.size)  # one copy of both links' meshes, float32 / int32
+    sizes = {}
+    for n in (2, 6):
+        path = tmp_path / f"paths{n}.rrd"
+        with Recording(path) as rec:
+            for i in range(n):
+                rec.log_replay(f"p{i}", robot, replays[i % 2], tint=i > 0)
+        sizes[n] = path.stat().st_size
+    assert sizes[6] - sizes[2] < 0.8 * mesh_bytes, (sizes, mesh_bytes)  # was 4 copies more
+    path = tmp_path / "paths6.rrd"
+    static, timed = read_recording(path, static=True), read_recording(path, static=False)
+    meshes = sorted(e for e in static if "_mesh" in e)
+    assert meshes == [f"world/meshes/{g}/{b}/{b}_mesh" for g in ("model", "tinted") for b in ("fore", "upper")]
+    nv = int(m.mesh_vertnum[0])
+    for entity in meshes:
+        assert static[entity] == 1 and len(read_component(path, entity, "Mesh3D:vertex_positions")[0]) == nv
+    assert "world/leg/p0/upper/upper_mesh" not in static and static["world/leg/p3/fore/tip"] == 1  # primitives per path
+    T = max(r.n_frames for r in replays)
+    entity = "world/meshes/tinted/fore/fore_mesh"
+    assert timed[entity] == T
+    rows = read_component(path, entity, "InstancePoses3D:translations")
+    assert len(rows) == T and all(len(r) == 5 for r in rows)  # paths p1..p5, one instance each per frame
+    g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "fore_mesh")
+    d = mujoco.MjData(m)
+    for f in (0, T // 2, T - 1):
+        for i, replay in enumerate(replays[(j + 1) % 2] for j in range(5)):
+            d.qpos[:] = replay.qpos[min(f, replay.n_frames - 1)]  # a path that ended holds its last pose
+            mujoco.mj_kinematics(m, d)
+            assert np.allclose(rows[f][i], d.geom_xpos[g], atol=1e-5)
+            xyzw = read_component(path, entity, "InstancePoses3D:quaternions")[f][i]
+            R = Rotation.from_quat(xyzw).as_matrix()
+            assert np.allclose(R, d.geom_xmat[g].reshape(3, 3), atol=1e-5)
+    # The mesh is logged as MuJoCo compiled it, in the geom's frame.
+    drawn = np.array(read_component(path, entity, "Mesh3D:vertex_positions")[0])
+    assert np.allclose(drawn, m.mesh_vert[:nv], atol=1e-6)
+
+
+def test_a_robot_at_fixed_configurations_is_drawn_there(tmp_path, mesh_arm):
+    """A failed plan's recording showed the foam only: the robot is drawn at q_init (model colours) and q_goal
+    (translucent red), its bodies where forward kinematics puts them and its meshes as static instances."""
+    robot = mesh_arm["robot"]
+    path = tmp_path / "ends.rrd"
+    with Recording(path) as rec:
+        rec.log_configurations(robot, {"q_init": ARM_Q_INIT, "q_goal": ARM_Q_GOAL})
+    static = read_recording(path, static=True)
+    for key, q in (("q_init", ARM_Q_INIT), ("q_goal", ARM_Q_GOAL)):
+        d = robot.set_configuration(np.array(q))
+        b = mujoco.mj_name2id(robot.model, mujoco.mjtObj.mjOBJ_BODY, "fore")
+        assert np.allclose(read_component(path, f"world/leg/{key}/fore", "Transform3D:translation")[0], d.xpos[b], atol=1e-6)
+        g = mujoco.mj_name2id(robot.model, mujoco.mjtObj.mjOBJ_GEOM, "fore_mesh")
+        assert np.allclose(read_component(path, f"world/meshes/{key}/fore/fore_mesh", "InstancePoses3D:translations")[0][0], d.geom_xpos[g], atol=1e-6)
+        assert static[f"world/leg/{key}/fore/tip"] == 1
+    tip = [_unpack(read_component(path, f"world/leg/{k}/fore/tip", "Ellipsoids3D:colors")[0][0]) for k in ("q_init", "q_goal")]
+    assert tip[0][3] == 255 and tip[1][3] < 255 and tip[1][0] > tip[1][1]
