@@ -351,7 +351,7 @@ def build_parser() -> argparse.ArgumentParser:
         "options and the scenario's margin and budgets; an unknown name is refused with the list",
     )
     rec = p.add_mutually_exclusive_group()
-    rec.add_argument("--rrd", metavar="OUT.rrd", help="where to write the Rerun recording (default: foam-mj-<scenario>.rrd; with --mjcf, foam-mj-mjcf-<file name>.rrd, never a built-in scenario's)")
+    rec.add_argument("--rrd", metavar="OUT.rrd", help="where to write the Rerun recording (default: foam-mj-<scenario>.rrd; with --mjcf, foam-mj-mjcf-<file name>-<hash of its path>.rrd, never a built-in scenario's nor another folder's file of that name)")
     rec.add_argument("--no-rrd", action="store_true", help="write no recording")
     p.add_argument("--json", metavar="OUT.json", help="write the result as JSON (see the README; `foam-mj verify` checks it)")
     p.add_argument("--no-replay", action="store_true", help="skip trajectories and replays (paths only)")

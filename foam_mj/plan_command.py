@@ -191,11 +191,18 @@ def static_robot_note(robot, ends, delta: float) -> str:
             "them (give those static geoms contype=\"0\" conaffinity=\"0\" if they never meet the moving ones)")
 
 
-def default_recording(name: str, *, mjcf: bool = False) -> str:
-    """The recording ``plan`` writes without --rrd: ``foam-mj-<scenario>.rrd``, and ``foam-mj-mjcf-<file stem>.rrd`` for
-    --mjcf, whose scenario is named after its file: ``--mjcf models/obstacle.xml`` replaced the built-in obstacle
-    scenario's recording."""
-    return f"foam-mj-{'mjcf-' * mjcf}{name}.rrd"
+def default_recording(name: str, *, mjcf: Path | None = None) -> str:
+    """The recording ``plan`` writes without --rrd: ``foam-mj-<scenario>.rrd``, and for --mjcf
+    ``foam-mj-mjcf-<file stem>-<8 hex digits>.rrd``, the digits a hash of the file's resolved path: the scenario is
+    named after its file, so ``--mjcf models/obstacle.xml`` replaced the built-in obstacle scenario's recording, and two
+    files of one name in different folders (a/robot.xml, b/robot.xml) wrote the same recording, the second silently
+    replacing the first. The same file always gets the same name."""
+    if mjcf is None:
+        return f"foam-mj-{name}.rrd"
+    import hashlib
+
+    digest = hashlib.blake2b(str(Path(mjcf).resolve()).encode(), digest_size=4).hexdigest()
+    return f"foam-mj-mjcf-{name}-{digest}.rrd"
 
 
 def plan_scenario(args: argparse.Namespace):
@@ -287,7 +294,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
 
         scenario = dataclasses.replace(scenario, params=scenario.params.with_algorithm(args.planner))
     if rrd is None and not args.no_rrd:
-        rrd = check_output(default_recording(scenario.name, mjcf=args.mjcf is not None), "--rrd (default)", suffix=".rrd")
+        rrd = check_output(default_recording(scenario.name, mjcf=None if args.mjcf is None else Path(args.mjcf)), "--rrd (default)", suffix=".rrd")
     from foam_mj.atomic import check_distinct
 
     check_distinct({"--json": json_out, "--rrd": rrd,

@@ -125,9 +125,32 @@ def test_an_mjcf_runs_default_recording_never_replaces_a_built_in_scenarios(tmp_
     args = ["plan", "--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0.08", "--goal", "0.45 0.4536 1.45",
             "--smoother", "none", "--no-replay"]
     assert main(args) == 0
-    assert "wrote foam-mj-mjcf-obstacle.rrd" in capsys.readouterr().out
-    assert read_recording(tmp_path / "foam-mj-mjcf-obstacle.rrd")
+    written = re.search(r"wrote (foam-mj-mjcf-obstacle-[0-9a-f]{8}\.rrd)", capsys.readouterr().out).group(1)
+    assert read_recording(tmp_path / written)
     assert (tmp_path / "foam-mj-obstacle.rrd").read_text() == "the built-in scenario's recording"
+
+
+def test_two_mjcf_files_of_one_name_in_two_folders_write_two_default_recordings(tmp_path, monkeypatch, capsys):
+    """a/slider.xml and b/slider.xml both wrote foam-mj-mjcf-slider.rrd, the second run silently replacing the first
+    one's recording. The default name now holds a hash of the file's path: two files, two recordings, each the
+    recording of its own model (its scene's geoms); the same file again writes the same name."""
+    monkeypatch.chdir(tmp_path)
+    names = []
+    for folder, post in (("a", "post_a"), ("b", "post_b")):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "slider.xml").write_text(
+            f'<mujoco><worldbody><geom name="{post}" type="box" size="0.05 0.05 0.05" pos="0.5 0 1.2"/>'
+            '<body name="cart" pos="0 0 1"><joint name="x" type="slide" axis="1 0 0" range="0 1"/>'
+            '<geom name="probe" type="sphere" size="0.05"/></body></worldbody></mujoco>')
+        args = ["plan", "--mjcf", f"{folder}/slider.xml", "--start", "0.1", "--goal", "0.9", "--smoother", "none", "--no-replay"]
+        assert main(args) == 0
+        names.append(re.search(r"wrote (foam-mj-mjcf-slider-[0-9a-f]{8}\.rrd)", capsys.readouterr().out).group(1))
+    assert names[0] != names[1] and sorted(p.name for p in tmp_path.glob("*.rrd")) == sorted(names)
+    for name, post in zip(names, ("post_a", "post_b")):
+        assert {e for e in read_recording(tmp_path / name) if e.startswith("world/scene/post")} == {f"world/scene/{post}"}
+    assert main(["plan", "--mjcf", str(tmp_path / "a" / "slider.xml"), "--start", "0.1", "--goal", "0.9", "--smoother", "none",
+                 "--no-replay"]) == 0
+    assert f"wrote {names[0]}" in capsys.readouterr().out
 
 
 def test_plan_optimal_writes_a_strict_json_certificate_that_replays_and_verifies(tmp_path, capsys):
