@@ -25,6 +25,10 @@ MJCF scene and writes, into one folder:
 ``map``          mobile bases only (configuration slides along world x and y): top-down map with the walls, the foam's (x, y) footprint,
                  the rosary and the paths (Nascimento and Alsina 2021 Figs. 12-13).
 
+A one-joint robot's configuration space is a line (:mod:`foam_mj.figures_1d`): ``foam`` draws each bubble's interval of
+the joint at the height of its radius, ``rosary`` the joint against the path parameter s (the fraction of the path's
+length), its bubbles as bands of the joint.
+
 Geometry is MuJoCo's: every pose runs ``mj_kinematics`` and each geom is projected onto the plane of motion
 (:mod:`foam_mj.figure_geometry`).
 
@@ -152,8 +156,12 @@ def _fig_foam(mpl, doc, labels) -> Any | None:
     r = np.asarray(foam["radii"], dtype=float)
     q0, q1 = np.asarray(doc.get("q_init"), dtype=float), np.asarray(doc.get("q_goal"), dtype=float)
     fig = Figure(figsize=(6.4, 5.4), layout="constrained")
+    if c.shape[1] == 1:
+        from foam_mj.figures_1d import fig_foam_1d
+
+        return fig_foam_1d(fig, c, r, q0, q1, labels[0])
     if c.shape[1] != 3:
-        return _fig_foam_2d(mpl, fig, _plane(c), r, _plane(q0), _plane(q1), labels)
+        return _fig_foam_2d(mpl, fig, c, r, q0, q1, labels)
     ax = fig.add_subplot(projection="3d")
     parents = foam.get("parents")
     if parents is not None:
@@ -177,11 +185,6 @@ def _fig_foam(mpl, doc, labels) -> Any | None:
     ax.set_title(f"Probabilistic foam: {len(c)} bubbles{extra}")
     ax.legend(loc="upper left")
     return fig
-
-
-def _plane(q: np.ndarray) -> np.ndarray:
-    """Configurations (..., n) with at least two coordinates: one joint's on the x axis of a plane, y = 0."""
-    return q if q.shape[-1] >= 2 else np.concatenate([q, np.zeros(q.shape[:-1] + (1,))], axis=-1)
 
 
 def _fig_foam_2d(mpl, fig, c, r, q0, q1, labels):
@@ -223,8 +226,10 @@ def _fig_rosary(mpl, doc, robot: RobotModel, paths: list[_Path], labels, rosary=
         return None
     q0, q1 = np.asarray(doc.get("q_init"), dtype=float), np.asarray(doc.get("q_goal"), dtype=float)
     n = robot.dim
-    if n == 1:  # one joint: its line in a plane
-        cr, pts, q0, q1 = _plane(cr), [_plane(w) for w in pts], _plane(q0), _plane(q1)
+    if n == 1:  # one joint: the joint against the path parameter
+        from foam_mj.figures_1d import fig_rosary_1d
+
+        return fig_rosary_1d(Figure(figsize=(6.0, 5.0), layout="constrained"), cr, rr, paths, pts, q0, q1, labels[0], title)
     wire = (0.35, 0.35, 0.35, 0.35)
     if n == 3:
         fig = Figure(figsize=(10.0, 8.0), layout="constrained")

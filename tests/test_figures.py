@@ -370,7 +370,39 @@ def test_a_one_joint_robot_gets_its_figures(tmp_path, capsys):
     out = tmp_path / "one.json"
     assert cli.main(["plan", "--mjcf", str(tmp_path / "one.xml"), "--start", "0.1", "--goal", "1.2", "--smoother", "convex",
                      "--no-replay", "--no-rrd", "--json", str(out)]) == 0
-    written = write_figures(json.loads(out.read_text()), tmp_path / "figs")
+    doc = json.loads(out.read_text())
+    written = write_figures(doc, tmp_path / "figs")
     assert {p.name for p in written} >= {"foam.png", "rosary.png"}
     for p in written:
         check_png(p)
+
+
+def test_a_one_joint_robots_rosary_draws_the_joint_against_the_path_parameter(tmp_path, capsys):
+    """The one-joint rosary and foam figures drew the line of the joint on a plane's x axis, their y axis empty
+    (y = 0, no label). The rosary now draws the joint (y, labelled with it) against the path parameter s in [0, 1]
+    (x): each path from q_init at s = 0 to q_goal at s = 1, its rosary's bubbles as bands of the joint holding it;
+    the foam draws each bubble's interval at the height of its radius (y: the bubble radius)."""
+    (tmp_path / "one.xml").write_text(ONE_JOINT_XML)
+    out = tmp_path / "one.json"
+    assert cli.main(["plan", "--mjcf", str(tmp_path / "one.xml"), "--start", "0.1", "--goal", "1.2", "--smoother", "convex",
+                     "--no-replay", "--no-rrd", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    mpl = figures._matplotlib()
+    robot = RobotModel.from_xml(doc["mjcf"])
+    sel = figures._read_paths(doc, robot, None)
+    labels = figures._coord_labels(robot)
+    _, title, ros, paths = figures._rosary_groups(doc, sel)[0]
+    ax = figures._fig_rosary(mpl, doc, robot, paths, labels, ros, title).axes[0]
+    assert ax.get_ylabel() == labels[0] and "path parameter" in ax.get_xlabel()
+    drawn = {line.get_label(): line for line in ax.get_lines()}
+    for p in paths:
+        s, q = drawn[p.label].get_xdata(), drawn[p.label].get_ydata()
+        assert s[0] == 0.0 and s[-1] == 1.0 and np.all(np.diff(s) >= 0)
+        assert q[0] == pytest.approx(0.1) and q[-1] == pytest.approx(1.2)
+        c, r = ros
+        assert all(np.any(np.abs(v - c[:, 0]) <= r + 1e-9) for v in q)  # every point inside a bubble's band
+    lo, hi = ax.get_ylim()
+    assert lo <= 0.1 and hi >= 1.2
+    foam = figures._fig_foam(mpl, doc, labels).axes[0]
+    assert foam.get_xlabel() == labels[0] and "radius" in foam.get_ylabel()
+    assert foam.get_ylim()[1] >= max(doc["foam"]["radii"])
