@@ -63,7 +63,7 @@ per joint in shades of it (the first joint the colour itself, the next ones alte
 darker); a Pareto front's knee in the colour, its other members lighter. In ``foam-mj plan`` and ``replay`` recordings, the robot of the main path (``optimal`` when there, else the
 last: :func:`foam_mj.recorder.primary_path`) keeps the model's colours; every other path's robot is tinted,
 translucent (opacity :data:`TINT_ALPHA`), so overlaid robots are told apart at once. A robot's meshes are the
-exception: their geometry is in the file once (a Menagerie Panda's weighs about 5.5 MB; every path held a copy), so the
+exception: their geometry is in the file once (every path held a copy), so the
 tinted robots share one translucent copy in the model's colours (their primitive geoms keep the path's colour).
 
 The default blueprint (stored in the file) shows the workspace, the configuration space and the plots

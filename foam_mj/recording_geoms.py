@@ -1,6 +1,6 @@
 """The Rerun shapes of MuJoCo geoms for :mod:`foam_mj.recording`, and :class:`MeshInstances`: every mesh geom of a
-robot logged once and drawn once per path by instancing (a Menagerie Panda's meshes weigh about 5.5 MB: a recording
-of eight paths held eight copies of them)."""
+robot logged once and drawn once per path by instancing (every path held its own copy: a two-link arm
+of two 16k-vertex meshes planned with ``--smoother all`` wrote 5.7 MB, 3.2 MB now)."""
 
 from __future__ import annotations
 

@@ -433,7 +433,7 @@ def mesh_arm(tmp_path_factory):
 
 
 def test_a_robots_meshes_are_in_the_file_once_whatever_the_number_of_paths(tmp_path, mesh_arm):
-    """Every path's robot held its own copy of the mesh geometry (a Menagerie Panda: about 5.5 MB per path). Each mesh
+    """Every path's robot held its own copy of the mesh geometry (reported for a Menagerie Panda: about 5.5 MB per path). Each mesh
     is now logged once for the main robot and once for the tinted ones, each robot an instance pose of it per frame:
     four more paths weigh less than one more copy of the meshes, and every instance sits at its path's body."""
     robot, replays = mesh_arm["robot"], mesh_arm["replays"]
