@@ -42,7 +42,7 @@ def _is_static(body: mujoco.MjsBody) -> bool:
 
 
 def resize_box(spec: mujoco.MjSpec, scene: Path, box: "BoxObstacle") -> None:
-    """Resize and/or move the scene's static box geom in place (:class:`~foam_mj.scene_edits.BoxObstacle`)."""
+    """Resize, move and/or turn the scene's static box geom in place (:class:`~foam_mj.scene_edits.BoxObstacle`)."""
     boxes = [
         g for g in spec.geoms if g.type == _BOX and (g.contype or g.conaffinity) and _is_static(g.parent)
     ]
@@ -70,11 +70,24 @@ def resize_box(spec: mujoco.MjSpec, scene: Path, box: "BoxObstacle") -> None:
     old_pos = np.asarray(g.pos, dtype=float)  # in its <frame>'s coordinates, if it sits in one
     half = old_half if box.size is None else np.asarray(box.size, dtype=float) / 2
     origin, R = _frame_pose(spec, g)
+    old_rot = _world_rotation(spec, g)
+    rot = old_rot
+    if box.euler is not None:  # a world orientation, written in the frame's coordinates
+        quat = _euler_quat(box.euler)
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, quat)
+        rot = rot.reshape(3, 3)
+        frame_quat, local_quat = np.zeros(4), np.zeros(4)
+        mujoco.mju_mat2Quat(frame_quat, R.flatten())
+        mujoco.mju_negQuat(frame_quat, frame_quat)
+        mujoco.mju_mulQuat(local_quat, frame_quat, quat)
+        g.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT  # the file's euler/axisangle/... no longer applies
+        g.quat = local_quat
     if box.pos is not None:  # a world position, written in the frame's coordinates
         pos = R.T @ (np.asarray(box.pos, dtype=float) - origin)
     else:  # same centre in x and y, same lowest point (for a box turned about a horizontal axis too)
-        tilt = np.abs(_world_rotation(spec, g)[2])  # |R_zi|: the lowest point lies sum_i |R_zi| h_i below the centre
-        pos = old_pos + R.T @ np.array([0.0, 0.0, tilt @ half - tilt @ old_half])
+        # |R_zi|: the lowest point lies sum_i |R_zi| h_i below the centre
+        pos = old_pos + R.T @ np.array([0.0, 0.0, np.abs(rot[2]) @ half - np.abs(old_rot[2]) @ old_half])
     g.size = half
     g.pos = pos
 

@@ -42,9 +42,10 @@ itself is never changed)::
     [subject]                              # scale the leg (Winter's segment fractions)
     height = 1.62                          # m
     mass = 58                              # kg
-    [obstacle]                             # resize/move the scene's box
+    [obstacle]                             # resize/move/turn the scene's box
     size = [0.2, 0.5, 0.15]                # full extents x, y, z in m
-    pos = [0.5, 0.0, 0.075]                # centre, m (default: same x, y and bottom face)
+    pos = [0.5, 0.0, 0.075]                # centre, m (default: same x, y and lowest point)
+    euler = [0, 0, 30]                     # orientation in the world, degrees, extrinsic x, y, z
     name = "obstacle_box"                  # only needed when the scene has several boxes
     [[mesh]]                               # an obstacle from a mesh file (repeatable)
     file = "kerb.stl"                      # STL/OBJ/PLY, relative to the TOML file
@@ -94,7 +95,7 @@ NAME_PATTERN = re.compile(r"^[A-Za-z0-9_.\-]+$")
 
 _TOP_FIELDS = {"name", "description", "scene", "q_init", "q_goal", "seed", "planner", "joints", "normalize", "subject", "obstacle", "mesh", "limits", "robot_root", "self_collision", "keyframe"}
 _SUBJECT_FIELDS = {"height", "mass"}
-_OBSTACLE_FIELDS = {"size", "pos", "name"}
+_OBSTACLE_FIELDS = {"size", "pos", "euler", "name"}
 _MESH_FIELDS = {"file", "pos", "euler", "scale", "name", "decompose", "threshold"}
 #: Plausible ranges for [subject] (adults and adolescents; Winter's table is for adults).
 SUBJECT_HEIGHT_RANGE = (1.2, 2.2)  # m
@@ -285,10 +286,11 @@ def _scene_edits(raw: dict, where: str, base_dir: Path) -> SceneEdits:
     if t is not None:
         size = None if t.get("size") is None else _vec3(t["size"], f"{where}: [obstacle] field 'size' (full extents x, y, z in m)", positive=True)
         pos = None if t.get("pos") is None else _vec3(t["pos"], f"{where}: [obstacle] field 'pos' (m)")
+        euler = None if t.get("euler") is None else _vec3(t["euler"], f"{where}: [obstacle] field 'euler' (degrees)")
         name = t.get("name")
         if name is not None and (not isinstance(name, str) or not name):
             raise ScenarioError(f"{where}: [obstacle] field 'name' must be a geom name")
-        obstacle = BoxObstacle(size, pos, name) if (size is not None or pos is not None or name is not None) else None
+        obstacle = BoxObstacle(size, pos, name, euler) if any(v is not None for v in (size, pos, name, euler)) else None
     meshes = []
     mesh_list = raw.get("mesh", [])
     if isinstance(mesh_list, dict):

@@ -6,7 +6,7 @@ A scenario may
   are written into the spec as the ``foam_mj:configuration`` text and ``foam_mj:normalize:<joint>``
   numerics (:mod:`foam_mj.model`), so the edited scene is self-describing;
 * scale the leg to a subject (``[subject] height, mass``): :mod:`foam_mj.anthropometry`;
-* resize or move the scene's box obstacle (``[obstacle] size, pos``): :func:`foam_mj.obstacles.resize_box`;
+* resize, move or turn the scene's box obstacle (``[obstacle] size, pos, euler``): :func:`foam_mj.obstacles.resize_box`;
 * add obstacles from mesh files (``[[mesh]] file, pos, euler, scale``): :func:`foam_mj.obstacles.add_mesh_obstacle`.
 
 :func:`build_robot` applies them in that order and compiles the result. An edited scene is round-tripped
@@ -36,15 +36,17 @@ class Subject:
 
 @dataclass(frozen=True)
 class BoxObstacle:
-    """New full extents (m, along x, y, z) and/or centre (m, world frame) of a scene's box geom.
+    """New full extents (m, along x, y, z), centre (m, world frame) and/or orientation (``euler``: degrees,
+    extrinsic x-y-z in the world frame, as a [[mesh]]'s) of a scene's box geom.
 
-    ``name`` picks the geom when the scene has several static boxes. When ``size`` changes and ``pos``
+    ``name`` picks the geom when the scene has several static boxes. When ``size`` or ``euler`` changes and ``pos``
     is not given, the box keeps its centre in x and y and its lowest point (it stays on the floor, turned or not).
     """
 
     size: tuple[float, float, float] | None = None
     pos: tuple[float, float, float] | None = None
     name: str | None = None
+    euler: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -87,7 +89,8 @@ class SceneEdits:
         if self.subject:
             out["subject"] = {"height": self.subject.height, "mass": self.subject.mass}
         if self.obstacle:
-            out["obstacle"] = {k: v for k, v in (("size", self.obstacle.size), ("pos", self.obstacle.pos), ("name", self.obstacle.name)) if v is not None}
+            o = self.obstacle
+            out["obstacle"] = {k: v for k, v in (("size", o.size), ("pos", o.pos), ("euler", o.euler), ("name", o.name)) if v is not None}
         if self.meshes:
             out["mesh"] = [
                 {"file": str(mo.file), "pos": list(mo.pos), "euler": list(mo.euler), "scale": list(mo.scale), "decompose": mo.decompose, "threshold": mo.threshold}

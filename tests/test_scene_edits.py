@@ -142,6 +142,47 @@ def test_a_box_written_in_a_frame_is_placed_and_kept_on_the_floor_in_world_coord
     assert after[1] == pytest.approx(before[1], abs=1e-6)  # and the same lowest point
 
 
+def test_obstacle_euler_turns_the_box_in_the_world_and_keeps_its_lowest_point(tmp_path):
+    """[obstacle] euler (degrees, extrinsic x-y-z in the world, as a [[mesh]]'s) turns the box, whatever orientation the
+    file wrote (axis-aligned, euler, axisangle) and inside a turned <frame>; without pos it keeps its centre's x, y and
+    its lowest point, with pos it is centred there. It was refused ('unknown [obstacle] field(s) 'euler'') though a
+    turned kerb or box is a change a user makes: the way round was a scene file of one's own."""
+    from foam_mj.obstacles import _euler_quat
+
+    def pose(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, float]:
+        m, d = robot.model, mujoco.MjData(robot.model)
+        mujoco.mj_kinematics(m, d)
+        g = m.geom("obstacle_box").id
+        R = d.geom_xmat[g].reshape(3, 3)
+        corners = np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T * m.geom_size[g]
+        return d.geom_xpos[g].copy(), R.copy(), float((d.geom_xpos[g] + corners @ R.T)[:, 2].min())
+
+    scene = (MODELS / "obstacle.xml").read_text().replace('file="', f'file="{MODELS}/')
+    for i, (orientation, frame) in enumerate([("", None), ('euler="0.2 0.5 0"', None), ('axisangle="0 0 1 0.7"', None),
+                                              ("", 'pos="0.1 0 0" euler="0 0 0.4"')]):
+        box = f'name="obstacle_box" {orientation}'
+        xml = scene.replace('name="obstacle_box"', box)
+        if frame:
+            xml = xml.replace('<geom name="obstacle_box"', f'<frame {frame}><geom name="obstacle_box"').replace(
+                'size="0.1 0.25 0.075"/>', 'size="0.1 0.25 0.075"/></frame>')
+        path = tmp_path / f"turned{i}.xml"
+        path.write_text(xml)
+        before = pose(scenario_from_dict({**OBSTACLE, "scene": str(path)}, MODELS, check=False).robot)
+        for euler in ([0, 30, 0], [10, -20, 45]):
+            R = np.zeros(9)
+            mujoco.mju_quat2Mat(R, _euler_quat(euler))
+            turned = pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"euler": euler}}, MODELS, check=False).robot)
+            np.testing.assert_allclose(turned[1], R.reshape(3, 3), atol=1e-6)
+            np.testing.assert_allclose(turned[0][:2], before[0][:2], atol=1e-6)
+            assert turned[2] == pytest.approx(before[2], abs=1e-6), (orientation, frame, euler)
+            placed = pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"euler": euler, "pos": [0.6, 0.1, 0.2],
+                                                                                             "size": [0.1, 0.4, 0.2]}}, MODELS, check=False).robot)
+            np.testing.assert_allclose(placed[0], [0.6, 0.1, 0.2], atol=1e-6)
+            np.testing.assert_allclose(placed[1], R.reshape(3, 3), atol=1e-6)
+    with pytest.raises(ScenarioError, match=r"\[obstacle\] field 'euler' \(degrees\) must have 3 numbers, got 2"):
+        _robot(obstacle={"euler": [0, 30]})
+
+
 def test_a_box_given_by_fromto_is_moved_and_resized(tmp_path):
     """A box written with fromto (MuJoCo derives its centre, orientation and length from the segment): [obstacle] set
     its pos beside the fromto, which MuJoCo refuses, and the plan failed with "could not load MJCF file ...: both pos
