@@ -395,6 +395,47 @@ def test_random_boxes_and_seeds_every_returned_path_is_collision_free(name, dx, 
     _check_paths(MujocoChecker(s.robot), oracle, res, 0.005)
 
 
+_SHAPES = ("box", "cylinder", "capsule", "sphere", "ellipsoid")
+
+
+@settings(max_examples=6, deadline=None)
+@given(
+    shape=st.sampled_from(_SHAPES), x=st.floats(0.2, 1.0), z=st.floats(0.0, 0.12), r=st.floats(0.001, 0.08),
+    turn=st.floats(-1.5, 1.5), second=st.booleans(), seed=st.integers(0, 2**31 - 1),
+)
+def test_a_users_scene_with_more_obstacles_of_any_shape_plans_collision_free(shape, x, z, r, turn, second, seed):
+    """A user's scene (the leg's MJCF included from its own folder) keeps the obstacle scene's box and adds one or two
+    obstacles of any primitive shape, 1 mm (a plate) to 8 cm in radius or half-extent, turned about any axis in the
+    leg's plane, anywhere from behind the box to past the goal, its lowest point up to 12 cm off the floor: an end point closer
+    than delta is refused naming its clearance; else the default planner plans and MuJoCo finds every path free."""
+    import tempfile
+    from pathlib import Path
+
+    from conftest import MODELS, MujocoChecker
+    from foam_mj.errors import ScenarioError
+    from foam_mj.scenarios import scenario_from_dict
+
+    size = {"box": f"{r} 0.25 {r}", "cylinder": f"{r} 0.25", "capsule": f"{r} 0.2", "sphere": f"{r}",
+            "ellipsoid": f"{r} 0.2 {r * 0.6}"}[shape]
+    extra = f'<geom name="extra" class="obstacle" type="{shape}" pos="{x} 0 {z + r}" size="{size}" euler="{turn} 1.5708 0"/>'
+    if second:
+        extra += f'<geom name="second" class="obstacle" type="{shape}" pos="{x + 0.3} 0.1 {z}" size="{size}" euler="0 {turn} 0"/>'
+    xml = (MODELS / "obstacle.xml").read_text()
+    for name in ("ortholeg.xml", "scene_common.xml"):
+        xml = xml.replace(f'file="{name}"', f'file="{MODELS / name}"')
+    with tempfile.TemporaryDirectory() as tmp:
+        scene = Path(tmp) / "scene.xml"
+        scene.write_text(xml.replace("</worldbody>", extra + "</worldbody>"))
+        try:
+            s = scenario_from_dict({**BASE, "scene": str(scene)}, tmp)
+        except ScenarioError as exc:
+            assert re.search(r"field 'q_(init|goal)' = .* (is in collision|is too close to an obstacle): clearance -?\d", str(exc)), exc
+            return
+        oracle = s.oracle()
+        res = get_planner("bubbletree").plan(_problem(oracle, s, time_limit=30.0), seed=seed)
+        _check_paths(MujocoChecker(s.robot), oracle, res, 0.005)
+
+
 # -- the default planner's corridor ---------------------------------------------------------------------
 def test_the_time_limit_also_ends_the_corridor_refinement(oracles, monkeypatch):
     """The trees stop at `time_limit`, but the refinement then ran on for up to `refine_time` CPU seconds (10): a
