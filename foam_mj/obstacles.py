@@ -63,8 +63,6 @@ def resize_box(spec: mujoco.MjSpec, scene: Path, box: "BoxObstacle") -> None:
             "say which with name = \"...\""
         )
     g = chosen[0]
-    if g.parent.name != "world":
-        raise ScenarioError(f"[obstacle]: box '{g.name}' sits in body '{g.parent.name}'; only boxes in <worldbody> can be moved")
     _unfold_fromto(spec, g)
     old_half = np.asarray(g.size[:3], dtype=float)
     old_pos = np.asarray(g.pos, dtype=float)  # in its <frame>'s coordinates, if it sits in one
@@ -100,11 +98,11 @@ def _unfold_fromto(spec: mujoco.MjSpec, g) -> None:
     name = g.name
     g.name = "foam_mj_resized_box"
     try:
-        m = spec.compile()
-        k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, g.name)
-        pos, quat, size = np.array(m.geom_pos[k]), np.array(m.geom_quat[k]), np.array(m.geom_size[k])
+        pos, rot, size = _world_pose(spec, g.name)
     finally:
         g.name = name
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, rot.flatten())
     origin, R = _frame_pose(spec, g)
     frame_quat, local_quat = np.zeros(4), np.zeros(4)
     mujoco.mju_mat2Quat(frame_quat, R.flatten())
@@ -114,40 +112,43 @@ def _unfold_fromto(spec: mujoco.MjSpec, g) -> None:
     g.pos, g.quat, g.size = R.T @ (pos - origin), local_quat, size
 
 
+def _world_pose(spec: mujoco.MjSpec, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World position, rotation matrix and size of the geom ``name``, as MuJoCo resolves them (its orientation written
+    as quat, euler, axisangle, xyaxes or zaxis in the compiler's angle unit; its body's and <frame>s' poses composed):
+    read off a compiled copy at qpos0, where a static body stands."""
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name)
+    return np.array(d.geom_xpos[k]), np.array(d.geom_xmat[k]).reshape(3, 3), np.array(m.geom_size[k])
+
+
 def _frame_pose(spec: mujoco.MjSpec, g) -> tuple[np.ndarray, np.ndarray]:
-    """World position and rotation matrix of the <frame> (nested ones composed) in which geom ``g`` of <worldbody>
-    is written, as MuJoCo resolves them (zero and identity outside any frame): read off a compiled copy with a
-    probe geom at the frame's origin."""
-    if g.frame is None:
+    """World position and rotation matrix of the coordinates in which geom ``g``'s pos and orientation are written:
+    its <frame> (nested ones composed) in its static body (or <worldbody>), as MuJoCo resolves them (zero and identity
+    for a geom of <worldbody> outside any frame): read off a compiled copy with a probe geom at that frame's origin."""
+    if g.frame is None and g.parent.name == "world":
         return np.zeros(3), np.eye(3)
-    probe = g.frame.add_geom()
+    probe = (g.frame if g.frame is not None else g.parent).add_geom()
     probe.name = "foam_mj_frame_probe"
     probe.type = mujoco.mjtGeom.mjGEOM_SPHERE
     probe.size = [1e-3, 0, 0]
+    probe.contype = probe.conaffinity = 0
     try:
-        m = spec.compile()
-        k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, probe.name)
-        origin, quat = np.array(m.geom_pos[k]), np.array(m.geom_quat[k])
+        origin, R, _ = _world_pose(spec, probe.name)
     finally:
         spec.delete(probe)
-    R = np.zeros(9)
-    mujoco.mju_quat2Mat(R, quat)
-    return origin, R.reshape(3, 3)
+    return origin, R
 
 
 def _world_rotation(spec: mujoco.MjSpec, g) -> np.ndarray:
-    """The rotation matrix of geom ``g`` of <worldbody>, as MuJoCo resolves its orientation (quat, euler, axisangle,
-    xyaxes or zaxis, in the compiler's angle unit): read off a compiled copy, with ``g`` found by a temporary name."""
+    """The world rotation matrix of geom ``g`` (:func:`_world_pose`), found by a temporary name."""
     name = g.name
     g.name = "foam_mj_resized_box"
     try:
-        m = spec.compile()
-        quat = np.array(m.geom_quat[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, g.name)])
+        return _world_pose(spec, g.name)[1]
     finally:
         g.name = name
-    R = np.zeros(9)
-    mujoco.mju_quat2Mat(R, quat)
-    return R.reshape(3, 3)
 
 
 def _euler_quat(euler_deg: tuple[float, float, float]) -> np.ndarray:

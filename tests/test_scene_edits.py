@@ -183,6 +183,42 @@ def test_obstacle_euler_turns_the_box_in_the_world_and_keeps_its_lowest_point(tm
         _robot(obstacle={"euler": [0, 30]})
 
 
+def test_a_box_in_a_static_body_is_moved_resized_and_turned_in_world_coordinates(tmp_path):
+    """A scene that groups its obstacle in a body without joints (<body name="crate" pos=...>, turned, the box inside a
+    <frame> of it or not) was refused: "box 'obstacle_box' sits in body 'crate'; only boxes in <worldbody> can be
+    moved", though the box is as static as one of <worldbody> and the planner treats it so. pos and euler are the
+    world's, and a resize without pos keeps the centre's x, y and the lowest point, as for a box of <worldbody>."""
+    from foam_mj.obstacles import _euler_quat
+
+    def pose(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, float]:
+        m, d = robot.model, mujoco.MjData(robot.model)
+        mujoco.mj_kinematics(m, d)
+        g = m.geom("obstacle_box").id
+        R = d.geom_xmat[g].reshape(3, 3)
+        corners = np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T * m.geom_size[g]
+        return d.geom_xpos[g].copy(), R.copy(), float((d.geom_xpos[g] + corners @ R.T)[:, 2].min())
+
+    scene = (MODELS / "obstacle.xml").read_text().replace('file="', f'file="{MODELS}/')
+    box = '<geom name="obstacle_box" class="obstacle" type="box" pos="0.5 0 0.075" size="0.1 0.25 0.075"/>'
+    assert box in scene
+    inner = '<geom name="obstacle_box" class="obstacle" type="box" pos="0.05 0 0.1" size="0.1 0.25 0.075" euler="0 0.2 0"/>'
+    for i, body in enumerate([f'<body name="crate" pos="0.45 0 0">{inner}</body>',
+                              f'<body name="crate" pos="0.4 0.05 0.02" euler="0 0 0.5"><frame pos="0 0.02 0" euler="0.1 0 0">{inner}</frame></body>']):
+        path = tmp_path / f"crate{i}.xml"
+        path.write_text(scene.replace(box, body))
+        before = pose(scenario_from_dict({**OBSTACLE, "scene": str(path)}, MODELS, check=False).robot)
+        resized = pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"size": [0.3, 0.4, 0.2]}}, MODELS, check=False).robot)
+        np.testing.assert_allclose(resized[0][:2], before[0][:2], atol=1e-6)
+        np.testing.assert_allclose(resized[1], before[1], atol=1e-6)
+        assert resized[2] == pytest.approx(before[2], abs=1e-6)
+        R = np.zeros(9)
+        mujoco.mju_quat2Mat(R, _euler_quat([0, 0, 30]))
+        placed = pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"pos": [0.6, 0.0, 0.1], "euler": [0, 0, 30]}},
+                                         MODELS, check=False).robot)
+        np.testing.assert_allclose(placed[0], [0.6, 0.0, 0.1], atol=1e-6)
+        np.testing.assert_allclose(placed[1], R.reshape(3, 3), atol=1e-6)
+
+
 def test_a_box_given_by_fromto_is_moved_and_resized(tmp_path):
     """A box written with fromto (MuJoCo derives its centre, orientation and length from the segment): [obstacle] set
     its pos beside the fromto, which MuJoCo refuses, and the plan failed with "could not load MJCF file ...: both pos
