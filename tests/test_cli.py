@@ -540,7 +540,8 @@ def test_the_console_script_runs(tmp_path):
 def test_a_command_whose_output_reader_has_gone_still_writes_its_files(tmp_path):
     """`foam-mj plan --json r.json | head` (or any reader that exits early): the first print after the reader had
     gone raised BrokenPipeError, which ended the command with exit 0 and no r.json. Now the rest of the output is
-    dropped, the files are written and the exit code is the command's own; nothing on stderr."""
+    dropped, the files are written and the exit code is the command's own; nothing on stderr but the progress log
+    (a plan past 0.5 s, as on a loaded machine, reports its progress there)."""
     root = Path(__file__).resolve().parents[1]
     env = {**os.environ, "PYTHONPATH": str(root)}
     read, write = os.pipe()
@@ -550,7 +551,7 @@ def test_a_command_whose_output_reader_has_gone_still_writes_its_files(tmp_path)
                               "--json", "r.json"], stdout=write, stderr=subprocess.PIPE, text=True, cwd=tmp_path, env=env, timeout=300)
     finally:
         os.close(write)
-    assert run.returncode == 0 and run.stderr == "", run.stderr
+    assert run.returncode == 0 and messages(run.stderr) == [], run.stderr
     assert read_result(tmp_path / "r.json")["outcome"] == "reached"
 
 
