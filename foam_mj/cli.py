@@ -99,7 +99,7 @@ def cmd_bubble(args: argparse.Namespace) -> int:
 
     json_out = check_output(args.json, "--json", suffix=".json")
     if (args.scene is None) == (args.mjcf is None):
-        raise FoamError("give one of --scene NAME or --mjcf FILE")
+        raise FoamError("give one of --scene SCENE or --mjcf ROBOT.xml")
     q = _parse_q(args.q, "--q")
     _check_delta(args.delta)
     if args.mjcf is not None:
@@ -230,7 +230,7 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--format", nargs="+", choices=FIGURE_FORMATS, default=["png"], dest="formats",
                    help="figure file formats, one or more of png, svg, pdf (default: png)")
     p.add_argument("--paths", nargs="+", metavar="NAME", default=None, help="only these paths (default: all in the result)")
-    p.add_argument("--dpi", type=int, default=FIGURE_DPI, help=f"resolution of PNG files, at most {FIGURE_MAX_DPI} (default {FIGURE_DPI})")
+    p.add_argument("--dpi", type=int, default=FIGURE_DPI, metavar="N", help=f"resolution of PNG files, at most {FIGURE_MAX_DPI} (default {FIGURE_DPI})")
     p.set_defaults(func=_cmd_figures)
     return p
 
@@ -304,7 +304,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="foam-mj",
         description="Plan safe, smooth motions for MuJoCo robots (built in: the Ortholeg exoskeleton's swing leg) over bubbles "
         "of free configuration space certified by MuJoCo distance queries (the Probabilistic Foam Method and its kin).",
-        epilog=EXIT_EPILOG + ". Set FOAM_MJ_DEBUG=1 to see the traceback of an internal error.",
+        epilog=EXIT_EPILOG + ".",
     )
     parser.add_argument("--version", action="version", version=f"foam-mj {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
@@ -322,14 +322,14 @@ def build_parser() -> argparse.ArgumentParser:
         "limits); 4 plan's own replay found a planned trajectory below the margin (a certification fault: everything "
         f"is still written, for a report); {EXIT_ANY}.",
     )
-    p.add_argument("--scene", default=None, help=f"a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: {DEFAULT_SCENE})")
+    p.add_argument("--scene", default=None, metavar="SCENE", help=f"a scenario name (see `foam-mj scenes`) or a path to a scenario TOML (default: {DEFAULT_SCENE})")
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="plan on any MJCF scene without a scenario file (needs --start and --goal; default planner parameters)")
     p.add_argument("--start", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the start configuration, one number per configuration joint (radians, metres), or a keyframe's name (home: its configuration joints' values; the other joints are held there)")
     p.add_argument("--goal", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the goal configuration (numbers or a keyframe's name)")
     p.add_argument("--joints", metavar="a,b,c", help="the configuration joints, in order (default: the scenario's or the MJCF's declaration, else every limited hinge/slide joint)")
     p.add_argument("--delta", type=float, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
     p.add_argument("--time-limit", type=float, metavar="S", help="the planner's time budget in seconds: a plan that has not "
-                   "reached the goal by then fails (exit 3) (default: the scenario's [planner] time_limit, else 60)")
+                   "reached the goal by then fails (exit 3; default: the scenario's [planner] time_limit, else 60)")
     p.add_argument("--subject-height", type=float, metavar="M", help="scale the leg to a subject this tall, 1.2-2.2 m (Winter's segment fractions; a model that declares foam_mj:segments)")
     p.add_argument("--subject-mass", type=float, metavar="KG", help="scale the leg's segment masses to a subject this heavy, 25-200 kg")
     p.add_argument("--robot-root", metavar="BODY", help="the body whose subtree is the robot (other moving bodies are fixed obstacles at their qpos0 pose)")
@@ -337,11 +337,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--smoother",
         default=DEFAULT_SMOOTHER,
+        metavar="NAME",
         help="optimal, none, hs, ga, gradient, adjust, convex, mgoa, mopso or all, or a comma-separated list "
         "(default: optimal, the certified optimum of f; all: every method of the papers plus convex and optimal, "
         "for comparison). The centre path is always there.",
     )
-    p.add_argument("--seed", type=seed_number, default=None, help="random seed of the planner and smoothers, an integer in [0, 2**63-1] (default: the scenario's)")
+    p.add_argument("--seed", type=seed_number, default=None, metavar="N", help="random seed of the planner and smoothers, an integer in [0, 2**63-1] (default: the scenario's)")
     p.add_argument(
         "--planner",
         metavar="NAME",
@@ -374,7 +375,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="exit codes: 0 success; 2 bad input (unknown scene, unreadable MJCF, q of the wrong length or outside "
         f"the joint bounds, unwritable --json); {EXIT_ANY}.",
     )
-    p.add_argument("--scene", default=None, help="a scenario name or TOML path (its scene, joints, margin and robot options)")
+    p.add_argument("--scene", default=None, metavar="SCENE", help="a scenario name or TOML path (its scene, joints, margin and robot options)")
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="any MJCF scene instead of a scenario")
     p.add_argument("--q", required=True, metavar=CONFIGURATION_METAVAR, help="the configuration, one number per configuration joint, separated by spaces or commas")
     p.add_argument("--joints", metavar="a,b,c", help="the configuration joints, in order (default: the scenario's or the MJCF's declaration, else every limited hinge/slide joint)")
@@ -391,7 +392,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="exit codes: 0 clean; 2 bad input; 3 no timing of a saved path fits the result's joint limits; 4 the "
         f"replay has contacts or clearance below the result's margin; {EXIT_ANY}.",
     )
-    p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
+    p.add_argument("result", metavar="RESULT.json", help="a JSON file written by `foam-mj plan --json`")
     p.add_argument("--rrd", metavar="OUT.rrd", help="write a Rerun recording of the replay (without it, none is written)")
     p.add_argument("--kinematic-only", action="store_true", help="skip the dynamic (servo) replay")
     p.set_defaults(func=cmd_replay)
@@ -402,12 +403,12 @@ def build_parser() -> argparse.ArgumentParser:
         "<joint>.q, .qd, .qdd, .tau (mj_inverse), .power per configuration joint, in qpos units (units in the file).",
         epilog=f"exit codes: 0 success; 2 bad input (unknown path, bad --hz, unwritable --out); 3 no timing fits the limits; {EXIT_ANY}.",
     )
-    p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
-    p.add_argument("--path", default=None, help="which path of the result (default: the last one, plan's smoothed path)")
+    p.add_argument("result", metavar="RESULT.json", help="a JSON file written by `foam-mj plan --json`")
+    p.add_argument("--path", default=None, metavar="NAME", help="which path of the result (default: the last one, plan's smoothed path)")
     p.add_argument("--format", default=None, choices=["csv", "npz", "parquet"],
                    help="file format (parquet needs pyarrow; default: the one --out's suffix names, .csv, .npz, .parquet or .pq)")
     p.add_argument("--out", required=True, metavar="FILE", help="where to write the table")
-    p.add_argument("--hz", default=500.0, help="samples per second (default: 500)")
+    p.add_argument("--hz", default=500.0, metavar="N", help="samples per second (default: 500)")
     p.set_defaults(func=cmd_export)
     p = sub.add_parser(
         "verify",
@@ -417,8 +418,8 @@ def build_parser() -> argparse.ArgumentParser:
         "densely, and mj_geomDistance over every pair of moving and static collision geoms.",
         epilog=f"exit codes: 0 every sample keeps the result's margin; 4 some sample is closer; 2 bad input; {EXIT_ANY}.",
     )
-    p.add_argument("result", help="a JSON file written by `foam-mj plan --json`")
-    p.add_argument("--step", type=float, default=1e-3, help="largest step between samples, in q and in qpos, "
+    p.add_argument("result", metavar="RESULT.json", help="a JSON file written by `foam-mj plan --json`")
+    p.add_argument("--step", type=float, default=1e-3, metavar="S", help="largest step between samples, in q and in qpos, "
                    "at most 0.1 (rad or m; default: 1e-3)")
     p.set_defaults(func=cmd_verify)
     p = sub.add_parser(
@@ -428,11 +429,11 @@ def build_parser() -> argparse.ArgumentParser:
         "use --web: it serves Rerun's web viewer on 127.0.0.1 and prints the URL.",
         epilog=f"exit codes: 0 the viewer closed; 2 bad input (missing or damaged recording, no display without --web, a port in use); {EXIT_ANY}.",
     )
-    p.add_argument("recording", help="a .rrd file")
+    p.add_argument("recording", metavar="OUT.rrd", help="a .rrd recording (`foam-mj plan` writes one)")
     p.add_argument("--web", action="store_true", help="serve Rerun's web viewer over HTTP instead of opening a window")
-    p.add_argument("--bind", default="127.0.0.1", help="address the viewer's servers listen on (default: 127.0.0.1, this machine only; 0.0.0.0 exposes it to the network)")
-    p.add_argument("--web-port", type=port_number, default=9090, help="HTTP port of the web viewer (default: 9090; 0: a free one)")
-    p.add_argument("--grpc-port", type=port_number, default=9876, help="gRPC port of the viewer's data server (default: 9876; 0: a free one)")
+    p.add_argument("--bind", default="127.0.0.1", metavar="ADDR", help="address the viewer's servers listen on (default: 127.0.0.1, this machine only; 0.0.0.0 exposes them to the network)")
+    p.add_argument("--web-port", type=port_number, default=9090, metavar="P", help="HTTP port of the web viewer (default: 9090; 0: a free one)")
+    p.add_argument("--grpc-port", type=port_number, default=9876, metavar="P", help="gRPC port of the viewer's data server (default: 9876; 0: a free one)")
     p.set_defaults(func=cmd_view)
     p = sub.add_parser("bench", help="run the smoothing benchmark", description="The smoothing benchmark (HS and GA runs, the thesis's methods, the convex reference); every argument is passed on to it (see `foam-mj bench --help`).", add_help=False)
     p.add_argument("bench_args", nargs=argparse.REMAINDER, help="arguments for the benchmark: --quick, --runs N, --json OUT.json, --no-progress")
@@ -449,12 +450,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("sweep", metavar="SWEEP.toml", help="the sweep file (see README, 'Studies')")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder: DIR/rows/*.parquet and DIR/sweep.json")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (default and at most: one per core this process may use; a larger number is capped, with a note); with --ray, the local Ray instance's CPUs (capped alike)")
+    p.add_argument("--workers", type=int, default=None, metavar="N", help="worker processes (default and at most: one per core this process may use; a larger number is capped, with a note); with --ray, the local Ray instance's CPUs (capped alike)")
     p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS", help="run the plans as Ray tasks (needs foam-mj[cluster]): alone, on a local Ray instance; with an address (auto, ray://host:10001), on that cluster")
-    p.add_argument("--batch", type=int, default=200, help="rows per Parquet file (default 200)")
-    p.add_argument("--flush-seconds", type=float, default=10.0, help="write the rows received at least this often (default 10 s)")
-    p.add_argument("--limit", type=int, default=None, help="run at most this many plans now (try a sweep; re-run to continue)")
-    p.add_argument("--progress-interval", type=float, default=5.0, help="seconds between progress lines when stderr is not a terminal (default 5)")
+    p.add_argument("--batch", type=int, default=200, metavar="N", help="rows per Parquet file (default 200)")
+    p.add_argument("--flush-seconds", type=float, default=10.0, metavar="S", help="write the rows received at least this often (default 10 s)")
+    p.add_argument("--limit", type=int, default=None, metavar="N", help="run at most this many plans now (try a sweep; re-run to continue)")
+    p.add_argument("--progress-interval", type=float, default=5.0, metavar="S", help="seconds between progress lines when stderr is not a terminal (default 5)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=cmd_sweep)
     p = sub.add_parser(

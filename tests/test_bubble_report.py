@@ -66,7 +66,7 @@ def test_a_scene_report_lists_every_pair_and_agrees_with_mujoco(tmp_path, capsys
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["bubble", "--q=0 0 0"], "give one of --scene NAME or --mjcf FILE"),
+        (["bubble", "--q=0 0 0"], "give one of --scene SCENE or --mjcf ROBOT.xml"),
         (["bubble", "--scene", "obstacle", "--mjcf", "x.xml", "--q=0 0 0"], "give one of"),
         (["bubble", "--scene", "obstacle", "--q=0.2 0.3"], "--q must be 3 numbers, one per configuration joint (hip_flexion, knee_flexion, hip_displacement), got 2"),
         (["bubble", "--scene", "obstacle", "--q=0.2 0.3 9"], "--q[2] (hip_displacement) = 9 is outside its bounds"),

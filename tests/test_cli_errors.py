@@ -422,6 +422,37 @@ def test_the_readme_documents_every_command_flag_and_exit_code():
         assert f"| {code} |" in readme, code
 
 
+def test_the_readmes_placeholders_are_the_help_texts():
+    """A flag's value in the README's Command line tables is written as its command's --help writes it (the README
+    had `--workers N`, `--hz 500`, `--scene NAME|--mjcf FILE` where --help said WORKERS, HZ, SCENE, ROBOT.xml):
+    the placeholder is the option's metavar, or its choices (`toppra|own`; `F ...` for a list of them)."""
+    import argparse
+    import re
+
+    from foam_mj.benchmark import build_parser as bench_parser
+
+    readme = (ROOT / "README.md").read_text()
+    tables = readme[readme.index("## Command line"):readme.index("Exit codes (every command)")]
+    parsers = {name: sub for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction) for name, sub in a.choices.items()}
+    parsers["bench"] = bench_parser()
+    value = r'(?:"[^"]*"|[^\s`\[\]()|\\]+(?:\\\|[^\s`\[\]()|\\]+)*)'
+    seen = 0
+    for line in tables.splitlines():
+        row = re.match(r"\| `(?:foam-mj )?(\w+)[ `]", line)
+        if not row or row.group(1) not in parsers:
+            continue
+        options = {s: a for a in parsers[row.group(1)]._actions for s in a.option_strings}
+        for flag, shown in re.findall(rf"(--[\w-]+)[ =]({value})", line.split(" | ")[0] if line.startswith("| `foam-mj") else line.split(" | ")[1]):
+            action = options[flag]
+            if action.choices:
+                ok = shown.split("\\|") == list(action.choices) or (shown == "F" and action.nargs == "+")
+            else:
+                ok = shown == (action.metavar or action.dest.upper())
+            assert ok, f"{row.group(1)} {flag}: README {shown!r}, --help {action.metavar or action.choices or action.dest.upper()!r}"
+            seen += 1
+    assert seen > 40, seen
+
+
 def test_the_product_cites_papers_not_the_project_process():
     import re
 
