@@ -145,7 +145,7 @@ def loads_table(outcome) -> str:
                 f"{L.positive_work[j]:>7.1f} J{L.negative_work[j]:>7.1f} J"
             )
     lines.append("peak/RMS: joint torque (N m) or force (N); per kg: peak per kilogram of body mass (N m/kg); use: peak / the "
-                 "torque limit (the actuator's force range, a motor's control range, unless [limits] sets one); work +/-: energy the joint supplies / absorbs.")
+                 "torque limit (the actuator's force range, a motor's control range times its gain, unless [limits] sets one); work +/-: energy the joint supplies / absorbs.")
     if any_kg:
         h = HUMAN_SWING
         lines.append(f"human reference, swing of normal walking ({h.source.split(',')[0]}): peak hip {h.hip:.2f} N m/kg, knee {h.knee:.2f} N m/kg")
