@@ -14,7 +14,7 @@ ab/adduction and ankle added, over the same box; K = 10, r_min = 0.05 for the fo
 ``--problems shelf6`` adds the example UR-like arm reaching into a shelf
 (``examples/industrial_arm/reach_shelf.toml``).
 
-Your own problem: ``--problems`` also takes a scenario, a TOML file as ``foam-mj plan --scenario`` reads
+Your own problem: ``--problems`` also takes a scenario, a TOML file as ``foam-mj plan --scene`` reads
 (its scene with the scenario's edits, ``joints``, ``robot_root``, ``self_collision``, ``keyframe``;
 ``q_init`` and ``q_goal``; format in :mod:`foam_mj.scenarios`) or a built-in scenario's name
 (``obstacle_thesis``, ``walker_corridor``, ...). Its row is named by the scenario's ``name``. K and r_min
@@ -407,7 +407,7 @@ def _fmt(v, scale=1.0, fmt="{:.0f}") -> str:
 def parse(argv: list[str] | None) -> tuple:
     """(args, planners, problems, seeds), every argument checked and every problem loaded before any run;
     UsageError (one line) otherwise."""
-    ap = Parser(description=__doc__.splitlines()[0])
+    ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=None, help=f"seeds per planner and problem (default 10, --quick 3; at most {MAX_SEEDS:,})")
     ap.add_argument("--planners", nargs="+", default=None, help=f"default: every registered planner ({', '.join(sorted(PLANNERS))})")
     ap.add_argument("--problems", nargs="+", default=None,

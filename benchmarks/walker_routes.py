@@ -94,7 +94,7 @@ def run_map(name: str, seeds: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> dict:
-    ap = parser(__doc__.splitlines()[0])
+    ap = parser(__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=count(), default=20, help="seeds per map (default 20)")
     ap.add_argument("--json", help="write the figures as JSON")
     args = ap.parse_args(argv)

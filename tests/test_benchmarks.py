@@ -153,3 +153,19 @@ def test_an_rrtstar_run_writes_strict_json():
     rec = planners.finish_ompl(runner.optimizing(0.3), pb.robot, planners.DenseChecker(pb.robot))
     assert rec["ok"], rec
     json.dumps(rec, allow_nan=False)
+
+
+def test_every_benchmarks_help_opens_with_whole_sentences():
+    """`--help` opens with the script's docstring: its first paragraph, not its first line (planners.py's read
+    '... f and clearance,' and walker_routes.py's '... and which', cut mid-sentence)."""
+    import ast
+    import re
+
+    scripts = [p for p in sorted(BENCHMARKS.glob("*.py")) if "__doc__" in p.read_text() and not p.name.startswith("_")]
+    assert len(scripts) >= 10
+    for script in scripts:
+        text = script.read_text()
+        (use,) = re.findall(r"[pP]arser\((?:description=)?__doc__(\.splitlines\(\)\[0\]|\.split\(\"\\n\\n\"\)\[0\])\)", text)
+        doc = ast.get_docstring(ast.parse(text), clean=False)
+        description = doc.splitlines()[0] if "splitlines" in use else doc.split("\n\n")[0]
+        assert description.rstrip().endswith((".", ")")), (script.name, description)
