@@ -425,7 +425,7 @@ def report(res: dict, figs: dict[str, str], fig_rel: str) -> str:
              "see [references.md](references.md).\n")
 
     # ---- Table 1
-    L.append("## Nascimento et al. (2020), Table 1: HS and GA smoothing, 50 runs\n")
+    L.append("## Nascimento et al. (2020), Table 1 (the paper: 50 runs): HS and GA smoothing\n")
     L.append(f"On the obstacle task's rosary (K = 10, r_min = 0.07, delta = 5 mm, PFM seed 0: {t1['rosary_bubbles']} bubbles), "
              f"{s['seeds']} runs of each method (seeds 0-{s['seeds'] - 1}) with Table 1's stop rule (no improvement of the "
              "population's mean f in 200 consecutive iterations; 2 x 10^4 cap).\n")

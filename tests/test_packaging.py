@@ -78,3 +78,20 @@ def test_the_sdist_holds_the_whole_source_and_the_license(tmp_path):
     expected = {p.relative_to(src).as_posix() for f in folders for p in (src / f).rglob("*") if p.is_file()}
     expected |= {"LICENSE", "README.md", "pyproject.toml", "setup.py", "MANIFEST.in"}
     assert sorted(expected - names) == []
+
+
+def test_the_readmes_layout_names_every_module_and_model():
+    """The README's Layout is where a reader looks for a module: every module of foam_mj/, foam_mj/planners/ and
+    foam_mj/smoothing/ and every MJCF of models/ is named there (the optimal smoother's scp.py and the smoothers'
+    base.py were not)."""
+    import re
+
+    readme = (ROOT / "README.md").read_text()
+    layout = readme[readme.index("## Layout"):]
+    named = set(re.findall(r"[a-z][a-z0-9_]*", layout))
+    modules = [p for folder in ("foam_mj", "foam_mj/planners", "foam_mj/smoothing") for p in sorted((ROOT / folder).glob("*.py"))
+               if p.stem != "__init__"]
+    missing = [str(p.relative_to(ROOT)) for p in modules if p.stem not in named]
+    missing += [f"models/{p.name}" for p in sorted((ROOT / "models").glob("*.xml"))
+                if p.stem not in named and not re.fullmatch(r"(obstacle|step_up|step_down)5?|walker_(corridor|two_routes)", p.stem)]
+    assert not missing, missing
