@@ -50,7 +50,7 @@ EXIT_CODES = {
     EXIT_OK: "success",
     EXIT_INTERNAL: "internal error (a bug; FOAM_MJ_DEBUG=1 shows the traceback)",
     EXIT_BAD_INPUT: "bad input (argument, scenario, model, result file or output location), or an output that could not be written",
-    EXIT_PLANNING_FAILED: "planning failed (the foam so far is still written)",
+    EXIT_PLANNING_FAILED: "planning failed (the foam so far is still written), or no timing of a path fits the joint limits",
     EXIT_UNSAFE: "verify/replay found contacts or clearance below the margin, or plan a planned trajectory below its margin",
     EXIT_INTERRUPTED: "interrupted",
 }

@@ -230,6 +230,18 @@ def test_each_commands_help_names_every_exit_code_it_can_return(command, codes, 
         assert re.search(rf"[:;,] {code} ", epilog), f"{command} --help: exit {code} not named in {epilog!r}"
 
 
+def test_the_top_level_help_gives_each_exit_code_the_readmes_meaning(capsys):
+    """`foam-mj --help` said exit 3 is 'planning failed' only; the README's table (and plan, replay and export's
+    help) say it is also 'no timing fits the joint limits'. And the traceback hint is said once, not twice."""
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    epilog = text[text.index("exit codes:"):]
+    three = epilog[epilog.index("; 3 "):epilog.index("; 4 ")]
+    assert "planning failed" in three and "no timing" in three, three
+    assert epilog.count("FOAM_MJ_DEBUG") == 1, epilog
+
+
 def _parsers():
     """(command, parser) for every command, bench's own parser included."""
     import argparse
