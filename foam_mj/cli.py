@@ -163,7 +163,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """foam-mj export RESULT.json [--path NAME] [--format csv|npz|parquet] --out FILE [--hz 500]."""
+    """foam-mj export RESULT.json [--path NAME] [--format csv|npz|parquet] --out FILE [--hz N]."""
     from foam_mj.atomic import check_distinct, check_output
     from foam_mj.export import check_hz, export_table, pick_path, require_pyarrow, resolve_format, write_table
     from foam_mj.progress import Progress
