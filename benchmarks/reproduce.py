@@ -9,7 +9,7 @@ Runs, for each published table or headline figure,
   HS under the f < 0.38 stop rule that cannot trigger;
 * Nascimento et al. 2019 (HS smoothing): f of the centre path before and after HS with NI = 2 x 10^4,
   under Eq. 3 as written and as its angle term alone;
-* Nascimento and Alsina (thesis summary): bubbles, time, TC and SV of both CloudWalker maps over
+* Nascimento and Alsina (2021, thesis summary): bubbles, time, TC and SV of both CloudWalker maps over
   ``--seeds`` PFM seeds; the four exoskeleton paths T, T_CA, T_RA, T_RCA (K = 6, r_min = 0.045) and
   the thesis's qualitative claims about them, checked seed by seed;
 * Elmi and Efe 2018 (MGOA, Table II): ER and SCM of MGOA and MOPSO on the two 1000 x 1000 maps
@@ -505,7 +505,7 @@ def report(res: dict, figs: dict[str, str], fig_rel: str) -> str:
              "Our implementation keeps Eq. 3/Eq. 5 as written (length included), as Nascimento et al. 2020's Table 1 does.\n")
 
     # ---- thesis: walker
-    L.append("## Nascimento and Alsina (thesis summary): CloudWalker maps\n")
+    L.append("## Nascimento and Alsina (2021, thesis summary): CloudWalker maps\n")
     rows = []
     for name, p in PAPER_WALKER.items():
         o = w[name]
@@ -522,7 +522,7 @@ def report(res: dict, figs: dict[str, str], fig_rel: str) -> str:
              "We cannot reproduce the maps more exactly than this without their dimensions.\n")
 
     # ---- thesis: exoskeleton
-    L.append("## Nascimento and Alsina (thesis summary): exoskeleton paths T, T_CA, T_RA, T_RCA\n")
+    L.append("## Nascimento and Alsina (2021, thesis summary): exoskeleton paths T, T_CA, T_RA, T_RCA\n")
     L.append(f"Obstacle task with the thesis's K = {e['K']}, r_min = {e['r_min']}, eta = 0.1 (Eq. 8) and 0.005 (Eq. 9), "
              f"{s['seeds']} PFM seeds. The thesis prints no numbers for these paths, only figures and claims; we check the claims seed by seed.\n")
     rows = [[k, spread(v["length"]), spread(v["tc"]), spread(v["sv"])] for k, v in e["metrics"].items()]
