@@ -134,3 +134,25 @@ def test_the_ortholeg5_command_line_scaling_is_the_small_subject_toml(tmp_path, 
     assert flags["time_law"] == toml["time_law"] == "own"
     a, b = flags["paths"]["centre"], toml["paths"]["centre"]
     assert a["times"] == b["times"] and a["dynamics"]["peak_torque"] == b["dynamics"]["peak_torque"]
+
+
+def test_the_readmes_contents_line_lists_its_sections_in_order():
+    """The Contents line names every `## ` section, in order and by the start of its heading; the items in
+    parentheses after "Using foam-mj" are its bold paragraph leads, and those after "Command line" its `### `
+    subsections and its tables (flags, exit codes) in order."""
+    readme = (ROOT / "README.md").read_text()
+    contents = " ".join(re.search(r"\nContents: (.*?)\n\n", readme, flags=re.S).group(1).split())
+    items = re.findall(r"(?:^|; )([^;(]+?)(?: \(([^)]*)\))?(?=;|\. The papers|$)", contents)
+    headings = re.findall(r"^## (.+)$", readme, flags=re.M)
+    assert [h.split(":")[0].split(" (")[0] for h in headings] == [title.strip() for title, _ in items], (headings, items)
+    subs = dict((title.strip(), [s.strip() for s in inside.split(",")]) for title, inside in items if inside)
+    leads = [m.rstrip(".").lower() for m in re.findall(r"^\*\*([^*]+)\*\*", _section(readme, "## Using foam-mj"), flags=re.M)]
+    assert [s.lower() for s in subs["Using foam-mj"]] == leads
+    # Command line's anchors: its ### headings and its labels ("Flags:", "Exit codes (every command):", "Paths in ...:").
+    anchors = [h.replace("`", "").lower() for h in re.findall(r"^(?:### (.+)|([A-Z][^|`\n]*:))$", _section(readme, "## Command line"),
+                                                             flags=re.M) for h in h if h]
+    at = 0
+    for sub in subs["Command line"]:
+        word = next(w for w in sub.replace("`", "").lower().split() if w != "the")
+        at = next((i for i in range(at, len(anchors)) if word in anchors[i].split() or word in anchors[i].replace(":", " ").split()), None)
+        assert at is not None, (sub, "is no heading or label of Command line after the item before it", anchors)
