@@ -7,7 +7,8 @@ Exit codes (:data:`EXIT_CODES`; the README lists them too):
 1    internal error (a bug: the one-line message says so; ``FOAM_MJ_DEBUG=1`` shows the traceback)
 2    bad input: a bad argument, scenario, model, result file, output location or sweep key/value, checked before any work
      where it can be; also an output that could not be written (nothing is left half-written)
-3    planning failed (the foam did not reach the goal; what was computed is still written)
+3    planning failed (the foam did not reach the goal; what was computed is still written), or no timing of a path fits
+     the joint limits (``plan``, ``replay``, ``export``)
 4    a check found contacts or clearance below the margin (``verify``, ``replay``), or ``plan``'s own replay found a
      planned trajectory below its margin (a certification fault: everything is still written, for a report)
 130  interrupted (Ctrl-C or SIGTERM); no output is left half-written
