@@ -29,8 +29,28 @@ class UsageError(FoamError):
     """A command-line argument argparse refused (main prints it as one line and returns 2)."""
 
 
+class HelpFormatter(argparse.HelpFormatter):
+    """argparse's help layout, but lines break at spaces only: argparse's wrapping also broke at hyphens, so
+    ``foam-mj-<scenario>.rrd`` read 'foam-' at the end of one line and 'mj-<scenario>.rrd' on the next."""
+
+    def _split_lines(self, text, width):
+        import textwrap
+
+        return textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False, break_long_words=False)
+
+    def _fill_text(self, text, width, indent):
+        import textwrap
+
+        return textwrap.fill(" ".join(text.split()), width, initial_indent=indent, subsequent_indent=indent,
+                             break_on_hyphens=False, break_long_words=False)
+
+
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (exit 2), like every other foam-mj error."""
+    """argparse with one-line errors (exit 2), like every other foam-mj error, and help lines broken at spaces only."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # noqa: D401 - argparse's hook
         raise UsageError(f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)")

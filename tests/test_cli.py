@@ -242,6 +242,20 @@ def test_the_top_level_help_gives_each_exit_code_the_readmes_meaning(capsys):
     assert epilog.count("FOAM_MJ_DEBUG") == 1, epilog
 
 
+def test_no_help_line_breaks_a_word_at_its_hyphen(capsys):
+    """argparse wrapped at hyphens: plan's --help read 'default: foam-' / 'mj-<scenario>.rrd', and replay's and verify's
+    '(no output half-' / 'written)'. Every help (bench's own included) breaks lines at spaces only."""
+    for command, parser in [("foam-mj", None), *_parsers()]:
+        text = (parser.format_help() if parser is not None else None)
+        if parser is None:
+            with pytest.raises(SystemExit):
+                main(["--help"])
+            text = capsys.readouterr().out
+        broken = [line for line in text.splitlines() if re.search(r"[A-Za-z]-$", line)]
+        assert not broken, (command, broken)
+    assert "foam-mj-<scenario>.rrd" in dict(_parsers())["plan"].format_help()
+
+
 def _parsers():
     """(command, parser) for every command, bench's own parser included."""
     import argparse
