@@ -346,7 +346,3 @@ def _natural_spline_derivatives(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarra
     d1 = 0.0 + c2[i] + c1[i] * z * 2.0 + c0[i] * (z * z) * 3.0
     d2 = 0.0 + c1[i] * 2.0 + c0[i] * z * 6.0
     return d1, d2
-
-
-#: A running mean over a window wider than this (samples) and than twice the array is taken in closed form
-#: (:func:`_mean_filter`); narrower ones keep scipy's running sum bit for bit.

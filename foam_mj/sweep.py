@@ -30,7 +30,7 @@ with outcome ``invalid``.
 A *task* is one (parameters, seed): one plan, smoothed by every requested smoother, replayed. It gives
 one *row* per path (``centre`` always, plus the smoothers' paths), identified by a deterministic key,
 the hash of (parameters, seed, path) (:func:`row_key`); the engines (foam_mj.sweep_run) skip rows whose
-key is already in the output. The row's columns (:func:`row_schema`) are plain: one per swept key (the
+key is already in the output. The row's columns (:meth:`Sweep.columns`) are plain: one per swept key (the
 dotted key is the column name; list values are stored as their JSON text), then ``seed``, ``smoother``
 (the path name), ``outcome`` and ``reason`` (why not reached; a path that no timing fits the limits is ``failed``
 while the task's other paths keep theirs), the

@@ -222,7 +222,7 @@ class ParetoResult:
     the member closest to the ideal point (:func:`knee_index`); ``extremes`` = (shortest, smoothest).
     ``history`` per iteration (index 0 = initial swarm): archive_size, archive_feasible, best_length, best_angle_term,
     mean_length, mean_angle_term, feasible_share, hypervolume, best_f (lowest f = length + angle term
-    in the archive), mean_f (swarm mean f). ``convex_length`` is filled in by :meth:`with_convex`.
+    in the archive), mean_f (swarm mean f). :meth:`summary` adds ``convex_length`` and the gaps to it when given one.
     """
 
     method: str
