@@ -865,3 +865,16 @@ def test_a_path_that_no_timing_fits_is_reported_alone_and_every_other_path_is_ke
     assert main(["replay", str(js), "--kinematic-only"]) == 3
     out, err = capsys.readouterr()
     assert "replayed 2 of 3 path(s)" in out and "path 'centre': no timing fits" in err
+
+
+def test_python_dash_m_foam_mj_is_the_command():
+    """`python -m foam_mj` said "No module named foam_mj.__main__"; it is now `foam-mj` itself: the same version line,
+    and the same one-line refusal with exit 2."""
+    import foam_mj
+
+    root = Path(foam_mj.__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    ok = subprocess.run([sys.executable, "-m", "foam_mj", "--version"], capture_output=True, text=True, env=env, cwd=root)
+    assert ok.returncode == 0 and ok.stdout.strip() == f"foam-mj {foam_mj.__version__}", ok
+    bad = subprocess.run([sys.executable, "-m", "foam_mj", "plan", "--nope"], capture_output=True, text=True, env=env, cwd=root)
+    assert bad.returncode == 2 and bad.stderr.strip().splitlines() == ["foam-mj plan: error: unrecognized arguments: --nope (see foam-mj plan --help)"], bad
