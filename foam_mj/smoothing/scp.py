@@ -95,7 +95,13 @@ iterations about half, building the solvers a sixth); the subproblems are made s
 - Clarabel runs without presolve (nothing to remove) and, for objectives without SV, without iterative
   refinement (a third of each solve; the same points to 1e-9 in F) until a subproblem fails
   (ill-conditioned, e.g. 5-joint corridors of 110 bubbles): then it is solved again with refinement,
-  which stays on for the run. Its constructor gets Python lists (``_lists``: 0.2 ms less per build than
+  which stays on for the run; with more than ``REFINE_ABOVE`` (3) coordinates it is on from the start. Without
+  it there, most runs' first subproblem failed (Clarabel's InsufficientProgress after 17-21 iterations) and
+  often the trust region's solve after it too, before the switch: on the bubbletree corridors of obstacle5,
+  arm6 and arm7 (seeds 0-9) 15-17 of 23-26 such solves failed, 26-41 ms of Clarabel's 61-88 ms per seed;
+  with refinement from the start all 20-21 solves succeed, the smoother's CPU medians 96 / 71 / 93 ->
+  59 / 38 / 59 ms and its objective's medians the same to 1e-6 (all certified); on the 3-joint leg no
+  subproblem failed (70 runs) and nothing changes there. Its constructor gets Python lists (``_lists``: 0.2 ms less per build than
   numpy arrays, which it reads element by element). A subproblem with the previous one's sparsity
   pattern updates that solver in place (``DefaultSolver.update``; rare, as the rows follow the region).
   The start (the shortest path, when no waypoints are given) is solved to 1e-8 with the segment and ball
@@ -178,6 +184,9 @@ POLISH_TOL = 1e-5  # curvature model: the certificate a run stops on where its m
 MODELLED = 0.25  # ... it holds after a curvature step inside the trust region with |rho - 1| <= this: kkt_tol suffices
 LONG = 4.0  # curvature model: a segment longer than this times the box's half-diagonal has its length in P
 NEAR = 0.1  # curvature steps solved first with only the balls within NEAR sqrt(n) |last step|_inf (+ 2 TIE) of the point
+#: Iterative refinement of the linear solves from the first subproblem on where the configuration has more than this many
+#: coordinates (below it, only once a subproblem fails: module docstring, Speed).
+REFINE_ABOVE = 3
 
 
 def _snap(p: np.ndarray, h: Hatches, inset: float, tie: float) -> np.ndarray:
@@ -263,7 +272,7 @@ def sequential_convex(
     F = _true_value(p, weights)
     trace = SCPTrace(values=[F])
     delta = delta0
-    refine = weights.sv > 0
+    refine = weights.sv > 0 or st.n > REFINE_ABOVE
     solver, relaxed = _Solver(refine), _Solver(refine)
     radii = np.stack([h.ra, h.rb], axis=1) - inset
     step_last = 0.1 * delta0  # (the first steps moved 2e-3 to 5e-3 on the 36 bubbletree corridors)

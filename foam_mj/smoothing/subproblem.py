@@ -424,7 +424,8 @@ def _settings(refine: bool = True, tol: float = SOLVER_TOL) -> clarabel.DefaultS
     linear solves, about a third of each solve's time: the f subproblems reach 1e-9 without it in the
     same number of interior-point iterations and the SCP the same points (to 1e-9 in F); the SV
     subproblems (near-duplicate vertices, ill-conditioned) keep it: without it they took up to three
-    times as many subproblems on the six built-in scenes."""
+    times as many subproblems on the six built-in scenes, and so do the f subproblems of more than 3 coordinates
+    (most of their first solves failed without it: foam_mj.smoothing.scp.REFINE_ABOVE)."""
     settings = clarabel.DefaultSettings()
     settings.verbose = False
     settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = tol
