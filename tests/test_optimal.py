@@ -216,6 +216,32 @@ def test_a_step_the_model_held_that_converged_superlinearly_ends_the_run_on_its_
     assert 0.0 <= F - F_polished <= 3e-7 * F_polished
 
 
+def test_every_subproblem_of_a_five_joint_corridor_is_solved(monkeypatch):
+    # bubbletree's obstacle5 corridor (seed 0), smoothed as foam-mj plan does: with more than 3 coordinates the linear
+    # solves are refined from the first subproblem on (scp.REFINE_ABOVE); unrefined, its first subproblem and the trust
+    # region's solve after it ended in InsufficientProgress and were solved again (half the smoother's time).
+    from foam_mj.smoothing import subproblem
+
+    sc = load_scenario("obstacle5")
+    oracle = sc.oracle()
+    try:
+        res = get_planner("bubbletree").plan(PlanningProblem(oracle, sc.q_init, sc.q_goal, delta=oracle.delta), seed=0)
+    finally:
+        oracle.close()
+    statuses = []
+    solve = subproblem._Solver.solve
+
+    def recorded(self, *args, **kwargs):
+        sol = solve(self, *args, **kwargs)
+        statuses.append(str(sol.status).rsplit(".", 1)[-1])
+        return sol
+
+    monkeypatch.setattr(subproblem._Solver, "solve", recorded)
+    r = OptimalSmoother().smooth(res.rosary, initial=smoother_start(res.rosary, res.waypoints))
+    assert r.info["certified"] and statuses
+    assert set(statuses) <= {"Solved", "AlmostSolved"}, statuses
+
+
 def test_several_initial_starts_from_hs_and_ga(scenario_rosaries, optimum):
     _, ros = scenario_rosaries["step_down"]
     hs, ga = HS.smooth(ros, seed=0), GA.smooth(ros, seed=0)
