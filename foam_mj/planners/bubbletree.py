@@ -218,6 +218,8 @@ STALL = 3_000
 FINER = 4.0
 FINER_LEVELS = 3
 FINER_STALL = 10
+#: An extension's kind: toward a sample, up the radius's gradient (ESCAPE), toward the other tree (as masks only when read).
+SAMPLED, ESCAPING, GOAL = 0, 1, 2
 #: Upper bounds of ``batch``/``connect`` and of ``explore`` (beyond them memory or time explode, nothing improves).
 MAX_EXTENSIONS = 1_000
 MAX_EXPLORE = 100.0
@@ -447,7 +449,7 @@ class BubbleTreePlanner(Planner):
             timer.report(B.n, lambda: "the trees met, exploring" if t_first is not None else f"trees {B.closest:.3g} apart, last closer at "
                          f"iteration {it_then:,} of {counters['iterations']:,}{f', r_min refined to {r_min:.3g}' if finer_at else ''}")
             counters["iterations"] += 1
-            parents, targets, target_r, escaping, sampled = [], [], [], [], []
+            parents, targets, target_r, blocks = [], [], [], []  # blocks: (size, kind) of each array of `parents`
             for t in (0, 1):
                 T = B.trees[t]
                 mine = T.idx[: T.n]
@@ -455,8 +457,7 @@ class BubbleTreePlanner(Planner):
                     top = int(mine[T.r[: T.n].argmax()])
                     parents.append(np.array([top]))
                     targets.append(escape_target(B.c[top], B.r[top])[None])
-                    escaping.append(np.ones(1, dtype=bool))
-                    sampled.append(np.zeros(1, dtype=bool))
+                    blocks.append((1, ESCAPING))
                     if corner_roots:
                         target_r.append(np.full(1, np.inf))
                 # Exploration: uniform samples (after the first path: only where a shorter path can pass).
@@ -487,32 +488,30 @@ class BubbleTreePlanner(Planner):
                 par = mine[(lifted(Y) @ T.pw[: T.n].T).argmin(axis=1)]
                 parents.append(par[: len(X)])
                 targets.append(X)
-                escaping.append(np.zeros(len(X), dtype=bool))
-                sampled.append(np.ones(len(X), dtype=bool))
+                blocks.append((len(X), SAMPLED))
                 if corner_roots:
                     target_r.append(np.full(len(X), np.inf))
                 if near is not None:
                     parents.append(near)
                     targets.append(toward)
-                    escaping.append(np.zeros(len(near), dtype=bool))
-                    sampled.append(np.zeros(len(near), dtype=bool))
+                    blocks.append((len(near), GOAL))
                     if corner_roots:
                         target_r.append(toward_r)
                 if pick is not None:
                     parents.append(par[len(X):])
                     targets.append(pick)
-                    escaping.append(np.zeros(len(pick), dtype=bool))
-                    sampled.append(np.zeros(len(pick), dtype=bool))
+                    blocks.append((len(pick), GOAL))
                     if corner_roots:
                         target_r.append(pick_r)
             P = np.concatenate(parents)  # the start tree's extensions first, then the goal tree's
             cP, rP = B.c[P], B.r[P]
             v = np.concatenate(targets) - cP
-            esc = np.concatenate(escaping)
+            escaping = any(k == ESCAPING for _, k in blocks)
+            kind = np.repeat(np.array([k for _, k in blocks], dtype=np.int8), [b for b, _ in blocks]) if escaping or finer_at else None
             dist = np.sqrt(np.einsum("ij,ij->i", v, v))
             ok = dist > rP * (1 + 1e-9)  # a target inside its parent adds nothing
             if not ok.all():
-                P, cP, rP, v, dist, esc = P[ok], cP[ok], rP[ok], v[ok], dist[ok], esc[ok]
+                P, cP, rP, v, dist, kind = P[ok], cP[ok], rP[ok], v[ok], dist[ok], None if kind is None else kind[ok]
             m = len(P)
             if m == 0:
                 continue
@@ -526,15 +525,15 @@ class BubbleTreePlanner(Planner):
             wall = oracle.to_bounds(flat).reshape(s.shape)
             reach = rP[:, None]
             # Past a stall (FINER), a bubble of at least the first r_min keeps no child below it toward a random sample.
-            r_row = np.where(np.concatenate(sampled)[ok] & (rP >= r_coarse), r_coarse, r_min) if finer_at else r_min
+            r_row = np.where((kind == SAMPLED) & (rP >= r_coarse), r_coarse, r_min) if finer_at else r_min
             floor = np.where(rP >= SMALLEST, np.minimum(r_row, GROW * rP), r_row)  # (GROW, SMALLEST)
             if corner_roots:  # children of a root on an edge or corner of the box (CORNER), and TOWARD_SMALL
                 root = P < 2
                 floor[root] = np.where(outside[P[root]], np.minimum(r_min, CORNER * rP[root]), floor[root])
                 tr = np.concatenate(target_r)[ok]  # toward a bubble of the other tree below r_min
                 floor = np.where(tr < r_min, np.minimum(floor, CORNER * np.maximum(tr, r_corner)), floor)
-            if esc.any():
-                floor = np.where(esc, np.minimum(r_min, ESCAPE * rP), floor)
+            if escaping:
+                floor = np.where(kind == ESCAPING, np.minimum(r_min, ESCAPE * rP), floor)
             floor = floor[:, None]
             ask = np.flatnonzero((wall >= floor) & (s <= reach + (1 - HATCH) * wall))
             flat = flat.take(ask, axis=0)

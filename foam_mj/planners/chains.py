@@ -136,7 +136,10 @@ def thin_line_chain(pts: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndar
     d = np.abs(s[:, None] - s[None, :])
     ok = d <= r[:, None] + r[None, :] - DEEP * np.minimum(r[:, None], r[None, :])
     # Consecutive bubbles overlap deeply by construction (certify_chords bisects until they do).
-    far = (m - 1 - np.argmax(ok[:, ::-1], axis=1)).tolist()  # the last bubble each one overlaps deeply
+    far = m - 1 - np.argmax(ok[:, ::-1], axis=1)  # the last bubble each one overlaps deeply
+    if (far[:-1] <= np.arange(1, m)).all():
+        return pts, r  # none overlaps a later one than the next deeply: all kept (most chords: 97 % of their bubbles)
+    far = far.tolist()
     keep = [0]
     while keep[-1] < m - 1:
         keep.append(max(far[keep[-1]], keep[-1] + 1))
