@@ -489,6 +489,15 @@ def _meet_at_a_joint(robot: RobotModel, a: int, b: int) -> bool:
     return int(m.body_weldid[fixed]) == 0 and fixed == int(m.body_parentid[m.body_weldid[m.geom_bodyid[a]]])
 
 
+def _fixed_root(robot: RobotModel, g: int) -> str:
+    """The name of the world's child whose subtree holds geom g's body (a robot's base, fixed to the world)."""
+    m = robot.model
+    b = int(m.geom_bodyid[g])
+    while int(m.body_parentid[b]) != 0:
+        b = int(m.body_parentid[b])
+    return m.body(b).name or f"body {b}"
+
+
 def _held(robot: RobotModel, g: int) -> bool:
     """Is geom g on a body that a joint moves, none of them a configuration joint (a floating base, a stance leg)?"""
     from foam_mj.geom_pairs import body_is_moving
@@ -542,9 +551,13 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
                             f"body2=\"{bodies[1]}\"/> to the MJCF, or leave self-collision out (--no-self-collision; "
                             "self_collision = false in a scenario)")
                 elif _meet_at_a_joint(robot, int(a), int(b)):
+                    root = _fixed_root(robot, int(b))
                     hint += (f"; {robot.geom_name(int(a))} is on a link jointed to the fixed body of {robot.geom_name(int(b))}: they "
-                            "are checked like any robot/obstacle pair (<contact><exclude> does not apply), so shorten one so they "
-                            "keep delta apart, or give the fixed one contype=\"0\" conaffinity=\"0\"")
+                            "are checked like any robot/obstacle pair (<contact><exclude> does not apply); if that body is the "
+                            f"robot's base, name its root (--robot-root {root}; robot_root = \"{root}\" in a scenario) and the "
+                            "pair follows MuJoCo's contact filters as self-collision (a checker counting every static geom as an "
+                            "obstacle still reads it), else shorten one so they keep delta apart, or give the fixed one "
+                            "contype=\"0\" conaffinity=\"0\"")
                 elif _held(robot, int(b)):
                     hint += (f"; {robot.geom_name(int(b))} is on a body that a joint outside the configuration moves, held at its pose "
                             "as an obstacle whatever contype/conaffinity say: if it is part of the robot (a floating base, the other "

@@ -183,8 +183,13 @@ def test_a_first_link_overlapping_its_fixed_base_is_refused_with_the_way_out(tmp
     p = tmp_path / "base.toml"
     p.write_text('name = "base"\nscene = "base.xml"\nq_init = [-0.5]\nq_goal = [1.5]\n')
     with pytest.raises(ScenarioError, match=r"q_init.*in collision: clearance -0\.0300 m between l1 and base .*; l1 is on a link "
-                                            r"jointed to the fixed body of base: .*<contact><exclude> does not apply.*contype=\"0\""):
+                                            r"jointed to the fixed body of base: .*<contact><exclude> does not apply\); if that body "
+                                            r"is the robot's base, name its root \(--robot-root base; robot_root = \"base\" in a "
+                                            r"scenario\).*contype=\"0\""):
         load_scenario(p)
+    # The way out it names (MuJoCo Menagerie's iiwa 14, xArm7 and Shadow hand all meet this at their first joint):
+    p.write_text('name = "base"\nscene = "base.xml"\nq_init = [-0.5]\nq_goal = [1.5]\nrobot_root = "base"\n')
+    assert load_scenario(p).name == "base"
 
 
 def test_pair_messages_name_the_body_of_an_unnamed_geom_and_the_way_out_of_a_held_base(tmp_path):
