@@ -97,6 +97,7 @@ def place_mocap_bodies(spec: mujoco.MjSpec, m: mujoco.MjModel, key: int, path: P
 
 #: The cutoff of the fixed pairs' distances (metres): above any margin a plan could ask for.
 FIXED_DISTMAX = 1e6
+FIXED_TOLERANCE = 1e-9  # metres (per metre of delta above 1 m): a fixed pair's rounding noise as its joints turn
 
 #: The compiled model's arrays that set the clearances (its kinematics and geometry, as in
 #: :mod:`foam_mj.fingerprint`): an edit of one of them after the RobotModel was built is refused.
@@ -426,13 +427,23 @@ class RobotModel:
         (``fixed_pairs``), yet every path would break the margin there, and ``foam-mj verify`` and MuJoCo-only
         checkers count it."""
         for a, b, dist in self.fixed_obstacle_distances:
-            if dist <= delta:
+            # Turned about its axis, a pair reads rounding noise: one at delta itself (Sawyer's base, 5 mm above the
+            # floor) read below delta on half of verify's samples, so it is refused too.
+            if dist <= delta + FIXED_TOLERANCE * max(1.0, abs(delta)):
+                where = "at" if dist > delta - FIXED_TOLERANCE * max(1.0, abs(delta)) else "within"
                 raise ConfigurationError(
                     f"robot geom {self.geom_label(a)} and obstacle {self.geom_label(b)} are {clearance_text(dist, delta)} "
-                    f"apart, within the safety margin delta {delta} m, and no configuration joint changes that distance, "
+                    f"apart, {where} the safety margin delta {delta} m, and no configuration joint changes that distance, "
                     "so every path would break the margin (move one of them, give the geom contype=\"0\" conaffinity=\"0\" "
-                    "if it never meets the obstacle, or make a joint between them a configuration joint)"
+                    "if it never meets the obstacle, make a joint between them a configuration joint"
+                    + (", or plan with a smaller delta)" if dist > 0 else ")")
                 )
+
+    @property
+    def fixed_obstacle_clearance(self) -> float:
+        """The smallest distance of the robot/obstacle pairs no configuration joint changes (inf without one): part of
+        every pose's clearance, which the replays' :class:`~foam_mj.clearance.Clearance` leaves out with the pairs."""
+        return min((dist for _, _, dist in self.fixed_obstacle_distances), default=float("inf"))
 
     @cached_property
     def contact_reach(self) -> tuple[tuple[int, int, float], ...]:

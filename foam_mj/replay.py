@@ -251,7 +251,7 @@ def replay_kinematic(robot: RobotModel, trajectory: Trajectory, clearance: Clear
     own = clearance is None
     clr = Clearance(robot) if own else clearance
     try:
-        dist = clr.batch(robot.config.to_q(trajectory.qpos))
+        dist = np.minimum(clr.batch(robot.config.to_q(trajectory.qpos)), robot.fixed_obstacle_clearance)
     finally:
         if own:
             clr.close()
@@ -407,7 +407,7 @@ def replay_dynamic(
     own = clearance is None
     clr = Clearance(robot) if own else clearance
     try:
-        dist = clr.batch(cfg.to_q(qpos))
+        dist = np.minimum(clr.batch(cfg.to_q(qpos)), robot.fixed_obstacle_clearance)  # and the pairs no joint moves
     finally:
         if own:
             clr.close()

@@ -217,3 +217,27 @@ def test_robot_flags_reach_the_plan_and_its_result(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "no_such_body" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "bad.json").exists()
+
+
+def test_a_base_exactly_delta_above_the_floor_is_refused_and_its_distance_is_the_plans_min_clearance(tmp_path, capsys):
+    """MuJoCo Menagerie's Sawyer: its base capsule, turned by a vertical axis, ends 0.2025 - 0.1275 - 0.07 = 5 mm above
+    the floor, the default delta. That pair's distance, measured once (no configuration joint changes it), read 4e-18 m
+    above delta and passed; turned along the path it read 1e-18 m below on hundreds of verify's samples (UNSAFE), while
+    plan's summary said min clear 41 mm, leaving the pair out. Now such a pair is refused at delta (a smaller delta
+    plans), and the summary's min clear, as verify's, counts it."""
+    xml = tmp_path / "sawyer_like.xml"
+    xml.write_text(
+        '<mujoco><compiler angle="radian"/><worldbody><geom name="floor" type="plane" size="2 2 .1"/><geom name="post" type="box" size=".05 .05 .3" pos=".5 .3 .3"/>'
+        '<body name="l0"><joint name="j0" axis="0 0 1" range="-3 3"/><geom name="base" type="capsule" size=".07 .1275" pos="0 0 .2025"/>'
+        '<body name="l1" pos="0 0 .4"><joint name="j1" axis="0 1 0" range="-1 1"/>'
+        '<geom name="arm" type="capsule" fromto="0 0 0 .6 0 0" size=".03"/></body></body></worldbody></mujoco>')
+    args = ["plan", "--mjcf", str(xml), "--start", "-1 0", "--goal", "1.5 0", "--smoother", "none", "--no-rrd", "--no-replay"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "robot geom base and obstacle floor are 0.005000000000 m apart, at the safety margin delta 0.005 m" in err
+    assert "or plan with a smaller delta" in err and len(err.strip().splitlines()) == 1
+    out = tmp_path / "out.json"
+    assert main([*args[:-1], "--delta", "0.004", "--json", str(out)]) == 0
+    summary = capsys.readouterr().out
+    assert "     5.0 mm " in summary.split("centre (T)")[1].splitlines()[0]  # the base's 5 mm, not the arm's clearance
+    assert main(["verify", str(out)]) == 0
