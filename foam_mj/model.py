@@ -423,12 +423,10 @@ class RobotModel:
 
     def check_fixed_pairs(self, delta: float) -> None:
         """:class:`ConfigurationError` for a robot/obstacle pair closer than ``delta`` whose distance no configuration
-        joint changes (a base on the floor turned by a vertical axis): it is left out of the planner's pairs
-        (``fixed_pairs``), yet every path would break the margin there, and ``foam-mj verify`` and MuJoCo-only
-        checkers count it."""
+        joint changes (a base on the floor turned by a vertical axis, a held stance foot under ``robot_root``): left out
+        of the planner's pairs (``fixed_pairs``), yet ``foam-mj verify`` and MuJoCo-only checkers count it."""
         for a, b, dist in self.fixed_obstacle_distances:
-            # Turned about its axis, a pair reads rounding noise: one at delta itself (Sawyer's base, 5 mm above the
-            # floor) read below delta on half of verify's samples, so it is refused too.
+            # Turned about its axis, a pair at delta itself (Sawyer's base) read rounding noise below it in verify.
             if dist <= delta + FIXED_TOLERANCE * max(1.0, abs(delta)):
                 where = "at" if dist > delta - FIXED_TOLERANCE * max(1.0, abs(delta)) else "within"
                 raise ConfigurationError(
@@ -436,8 +434,10 @@ class RobotModel:
                     f"apart, {where} the safety margin delta {delta} m, and no configuration joint changes that distance, "
                     "so every path would break the margin (move one of them, give the geom contype=\"0\" conaffinity=\"0\" "
                     "if it never meets the obstacle, make a joint between them a configuration joint"
-                    + (", or plan with a smaller delta)" if dist > 0 else ")")
-                )
+                    + (", or plan with a smaller delta)" if dist > 0 else ")") + ("" if self.moves[a].any() else
+                    f"; {self.geom_name(a)} is held where qpos0 or the keyframe puts it (a floating base's stance foot): lift it "
+                    "clear with a keyframe (keyframe = \"NAME\" in a scenario, or --start NAME), or leave robot_root out: "
+                    "held bodies outside the robot stay where they stand as obstacles, with a note"))
 
     @property
     def fixed_obstacle_clearance(self) -> float:

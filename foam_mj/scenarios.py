@@ -539,11 +539,12 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
                 continue
             d = clearance(q)
             if d <= scenario.params.delta:
-                state = "in collision" if d < 0 else "too close to an obstacle"
                 i = int(np.argmin(clearance.pair_distances(q)))
                 a, b = robot.pairs[i]
+                own = bool(np.asarray(robot.self_pair)[i])  # a robot/robot pair: no obstacle in it
+                state = "in collision" if d < 0 else "too close to itself" if own else "too close to an obstacle"
                 hint = robot.hull_hint(int(a), int(b))
-                if bool(np.asarray(robot.self_pair)[i]):
+                if own:
                     import mujoco
 
                     bodies = [mujoco.mj_id2name(robot.model, mujoco.mjtObj.mjOBJ_BODY, int(robot.model.geom_bodyid[g])) or f"body {int(robot.model.geom_bodyid[g])}" for g in (a, b)]

@@ -241,3 +241,40 @@ def test_a_base_exactly_delta_above_the_floor_is_refused_and_its_distance_is_the
     summary = capsys.readouterr().out
     assert "     5.0 mm " in summary.split("centre (T)")[1].splitlines()[0]  # the base's 5 mm, not the arm's clearance
     assert main(["verify", str(out)]) == 0
+
+
+def test_a_held_stance_foot_on_the_floor_under_robot_root_is_refused_with_the_keyframe_way_out(tmp_path, capsys):
+    """MuJoCo Menagerie's Cassie planned over one hip with --robot-root on its floating pelvis: the other foot, held
+    where qpos0 puts it (4.8 mm into the floor), was refused with 'make a joint between them a configuration joint',
+    no help for a stance foot. The message now says the foot is held and names the way out, a keyframe that lifts it,
+    and that way plans."""
+    xml = tmp_path / "biped.xml"
+    xml.write_text(
+        '<mujoco><compiler angle="radian"/><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+        '<body name="pelvis" pos="0 0 .5"><freejoint/><geom type="box" size=".1 .15 .05"/>'
+        '<body name="swing" pos="0 .1 -.05"><joint name="hip" axis="0 1 0" range="-1 1"/>'
+        '<geom type="capsule" fromto="0 0 -.02 0 0 -.3" size=".03"/></body>'
+        '<body name="stance" pos="0 -.1 -.05"><joint name="other" axis="0 1 0" range="-1 1"/>'
+        '<geom name="stance_foot" type="capsule" fromto="0 0 -.1 0 0 -.45" size=".03"/></body></body></worldbody>'
+        '<keyframe><key name="lifted" qpos="0 0 .55 1 0 0 0 0 0"/></keyframe></mujoco>')
+    args = ["plan", "--mjcf", str(xml), "--joints", "hip", "--robot-root", "pelvis", "--goal", "0.8",
+            "--smoother", "none", "--no-rrd", "--no-replay"]
+    assert main([*args, "--start", "-0.5"]) == 2  # the foot 30 mm into the floor at qpos0
+    err = capsys.readouterr().err
+    assert "robot geom stance_foot and obstacle floor are -0.0300 m apart" in err
+    assert "; stance_foot is held where qpos0 or the keyframe puts it (a floating base's stance foot): lift it clear " \
+           "with a keyframe (keyframe = \"NAME\" in a scenario, or --start NAME), or leave robot_root out: held bodies " \
+           "outside the robot stay where they stand as obstacles, with a note" in err
+    assert main([*args, "--start", "lifted"]) == 0  # 20 mm above the floor
+
+
+def test_an_end_point_too_close_to_the_robot_itself_does_not_say_obstacle(tmp_path, capsys):
+    """MuJoCo Menagerie's Shadow hand, its index finger bent 2.05 mm from the palm at delta 2 mm... or here a forearm
+    link 3 mm from the upper arm: the start was 'too close to an obstacle' though the pair is the robot's own; it is
+    now 'too close to itself', with the <exclude> way out."""
+    xml = tmp_path / "arm.xml"
+    xml.write_text(OVERLAPPING_LINKS.replace("{contact}", "").replace('<body name="fore" pos="0.05 0 0">', '<body name="fore" pos="0.068 0 0">'))
+    assert main(["plan", "--mjcf", str(xml), "--start", "-0.5 0 0", "--goal", "0.5 0 0.3", "--smoother", "none", "--no-replay", "--no-rrd"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--start = [-0.5, 0.0, 0.0] is too close to itself: clearance 0.0030 m between " in err
+    assert 'robot/robot pair' in err and '<contact><exclude body1="upper" body2="fore"/>' in err

@@ -381,7 +381,7 @@ def test_random_boxes_and_seeds_every_returned_path_is_collision_free(name, dx, 
     try:
         s = _variant(dx, sx, sz)
     except ScenarioError as exc:
-        assert re.search(r"field 'q_(init|goal)' = .* (is in collision|is too close to an obstacle): clearance -?\d", str(exc)), exc
+        assert re.search(r"field 'q_(init|goal)' = .* (is in collision|is too close to an obstacle|is too close to itself): clearance -?\d", str(exc)), exc
         return
     oracle = s.oracle()
     default = name == "bubbletree"
