@@ -290,7 +290,8 @@ def plan_scenario(args: argparse.Namespace):
     except ScenarioError as exc:
         if source is not None:
             raise
-        message = str(exc).removeprefix(f"{doc['name']}: ")  # named after the flags, not a scenario file's fields
+        # named after the flags, not a scenario file's fields (nor "scenario", the name of a TOML-less one's fields)
+        message = str(exc).removeprefix(f"{doc['name']}: ").removeprefix("scenario: ")
         for field_text, flag_text in MJCF_FIELD_FLAGS:
             message = message.replace(field_text, flag_text)
         raise ScenarioError(message) from None

@@ -305,3 +305,15 @@ def test_an_end_point_too_close_to_the_robot_itself_does_not_say_obstacle(tmp_pa
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--start = [-0.5, 0.0, 0.0] is too close to itself: clearance 0.0030 m between " in err
     assert 'robot/robot pair' in err and '<contact><exclude body1="upper" body2="fore"/>' in err
+
+
+def test_an_end_point_keyframe_of_a_robot_without_joints_to_plan_is_refused_under_the_flag(tmp_path, capsys):
+    """MuJoCo Menagerie's Skydio X2 (a free joint only) with --start hover --goal hover: the error read
+    'scenario: --mjcf: ...', 'scenario' being no file or flag of the user's; it now starts with the flag."""
+    xml = tmp_path / "drone.xml"
+    xml.write_text('<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/><body name="x2" pos="0 0 .3"><freejoint/>'
+                   '<geom type="box" size=".1 .1 .02"/></body></worldbody><keyframe><key name="hover" qpos="0 0 .5 1 0 0 0"/>'
+                   '</keyframe></mujoco>')
+    assert main(["plan", "--mjcf", str(xml), "--start", "hover", "--goal", "hover", "--no-rrd"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"foam-mj: error: --mjcf: {xml}: the model has no limited hinge or slide joint to plan over (give joints a range)"
