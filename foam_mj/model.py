@@ -330,10 +330,9 @@ class RobotModel:
             self_pair.append(both)
         if not pairs:
             what = "any obstacle geom" + (" or with itself" if self_collision else "")
-            raise ModelError(
-                f"{p}: no robot geom can collide with {what} (no obstacles, or contype/conaffinity and "
-                "<contact><exclude> filter every pair, or no configuration joint moves the geoms of a pair)"
-            )
+            raise ModelError(f"{p}: no robot geom can collide with {what} (no obstacles, or contype/conaffinity and "
+                             "<contact><exclude> filter every pair, or no configuration joint moves the geoms of a pair); to "
+                             "time a free motion, add a small obstacle beyond the robot's reach (a sphere the links turn about)")
         order = sorted(range(len(pairs)), key=lambda i: pairs[i])
         pairs, self_pair = [pairs[i] for i in order], [self_pair[i] for i in order]
         active = np.array([pair_coordinates(m, config, moves, a, b) for a, b in pairs], dtype=bool).reshape(-1, config.dim)

@@ -317,3 +317,20 @@ def test_an_end_point_keyframe_of_a_robot_without_joints_to_plan_is_refused_unde
     assert main(["plan", "--mjcf", str(xml), "--start", "hover", "--goal", "hover", "--no-rrd"]) == 2
     err = capsys.readouterr().err.strip()
     assert err == f"foam-mj: error: --mjcf: {xml}: the model has no limited hinge or slide joint to plan over (give joints a range)"
+
+
+def test_a_robot_with_nothing_to_collide_with_is_told_how_to_time_a_free_motion(tmp_path, capsys):
+    """A two-link arm in an empty world (no obstacle; its links meet only at their joint) has no geom pair to certify
+    against, so plan refuses it; the message said why but not what to do to time and replay a free motion (a floor
+    plane does not help: no joint of a horizontal arm changes its distance). It now names the way out, which plans."""
+    arm = ('<mujoco><compiler angle="radian"/><worldbody>{far}<body name="l1"><joint name="a" axis="0 0 1" range="-3 3"/>'
+           '<geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/><body name="l2" pos=".3 0 0"><joint name="b" axis="0 0 1" '
+           'range="-2.5 2.5"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/></body></body></worldbody></mujoco>')
+    args = ["--start", "0 0.3", "--goal", "2 -1", "--smoother", "none", "--no-rrd", "--no-replay"]
+    (tmp_path / "empty.xml").write_text(arm.replace("{far}", ""))
+    assert main(["plan", "--mjcf", str(tmp_path / "empty.xml"), *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "no robot geom can collide with any obstacle geom or with itself" in err
+    assert err.endswith("to time a free motion, add a small obstacle beyond the robot's reach (a sphere the links turn about)")
+    (tmp_path / "far.xml").write_text(arm.replace("{far}", '<geom name="far" type="sphere" pos="3 0 0" size=".1"/>'))
+    assert main(["plan", "--mjcf", str(tmp_path / "far.xml"), *args]) == 0
