@@ -210,13 +210,16 @@ def default_recording(name: str, *, mjcf: Path | None = None) -> str:
 CAPPING_MIN_ROSARY = 20
 CAPPING_SHARE = 0.5
 CAPPING_SPREAD = 0.25
+#: ... or how close it stays all along, in margins (Shadow hand: forearm and palm 2.6-5.5 mm apart at delta 2 mm).
+CAPPING_NEAR = 3.0
 
 
 def capping_pair_note(robot, rosary, delta: float) -> str:
-    """A note naming the pair that sizes most of the rosary's bubbles while its distance hardly changes along it: a
-    pair that stays close wherever the joints go (MuJoCo Menagerie's H1 hip-yaw cylinder, 11.7 mm from the hip-pitch
-    link's mesh at every hip angle) caps every bubble at about (d - delta) / ||rho||, so the planner grows thousands of
-    small bubbles (H1's leg: 2,903 bubbles in 4.1 s; 346 in 0.3 s with that pair excluded). "" when no pair does."""
+    """A note naming the pair that sizes most of the rosary's bubbles while its distance hardly changes along it (or stays
+    within a few margins): a pair that stays close wherever the joints go (MuJoCo Menagerie's H1 hip-yaw cylinder, 11.7 mm
+    from the hip-pitch link's mesh at every hip angle) caps every bubble at about (d - delta) / ||rho||, so the planner
+    grows thousands of small bubbles (H1's leg: 2,903 bubbles in 4.1 s; 346 in 0.3 s with that pair excluded). "" when
+    no pair does."""
     import numpy as np
 
     from foam_mj.bubbles import BubbleOracle
@@ -237,7 +240,8 @@ def capping_pair_note(robot, rosary, delta: float) -> str:
     p = int(np.bincount(limiting[sized]).argmax())
     count = int(np.count_nonzero(sized & (limiting == p)))
     d = dist[:, p]
-    if count < CAPPING_SHARE * len(centres) or np.ptp(d) > CAPPING_SPREAD * abs(float(np.median(d))):
+    steady = np.ptp(d) <= CAPPING_SPREAD * abs(float(np.median(d))) or d.max() <= CAPPING_NEAR * delta
+    if count < CAPPING_SHARE * len(centres) or not steady:
         return ""
     a, b = (int(g) for g in robot.pairs[p])
     m = robot.model
@@ -245,9 +249,8 @@ def capping_pair_note(robot, rosary, delta: float) -> str:
     way = (f"if those links cannot meet on the robot, <contact><exclude body1=\"{bodies[0]}\" body2=\"{bodies[1]}\"/> "
            "leaves the pair out" if bool(robot.self_pair[p]) else "leave them a few centimetres more room")
     return (f"note: {count} of the rosary's {len(centres)} bubbles are sized by {robot.geom_label(a)} / {robot.geom_label(b)}, "
-            f"{d.min() * 1000:.1f}-{d.max() * 1000:.1f} mm apart all along the path: a pair that stays that close wherever "
-            f"the joints go caps every bubble (radius about {float(np.median(terms[:, p])):.3g}), so the planner needs many "
-            f"small ones; {way}")
+            f"{d.min() * 1000:.1f}-{d.max() * 1000:.1f} mm apart all along the path: a pair that stays so close caps every "
+            f"bubble (radius about {float(np.median(terms[:, p])):.3g}), so the planner needs many small ones; {way}")
 
 
 def plan_scenario(args: argparse.Namespace):

@@ -4,6 +4,7 @@ added to a model without actuators (foam_mj.servos.servo_model), and bad robots 
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import mujoco
@@ -288,11 +289,17 @@ def test_a_pair_that_caps_every_bubble_is_named_with_the_exclude_that_frees_the_
         bubbles[name] = int(out.split("): ")[1].split(" bubbles")[0].replace(",", ""))
         notes = [line for line in out.splitlines() if "bubbles are sized by" in line]
         if name == "close":
-            assert len(notes) == 1 and " bubbles are sized by collar / ball, 12.0-12.0 mm apart all along the path" in notes[0]
+            assert len(notes) == 1 and " bubbles are sized by collar / ball, 12.0-12.0 mm apart all along the path: a pair that stays so close caps every bubble" in notes[0]
             assert notes[0].endswith('<contact><exclude body1="yaw_link" body2="thigh"/> leaves the pair out')
         else:
             assert not notes
     assert bubbles["excluded"] * 4 < bubbles["close"]  # 101 against 1,025 (seed 0)
+    # A pair whose distance varies (the ball 6 mm off the axes: 12.4-18.0 mm) but stays within 3 margins all along
+    # (MuJoCo Menagerie's Shadow hand: forearm and palm 2.6-5.5 mm apart at delta 2 mm) is named too.
+    (tmp_path / "varying.xml").write_text(xml.replace("{extra}", "").replace('size=".058"/>', 'size=".058" pos="0 0 -.006"/>'))
+    assert main(["plan", "--mjcf", str(tmp_path / "varying.xml"), "--delta", "0.007", *args[:2], "--start", "-0.5 -0.5 -1.5",
+                 "--goal", "0.5 0.5 1.5", *args[6:]]) == 0
+    assert re.search(r"note: \d+ of the rosary's \d+ bubbles are sized by collar / ball, 12\.\d-18\.0 mm apart", capsys.readouterr().out)
 
 
 def test_an_end_point_too_close_to_the_robot_itself_does_not_say_obstacle(tmp_path, capsys):
