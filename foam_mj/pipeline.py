@@ -101,6 +101,7 @@ class Outcome:
     timings: dict[str, float] = field(default_factory=dict)
     limits: Limits = field(default_factory=Limits)  # the time law's limits (foam_mj.timing)
     time_law: str = DEFAULT_TIME_LAW
+    rosary_distances: np.ndarray | None = None  # (k, P) d_p at the rosary's centres (plan's capping-pair note)
 
 
 Report = Callable[[str], None]
@@ -259,6 +260,7 @@ def run(
     t2 = time.perf_counter()
     clearance = replay_clearance(robot, scenario.params.delta)
     try:
+        outcome.rosary_distances = clearance.batch_pairs(np.asarray(result.rosary.centers, dtype=float))
         for name, res in smoothed.items():
             po = PathOutcome(name, res, metrics(res.path))
             outcome.paths[name] = po

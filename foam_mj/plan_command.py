@@ -214,27 +214,27 @@ CAPPING_SPREAD = 0.25
 CAPPING_NEAR = 3.0
 
 
-def capping_pair_note(robot, rosary, delta: float) -> str:
+def capping_pair_note(robot, rosary, delta: float, dist) -> str:
     """A note naming the pair that sizes most of the rosary's bubbles while its distance hardly changes along it (or stays
     within a few margins): a pair that stays close wherever the joints go (MuJoCo Menagerie's H1 hip-yaw cylinder, 11.7 mm
     from the hip-pitch link's mesh at every hip angle) caps every bubble at about (d - delta) / ||rho||, so the planner
-    grows thousands of small bubbles (H1's leg: 2,903 bubbles in 4.1 s; 346 in 0.3 s with that pair excluded). "" when
-    no pair does."""
+    grows thousands of small bubbles (H1's leg: 2,903 bubbles in 4.1 s; 346 in 0.3 s with that pair excluded). ``dist``
+    (k, P): each pair's distance at the rosary's centres (the pipeline's ``Outcome.rosary_distances``, measured with
+    the replays' clearance; a new one would compile the sensor model again: 1.7 s on H1). "" when no pair does."""
     import numpy as np
 
-    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.bubbles import pair_rho
 
     centres = np.asarray(rosary.centers, dtype=float)
-    if len(centres) < CAPPING_MIN_ROSARY:
+    if dist is None or len(centres) < CAPPING_MIN_ROSARY:
         return ""
-    oracle = BubbleOracle(robot, delta)
-    try:
-        dist = oracle.clearance.batch_pairs(centres)
-    finally:
-        oracle.close()
-    terms = oracle.pair_radii(dist)
+    dist = np.asarray(dist, dtype=float)
+    bound = robot.displacement_bound
+    factor = np.sqrt(np.sum(bound.group_weights(pair_rho(robot, bound)) ** 2, axis=-1))  # ||rho_p||, as BubbleOracle
+    terms = (dist - delta) / np.maximum(factor, 1e-12)
     limiting = np.argmin(terms, axis=1)
-    sized = terms[np.arange(len(centres)), limiting] <= oracle.to_bounds(centres)  # a pair, not a joint bound, sets r
+    to_bounds = np.minimum(centres - robot.lower, robot.upper - centres).min(axis=1)
+    sized = terms[np.arange(len(centres)), limiting] <= to_bounds  # a pair, not a joint bound, sets the radius
     if not sized.any():
         return ""
     p = int(np.bincount(limiting[sized]).argmax())
@@ -389,7 +389,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
     for note in (held_by_equality_note(scenario.robot), no_obstacle_note(scenario.robot),
                  held_pose_note(scenario.robot, scenario.params.delta),
                  static_robot_note(scenario.robot, (scenario.q_init, scenario.q_goal), scenario.params.delta),
-                 capping_pair_note(scenario.robot, outcome.plan.rosary, scenario.params.delta)):
+                 capping_pair_note(scenario.robot, outcome.plan.rosary, scenario.params.delta, outcome.rosary_distances)):
         if note:
             print(note)
     print_replay_notes(outcome)
