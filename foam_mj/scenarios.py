@@ -514,6 +514,11 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
             robot = build_robot(scenario.scene, scenario.edits, **scenario.robot_options)
         except FoamError as exc:
             raise ScenarioError(f"{where}: field 'scene': {exc}") from None
+    for field_name in ("q_init", "q_goal"):  # shape, finiteness and bounds first: 1e308 overflowed the comparison below
+        try:
+            robot.validate(getattr(scenario, field_name), field_name)
+        except ConfigurationError as exc:
+            raise ScenarioError(f"{where}: field '{field_name}': {exc}") from None
     if coincide(scenario.q_init, scenario.q_goal):
         raise ScenarioError(f"{where}: fields 'q_goal' and 'q_init' are equal{apart_text(scenario.q_init, scenario.q_goal)} "
                             f"({np.asarray(scenario.q_init).tolist()}): nothing to plan")
@@ -530,13 +535,9 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
     clearance = Clearance(robot, distmax=distance_cap(robot, scenario.params.delta))
     try:
         for field_name in ("q_init", "q_goal"):
-            q = getattr(scenario, field_name)
-            try:
-                robot.validate(q, field_name)
-            except ConfigurationError as exc:
-                raise ScenarioError(f"{where}: field '{field_name}': {exc}") from None
             if not check_clearance:
                 continue
+            q = np.asarray(getattr(scenario, field_name), dtype=float)
             d = clearance(q)
             if d <= scenario.params.delta:
                 i = int(np.argmin(clearance.pair_distances(q)))

@@ -106,6 +106,19 @@ def test_a_misspelt_field_is_named_with_the_one_it_looks_like(tmp_path, edit, me
     assert message in str(err.value)
 
 
+@pytest.mark.parametrize("q_init, q_goal", [("[1e308, 0.3, 0.08]", "[-1e308, 0.4536, 1.45]"), ("[1e308, 0.3, 0.08]", "[0.45, 0.4536, 1.45]")])
+def test_an_end_point_far_outside_the_bounds_is_named_with_no_warning_before_the_error(tmp_path, q_init, q_goal):
+    """q_init = [1e308, ...] printed "foam-mj: warning: overflow encountered in dot" (the start/goal distance, taken
+    before the bounds were checked) above the error: two lines on stderr for one bad field."""
+    import warnings
+
+    p = _write(tmp_path, GOOD.replace("[0.2, 0.3, 0.08]", q_init).replace("[0.45, 0.4536, 1.45]", q_goal))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ScenarioError, match=r"field 'q_init': q_init\[0\] \(hip_flexion\) = 1e\+308 is outside its bounds"):
+            load_scenario(p)
+
+
 def test_a_scene_or_scenario_name_too_long_for_the_file_system_is_bad_input(tmp_path):
     """Python 3.11's Path.is_file raised OSError (File name too long): an internal error, exit 1."""
     long = "y" * 300
