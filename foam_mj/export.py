@@ -95,7 +95,7 @@ def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float
     import mujoco
 
     from foam_mj.dynamics import inverse_dynamics, joint_units
-    from foam_mj.results import outcome_robot
+    from foam_mj.results import check_ends, outcome_robot
     from foam_mj.rosary import Rosary
     from foam_mj.limits import Limits
     from foam_mj.timing import METHODS, time_path
@@ -117,6 +117,7 @@ def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float
         raise FoamError(f"{source}: malformed result: {type(exc).__name__}: {exc}") from None
     if path.ndim != 2 or path.shape[1] != robot.dim or len(path) != rosary.k + 1:
         raise FoamError(f"{source}: path '{path_name}' has waypoints of shape {path.shape}, expected ({rosary.k + 1}, {robot.dim})")
+    check_ends(source, path_name, path, q_init, q_goal, "export")
     if not rosary.all_in_hatches(path[1:-1], tol=1e-9):
         raise FoamError(f"{source}: path '{path_name}' has waypoints outside its rosary's hatches: refusing to export it")
     if report:

@@ -301,6 +301,20 @@ def read_result(path: str | Path) -> dict:
     return doc
 
 
+#: How far (per coordinate, rad or m) a saved path's first and last waypoints may lie from the result's q_init and q_goal.
+END_TOL = 1e-9
+
+
+def check_ends(source, name: str, path: np.ndarray, q_init: np.ndarray, q_goal: np.ndarray, verb: str) -> None:
+    """Raise FoamError unless the saved ``path`` starts at ``q_init`` and ends at ``q_goal`` (a moved goal was an internal
+    error, exit 1: "`path[30]` (the goal) is not in the rosary's last bubble")."""
+    for end, row, q in (("starts", path[0], q_init), ("ends", path[-1], q_goal)):
+        if not np.all(np.abs(row - q) <= END_TOL):
+            field = "q_init" if end == "starts" else "q_goal"
+            raise FoamError(f"{source}: path '{name}' {end} at {row.tolist()}, not at the result's {field} {q.tolist()}: "
+                            f"refusing to {verb} it")
+
+
 def _finite_array(value: Any, source: Path, where: str, ndim: int, width: int | None = None) -> np.ndarray:
     """``value`` as a float array of ``ndim`` (1: one configuration, 2: rows of them, at least 2) of finite
     numbers, ``width`` numbers per configuration; FoamError naming ``where`` otherwise."""
@@ -419,6 +433,7 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, rep
             path = np.asarray(entry["waypoints"], float)
             if path.ndim != 2 or path.shape[1] != robot.dim or len(path) != rosary.k + 1:
                 raise FoamError(f"{source}: path '{name}' has waypoints of shape {path.shape}, expected ({rosary.k + 1}, {robot.dim})")
+            check_ends(source, name, path, q_init, q_goal, "replay")
             if not rosary.all_in_hatches(path[1:-1], tol=1e-9):
                 raise FoamError(f"{source}: path '{name}' has waypoints outside its rosary's hatches: refusing to replay it")
             conv = entry.get("convergence") or {}

@@ -47,6 +47,8 @@ from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 #: thousand; a million keeps the (sample, pair) bounds within a few hundred MB.
 MAX_SAMPLES = 1_000_000
 
+#: How far (per coordinate, rad or m) a path's first and last waypoints may lie from the result's q_init and q_goal.
+END_TOL = 1e-9
 #: The largest --step (rad or m, in q and in qpos): a coarser one would sample little more than the waypoints
 #: (--step 1e308 checked only the vertices and said "clean"), and 0.1 rad already moves a 1 m link 10 cm.
 MAX_STEP = 0.1
@@ -364,6 +366,16 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     if len(pairs) == 0:
         raise _fail(source, f"the scene {mjcf} has no pair of moving and static collision geoms")
     checker = _Checker(m, pairs)
+    ends = {}  # the end points each path must join, when the result has them (plan's always does)
+    for key in ("q_init", "q_goal"):
+        if key not in doc:
+            continue
+        try:
+            ends[key] = np.asarray(doc[key], dtype=float)
+            if ends[key].shape != (len(idx),):
+                raise ValueError
+        except (KeyError, TypeError, ValueError):
+            raise _fail(source, f"field '{key}' must be a list of {len(idx)} numbers, got {doc[key]!r}") from None
     names = lambda g: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"geom{int(g)}"  # noqa: E731
     checks = []
     for name, entry in paths.items():
@@ -378,6 +390,11 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         wp, rows = arrays
         if wp.ndim != 2 or wp.shape[1] != len(idx) or len(wp) < 2 or not np.all(np.isfinite(wp)):
             raise _fail(source, f"path '{name}': waypoints of shape {wp.shape}, expected (N >= 2, {len(idx)}) finite numbers")
+        for end, row, key in (("starts", wp[0], "q_init"), ("ends", wp[-1], "q_goal")):
+            # a path moved off its end points is not the plan of this result, however clear of obstacles (it passed as clean)
+            q = ends.get(key)
+            if q is not None and not np.all(np.abs(row - q) <= END_TOL):
+                raise _fail(source, f"path '{name}' {end} at {row.tolist()}, not at the result's {key} {q.tolist()}")
         wp_qpos = np.broadcast_to(qpos0, (len(wp), m.nq)).copy()
         wp_qpos[:, idx] = offset + scale * wp
         samples_wp = _densify(wp, wp_qpos, step, f"{source}: path '{name}': waypoints")

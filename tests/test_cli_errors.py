@@ -551,6 +551,27 @@ def test_replay_export_and_figures_refuse_a_malformed_result_before_any_output(p
     assert sorted(p.name for p in tmp_path.iterdir()) == ["edited.json"]
 
 
+@pytest.mark.parametrize(("end", "row", "words"), [
+    (-1, [0.45, 1.0, 1.45], "path 'optimal' ends at [0.45, 1.0, 1.45], not at the result's q_goal [0.45, 0.4536, 1.45]"),
+    (0, [0.2, 0.31, 0.08], "path 'optimal' starts at [0.2, 0.31, 0.08], not at the result's q_init [0.2, 0.3, 0.08]"),
+])
+def test_a_saved_path_moved_off_its_start_or_goal_is_refused_by_replay_export_and_verify(planned_result, tmp_path, end, row, words, capsys):
+    """A last waypoint moved off q_goal was an internal error in replay and export (exit 1: "`path[30]` (the goal) is not
+    in the rosary's last bubble") and passed verify as clean (exit 0): a path that does not join the result's start and
+    goal is not its plan. Each now names the path, the end and both configurations: one line, exit 2, nothing written."""
+    bad = _edited(planned_result, planned_result.parent, lambda d: d["paths"]["optimal"]["waypoints"].__setitem__(end, row))
+    try:  # beside the result: its mjcf_relative still resolves
+        for argv in (["replay", str(bad), "--kinematic-only", "--rrd", str(tmp_path / "r.rrd")],
+                     ["export", str(bad), "--out", str(tmp_path / "t.csv")],
+                     ["verify", str(bad), "--step", "0.05"]):
+            assert main(argv) == 2, argv
+            err = capsys.readouterr().err.strip()
+            assert len(err.splitlines()) == 1 and words in err, (argv, err)
+        assert list(tmp_path.iterdir()) == []
+    finally:
+        bad.unlink()
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
