@@ -663,6 +663,40 @@ def test_a_signal_after_the_command_has_returned_is_no_traceback_and_no_kill(whe
     assert run.stderr == ""
 
 
+#: A signal while the command line's module loads: foam_mj.cli's own imports are held back (a slow import, as under
+#: load) and the process signals itself then.
+SIGNAL_WHILE_LOADING = """
+import builtins, os, signal, sys
+SIG = getattr(signal, sys.argv[1])
+real_import = builtins.__import__
+def slow_import(name, *args, **kw):
+    if name == "argparse":  # foam_mj.cli's first import, before its handlers exist
+        os.kill(os.getpid(), SIG)
+    return real_import(name, *args, **kw)
+builtins.__import__ = slow_import
+sys.argv[1:] = ["scenes"]
+import runpy
+runpy.run_module("foam_mj", run_name="__main__")
+"""
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_signal_while_the_command_loads_is_exit_130_and_one_line(sig):
+    """Ctrl-C in the first tenth of a second of `foam-mj` or `python -m foam_mj` (while foam_mj.cli and argparse load,
+    before main installs its handlers) printed a KeyboardInterrupt traceback and exited 1; `python -m foam_mj` did not
+    exist. The entry module now handles both signals from its first lines: one line, exit 130."""
+    run = subprocess.run([sys.executable, "-c", SIGNAL_WHILE_LOADING, sig], capture_output=True, text=True, timeout=60,
+                         env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert (run.returncode, run.stderr, run.stdout) == (130, "foam-mj: interrupted\n", "")
+
+
+def test_python_m_foam_mj_is_the_command_and_the_script_enters_through_it():
+    run = subprocess.run([sys.executable, "-m", "foam_mj", "--version"], capture_output=True, text=True, timeout=60,
+                         env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert run.returncode == 0 and run.stdout.startswith("foam-mj "), run.stderr
+    assert 'foam-mj = "foam_mj.__main__:main"' in (ROOT / "pyproject.toml").read_text()
+
+
 def test_ctrl_c_inside_an_import_is_exit_130_not_an_internal_error(monkeypatch, capsys):
     """Ctrl-C while MuJoCo's C extension initialises surfaces as "ImportError: initialization failed" caused by the
     KeyboardInterrupt: it was reported as an internal error (exit 1; test_recorder's Ctrl-C test failed so under load)."""
