@@ -38,7 +38,7 @@ from pathlib import Path
 from foam_mj import __version__
 from foam_mj.arguments import CONFIGURATION_METAVAR, Parser, UsageError, port_number, seed_number
 from foam_mj.errors import FoamError, PlanningFailed
-from foam_mj.interrupts import EXIT_INTERRUPTED, RETURNED, SIGNALLED, caused_by_interrupt, exit_now, install, interrupt
+from foam_mj.interrupts import EXIT_INTERRUPTED, RETURNED, SIGNALLED, caused_by_interrupt, exit_now, forget_handled_interrupt, install, interrupt
 
 #: ``foam-mj plan``'s smoother when none is named; equal to foam_mj.pipeline.DEFAULT_SMOOTHER (a test checks),
 #: repeated here because the command line imports the pipeline (and MuJoCo) only when it runs.
@@ -549,6 +549,8 @@ def main(argv: list[str] | None = None) -> int:
         argv = ["bench", "--", *argv[1:]] if len(argv) > 1 else argv
     ran: list[str] = []
     code = _main(argv, ran)
+    if command and code == EXIT_INTERRUPTED:
+        forget_handled_interrupt()  # else CPython may end the process by SIGINT after its exit handlers
     if command and ran and ran[0] in FAST_EXIT_COMMANDS:
         exit_now(code)
     return code

@@ -68,3 +68,12 @@ def caused_by_interrupt(exc: BaseException) -> bool:
         seen.add(id(cause))
         cause = cause.__cause__ or cause.__context__
     return False
+
+
+def forget_handled_interrupt() -> None:
+    """Clear CPython's note of an unhandled KeyboardInterrupt once the command has handled it. CPython notes one whenever
+    a KeyboardInterrupt leaves code run by ``exec`` of a string (dataclasses and namedtuples build their methods so
+    while a module loads), caught later or not, and at the end of a ``python -m`` process kills itself with SIGINT: a
+    Ctrl-C or SIGTERM in those moments printed "foam-mj: interrupted" and then ended by SIGINT (status -2 to a parent,
+    not 130). A string run by ``exec`` that completes clears the note."""
+    exec("pass", {})
