@@ -271,7 +271,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             flush_seconds=args.flush_seconds, progress=False if args.quiet else None, interval=args.progress_interval, limit=args.limit,
         )
     except KeyboardInterrupt:
-        print(f"foam-mj: interrupted; the completed plans are in {where} (run the same command again to continue)", file=sys.stderr)
+        if any(where.glob("*.parquet")):
+            print(f"foam-mj: interrupted; the completed plans are in {where} (run the same command again to continue)", file=sys.stderr)
+        else:  # it said the completed plans were in a folder that did not exist
+            print(f"foam-mj: interrupted before any plan was written to {where} (run the same command again to start)", file=sys.stderr)
         return 130
     except WorkersDied as exc:
         print(f"foam-mj: {exc}", file=sys.stderr)

@@ -916,3 +916,17 @@ def test_a_study_whose_every_cell_is_invalid_still_draws_its_success_figure_all_
     store.close()
     _, written = write_report(out)
     assert sorted(p.name for p in written if p.suffix == ".png") == ["success-centre.png"]
+
+
+def test_an_interrupt_before_any_row_is_written_does_not_point_at_rows_that_are_not_there(tmp_path, capsys, monkeypatch):
+    """Ctrl-C in a sweep's first seconds said "the completed plans are in OUT/rows", a folder that did not exist."""
+    import foam_mj.sweep_run as sweep_run
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep_run, "run_sweep", interrupted)
+    out = tmp_path / "out"
+    assert main(["sweep", str(write(tmp_path, STUDY)), "--out", str(out), "--quiet"]) == 130
+    err = capsys.readouterr().err.strip()
+    assert err == f"foam-mj: interrupted before any plan was written to {out / 'rows'} (run the same command again to start)"
