@@ -94,7 +94,7 @@ def cmd_bubble(args: argparse.Namespace) -> int:
 
     from foam_mj.atomic import check_output
     from foam_mj.bubble_report import bubble_report, format_report
-    from foam_mj.plan_command import check_delta as _check_delta, mjcf_file as _mjcf_file, parse_q as _parse_q
+    from foam_mj.plan_command import check_delta as _check_delta, mjcf_file as _mjcf_file, mjcf_name, parse_q as _parse_q
     from foam_mj.plan_command import robot_overrides as _robot_overrides
     from foam_mj.scenarios import read_scenario_doc, scenario_from_dict
 
@@ -105,7 +105,7 @@ def cmd_bubble(args: argparse.Namespace) -> int:
     _check_delta(args.delta)
     if args.mjcf is not None:
         mjcf = _mjcf_file(args.mjcf)
-        doc: dict = {"name": mjcf.stem, "scene": str(mjcf.resolve())}
+        doc: dict = {"name": mjcf_name(mjcf), "scene": str(mjcf.resolve())}  # the stem as such: 'ärm ü' was refused
         base, source = Path.cwd(), None
     else:
         doc, source = read_scenario_doc(args.scene)

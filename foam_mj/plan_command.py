@@ -253,6 +253,12 @@ def capping_pair_note(robot, rosary, delta: float, dist) -> str:
             f"bubble (radius about {float(np.median(terms[:, p])):.3g}), so the planner needs many small ones; {way}")
 
 
+def mjcf_name(mjcf: Path) -> str:
+    """The scenario name of an --mjcf run: the file's stem, every character outside letters, digits, '_', '-' and '.'
+    made '_' (it names output files and recording entities; "ärm ü.xml" is "_rm__")."""
+    return re.sub(r"[^A-Za-z0-9_.\-]", "_", mjcf.stem)
+
+
 def plan_scenario(args: argparse.Namespace):
     """The scenario of ``plan``: --scene, or --mjcf with --start/--goal; --joints, --delta, --time-limit,
     --subject-height/--subject-mass, --robot-root and --no-self-collision override the scenario's fields."""
@@ -270,7 +276,7 @@ def plan_scenario(args: argparse.Namespace):
         if args.start is None or args.goal is None:
             raise FoamError("--mjcf needs --start and --goal (one number per configuration joint each)")
         mjcf = mjcf_file(args.mjcf)
-        doc: dict = {"name": re.sub(r"[^A-Za-z0-9_.\-]", "_", mjcf.stem), "scene": str(mjcf.resolve()), "q_init": parse_q(args.start, "--start", keyframe=True),
+        doc: dict = {"name": mjcf_name(mjcf), "scene": str(mjcf.resolve()), "q_init": parse_q(args.start, "--start", keyframe=True),
                      "q_goal": parse_q(args.goal, "--goal", keyframe=True)}
         base, source = Path.cwd(), None
     else:

@@ -90,3 +90,16 @@ def test_the_readme_shows_what_bubble_prints(capsys):
     block = re.search(r"```\n(clearance: .*?)```", readme, flags=re.S).group(1)
     assert main(["bubble", "--scene", "obstacle", "--q=0.2 0.3 0.08"]) == 0
     assert capsys.readouterr().out == block
+
+
+def test_an_mjcf_whose_file_name_has_spaces_or_accents_is_reported_as_plan_plans_it(tmp_path, capsys):
+    """`bubble --mjcf "ärm ü.xml"` was refused with "scenario: field 'name' must be letters, digits, ..." (a field the user
+    never wrote: the file's stem), while `plan --mjcf` of the same file planned; both now name the run "_rm__"."""
+    from conftest import TWO_LINK_ARM
+
+    arm = tmp_path / "ärm ü.xml"
+    arm.write_text(TWO_LINK_ARM.read_text())
+    out = tmp_path / "b.json"
+    assert main(["bubble", "--mjcf", str(arm), "--q", "0.3 2", "--json", str(out)]) == 0
+    assert capsys.readouterr().out.startswith("clearance: ")
+    assert json.loads(out.read_text())["clearance"] > 0
