@@ -27,6 +27,11 @@ def load_spec(path: str | Path) -> mujoco.MjSpec:
     problem = file_problem_text(p, "MJCF file")
     if problem:
         raise ModelError(problem)
+    try:  # MuJoCo calls a file it may not read "empty file"
+        with open(p, "rb"):
+            pass
+    except OSError as exc:
+        raise ModelError(f"MJCF file {p}: cannot read: {exc.strerror or exc}") from None
     install_if_routed()
     try:
         with kept_unless_failed():

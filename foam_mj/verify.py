@@ -124,7 +124,11 @@ def _scene(doc: dict, source: Path) -> tuple[Path, mujoco.MjModel]:
     chosen = None
     for key, path in existing:
         try:
+            with open(path, "rb"):  # MuJoCo calls a file it may not read "empty file"
+                pass
             m = mujoco.MjModel.from_xml_path(str(path))
+        except OSError as exc:
+            raise _fail(source, f"field '{key}': cannot read {path}: {exc.strerror or exc}") from None
         except ValueError as exc:
             raise _fail(source, f"field '{key}': could not load {path}: {' '.join(str(exc).split())}") from None
         if isinstance(stored, dict):

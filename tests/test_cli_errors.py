@@ -7,8 +7,10 @@ from __future__ import annotations
 import errno
 import json
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 import uuid
 from pathlib import Path
 
@@ -833,3 +835,31 @@ def test_a_file_that_is_no_mjcf_is_one_line(tmp_path, capsys):
     assert main(["plan", "--mjcf", str(notes), "--start", "0", "--goal", "1", "--no-rrd"]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "could not load MJCF file" in err, err
+
+
+@pytest.mark.skipif(os.geteuid() == 0 and shutil.which("setpriv") is None, reason="root reads any file: needs setpriv to run as nobody")
+def test_an_mjcf_the_user_may_not_read_is_named_unreadable_not_empty():
+    """An MJCF without read permission was "could not load MJCF file x.xml: ParseXML: empty file" (MuJoCo's words) in
+    plan and bubble, and "could not load" in verify. Each now says it cannot be read, and why."""
+    from conftest import TWO_LINK_ARM
+
+    folder = Path(tempfile.mkdtemp(prefix="foam-unreadable-"))  # not under pytest's tmp_path, which only root may enter
+    try:
+        folder.chmod(0o755)
+        arm = folder / "arm.xml"
+        arm.write_text(TWO_LINK_ARM.read_text())
+        arm.chmod(0)
+        result = folder / "r.json"
+        result.write_text(json.dumps({"format": "foam-mj/result", "version": 1, "mjcf": str(arm), "planner": {"delta": 0.005}, "paths": {}}))
+        result.chmod(0o644)
+        as_user = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups"] if os.geteuid() == 0 else []
+        for argv, message in (
+            (["bubble", "--mjcf", str(arm), "--q", "0.3 2"], f"MJCF file {arm}: cannot read: Permission denied"),
+            (["plan", "--mjcf", str(arm), "--start", "0.3 2", "--goal", "0.1 0.6", "--no-rrd"], f"--mjcf: MJCF file {arm}: cannot read: Permission denied"),
+            (["verify", str(result)], f"field 'mjcf': cannot read {arm}: Permission denied"),
+        ):
+            run = subprocess.run([*as_user, sys.executable, "-m", "foam_mj.cli", *argv], capture_output=True, text=True, timeout=120,
+                                 cwd=folder, env={**os.environ, "PYTHONPATH": str(ROOT), "HOME": str(folder)})
+            assert run.returncode == 2 and len(run.stderr.splitlines()) == 1 and message in run.stderr, (argv, run.stderr)
+    finally:
+        shutil.rmtree(folder)
