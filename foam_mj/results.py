@@ -273,6 +273,8 @@ def read_result(path: str | Path) -> dict:
         raise FoamError(f"result file not found: {p}") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise FoamError(f"{p}: not a readable JSON result{foreign_file_hint(p)}: {exc}") from None
+    except RecursionError:  # arrays nested thousands deep: an internal error (exit 1)
+        raise FoamError(f"{p}: not a readable JSON result: nested too deeply to read") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise FoamError(f"{p}: not a foam-mj result (field 'format' should be '{FORMAT}')")
     if doc.get("version") != VERSION:

@@ -342,6 +342,8 @@ def read_scenario_doc(name_or_path: str | Path) -> tuple[dict, Path]:
         return tomllib.loads(path.read_text(encoding="utf-8-sig")), path  # TOML is UTF-8; a byte-order mark is let through
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: malformed TOML: {exc}") from None
+    except RecursionError:  # arrays nested thousands deep: an internal error (exit 1)
+        raise ScenarioError(f"{path}: malformed TOML: nested too deeply to read") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{path}: cannot read: {exc}") from None
 

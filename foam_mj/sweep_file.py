@@ -41,6 +41,8 @@ def load_sweep(path: str | Path) -> Sweep:
         raw = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # TOML is UTF-8; a byte-order mark is let through
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"{path}: malformed TOML: {exc}") from None
+    except RecursionError:  # arrays nested thousands deep: an internal error (exit 1)
+        raise SweepError(f"{path}: malformed TOML: nested too deeply to read") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise SweepError(f"{path}: cannot read: {exc}") from None
     where = str(path)

@@ -91,6 +91,8 @@ def read_manifest(out: Path) -> dict | None:
         return None
     try:
         doc = json.loads(p.read_text())
+    except RecursionError:
+        raise SweepError(f"{p}: unreadable sweep manifest: nested too deeply to read") from None
     except (OSError, ValueError) as exc:
         raise SweepError(f"{p}: unreadable sweep manifest: {exc}") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:

@@ -104,6 +104,8 @@ def _load(source: Path) -> dict:
         raise FoamError(f"result file not found: {source}") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise _fail(source, f"not a readable JSON result{foreign_file_hint(source)}: {' '.join(str(exc).split())}") from None
+    except RecursionError:  # arrays nested thousands deep: an internal error (exit 1)
+        raise _fail(source, "not a readable JSON result: nested too deeply to read") from None
     if not isinstance(doc, dict) or doc.get("format") != "foam-mj/result":
         raise _fail(source, "not a foam-mj result (field 'format' should be 'foam-mj/result')")
     if doc.get("version") != 1:

@@ -863,3 +863,27 @@ def test_an_mjcf_the_user_may_not_read_is_named_unreadable_not_empty():
             assert run.returncode == 2 and len(run.stderr.splitlines()) == 1 and message in run.stderr, (argv, run.stderr)
     finally:
         shutil.rmtree(folder)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["replay", "{json}"], "{json}: not a readable JSON result: nested too deeply to read"),
+    (["verify", "{json}"], "{json}: not a readable JSON result: nested too deeply to read"),
+    (["export", "{json}", "--out", "{dir}/t.csv"], "{json}: not a readable JSON result: nested too deeply to read"),
+    (["figures", "{json}", "{dir}/figs"], "{json}: not a readable JSON result: nested too deeply to read"),
+    (["plan", "--scene", "{toml}", "--no-rrd"], "{toml}: malformed TOML: nested too deeply to read"),
+    (["bubble", "--scene", "{toml}", "--q", "0 0 0"], "{toml}: malformed TOML: nested too deeply to read"),
+    (["sweep", "{toml}", "--out", "{dir}/out"], "{toml}: malformed TOML: nested too deeply to read"),
+    (["report", "{dir}"], "{dir}/sweep.json: unreadable sweep manifest: nested too deeply to read"),
+])
+def test_a_file_nested_too_deeply_to_parse_is_bad_input_not_an_internal_error(argv, message, tmp_path, capsys):
+    """Arrays nested 100,000 deep in a result, scenario, sweep file or sweep manifest were an internal error (exit 1:
+    RecursionError from Python's JSON or TOML parser) in every command that reads one."""
+    deep = "[" * 100_000 + "]" * 100_000
+    (tmp_path / "r.json").write_text(deep)
+    (tmp_path / "sweep.json").write_text(deep)
+    (tmp_path / "s.toml").write_text("a = " + deep)
+    names = {"json": str(tmp_path / "r.json"), "toml": str(tmp_path / "s.toml"), "dir": str(tmp_path)}
+    assert main([a.format(**names) for a in argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "foam-mj: error: " + message.format(**names)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json", "s.toml", "sweep.json"]
