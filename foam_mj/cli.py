@@ -368,7 +368,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(time-optimal) or own (smooth minimum-jerk, stretched to fit); default: the scenario's [limits] time_law, else toppra",
     )
     p.add_argument("--figures", metavar="DIR", help="also draw the paper-style figures into DIR (needs foam-mj[figures])")
-    p.add_argument("--figure-format", nargs="+", default=["png"], choices=FIGURE_FORMATS, help="figure file formats, one or more of png, svg, pdf (default: png)")
+    p.add_argument("--figure-format", nargs="+", default=None, choices=FIGURE_FORMATS, help="with --figures: figure file formats, one or more of png, svg, pdf (default: png)")
     p.set_defaults(func=cmd_plan)
     p = sub.add_parser(
         "bubble",

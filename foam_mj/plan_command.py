@@ -338,6 +338,8 @@ def _plan(args: argparse.Namespace, recorder) -> int:
     json_out = check_output(args.json, "--json", suffix=".json")
     rrd = check_output(args.rrd, "--rrd", suffix=".rrd")
     figures_dir = check_figures_dir(args.figures)
+    if args.figure_format is not None and figures_dir is None:  # it was taken and no figure drawn, without a word
+        raise FoamError("--figure-format goes with --figures DIR (the folder to draw the figures in)")
     names = parse_smoothers(args.smoother)
     if args.planner is not None:
         from foam_mj.planners import planner_class
@@ -414,7 +416,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
         from foam_mj.results import outcome_dict
 
         progress("drawing figures")
-        written = write_figures(outcome_dict(outcome), figures_dir, formats=tuple(args.figure_format))
+        written = write_figures(outcome_dict(outcome), figures_dir, formats=tuple(args.figure_format or ["png"]))
         progress.done()
         print(f"wrote {len(written)} figures to {figures_dir}")
     print(f"total {time.perf_counter() - t0:.2f} s")

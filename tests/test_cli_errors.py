@@ -580,6 +580,7 @@ def test_a_saved_path_moved_off_its_start_or_goal_is_refused_by_replay_export_an
         (["--delta", "nan"], "--delta must be a margin >= 0 in metres, got nan"),
         (["--delta", "1e309"], "--delta must be a margin >= 0 in metres, got inf"),
         (["--subject-height", "50"], "--subject-height must be in [1.2, 2.2] m, got 50.0"),
+        (["--figure-format", "svg"], "--figure-format goes with --figures DIR"),  # was taken and ignored, no figure drawn
         (["--subject-mass", "nan"], "--subject-mass must be in [25, 200] kg, got nan"),
         (["--robot-root", ""], "--robot-root must name a body of the model, got an empty name"),
         (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3", "--goal", "0.45 0.4536 1.45"], "--start: q_init must be 3 numbers, one per configuration joint (hip_flexion, knee_flexion, hip_displacement), got 2"),
