@@ -39,6 +39,7 @@ from foam_mj import __version__
 from foam_mj.arguments import CONFIGURATION_METAVAR, Parser, UsageError, port_number, seed_number
 from foam_mj.errors import FoamError, PlanningFailed
 from foam_mj.interrupts import EXIT_INTERRUPTED, RETURNED, SIGNALLED, caused_by_interrupt, exit_now, forget_handled_interrupt, install, interrupt
+from foam_mj.streams import OutputWithoutReader, reopen_closed_streams
 
 #: ``foam-mj plan``'s smoother when none is named; equal to foam_mj.pipeline.DEFAULT_SMOOTHER (a test checks),
 #: repeated here because the command line imports the pipeline (and MuJoCo) only when it runs.
@@ -490,47 +491,11 @@ FAST_EXIT_COMMANDS = ("plan",)
 BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")
 
 
-class _OutputWithoutReader:
-    """The command's stdout: once its reader has gone (piped into `head`, `grep -m1`), what is left to print is
-    dropped and the command goes on to write its files and return its own exit code. (A closed pipe ended the
-    command at its next print with exit 0: `plan --json` wrote no result and said nothing.)"""
-
-    def __init__(self, stream) -> None:
-        self._stream = stream
-        self._gone = False
-
-    def write(self, text: str) -> int:
-        if not self._gone:
-            try:
-                return self._stream.write(text)
-            except BrokenPipeError:
-                self._drop()
-        return len(text)
-
-    def flush(self) -> None:
-        if not self._gone:
-            try:
-                self._stream.flush()
-            except BrokenPipeError:
-                self._drop()
-
-    def _drop(self) -> None:
-        self._gone = True
-        try:  # what the stream still buffers goes to /dev/null when the interpreter flushes it on exit
-            null = os.open(os.devnull, os.O_WRONLY)
-            os.dup2(null, self._stream.fileno())
-            os.close(null)
-        except (OSError, ValueError):
-            pass
-
-    def __getattr__(self, name: str):
-        return getattr(self._stream, name)
-
-
 def main(argv: list[str] | None = None) -> int:
     command = argv is None  # the `foam-mj` command itself (not a call from Python)
     if command:
-        sys.stdout = _OutputWithoutReader(sys.stdout)
+        reopen_closed_streams()  # `foam-mj plan >&-` wrote no result: exit 120, or 1 with a traceback
+        sys.stdout = OutputWithoutReader(sys.stdout)
         # It never renders with MuJoCo's OpenGL; without this, `import mujoco` also loads GLFW (a tenth
         # of a second of start-up). A user's own MUJOCO_GL wins.
         os.environ.setdefault("MUJOCO_GL", "disable")

@@ -581,6 +581,19 @@ def test_a_command_whose_output_reader_has_gone_still_writes_its_files(tmp_path)
     assert read_result(tmp_path / "r.json")["outcome"] == "reached"
 
 
+@pytest.mark.parametrize("closed", [1, 2])
+def test_a_command_run_with_stdout_or_stderr_closed_still_writes_its_files(tmp_path, closed):
+    """`foam-mj plan --json r.json >&-` (a cron job, a daemon): Python's stdout was None, and the first print was an
+    internal error (exit 1) or the exit's flush failed (exit 120); either way no r.json. With stderr closed, exit 1 and
+    no r.json. Now what would be printed on a closed stream is dropped; the file is written, exit 0."""
+    root = Path(__file__).resolve().parents[1]
+    run = subprocess.run([sys.executable, "-m", "foam_mj.cli", "plan", "--smoother", "none", "--no-replay", "--no-rrd", "--json", "r.json"],
+                         capture_output=True, text=True, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(root)}, timeout=300,
+                         preexec_fn=lambda: os.close(closed))
+    assert run.returncode == 0, run.stderr
+    assert read_result(tmp_path / "r.json")["outcome"] == "reached"
+
+
 def test_view_refuses_a_missing_file(capsys):
     assert main(["view", "nowhere.rrd"]) == 2
     assert "not found" in capsys.readouterr().err
