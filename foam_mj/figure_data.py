@@ -45,6 +45,14 @@ _OBSTACLE_FACE = (0.80, 0.62, 0.25)
 _OBSTACLE_EDGE = (0.45, 0.32, 0.1)
 
 
+
+def _rows(value, where: str) -> np.ndarray:
+    """``value`` as a float array, or FoamError naming ``where`` (ragged rows were an internal error, exit 1)."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise FoamError(f"{where} must be numbers (a list, or rows of equal length)") from None
+
 def path_style(name: str, index: int = 0) -> tuple[str, tuple[float, float, float]]:
     """(legend label, RGB colour) of a path: the thesis's colours for T, T_CA, T_RA, T_RCA."""
     key = _ALIASES.get(name, name)
@@ -105,20 +113,20 @@ def _read_paths(doc: dict, robot: RobotModel, names: Sequence[str] | None) -> li
         e = entries[name] or {}
         w = np.asarray(e["waypoints"], dtype=float) if e.get("waypoints") is not None else None
         if e.get("qpos") is not None:
-            qpos = np.asarray(e["qpos"], dtype=float)
+            qpos = _rows(e["qpos"], f"path '{name}': field 'qpos'")
         elif w is not None:
             qpos = robot.config.to_qpos(w)
         else:
             continue  # nothing to draw
-        if qpos.ndim != 2 or qpos.shape[1] != nq or len(qpos) < 1:
-            raise FoamError(f"path '{name}': qpos must have shape (T, {nq}) for this model, got {qpos.shape}")
+        if qpos.ndim != 2 or qpos.shape[1] != nq or len(qpos) < 1 or not np.all(np.isfinite(qpos)):
+            raise FoamError(f"path '{name}': qpos must have shape (T, {nq}) for this model, finite, got shape {qpos.shape}")
         if w is not None and (w.ndim != 2 or w.shape[1] != robot.dim):
             raise FoamError(f"path '{name}': waypoints must have shape (m, {robot.dim}), got {w.shape}")
         times = None
         if e.get("times") is not None:
-            times = np.asarray(e["times"], dtype=float)
-            if times.shape != (len(qpos),):
-                raise FoamError(f"path '{name}': {len(times)} times for {len(qpos)} qpos rows")
+            times = _rows(e["times"], f"path '{name}': field 'times'")
+            if times.shape != (len(qpos),):  # len() of a number was an internal error
+                raise FoamError(f"path '{name}': field 'times' must be a list of {len(qpos)} numbers, one per qpos row, got shape {times.shape}")
             if len(times) < 2 or not np.all(np.diff(times) > 0):
                 raise FoamError(f"path '{name}': times must increase")
         conv = e.get("convergence")

@@ -386,6 +386,12 @@ def robot_options(doc: dict, source: str | Path) -> dict:
     options = doc.get("robot") or {}
     if not isinstance(options, dict) or set(options) - {"robot_root", "self_collision", "keyframe"}:
         raise FoamError(f"{source}: field 'robot' must hold only robot_root, self_collision and keyframe")
+    for key, kind, what in (("robot_root", str, "a body name or null"), ("self_collision", bool, "true or false"),
+                            ("keyframe", str, "a keyframe name or null")):  # {"a": 1} was an internal error in export
+        value = options.get(key)
+        if not (isinstance(value, kind) or (value is None and kind is str)):
+            if not (key == "self_collision" and key not in options):
+                raise FoamError(f"{source}: field 'robot.{key}' must be {what}, got {value!r}")
     return options
 
 

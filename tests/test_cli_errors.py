@@ -888,3 +888,26 @@ def test_a_file_nested_too_deeply_to_parse_is_bad_input_not_an_internal_error(ar
     err = capsys.readouterr().err.strip()
     assert err == "foam-mj: error: " + message.format(**names)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json", "s.toml", "sweep.json"]
+
+
+@pytest.mark.parametrize(("edit", "commands", "message"), [
+    (lambda d: d["robot"].update(self_collision={"a": 1}), ("replay", "export"), "field 'robot.self_collision' must be true or false, got {'a': 1}"),
+    (lambda d: d["robot"].update(robot_root=5), ("replay", "export"), "field 'robot.robot_root' must be a body name or null, got 5"),
+    (lambda d: d["paths"]["centre"]["qpos"][0].__setitem__(1, [[]]), ("figures",), "path 'centre': field 'qpos' must be numbers (a list, or rows of equal length)"),
+    (lambda d: d["paths"]["centre"].update(times=2**70), ("figures",), "path 'centre': field 'times' must be a list of"),
+])
+def test_a_result_field_of_the_wrong_type_found_by_fuzzing_is_named(planned_result, tmp_path, edit, commands, message, capsys):
+    """Found by mutating a plan --json result at random (notes): each was an internal error, exit 1 (TypeError
+    "`self_collision` must be True or False" from deep in the model; ValueError "inhomogeneous shape" for a ragged qpos
+    row; TypeError "len() of unsized object" for times that are a number)."""
+    bad = _edited(planned_result, planned_result.parent, edit)
+    try:  # beside the result: its mjcf_relative still resolves
+        argv = {"replay": ["replay", str(bad), "--kinematic-only", "--rrd", str(tmp_path / "r.rrd")],
+                "export": ["export", str(bad), "--out", str(tmp_path / "t.csv")], "figures": ["figures", str(bad), str(tmp_path / "figs")]}
+        for command in commands:
+            assert main(argv[command]) == 2, command
+            err = capsys.readouterr().err.strip()
+            assert len(err.splitlines()) == 1 and message in err, (command, err)
+        assert list(tmp_path.iterdir()) == []
+    finally:
+        bad.unlink()
