@@ -125,8 +125,10 @@ def _read_paths(doc: dict, robot: RobotModel, names: Sequence[str] | None) -> li
         times = None
         if e.get("times") is not None:
             times = _rows(e["times"], f"path '{name}': field 'times'")
-            if times.shape != (len(qpos),):  # len() of a number was an internal error
-                raise FoamError(f"path '{name}': field 'times' must be a list of {len(qpos)} numbers, one per qpos row, got shape {times.shape}")
+            if times.ndim != 1:  # len() of a number was an internal error
+                raise FoamError(f"path '{name}': field 'times' must be a list of numbers, one per qpos row, got shape {times.shape}")
+            if times.shape != (len(qpos),):
+                raise FoamError(f"path '{name}': {len(times)} times for {len(qpos)} qpos rows")
             if len(times) < 2 or not np.all(np.diff(times) > 0):
                 raise FoamError(f"path '{name}': times must increase")
         conv = e.get("convergence")
