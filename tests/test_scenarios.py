@@ -80,9 +80,9 @@ def test_a_scenario_file_loads(tmp_path):
         (lambda t: t.replace('scene = "', 'scene = "/nowhere/'), "scene.*not found"),
         # inf was planned with as "no time limit" and written to the result as `"time_limit": Infinity`, which is not
         # JSON (jq, JavaScript's JSON.parse refuse it); --time-limit inf was refused already
-        (lambda t: t.replace("r_min = 0.07", "r_min = 0.07\ntime_limit = inf"), r"`time_limit` must be a finite number of seconds > 0, got inf"),
-        (lambda t: t.replace("K = 10\nr_min = 0.07", 'algorithm = "bubbletree"\ntime_limit = inf'), r"`time_limit` must be a finite number of seconds > 0, got inf"),
-        (lambda t: t.replace("K = 10\nr_min = 0.07", 'algorithm = "bubbletree"\nrefine_time = inf'), r"`refine_time` must be a finite number of seconds > 0, got inf"),
+        (lambda t: t.replace("r_min = 0.07", "r_min = 0.07\ntime_limit = inf"), r"`time_limit` must be > 0 seconds and finite, got inf"),
+        (lambda t: t.replace("K = 10\nr_min = 0.07", 'algorithm = "bubbletree"\ntime_limit = inf'), r"`time_limit` must be > 0 seconds and finite, got inf"),
+        (lambda t: t.replace("K = 10\nr_min = 0.07", 'algorithm = "bubbletree"\nrefine_time = inf'), r"`refine_time` must be > 0 seconds and finite, got inf"),
     ],
 )
 def test_bad_scenario_files_name_the_file_and_the_field(tmp_path, edit, message):

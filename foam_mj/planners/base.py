@@ -334,7 +334,7 @@ class PlannerConfig:
         if not (isinstance(self.max_bubbles, (int, np.integer)) and not isinstance(self.max_bubbles, bool) and self.max_bubbles >= 1):
             raise ValueError(f"`max_bubbles` must be an integer >= 1, got {self.max_bubbles!r}")
         if not (is_finite_number(self.time_limit) and self.time_limit > 0):  # inf was written to the result as Infinity
-            raise ValueError(f"`time_limit` must be a finite number of seconds > 0, got {self.time_limit!r}")
+            raise ValueError(f"`time_limit` must be > 0 seconds and finite, got {self.time_limit!r}")
         for name, kind in (("delta", float), ("max_bubbles", int), ("time_limit", float)):  # Python's, for JSON
             object.__setattr__(self, name, kind(getattr(self, name)))
         object.__setattr__(self, "options", _python_scalars(self.options))

@@ -269,7 +269,7 @@ class BubbleTreeOptions:
         if not isinstance(self.refine, bool):
             raise ValueError(f"`refine` must be true or false, got {self.refine!r}")
         if not (isinstance(self.refine_time, (int, float)) and is_finite_number(self.refine_time) and self.refine_time > 0):
-            raise ValueError(f"`refine_time` must be a finite number of seconds > 0, got {self.refine_time!r}")
+            raise ValueError(f"`refine_time` must be > 0 seconds and finite, got {self.refine_time!r}")
         if not (isinstance(self.explore, (int, float)) and 0 <= self.explore <= MAX_EXPLORE):
             raise ValueError(f"`explore` must be in [0, {MAX_EXPLORE:g}] (iterations after the first path, per iteration before it), got {self.explore!r}")
         if not (isinstance(self.refine_floor, (int, float)) and 0 < self.refine_floor < np.inf):  # inf: silently no refinement bubble
