@@ -19,21 +19,24 @@ into ctrl so that
 
 (read generically from ``actuator_gainprm``/``actuator_biasprm``/``actuator_gear``). ``feedforward``:
 
-* ``"inverse"`` (default): tau_ff = ``mj_inverse`` at the reference (qpos, qvel, qacc): gravity,
-  inertia, Coriolis and joint damping, the usual computed-torque feed-forward. It is the continuous-time
-  inverse dynamics, so MuJoCo's semi-implicit integration (Euler: implicit in the joints' damping;
-  implicitfast: in the servos' too) leaves a small mismatch for the PD part to correct, standing in for model error.
+* ``"inverse"`` (default): tau_ff = ``mj_inverse`` at the reference: gravity, inertia, Coriolis and joint
+  damping, the usual computed-torque feed-forward, made exact for MuJoCo's discrete step
+  (:func:`discrete_rates`): the velocity and acceleration references are the ones with which the semi-implicit
+  step (v' = v + dt a, q' = q + dt v') lands on every row (backward differences of the rows, and their
+  differences), and ``mj_inverse`` runs with MuJoCo's ``invdiscrete`` flag (the implicit damping of Euler and
+  implicitfast, the servos' included). The continuous reference's (qvel, qacc) made the step run dt/2 ahead
+  of the rows, about v dt / 2: 0.4-0.7 mrad on the Ortholeg, 1-7 mrad on generated arms, left for the PD part to
+  correct. An RK4 model (no discrete inverse) keeps the continuous (qvel, qacc).
 * ``"gravity"``: tau_ff = gravity at q_ref (``mj_inverse`` with zero velocity and acceleration).
 * ``"none"``: tau_ff = 0, a PD servo on the reference.
 
 Gains (``models/ortholeg.xml``, classes ``hinge_servo`` and ``slide_servo``): kp = 30000 N m/rad on the
 hinges and 100000 N/m on the slide, critically damped (dampratio 1), forces limited to 300 N m / 3000 N.
-Measured on the obstacle scene's centre path (seed 0, default limits, 2.7 s), maximum (RMS) error per
-joint with ``"inverse"``: hip flexion 0.39 (0.14) mrad, knee flexion 0.20 (0.06) mrad, hip displacement
-0.18 (0.09) mm -- below the 0.5 mrad / 0.5 mm that tests/test_replay.py asserts; peak forces 414 N,
-204 N m, 76 N m. With ``"gravity"`` or ``"none"`` the maximum errors are about 8 mrad, 3 mrad, 4 mm
-(inertia is not compensated). The error shrinks about as 1/sqrt(kp): with kp = 3000 N m/rad and
-20000 N/m, ``"inverse"`` leaves 1.3 mrad, 0.6 mrad, 0.3 mm.
+Measured on the obstacle scene's centre path (seed 0, default limits, own time law, 3.1 s), the maximum
+error with ``"inverse"`` is rounding (below 1e-16 rad and m; 0.41, 0.17 mrad and 0.17 mm with the continuous
+reference), so the replay's tracking error measures what the servos cannot do (a force or ctrl range, a
+contact, an RK4 model), not the feed-forward; peak forces 364 N, 234 N m, 78 N m. With ``"gravity"`` or
+``"none"`` the maximum errors are about 8 mrad, 3 mrad, 4 mm (inertia is not compensated).
 
 Models without servos
 ---------------------
@@ -68,6 +71,7 @@ frame, time, geom names and penetration depth.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import mujoco
@@ -308,13 +312,20 @@ def servo_controls(robot: RobotModel, trajectory: Trajectory, feedforward: str =
     tau = np.zeros((T, len(dof)))
     if feedforward == "inverse" and (trajectory.qvel is None or trajectory.qacc is None):
         raise ValueError("`trajectory.qvel` and `trajectory.qacc` are needed for the inverse-dynamics feed-forward")
+    qacc = None
+    if feedforward == "inverse" and int(m.opt.integrator) != int(mujoco.mjtIntegrator.mjINT_RK4):
+        qvel, qacc = discrete_rates(robot, trajectory)  # the rates MuJoCo's step must produce to land on every row
+        m = copy.copy(m)  # the same model, its inverse dynamics discrete (the caller's options untouched)
+        m.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_INVDISCRETE)
+    elif feedforward == "inverse":
+        qacc = trajectory.qacc
     if feedforward != "none":
         d = mujoco.MjData(m)
         for i in range(T):
             d.qpos[:] = trajectory.qpos[i]
             if feedforward == "inverse":
-                d.qvel[:] = trajectory.qvel[i]
-                d.qacc[:] = trajectory.qacc[i]
+                d.qvel[:] = qvel[i]
+                d.qacc[:] = qacc[i]
             mujoco.mj_inverse(m, d)  # gravity only when qvel = qacc = 0
             tau[i] = d.qfrc_inverse[dof]
     # The wanted actuator force (joint force = gear F; length = gear q, velocity = gear qdot) is
@@ -325,6 +336,21 @@ def servo_controls(robot: RobotModel, trajectory: Trajectory, feedforward: str =
     ctrl = np.zeros((T, m.nu))
     ctrl[:, servo.actuator] = (tau / g - servo.b0 - servo.b1 * g * qref - servo.b2 * g * qvel[:, dof]) / servo.gain
     return ctrl
+
+
+def discrete_rates(robot: RobotModel, trajectory: Trajectory) -> tuple[np.ndarray, np.ndarray]:
+    """(qvel, qacc), each (T, nv), with which MuJoCo's semi-implicit step (v' = v + dt a, q' = q + dt v') lands
+    exactly on every row of ``trajectory.qpos``: the configuration dofs' backward differences of the rows, and
+    their differences over dt (the first row's velocity, rest, and the last row's acceleration are the
+    trajectory's). The other dofs keep the trajectory's rates (zero: held)."""
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    q = trajectory.qpos[:, robot.config.qpos_index]
+    dt = robot.model.opt.timestep  # the rows' spacing (replay_dynamic checks it)
+    qvel = np.zeros((len(q), robot.model.nv)) if trajectory.qvel is None else trajectory.qvel.copy()
+    qacc = np.zeros_like(qvel) if trajectory.qacc is None else trajectory.qacc.copy()
+    qvel[1:, dof] = np.diff(q, axis=0) / dt
+    qacc[:-1, dof] = np.diff(qvel[:, dof], axis=0) / dt
+    return qvel, qacc
 
 
 def replay_dynamic(

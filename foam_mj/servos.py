@@ -13,8 +13,8 @@ inertia the joint drives when the others are free; M_jj would make a long chain'
 robot's, far stiffer than f), no force limit: critically damped where the inertia is largest, overdamped and at
 least f elsewhere. Sized at ``qpos0`` alone, a generated arm's second joint (0.03 kg m^2 there, 2.1 on the path) got
 128 N m/rad and lagged 30 mrad; sized over the path, 3.6. The replay's ``servo_note`` and ``servo_kp`` state them.
-What is left (1-7 mrad on generated arms) is the continuous feed-forward's mismatch with MuJoCo's discrete step
-(:mod:`foam_mj.replay`), not the gains (0 with a feed-forward consistent with the discrete steps).
+The 1-7 mrad that were left on generated arms were the continuous feed-forward's mismatch with MuJoCo's discrete
+step, not the gains: the feed-forward is now consistent with the step (:mod:`foam_mj.replay`) and leaves none.
 
 Integrator (a choice, for every integrator of the model): the copy is stepped with ``implicitfast`` (an ``implicit``
 model keeps ``implicit``), implicit in the servos' damping. Where the inertia is far below I_j the servos are stiff

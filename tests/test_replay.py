@@ -346,7 +346,7 @@ def test_an_rk4_model_replays_dynamically(tmp_path):
     """mj_step1/mj_step2 have no RK4 form: a user's RK4 model ended `foam-mj plan` with an internal error after
     the planning. A model with its own servos keeps RK4 (added servos step with implicitfast): it is stepped whole by
     mj_step and tracks within a few mrad, as the same arm under Euler does (explicit RK4 tracks the inverse-dynamics
-    feed-forward less closely than MuJoCo's semi-implicit Euler: 4-5 against 1 mrad here)."""
+    feed-forward less closely than MuJoCo's semi-implicit Euler: 4-5 mrad against rounding here)."""
     servos = '<actuator><position joint="sh" kp="400" dampratio="1"/><position joint="el" kp="100" dampratio="1"/></actuator>'
     xml = FLOATING_ARM.format(base_joint="").replace("</mujoco>", servos + "</mujoco>")
     euler, rk4 = tmp_path / "euler.xml", tmp_path / "rk4.xml"
@@ -488,3 +488,19 @@ def test_added_servos_stay_stable_at_a_coarse_timestep(tmp_path):
     line = segment_rosary(np.array([0.0, 0.0]), np.array([1.0, -0.4]))
     dyn = replay_dynamic(table, make_trajectory(table, line.path(np.empty((0, 2))), line))
     assert dyn.warnings == () and np.all(dyn.max_error < 0.01), dyn.max_error  # uncapped: 16 rad, no warning
+
+
+def test_the_inverse_feedforward_is_exact_for_mujocos_discrete_step(robot, centre, tmp_path):
+    """The feed-forward is mj_inverse (discrete: MuJoCo's invdiscrete flag) at the velocities and accelerations
+    with which MuJoCo's semi-implicit step lands on every row (foam_mj.replay.discrete_rates), so a servo replay
+    without model error tracks the rows to rounding, both on the Ortholeg (Euler, its own servos) and on an arm
+    whose servos are added (implicitfast). The continuous reference's (qvel, qacc) left 0.4-0.7 mrad on the
+    Ortholeg and 1-7 mrad on generated arms: the semi-implicit step runs dt/2 ahead of it, about v dt / 2."""
+    dyn = replay_dynamic(robot, centre)
+    assert np.all(dyn.max_error < 1e-6), dyn.max_error
+    assert robot.model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_INVDISCRETE == 0  # the caller's model untouched
+    arm = RobotModel.from_xml(TWO_LINK_ARM)
+    a, b = np.array(arm.config.lower) * 0.5, np.array(arm.config.upper) * 0.5
+    line = segment_rosary(a, b)
+    added = replay_dynamic(arm, make_trajectory(arm, line.path(np.empty((0, len(a)))), line))
+    assert added.servo_note and np.all(added.max_error < 1e-6), added.max_error
