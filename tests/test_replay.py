@@ -21,8 +21,8 @@ from conftest import TWO_LINK_ARM, segment_rosary
 Q_INIT = [0.2, 0.3, 0.08]
 Q_GOAL = [0.45, 0.4536, 1.45]
 DELTA = 0.005
-#: The tracking figure stated in foam_mj/replay.py and models/ortholeg.xml: 0.5 mrad on the hinges,
-#: 0.5 mm on the hip slide (maximum over the obstacle centre path).
+#: A bound on the servo tracking of the obstacle centre path: 0.5 mrad on the hinges, 0.5 mm on the hip slide
+#: (it is rounding since the feed-forward is exact for MuJoCo's step: test_the_inverse_feedforward_is_exact...).
 MAX_ERROR = 0.5e-3
 
 
