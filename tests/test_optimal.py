@@ -197,16 +197,21 @@ def test_starting_from_hs_reaches_the_same_optimum(scenario_rosaries, optimum):
     assert r.f == pytest.approx(optimum["obstacle"].f, abs=1e-6)
 
 
+def _bubbletree_corridor(scenario: str, seed: int = 0):
+    """bubbletree's plan (its rosary and waypoints) of a built-in scenario, as foam-mj plan makes it."""
+    sc = load_scenario(scenario)
+    oracle = sc.oracle()
+    try:
+        return get_planner("bubbletree").plan(PlanningProblem(oracle, sc.q_init, sc.q_goal, delta=oracle.delta), seed=seed)
+    finally:
+        oracle.close()
+
+
 def test_a_step_the_model_held_that_converged_superlinearly_ends_the_run_on_its_duals(monkeypatch):
     # bubbletree's obstacle corridor (seed 0) from the planner's waypoints, as foam-mj plan smooths it: the second step
     # is predicted to gain 3.0e-6 |F|, 0.016 x the first; its duals certify its end point, and the third subproblem
     # would only polish F by 2.6e-7 of itself.
-    sc = load_scenario("obstacle")
-    oracle = sc.oracle()
-    try:
-        res = get_planner("bubbletree").plan(PlanningProblem(oracle, sc.q_init, sc.q_goal, delta=oracle.delta), seed=0)
-    finally:
-        oracle.close()
+    res = _bubbletree_corridor("obstacle")
     start = smoother_start(res.rosary, res.waypoints)
     fast = OptimalSmoother().smooth(res.rosary, initial=start)
     monkeypatch.setattr(scp, "FAST", 0.0)  # no superlinear stop: the run polishes on
@@ -222,12 +227,7 @@ def test_every_subproblem_of_a_five_joint_corridor_is_solved(monkeypatch):
     # region's solve after it ended in InsufficientProgress and were solved again (half the smoother's time).
     from foam_mj.smoothing import subproblem
 
-    sc = load_scenario("obstacle5")
-    oracle = sc.oracle()
-    try:
-        res = get_planner("bubbletree").plan(PlanningProblem(oracle, sc.q_init, sc.q_goal, delta=oracle.delta), seed=0)
-    finally:
-        oracle.close()
+    res = _bubbletree_corridor("obstacle5")
     statuses = []
     solve = subproblem._Solver.solve
 

@@ -142,20 +142,22 @@ def test_a_box_written_in_a_frame_is_placed_and_kept_on_the_floor_in_world_coord
     assert after[1] == pytest.approx(before[1], abs=1e-6)  # and the same lowest point
 
 
+def _box_pose(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, float]:
+    """The obstacle box's world centre, rotation matrix and lowest point (z of its lowest corner)."""
+    m, d = robot.model, mujoco.MjData(robot.model)
+    mujoco.mj_kinematics(m, d)
+    g = m.geom("obstacle_box").id
+    R = d.geom_xmat[g].reshape(3, 3)
+    corners = np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T * m.geom_size[g]
+    return d.geom_xpos[g].copy(), R.copy(), float((d.geom_xpos[g] + corners @ R.T)[:, 2].min())
+
+
 def test_obstacle_euler_turns_the_box_in_the_world_and_keeps_its_lowest_point(tmp_path):
     """[obstacle] euler (degrees, extrinsic x-y-z in the world, as a [[mesh]]'s) turns the box, whatever orientation the
     file wrote (axis-aligned, euler, axisangle) and inside a turned <frame>; without pos it keeps its centre's x, y and
     its lowest point, with pos it is centred there. It was refused ('unknown [obstacle] field(s) 'euler'') though a
     turned kerb or box is a change a user makes: the way round was a scene file of one's own."""
     from foam_mj.obstacles import _euler_quat
-
-    def pose(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, float]:
-        m, d = robot.model, mujoco.MjData(robot.model)
-        mujoco.mj_kinematics(m, d)
-        g = m.geom("obstacle_box").id
-        R = d.geom_xmat[g].reshape(3, 3)
-        corners = np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T * m.geom_size[g]
-        return d.geom_xpos[g].copy(), R.copy(), float((d.geom_xpos[g] + corners @ R.T)[:, 2].min())
 
     scene = (MODELS / "obstacle.xml").read_text().replace('file="', f'file="{MODELS}/')
     for i, (orientation, frame) in enumerate([("", None), ('euler="0.2 0.5 0"', None), ('axisangle="0 0 1 0.7"', None),
@@ -167,15 +169,15 @@ def test_obstacle_euler_turns_the_box_in_the_world_and_keeps_its_lowest_point(tm
                 'size="0.1 0.25 0.075"/>', 'size="0.1 0.25 0.075"/></frame>')
         path = tmp_path / f"turned{i}.xml"
         path.write_text(xml)
-        before = pose(scenario_from_dict({**OBSTACLE, "scene": str(path)}, MODELS, check=False).robot)
+        before = _box_pose(scenario_from_dict({**OBSTACLE, "scene": str(path)}, MODELS, check=False).robot)
         for euler in ([0, 30, 0], [10, -20, 45]):
             R = np.zeros(9)
             mujoco.mju_quat2Mat(R, _euler_quat(euler))
-            turned = pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"euler": euler}}, MODELS, check=False).robot)
+            turned = _box_pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"euler": euler}}, MODELS, check=False).robot)
             np.testing.assert_allclose(turned[1], R.reshape(3, 3), atol=1e-6)
             np.testing.assert_allclose(turned[0][:2], before[0][:2], atol=1e-6)
             assert turned[2] == pytest.approx(before[2], abs=1e-6), (orientation, frame, euler)
-            placed = pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"euler": euler, "pos": [0.6, 0.1, 0.2],
+            placed = _box_pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"euler": euler, "pos": [0.6, 0.1, 0.2],
                                                                                              "size": [0.1, 0.4, 0.2]}}, MODELS, check=False).robot)
             np.testing.assert_allclose(placed[0], [0.6, 0.1, 0.2], atol=1e-6)
             np.testing.assert_allclose(placed[1], R.reshape(3, 3), atol=1e-6)
@@ -190,14 +192,6 @@ def test_a_box_in_a_static_body_is_moved_resized_and_turned_in_world_coordinates
     world's, and a resize without pos keeps the centre's x, y and the lowest point, as for a box of <worldbody>."""
     from foam_mj.obstacles import _euler_quat
 
-    def pose(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, float]:
-        m, d = robot.model, mujoco.MjData(robot.model)
-        mujoco.mj_kinematics(m, d)
-        g = m.geom("obstacle_box").id
-        R = d.geom_xmat[g].reshape(3, 3)
-        corners = np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T * m.geom_size[g]
-        return d.geom_xpos[g].copy(), R.copy(), float((d.geom_xpos[g] + corners @ R.T)[:, 2].min())
-
     scene = (MODELS / "obstacle.xml").read_text().replace('file="', f'file="{MODELS}/')
     box = '<geom name="obstacle_box" class="obstacle" type="box" pos="0.5 0 0.075" size="0.1 0.25 0.075"/>'
     assert box in scene
@@ -206,14 +200,14 @@ def test_a_box_in_a_static_body_is_moved_resized_and_turned_in_world_coordinates
                               f'<body name="crate" pos="0.4 0.05 0.02" euler="0 0 0.5"><frame pos="0 0.02 0" euler="0.1 0 0">{inner}</frame></body>']):
         path = tmp_path / f"crate{i}.xml"
         path.write_text(scene.replace(box, body))
-        before = pose(scenario_from_dict({**OBSTACLE, "scene": str(path)}, MODELS, check=False).robot)
-        resized = pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"size": [0.3, 0.4, 0.2]}}, MODELS, check=False).robot)
+        before = _box_pose(scenario_from_dict({**OBSTACLE, "scene": str(path)}, MODELS, check=False).robot)
+        resized = _box_pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"size": [0.3, 0.4, 0.2]}}, MODELS, check=False).robot)
         np.testing.assert_allclose(resized[0][:2], before[0][:2], atol=1e-6)
         np.testing.assert_allclose(resized[1], before[1], atol=1e-6)
         assert resized[2] == pytest.approx(before[2], abs=1e-6)
         R = np.zeros(9)
         mujoco.mju_quat2Mat(R, _euler_quat([0, 0, 30]))
-        placed = pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"pos": [0.6, 0.0, 0.1], "euler": [0, 0, 30]}},
+        placed = _box_pose(scenario_from_dict({**OBSTACLE, "scene": str(path), "obstacle": {"pos": [0.6, 0.0, 0.1], "euler": [0, 0, 30]}},
                                          MODELS, check=False).robot)
         np.testing.assert_allclose(placed[0], [0.6, 0.0, 0.1], atol=1e-6)
         np.testing.assert_allclose(placed[1], R.reshape(3, 3), atol=1e-6)
