@@ -327,7 +327,7 @@ class BubbleOracle:
         self.clearance = Clearance(robot, distmax=distmax)
         self.bound = bound
         self.pair_rho = pair_rho(robot, self.bound)
-        self.pair_factor = np.sqrt(np.sum(self.bound.group_weights(self.pair_rho) ** 2, axis=-1))
+        self.pair_factor = pair_factor(self.bound, self.pair_rho)
         # A pair no coordinate moves has factor 0 (the model leaves such pairs out); a tiny floor keeps
         # the division defined and the sign of (d_p - delta) decides.
         self._inv = 1.0 / np.maximum(self.pair_factor, 1e-12)
@@ -520,3 +520,9 @@ def pair_rho(robot: RobotModel, bound: DisplacementBound) -> np.ndarray:
     a, b = robot.pairs[:, 0], robot.pairs[:, 1]
     ma, mb = robot.moves[a], robot.moves[b]
     return (bound.rho[a] * (ma & ~mb) + bound.rho[b] * (mb & ~ma)) * robot.pair_active
+
+
+def pair_factor(bound: DisplacementBound, rho: np.ndarray) -> np.ndarray:
+    """||rho_p||_2 for every checked pair (P,) from its :func:`pair_rho` rows: the factor of the pair's radius term
+    (d_p - delta) / ||rho_p||_2 (module docstring)."""
+    return np.sqrt(np.sum(bound.group_weights(rho) ** 2, axis=-1))

@@ -223,14 +223,14 @@ def capping_pair_note(robot, rosary, delta: float, dist) -> str:
     the replays' clearance; a new one would compile the sensor model again: 1.7 s on H1). "" when no pair does."""
     import numpy as np
 
-    from foam_mj.bubbles import pair_rho
+    from foam_mj.bubbles import pair_factor, pair_rho
 
     centres = np.asarray(rosary.centers, dtype=float)
     if dist is None or len(centres) < CAPPING_MIN_ROSARY:
         return ""
     dist = np.asarray(dist, dtype=float)
     bound = robot.displacement_bound
-    factor = np.sqrt(np.sum(bound.group_weights(pair_rho(robot, bound)) ** 2, axis=-1))  # ||rho_p||, as BubbleOracle
+    factor = pair_factor(bound, pair_rho(robot, bound))  # ||rho_p||, as BubbleOracle's
     terms = (dist - delta) / np.maximum(factor, 1e-12)
     limiting = np.argmin(terms, axis=1)
     to_bounds = np.minimum(centres - robot.lower, robot.upper - centres).min(axis=1)
