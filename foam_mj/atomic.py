@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Iterator
 
 from foam_mj.errors import FoamError
+from foam_mj.interrupts import SIGNALLED
 
 #: ``check_output`` refuses a file system with less free space than this (bytes): the outputs of one
 #: plan are a few MB, and a nearly full disk is better reported before minutes of work than after.
@@ -203,6 +204,8 @@ def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
             raise OutputError(f"could not write {target}: the writer produced no file")
         if target.exists() and not target.is_file():  # never rename onto /dev/null, a FIFO, a socket
             raise OutputError(f"could not write {target}: it exists and is not a regular file ({_kind(target)})")
+        if SIGNALLED:  # the command was interrupted, and a library swallowed the KeyboardInterrupt: write nothing
+            raise KeyboardInterrupt
         os.replace(tmp, target)
     except OutputError:
         _remove(tmp)

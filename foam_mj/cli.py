@@ -533,7 +533,10 @@ def _main(argv: list[str], ran: list[str]) -> int:
             parser = build_parser()
             args = parser.parse_args(argv)
             ran.append(getattr(args, "command", None) or args.func.__name__.removeprefix("cmd_"))
-            return args.func(args)
+            code = args.func(args)
+            if SIGNALLED and code != EXIT_INTERRUPTED:  # a Ctrl-C that a library caught and dropped still stops it
+                raise KeyboardInterrupt
+            return code
         finally:  # a signal before this line is a KeyboardInterrupt, handled below
             RETURNED.append(True)
     except PlanningFailed as exc:  # e.g. a saved path that no timing fits the limits (replay, export)

@@ -18,6 +18,35 @@ def install() -> None:
     signal.signal(signal.SIGTERM, interrupt)
     signal.signal(signal.SIGINT, interrupt)
     atexit.register(ignore_signals)  # registered first, so it runs after every library's exit handler
+    if getattr(sys.unraisablehook, "__name__", "") != "_unraisable":
+        _UNRAISABLE[:] = [sys.unraisablehook]
+        sys.unraisablehook = _unraisable
+
+
+#: The unraisable-exception hook :func:`install` replaced (the one :func:`_unraisable` passes other exceptions on to).
+_UNRAISABLE: list = []
+
+
+def _unraisable(unraisable) -> None:
+    """``sys.unraisablehook`` of the ``foam-mj`` process. Python runs a signal handler wherever the main thread is,
+    also in a weak reference's callback or a finalizer (importlib's module-lock callback, a ``__del__``), whose
+    exceptions it cannot raise: the KeyboardInterrupt of a Ctrl-C or `kill` was printed as "Exception ignored in ...
+    Traceback" and dropped, and the command ran on and wrote its files (exit 0, or 3 after a plan's whole budget). Such
+    an interruption is delivered again a millisecond later (SIGALRM), once this hook has returned: a signal raised in
+    the hook itself would be handled in it and dropped the same way."""
+    if issubclass(unraisable.exc_type, KeyboardInterrupt) and SIGNALLED and not RETURNED:
+        if hasattr(signal, "setitimer"):
+            signal.signal(signal.SIGALRM, _interrupt_again)
+            signal.setitimer(signal.ITIMER_REAL, 0.001)
+        return
+    (_UNRAISABLE[0] if _UNRAISABLE else sys.__unraisablehook__)(unraisable)
+
+
+def _interrupt_again(signum: int, frame) -> None:
+    """The interruption :func:`_unraisable` saw dropped, raised again (or, once the command has returned, the exit)."""
+    if RETURNED:
+        exit_now(EXIT_INTERRUPTED)
+    raise KeyboardInterrupt
 
 
 def ignore_signals() -> None:
@@ -26,6 +55,8 @@ def ignore_signals() -> None:
     stays ignored, and the process ends with its command's exit code."""
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "SIGALRM"):  # an interruption delivered again (_unraisable) a moment too late
+        signal.signal(signal.SIGALRM, signal.SIG_IGN)
 
 
 def exit_now(code: int) -> None:

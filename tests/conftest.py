@@ -34,6 +34,42 @@ def messages(err: str) -> list[str]:
     return [line for line in err.splitlines() if not PROGRESS_LINE.match(line)]
 
 
+def wall_scenario(folder: Path, time_limit: float = 60.0) -> Path:
+    """A scenario TOML in ``folder``: the leg's foot behind a wall it cannot pass, so that a plan runs for a long while
+    (until it stalls, 15-22 s on a loaded 2-core machine, or its ``time_limit``), long enough to interrupt it."""
+    scene = folder / "wall.xml"
+    scene.write_text(
+        f'<mujoco><include file="{MODELS / "ortholeg.xml"}"/><worldbody><geom name="floor" type="plane" size="3 3 0.1"/>'
+        '<geom name="wall" type="box" pos="0.46 0 0.75" size="0.04 0.25 0.75"/></worldbody></mujoco>'
+    )
+    toml = folder / "wall.toml"
+    toml.write_text(f'scene = "{scene}"\nq_init = [0.2, 0.3, 0.08]\nq_goal = [0.45, 0.4536, 1.45]\n[planner]\ntime_limit = {time_limit}\n')
+    return toml
+
+
+def wait_for_stderr(proc, pattern: str, timeout: float = 120.0) -> list[str]:
+    """Read ``proc``'s stderr (a text pipe) line by line until a line holds ``pattern`` (a state the command has
+    observably reached: "planning (" once its plan is under way) or the process ends; the lines read. A generous
+    ``timeout`` instead of a fixed sleep: under load the command reaches that state seconds later, never sooner than it
+    says so. The rest of stderr stays in the pipe for ``communicate``."""
+    import threading
+
+    lines: list[str] = []
+    seen = threading.Event()
+
+    def read() -> None:
+        for line in proc.stderr:
+            lines.append(line)
+            if pattern in line:
+                break
+        seen.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    if not seen.wait(timeout):
+        raise AssertionError(f"no stderr line with {pattern!r} within {timeout} s: {''.join(lines)}")
+    return lines
+
+
 #: The bring-your-own-robot example's two-link arm (a post in front of it), the base of the odd-actuator tests.
 TWO_LINK_ARM = Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml"
 

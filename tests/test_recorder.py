@@ -15,6 +15,8 @@ from foam_mj.recorder import MODE_ENV, RecorderProcess, RecordingJob, outcome_jo
 from foam_mj.recording import _store_chunks, read_recording
 from foam_mj.scenarios import load_scenario
 
+from conftest import wait_for_stderr, wall_scenario
+
 
 @pytest.fixture(scope="module")
 def outcome():
@@ -176,26 +178,27 @@ def _default_sigint() -> None:
 
 
 def test_ctrl_c_stops_the_command_and_its_helper_and_writes_nothing(tmp_path):
+    """Ctrl-C while a plan runs, its recording's helper started: both stop, exit 130, nothing written. The signal is
+    sent once the plan is observably under way (its progress line) and far from done (a plan that runs until it
+    stalls): half a second after the helper started, under load, fell during an import or after the plan (exit 0)."""
     import os
     import signal
-    import time
 
     import psutil  # the test extra (rerun-sdk needs it too)
 
     env = {**os.environ, MODE_ENV: "process"}
-    rrd = tmp_path / "w.rrd"
-    proc = subprocess.Popen([sys.executable, "-m", "foam_mj.cli", "plan", "--scene", "walker_two_routes", "--rrd", str(rrd)],
+    toml = wall_scenario(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    rrd = out / "w.rrd"
+    proc = subprocess.Popen([sys.executable, "-m", "foam_mj.cli", "plan", "--scene", str(toml), "--rrd", str(rrd)],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
                             preexec_fn=_default_sigint)
     helpers: list = []
     try:
-        for _ in range(200):  # the helper starts first thing
-            helpers = psutil.Process(proc.pid).children()
-            if helpers:
-                break
-            time.sleep(0.05)
+        wait_for_stderr(proc, "planning (")  # the helper starts before the plan
+        helpers = psutil.Process(proc.pid).children()
         assert helpers, "no helper process was started"
-        time.sleep(0.5)
         os.killpg(proc.pid, signal.SIGINT)  # as a terminal does: the whole process group
         _, err = proc.communicate(timeout=120)
     finally:
@@ -207,4 +210,4 @@ def test_ctrl_c_stops_the_command_and_its_helper_and_writes_nothing(tmp_path):
     assert proc.returncode == 130, err
     assert "interrupted" in err and "Traceback" not in err
     assert not alive
-    assert list(tmp_path.iterdir()) == []  # no recording, no temporary file
+    assert list(out.iterdir()) == []  # no recording, no temporary file
