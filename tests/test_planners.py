@@ -116,10 +116,10 @@ SLOW_IMPORT = """
 import sys, time
 from importlib.abc import MetaPathFinder
 
-class Slow(MetaPathFinder):  # the first import of scipy and of Clarabel take 3 s more, as on a loaded machine
+class Slow(MetaPathFinder):  # the first import of scipy and of Clarabel take 4 s more, as on a loaded machine
     def find_spec(self, name, path=None, target=None):
         if name in ("scipy", "clarabel"):
-            time.sleep(3.0)
+            time.sleep(4.0)
         return None
 
 from foam_mj.planners import PlanningProblem, get_planner
@@ -129,18 +129,20 @@ sys.meta_path.insert(0, Slow())
 s = load_scenario("step_up")
 oracle = s.oracle()
 for name in ("pfm", "bubbletree", "gbpf"):
-    problem = PlanningProblem(oracle, s.q_init, s.q_goal, delta=oracle.delta, time_limit=2.5)
+    problem = PlanningProblem(oracle, s.q_init, s.q_goal, delta=oracle.delta, time_limit=4.0)
     print(name, get_planner(name).plan(problem, seed=0).stats.elapsed)
 """
 
 
 def test_a_planners_clock_and_time_limit_start_after_it_imports_its_solvers():
     """scipy and Clarabel are imported when a planner first runs (reading a scenario needs neither), before its
-    clock starts: however long the import takes, it is neither planning time nor taken from the time limit."""
+    clock starts: however long the import takes, it is neither planning time nor taken from the time limit. (Each
+    import sleeps as long as the limit, 4 s: a plan of 0.1-0.3 s, 0.3-0.5 s with the machine loaded, still fits under it,
+    but not beside the import; with 3 s of sleep and a limit of 2.5 s a loaded machine had little room.)"""
     out = subprocess.run([sys.executable, "-c", SLOW_IMPORT], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     elapsed = {line.split()[0]: float(line.split()[1]) for line in out.stdout.splitlines()}
-    assert set(elapsed) == {"pfm", "bubbletree", "gbpf"} and max(elapsed.values()) < 2.5, elapsed
+    assert set(elapsed) == {"pfm", "bubbletree", "gbpf"} and max(elapsed.values()) < 4.0, elapsed
 
 
 def test_pfm_bubble_counts_of_the_paper_scenarios_are_unchanged(oracles):
