@@ -15,11 +15,15 @@ MAX_SEED = 2**63 - 1
 
 
 def seed_number(text: str) -> int:
-    """argparse type of ``--seed``: an integer in [0, 2**63 - 1]."""
+    """argparse type of ``--seed``: an integer in [0, 2**63 - 1], decimal (leading zeros too: ``007``, which
+    ``int(text, 0)`` refuses) or as Python spells it (``0x10``, ``1_000``)."""
     try:
-        value = int(text, 0)
+        value = int(text, 10)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+        try:
+            value = int(text, 0)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
     if not 0 <= value <= MAX_SEED:
         raise argparse.ArgumentTypeError(f"must be an integer in [0, 2**63 - 1], got {text}")
     return value
@@ -46,10 +50,13 @@ class HelpFormatter(argparse.HelpFormatter):
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (exit 2), like every other foam-mj error, and help lines broken at spaces only."""
+    """argparse with one-line errors (exit 2), like every other foam-mj error, help lines broken at spaces only, and
+    no abbreviated options: argparse took ``--sce obstacle`` for ``--scene`` (any unambiguous prefix), so a flag added
+    later could change what an existing command line means; an option is now named in full (``--scene``) or refused."""
 
     def __init__(self, *args, **kwargs):
         kwargs.setdefault("formatter_class", HelpFormatter)
+        kwargs.setdefault("allow_abbrev", False)
         super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # noqa: D401 - argparse's hook
@@ -67,7 +74,7 @@ class Parser(argparse.ArgumentParser):
             for arg in args:
                 if arg == "--" or not arg.startswith("-"):
                     break
-                if not any(option.startswith(arg.split("=", 1)[0]) for option in self._option_string_actions):
+                if arg.split("=", 1)[0] not in self._option_string_actions:
                     self.error(f"unrecognized arguments: {arg}")
         parsed, extras = self.parse_known_args(args, namespace)
         if extras:

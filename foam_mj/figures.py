@@ -570,9 +570,15 @@ def cmd_figures(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m foam_mj.figures RESULT.json DIR [--format ...]``: exit 0, or 2 with a one-line error."""
-    parser = argparse.ArgumentParser(prog="foam-mj")
-    add_figures_parser(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(["figures", *(sys.argv[1:] if argv is None else argv)])
+    from foam_mj.arguments import Parser, UsageError
+
+    parser = Parser(prog="foam-mj")
+    add_figures_parser(parser.add_subparsers(dest="command", required=True, parser_class=Parser))
+    try:
+        args = parser.parse_args(["figures", *(sys.argv[1:] if argv is None else argv)])
+    except UsageError as exc:  # one line, as from `foam-mj figures`
+        print(exc, file=sys.stderr)
+        return 2
     try:
         return args.func(args)
     except FoamError as exc:

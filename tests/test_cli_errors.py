@@ -841,6 +841,52 @@ def test_a_flag_the_command_does_not_take_is_refused_by_that_command(capsys):
     assert capsys.readouterr().err == "foam-mj scenes: error: unrecognized arguments: extra --x (see foam-mj scenes --help)\n"
 
 
+@pytest.mark.parametrize("argv, flag, prog", [
+    (["plan", "--sce", "obstacle", "--no-rrd"], "--sce obstacle", "foam-mj plan"),
+    (["plan", "--scene", "obstacle", "--no-rr"], "--no-rr", "foam-mj plan"),
+    (["plan", "--scene", "obstacle", "--no-rrd", "--see", "3"], "--see 3", "foam-mj plan"),
+    (["bubble", "--scene", "obstacle", "--q", "0.2 0.3 0.08", "--del", "0.01"], "--del 0.01", "foam-mj bubble"),
+    (["sweep", "s.toml", "--out", "o", "--work", "2"], "--work 2", "foam-mj sweep"),
+    (["bench", "--run", "1"], "--run 1", "foam-mj bench"),
+    (["--vers"], "--vers", "foam-mj"),
+])
+def test_an_abbreviated_flag_is_refused_not_taken_for_the_flag_it_begins(argv, flag, prog, tmp_path, monkeypatch, capsys):
+    """argparse took `plan --sce obstacle` for --scene (any unambiguous prefix), so a flag added later could change what
+    a command line means, or break it; every parser now takes a flag only as it is named. One line, exit 2, nothing
+    written, before any work."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    assert capsys.readouterr().err == f"{prog}: error: unrecognized arguments: {flag} (see {prog} --help)\n"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_figures_module_entry_point_refuses_like_the_command(tmp_path, capsys):
+    """`python -m foam_mj.figures` built a plain argparse parser: a bad flag printed argparse's usage block and took
+    `--dp 10` for --dpi; it now answers as `foam-mj figures` does, one line."""
+    from foam_mj.figures import main as figures_main
+
+    assert figures_main([str(tmp_path / "r.json"), str(tmp_path / "out"), "--dp", "10"]) == 2
+    assert capsys.readouterr().err == "foam-mj figures: error: unrecognized arguments: --dp 10 (see foam-mj figures --help)\n"
+
+
+@pytest.mark.parametrize("text, seed", [("7", 7), ("007", 7), ("0x10", 16), ("1_000", 1000), (str(2**63 - 1), 2**63 - 1)])
+def test_a_seed_is_read_as_an_integer_in_any_of_pythons_spellings(text, seed):
+    """--seed 010 was refused as 'must be an integer' (Python's int(text, 0) takes no leading zero), while 0x10 and
+    1_000 were taken: a decimal with leading zeros is now read as decimal."""
+    from foam_mj.arguments import seed_number
+
+    assert seed_number(text) == seed
+
+
+@pytest.mark.parametrize("text, message", [("-1", "must be an integer in [0, 2**63 - 1], got -1"),
+                                           (str(2**63), f"must be an integer in [0, 2**63 - 1], got {2**63}"),
+                                           ("1e3", "must be an integer, got '1e3'"), ("1.0", "must be an integer, got '1.0'"),
+                                           ("", "must be an integer, got ''"), ("nan", "must be an integer, got 'nan'")])
+def test_a_bad_seed_is_one_line_naming_the_flag(text, message, capsys):
+    assert main(["plan", "--scene", "obstacle", "--no-rrd", "--seed", text]) == 2
+    assert capsys.readouterr().err == f"foam-mj plan: error: argument --seed: {message} (see foam-mj plan --help)\n"
+
+
 def test_an_option_before_the_command_that_foam_mj_does_not_take_is_named(capsys):
     """`foam-mj --bogus` said only 'the following arguments are required: COMMAND': the unknown option is named, on
     one line, exit 2, with or without a command after it."""
