@@ -117,11 +117,15 @@ class RowStore:
         self._lock = None
 
     def open(self, sweep: Sweep) -> None:
-        """Create the folder, take its lock, check or write its manifest, remove stale temporary files."""
+        """Create the folder, take its lock, check or write its manifest, remove stale temporary files. A folder of
+        another sweep is refused before anything is created in it (it was refused after its rows/ folder and .lock
+        file had been made), and again under the lock (a sweep that wrote its manifest meanwhile)."""
         if self.out.exists() and not self.out.is_dir():
             raise SweepError(f"--out {self.out} is a file, not a folder")
         if not self.out.parent.is_dir():
             raise SweepError(f"--out {self.out}: folder {self.out.parent} does not exist")
+        mine = sweep.manifest()
+        self._check_manifest(mine)
         try:
             self.dir.mkdir(parents=True, exist_ok=True)
             self._lock = open(self.out / ".lock", "a")
@@ -133,18 +137,22 @@ class RowStore:
             self._lock.close()
             self._lock = None
             raise SweepError(f"--out {self.out}: another sweep is writing to this folder") from None
-        mine = sweep.manifest()
+        self._check_manifest(mine)
+        atomic_write_bytes(self.out / MANIFEST, json.dumps(mine, indent=1).encode())
+        for stale in self.dir.glob(".*.tmp"):
+            stale.unlink(missing_ok=True)
+
+    def _check_manifest(self, mine: dict) -> None:
+        """Refuse ``out`` when its manifest is another sweep's."""
         old = read_manifest(self.out)
         if old is not None:
             for field, what in (("scenario", "base scenario"), ("base", "base scenario"), ("replay", "replay mode"), ("keys", "swept keys"), ("columns", "columns")):
                 if old.get(field) != mine[field]:
+                    self.close()
                     raise SweepError(
                         f"--out {self.out} holds rows of another sweep (its {what} differs: {json.dumps(old.get(field))[:120]}); "
                         "use another folder"
                     )
-        atomic_write_bytes(self.out / MANIFEST, json.dumps(mine, indent=1).encode())
-        for stale in self.dir.glob(".*.tmp"):
-            stale.unlink(missing_ok=True)
 
     def close(self) -> None:
         if self._lock is not None:

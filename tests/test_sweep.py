@@ -436,6 +436,24 @@ def test_a_folder_of_another_sweep_is_refused(study, tmp_path):
         run_sweep(other, study["out"], workers=1, progress=False)
 
 
+@pytest.mark.parametrize("manifest", ["another sweep's", "unreadable"])
+def test_a_refused_out_folder_is_left_as_it_was(manifest, tmp_path, capsys):
+    """`foam-mj sweep S.toml --out DIR` where DIR holds another sweep's manifest (its rows moved away) or a damaged one
+    created DIR/rows/ and DIR/.lock, then refused the folder; it now refuses it first: one line, exit 2, DIR unchanged."""
+    from foam_mj.sweep_run import MANIFEST
+
+    spec = write(tmp_path, STUDY)
+    out = tmp_path / "out"
+    out.mkdir()
+    other = load_sweep(write(tmp_path, STUDY.replace('smoothers = "convex"', 'smoothers = "convex"\nreplay = "kinematic"'), "other.toml"))
+    text = json.dumps(other.manifest(), indent=1) if manifest == "another sweep's" else "{not json"
+    (out / MANIFEST).write_text(text)
+    assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and ("holds rows of another sweep" in err or "unreadable sweep manifest" in err), err
+    assert [p.name for p in out.iterdir()] == [MANIFEST] and (out / MANIFEST).read_text() == text
+
+
 def test_report_draws_the_envelope_and_prints_a_summary(study, tmp_path, capsys):
     import matplotlib.image as mpimg
 
