@@ -98,14 +98,16 @@ def objective_terms(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def tc(points: np.ndarray) -> np.ndarray:
-    """TC of Nascimento and Alsina 2021 Eq. 6: |q_goal - q_init| / path length (1 for a straight line)."""
+    """TC of Nascimento and Alsina 2021 Eq. 6: |q_goal - q_init| / path length (1 for a straight line, 0 for a path
+    back to its start). A path that does not move (length <= 1e-12), where Eq. 6 is 0 / 0, has TC 0: it was
+    |q_goal - q_init| / 1e-12, any value in [0, 1) depending on how little the path moved."""
     return _tc(points, path_length(points))
 
 
 def _tc(points: np.ndarray, length: np.ndarray) -> np.ndarray:
     """Eq. 6 for points whose path length is known."""
     de = np.linalg.norm(points[..., -1, :] - points[..., 0, :], axis=-1)
-    return de / np.maximum(length, _EPS)
+    return np.where(length > _EPS, de / np.maximum(length, _EPS), 0.0)
 
 
 def sv(points: np.ndarray) -> np.ndarray:

@@ -211,3 +211,19 @@ def test_a_rosary_keeps_its_own_read_only_arrays():
     for a in (ros.centers, ros.radii, ros.q_init, ros.q_goal):
         with pytest.raises(ValueError, match="read-only"):
             a[0] = 1.0
+
+
+@pytest.mark.parametrize("scale", [0.0, 1e-14, 1e-13])
+def test_a_path_that_does_not_move_has_tc_0_and_finite_metrics(scale):
+    """TC (Nascimento and Alsina 2021 Eq. 6) is 0 / 0 on a path that does not move: it was |q_goal - q_init| / 1e-12,
+    0 for a path at one point but 0.01 or 0.1 for a straight one 1e-14 or 1e-13 long. Such a path has TC 0, as a path
+    back to its start, and every measure is finite; a straight path 1e-9 long keeps TC 1."""
+    from foam_mj.smoothing.gradient import tc_and_gradient
+
+    p = np.array([[0.2, 0.3, 0.08], [0.2, 0.3, 0.08 + scale / 2], [0.2, 0.3, 0.08 + scale]])
+    m = metrics(p)
+    assert m.tc == 0.0 and float(tc(p)) == 0.0 and all(np.isfinite([m.length, m.f, m.sv, m.angle_term]))
+    value, grad = tc_and_gradient(p)
+    assert float(value) == 0.0 and np.all(grad == 0.0)
+    straight = np.array([[0.2, 0.3, 0.08], [0.2, 0.3, 0.08 + 1e-9]])
+    assert metrics(straight).tc == pytest.approx(1.0)

@@ -101,9 +101,10 @@ def tc_and_gradient(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     u = seg / np.maximum(ls, _EPS)[..., None]
     length = ls.sum(axis=-1)
     de = np.linalg.norm(p[..., -1, :] - p[..., 0, :], axis=-1)
-    tc = de / np.maximum(length, _EPS)
+    moves = length > _EPS  # a path that does not move has TC 0 (foam_mj.paths.tc) and no gradient
+    tc = np.where(moves, de / np.maximum(length, _EPS), 0.0)
     grad = np.zeros_like(p)
-    grad[..., 1:-1, :] = -(de / np.maximum(length, _EPS) ** 2)[..., None, None] * (u[..., :-1, :] - u[..., 1:, :])
+    grad[..., 1:-1, :] = -np.where(moves, de / np.maximum(length, _EPS) ** 2, 0.0)[..., None, None] * (u[..., :-1, :] - u[..., 1:, :])
     return tc, grad
 
 
