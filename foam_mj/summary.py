@@ -33,11 +33,27 @@ def summary_table(outcome) -> str:
             f"{po.label:<27}{m.length:>8.4f}{m.f:>8.4f}{m.tc:>8.4f}{m.sv:>8.4f}{clear:>11}{dur:>10}{err:>10}{con:>9}"
             f"{po.result.wall_time * 1000:>7.0f} ms"
         )
-    lines.append(
-        "min clear: smallest MuJoCo clearance along the planned trajectory; track err: largest servo tracking "
-        "error under gravity (mrad for hinges, mm for slides); contacts: robot/obstacle contacts in that servo replay."
-    )
+    lines.append(_legend(outcome.paths.values()))
     return "\n".join(lines)
+
+
+def _legend(paths) -> str:
+    """The summary's last line: what its replay columns mean, for those that have values. With ``--no-replay`` it
+    explained a servo replay that never ran, under columns of dashes; those now read as not computed."""
+    paths = list(paths)
+    kinematic = any(po.kinematic is not None for po in paths)
+    dynamic = any(po.dynamic is not None for po in paths)
+    notes = []
+    if kinematic:
+        notes.append("min clear: smallest MuJoCo clearance along the planned trajectory")
+    if dynamic:
+        notes.append("track err: largest servo tracking error under gravity (mrad for hinges, mm for slides); "
+                     "contacts: robot/obstacle contacts in that servo replay")
+    missing = [name for name, has in (("min clear", kinematic), ("duration", any(po.trajectory is not None for po in paths)),
+                                      ("track err", dynamic), ("contacts", dynamic)) if not has]
+    if missing:
+        notes.append(f"{', '.join(missing)}: not computed (no replay)")
+    return "; ".join(notes) + "."
 
 
 def print_servo_note(outcome) -> None:

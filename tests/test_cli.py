@@ -891,3 +891,17 @@ def test_python_dash_m_foam_mj_is_the_command():
     assert ok.returncode == 0 and ok.stdout.strip() == f"foam-mj {foam_mj.__version__}", ok
     bad = subprocess.run([sys.executable, "-m", "foam_mj", "plan", "--nope"], capture_output=True, text=True, env=env, cwd=root)
     assert bad.returncode == 2 and bad.stderr.strip().splitlines() == ["foam-mj plan: error: unrecognized arguments: --nope (see foam-mj plan --help)"], bad
+
+
+def test_the_summary_legend_explains_only_the_columns_a_run_computed(tmp_path, capsys):
+    """`plan --no-replay` printed columns of dashes under min clear, duration, track err and contacts, and a legend
+    explaining the servo replay that never ran; the legend now says those were not computed. With the replay, the
+    legend explains them."""
+    assert main(["plan", "--scene", "step_up", "--smoother", "none", "--no-rrd", "--no-replay"]) == 0
+    out = capsys.readouterr().out
+    assert "min clear, duration, track err, contacts: not computed (no replay)." in out
+    assert "servo" not in out and "smallest MuJoCo clearance" not in out
+    assert main(["plan", "--scene", "step_up", "--smoother", "none", "--no-rrd"]) == 0
+    out = capsys.readouterr().out
+    assert "min clear: smallest MuJoCo clearance along the planned trajectory; track err: largest servo tracking error" in out
+    assert "not computed" not in out
