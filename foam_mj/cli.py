@@ -479,7 +479,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split())
+    """An error message on one line: whitespace runs collapsed, and any other character that does not print (a file
+    name holding ESC or DEL) written as its escape, ``\\x1b``: `foam-mj verify $'a\\x1b[31mb.json'` turned the
+    terminal red instead of naming the file."""
+    text = " ".join(str(exc).split())
+    return text if text.isprintable() else "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 #: Commands after which the ``foam-mj`` process ends with ``os._exit`` once its output is flushed, skipping

@@ -887,6 +887,15 @@ def test_a_bad_seed_is_one_line_naming_the_flag(text, message, capsys):
     assert capsys.readouterr().err == f"foam-mj plan: error: argument --seed: {message} (see foam-mj plan --help)\n"
 
 
+def test_a_file_name_with_control_characters_is_named_with_escapes(tmp_path, monkeypatch, capsys):
+    """A name holding ESC or DEL was printed as it is: `foam-mj verify $'a\\x1b[31mb.json'` turned the terminal red and
+    named a file the user could not see. The error names it with escapes, on one line."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["verify", "a\x1b[31mb\x7f.json"]) == 2
+    err = capsys.readouterr().err
+    assert err == "foam-mj: error: result file not found: a\\x1b[31mb\\x7f.json\n"
+
+
 def test_an_option_before_the_command_that_foam_mj_does_not_take_is_named(capsys):
     """`foam-mj --bogus` said only 'the following arguments are required: COMMAND': the unknown option is named, on
     one line, exit 2, with or without a command after it."""
