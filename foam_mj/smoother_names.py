@@ -42,7 +42,10 @@ LABELS = {
 def parse_smoothers(spec: str) -> tuple[str, ...]:
     """Path names for a ``--smoother`` value: one name of :data:`SMOOTHERS` or a comma-separated list."""
     names: list[str] = []
-    for part in spec.split(","):
+    parts = spec.split(",")
+    if len(parts) > 1 and "none" in (part.strip() for part in parts):  # "all,none" ran every smoother, "none,convex" one
+        raise FoamError(f"'none' (no smoother) cannot be combined with other smoothers in '{spec}'; give it alone")
+    for part in parts:
         part = part.strip()
         if not part:
             raise FoamError(f"an empty smoother name in '{spec}' (a stray comma?); choose from {', '.join(SMOOTHERS)} "

@@ -58,6 +58,7 @@ def _bad_inputs(d: Path) -> dict[str, tuple[list[str], str]]:
         "unknown smoother": (["--smoother", "fastest"], "unknown smoother"),
         "smoother list with a stray comma": (["--smoother", "ga,,hs"], "an empty smoother name in 'ga,,hs' (a stray comma?)"),
         "smoother ''": (["--smoother", ""], "an empty smoother name in ''"),
+        "smoother none in a list": (["--smoother", "all,none"], "'none' (no smoother) cannot be combined with other smoothers in 'all,none'"),
         "unknown scene": (["--scene", "moon_walk"], "unknown scenario"),
         "--json a FIFO": (["--json", str(_fifo(d / "pipe.json"))], "is not a regular file (a FIFO)"),
         "--json ending in /": (["--json", f"{d}/out/"], "ends in '/': it names a folder"),
@@ -92,7 +93,7 @@ def inputs(tmp_path):
 NAMES = ["q_goal == q_init", "huge K", "tiny r_min", "seed -1", "seed 2**70", "seed not a number", "--json under /proc",
          "--rrd under /proc", "--json 300-char name", "--rrd 300-char name", "--json a directory", "--rrd not .rrd",
          "--figures a file", "scenario name a/b", "--scene ''", "--scene a directory", "MJCF compile error",
-         "--no-rrd with --rrd", "unknown smoother", "smoother list with a stray comma", "smoother ''", "unknown scene", "--json a FIFO", "--json ending in /", "--start with _"]
+         "--no-rrd with --rrd", "unknown smoother", "smoother list with a stray comma", "smoother ''", "smoother none in a list", "unknown scene", "--json a FIFO", "--json ending in /", "--start with _"]
 
 
 @pytest.mark.parametrize("name", NAMES)
