@@ -2,9 +2,11 @@
 beside OMPL's RRTConnect (+ PathSimplifier) and RRT* (10x the time) on the same MJCF.
 
     python benchmarks/planners.py [--seeds 10] [--planners pfm gbpf ...] [--problems obstacle arm6 my_robot.toml ...]
-                                  [--time-limit 10] [--no-ompl] [--bitstar] [--json out.json]
+                                  [--scenario FILE.toml ...] [--mjcf ROBOT.xml --start Q --goal Q [--joints a,b]]
+                                  [--delta M] [--time-limit 10] [--no-ompl] [--bitstar] [--ompl-resolution 0.01] [--json out.json]
     python benchmarks/planners.py --quick      # CI: 3 seeds, the 3-joint leg scenes, OMPL only if installed
-    python benchmarks/planners.py --problems my_robot.toml --seeds 3   # your robot beside OMPL
+    python benchmarks/planners.py --scenario my_robot.toml --seeds 3   # your robot beside OMPL
+    python benchmarks/planners.py --mjcf examples/two_link_arm/arm.xml --start "0.3 2.0" --goal "0.1 0.6" --seeds 3
 
 Problems: the Ortholeg's ``obstacle``, ``step_up`` and ``step_down`` scenarios (their paper parameters
 K and r_min for the foam planners), ``obstacle5`` (the 5-joint leg of ``models/ortholeg5.xml``, hip
@@ -14,13 +16,17 @@ ab/adduction and ankle added, over the same box; K = 10, r_min = 0.05 for the fo
 ``--problems shelf6`` adds the example UR-like arm reaching into a shelf
 (``examples/industrial_arm/reach_shelf.toml``).
 
-Your own problem: ``--problems`` also takes a scenario, a TOML file as ``foam-mj plan --scene`` reads
+Your own problem: ``--scenario FILE`` (repeatable; ``--problems`` takes them too) names a scenario, a TOML file as ``foam-mj plan --scene`` reads
 (its scene with the scenario's edits, ``joints``, ``robot_root``, ``self_collision``, ``keyframe``;
 ``q_init`` and ``q_goal``; format in :mod:`foam_mj.scenarios`) or a built-in scenario's name
 (``obstacle_thesis``, ``walker_corridor``, ...). Its row is named by the scenario's ``name``. K and r_min
 for the foam family come from its ``[planner]`` table when it sets them (else K = 10, r_min = 0.05, as for
 obstacle5 and arm6), the margin from its ``delta`` (else 5 mm); its ``algorithm``, ``time_limit`` and other
-options are not used (``--planners`` and ``--time-limit`` decide). A file that is missing or fails the
+options are not used (``--planners`` and ``--time-limit`` decide). ``--mjcf ROBOT.xml --start Q --goal Q`` (with
+``--joints``, ``--robot-root``, ``--no-self-collision``) is a problem without a scenario file, made into one by
+``foam-mj plan``'s own code (the same parsing, keyframe names and messages); its row is named after the file,
+K = 10, r_min = 0.05, delta 5 mm. ``--delta M`` sets the margin of every problem of the run. With ``--scenario`` or
+``--mjcf`` only those problems run unless ``--problems`` names more. A file that is missing or fails the
 scenario's checks is refused (one line, exit 2) before any run.
 
 Every planner of :data:`foam_mj.planners.PLANNERS` runs; the foam family (pfm, gbpf, rbpf, hpf) gets
@@ -34,12 +40,19 @@ the same checked geom pairs (robot/obstacle and the robot/robot pairs of self-co
 checker is our certificate's clearance function, ``BubbleOracle.clearance``) with the same margin. Our
 distance queries run in one thread here (``Clearance.threads = 1``; ``foam-mj plan`` splits large batches
 over two), as OMPL does. OMPL's checks are a Python callback per state, ours batched MuJoCo calls: that is
-part of what the times compare. OMPL checks motions at its default resolution (1 % of the joint box's
-extent), so its paths can come closer than delta between checked states (``below delta``); they still count
-as solved. OMPL's generator is seeded once per process (its rule), so its runs on a problem depend on the
-problems run before it in the same process (``--problems step_up`` and ``--problems obstacle step_up`` give
-different OMPL rows for step_up), and RRT*'s budget on RRTConnect's wall time; ours depend on the seed alone
-(unless a run meets the wall-time limit).
+part of what the times compare. The joint bounds are the configuration joints' ranges for both sides (an
+unlimited joint is never a configuration joint: it stays at qpos0 for both). OMPL checks motions every
+``--ompl-resolution`` (default 0.01, OMPL's own) x the joint box's diagonal in qpos units, set explicitly and written to
+the JSON with the step it gives (``ompl.longest_valid_segment``: 0.063 rad on the two-link arm, 0.134 on arm6), so
+its paths can come closer than delta between checked states (``below delta``); they still count as solved (a finer
+resolution makes OMPL slower and safer: the choice is the user's, the default OMPL's). Each OMPL run seeds OMPL's
+generators with its own seed (``RNG.setSeed(seed + 1)``, :class:`OMPLRunner`), so an RRTConnect row repeats
+whatever ran before it in the process; RRT*'s budget is 10 x RRTConnect's wall time, so its iterations vary with
+the load. Ours depend on the seed alone (unless a run meets the wall-time limit). A run of either side that fails
+or raises counts as a failure (``ok`` is successes out of seeds; the failures are listed after the table by
+outcome); medians are over each side's successful runs and the ratio table shows both success counts. The JSON
+holds what a rerun needs: the command line, versions, thread settings, every problem's joints, bounds, start,
+goal, margin, model fingerprint and options, OMPL's resolution and bounds, and every run's seed.
 
 Columns (medians over the successful seeds; ``ok`` counts them):
 
@@ -69,7 +82,8 @@ Columns (medians over the successful seeds; ``ok`` counts them):
 * ``below delta``: successful runs whose path comes closer than delta under the dense check (listed after
   the table; for ours it is a safety failure, exit 1).
 
-OMPL 2.0.1 is an optional peer (``pip install -e ".[peers]"``): without it the OMPL rows are skipped.
+OMPL 2.0.1 is an optional peer (``pip install -e ".[peers]"``): without it the OMPL rows are skipped, with a
+note on stderr (``--bitstar`` without OMPL is refused, exit 2).
 ``--quick`` runs 3 seeds of the 3-joint scenes and finishes in well under a minute (CI runs it).
 Timings are wall times on whatever machine runs it; on a shared 2-core machine they vary by 2x.
 The planners and OMPL are single-threaded, so the script sets ``OMP_NUM_THREADS`` and ``OPENBLAS_NUM_THREADS``
@@ -78,13 +92,15 @@ spinning into the next timed run (measured: ``cpu ms`` 78-87 against a wall ``to
 with one thread both 51-54).
 Exit status 1 when a path of ours comes closer than delta to an obstacle (or, with self-collision, to
 itself) under the dense check (a safety failure); 2 for bad arguments (one line, before any run: unknown
-planner or problem, a scenario that fails its checks, --seeds outside [1, 10000], --time-limit not a finite
-number > 0, a --json that cannot be written or does not end in .json); 130 when interrupted (Ctrl-C:
+planner or problem, a scenario or --mjcf problem that fails its checks, --start/--goal/--joints/--robot-root/--no-self-collision without --mjcf,
+--seeds outside [1, 10000], --time-limit or --delta not a finite number > 0, --ompl-resolution outside (0, 0.5],
+a --json that cannot be written or does not end in .json); 130 when interrupted (Ctrl-C:
 no JSON is written; the JSON is written once, atomically, after the last run).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -106,7 +122,7 @@ from foam_mj.atomic import OutputError, atomic_write_text, check_output  # noqa:
 from foam_mj.bubbles import BubbleOracle  # noqa: E402
 from foam_mj.cli import Parser, UsageError  # noqa: E402
 from foam_mj.data import models_dir  # noqa: E402
-from foam_mj.errors import ConfigurationError, PlanningFailed, ScenarioError  # noqa: E402
+from foam_mj.errors import ConfigurationError, FoamError, PlanningFailed, ScenarioError  # noqa: E402
 from foam_mj.model import RobotModel  # noqa: E402
 from foam_mj.paths import metrics  # noqa: E402
 from foam_mj.planners import PLANNERS, PlannerError, PlanningProblem, get_planner  # noqa: E402
@@ -124,6 +140,8 @@ ALL_PROBLEMS = QUICK_PROBLEMS + ("obstacle5", "arm6", "arm7")
 EXTRA_PROBLEMS = ("shelf6",)  # only when named with --problems
 CHECK_STEP = 1e-3  # rad (max-norm in q) between densely checked configurations
 MAX_SEEDS = 10_000  # a typo of a few zeros would run for days
+NO_OMPL = "OMPL is not installed (the optional extra: pip install -e \".[peers]\")"
+OMPL_RESOLUTION = 0.01  # OMPL's default state validity checking resolution (fraction of the space's extent)
 
 
 @dataclass(frozen=True)
@@ -171,23 +189,45 @@ def scenario_problem(name_or_path: str) -> Problem:
                    float(s.params.delta), str(path))
 
 
-def load_problems(names: list[str]) -> list[Problem]:
-    """Every problem of ``names``, loaded and checked before any run; UsageError (one line) for a bad one."""
+def mjcf_problem(args) -> Problem:
+    """``--mjcf FILE --start Q --goal Q`` (with ``--joints``, ``--robot-root``, ``--no-self-collision``) as a problem,
+    made into a scenario by ``foam-mj plan``'s own code (:func:`foam_mj.plan_command.plan_scenario`: the same parsing,
+    keyframe names, checks and one-line messages naming the flag); K and r_min the defaults, delta 5 mm unless
+    ``--delta``."""
+    import argparse
+
+    from foam_mj.plan_command import plan_scenario
+
+    ns = argparse.Namespace(scene=None, mjcf=args.mjcf, start=args.start, goal=args.goal, joints=args.joints, delta=None,
+                            time_limit=None, subject_height=None, subject_mass=None, robot_root=args.robot_root,
+                            no_self_collision=args.no_self_collision)
+    s = plan_scenario(ns)
+    return Problem(s.name, s.robot, s.q_init, s.q_goal, DEFAULT_K, DEFAULT_R_MIN, float(s.params.delta), str(Path(args.mjcf).resolve()))
+
+
+def load_problems(names: list[str], flags: list[str] | None = None, extra: tuple[Problem, ...] = ()) -> list[Problem]:
+    """Every problem of ``names`` (each given with the flag of ``flags``: --problems or --scenario) and ``extra``
+    (--mjcf's), loaded and checked before any run; UsageError (one line) for a bad one or a name given twice."""
     out: list[Problem] = []
-    for name in names:
-        try:
-            pb = problem(name)
-        except ScenarioError as exc:
-            p = Path(name)
-            if p.suffix != ".toml" and len(p.parts) == 1 and not p.exists():
-                raise UsageError(f"--problems: unknown problem '{name}'; built-in problems: {', '.join(ALL_PROBLEMS + EXTRA_PROBLEMS)}; "
-                                 f"or a scenario TOML file, or a built-in scenario: {', '.join(available_scenarios())}") from None
-            raise UsageError(f"--problems: {exc}") from None
+    flags = flags or ["--problems"] * len(names)
+    for name, flag in [*zip(names, flags), *((pb, "--mjcf") for pb in extra)]:
+        if isinstance(name, Problem):
+            pb, name = name, name.source
+        else:
+            try:
+                pb = problem(name) if flag == "--problems" else scenario_problem(name)
+            except ScenarioError as exc:
+                p = Path(name)
+                if p.suffix != ".toml" and len(p.parts) == 1 and not p.exists():
+                    raise UsageError(f"{flag}: unknown {'problem' if flag == '--problems' else 'scenario'} '{name}'; "
+                                     + (f"built-in problems: {', '.join(ALL_PROBLEMS + EXTRA_PROBLEMS)}; or " if flag == "--problems" else "")
+                                     + f"a scenario TOML file, or a built-in scenario: {', '.join(available_scenarios())}") from None
+                raise UsageError(f"{flag}: {exc}") from None
         same = [o.source or o.name for o in out if o.name == pb.name]
         if same and same[0] == (pb.source or name):
-            raise UsageError(f"--problems: '{name}' is given twice")
+            raise UsageError(f"{flag}: '{name}' is given twice")
         if same:
-            raise UsageError(f"--problems: two problems are named '{pb.name}' ({same[0]} and {pb.source or name}): "
+            raise UsageError(f"{flag}: two problems are named '{pb.name}' ({same[0]} and {pb.source or name}): "
                              "give each once (a scenario's row is named by its 'name' field)")
         out.append(pb)
     return out
@@ -290,29 +330,49 @@ class OMPLRunner:
     """OMPL on the same MJCF: a RealVectorStateSpace over the joint bounds in MuJoCo's units (x = scale * q: the
     leg's normalized hip displacement in metres), valid when MuJoCo's clearance > delta. In qpos units OMPL's
     distances (RRT*'s path length, simplification, ranges) are those of the ``len qpos`` column it is compared
-    in; in q, RRT* minimized another length than the one compared (the leg problems)."""
+    in; in q, RRT* minimized another length than the one compared (the leg problems).
 
-    def __init__(self, pb: Problem, oracle: BubbleOracle) -> None:
+    The bounds are the configuration joints' ranges, the box our planners sample in (every configuration joint is a
+    limited hinge or slide: an unlimited joint is no configuration joint and stays at qpos0 for both sides). The
+    validity checker is our certificate's clearance function (the same geom pairs: contype/conaffinity, excluded
+    and fixed pairs, self-collision as the problem says). Motions are checked every ``resolution`` x the box's
+    diagonal in qpos units (``setStateValidityCheckingResolution``; 0.01, OMPL's default, unless
+    ``--ompl-resolution``); the absolute step is in the JSON (``ompl.longest_valid_segment``).
+
+    Seeds: OMPL 2.0.1 draws every generator's seed from one process-wide seed (``RNG.setSeed``); each run sets it
+    to the run's seed + 1 (0 means "random" to OMPL) before it builds its planner, so a run's samples depend on its
+    seed alone, not on the runs before it in the process (measured: the same RRTConnect path whichever problems
+    and seeds ran first). RRT* and BIT* stop on wall time (10 x RRTConnect's), so their iterations, and paths,
+    still vary with the machine's load."""
+
+    def __init__(self, pb: Problem, oracle: BubbleOracle, resolution: float = OMPL_RESOLUTION) -> None:
         from ompl import base as ob
         from ompl import geometric as og
+        from ompl import util as ou
 
-        self.ob, self.og = ob, og
+        self.ob, self.og, self.ou = ob, og, ou
         r = oracle.robot
         n = self.n = r.dim
         self.scale = np.asarray(r.config.scale, dtype=float)
         lo, hi = np.sort([self.scale * r.lower, self.scale * r.upper], axis=0)
+        self.bounds = (lo, hi)
         self.space = ob.RealVectorStateSpace(n)
         bounds = ob.RealVectorBounds(n)
         for i in range(n):
             bounds.setLow(i, float(lo[i]))
             bounds.setHigh(i, float(hi[i]))
         self.space.setBounds(bounds)
+        self.resolution = float(resolution)
+        self.longest_valid_segment = self.resolution * float(np.linalg.norm(hi - lo))  # OMPL: fraction x getMaximumExtent()
         self.clearance = oracle.clearance  # the pairs and MuJoCo queries of our certificate
         self.checks = 0
         self.pb = pb
 
-    def _setup(self):
-        og = self.og
+    def _setup(self, seed: int):
+        ou, og = self.ou, self.og
+        ou.setLogLevel(ou.LogLevel.LOG_NONE)  # setSeed's "generation already started" error: the seed applies to the generators made after it
+        ou.RNG.setSeed(int(seed) + 1)
+        ou.setLogLevel(ou.LogLevel.LOG_WARN)
         ss = og.SimpleSetup(self.space)
         n, clearance, delta, scale = self.n, self.clearance, self.pb.delta, self.scale
 
@@ -321,6 +381,7 @@ class OMPLRunner:
             return bool(clearance(np.array([state[i] for i in range(n)]) / scale) > delta)
 
         ss.setStateValidityChecker(valid)
+        ss.getSpaceInformation().setStateValidityCheckingResolution(self.resolution)
         start, goal = self.space.allocState(), self.space.allocState()
         x_init, x_goal = scale * self.pb.q_init, scale * self.pb.q_goal
         for i in range(n):
@@ -332,33 +393,42 @@ class OMPLRunner:
         """The solution path as rows of q."""
         return np.array([[p.getState(k)[i] for i in range(self.n)] for k in range(p.getStateCount())]) / self.scale
 
-    def rrtconnect(self, time_limit: float) -> dict:
-        ss = self._setup()
-        si = ss.getSpaceInformation()
-        ss.setPlanner(self.og.RRTConnect(si))
-        self.checks = 0
+    def rrtconnect(self, time_limit: float, seed: int) -> dict:
         t0, c0 = time.perf_counter(), time.process_time()
-        solved = ss.solve(time_limit)
-        first = time.perf_counter() - t0
-        if not ss.haveExactSolutionPath():
-            return {"ok": False, "outcome": str(solved), "time": first}
-        p = ss.getSolutionPath()
-        self.og.PathSimplifier(si).simplifyMax(p)
-        total, total_cpu = time.perf_counter() - t0, time.process_time() - c0
-        return {"ok": True, "first": first, "total": total, "total_cpu": total_cpu, "queries": self.checks, "path": self._path(p)}
-
-    def optimizing(self, budget: float, which: str = "rrtstar") -> dict:
-        ss = self._setup()
-        si = ss.getSpaceInformation()
-        ss.setOptimizationObjective(self.ob.PathLengthOptimizationObjective(si))
-        ss.setPlanner(self.og.RRTstar(si) if which == "rrtstar" else self.og.BITstar(si))
         self.checks = 0
-        t0 = time.perf_counter()
-        ss.solve(budget)
-        total = time.perf_counter() - t0
+        try:
+            ss = self._setup(seed)
+            si = ss.getSpaceInformation()
+            ss.setPlanner(self.og.RRTConnect(si))
+            solved = ss.solve(time_limit)
+            first = time.perf_counter() - t0
+            if not ss.haveExactSolutionPath():
+                return {"ok": False, "outcome": str(solved), "seed": seed, "time": first, "queries": self.checks}
+            p = ss.getSolutionPath()
+            self.og.PathSimplifier(si).simplifyMax(p)
+        except Exception as exc:  # OMPL's crash is counted as its failure, not a reason to lose every other run
+            return {"ok": False, "outcome": f"ompl error: {type(exc).__name__}: {exc}", "seed": seed, "time": time.perf_counter() - t0}
+        total, total_cpu = time.perf_counter() - t0, time.process_time() - c0
+        return {"ok": True, "outcome": str(solved), "seed": seed, "first": first, "total": total, "total_cpu": total_cpu,
+                "queries": self.checks, "path": self._path(p)}
+
+    def optimizing(self, budget: float, seed: int, which: str = "rrtstar") -> dict:
+        t0, c0 = time.perf_counter(), time.process_time()
+        self.checks = 0
+        try:
+            ss = self._setup(seed)
+            si = ss.getSpaceInformation()
+            ss.setOptimizationObjective(self.ob.PathLengthOptimizationObjective(si))
+            ss.setPlanner(self.og.RRTstar(si) if which == "rrtstar" else self.og.BITstar(si))
+            solved = ss.solve(budget)
+        except Exception as exc:
+            return {"ok": False, "outcome": f"ompl error: {type(exc).__name__}: {exc}", "seed": seed, "budget": budget,
+                    "time": time.perf_counter() - t0}
+        total, total_cpu = time.perf_counter() - t0, time.process_time() - c0
         if not ss.haveExactSolutionPath():
-            return {"ok": False, "outcome": "no exact solution", "time": total}
-        return {"ok": True, "first": None, "total": total, "queries": self.checks, "path": self._path(ss.getSolutionPath())}
+            return {"ok": False, "outcome": str(solved), "seed": seed, "budget": budget, "time": total, "queries": self.checks}
+        return {"ok": True, "outcome": str(solved), "seed": seed, "budget": budget, "first": None, "total": total, "total_cpu": total_cpu,
+                "queries": self.checks, "path": self._path(ss.getSolutionPath())}
 
 
 def finish_ompl(rec: dict, robot: RobotModel, checker: DenseChecker) -> dict:
@@ -367,6 +437,37 @@ def finish_ompl(rec: dict, robot: RobotModel, checker: DenseChecker) -> dict:
         m = metrics(path)
         rec.update(len_q=m.length, len_qpos=qpos_length(robot, path), f=m.f, **checker.record(path), bubbles=None)
     return rec
+
+
+def reproduce_info(args, planners: list[str], use_ompl: bool) -> dict:
+    """What the JSON needs to repeat the run: the command line, the versions, the thread settings, the seeds' rule."""
+    import platform
+    from importlib.metadata import PackageNotFoundError, version
+
+    def ver(pkg: str) -> str | None:
+        try:
+            return version(pkg)
+        except PackageNotFoundError:
+            return None
+
+    return {"argv": [Path(sys.argv[0]).name, *sys.argv[1:]] if sys.argv and sys.argv[0].endswith("planners.py") else None,
+            "planners": planners, "ompl_used": use_ompl, "ompl_resolution": args.ompl_resolution if use_ompl else None,
+            "seed_rule": "our planners and smoother: seed s; OMPL: RNG.setSeed(s + 1) before each run",
+            "versions": {k: ver(k) for k in ("foam-mj", "mujoco", "numpy", "scipy", "ompl")} | {"python": platform.python_version()},
+            "threads": {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}, "machine": platform.machine(),
+            "cpus": os.cpu_count()}
+
+
+def problem_info(pb: Problem, checker: DenseChecker) -> dict:
+    """A problem's own description in the JSON: joints, bounds, start and goal, the model's fingerprint, the pairs
+    the dense check used."""
+    from foam_mj.fingerprint import model_fingerprint
+
+    r, m = pb.robot, pb.robot.model
+    return {"joints": [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, int(j)) for j in r.config.joint_ids],
+            "lower": r.lower.tolist(), "upper": r.upper.tolist(), "q_init": pb.q_init.tolist(), "q_goal": pb.q_goal.tolist(),
+            "self_collision": bool(r.self_collision), "model_sha256": model_fingerprint(m)["sha256"],
+            "dense_pairs": len(checker.pairs), "dense_self_pairs": len(checker.self_pairs)}
 
 
 def have_ompl() -> bool:
@@ -411,10 +512,23 @@ def parse(argv: list[str] | None) -> tuple:
     ap.add_argument("--seeds", type=int, default=None, help=f"seeds per planner and problem (default 10, --quick 3; at most {MAX_SEEDS:,})")
     ap.add_argument("--planners", nargs="+", default=None, help=f"default: every registered planner ({', '.join(sorted(PLANNERS))})")
     ap.add_argument("--problems", nargs="+", default=None,
-                    help=f"default: {' '.join(ALL_PROBLEMS)}; also {' '.join(EXTRA_PROBLEMS)}, a scenario TOML file or a built-in scenario's name")
+                    help=f"default: {' '.join(ALL_PROBLEMS)} (none when --scenario or --mjcf is given); also {' '.join(EXTRA_PROBLEMS)}, "
+                         "a scenario TOML file or a built-in scenario's name")
+    ap.add_argument("--scenario", action="append", default=[], metavar="FILE.toml",
+                    help="your own problem: a scenario TOML file (as `foam-mj plan --scene` reads) or a built-in scenario's name; repeatable")
+    ap.add_argument("--mjcf", metavar="ROBOT.xml", help="your own problem without a scenario file, as `foam-mj plan --mjcf` takes it (needs --start and --goal)")
+    ap.add_argument("--start", metavar="Q", help="with --mjcf: the start, one number per configuration joint (spaces or commas), or a keyframe's name")
+    ap.add_argument("--goal", metavar="Q", help="with --mjcf: the goal (numbers or a keyframe's name)")
+    ap.add_argument("--joints", metavar="a,b,c", help="with --mjcf: the configuration joints, in order")
+    ap.add_argument("--robot-root", metavar="BODY", help="with --mjcf: the body whose subtree is the robot")
+    ap.add_argument("--no-self-collision", action="store_true", help="with --mjcf: do not check robot/robot pairs")
+    ap.add_argument("--delta", type=float, metavar="M", help="the margin in metres for every problem of the run, ours, OMPL's and the dense "
+                                                              "check's (default: each problem's own: a scenario's delta, else 0.005)")
     ap.add_argument("--time-limit", type=float, default=10.0, help="seconds per planning run before it counts as failed (default 10)")
     ap.add_argument("--no-ompl", action="store_true", help="skip the OMPL peers")
     ap.add_argument("--bitstar", action="store_true", help="also run OMPL's BIT* with 10x RRTConnect's time")
+    ap.add_argument("--ompl-resolution", type=float, default=OMPL_RESOLUTION, metavar="F",
+                    help=f"OMPL's state validity checking resolution, a fraction of the joint box's diagonal in qpos units (default {OMPL_RESOLUTION:g}, OMPL's own)")
     ap.add_argument("--quick", action="store_true", help="CI: 3 seeds, the 3-joint scenes")
     ap.add_argument("--no-progress", action="store_true")
     ap.add_argument("--json", help="write every run and the medians as JSON (written once, atomically, after the last run)")
@@ -424,8 +538,18 @@ def parse(argv: list[str] | None) -> tuple:
         ap.error(f"--seeds must be in [1, {MAX_SEEDS}] (runs per planner and problem), got {seeds}")
     if not (math.isfinite(args.time_limit) and args.time_limit > 0):
         ap.error(f"--time-limit must be a finite number of seconds > 0, got {args.time_limit:g}")
+    if args.delta is not None and not (math.isfinite(args.delta) and args.delta > 0):
+        ap.error(f"--delta must be a finite margin > 0 in metres, got {args.delta:g}")
+    if not (math.isfinite(args.ompl_resolution) and 0 < args.ompl_resolution <= 0.5):
+        ap.error(f"--ompl-resolution must be a fraction in (0, 0.5] of the joint box's diagonal, got {args.ompl_resolution:g}")
     if args.bitstar and args.no_ompl:
         ap.error("--bitstar runs an OMPL planner: not with --no-ompl")
+    if args.bitstar and not have_ompl():
+        ap.error("--bitstar runs OMPL's BIT*, but OMPL is not installed (pip install -e \".[peers]\", or leave out --bitstar)")
+    if args.mjcf is None:
+        for flag in ("start", "goal", "joints", "robot_root", "no_self_collision"):
+            if getattr(args, flag):
+                ap.error(f"--{flag.replace('_', '-')} goes with --mjcf (a scenario names its own)")
     try:
         check_output(args.json, "--json", suffix=".json")
     except OutputError as exc:
@@ -434,8 +558,16 @@ def parse(argv: list[str] | None) -> tuple:
     for p in planners:
         if p not in PLANNERS:
             ap.error(f"--planners: unknown planner '{p}'; known: {', '.join(sorted(PLANNERS))}")
+    own = bool(args.scenario) or args.mjcf is not None
+    names = args.problems if args.problems is not None else ([] if own else list(QUICK_PROBLEMS if args.quick else ALL_PROBLEMS))
     try:
-        problems = load_problems(args.problems or list(QUICK_PROBLEMS if args.quick else ALL_PROBLEMS))
+        try:
+            extra = (mjcf_problem(args),) if args.mjcf is not None else ()
+        except FoamError as exc:
+            raise UsageError(str(exc)) from None
+        problems = load_problems(names + args.scenario, ["--problems"] * len(names) + ["--scenario"] * len(args.scenario), extra)
+        if args.delta is not None:
+            problems = [dataclasses.replace(pb, delta=float(args.delta)) for pb in problems]
         check_options(planners, problems)
     except UsageError as exc:
         ap.error(str(exc))
@@ -451,6 +583,8 @@ def main(argv: list[str] | None = None) -> dict:
         print(exc, file=sys.stderr)
         raise SystemExit(2) from None
     use_ompl = not args.no_ompl and have_ompl()
+    if not args.no_ompl and not use_ompl:
+        print(f"{NO_OMPL}: running our planners only (--no-ompl says so and skips this note)", file=sys.stderr)
     try:
         out, broken = run(args, planners, problems, seeds, use_ompl)
     except KeyboardInterrupt:
@@ -482,10 +616,10 @@ def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl
     if use_ompl:
         from ompl import util as ou
 
-        ou.setLogLevel(ou.LogLevel.LOG_WARN)
-        ou.RNG.setSeed(1)  # once per process (OMPL's rule); runs then differ by the generator's state
+        ou.setLogLevel(ou.LogLevel.LOG_WARN)  # each run seeds OMPL's generators with its seed (OMPLRunner)
 
-    out: dict = {"seeds": seeds, "time_limit": args.time_limit, "check_step": CHECK_STEP, "problems": {}}
+    out: dict = {"seeds": seeds, "time_limit": args.time_limit, "check_step": CHECK_STEP, "reproduce": reproduce_info(args, planners, use_ompl),
+                 "problems": {}}
     rows, ratio_rows = [], []
     t_start = time.perf_counter()
     for pb in problems:
@@ -501,21 +635,21 @@ def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl
             for s in range(seeds):
                 if not args.no_progress:
                     progress(done, jobs, f"{pname:>10}")
-                runs.append(run_ours(name, pb, oracle, checker, s, args.time_limit))
+                runs.append({"seed": s, **run_ours(name, pb, oracle, checker, s, args.time_limit)})
                 done += 1
             res[name] = {"summary": summarize(runs, pb.delta), "runs": runs}
         if use_ompl:
-            runner = OMPLRunner(pb, oracle)
+            runner = OMPLRunner(pb, oracle, args.ompl_resolution)
             rc, opt, bit = [], [], []
             for s in range(seeds):
                 if not args.no_progress:
                     progress(done, jobs, f"{pname:>10}")
-                r = finish_ompl(runner.rrtconnect(args.time_limit), robot, checker)
+                r = finish_ompl(runner.rrtconnect(args.time_limit, s), robot, checker)
                 rc.append(r)
                 budget = 10 * r["total"] if r.get("ok") else args.time_limit
-                opt.append(finish_ompl(runner.optimizing(budget, "rrtstar"), robot, checker))
+                opt.append(finish_ompl(runner.optimizing(budget, s, "rrtstar"), robot, checker))
                 if args.bitstar:
-                    bit.append(finish_ompl(runner.optimizing(budget, "bitstar"), robot, checker))
+                    bit.append(finish_ompl(runner.optimizing(budget, s, "bitstar"), robot, checker))
                 done += 2 + args.bitstar
             res["ompl:rrtconnect+simplify"] = {"summary": summarize(rc, pb.delta), "runs": rc}
             res["ompl:rrtstar(10x)"] = {"summary": summarize(opt, pb.delta), "runs": opt}
@@ -525,7 +659,12 @@ def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl
             progress(jobs, jobs, f"{pname:>10}")
         oracle.close()
         out["problems"][pname] = {"K": pb.K, "r_min": pb.r_min, "delta": pb.delta, "dim": len(pb.q_init), "source": pb.source,
-                                  "scene": str(robot.path), "scene_edited": robot.xml is not None, "planners": res}
+                                  "scene": str(robot.path), "scene_edited": robot.xml is not None, **problem_info(pb, checker),
+                                  "options": {n: planner_options(n, pb) for n in planners},
+                                  "ompl": ({"resolution": runner.resolution, "longest_valid_segment": runner.longest_valid_segment,
+                                            "bounds_qpos_units": [runner.bounds[0].tolist(), runner.bounds[1].tolist()],
+                                            "seed_rule": "RNG.setSeed(seed + 1) before each run"} if use_ompl else None),
+                                  "planners": res}
         for name, r in res.items():
             m, sm = r["summary"]["median"], r["summary"]
             rows.append([
@@ -544,9 +683,11 @@ def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl
                 def ratio(a, b):
                     return f"{a / b:.2f}" if a is not None and b else "-"
 
-                ratio_rows.append([pname, name, ratio(m["total"], peer["total"]), ratio(m["len_qpos"], peer["len_qpos"]),
+                ok = f"{res[name]['summary']['ok']}/{res['ompl:rrtconnect+simplify']['summary']['ok']}/{res['ompl:rrtstar(10x)']['summary']['ok']}"
+                ratio_rows.append([pname, name, ok, ratio(m["total"], peer["total"]), ratio(m["len_qpos"], peer["len_qpos"]),
                                    ratio(m["len_qpos"], star["len_qpos"]), ratio(m["len_sp"], star["len_qpos"]),
-                                   ratio(m["clearance"], peer["clearance"])])
+                                   ratio(m["clearance"], peer["clearance"])]
+                                  + ([ratio(m["len_qpos"], res["ompl:bitstar(10x)"]["summary"]["median"]["len_qpos"])] if args.bitstar else []))
     out["elapsed"] = time.perf_counter() - t_start
     print(f"\nmedians over {seeds} seeds (successful runs), time limit {args.time_limit:g} s per run")
     print(table(["problem", "delta mm", "planner", "ok", "first ms", "plan ms", "total ms", "cpu ms", "chain", "bubbles", "queries", "len q",
@@ -563,9 +704,13 @@ def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl
               + "; ".join(f"{p} {n}: {sm['below_delta']} of {sm['ok']}" for p, n, sm in close))
     if use_ompl:
         print("\nratios ours / OMPL (medians)")
-        print(table(["problem", "planner", "total time / RRTConnect", "len qpos / RRTConnect", "len qpos / RRT*", "sp qpos / RRT*", "clearance / RRTConnect"], ratio_rows))
+        print(table(["problem", "planner", "ok ours/RRTC/RRT*", "total time / RRTConnect", "len qpos / RRTConnect", "len qpos / RRT*", "sp qpos / RRT*", "clearance / RRTConnect"]
+                    + (["len qpos / BIT*"] if args.bitstar else []), ratio_rows))
+        print("ratios of medians over each side's successful runs (ok: successes of ours / RRTConnect / RRT* out of "
+              f"{seeds}); OMPL checks motions every {args.ompl_resolution:g} x the joint box's diagonal (qpos units): "
+              + ", ".join(f"{p} {v['ompl']['longest_valid_segment']:.3g}" for p, v in out["problems"].items()))
     elif not args.no_ompl:
-        print("\nOMPL is not installed (pip install -e \".[peers]\"): no peer rows")
+        print(f"\n{NO_OMPL}: no peer rows")
     print(f"benchmark time {out['elapsed']:.1f} s")
     # Safety is the product: any path of ours closer than delta (to an obstacle or, with self-collision, to itself)
     # fails the benchmark (exit 1).

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from foam_mj.arguments import UsageError
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.model import RobotModel
 
@@ -70,6 +71,25 @@ def test_planners_benchmark_refuses_bad_arguments_in_one_line_before_any_run(arg
                        timeout=120, cwd=tmp_path)
     assert r.returncode == 2 and r.stdout == ""
     assert len(r.stderr.strip().splitlines()) == 1 and message in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--scenario", "no_such"], "--scenario: unknown scenario 'no_such'; a scenario TOML file, or a built-in scenario: obstacle"),
+    (["--scenario", "missing/robot.toml"], "--scenario: scenario file not found: missing/robot.toml"),
+    (["--mjcf", str(TWO_LINK_ARM)], "--mjcf needs --start and --goal"),
+    (["--mjcf", "missing/arm.xml", "--start", "0 0", "--goal", "1 1"], "--mjcf: MJCF file not found: missing/arm.xml"),
+    (["--mjcf", str(TWO_LINK_ARM), "--start", "0.3", "--goal", "0.1 0.6"], "--start: q_init must be 2 numbers, one per configuration joint"),
+    (["--mjcf", str(TWO_LINK_ARM), "--start", "0.3 x", "--goal", "0.1 0.6"], "--start must be numbers separated by spaces or commas"),
+    (["--start", "0.3 2.0"], "--start goes with --mjcf"),
+    (["--delta", "-0.01"], "--delta must be a finite margin > 0 in metres, got -0.01"),
+    (["--ompl-resolution", "0"], "--ompl-resolution must be a fraction in (0, 0.5]"),
+])
+def test_a_users_problem_flags_are_checked_before_any_run(args, message):
+    """--scenario, --mjcf/--start/--goal (plan's own parsing and messages), --delta and --ompl-resolution: one-line
+    refusals from the argument parsing, which runs nothing (in-process here: the exit-2 path is the test above's)."""
+    with pytest.raises(UsageError) as exc:
+        planners.parse(["--no-ompl", *args])
+    assert message in str(exc.value) and "\n" not in str(exc.value)
 
 
 def test_a_scenario_that_fails_its_checks_is_refused_naming_the_field(tmp_path):
@@ -140,9 +160,9 @@ def test_ompl_plans_in_qpos_units_with_the_problems_margin():
     state = runner.space.allocState()
     for i, x in enumerate(scale * pb.q_init):
         state[i] = float(x)
-    assert runner._setup().getSpaceInformation().isValid(state)  # 110 mm of clearance > 5 mm
+    assert runner._setup(0).getSpaceInformation().isValid(state)  # 110 mm of clearance > 5 mm
     wide = planners.OMPLRunner(dataclasses.replace(pb, delta=0.2), oracle)  # the problem's margin, not 5 mm
-    assert not wide._setup().getSpaceInformation().isValid(state)
+    assert not wide._setup(0).getSpaceInformation().isValid(state)
 
 
 def test_an_rrtstar_run_writes_strict_json():
@@ -150,7 +170,7 @@ def test_an_rrtstar_run_writes_strict_json():
     pytest.importorskip("ompl")
     pb = planners.problem("step_up")
     runner = planners.OMPLRunner(pb, BubbleOracle(pb.robot, delta=pb.delta))
-    rec = planners.finish_ompl(runner.optimizing(0.3), pb.robot, planners.DenseChecker(pb.robot))
+    rec = planners.finish_ompl(runner.optimizing(0.3, 0), pb.robot, planners.DenseChecker(pb.robot))
     assert rec["ok"], rec
     json.dumps(rec, allow_nan=False)
 
@@ -169,3 +189,72 @@ def test_every_benchmarks_help_opens_with_whole_sentences():
         doc = ast.get_docstring(ast.parse(text), clean=False)
         description = doc.splitlines()[0] if "splitlines" in use else doc.split("\n\n")[0]
         assert description.rstrip().endswith((".", ")")), (script.name, description)
+
+
+def test_a_users_scenario_and_mjcf_run_side_by_side_with_one_margin(tmp_path):
+    """--scenario (repeatable) and --mjcf/--start/--goal, as `foam-mj plan` takes them, are problems of their own:
+    only they run (no built-in problem), each row named by its scenario or file, --delta the margin of both."""
+    toml, out = two_link_toml(tmp_path), tmp_path / "bench.json"
+    r = run_planners("--scenario", str(toml), "--mjcf", str(TWO_LINK_ARM), "--start", "0.3 2.0", "--goal", "0.1 0.6",
+                     "--delta", "0.008", "--planners", "gbpf", "--seeds", "2", "--no-ompl", "--json", str(out))
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(out.read_text())
+    assert list(doc["problems"]) == ["my_arm", "arm"]
+    for pb in doc["problems"].values():
+        assert pb["delta"] == 0.008 and pb["joints"] == ["shoulder", "elbow"] and pb["ompl"] is None
+        runs = pb["planners"]["gbpf"]["runs"]
+        assert [run["seed"] for run in runs] == [0, 1] and all(run["ok"] and run["clearance"] >= 0.008 - 1e-6 for run in runs)
+    assert doc["problems"]["arm"]["q_init"] == [0.3, 2.0] and doc["problems"]["arm"]["source"] == str(TWO_LINK_ARM)
+    assert doc["reproduce"]["argv"][:3] == ["planners.py", "--no-progress", "--scenario"] and doc["reproduce"]["ompl_used"] is False
+    assert [line.split()[:4] for line in r.stdout.splitlines() if line.split()[:1] in (["my_arm"], ["arm"])] == [
+        ["my_arm", "8", "gbpf", "2/2"], ["arm", "8", "gbpf", "2/2"]]
+
+
+def test_a_users_mjcf_beside_ompl_same_bounds_margin_and_dense_check(tmp_path):
+    pytest.importorskip("ompl")
+    out = tmp_path / "bench.json"
+    r = run_planners("--mjcf", str(TWO_LINK_ARM), "--start", "0.3 2.0", "--goal", "0.1 0.6", "--delta", "0.01", "--planners", "gbpf",
+                     "--seeds", "1", "--time-limit", "2", "--json", str(out))
+    assert r.returncode == 0, r.stderr
+    pb = json.loads(out.read_text())["problems"]["arm"]
+    assert set(pb["planners"]) == {"gbpf", "ompl:rrtconnect+simplify", "ompl:rrtstar(10x)"}
+    assert pb["ompl"]["bounds_qpos_units"] == [pb["lower"], pb["upper"]]  # the arm's hinges: scale 1, the joint ranges
+    diagonal = np.linalg.norm(np.subtract(pb["upper"], pb["lower"]))
+    assert pb["ompl"]["resolution"] == 0.01 and pb["ompl"]["longest_valid_segment"] == pytest.approx(0.01 * diagonal)
+    for name in ("ompl:rrtconnect+simplify", "ompl:rrtstar(10x)"):
+        (run,) = pb["planners"][name]["runs"]
+        assert run["ok"] and run["seed"] == 0 and run["queries"] > 0, run
+        assert run["clearance"] > 0.0 and run["len_qpos"] >= np.linalg.norm([0.2, 1.4]) - 1e-9  # dense-checked, no shorter than the chord
+    ratio = next(line for line in r.stdout.splitlines() if line.split()[:3] == ["arm", "gbpf", "1/1/1"])
+    assert len(ratio.split()) == 8  # problem, planner, successes, five ratios
+
+
+def test_ompl_runs_repeat_by_their_seed_whatever_ran_before():
+    # OMPL was seeded once per process: a problem's OMPL rows depended on the problems and seeds run before it.
+    pytest.importorskip("ompl")
+    pb = planners.problem("step_up")
+    runner = planners.OMPLRunner(pb, BubbleOracle(pb.robot, delta=pb.delta))
+    first = runner.rrtconnect(2.0, seed=3)
+    runner.rrtconnect(2.0, seed=4)
+    again = runner.rrtconnect(2.0, seed=3)
+    assert first["ok"] and again["ok"]
+    np.testing.assert_array_equal(first["path"], again["path"])
+
+
+NO_OMPL = "import runpy, sys; sys.modules['ompl'] = None; sys.argv = sys.argv[1:]; runpy.run_path(sys.argv[0], run_name='__main__')"
+
+
+def test_without_ompl_the_benchmark_says_so_once_and_runs_ours(tmp_path):
+    """OMPL is an optional extra: without it (its import made to fail) a run says so on stderr and writes our rows;
+    --bitstar, which only OMPL runs, is refused in one line."""
+    out = tmp_path / "bench.json"
+    script = str(BENCHMARKS / "planners.py")
+    r = subprocess.run([sys.executable, "-c", NO_OMPL, script, "--no-progress", "--mjcf", str(TWO_LINK_ARM), "--start", "0.3 2.0",
+                        "--goal", "0.1 0.6", "--planners", "gbpf", "--seeds", "1", "--json", str(out)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    assert r.stderr.count("OMPL is not installed") == 1 and 'pip install -e ".[peers]"' in r.stderr
+    doc = json.loads(out.read_text())
+    assert doc["reproduce"]["ompl_used"] is False and list(doc["problems"]["arm"]["planners"]) == ["gbpf"]
+    r = subprocess.run([sys.executable, "-c", NO_OMPL, script, "--bitstar", "--quick"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and r.stdout == "" and len(r.stderr.strip().splitlines()) == 1
+    assert "--bitstar runs OMPL's BIT*, but OMPL is not installed" in r.stderr
