@@ -235,17 +235,21 @@ def load_problems(names: list[str], flags: list[str] | None = None, extra: tuple
 
 class DenseChecker:
     """The smallest mj_geomDistance along a path, own code over :func:`foam_mj.verify.collision_pairs` (independent
-    of the planner's model): robot/obstacle pairs (a geom moved by a configuration joint against every other
-    collision geom) and, when ``robot.self_collision``, the robot/robot pairs MuJoCo's collision detection tests."""
+    of the planner's model): robot/obstacle pairs (a geom moved by a configuration joint, or held in the subtree of the
+    problem's ``robot_root``, against every other collision geom) and, when ``robot.self_collision``, the robot/robot
+    pairs MuJoCo's collision detection tests (``foam-mj verify``'s pairs)."""
 
     def __init__(self, robot: RobotModel) -> None:
         m = self.m = robot.model
         self.d = mujoco.MjData(m)
         self.to_qpos = robot.config.to_qpos
         idx = robot.config.qpos_index
-        self.pairs = [tuple(map(int, p)) for p in collision_pairs(m, idx)]
+        # The robot_root's subtree is the robot, held parts (a floating base) included, as the planner has it: without
+        # the root, a held base was an obstacle of its own arm and not checked against the floor.
+        root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, robot.robot_root) if robot.robot_root else None
+        self.pairs = [tuple(map(int, p)) for p in collision_pairs(m, idx, root=root)]
         obstacle = set(self.pairs)
-        self.self_pairs = [tuple(map(int, p)) for p in collision_pairs(m, idx, self_collision=robot.self_collision)
+        self.self_pairs = [tuple(map(int, p)) for p in collision_pairs(m, idx, self_collision=robot.self_collision, root=root)
                            if tuple(map(int, p)) not in obstacle]
 
     def min_clearance(self, path: np.ndarray) -> tuple[float, float | None]:
@@ -288,6 +292,16 @@ def check_options(planners: list[str], problems: list[Problem]) -> None:
                 get_planner(name, **planner_options(name, pb))
             except PlannerError as exc:
                 raise UsageError(f"--problems: {pb.source or pb.name}: [planner] K / r_min do not suit the foam planners: {exc}") from None
+
+
+def check_margins(problems: list[Problem]) -> None:
+    """UsageError (one line) when a robot/obstacle pair that no configuration joint moves is within a problem's delta (``RobotModel.check_fixed_pairs``: left out of every clearance
+    query, ours and OMPL's, so OMPL would plan where every path breaks the margin while our planners refuse)."""
+    for pb in problems:
+        try:
+            pb.robot.check_fixed_pairs(pb.delta)
+        except ConfigurationError as exc:
+            raise UsageError(f"{pb.source or pb.name}: {exc}") from None
 
 
 def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker, seed: int, time_limit: float) -> dict:
@@ -568,6 +582,7 @@ def parse(argv: list[str] | None) -> tuple:
         problems = load_problems(names + args.scenario, ["--problems"] * len(names) + ["--scenario"] * len(args.scenario), extra)
         if args.delta is not None:
             problems = [dataclasses.replace(pb, delta=float(args.delta)) for pb in problems]
+        check_margins(problems)
         check_options(planners, problems)
     except UsageError as exc:
         ap.error(str(exc))

@@ -258,3 +258,35 @@ def test_without_ompl_the_benchmark_says_so_once_and_runs_ours(tmp_path):
     r = subprocess.run([sys.executable, "-c", NO_OMPL, script, "--bitstar", "--quick"], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and r.stdout == "" and len(r.stderr.strip().splitlines()) == 1
     assert "--bitstar runs OMPL's BIT*, but OMPL is not installed" in r.stderr
+
+
+FLOATING_BASE = """<mujoco><compiler angle="radian"/><worldbody>
+  <geom name="floor" type="plane" size="2 2 0.1"/>
+  <body name="base" pos="0 0 0.2"><freejoint/><geom name="base_box" type="box" size="0.05 0.05 0.05"/>
+    <body name="upper" pos="0 0 0.1"><joint name="shoulder" type="hinge" axis="0 1 0" range="-2 2"/>
+      <geom name="upper_geom" type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
+      <body name="fore" pos="0.3 0 0"><joint name="elbow" type="hinge" axis="0 1 0" range="-2.8 2.8"/>
+        <geom name="fore_geom" type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/></body></body></body>
+</worldbody></mujoco>"""
+
+
+def test_the_dense_check_takes_a_held_base_under_robot_root_for_the_robot(tmp_path):
+    # Without the root the checker took the held base for an obstacle: its own forearm folding past it was a
+    # "collision" (a false margin break, exit 1) and the base was never checked against the floor.
+    (tmp_path / "base.xml").write_text(FLOATING_BASE)
+    robot = RobotModel.from_xml(tmp_path / "base.xml", joints=["shoulder", "elbow"], robot_root="base")
+    checker = planners.DenseChecker(robot)
+    names = {(robot.geom_name(a), robot.geom_name(b)) for a, b in checker.pairs}
+    assert ("base_box", "floor") in names and ("fore_geom", "base_box") not in names
+    assert ("base_box", "fore_geom") in {(robot.geom_name(a), robot.geom_name(b)) for a, b in checker.self_pairs}
+
+
+def test_a_margin_that_a_pair_no_joint_moves_breaks_is_refused_before_any_run(tmp_path):
+    # The base stands 0.15 m above the floor and no configuration joint moves it: with delta 0.2 every path breaks the
+    # margin. Our planners refuse; OMPL, whose validity checker leaves such pairs out as ours does, could still plan.
+    (tmp_path / "base.xml").write_text(FLOATING_BASE)
+    toml = tmp_path / "base.toml"
+    toml.write_text('name = "base"\nscene = "base.xml"\nrobot_root = "base"\nq_init = [-0.5, -0.5]\nq_goal = [-1.0, -0.3]\n')
+    planners.parse(["--no-ompl", "--scenario", str(toml)])  # 5 mm: the base keeps 150 mm
+    with pytest.raises(UsageError, match=r"base_box.*floor.*within the safety margin delta 0.2 m"):
+        planners.parse(["--no-ompl", "--scenario", str(toml), "--delta", "0.2"])
