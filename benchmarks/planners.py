@@ -474,14 +474,15 @@ def reproduce_info(args, planners: list[str], use_ompl: bool) -> dict:
 
 def problem_info(pb: Problem, checker: DenseChecker) -> dict:
     """A problem's own description in the JSON: joints, bounds, start and goal, the model's fingerprint, the pairs
-    the dense check used."""
+    the dense check used, and a scenario file's text (the file may change after the run)."""
     from foam_mj.fingerprint import model_fingerprint
 
     r, m = pb.robot, pb.robot.model
     return {"joints": [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, int(j)) for j in r.config.joint_ids],
             "lower": r.lower.tolist(), "upper": r.upper.tolist(), "q_init": pb.q_init.tolist(), "q_goal": pb.q_goal.tolist(),
             "self_collision": bool(r.self_collision), "model_sha256": model_fingerprint(m)["sha256"],
-            "dense_pairs": len(checker.pairs), "dense_self_pairs": len(checker.self_pairs)}
+            "dense_pairs": len(checker.pairs), "dense_self_pairs": len(checker.self_pairs),
+            "scenario_toml": Path(pb.source).read_text() if pb.source and pb.source.endswith(".toml") else None}
 
 
 def have_ompl() -> bool:
@@ -698,7 +699,7 @@ def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl
                 def ratio(a, b):
                     return f"{a / b:.2f}" if a is not None and b else "-"
 
-                ok = f"{res[name]['summary']['ok']}/{res['ompl:rrtconnect+simplify']['summary']['ok']}/{res['ompl:rrtstar(10x)']['summary']['ok']}"
+                ok = "/".join(str(res[k]["summary"]["ok"]) for k in (name, "ompl:rrtconnect+simplify", "ompl:rrtstar(10x)", "ompl:bitstar(10x)") if k in res)
                 ratio_rows.append([pname, name, ok, ratio(m["total"], peer["total"]), ratio(m["len_qpos"], peer["len_qpos"]),
                                    ratio(m["len_qpos"], star["len_qpos"]), ratio(m["len_sp"], star["len_qpos"]),
                                    ratio(m["clearance"], peer["clearance"])]
@@ -719,9 +720,9 @@ def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl
               + "; ".join(f"{p} {n}: {sm['below_delta']} of {sm['ok']}" for p, n, sm in close))
     if use_ompl:
         print("\nratios ours / OMPL (medians)")
-        print(table(["problem", "planner", "ok ours/RRTC/RRT*", "total time / RRTConnect", "len qpos / RRTConnect", "len qpos / RRT*", "sp qpos / RRT*", "clearance / RRTConnect"]
+        print(table(["problem", "planner", "ok ours/RRTC/RRT*" + ("/BIT*" if args.bitstar else ""), "total time / RRTConnect", "len qpos / RRTConnect", "len qpos / RRT*", "sp qpos / RRT*", "clearance / RRTConnect"]
                     + (["len qpos / BIT*"] if args.bitstar else []), ratio_rows))
-        print("ratios of medians over each side's successful runs (ok: successes of ours / RRTConnect / RRT* out of "
+        print("ratios of medians over each side's successful runs (ok: successes of ours / RRTConnect / RRT*" + (" / BIT*" if args.bitstar else "") + " out of "
               f"{seeds}); OMPL checks motions every {args.ompl_resolution:g} x the joint box's diagonal (qpos units): "
               + ", ".join(f"{p} {v['ompl']['longest_valid_segment']:.3g}" for p, v in out["problems"].items()))
     elif not args.no_ompl:

@@ -205,6 +205,7 @@ def test_a_users_scenario_and_mjcf_run_side_by_side_with_one_margin(tmp_path):
         runs = pb["planners"]["gbpf"]["runs"]
         assert [run["seed"] for run in runs] == [0, 1] and all(run["ok"] and run["clearance"] >= 0.008 - 1e-6 for run in runs)
     assert doc["problems"]["arm"]["q_init"] == [0.3, 2.0] and doc["problems"]["arm"]["source"] == str(TWO_LINK_ARM)
+    assert doc["problems"]["my_arm"]["scenario_toml"] == toml.read_text() and doc["problems"]["arm"]["scenario_toml"] is None
     assert doc["reproduce"]["argv"][:3] == ["planners.py", "--no-progress", "--scenario"] and doc["reproduce"]["ompl_used"] is False
     assert [line.split()[:4] for line in r.stdout.splitlines() if line.split()[:1] in (["my_arm"], ["arm"])] == [
         ["my_arm", "8", "gbpf", "2/2"], ["arm", "8", "gbpf", "2/2"]]
