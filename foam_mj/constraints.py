@@ -62,6 +62,49 @@ def coupling_equalities(m: mujoco.MjModel, config: ConfigurationMap) -> dict[str
     return out
 
 
+def describe_equality(m: mujoco.MjModel, key: str) -> str:
+    """An equality constraint named as :func:`coupling_equalities` names it (its name, or "equality <id>" for an
+    unnamed one, as most MuJoCo Menagerie welds and mimic joints are), quoted and followed by its kind and what it
+    joins, so that an unnamed one can be found in the MJCF: "'equality 0' (a <weld> between mocap and Fixed_Jaw)"."""
+    e = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, key)
+    if e < 0 and key.startswith("equality ") and key[9:].isdigit():
+        e = int(key[9:])
+    if not 0 <= e < m.neq:
+        return f"'{key}'"
+    kind, a, b = int(m.eq_type[e]), int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+    eq = mujoco.mjtEq
+    if kind in (int(eq.mjEQ_JOINT), int(eq.mjEQ_TENDON)):
+        obj, tag = (mujoco.mjtObj.mjOBJ_JOINT, "joint") if kind == int(eq.mjEQ_JOINT) else (mujoco.mjtObj.mjOBJ_TENDON, "tendon")
+        def name(i: int) -> str:
+            return (_joint_name(m, i) if tag == "joint" else mujoco.mj_id2name(m, obj, i) or f"{tag} {i}")
+        what = f"a <{tag}> coupling of {name(a)} to {name(b)}" if b >= 0 else f"a <{tag}> held at a fixed value: {name(a)}"
+    elif kind in (int(eq.mjEQ_CONNECT), int(eq.mjEQ_WELD), int(eq.mjEQ_DISTANCE)):
+        tag = {int(eq.mjEQ_CONNECT): "connect", int(eq.mjEQ_WELD): "weld", int(eq.mjEQ_DISTANCE): "distance"}[kind]
+        obj = mujoco.mjtObj(int(m.eq_objtype[e]))
+        def name(i: int) -> str:
+            if i < 0 or (obj == mujoco.mjtObj.mjOBJ_BODY and i == 0):
+                return "the world"
+            return mujoco.mj_id2name(m, obj, i) or f"{'site' if obj == mujoco.mjtObj.mjOBJ_SITE else 'body'} {i}"
+        what = f"a <{tag}> between {name(a)} and {name(b)}"
+    else:
+        return f"'{key}'"
+    return f"'{key}' ({what})"
+
+
+def coupling_refusal(m: mujoco.MjModel, path: str, coupled: dict[str, list[str]], config: ConfigurationMap) -> str:
+    """The one-line refusal of a configuration that equality constraints tie to other motion: each constraint with
+    its kind and what it joins, and the configuration joints they tie (only those: a joint it does not touch is no
+    reason to refuse, and naming every configuration joint sent users to the wrong one)."""
+    tied = [n for n in config.joint_names if any(n in names for names in coupled.values())]
+    many = len(coupled) > 1
+    return (
+        f"{path}: equality constraint{'s' * many} {', '.join(describe_equality(m, k) for k in coupled)} "
+        f"tie{'s' * (not many)} configuration joint{'s' * (len(tied) > 1)} {', '.join(tied)} to other motion (a coupled or "
+        "mimic joint, a closed loop), which the planner, moving each joint on its own, would not follow: deactivate "
+        f"{('it', 'them')[many]} (active=\"false\") or plan over joints {('it does', 'they do')[many]} not touch (--joints)"
+    )
+
+
 def _spatial_bodies(m: mujoco.MjModel, t: int) -> list[int]:
     """The bodies of tendon t's sites and wrapping geoms (none for a fixed tendon)."""
     bodies = []

@@ -47,7 +47,7 @@ from foam_mj.configuration import (
     _configuration_map,
     _joint_name,
 )
-from foam_mj.constraints import binding_tendon_limits, coupling_equalities
+from foam_mj.constraints import binding_tendon_limits, coupling_equalities, coupling_refusal, describe_equality
 from foam_mj.errors import ConfigurationError, ModelError, clearance_text, unknown_names
 from foam_mj.fingerprint import PARTS
 from foam_mj.geom_pairs import attached, body_subtree, collision_pairs, geom_moved_by, pair_coordinates
@@ -285,11 +285,7 @@ class RobotModel:
             if narrowed is not None and not coupling_equalities(m, narrowed):
                 config, held_by_equality, coupled = narrowed, coupled, {}
         if coupled:
-            raise ModelError(
-                f"{p}: equality constraint(s) {list(coupled)} tie a configuration joint ({', '.join(config.joint_names)}) to "
-                "other motion (a coupled or mimic joint, a closed loop), which the planner, moving each joint on its own, "
-                "would not follow: deactivate them (active=\"false\") or plan over joints they do not touch (--joints)"
-            )
+            raise ModelError(coupling_refusal(m, p, coupled, config))
         moves = geom_moved_by(m, config)
         tendons = binding_tendon_limits(m, config)
         if tendons:
@@ -499,7 +495,7 @@ class RobotModel:
                          and not m.jnt_limited[j] and j not in set(int(k) for k in self.config.joint_ids)]
             why = f"; not configuration joints (no range: held at qpos0): {', '.join(unlimited)}" if unlimited else ""
             for eq, names in self.held_by_equality.items():
-                why += (f"; not configuration joints (tied to other motion by equality constraint '{eq}', which the "
+                why += (f"; not configuration joints (tied to other motion by equality constraint {describe_equality(m, eq)}, which the "
                         f"planner would not follow: held at their pose): {', '.join(names)}")
             got = f"{arr.size}" if arr.ndim == 1 else f"an array of shape {arr.shape}"
             raise ConfigurationError(f"{name} must be {self.dim} number{'s' * (self.dim != 1)}, one per configuration joint "

@@ -119,8 +119,11 @@ def held_by_equality_note(robot) -> str:
     """A note naming the joints left out of the default configuration (every limited hinge and slide) because an
     equality constraint ties them to other motion (MuJoCo Menagerie's Panda: its two fingers, coupled to each other):
     they are held at their pose, as a joint left out is. "" when there is none."""
+    from foam_mj.constraints import describe_equality
+
     return "".join(
-        f"note: {', '.join(names)} held at {('its', 'their')[len(names) > 1]} pose, not planned: equality constraint '{eq}' "
+        f"note: {', '.join(names)} held at {('its', 'their')[len(names) > 1]} pose, not planned: equality constraint "
+        f"{describe_equality(robot.model, eq)} "
         f"ties {('it', 'them')[len(names) > 1]} to other motion (the planner moves each joint on its own and would not follow it)\n"
         for eq, names in robot.held_by_equality.items()
     ).rstrip("\n")

@@ -389,11 +389,11 @@ def test_an_equality_that_ties_a_configuration_joint_to_other_motion_is_refused_
         return RobotModel.from_xml(scene, joints=joints)
 
     mimic = '<equality><joint name="mimic" joint1="c" joint2="b"/></equality>'
-    with pytest.raises(ModelError, match=r"equality constraint\(s\) \['mimic'\] tie a configuration joint \(a, b, c\) to other motion"):
+    with pytest.raises(ModelError, match=r"equality constraint 'mimic' \(a <joint> coupling of c to b\) ties configuration joints b, c to other motion"):
         load(mimic, joints=["a", "b", "c"])
-    with pytest.raises(ModelError, match=r"\['loop'\] tie a configuration joint \(a, b, c\)"):  # it ties every joint
+    with pytest.raises(ModelError, match=r"'loop' \(a <connect> between b3 and the world\) ties configuration joints a, b, c to"):  # it ties every joint
         load('<equality><connect name="loop" body1="b3" body2="world" anchor="0 0 0"/></equality>')
-    with pytest.raises(ModelError, match=r"\['loop'\] tie a configuration joint"):
+    with pytest.raises(ModelError, match=r"'loop' \(a <connect> between b3 and the world\) ties configuration joint a to"):
         load('<equality><connect name="loop" body1="b3" body2="world" anchor="0 0 0"/></equality>', joints=["a"])
     assert load(mimic, joints=["a"]).dim == 1  # b and c held where they are: the constraint holds too
     assert load(mimic.replace('joint2="b"', 'joint2="b" active="false"')).dim == 3
@@ -421,15 +421,15 @@ def test_the_default_configuration_holds_the_joints_an_equality_ties_to_other_mo
     assert robot.config.joint_names == ("a", "b")
     assert robot.held_by_equality == {"fingers": ["s1", "s2"]}
     assert held_by_equality_note(robot) == (
-        "note: s1, s2 held at their pose, not planned: equality constraint 'fingers' ties them to other motion "
+        "note: s1, s2 held at their pose, not planned: equality constraint 'fingers' (a <joint> coupling of s1 to s2) ties them to other motion "
         "(the planner moves each joint on its own and would not follow it)")
     with pytest.raises(ConfigurationError, match=r"must be 2 numbers, one per configuration joint \(a, b\), got 4; not configuration "
-                       r"joints \(tied to other motion by equality constraint 'fingers'.*\): s1, s2"):
+                       r"joints \(tied to other motion by equality constraint 'fingers' \(a <joint> coupling of s1 to s2\), .*\): s1, s2"):
         robot.validate([0, 0, 0, 0])
-    with pytest.raises(ModelError, match=r"\['fingers'\] tie a configuration joint \(a, b, s1, s2\)"):
+    with pytest.raises(ModelError, match=r"'fingers' \(a <joint> coupling of s1 to s2\) ties configuration joints s1, s2 to"):
         RobotModel.from_xml(scene, joints=["a", "b", "s1", "s2"])
     assert RobotModel.from_xml(scene, joints=["a", "b"]).held_by_equality == {}
-    with pytest.raises(ModelError, match=r"\['fingers'\] tie a configuration joint \(a, b, s1, s2\)"):  # meant to be planned
+    with pytest.raises(ModelError, match=r"'fingers' \(a <joint> coupling of s1 to s2\) ties configuration joints s1, s2 to"):  # meant to be planned
         RobotModel.from_xml(scene, normalize={"s1": [1.0]})
 
 
@@ -448,7 +448,7 @@ def test_the_note_on_one_joint_held_by_an_equality_speaks_of_it_in_the_singular(
     robot = RobotModel.from_xml(scene)
     assert robot.held_by_equality == {"tie": ["j2"]}
     assert held_by_equality_note(robot) == (
-        "note: j2 held at its pose, not planned: equality constraint 'tie' ties it to other motion "
+        "note: j2 held at its pose, not planned: equality constraint 'tie' (a <joint> coupling of j2 to j3) ties it to other motion "
         "(the planner moves each joint on its own and would not follow it)")
 
 
@@ -477,12 +477,38 @@ def test_a_closed_loop_below_every_configuration_joint_is_not_a_coupling(tmp_pat
     loop = '<equality><connect name="linkage" body1="f1" body2="f2" anchor=".1 0 0"/></equality>'
     assert load(loop, ["a", "b"]).dim == 2
     assert load('<equality><tendon name="tied" tendon1="span"/></equality>', ["a", "b"]).dim == 2
-    with pytest.raises(ModelError, match=r"\['linkage'\] tie a configuration joint"):
+    with pytest.raises(ModelError, match=r"'linkage' \(a <connect> between f1 and f2\) ties configuration joint g1 to"):
         load(loop, ["a", "b", "g1"])
-    with pytest.raises(ModelError, match=r"\['tied'\] tie a configuration joint"):
+    with pytest.raises(ModelError, match=r"'tied' \(a <tendon> held at a fixed value: span\) ties configuration joint g2 to"):
         load('<equality><tendon name="tied" tendon1="span"/></equality>', ["a", "g2"])
-    with pytest.raises(ModelError, match=r"\['anchored'\] tie a configuration joint"):
+    with pytest.raises(ModelError, match=r"'anchored' \(a <connect> between f1 and the world\) ties configuration joint a to"):
         load('<equality><connect name="anchored" body1="f1" body2="world" anchor=".1 0 0"/></equality>', ["a"])
+
+
+def test_a_refused_coupling_names_the_unnamed_constraint_and_only_the_joints_it_ties(tmp_path):
+    """MuJoCo Menagerie's welds and mimic joints are mostly unnamed: the refusal and the notes said "equality
+    constraint 'equality 0'", which the MJCF does not contain, and listed every configuration joint (j1, j2) though
+    the <joint> coupling ties j2 and j3 only, sending the user to plan without j1. They now say what the constraint
+    is and joins, and name only the joints it ties; a weld of a mocap body to a link (the SO-ARM100's scene) reads as
+    one."""
+    scene = tmp_path / "coupled.xml"
+    scene.write_text(
+        '<mujoco><compiler angle="radian"/><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+        '<body name="target" mocap="true" pos="1 0 1"/>'
+        '<body name="l1" pos="0 0 .3"><joint name="j1" axis="0 0 1" range="-3 3"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".03"/>'
+        '<body name="l2" pos=".3 0 0"><joint name="j2" axis="0 1 0" range="-1 1"/><geom type="capsule" fromto="0 0 0 .2 0 0" size=".03"/>'
+        '<body name="l3" pos=".2 0 0"><joint name="j3" axis="0 1 0" range="-1 1"/><geom type="capsule" fromto="0 0 0 .1 0 0" size=".02"/>'
+        '</body></body></body></worldbody>'
+        '<equality><joint joint1="j3" joint2="j2" polycoef="0 .5 0 0 0"/><weld body1="target" body2="l3" active="false"/></equality></mujoco>')
+    with pytest.raises(ModelError) as refused:
+        RobotModel.from_xml(scene, joints=["j1", "j2"])
+    assert ("equality constraint 'equality 0' (a <joint> coupling of j3 to j2) ties configuration joint j2 to other motion"
+            in str(refused.value))
+    assert "j1" not in str(refused.value)
+    scene.write_text(scene.read_text().replace(' active="false"', ""))
+    with pytest.raises(ModelError, match=r"equality constraint 'equality 1' \(a <weld> between target and l3\) ties "
+                       r"configuration joint j1 to other motion .* deactivate it \(active=\"false\"\)"):
+        RobotModel.from_xml(scene, joints=["j1"])
 
 
 def test_the_constructors_name_an_argument_of_the_wrong_type(obstacle_robot):
