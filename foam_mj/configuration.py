@@ -199,3 +199,25 @@ def _configuration_map(
         np.array(hi),
         np.array(m.qpos0),
     )
+
+
+def degrees_hint(m: mujoco.MjModel, config: ConfigurationMap, i: int, value: float) -> str:
+    """Why a hinge coordinate's value is outside its bounds, when the cause is likely MJCF's degrees ("" otherwise):
+
+    - the MJCF's range was written in radians but compiled as degrees (MuJoCo's default ``<compiler angle>``): the
+      range's numbers read as degrees all lie within a turn (a range of [-3, 3] degrees is rarely meant) and the value
+      lies within those numbers, so a user who meant radians is told to add ``<compiler angle="radian"/>``;
+    - the value was given in degrees: within the bounds read as degrees, and more than half a turn outside them (not a
+      radian value just past a limit), so the user is told that q is in radians whatever ``<compiler angle>``."""
+    if int(m.jnt_type[int(config.joint_ids[i])]) != int(mujoco.mjtJoint.mjJNT_HINGE) or config.scale[i] != 1.0 or config.offset[i] != 0.0:
+        return ""
+    lo, hi = float(config.lower[i]), float(config.upper[i])
+    lo_deg, hi_deg = np.degrees(lo), np.degrees(hi)
+    if max(abs(lo_deg), abs(hi_deg)) <= 2 * np.pi * (1 + 1e-9) and lo_deg <= value <= hi_deg:
+        return (f" radians (the MJCF's range of hinge {config.joint_names[i]} is [{lo_deg:.6g}, {hi_deg:.6g}], compiled as "
+                "degrees: MJCF angles are degrees unless <compiler angle=\"radian\"/>; if the range is meant in radians, add "
+                "<compiler angle=\"radian\"/> to the MJCF)")
+    if lo <= np.radians(value) <= hi and not lo - np.pi <= value <= hi + np.pi:
+        return (f" radians (hinge angles are radians whatever the MJCF's <compiler angle>, whose degrees MuJoCo converts: "
+                f"{value:.6g} degrees is {np.radians(value):.6g})")
+    return ""

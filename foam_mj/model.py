@@ -42,9 +42,9 @@ import numpy as np
 from foam_mj.configuration import (
     _SUPPORTED_JOINTS,
     CONFIGURATION_FIELD,
-    HINGE,
     ConfigurationMap,
     _configuration_map,
+    degrees_hint,
     _joint_name,
 )
 from foam_mj.constraints import binding_tendon_limits, coupling_equalities, coupling_refusal, describe_equality
@@ -508,21 +508,9 @@ class RobotModel:
                 i = int(bad[0])
                 raise ConfigurationError(
                     f"{name}[{i}] ({self.config.joint_names[i]}) = {arr[i]:.6g} is outside its bounds "
-                    f"[{self.lower[i]:.6g}, {self.upper[i]:.6g}]{self._degrees_hint(i, float(arr[i]))}"
+                    f"[{self.lower[i]:.6g}, {self.upper[i]:.6g}]{degrees_hint(self.model, self.config, i, float(arr[i]))}"
                 )
         return arr
-
-    def _degrees_hint(self, i: int, value: float) -> str:
-        """For a hinge coordinate in radians whose out-of-bounds value would be within them read as degrees, and is
-        more than half a turn outside them (not a radian value just past a limit): the hint that q is in radians
-        whatever the MJCF's ``<compiler angle>`` (ranges in degrees are converted)."""
-        cfg = self.config
-        hinge = int(self.model.jnt_type[int(cfg.joint_ids[i])]) == HINGE
-        if not (hinge and cfg.scale[i] == 1.0 and cfg.offset[i] == 0.0 and self.lower[i] <= np.radians(value) <= self.upper[i]
-                and not self.lower[i] - np.pi <= value <= self.upper[i] + np.pi):
-            return ""
-        return (f" radians (hinge angles are radians whatever the MJCF's <compiler angle>, whose degrees MuJoCo converts: "
-                f"{value:.6g} degrees is {np.radians(value):.6g})")
 
     def validate_batch(self, Q, name: str = "Q") -> np.ndarray:
         """Return Q as a float array of shape (N, n), or raise ConfigurationError (bounds are not checked)."""

@@ -602,6 +602,16 @@ def test_a_start_out_of_bounds_says_radians_when_degrees_were_meant_and_a_wrong_
     # 0.0339") read as if the user had typed degrees, on models written in radians too.
     with pytest.raises(ConfigurationError, match=r"= 1.94533 is outside its bounds \[-1.74533, 1.74533\]$"):
         robot.validate([1.94533, 1.0])
+    # A range written in radians in an MJCF without <compiler angle="radian"/> is compiled as degrees ([-3, 3] degrees:
+    # +-0.052 rad), and --start -1 read only "outside its bounds [-0.0523599, 0.0523599]", as if the bound were meant.
+    scene.write_text(scene.read_text().replace('range="-100 100"', 'range="-3 3"'))
+    with pytest.raises(ConfigurationError, match=r"q\[0\] \(shoulder\) = -1 is outside its bounds \[-0.0523599, 0.0523599\] radians "
+                                                 r"\(the MJCF's range of hinge shoulder is \[-3, 3\], compiled as degrees: .* add "
+                                                 r"<compiler angle=\"radian\"/> to the MJCF\)$"):
+        RobotModel.from_xml(scene).validate([-1, 1.0])
+    with pytest.raises(ConfigurationError, match=r"= 2.7 is outside its bounds \[-2.61799, 2.61799\]$"):
+        RobotModel.from_xml(scene).validate([0.0, 2.7])  # the elbow's [-150, 150] degrees: meant as degrees, no hint
+    scene.write_text(scene.read_text().replace('range="-3 3"', 'range="-100 100"'))
     scene.write_text(scene.read_text().replace('range="-100 100"', ""))
     with pytest.raises(ConfigurationError, match=r"must be 1 number, one per configuration joint \(elbow\), got 2; not configuration joints "
                                                  r"\(no range: held at qpos0\): shoulder$"):
