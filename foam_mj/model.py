@@ -310,7 +310,10 @@ class RobotModel:
         # robot/obstacle pairs whatever contype/conaffinity and <exclude> say (module docstring)
         all_pairs = sorted(set(all_pairs) | {(min(a, b), max(a, b)) for a in robot for b in obstacles if not attached(m, a, b)})
         if not robot:
-            raise ModelError(f"{p}: no collision geom is attached to the robot (a body moved by a configuration joint)")
+            n = int(np.count_nonzero(is_robot))
+            raise ModelError(f"{p}: no collision geom is attached to the robot (a body moved by a configuration joint)"
+                             + (f": its {n} geom{'s' * (n > 1)} {('is', 'are all')[n > 1]} visual only (contype = conaffinity = 0, "
+                                "maybe from a default class): give the collision ones contype=\"1\" conaffinity=\"1\"" if n else ""))
         pairs, self_pair, fixed = [], [], []
         for a, b in all_pairs:
             if not (is_robot[a] or is_robot[b]):

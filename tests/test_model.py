@@ -704,3 +704,22 @@ def test_collision_pairs_of_a_scene_of_many_static_obstacles_are_the_robot_again
     )
     link, tip = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("link", "tip"))
     assert collision_pairs(m) == [(g, tip) for g in range(500)]  # the link's pairs excluded; link/tip are parent and child
+
+
+def test_a_robot_whose_geoms_are_all_visual_is_refused_saying_so(tmp_path):
+    """An arm whose links take contype = conaffinity = 0 from a default class (a "visual" childclass on its first
+    body) was refused with "no collision geom is attached to the robot", though the robot had geoms: the message now
+    says they are visual only and how to make them collide; a robot without any geom keeps the short message."""
+    scene = tmp_path / "visual_arm.xml"
+    arm = ('<mujoco><compiler angle="radian"/><default><default class="vis"><geom contype="0" conaffinity="0"/></default></default>'
+           '<worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+           '<body name="l1" pos="0 0 .3" childclass="vis"><joint name="j1" axis="0 0 1" range="-2 2"/>{geoms}</body>'
+           '</worldbody></mujoco>')
+    scene.write_text(arm.replace("{geoms}", '<geom type="capsule" fromto="0 0 0 .3 0 0" size=".03"/><geom type="sphere" size=".05"/>'))
+    with pytest.raises(ModelError, match=r"no collision geom is attached to the robot \(a body moved by a configuration joint\): its "
+                                         r"2 geoms are all visual only \(contype = conaffinity = 0, maybe from a default class\): "
+                                         r"give the collision ones contype=\"1\" conaffinity=\"1\"$"):
+        RobotModel.from_xml(scene)
+    scene.write_text(arm.replace("{geoms}", '<inertial pos="0 0 0" mass="1" diaginertia=".01 .01 .01"/>'))
+    with pytest.raises(ModelError, match=r"no collision geom is attached to the robot \(a body moved by a configuration joint\)$"):
+        RobotModel.from_xml(scene)
