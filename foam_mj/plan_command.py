@@ -27,8 +27,9 @@ def record(path: Path, outcome=None, *, scenario=None, foam=None, recorder=None)
         job.write()
 
 
-#: A keyframe's name given for an end point (``--start home``): not a number.
-_KEYFRAME_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*")
+#: A keyframe's name given for an end point (``--start home``): not a number. A letter or underscore, then anything
+#: but spaces and commas: MJCF's <attach prefix="left/"> names an attached model's keyframes "left/home".
+_KEYFRAME_NAME = re.compile(r"[A-Za-z_][^\s,]*")
 
 
 def parse_q(text: str, flag: str, *, keyframe: bool = False) -> list[float] | str:

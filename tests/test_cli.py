@@ -537,6 +537,30 @@ def test_a_start_or_goal_may_name_a_keyframe_of_the_mjcf(tmp_path, capsys):
     assert len(err.strip().splitlines()) == 1 and "--start = 'homy' is no keyframe of the scene (its named keyframes: home)" in err, err
 
 
+def test_a_start_or_goal_may_name_the_keyframe_of_an_attached_model(tmp_path, capsys):
+    """Two copies of an arm attached with <attach prefix="left/"> and "right/" (two Kinova Gen3 arms) have keyframes
+    "left/home", "right/home": `--start left/home` was refused as "must be numbers separated by spaces or commas",
+    as the keyframe-name pattern allowed no "/". A name is a letter or underscore, then no space or comma."""
+    (tmp_path / "arm.xml").write_text(
+        '<mujoco><compiler angle="radian"/><worldbody><body name="base"><geom type="cylinder" size=".05 .02" contype="0" conaffinity="0"/>'
+        '<body name="l1" pos="0 0 .3"><joint name="j1" axis="0 1 0" range="-1.5 1.5"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '</body></body></worldbody><keyframe><key name="home" qpos="0.3"/><key name="up" qpos="-0.8"/></keyframe></mujoco>')
+    scene = tmp_path / "two_arms.xml"
+    scene.write_text(
+        '<mujoco><compiler angle="radian"/><asset><model name="arm" file="arm.xml"/></asset><worldbody>'
+        '<geom name="floor" type="plane" size="2 2 .1"/>'
+        '<frame pos="0 .3 0"><attach model="arm" body="base" prefix="left/"/></frame>'
+        '<frame pos="0 -.3 0"><attach model="arm" body="base" prefix="right/"/></frame></worldbody></mujoco>')
+    js = tmp_path / "two.json"
+    args = ["plan", "--mjcf", str(scene), "--joints", "left/j1", "--no-rrd", "--no-replay", "--smoother", "none", "--json", str(js)]
+    assert main([*args, "--start", "left/home", "--goal", "left/up"]) == 0, capsys.readouterr().err
+    doc = json.loads(js.read_text())
+    assert doc["q_init"] == [0.3] and doc["q_goal"] == [-0.8]
+    assert main([*args, "--start", "left/hom", "--goal", "left/up"]) == 2
+    assert "--start = 'left/hom' is no keyframe of the scene" in capsys.readouterr().err
+    assert main([*args, "--start", "0.3,", "--goal", "left/up"]) == 0  # numbers still read as numbers
+
+
 def test_replay_refuses_a_tampered_result(planned, tmp_path, capsys):
     doc = json.loads(planned["json"].read_text())
     doc["paths"]["centre"]["waypoints"][3] = [1.5, 0.0, 0.5]
