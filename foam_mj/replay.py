@@ -80,7 +80,7 @@ import numpy as np
 from foam_mj.clearance import Clearance
 from foam_mj.geom_pairs import body_is_moving
 from foam_mj.model import RobotModel
-from foam_mj.servos import held_joints, servo_model, servo_problem
+from foam_mj.servos import explicit_damping_note, held_joints, servo_model, servo_problem
 from foam_mj.trajectory import Trajectory
 
 #: The trajectory's sample spacing must match the model's timestep to within this (seconds).
@@ -187,6 +187,11 @@ class DynamicReplay(_ReplayMeasures):
             return ("the servos added for the replay (sized from the robot's inertia along the path, module docstring of "
                     "foam_mj.replay) did not hold it: check the model's inertias, or give it its own position servos")
         return "the model's position servos are too stiff or too strongly damped for its timestep: check their kp and kv"
+
+
+#: Tracking error (rad or m) above which a replay with the model's own servos is checked for servos that Euler's
+#: explicit actuator damping makes unstable (:func:`foam_mj.servos.explicit_damping_note`), as are saturated ones.
+SHAKE_CHECK = 0.01
 
 
 #: MuJoCo's warnings that its simulation diverged and was reset to the model's initial state (auto-reset).
@@ -430,6 +435,10 @@ def replay_dynamic(
     clo, chi = m.actuator_ctrlrange.T
     clamped = (servo & m.actuator_ctrllimited.astype(bool) & ((ctrl < clo) | (ctrl > chi))).sum(axis=0)
     warned = tuple(mujoco.mjtWarning(w).name for w in range(len(d.warning)) if d.warning[w].number > 0)
+    shaking = ""
+    if not note and (saturated.any() or warned or np.abs(error).max() > SHAKE_CHECK):  # own servos that did not track
+        every = trajectory.qpos[:: max(1, T // 50)]
+        shaking = explicit_damping_note(robot, m, servos.actuator, -servos.b2 * servos.gear**2, every)
     own = clearance is None
     clr = Clearance(robot) if own else clearance
     try:
@@ -456,7 +465,7 @@ def replay_dynamic(
         servo_note=note,
         servo_kp=servos.gain * servos.gear**2 if note else None,
         clamped_frames=clamped,
-        limit_note=_limit_note(m, clamped, saturated, T),
+        limit_note="; ".join(filter(None, (shaking, _limit_note(m, clamped, saturated, T)))),
     )
 
 
