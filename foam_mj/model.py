@@ -475,13 +475,17 @@ class RobotModel:
         (:attr:`contact_reach`: a geom ``margin`` less its ``gap``). Margins change no distance the planner measures,
         but MuJoCo's contact pushes such geoms apart before they touch, so a path ``delta`` from an obstacle would be
         pushed off in simulation (the dynamic replay, the user's own)."""
+        m = self.model
         for a, b, reach in self.contact_reach:
             if reach > delta:
+                paired = {a, b} in [{int(g), int(h)} for g, h in zip(m.pair_geom1, m.pair_geom2)]
+                where = ("<option o_margin> (its override flag is on)" if int(m.opt.enableflags) & int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
+                         else "their <contact><pair>" if paired else "those geoms")
                 raise ConfigurationError(
                     f"collision geoms {self.geom_label(a)} and {self.geom_label(b)} have a contact margin: MuJoCo's contact "
                     f"between them acts from {reach:.6g} m (margin less gap), farther out than the safety margin delta "
                     f"{delta} m, so a planned path would be pushed off in simulation; raise delta to at least {reach:.6g} m "
-                    "(--delta), or set margin=\"0\" (or a gap as large) on those geoms"
+                    f"(--delta), or set margin=\"0\" (or a gap as large) on {where}"
                 )
 
     def validate(self, q, name: str = "q", *, check_bounds: bool = True) -> np.ndarray:

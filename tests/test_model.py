@@ -313,6 +313,24 @@ def test_geom_margins_change_no_clearance_and_are_refused_only_when_their_contac
         padded.check_margins(0.005)
 
 
+def test_a_contact_margin_from_an_explicit_pair_or_the_override_is_refused_naming_where_it_is_set(tmp_path):
+    """A <contact><pair margin="0.03"> between a link and a post (geoms without margins) was refused saying to set
+    margin="0" "on those geoms", which have none: the message now points at the pair, or at <option o_margin> when
+    the override flag sets it; a geom's own margin keeps "on those geoms"."""
+    arm = ('<mujoco><compiler angle="radian"/>{option}<worldbody><geom name="post" type="cylinder" size=".04 .1" pos=".35 .2 0"{gm}/>'
+           '<body name="a"><joint name="s" axis="0 0 1" range="-3 3"/><geom name="link" type="capsule" fromto="0 0 0 .25 0 0" size=".02"/>'
+           '</body></worldbody>{pair}</mujoco>')
+    scene = tmp_path / "pair.xml"
+    cases = ((dict(option="", gm="", pair='<contact><pair geom1="post" geom2="link" margin="0.03"/></contact>'), "their <contact><pair>"),
+             (dict(option='<option o_margin="0.03"><flag override="enable"/></option>', gm="", pair=""), "<option o_margin> \\(its override flag is on\\)"),
+             (dict(option="", gm=' margin="0.03"', pair=""), "those geoms"))
+    for fields, where in cases:
+        scene.write_text(arm.format(**fields))
+        with pytest.raises(ConfigurationError, match=r"collision geoms \S+ and \S+ have a contact margin: MuJoCo's contact between them "
+                                                     rf"acts from 0.03 m .* set margin=\"0\" \(or a gap as large\) on {where}$"):
+            RobotModel.from_xml(scene).check_margins(0.005)
+
+
 @pytest.mark.parametrize("flag", ["contact", "constraint"])
 def test_geom_margins_are_accepted_when_the_model_disables_contact_forces(tmp_path, flag):
     """A model with <flag contact="disable"/> (no collision detection) or constraint="disable" (contacts found, no
