@@ -221,3 +221,17 @@ def degrees_hint(m: mujoco.MjModel, config: ConfigurationMap, i: int, value: flo
         return (f" radians (hinge angles are radians whatever the MJCF's <compiler angle>, whose degrees MuJoCo converts: "
                 f"{value:.6g} degrees is {np.radians(value):.6g})")
     return ""
+
+
+def small_hinge_ranges_note(m: mujoco.MjModel, config: ConfigurationMap) -> str:
+    """A note when every configuration hinge's range, read in degrees, lies within a turn ([-3, 3] degrees: +-0.052
+    rad), as an MJCF whose ranges were written in radians compiles without ``<compiler angle="radian"/>``: such a
+    plan succeeds between end points inside those few degrees and says nothing of it ("" otherwise, or without
+    hinges). Ranges meant in degrees that small are rare; the note is worded for both."""
+    hinges = [i for i, j in enumerate(config.joint_ids) if int(m.jnt_type[int(j)]) == int(mujoco.mjtJoint.mjJNT_HINGE)]
+    ranges = np.degrees(m.jnt_range[np.asarray(config.joint_ids, dtype=int)[hinges]]) if hinges else np.empty((0, 2))
+    if not hinges or np.abs(ranges).max() > 2 * np.pi * (1 + 1e-9):
+        return ""
+    listed = ", ".join(f"{config.joint_names[i]} [{lo:.4g}, {hi:.4g}]" for i, (lo, hi) in zip(hinges, ranges))
+    return (f"note: every hinge range spans only a few degrees ({listed} degrees): MJCF reads angles in degrees unless "
+            "<compiler angle=\"radian\"/>; if these ranges are meant in radians, add it to the MJCF")

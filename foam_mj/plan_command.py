@@ -398,7 +398,10 @@ def _plan(args: argparse.Namespace, recorder) -> int:
             f"note: {', '.join(skipped)} left out: the rosary adjustment (T_RA) moves the centres of a foam's rosary "
             f"(each bubble on its parent's surface); planner {scenario.params.algorithm}'s chain is not one (use --planner pfm)"
         )
-    for note in (held_by_equality_note(scenario.robot), no_obstacle_note(scenario.robot),
+    from foam_mj.configuration import small_hinge_ranges_note
+
+    for note in (small_hinge_ranges_note(scenario.robot.model, scenario.robot.config),
+                 held_by_equality_note(scenario.robot), no_obstacle_note(scenario.robot),
                  held_pose_note(scenario.robot, scenario.params.delta),
                  static_robot_note(scenario.robot, (scenario.q_init, scenario.q_goal), scenario.params.delta),
                  capping_pair_note(scenario.robot, outcome.plan.rosary, scenario.params.delta, outcome.rosary_distances)):

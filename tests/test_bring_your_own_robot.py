@@ -341,3 +341,27 @@ def test_a_robot_with_nothing_to_collide_with_is_told_how_to_time_a_free_motion(
     assert err.endswith("to time a free motion, add a small obstacle beyond the robot's reach (a sphere the links turn about)")
     (tmp_path / "far.xml").write_text(arm.replace("{far}", '<geom name="far" type="sphere" pos="3 0 0" size=".1"/>'))
     assert main(["plan", "--mjcf", str(tmp_path / "far.xml"), *args]) == 0
+
+
+def test_a_plan_whose_hinge_ranges_are_all_a_few_degrees_says_they_may_be_radians_read_as_degrees(tmp_path, capsys):
+    """An arm written with radian ranges (range="-3 3", "-1.5 1.5") and no <compiler angle="radian"/> compiles to
+    +-3 and +-1.5 degrees; end points inside them planned a motion of a few degrees without a word. plan now notes
+    that every hinge range spans only a few degrees and names the compiler option; with the option, or with ranges
+    meant in degrees (the two-link example's), nothing is noted."""
+    arm = ('<mujoco>{compiler}<worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+           '<body pos="0 0 .3"><joint name="j1" axis="0 0 1" range="-3 3"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".03"/>'
+           '<body pos=".3 0 0"><joint name="j2" axis="0 1 0" range="-1.5 1.5"/><geom type="capsule" fromto="0 0 0 .2 0 0" size=".03"/>'
+           '</body></body></worldbody></mujoco>')
+    scene = tmp_path / "arm.xml"
+    args = ["plan", "--mjcf", str(scene), "--start", "-0.02 0", "--goal", "0.02 0.01", "--no-rrd", "--no-replay", "--smoother", "none"]
+    scene.write_text(arm.format(compiler=""))
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert ("note: every hinge range spans only a few degrees (j1 [-3, 3], j2 [-1.5, 1.5] degrees): MJCF reads angles in degrees "
+            'unless <compiler angle="radian"/>; if these ranges are meant in radians, add it to the MJCF') in out, out
+    scene.write_text(arm.format(compiler='<compiler angle="radian"/>'))
+    assert main(args) == 0
+    assert "spans only a few degrees" not in capsys.readouterr().out
+    example = Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml"
+    assert main(["plan", "--mjcf", str(example), "--start", "0.3 2.0", "--goal", "0.1 0.6", "--no-rrd", "--no-replay", "--smoother", "none"]) == 0
+    assert "spans only a few degrees" not in capsys.readouterr().out
