@@ -119,15 +119,30 @@ def no_obstacle_note(robot) -> str:
 def held_by_equality_note(robot) -> str:
     """A note naming the joints left out of the default configuration (every limited hinge and slide) because an
     equality constraint ties them to other motion (MuJoCo Menagerie's Panda: its two fingers, coupled to each other):
-    they are held at their pose, as a joint left out is. "" when there is none."""
+    they are held at their pose, as a joint left out is. One line per group of constraints that share a joint (the
+    Stretch's telescope, four slides chained by three <joint> couplings, was three lines naming two joints twice).
+    "" when there is none."""
     from foam_mj.constraints import describe_equality
 
-    return "".join(
-        f"note: {', '.join(names)} held at {('its', 'their')[len(names) > 1]} pose, not planned: equality constraint "
-        f"{describe_equality(robot.model, eq)} "
-        f"ties {('it', 'them')[len(names) > 1]} to other motion (the planner moves each joint on its own and would not follow it)\n"
-        for eq, names in robot.held_by_equality.items()
-    ).rstrip("\n")
+    groups: list[tuple[list[str], list[str]]] = []  # (equalities, the joints they tie)
+    for eq, names in robot.held_by_equality.items():
+        eqs, joints = [eq], list(names)
+        for group in [g for g in groups if set(g[1]) & set(names)]:
+            groups.remove(group)
+            eqs = group[0] + eqs
+            joints = group[1] + [n for n in joints if n not in group[1]]
+        groups.append((eqs, joints))
+    import mujoco
+
+    lines = []
+    for eqs, names in groups:
+        names = sorted(names, key=lambda n: mujoco.mj_name2id(robot.model, mujoco.mjtObj.mjOBJ_JOINT, n))  # model order
+        one, many = len(names) == 1, len(eqs) > 1
+        lines.append(
+            f"note: {', '.join(names)} held at {('their', 'its')[one]} pose, not planned: equality constraint{'s' * many} "
+            f"{', '.join(describe_equality(robot.model, eq) for eq in eqs)} tie{'s' * (not many)} {('them', 'it')[one]} to other "
+            f"motion (the planner moves each joint on its own and would not follow {('them', 'it')[not many]})")
+    return "\n".join(lines)
 
 
 def held_pose_note(robot, delta: float) -> str:

@@ -470,6 +470,28 @@ def test_the_note_on_one_joint_held_by_an_equality_speaks_of_it_in_the_singular(
         "(the planner moves each joint on its own and would not follow it)")
 
 
+def test_joints_held_by_a_chain_of_equalities_are_noted_once(tmp_path):
+    """The Stretch's telescoping arm, four slides chained by three <joint> couplings, and its gripper, two fingers each
+    coupled to one slide, printed five notes, naming three joints twice; constraints that share a joint are one note,
+    the joints in model order."""
+    from foam_mj.plan_command import held_by_equality_note
+
+    slides = "".join(f'<body name="t{i}" pos="0 0 0"><joint name="l{i}" type="slide" axis="1 0 0" range="0 .1"/>'
+                     f'<geom type="box" size=".02 .02 .02" pos=".1 0 0"/>' for i in range(4)) + "</body>" * 4
+    scene = tmp_path / "telescope.xml"
+    scene.write_text(
+        '<mujoco><compiler angle="radian"/><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+        f'<body name="mast" pos="0 0 .5"><joint name="lift" type="slide" axis="0 0 1" range="0 .3"/><geom type="box" size=".03 .03 .03"/>{slides}</body>'
+        '</worldbody><equality><joint joint1="l3" joint2="l2"/><joint name="mid" joint1="l1" joint2="l2"/><joint joint1="l1" joint2="l0"/>'
+        '</equality></mujoco>')
+    robot = RobotModel.from_xml(scene)
+    assert robot.config.joint_names == ("lift",)
+    assert held_by_equality_note(robot) == (
+        "note: l0, l1, l2, l3 held at their pose, not planned: equality constraints 'equality 0' (a <joint> coupling of l3 to l2), "
+        "'mid' (a <joint> coupling of l1 to l2), 'equality 2' (a <joint> coupling of l1 to l0) tie them to other motion "
+        "(the planner moves each joint on its own and would not follow them)")
+
+
 def test_a_closed_loop_below_every_configuration_joint_is_not_a_coupling(tmp_path):
     """A gripper's four-bar linkage at the end of an arm (a <connect> between two finger links, as on the xArm7 of
     MuJoCo Menagerie) was refused as tying the arm's joints to other motion: the arm moves the whole loop as one
