@@ -286,7 +286,8 @@ def plan(
     if r0 < r_min:
         raise ConfigurationError(
             f"q_init {q_init.tolist()} admits a root bubble of radius {radius_text(r0, r_min)} < r_min = {r_min} "
-            f"(clearance {clearance_text(clear0, params.delta)}, margin {params.delta} m): move it away from obstacles and bounds or lower r_min"
+            f"(clearance {clearance_text(clear0, params.delta)}, margin {params.delta} m): move it away from obstacles and bounds, lower r_min (an option of the "
+            "[planner] table), or plan with bubbletree (the default planner), whose r_min adapts"
         )
 
     cap = 4096

@@ -386,7 +386,11 @@ def test_a_start_bubble_of_micrometres_is_named_by_its_radius(scene_oracles):
     params = FoamParams(K=10, r_min=0.07, delta=0.005)
     with pytest.raises(PlanningFailed, match=r"no bubble of radius >= r_min = 0.07 fits on the start's bubble \(radius 8.33e-06\)"):
         plan_gbpf(scene_oracles["obstacle"], q_init, s.q_goal, params, seed=0)
-    with pytest.raises(ConfigurationError, match=r"admits a root bubble of radius 8.33e-06 < r_min = 0.07"):
+    # and says where r_min is set and which planner does without it (a gantry planned with --planner pfm: "or lower
+    # r_min", which no flag sets)
+    with pytest.raises(ConfigurationError, match=r"admits a root bubble of radius 8.33e-06 < r_min = 0.07 .*: move it away from "
+                                                 r"obstacles and bounds, lower r_min \(an option of the \[planner\] table\), or plan "
+                                                 r"with bubbletree \(the default planner\), whose r_min adapts$"):
         plan_pfm(scene_oracles["obstacle"], q_init, s.q_goal, params, seed=0)
 
 
