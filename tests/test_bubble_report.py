@@ -103,3 +103,19 @@ def test_an_mjcf_whose_file_name_has_spaces_or_accents_is_reported_as_plan_plans
     assert main(["bubble", "--mjcf", str(arm), "--q", "0.3 2", "--json", str(out)]) == 0
     assert capsys.readouterr().out.startswith("clearance: ")
     assert json.loads(out.read_text())["clearance"] > 0
+
+
+def test_the_printed_pairs_name_the_body_of_an_unnamed_geom(tmp_path, capsys):
+    """`foam-mj bubble` printed "closest pair: geom11 / geom15" for MJCF geoms without names (as Menagerie's mostly
+    are: two attached Kinova Gen3 arms), which no one can find in the MJCF; plan's messages already said "geom11 (on
+    body forearm_link)". The printed pairs now do too; named geoms print as they are, and the JSON keeps the names."""
+    scene = tmp_path / "arm.xml"
+    scene.write_text(
+        '<mujoco><compiler angle="radian"/><worldbody><geom name="wall" type="box" size=".05 .5 .5" pos=".5 0 .5"/>'
+        '<body name="upper" pos="0 0 .5"><joint name="j1" axis="0 1 0" range="-1 1"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '</body></worldbody></mujoco>')
+    assert main(["bubble", "--mjcf", str(scene), "--q=0.1", "--json", str(tmp_path / "b.json")]) == 0
+    out = capsys.readouterr().out
+    assert "closest pair: geom1 (on body upper) / wall" in out and "set by geom1 (on body upper) / wall;" in out, out
+    doc = json.loads((tmp_path / "b.json").read_text())
+    assert doc["closest_pair"] == ["geom1", "wall"] and doc["labels"] == {"geom1": "geom1 (on body upper)"}
