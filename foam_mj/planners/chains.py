@@ -285,6 +285,22 @@ def deepen(oracle, C: np.ndarray, R: np.ndarray, ids: np.ndarray, new_ids) -> tu
     return np.insert(C, thin + 1, m, axis=0), np.insert(R, thin + 1, rm), np.insert(ids, thin + 1, nid), m, rm
 
 
+def held(C: np.ndarray, R: np.ndarray, w: np.ndarray) -> bool:
+    """Whether every waypoint w_i lies in both its balls, b_i and b_(i+1) (the hatch it was solved in).
+
+    The refinement relies on it (a pressing bubble centred at w_i overlaps b_i and b_(i+1) because it holds w_i;
+    the prune takes segment j of the path to lie in bubble j), so a round whose cone program stopped short
+    (Clarabel's InsufficientProgress or its iteration cap) with a waypoint outside is not taken. The certificate
+    never depends on it: the smoothers keep their waypoints in the hatches themselves. Measured on obstacle5, arm6 and
+    arm7 (seeds 0-3): 2-6 programs a plan end InsufficientProgress or AlmostSolved, all with every waypoint at least
+    0.84 INSET inside its balls, so such rounds are taken as before (the same plans)."""
+    if len(w) == 0:
+        return True
+    a = np.einsum("ij,ij->i", w - C[:-1], w - C[:-1]) <= R[:-1] ** 2
+    b = np.einsum("ij,ij->i", w - C[1:], w - C[1:]) <= R[1:] ** 2
+    return bool(a.all() and b.all())
+
+
 def press_bubbles(oracle, C, R, w, floor):
     """Certified bubbles for the waypoints that press on a ball's boundary, pushed outward (see PUSH):
     (positions in the chain after which each goes, centres, radii)."""

@@ -112,6 +112,7 @@ from foam_mj.planners.chains import (
     arc_points,
     certify_chords,
     deepen,
+    held,
     path_samples,
     press_bubbles,
     prune_chain,
@@ -156,6 +157,8 @@ STEP_GAIN = 1.0
 #: The last chain is re-covered with bubbles centred at RECOVER points per segment of its shortest path, as
 #: well as its own (see :func:`foam_mj.planners.chains.prune_chain`); 0: pruned with its own bubbles only.
 RECOVER = 4
+#: Clarabel's iteration cap for the corridor's cone programs (its default).
+SOLVER_MAX_ITER = 200
 
 
 @dataclass(frozen=True)
@@ -346,7 +349,7 @@ def _socp_template(m: int, n: int, metric: tuple[float, ...] | None):
 
 def shortest_path(
     centers: np.ndarray, radii: np.ndarray, q_init: np.ndarray, q_goal: np.ndarray, metric: np.ndarray | None = None,
-    tol: float = 1e-8,
+    tol: float = 1e-8, status: list | None = None,
 ) -> tuple[np.ndarray, float]:
     """Waypoints (k-1, n) of the shortest polyline through the chain's hatches, and its length.
 
@@ -354,7 +357,8 @@ def shortest_path(
     qpos units per q unit: the length in MuJoCo's qpos); None is the Euclidean length in q. The balls stay
     balls in q (the weights scale only the segment cones' rows), so the program stays a small SOCP: the
     program of :func:`foam_mj.smoothing.convex.build_socp` (balls shrunk by INSET), its bubble-independent
-    parts cached per chain length (:func:`_socp_template`)."""
+    parts cached per chain length (:func:`_socp_template`). ``status``: a list that gets Clarabel's status appended
+    (the waypoints are its last iterate whatever the status: :func:`held` tells whether they lie in their balls)."""
     centers = np.asarray(centers, dtype=float)
     radii = np.asarray(radii, dtype=float)
     q_init = np.asarray(q_init, dtype=float)
@@ -381,7 +385,10 @@ def shortest_path(
     settings.presolve_enable = False
     settings.iterative_refinement_enable = False
     settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = tol
+    settings.max_iter = SOLVER_MAX_ITER
     sol = clarabel.DefaultSolver(P, q, A, b.tolist(), cones, settings).solve()
+    if status is not None:
+        status.append(str(sol.status).rsplit(".", 1)[-1])
     pts = np.empty((m + 2, n))
     pts[0], pts[1:-1], pts[-1] = q_init, np.reshape(sol.x[: m * n], (m, n)), q_goal
     d = (pts[1:] - pts[:-1]) * sw
@@ -422,7 +429,8 @@ def build_corridor(
     C, R = centers[ids], radii[ids]
     added_c: list[np.ndarray] = []
     added_r: list[np.ndarray] = []
-    w, length = shortest_path(C, R, q0, q1, M)
+    statuses: list[str] = []
+    w, length = shortest_path(C, R, q0, q1, M, status=statuses)
     clock.lap("socp")
     stats = {"chain_first": int(len(ids)), "length_first": length, "refine_rounds": 0, "refine_added": 0, "shortcuts": 0}
     max_chain = max(options.max_chain, int(options.max_chain_first * len(ids)))
@@ -435,7 +443,9 @@ def build_corridor(
         start = next_id()
         return np.arange(start, start + count)
 
-    if options.refine and len(ids) > 1:
+    if not held(C, R, w):  # the first program stopped short with a waypoint outside its balls (see held): no rounds
+        stats["refine_stopped"] = "cone program unsolved"
+    elif options.refine and len(ids) > 1:
         floor = options.floor_factor * max(problem.delta, 1e-4) / oracle.bound.ball_factor
         t_end = time.process_time() + options.time_limit  # CPU time: the same rounds on a loaded machine
 
@@ -517,7 +527,7 @@ def build_corridor(
                 added_r += nr_
                 stats["shortcuts"] += len(more)
             clock.lap("chords")
-            w2, length2 = shortest_path(C2, R2, q0, q1, M, tol=ROUND_TOL)
+            w2, length2 = shortest_path(C2, R2, q0, q1, M, tol=ROUND_TOL, status=statuses)
             clock.lap("socp")
             # 3. Drop the bubbles the path no longer needs (not from a chain of max_chain bubbles: that ends the
             #    rounds, and the re-cover below prunes it; over obstacle, step_up and step_down seeds 0-19, this prune
@@ -527,10 +537,13 @@ def build_corridor(
                 clock.lap("prune")
                 if len(keep_pos) < PRUNE_GAIN * len(R2):
                     C2, R2, ids2 = C2[keep_pos], R2[keep_pos], ids2[keep_pos]
-                    w2, length2 = shortest_path(C2, R2, q0, q1, M, tol=ROUND_TOL)
+                    w2, length2 = shortest_path(C2, R2, q0, q1, M, tol=ROUND_TOL, status=statuses)
                     clock.lap("socp")
             stats["refine_rounds"] += 1
             stats["refine_added"] = sum(len(x) for x in added_r)
+            if not held(C2, R2, w2):  # a program that stopped short, its path outside a ball: keep the last round's chain
+                stats["refine_stopped"] = "cone program unsolved"
+                break
             gain = (length - length2) / length if length > 0 else 0.0
             if DEBUG:
                 print(f"round: k {k} press {len(press)} chords {len(splices)} (+{sum(len(v[2]) for v in splices.values())} -{sum(v[0]-a for a, v in splices.items())}) chain {len(R2)} length {length:.4f} -> {length2:.4f}")
@@ -577,9 +590,9 @@ def build_corridor(
         stats["deepened"] = int(len(extra_r))
     clock.lap("deepen")
     if changed or len(extra_r):
-        w, length = shortest_path(C, R, q0, q1, M)
+        w, length = shortest_path(C, R, q0, q1, M, status=statuses)
         clock.lap("socp")
-    stats.update(chain=int(len(ids)), length=length, cpu_ms=clock.ms())
+    stats.update(socp_unsolved=sum(st not in ("Solved", "AlmostSolved") for st in statuses), chain=int(len(ids)), length=length, cpu_ms=clock.ms())
     n = centers.shape[1]
     ac = np.concatenate(added_c) if added_c else np.empty((0, n))
     ar = np.concatenate(added_r) if added_r else np.empty(0)
