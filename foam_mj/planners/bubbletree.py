@@ -187,6 +187,8 @@ STALLED = 20
 #: ``refine_chain = 0``: refinement starts no new round once the chain holds this many bubbles per joint
 #: (on the 3-joint obstacle scene 60 bubbles cut plan + optimal smoother by ~13 % CPU at the same median
 #: length; on the 5-joint leg a cap of 60 cost 6 % of length, 100 costs nothing).
+#: 17 (seeds 0-9, CPU medians, old and new in one process): obstacle length +1.05 % (0.8264 -> 0.8351, seed 4 +8 %) for
+#: plan + optimal smoother x0.92 in one run, x1.00 in another (step_down x0.90, +0.3 %): within a shared machine's noise.
 CHAIN_PER_JOINT = 20
 #: ... or, if more, this many times the bubbles of the first chain (the shortest chain of the trees' overlap graph):
 #: a path long beside its bubbles needs that many to hold it, and the chords that shorten it add as many again. A UR5e
