@@ -13,7 +13,8 @@ into place (atomic on POSIX), so a reader never sees a partial file, and a kill 
 of the current batch. Ctrl-C writes the rows completed so far before exiting (130). A re-run reads the
 keys already in ``DIR/rows`` and runs only the tasks with a missing row, so it ends with exactly the
 rows of an uninterrupted run, each once. The folder belongs to one sweep: a sweep file with another
-base scenario, replay mode or set of swept keys is refused (exit 2); more values or seeds are fine.
+base scenario, replay mode or set of swept keys is refused (exit 2); more values, seeds or smoothers are fine
+(a task re-run for a new path writes only the rows not yet there).
 
 Engines run the same :func:`foam_mj.sweep.run_task` on picklable tasks, so they give the same rows:
 
@@ -111,6 +112,7 @@ class RowStore:
         self.batch, self.flush_seconds = max(1, int(batch)), float(flush_seconds)
         self.pending: list[dict] = []
         self._written: set[str] = set()  # keys written by this run
+        self.on_disk: set[str] = set()  # keys already in the folder when this run began (done_keys)
         self.files_written = 0
         self.rows_written = 0
         self._last_flush = time.monotonic()
@@ -170,6 +172,7 @@ class RowStore:
             keys.update(table.column("key").to_pylist())
             bad = pc.fill_null(pc.not_equal(table.column("outcome"), "reached"), True)
             not_reached.update(table.filter(bad).column("key").to_pylist())
+        self.on_disk = keys
         return keys, not_reached
 
     def add(self, rows: Iterable[dict]) -> None:
@@ -188,7 +191,9 @@ class RowStore:
         interrupt can neither lose the batch nor make the final flush write it twice.
         """
         self._last_flush = time.monotonic()
-        self.pending = [r for r in self.pending if r["key"] not in self._written]
+        # A task re-run because one of its paths is new (a smoother added to the sweep) returns every path's row:
+        # those already in the folder are not written twice.
+        self.pending = [r for r in self.pending if r["key"] not in self._written and r["key"] not in self.on_disk]
         if not self.pending:
             return
         with _interrupts_deferred():

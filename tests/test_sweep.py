@@ -948,3 +948,19 @@ def test_an_interrupt_before_any_row_is_written_does_not_point_at_rows_that_are_
     assert main(["sweep", str(write(tmp_path, STUDY)), "--out", str(out), "--quiet"]) == 130
     err = capsys.readouterr().err.strip()
     assert err == f"foam-mj: interrupted before any plan was written to {out / 'rows'} (run the same command again to start)"
+
+
+def test_a_smoother_added_to_a_sweep_adds_its_rows_and_writes_no_row_twice(tmp_path, capsys):
+    """Re-running with one more smoother re-plans each task (its new path has no row yet), and the task returns every
+    path's row: the centre and convex rows already in the folder were written a second time (a 24-plan study then
+    held 48 centre rows under 24 keys)."""
+    text = 'scenario = "obstacle"\nseeds = 2\nsmoothers = "convex"\nreplay = "none"\n'
+    out = tmp_path / "out"
+    run_sweep(load_sweep(write(tmp_path, text)), out, workers=1, progress=False)
+    before = check_folder(out)
+    assert sorted(r["smoother"] for r in before) == ["centre", "centre", "convex", "convex"]
+    summary = run_sweep(load_sweep(write(tmp_path, text.replace('"convex"', '["convex", "gradient"]'))), out, workers=1, progress=False)
+    after = check_folder(out)  # asserts each key once
+    assert summary.rows_written == 2
+    assert sorted(r["smoother"] for r in after) == ["centre", "centre", "convex", "convex", "gradient", "gradient"]
+    assert deterministic([r for r in after if r["smoother"] != "gradient"]) == deterministic(before)
