@@ -36,7 +36,7 @@ dotted key is the column name; list values are stored as their JSON text), then 
 while the task's other paths keep theirs), the
 times, the foam's size, the path's measures, its replay and, when replayed, the peak joint torque along
 the timed trajectory by inverse dynamics (``peak_torque_<joint>``, foam_mj.dynamics: N m for hinges, N for
-slides).
+slides); every row also names the foam-mj and MuJoCo versions that made it.
 """
 
 from __future__ import annotations
@@ -89,6 +89,8 @@ RESULT_COLUMNS: tuple[tuple[str, str], ...] = (
     ("contacts", "int64"),  # leg/obstacle contacts in the dynamic replay
     ("certified", "bool"),  # optimal smoother only: KKT-certified local optimum
     ("kkt_residual", "float64"),  # optimal smoother only
+    ("foam_mj_version", "string"),  # the software that made the row (on a cluster: the node's)
+    ("mujoco_version", "string"),
 )
 #: Columns that change from run to run of the same row (timings); everything else is deterministic.
 TIMING_COLUMNS = ("plan_time", "smooth_time", "task_time")
@@ -133,6 +135,7 @@ class Sweep:
     samples: int = 0
     random_seed: int = 0
     actuated_joints: tuple[str, ...] = ()  # joints whose peak torque gets a column (when replayed)
+    model_hash: dict = field(default_factory=dict, repr=False)  # the base scene's foam_mj.fingerprint.model_fingerprint
 
     @property
     def axes(self) -> tuple[Axis, ...]:
@@ -241,6 +244,8 @@ class Sweep:
             "smoothers": self.smoothers,
             "paths": list(self.paths),
             "tasks": self.n_tasks,
+            "model_hash": self.model_hash,  # the base scene as compiled: an edited MJCF is another sweep
+            "versions": versions(),  # of the run that wrote this manifest last
         }
 
 
@@ -353,6 +358,7 @@ def run_task(task: Task) -> list[dict]:
     t0 = time.perf_counter()
     common: dict[str, Any] = {k: column_value(v, kind) for (k, v), kind in zip(task.params, task.kinds)}
     common.update(seed=task.seed, scenario=task.base.get("name", Path(task.scenario).stem))
+    common.update(versions())
     rows = [{"key": key, **common, "smoother": path} for key, path in zip(task.keys, task.paths)]
 
     def fail(outcome: str, reason: str, **extra) -> list[dict]:
@@ -413,6 +419,15 @@ def run_task(task: Task) -> list[dict]:
         if "kkt_stationarity" in info:
             row.update(certified=bool(info.get("certified")), kkt_residual=_finite(info["kkt_stationarity"]))
     return rows
+
+
+def versions() -> dict[str, str]:
+    """The versions of foam-mj and MuJoCo in this process (a row's ``foam_mj_version``, ``mujoco_version``)."""
+    import mujoco
+
+    from foam_mj import __version__
+
+    return {"foam_mj_version": __version__, "mujoco_version": mujoco.__version__}
 
 
 def _finite(x) -> float | None:

@@ -9,11 +9,13 @@ import tomllib
 from pathlib import Path
 
 from foam_mj.errors import FoamError, ScenarioError, file_problem_text, unknown_names
+from foam_mj.fingerprint import model_fingerprint
 from foam_mj.sweep import (
     MAX_TASKS,
     REPLAYS,
     RESULT_COLUMNS,
     Axis,
+    _ROBOTS,
     Sweep,
     SweepError,
     _normalize,
@@ -136,6 +138,9 @@ def load_sweep(path: str | Path) -> Sweep:
         raise SweepError(f"{where}: {math.prod(n for n, _ in factors):,} plans ({product}) are more than one sweep takes ({MAX_TASKS:,}){_SPLIT}")
     # every value, one key at a time, on the base scenario: bad keys and values named before any work; a value
     # that only puts the start or goal within the margin (an obstacle moved onto the goal) gives 'invalid' rows
+    # the scenes as they are now: a model compiled by an earlier load in this process (a notebook's) may be of an MJCF
+    # edited since, and its fingerprint would let the sweep's folder take rows of the new model under the old one's name
+    _ROBOTS.clear()
     try:
         robot = build_scenario(scenario, builtin, base, ()).robot
     except FoamError as exc:
@@ -164,6 +169,7 @@ def load_sweep(path: str | Path) -> Sweep:
         samples=int(samples or 0),
         random_seed=rseed,
         actuated_joints=actuated_joints(robot),
+        model_hash=model_fingerprint(robot.model),
     )
 
 

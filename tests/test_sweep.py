@@ -964,3 +964,55 @@ def test_a_smoother_added_to_a_sweep_adds_its_rows_and_writes_no_row_twice(tmp_p
     assert summary.rows_written == 2
     assert sorted(r["smoother"] for r in after) == ["centre", "centre", "convex", "convex", "gradient", "gradient"]
     assert deterministic([r for r in after if r["smoother"] != "gradient"]) == deterministic(before)
+
+
+def test_every_row_names_the_versions_that_made_it(study):
+    """A study's rows outlive the software: each says which foam-mj and MuJoCo made it, and so does sweep.json."""
+    import mujoco
+
+    import foam_mj
+
+    assert {(r["foam_mj_version"], r["mujoco_version"]) for r in study["rows"]} == {(foam_mj.__version__, mujoco.__version__)}
+    manifest = json.loads((study["out"] / "sweep.json").read_text())
+    assert manifest["versions"] == {"foam_mj_version": foam_mj.__version__, "mujoco_version": mujoco.__version__}
+
+
+def _own_obstacle_scenario(folder: Path, K: int = 10) -> Path:
+    """The obstacle scenario as a TOML of the study's own, on a copy of the models (so that a test may edit them)."""
+    import shutil
+
+    shutil.copytree(ROOT / "models", folder / "models", dirs_exist_ok=True)
+    text = (ROOT / "scenarios" / "obstacle.toml").read_text().replace("K = 10", f"K = {K}")
+    return write(folder, text.replace('scene = "../models/obstacle.xml"', 'scene = "models/obstacle.xml"'), "leg.toml")
+
+
+def test_a_sweep_whose_scene_was_edited_is_refused_on_its_folder_naming_what_changed(tmp_path):
+    """The folder compared the scenario's TOML table (which names the scene file), not the scene: a box made taller in
+    the MJCF between two runs mixed rows of two models in one study, silently."""
+    _own_obstacle_scenario(tmp_path)
+    spec = write(tmp_path, 'scenario = "leg.toml"\nseeds = 2\nsmoothers = "none"\nreplay = "none"\n')
+    out = tmp_path / "out"
+    run_sweep(load_sweep(spec), out, workers=1, limit=1, progress=False)
+    scene = tmp_path / "models" / "obstacle.xml"
+    scene.write_text(scene.read_text().replace('size="0.1 0.25 0.075"', 'size="0.1 0.25 0.09"'))
+    with pytest.raises(SweepError, match=r"holds rows of another sweep \(its base scene compiles to another model now \(geometry differs"):
+        run_sweep(load_sweep(spec), out, workers=1, progress=False)
+    assert len(check_folder(out)) == 1
+
+
+def test_a_refusal_names_the_field_that_differs_and_leaves_the_folder_unlocked(tmp_path):
+    """The refusal quoted the first 120 characters of the folder's whole base scenario (not what differs), and kept
+    the folder locked in the refusing process: the right sweep, run next in the same process, was told that "another
+    sweep is writing to this folder"."""
+    _own_obstacle_scenario(tmp_path)
+    spec = write(tmp_path, 'scenario = "leg.toml"\nsmoothers = "none"\nreplay = "none"\n', "a.toml")
+    out = tmp_path / "out"
+    run_sweep(load_sweep(spec), out, workers=1, limit=1, progress=False)
+    _own_obstacle_scenario(tmp_path, K=8)
+    with pytest.raises(SweepError, match=r"its base scenario's field planner\.K: 10 -> 8\); use another folder"):
+        run_sweep(load_sweep(spec), out, workers=1, progress=False)
+    _own_obstacle_scenario(tmp_path, K=10)
+    with pytest.raises(SweepError, match=r"its swept keys: \['planner\.delta'\] not swept there\)"):
+        run_sweep(load_sweep(write(tmp_path, spec.read_text() + '[grid]\n"planner.delta" = [0.01]\n', "b.toml")), out,
+                  workers=1, progress=False)
+    assert run_sweep(load_sweep(spec), out, workers=1, progress=False).skipped == 1
