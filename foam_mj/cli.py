@@ -280,6 +280,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     except WorkersDied as exc:
         print(f"foam-mj: {exc}", file=sys.stderr)
         return EXIT_INTERNAL
+    if s.run == 0:  # was "0 rows in 0 files under DIR/rows; 0.00 plans/s on Ray (local) (15.4 s)", having started Ray
+        print(f"sweep {args.sweep}: {s.tasks} plans in all, {s.skipped} already done, 0 run now: nothing to do, every row is in {where}")
+        return EXIT_OK
     on = f"{s.workers} local worker{'s' * (s.workers != 1)}" if engine == "local" else f"Ray ({args.ray or 'local'})"
     print(
         f"sweep {args.sweep}: {s.tasks} plans in all, {s.skipped} already done, {s.run} run now ({s.failed} not reached), "

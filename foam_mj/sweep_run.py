@@ -327,7 +327,11 @@ def run_sweep(
         # failures counted over the same plans as done: those of the runs before too
         bar = SweepProgress(total, already, failed=already_failed, interval=interval, stop=stop) if progress is not False else None
         source = iter(pending) if pending is not None else todo()
-        events = local_engine(source, workers) if engine == "local" else ray_engine(source, workers, ray_address)
+        if pending == [] or (pending is None and already >= total):
+            # every row is there: no pool to spawn, no Ray instance to start (15 s on 2 cores) for nothing
+            events = iter(())
+        else:
+            events = local_engine(source, workers) if engine == "local" else ray_engine(source, workers, ray_address)
         try:
             for event in events:
                 if event is INTERRUPTED:
@@ -353,7 +357,7 @@ def run_sweep(
             try:
                 store.flush()  # the rows received first: the engine's teardown (Ray's shutdown) may not return
             finally:
-                events.close()
+                getattr(events, "close", lambda: None)()
     finally:
         if bar:
             bar.close()

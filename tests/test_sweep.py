@@ -1016,3 +1016,21 @@ def test_a_refusal_names_the_field_that_differs_and_leaves_the_folder_unlocked(t
         run_sweep(load_sweep(write(tmp_path, spec.read_text() + '[grid]\n"planner.delta" = [0.01]\n', "b.toml")), out,
                   workers=1, progress=False)
     assert run_sweep(load_sweep(spec), out, workers=1, progress=False).skipped == 1
+
+
+def test_a_rerun_with_nothing_to_do_starts_no_engine(tmp_path):
+    """A re-run of a finished study with --ray started a local Ray instance (15 s on this machine) to run nothing, and
+    said "0 rows in 0 files ...; 0.00 plans/s on Ray (local)"; it now starts no engine and says there is nothing to do."""
+    spec = write(tmp_path, 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "none"\n')
+    out = tmp_path / "out"
+    run_sweep(load_sweep(spec), out, workers=1, progress=False)
+    code = ("import sys; from foam_mj.sweep_file import load_sweep; from foam_mj.sweep_run import run_sweep; "
+            f"s = run_sweep(load_sweep({str(spec)!r}), {str(out)!r}, engine='ray', workers=1, progress=False); "
+            "print(s.skipped, s.run, 'ray' in sys.modules)")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert done.stdout.split() == ["1", "0", "False"], done.stderr  # Ray not even imported
+    proc = cli("sweep", str(spec), "--out", str(out), "--quiet")
+    stdout, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    assert stdout.strip() == f"sweep {spec}: 1 plans in all, 1 already done, 0 run now: nothing to do, every row is in {out / 'rows'}"
