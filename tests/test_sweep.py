@@ -1034,3 +1034,27 @@ def test_a_rerun_with_nothing_to_do_starts_no_engine(tmp_path):
     stdout, err = proc.communicate(timeout=300)
     assert proc.returncode == 0, err
     assert stdout.strip() == f"sweep {spec}: 1 plans in all, 1 already done, 0 run now: nothing to do, every row is in {out / 'rows'}"
+
+
+def test_sweeping_the_whole_obstacle_table_places_each_box_where_its_value_says(tmp_path):
+    """The README's way to vary a box's position and height together (obstacle.pos is the centre, so crossing it with
+    obstacle.size would sink taller boxes into the floor): each value is one box, its size and centre as given."""
+    import mujoco
+
+    from foam_mj.sweep import build_scenario
+
+    boxes = [{"size": [0.2, 0.5, 0.10], "pos": [0.45, 0.0, 0.05]}, {"size": [0.2, 0.5, 0.15], "pos": [0.55, 0.0, 0.075]}]
+    spec = write(tmp_path, 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "none"\n[grid]\n'
+                           '"obstacle" = [{size = [0.2, 0.5, 0.10], pos = [0.45, 0.0, 0.05]}, '
+                           '{size = [0.2, 0.5, 0.15], pos = [0.55, 0.0, 0.075]}]\n')
+    sweep = load_sweep(spec)
+    assert [dict(t.params)["obstacle"] for t in sweep.tasks()] == boxes
+    for task, box in zip(sweep.tasks(), boxes):
+        m = build_scenario(task.scenario, task.builtin, task.base, task.params).robot.model
+        g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "obstacle_box")
+        assert np.allclose(m.geom_pos[g], box["pos"]) and np.allclose(2 * m.geom_size[g], box["size"])
+        assert m.geom_pos[g][2] - m.geom_size[g][2] == pytest.approx(0.0)  # on the floor, as the values were chosen
+    duckdb = pytest.importorskip("duckdb")
+    run_sweep(sweep, tmp_path / "out", workers=1, progress=False)
+    query = f"""SELECT (obstacle::JSON->>'$.pos[0]')::DOUBLE, count(*) FROM '{tmp_path / "out"}/rows/*.parquet' GROUP BY ALL ORDER BY ALL"""
+    assert duckdb.sql(query).fetchall() == [(0.45, 1), (0.55, 1)]  # one row each: the centre path
