@@ -297,7 +297,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
     progress = Progress()
     try:
-        text, written = write_report(args.dir, args.figures, formats=tuple(args.format), progress=progress)
+        text, written = write_report(args.dir, args.figures, formats=tuple(args.format), progress=progress, axes=tuple(args.axes or ()))
     finally:
         progress.done()
     print(text)
@@ -476,6 +476,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("dir", metavar="DIR", help="a folder written by foam-mj sweep")
     p.add_argument("--figures", metavar="FIGDIR", default=None, help="where to write the figures (default: DIR/report)")
     p.add_argument("--format", nargs="+", default=["png"], choices=FIGURE_FORMATS, help="figure file formats, one or more of png, svg, pdf (default: png)")
+    p.add_argument("--axes", nargs="+", metavar="KEY", default=None,
+                   help="the swept keys to draw: x, then y, then the key whose values get one panel each (default: the most varied "
+                        "keys); the others are pooled, and each figure's title names them")
     p.set_defaults(func=cmd_report)
     add_figures_parser(sub)  # foam-mj figures RESULT.json DIR [--format png svg pdf] [--paths ...] [--dpi N]
     return parser

@@ -1,8 +1,9 @@
 """``foam-mj report DIR``: feasibility-envelope figures and a summary table of a sweep's rows.
 
-The envelope is drawn over the swept keys that vary most (most distinct values): the first is the
-heatmap's x axis, the second its y axis, and each value of a third gets its own panel; every other key
-(and the seeds) is pooled into the cells. A key with more than :data:`MAX_LEVELS` numeric values (random
+The envelope is drawn over the swept keys that vary most (most distinct values), or those chosen
+(``--axes X [Y [PANEL]]``): the first is the heatmap's x axis, the second its y axis, and each value of a third
+gets its own panel; every other key (and the seeds) is pooled into the cells, and the figure's title names the
+pooled keys. A key with more than :data:`MAX_LEVELS` numeric values (random
 samples) is cut into :data:`BINS` equal-width bins, labelled by their centres; a list-valued key drawn at random
 (``obstacle.size`` drawn element-wise) becomes one such numeric axis per element that varies. One figure per measure and
 per smoother (path name):
@@ -266,10 +267,32 @@ def grid_values(x: Level, y: Level | None, rows: np.ndarray, agg) -> np.ndarray:
     return out
 
 
+def choose_axes(levels: list[Level], names: Sequence[str], out) -> list[Level]:
+    """The envelope axes named (x, then y, then the panel key), by key or element title (``obstacle.size[2]``);
+    FoamError naming the choices when one is not a swept key that varies in the rows, or is named twice."""
+    if len(names) > 3:
+        raise FoamError(f"--axes takes at most 3 keys (x, y, the panel key), got {len(names)}: {list(names)}")
+    by = {}
+    for lv in levels:
+        by.setdefault(lv.name, lv)
+        if lv.title:  # a key drawn element-wise: its name alone stands for its first varying element
+            by.setdefault(lv.key, lv)
+    chosen = []
+    for name in names:
+        if name not in by:
+            raise FoamError(f"--axes {name!r}: not a swept key that varies in {out}; choose from {[lv.name for lv in levels]}")
+        if by[name] in chosen:
+            raise FoamError(f"--axes {name!r} is named twice")
+        chosen.append(by[name])
+    return chosen
+
+
 def write_report(out: str | Path, figures_dir: str | Path | None = None, *, formats: Sequence[str] = ("png",), dpi: int = 120,
-                 progress: Callable[[str], None] | None = None) -> tuple[str, list[Path]]:
+                 progress: Callable[[str], None] | None = None, axes: Sequence[str] = ()) -> tuple[str, list[Path]]:
     """Draw the envelope figures into ``figures_dir`` (default DIR/report) and return (summary text, files).
-    ``progress`` is told what is being done (reading the rows, each figure drawn)."""
+    ``progress`` is told what is being done (reading the rows, each figure drawn). ``axes``: the swept keys to draw
+    (x, y, the panel key), instead of the most varied ones; the keys left out are pooled, and each figure's title
+    names them."""
     from foam_mj.figures import _matplotlib
 
     say = progress or (lambda _text: None)
@@ -289,11 +312,15 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
     text = format_summary(lines)
     written = [_write_text(figures_dir / "summary.txt", text + "\n"), _write_text(figures_dir / "summary.json", json.dumps(lines, indent=1) + "\n")]
     say(f"binning the swept keys of {table.num_rows:,} rows")
-    axes = envelope_axes(manifest, table)
-    if not axes:
+    levels = envelope_axes(manifest, table)
+    chosen = choose_axes(levels, axes, out) if axes else levels[:3]
+    if not chosen:
         return text, written
-    x, y = axes[0], (axes[1] if len(axes) > 1 else None)
-    panel = axes[2] if len(axes) > 2 else None
+    x, y = chosen[0], (chosen[1] if len(chosen) > 1 else None)
+    panel = chosen[2] if len(chosen) > 2 else None
+    # a key neither drawn nor split into panels is pooled into the cells: the title says so (planners mixed in a cell)
+    pooled = [lv.name for lv in levels if lv not in chosen]
+    note = f"; pooled: {', '.join(pooled)}" if pooled else ""
     data = _data(table)
     torque = _torque_column(table.column_names)
     invalid = data["outcome"] == "invalid"
@@ -301,7 +328,7 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
     for k, (path, (stem, title, unit, cmap, agg, lims)) in enumerate(figures, 1):
         say(f"drawing {stem}-{path} ({k} of {len(figures)}, {table.num_rows:,} rows)")
         mask = data["smoother"] == path
-        written += _draw(figures_dir, f"{stem}-{path}", f"{title} ({path})", unit, cmap, lims, agg, x, y, panel, mask, invalid, formats, dpi)
+        written += _draw(figures_dir, f"{stem}-{path}", f"{title} ({path}{note})", unit, cmap, lims, agg, x, y, panel, mask, invalid, formats, dpi)
     return text, written
 
 

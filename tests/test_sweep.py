@@ -1058,3 +1058,48 @@ def test_sweeping_the_whole_obstacle_table_places_each_box_where_its_value_says(
     run_sweep(sweep, tmp_path / "out", workers=1, progress=False)
     query = f"""SELECT (obstacle::JSON->>'$.pos[0]')::DOUBLE, count(*) FROM '{tmp_path / "out"}/rows/*.parquet' GROUP BY ALL ORDER BY ALL"""
     assert duckdb.sql(query).fetchall() == [(0.45, 1), (0.55, 1)]  # one row each: the centre path
+
+
+def _fake_study(tmp_path: Path, text: str, outcome) -> Path:
+    """A sweep folder whose rows are written directly (no plan): ``outcome(params, seed)`` gives each row's outcome."""
+    from foam_mj.sweep_run import RowStore
+
+    sweep = load_sweep(write(tmp_path, text))
+    out = tmp_path / "out"
+    store = RowStore(out, sweep, batch=1000)
+    store.open(sweep)
+    for task in sweep.tasks():
+        p = dict(task.params)
+        o = outcome(p, task.seed)
+        store.add([{"key": k, **p, "seed": task.seed, "smoother": path, "outcome": o, "f": 3.0 if o == "reached" else None}
+                   for k, path in zip(task.keys, task.paths)])
+    store.flush()
+    store.close()
+    return out
+
+
+def test_report_axes_are_chosen_by_name_and_the_title_names_the_keys_pooled(tmp_path, monkeypatch, capsys):
+    """A study over boxes, subjects and planners drew boxes x subjects and pooled the planners into each cell without a
+    word (pfm invalid and rbpf reached in one cell read as a success of 1.00); `--axes` now picks the keys, and the title
+    names what is pooled."""
+    from matplotlib.figure import Figure
+
+    text = ('scenario = "obstacle"\nsmoothers = "none"\nreplay = "none"\n[grid]\n"planner.delta" = [0.005, 0.01, 0.02]\n'
+            '"planner.r_min" = [0.05, 0.06, 0.07]\n"planner.algorithm" = ["pfm", "rbpf"]\n')
+    out = _fake_study(tmp_path, text, lambda p, seed: "reached" if p["planner.algorithm"] == "rbpf" else "failed")
+    drawn = {}
+    real = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda fig, fname, **kw: drawn.setdefault(Path(fname).name, fig) and real(fig, fname, **kw))
+    assert main(["report", str(out), "--axes", "planner.algorithm", "planner.r_min"]) == 0
+    fig = next(f for name, f in drawn.items() if "success-centre" in name)
+    assert fig._suptitle.get_text() == "success rate of valid plans (centre; pooled: planner.delta)"
+    ax = next(a for a in fig.axes if a.images)
+    assert ax.get_xlabel() == "planner.algorithm" and ax.get_ylabel() == "planner.r_min"
+    assert np.array_equal(ax.images[0].get_array().filled(np.nan), [[0.0, 1.0]] * 3)  # pfm failed, rbpf reached
+    drawn.clear()
+    assert main(["report", str(out), "--figures", str(tmp_path / "default")]) == 0  # the most varied two, then a panel each
+    assert next(f for name, f in drawn.items() if "success-centre" in name)._suptitle.get_text() == "success rate of valid plans (centre)"
+    capsys.readouterr()
+    assert main(["report", str(out), "--axes", "subject.height"]) == 2
+    assert capsys.readouterr().err.strip() == (f"foam-mj: error: --axes 'subject.height': not a swept key that varies in {out}; "
+                                              "choose from ['planner.delta', 'planner.r_min', 'planner.algorithm']")
