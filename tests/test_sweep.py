@@ -1103,3 +1103,22 @@ def test_report_axes_are_chosen_by_name_and_the_title_names_the_keys_pooled(tmp_
     assert main(["report", str(out), "--axes", "subject.height"]) == 2
     assert capsys.readouterr().err.strip() == (f"foam-mj: error: --axes 'subject.height': not a swept key that varies in {out}; "
                                               "choose from ['planner.delta', 'planner.r_min', 'planner.algorithm']")
+
+
+def test_a_run_by_another_version_on_a_folder_says_so(tmp_path, capsys):
+    """Rows made by another foam-mj or MuJoCo may join a study (each names its versions), but not silently."""
+    import mujoco
+
+    import foam_mj
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "none"\n')
+    out = tmp_path / "out"
+    run_sweep(load_sweep(spec), out, workers=1, progress=False)
+    manifest = json.loads((out / "sweep.json").read_text())
+    manifest["versions"] = {"foam_mj_version": "0.0.1", "mujoco_version": "3.3.0"}
+    (out / "sweep.json").write_text(json.dumps(manifest))
+    capsys.readouterr()
+    run_sweep(load_sweep(spec), out, workers=1)
+    assert capsys.readouterr().err.splitlines()[0] == (
+        f"sweep: {out} holds rows made by foam-mj 0.0.1, MuJoCo 3.3.0; this run is foam-mj {foam_mj.__version__}, "
+        f"MuJoCo {mujoco.__version__} (each row names its versions)")
