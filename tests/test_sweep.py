@@ -1062,6 +1062,7 @@ def test_sweeping_the_whole_obstacle_table_places_each_box_where_its_value_says(
 
 def _fake_study(tmp_path: Path, text: str, outcome) -> Path:
     """A sweep folder whose rows are written directly (no plan): ``outcome(params, seed)`` gives each row's outcome."""
+    from foam_mj.sweep import column_value
     from foam_mj.sweep_run import RowStore
 
     sweep = load_sweep(write(tmp_path, text))
@@ -1071,7 +1072,8 @@ def _fake_study(tmp_path: Path, text: str, outcome) -> Path:
     for task in sweep.tasks():
         p = dict(task.params)
         o = outcome(p, task.seed)
-        store.add([{"key": k, **p, "seed": task.seed, "smoother": path, "outcome": o, "f": 3.0 if o == "reached" else None}
+        columns = {k: column_value(v, kind) for (k, v), kind in zip(task.params, task.kinds)}  # lists as JSON text
+        store.add([{"key": k, **columns, "seed": task.seed, "smoother": path, "outcome": o, "f": 3.0 if o == "reached" else None}
                    for k, path in zip(task.keys, task.paths)])
     store.flush()
     store.close()
@@ -1122,3 +1124,15 @@ def test_a_run_by_another_version_on_a_folder_says_so(tmp_path, capsys):
     assert capsys.readouterr().err.splitlines()[0] == (
         f"sweep: {out} holds rows made by foam-mj 0.0.1, MuJoCo 3.3.0; this run is foam-mj {foam_mj.__version__}, "
         f"MuJoCo {mujoco.__version__} (each row names its versions)")
+
+
+def test_the_readme_query_counts_success_over_the_valid_plans_as_the_report_does(tmp_path, monkeypatch):
+    """The README's query averaged 'reached' over every row, invalid ones included (no problem to solve), so a cell the
+    report drew as a success of 1.00 read 0.67 in DuckDB; it now filters them out, as the report does."""
+    duckdb = pytest.importorskip("duckdb")
+    text = f'scenario = "obstacle"\nseeds = 3\nsmoothers = "convex"\nreplay = "none"\n[grid]\n"planner.delta" = [0.005]\n"obstacle.size" = {json.dumps(SIZES)}\n'
+    out = _fake_study(tmp_path, text, lambda p, seed: "invalid" if seed == 0 else "reached")
+    (tmp_path / "study").symlink_to(out)
+    monkeypatch.chdir(tmp_path)
+    query = re.findall(r"```sql\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)[0]
+    assert [(r[2], r[-1]) for r in duckdb.sql(query).fetchall()] == [(1.0, 3), (1.0, 3)]  # success, plans
