@@ -44,12 +44,15 @@ def surface_cover(oracle: BubbleOracle, c: np.ndarray, r: float, r_min: float, b
         oc, orr = others
         near = np.linalg.norm(oc - c, axis=1) < r + orr
         oc, orr = oc[near], orr[near]
-    faces = [(k, s) for k in range(n) for s in (-1.0, 1.0)]
-    patches = [(k, sgn, np.zeros(n - 1)) for k, sgn in faces]
+    # The patches: face axis K, sign S and centre M (the other n - 1 coordinates), as arrays (one row per patch).
+    K, S, M = np.repeat(np.arange(n), 2), np.tile([-1.0, 1.0], n), np.zeros((2 * n, n - 1))
     half = 1.0
     corners = np.array(np.meshgrid(*[[-1.0, 1.0]] * (n - 1), indexing="ij")).reshape(n - 1, -1).T if n > 1 else np.zeros((1, 0))
-    while patches:
-        y = np.array([np.insert(m, k, sgn) for k, sgn, m in patches])
+    while len(K):
+        y = np.empty((len(K), n))
+        rows = np.arange(len(K))
+        y[rows[:, None], np.arange(n - 1)[None, :] + (np.arange(n - 1)[None, :] >= K[:, None])] = M  # M around column K
+        y[rows, K] = S
         p = c + r * y / np.linalg.norm(y, axis=1, keepdims=True)
         rho = r * half * np.sqrt(n - 1)
         out = np.maximum(lo - p, p - hi).max(axis=1)  # > 0: outside the box by that much
@@ -70,7 +73,9 @@ def surface_cover(oracle: BubbleOracle, c: np.ndarray, r: float, r_min: float, b
         if np.count_nonzero(~closed) * len(corners) > budget:  # the next level would cost more than is left
             return False, None
         half /= 2
-        patches = [(k, sgn, m + half * d) for (k, sgn, m), done in zip(patches, closed) if not done for d in corners]
+        left = ~closed  # each open patch's 2^(n-1) quarters, in order
+        K, S = np.repeat(K[left], len(corners)), np.repeat(S[left], len(corners))
+        M = (M[left][:, None, :] + half * corners[None]).reshape(-1, n - 1)
     return True, None
 
 
