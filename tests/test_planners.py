@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -1029,6 +1030,33 @@ def test_trees_that_stop_coming_closer_give_up_before_the_time_budget(tmp_path):
         with pytest.raises(PlannerError, match=f"`stall` must be {expected}"):
             get_planner("bubbletree", stall=bad)
 
+
+
+def test_trees_beside_a_wall_whose_gap_stays_put_give_up_early_and_a_slow_feasible_search_still_plans():
+    """The obstacle scene with a wall 2 cm thick and 2 m tall in place of its box: no step clears it. The trees' gap
+    stays at about 0.41 from iteration ~100 on, but creeps r_min / 2 closer every few hundred to three thousand
+    iterations, each creep restarting `stall`'s window: the search ran 4,126-11,469 iterations (10-36 s of CPU, seeds
+    0-9), the whole time budget of a 10 s plan. Once the gap shrinks by less than SHRINK (1 %) while the iterations grow
+    SPAN-fold (8), from SHRINK_FROM (500) on, the first level stalls: the refinements follow, then the plan fails,
+    "stalled", saying why, the gap left and where. A feasible slow search is not cut: over a box 0.51 m tall, whose
+    trees meet after 2,442 iterations (seed 1), the plan still reaches the goal."""
+    from foam_mj.planners.bubbletree import STALL
+    from foam_mj.planners.trees import SHRINK_FROM
+
+    wall = _variant(0.0, 0.1, 2.0 / 0.15)  # 2 cm thick (0.2 m x 0.1), 2 m tall
+    oracle = wall.oracle()
+    cpu = time.process_time()
+    with pytest.raises(PlanningFailed, match=r"the trees did not meet \(stalled: .*r_min refined from 0\.00208 to 3\.26e-05 at iterations "
+                                             r"([\d,]+), [\d,]+, [\d,]+ \(at \1: the trees' gap, 0\.4\d+, had shrunk by less than 1% since "
+                                             r"iteration [\d,]+\)\) after \d+ bubbles .*they came nearest at q = .* \(a gap of 0\.4\d+ between their "
+                                             r"bubbles\), with clearance -0\.\d+ m between \w+ and obstacle_box: the goal may be unreachable") as err:
+        get_planner("bubbletree").plan(PlanningProblem(oracle, wall.q_init, wall.q_goal, time_limit=600.0), seed=0)
+    details = err.value.stats.details
+    assert err.value.stats.outcome == "stalled" and SHRINK_FROM <= details["finer_at"][0] < STALL  # `stall` alone: >= 3,000
+    assert details["iterations"] < 2_500 and time.process_time() - cpu < 60.0  # 4,913 iterations, 13 s of CPU before
+    box = _variant(0.0, 1.0, 0.51 / 0.15)
+    res = get_planner("bubbletree").plan(_problem(box.oracle(), box, time_limit=600.0), seed=1)
+    assert res.stats.outcome == "reached" and res.stats.details["iterations_at_first_path"] > 4 * SHRINK_FROM
 
 @pytest.mark.parametrize("name", sorted(PLANNERS))
 def test_a_time_limit_too_short_to_reach_the_goal_says_more_time_helps(oracles, name):

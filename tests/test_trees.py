@@ -39,3 +39,35 @@ def test_every_bubbles_gap_is_its_distance_to_the_nearest_bubble_of_the_other_tr
         np.testing.assert_allclose(D[T.idx[: T.n], T.mate[: T.n]], want, atol=1e-9)
     if (B.tree[:n] == 0).any() and (B.tree[:n] == 1).any():
         assert abs(B.closest - D[np.ix_(B.tree[:n] == 0, B.tree[:n] == 1)].min()) <= 1e-9
+
+
+
+
+@settings(max_examples=60, deadline=None)
+@given(floor=st.integers(50, 500), g0=st.floats(1e-4, 10.0), a=st.floats(0.006, 2.0), plateau=st.integers(0, 3000), first=st.integers(0, 30))
+def test_a_search_is_stalled_once_its_gap_no_longer_shrinks_by_SHRINK_while_its_iterations_grow_SPAN_fold(floor, g0, a, plateau, first):
+    """GapHistory (the SHRINK rule): after ``floor`` iterations, the search is stalled at iteration k when its gap shrank
+    by less than SHRINK since iteration k // SPAN. A gap that keeps shrinking as g0 / (1 + k)^a (a >= 0.006, so that
+    every SPAN-fold of the iterations brings more than 1 %) is never stalled, however long the search runs; once the gap
+    stops shrinking (a plateau from iteration p on), the search is stalled as soon as k // SPAN >= p and k >= floor, and
+    not while the gap is still SHRINK below its value at k // SPAN; never while that earlier gap is <= 0 (bubbles of the
+    two trees already overlap, without a hatch) or infinite (the other tree has no bubble yet)."""
+    from foam_mj.planners.trees import SHRINK, SPAN, GapHistory
+
+    assert SPAN**-0.006 < 1 - SHRINK
+    h = GapHistory()
+    gaps = [np.inf] * first + [g0 / (1.0 + k) ** a for k in range(first, 1500)]
+    for k, g in enumerate(gaps):
+        h.record(g)
+        assert not h.stalled(floor), k
+    p = len(gaps) - 1  # the plateau's first iteration
+    for k in range(len(gaps), len(gaps) + plateau):
+        h.record(gaps[-1])
+        if k // SPAN >= p:
+            assert h.stalled(floor) == (k >= floor)
+        elif gaps[-1] < (1 - SHRINK) * h.gaps[k // SPAN]:
+            assert not h.stalled(floor)
+    overlap = GapHistory()
+    for g in [0.5, 0.0] + [0.0] * 100:
+        overlap.record(g)
+        assert not overlap.stalled(1)

@@ -40,81 +40,74 @@ One iteration, for both trees at once, with one batched distance query (``Cleara
    +6 % and +1.8 %, while 1.5 gains at most 1.3 % for 25-28 % more bubbles (step_up: +-0.02 % throughout).
 
 Implementation: each tree keeps its bubbles as rows [-2c, |c|^2 - r^2, 1] and [-2c, |c|^2, 1]
-(:class:`foam_mj.planners.trees.Tree`), so that the power distances of step 2, the coverage test of step 4 (a power distance
-< 0) and the gaps of step 1 are each one matrix product with the lifted points [x, 1, |x|^2]; every
-candidate lies on a segment between two points of the joint box, so none lies outside it. Of the growth's
-CPU time on the 3-joint obstacle scene, about 45 % is MuJoCo's distance queries (about 1,900 per plan,
-3-3.5 us each in the batch; 2,100 before the bounds test of step 3, which finds 12 % of the candidates
-unable to be good, nearly all at s = 2), the rest numpy over 18 iterations: some two hundred calls each
-on arrays of tens to hundreds of rows, so that the count of calls more than their size sets the time (the
-gaps' update, the largest part, takes about 15 %); hence rows preallocated with their constants and
-written in place (:class:`foam_mj.planners.trees.Tree`), the siblings' rows stored after their tree's. Measured and left out
-(40-100 seeds, all three leg scenes, the 5-joint leg and the 6-joint arm): testing candidates for
-coverage before their query (2 % of them are covered: the test costs more than the queries it saves);
-dropping an extension whose direction is within 0.5 rad of an earlier one from the same parent (98 % of
-the rejected siblings share their parent) saves a third of the candidates but lengthened the 5-joint
-leg's paths by 1.5-2 %; a single candidate per extension (s = 1.25 or 1.5), or one only during exploration, saves 20-45 % of the
-queries but adds bubbles or lengthens the obstacle scene's paths by 2-9 % (mean); larger batches with
-fewer iterations, or fewer samples while exploring, lengthen the paths (depth of the trees matters); after the first path,
-dropping the goal-directed extensions (both kinds: plan -4 ms on obstacle, but step_down +0.85 % and its
-smoother +5 ms; only the nearest-pair ones: step_down +0.5 %; only the newest-bubble ones: +1.3 %), and
-``connect = 6`` or ``batch = 20`` (obstacle 0.826 -> 0.861 / 0.892) were measured and left out as well.
-Also exact but no faster: sizing the s = 2 candidates first and the s = 1 ones only where the former is
-not good (it is good for a fifth of the extensions: 6 % fewer queries, paid by a second batch call); and
-a bound of a candidate's radius from its parent's per-pair distances (Eq. 4 along the step) finds no
-candidate that the bounds test does not. The informed samples are clipped to the box (78 % of them on the
-obstacle scene, 93 % on the 5-joint leg): drawing them uniform in box and informed set instead lengthened
-the obstacle scene's paths from 0.83 to 1.12 (median, 10 seeds), as the short routes follow joint limits.
-On a large configuration space the queries dominate: a UR5e (MuJoCo Menagerie, joints +-2 pi, a pillar between home and
-a pose 1.57 rad away; 47 mesh pairs, 26 us a query) took 65-112 iterations, 3,100-4,900 bubbles and 8,400-14,400
-queries to its first path (seeds 0-4), about 70 % of that CPU time in the queries (the Unitree Go2 leg, 100 pairs at
-77 us: also 70 %). Its bubbles are small beside the box (median radius 0.05 rad, 90 % under 0.16, in a box 12.6 wide):
-the gap between the trees falls from 1.15 to 0.60 within 20 iterations, then stays there while the trees wander around
-the pillar (up to 6 rad from their roots) until they meet elsewhere. The s = 2 candidate is good for only 6-7 % of the
-extensions there (half of the queries; s = 1: 90-95 %), but no bound rules it out before its query (a Lipschitz bound
-from the parent or the s = 1 candidate always allows 3 r_p, beyond the r_p / (1 - HATCH) it needs). Measured there and
-left out (medians, 5 seeds, queries to the first path against 10,700): ``batch`` 8 7,500 but 116 iterations instead of
-83, ``batch`` 48 13,200, ``connect`` 8 or 16 11,800-16,200 (``connect`` 0 never met in 20 s), MAX_TRIES 1 9,700 (within
-the seeds' spread); continuing each goal-directed extension toward the same target in the next iterations (RRT-Connect's
-CONNECT, once the gap had not shrunk for 5 iterations) 11,400, and also those toward the uniform samples 13,500.
-Cheaper queries for the same radii: a candidate's radius is at most its parent's plus the step (the radius is
-1-Lipschitz) and its distance to the bounds, so MuJoCo measures each pair only as far as it could set the radius
-(:meth:`foam_mj.bubbles.BubbleOracle.radii_below`, the distance sensors' cutoff per configuration: GJK stops once it
-has proven a pair that far). The same radii to the last bit; on the UR5e 20 -> 12-15 us a query (47 mesh pairs, the
-recorded candidates of a plan), its whole plan (seeds 0-2) 0.71-0.85x the CPU time; on the 3-joint leg (6 primitive
-pairs) no change. With the hinge reach's steps along the hinge's own axis no longer counted as a lever
-(:mod:`foam_mj.bubbles`; the UR5e's forearm/wrist_2 pair had held 90 % of its bubbles to 0.163 rad), the UR5e's first
-path came after 41-80 iterations and 136-260 ms of CPU (seeds 0-4; 65-112 and 267-534 ms before both changes), its
-whole plan took 390-778 ms (815-1,504) and its path's median length in qpos went from 7.08 to 5.04.
-Still linear in the foam, per iteration: the parents' power distances, the coverage test and the gaps' update are each
-one product against every bubble of a tree (37-40 % of the UR5e's growth CPU at 7,000-10,500 bubbles; on a 7-joint arm
-searching a caged goal, session 14: 12 ms an iteration at 2,000-4,000 bubbles, 33 at 45,000). An index would change the plans in
-the last bits (a BLAS product over a subset of the rows rounds differently), and a k-d tree of the centres lifted to
-[c, sqrt(R^2 - r^2)] was no faster at 28,000 bubbles in 7-D (the largest radius widens every query); the overlap graph
-beyond 4,096 bubbles is built from k-d trees by radius class (:func:`foam_mj.planners.corridor.overlap_pairs`).
+(:class:`foam_mj.planners.trees.Tree`), so that the power distances of step 2, the coverage test of step 4 (a power distance <
+0) and the gaps of step 1 are each one matrix product with the lifted points [x, 1, |x|^2]; every candidate lies on a segment
+between two points of the joint box, so none lies outside it. Of the growth's CPU time on the 3-joint obstacle scene, about 45
+% is MuJoCo's distance queries (about 1,900 per plan, 3-3.5 us each in the batch; 2,100 before the bounds test of step 3,
+which finds 12 % of the candidates unable to be good, nearly all at s = 2), the rest numpy over 18 iterations: some two
+hundred calls each on arrays of tens to hundreds of rows, so that the count of calls more than their size sets the time (the
+gaps' update, the largest part, takes about 15 %); hence rows preallocated with their constants and written in place
+(:class:`foam_mj.planners.trees.Tree`), the siblings' rows stored after their tree's. Measured and left out (40-100 seeds, all
+three leg scenes, the 5-joint leg and the 6-joint arm): testing candidates for coverage before their query (2 % of them are
+covered: the test costs more than the queries it saves); dropping an extension whose direction is within 0.5 rad of an earlier
+one from the same parent (98 % of the rejected siblings share their parent) saves a third of the candidates but lengthened the
+5-joint leg's paths by 1.5-2 %; a single candidate per extension (s = 1.25 or 1.5), or one only during exploration, saves
+20-45 % of the queries but adds bubbles or lengthens the obstacle scene's paths by 2-9 % (mean); larger batches with fewer
+iterations, or fewer samples while exploring, lengthen the paths (depth of the trees matters); after the first path, dropping
+the goal-directed extensions (both kinds: plan -4 ms on obstacle, but step_down +0.85 % and its smoother +5 ms; only the
+nearest-pair ones: step_down +0.5 %; only the newest-bubble ones: +1.3 %), and ``connect = 6`` or ``batch = 20`` (obstacle
+0.826 -> 0.861 / 0.892) were measured and left out as well. Also exact but no faster: sizing the s = 2 candidates first and
+the s = 1 ones only where the former is not good (it is good for a fifth of the extensions: 6 % fewer queries, paid by a
+second batch call); and a bound of a candidate's radius from its parent's per-pair distances (Eq. 4 along the step) finds no
+candidate that the bounds test does not. The informed samples are clipped to the box (78 % of them on the obstacle scene, 93 %
+on the 5-joint leg): drawing them uniform in box and informed set instead lengthened the obstacle scene's paths from 0.83 to
+1.12 (median, 10 seeds), as the short routes follow joint limits. On a large configuration space the queries dominate: a UR5e
+(MuJoCo Menagerie, joints +-2 pi, a pillar between home and a pose 1.57 rad away; 47 mesh pairs, 26 us a query) took 65-112
+iterations, 3,100-4,900 bubbles and 8,400-14,400 queries to its first path (seeds 0-4), about 70 % of that CPU time in the
+queries (the Unitree Go2 leg, 100 pairs at 77 us: also 70 %). Its bubbles are small beside the box (median radius 0.05 rad, 90
+% under 0.16, in a box 12.6 wide): the gap between the trees falls from 1.15 to 0.60 within 20 iterations, then stays there
+while the trees wander around the pillar (up to 6 rad from their roots) until they meet elsewhere. The s = 2 candidate is good
+for only 6-7 % of the extensions there (half of the queries; s = 1: 90-95 %), but no bound rules it out before its query (a
+Lipschitz bound from the parent or the s = 1 candidate always allows 3 r_p, beyond the r_p / (1 - HATCH) it needs). Measured
+there and left out (medians, 5 seeds, queries to the first path against 10,700): ``batch`` 8 7,500 but 116 iterations instead
+of 83, ``batch`` 48 13,200, ``connect`` 8 or 16 11,800-16,200 (``connect`` 0 never met in 20 s), MAX_TRIES 1 9,700 (within the
+seeds' spread); continuing each goal-directed extension toward the same target in the next iterations (RRT-Connect's CONNECT,
+once the gap had not shrunk for 5 iterations) 11,400, and also those toward the uniform samples 13,500. Cheaper queries for
+the same radii: a candidate's radius is at most its parent's plus the step (the radius is 1-Lipschitz) and its distance to the
+bounds, so MuJoCo measures each pair only as far as it could set the radius (:meth:`foam_mj.bubbles.BubbleOracle.radii_below`,
+the distance sensors' cutoff per configuration: GJK stops once it has proven a pair that far). The same radii to the last bit;
+on the UR5e 20 -> 12-15 us a query (47 mesh pairs, the recorded candidates of a plan), its whole plan (seeds 0-2) 0.71-0.85x
+the CPU time; on the 3-joint leg (6 primitive pairs) no change. With the hinge reach's steps along the hinge's own axis no
+longer counted as a lever (:mod:`foam_mj.bubbles`; the UR5e's forearm/wrist_2 pair had held 90 % of its bubbles to 0.163 rad),
+the UR5e's first path came after 41-80 iterations and 136-260 ms of CPU (seeds 0-4; 65-112 and 267-534 ms before both
+changes), its whole plan took 390-778 ms (815-1,504) and its path's median length in qpos went from 7.08 to 5.04. Still linear
+in the foam, per iteration: the parents' power distances, the coverage test and the gaps' update are each one product against
+every bubble of a tree (37-40 % of the UR5e's growth CPU at 7,000-10,500 bubbles; on a 7-joint arm searching a caged goal,
+session 14: 12 ms an iteration at 2,000-4,000 bubbles, 33 at 45,000). An index would change the plans in the last bits (a BLAS
+product over a subset of the rows rounds differently), and a k-d tree of the centres lifted to [c, sqrt(R^2 - r^2)] was no
+faster at 28,000 bubbles in 7-D (the largest radius widens every query); the overlap graph beyond 4,096 bubbles is built from
+k-d trees by radius class (:func:`foam_mj.planners.corridor.overlap_pairs`).
 
-Lengths (Dijkstra's weights, the informed set, the cone program of the corridor) are measured in
-MuJoCo's qpos by default (``metric = "qpos"``: q scaled by the configuration map, e.g. the leg's
-normalized hip displacement counted in metres), the units in which a user and the benchmark compare paths;
-``metric = "q"`` measures them in q. The balls stay balls in q.
+Lengths (Dijkstra's weights, the informed set, the cone program of the corridor) are measured in MuJoCo's qpos by
+default (``metric = "qpos"``: q scaled by the configuration map, e.g. the leg's normalized hip displacement counted in
+metres), the units in which a user and the benchmark compare paths; ``metric = "q"`` measures them in q. The balls
+stay balls in q.
 
-Then the corridor (:mod:`foam_mj.planners.corridor`): the shortest chain through the graph of all
-overlapping bubbles (both trees), refined where the shortest path through it presses on a bubble's
-boundary. Every bubble added there is certified as well: the margin stays delta everywhere.
+Then the corridor (:mod:`foam_mj.planners.corridor`): the shortest chain through the graph of all overlapping bubbles
+(both trees), refined where the shortest path through it presses on a bubble's boundary. Every bubble added there is
+certified as well: the margin stays delta everywhere.
 
-Design choices (the papers leave them open): start and goal bubbles of any positive certified radius
-are accepted (r_min is a resolution of the growth, not a precondition), and so are end points on a joint
-limit (a straight knee is its range's end): where the joint bounds, not the clearance, keep an end point's own
-bubble under r_min, its tree's root is a certified bubble moved off the bounds that holds it
-(:meth:`foam_mj.bubbles.BubbleOracle.holding_bubble`; on a limit the root touches it at the end point),
-so the path still ends exactly there; an end point with two or more joints at their limits (an edge or
-corner of the joint box, which no ball inside the box holds) gets the clearance's ball about itself, which
-leaves the box: every hatch of a chain lies in an in-box neighbour, so every path stays in the box, where
-the ball certifies it. ``r_min`` defaults to
-delta / ||rho||_2 / 2, half the radius that a clearance of 2 delta buys (the bound of Nascimento and Alsina 2021
-Eq. 4 on this model), so that narrow passages down to a few delta of clearance are still entered; at most a tenth
-of half the joint box's diagonal (a margin large beside the robot's reach would otherwise ask for a resolution
-coarser than the box itself).
+Design choices (the papers leave them open): start and goal bubbles of any positive certified radius are accepted
+(r_min is a resolution of the growth, not a precondition), and so are end points on a joint limit (a straight knee is
+its range's end): where the joint bounds, not the clearance, keep an end point's own bubble under r_min, its tree's
+root is a certified bubble moved off the bounds that holds it (:meth:`foam_mj.bubbles.BubbleOracle.holding_bubble`; on
+a limit the root touches it at the end point), so the path still ends exactly there; an end point with two or more
+joints at their limits (an edge or corner of the joint box, which no ball inside the box holds) gets the clearance's
+ball about itself, which leaves the box: every hatch of a chain lies in an in-box neighbour, so every path stays in
+the box, where the ball certifies it. ``r_min`` defaults to delta / ||rho||_2 / 2, half the radius that a clearance of
+2 delta buys (the bound of Nascimento and Alsina 2021 Eq. 4 on this model), so that narrow passages down to a few
+delta of clearance are still entered; at most a tenth of half the joint box's diagonal (a margin large beside the
+robot's reach would otherwise ask for a resolution coarser than the box itself).
 """
 
 from __future__ import annotations
@@ -130,7 +123,7 @@ from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planne
 from foam_mj.planners.chains import HATCH
 from foam_mj.planners.corridor import CorridorOptions, build_corridor, load_solvers, overlap_pairs
 from foam_mj.planners.informed import InformedSampler
-from foam_mj.planners.trees import Bubbles, lifted
+from foam_mj.planners.trees import SHRINK, SHRINK_FROM, SPAN, Bubbles, GapHistory, lifted
 
 #: Candidate centres per extension, at s r_p from the parent's centre along the direction to the target.
 STEPS = np.array([1.0, 2.0])
@@ -202,7 +195,7 @@ CHAIN_FIRST = 2.0
 #: or beyond a wall leaves that gap unchanged while the trees fill their own regions (they did so for the whole budget).
 #: Measured, iterations without progress before the first path: a box 0.50-0.51 m tall (11 plans) at most 720, a step_down
 #: start on an edge 7.4 mm from the floor at most 587, the benchmark problems (10 seeds, met at iteration 5-18) 1; a box
-#: 0.52 m tall met at iteration 16,049 after stalls of up to 1,821. The leg's cup and 0.7 m box stall from iteration 240-260.
+#: 0.52 m tall met at iteration 16,049 after stalls of up to 1,821. The leg's cup and 0.7 m box stall from iteration 240-260. See also SHRINK.
 STALL = 3_000
 #: FINER: a stall is not a failure while the resolution can be refined: r_min / FINER, at most FINER_LEVELS times (not
 #: below SMALLEST), tries reset, windows stall / FINER_STALL, progress still the first r_min / 2; a bubble of at least the
@@ -395,7 +388,9 @@ class BubbleTreePlanner(Planner):
         gap_then, it_then = np.inf, 0  # the gap at the last progress (the trees came r_min / 2 closer), and its iteration
         r_coarse, it_level = r_min, 0  # the first resolution, and the iteration at which the present one began (FINER)
         finer_at: list[int] = []  # the iterations at which the resolution was refined
+        history, shrank, first_shrank = GapHistory(), False, ""  # the gap per iteration; SHRINK ends this level; and why it ended the first
         while True:
+            history.record(B.closest)
             if B.closest <= gap_then - 0.5 * r_coarse:
                 gap_then, it_then = B.closest, counters["iterations"]
             if link is not None and t_first is None:
@@ -408,8 +403,11 @@ class BubbleTreePlanner(Planner):
             window = o.stall if not finer_at else -(-o.stall // FINER_STALL)  # a finer level's window is shorter (FINER)
             since = max(it_then, it_level)  # this level's last progress, or its start
             stalled = t_first is None and o.stall and counters["iterations"] - since >= max(window, since - it_level)
+            shrank = t_first is None and o.stall and not finer_at and history.stalled(SHRINK_FROM)  # the first level only
+            stalled = stalled or shrank
             if stalled and r_min / FINER >= max(SMALLEST, r_coarse / FINER**FINER_LEVELS) * (1 - 1e-12):
                 r_min /= FINER  # a finer resolution: a passage narrower than the last one's bubbles may open (FINER)
+                first_shrank = f" (at {counters['iterations']:,}: the trees' gap, {B.closest:.3g}, had shrunk by less than {SHRINK:.0%} since iteration {counters['iterations'] // SPAN:,})" if shrank else first_shrank
                 gap_then, it_level = B.closest, counters["iterations"]
                 finer_at.append(it_level)
                 for T in B.trees:  # the nearest pairs' extensions failed at the coarser resolution: try them again
@@ -436,8 +434,10 @@ class BubbleTreePlanner(Planner):
                 why, tail = outcome, stuck or closest_approach(outcome != "time budget")
                 idle, total = counters["iterations"] - it_then, counters["iterations"]
                 finer = (f", r_min refined from {r_coarse:.3g} to {r_min:.3g} at iteration{'s' if len(finer_at) > 1 else ''} "
-                         f"{', '.join(f'{i:,}' for i in finer_at)}") if finer_at else ""
-                if outcome == "stalled":
+                         f"{', '.join(f'{i:,}' for i in finer_at)}{first_shrank}") if finer_at else ""
+                if outcome == "stalled" and shrank:  # SHRINK: the trees stopped coming closer, the gap that is left
+                    why += f": the trees stopped coming closer, their gap {B.closest:.3g} shrank by less than {SHRINK:.0%} from iteration {total // SPAN:,} to {total:,}"
+                elif outcome == "stalled":
                     why += f": {idle:,} iterations without coming r_min / 2 = {0.5 * r_coarse:.3g} closer{finer}"
                     tail += (f"; a passage whose free bubbles all have radius below {r_min:.3g} (clearance less than about "
                              f"{r_min * factor:.2g} m above delta) stays closed to this search; the [planner] option stall = 0 "

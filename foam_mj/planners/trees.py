@@ -148,3 +148,41 @@ class Bubbles:
     def foam(self, q_init: np.ndarray, q_goal: np.ndarray) -> Foam:
         n = self.n
         return Foam(self.c[:n].copy(), self.r[:n].copy(), self.parent[:n].copy(), q_init, q_goal)
+
+
+#: SHRINK: besides ``stall`` (no progress of r_min / 2 in a window), the first level of the search for a first path (FINER)
+#: is stalled once it has run SHRINK_FROM iterations and its gap shrank by less than SHRINK of itself while its iterations
+#: grew SPAN-fold: a window that grows with the search, so a slow search goes on as long as every three doublings of its
+#: effort bring the trees 1 % closer. Beside a goal beyond a wall the trees creep r_min / 2 closer now and then, each creep
+#: restarting ``stall``'s window, while the gap itself stays put (the obstacle scene with a 2 cm wall 2 m tall in place of
+#: its box, seed 0: 0.416 at iteration 104, 0.4146 at 1,000 and at 4,000, when ``stall`` ended the level; now at 824).
+#: Measured, before the trees met: no feasible search is stalled by SHRINK = 1 % with SPAN = 2 from 500 iterations on
+#: (boxes 0.50 and 0.51 m tall, seeds 0-2, 783-3,010 iterations; 0.52 m, seed 0, 18,956; boxes moved 5 cm, 20-50 % larger
+#: and 23 random boxes, 4-199), nor with SHRINK = 5 %. But a puck's channel under a wall's end (y in [0.44, 0.445],
+#: narrower than r_min: it meets only after a refinement) kept its gap for 4x its iterations (250 -> 1,000, seed 3) in a
+#: first level of 5,089-22,072 iterations that brought its trees to the channel's ends; SPAN = 2 or 4 cut that short and
+#: 4 of its 6 seeds then failed; SPAN = 8 cuts none of seeds 0-3 and 5. The wall's gap too may take a last step of 1-2 %
+#: after a few hundred iterations (seed 2: 0.42 -> 0.41 at 800), which SPAN = 8 then waits out. Finer levels keep
+#: ``stall``'s rule alone: a refined search is what threads a narrow passage.
+SHRINK = 0.01
+SHRINK_FROM = 500
+SPAN = 8
+
+
+class GapHistory:
+    """The smallest gap between the trees (:attr:`Bubbles.closest`) at the start of each iteration, for the SHRINK rule."""
+
+    def __init__(self) -> None:
+        self.gaps: list[float] = []
+
+    def record(self, gap: float) -> None:
+        self.gaps.append(gap)
+
+    def stalled(self, floor: int) -> bool:
+        """Whether the search has run ``floor`` iterations or more (k) and its gap at the last one is above (1 - SHRINK)
+        x its gap at iteration k // SPAN (a gap <= 0 there: never stalled)."""
+        k = len(self.gaps) - 1
+        if k < floor:
+            return False
+        then = self.gaps[k // SPAN]
+        return 0.0 < then and self.gaps[k] > (1.0 - SHRINK) * then
