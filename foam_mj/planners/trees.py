@@ -160,8 +160,8 @@ class Bubbles:
 #: (boxes 0.50 and 0.51 m tall, seeds 0-2, 783-3,010 iterations; 0.52 m, seed 0, 18,956; boxes moved 5 cm, 20-50 % larger
 #: and 23 random boxes, 4-199), nor with SHRINK = 5 %. But a puck's channel under a wall's end (y in [0.44, 0.445],
 #: narrower than r_min: it meets only after a refinement) kept its gap for 4x its iterations (250 -> 1,000, seed 3) in a
-#: first level of 5,089-22,072 iterations that brought its trees to the channel's ends; SPAN = 2 or 4 cut that short and
-#: 4 of its 6 seeds then failed; SPAN = 8 cuts none of seeds 0-3 and 5. The wall's gap too may take a last step of 1-2 %
+#: first level of 5,089-51,650 iterations that brought its trees to the channel's ends; SPAN = 2 cut that short on 5 of
+#: its 6 seeds (at 500-2,042) and 4 of them then failed; SPAN = 4 cut seed 3 (764); SPAN = 8 none. The wall's gap too may take a last step of 1-2 %
 #: after a few hundred iterations (seed 2: 0.42 -> 0.41 at 800), which SPAN = 8 then waits out. Finer levels keep
 #: ``stall``'s rule alone: a refined search is what threads a narrow passage.
 SHRINK = 0.01
