@@ -34,16 +34,17 @@ def messages(err: str) -> list[str]:
     return [line for line in err.splitlines() if not PROGRESS_LINE.match(line)]
 
 
-def wall_scenario(folder: Path, time_limit: float = 60.0) -> Path:
+def wall_scenario(folder: Path, time_limit: float = 60.0, planner: str | None = None) -> Path:
     """A scenario TOML in ``folder``: the leg's foot behind a wall it cannot pass, so that a plan runs for a long while
-    (until it stalls, 15-22 s on a loaded 2-core machine, or its ``time_limit``), long enough to interrupt it."""
+    (until it stalls, or its ``time_limit``), long enough to interrupt it; ``planner``: the ``[planner]`` table's
+    body instead of that time limit (e.g. ``"max_bubbles = 3000"``)."""
     scene = folder / "wall.xml"
     scene.write_text(
         f'<mujoco><include file="{MODELS / "ortholeg.xml"}"/><worldbody><geom name="floor" type="plane" size="3 3 0.1"/>'
         '<geom name="wall" type="box" pos="0.46 0 0.75" size="0.04 0.25 0.75"/></worldbody></mujoco>'
     )
     toml = folder / "wall.toml"
-    toml.write_text(f'scene = "{scene}"\nq_init = [0.2, 0.3, 0.08]\nq_goal = [0.45, 0.4536, 1.45]\n[planner]\ntime_limit = {time_limit}\n')
+    toml.write_text(f'scene = "{scene}"\nq_init = [0.2, 0.3, 0.08]\nq_goal = [0.45, 0.4536, 1.45]\n[planner]\n{planner or f"time_limit = {time_limit}"}\n')
     return toml
 
 

@@ -20,7 +20,7 @@ from foam_mj.cli import main
 from foam_mj.recording import read_blueprint, read_component, read_recording
 from foam_mj.results import read_result
 
-from conftest import MODELS, MujocoChecker, messages
+from conftest import MODELS, MujocoChecker, messages, wall_scenario
 
 #: The project's external checker, when this checkout sits inside the project's work folder.
 VERIFY = next((p / "shared" / "tools" / "verify_result.py" for p in Path(__file__).resolve().parents
@@ -483,13 +483,8 @@ def test_the_json_result_replaces_an_old_one_by_rename_never_in_place(tmp_path, 
     capsys.readouterr()
 
 def test_a_planning_failure_exits_3_and_still_writes_the_foam(tmp_path, capsys):
-    scene = tmp_path / "wall.xml"
-    scene.write_text(
-        f'<mujoco><include file="{MODELS / "ortholeg.xml"}"/><worldbody><geom name="floor" type="plane" size="3 3 0.1"/>'
-        '<geom name="wall" type="box" pos="0.46 0 0.75" size="0.04 0.25 0.75"/></worldbody></mujoco>'
-    )
-    toml = tmp_path / "wall.toml"
-    toml.write_text(f'scene = "{scene}"\nq_init = [0.2, 0.3, 0.08]\nq_goal = [0.45, 0.4536, 1.45]\n[planner]\nmax_bubbles = 3000\n')
+    toml = wall_scenario(tmp_path, planner="max_bubbles = 3000")
+    scene = tmp_path / "wall.xml"  # the scene wall_scenario wrote
     js, rrd = tmp_path / "fail.json", tmp_path / "fail.rrd"
     assert main(["plan", "--scene", str(toml), "--json", str(js), "--rrd", str(rrd)]) == 3
     doc = json.loads(js.read_text())
