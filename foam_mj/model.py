@@ -498,7 +498,8 @@ class RobotModel:
             raise ConfigurationError(f"{name} must be a sequence of {self.dim} real numbers, got {q!r}") from None
         if arr.shape != (self.dim,):
             m = self.model
-            unlimited = [_joint_name(m, j) for j in range(m.njnt) if int(m.jnt_type[j]) in _SUPPORTED_JOINTS
+            unlimited = [_joint_name(m, j) + (' (its range is not applied: limited="false")' if np.any(m.jnt_range[j]) else "")
+                         for j in range(m.njnt) if int(m.jnt_type[j]) in _SUPPORTED_JOINTS
                          and not m.jnt_limited[j] and j not in set(int(k) for k in self.config.joint_ids)]
             why = f"; not configuration joints (no range: held at qpos0): {', '.join(unlimited)}" if unlimited else ""
             for eq, names in self.held_by_equality.items():

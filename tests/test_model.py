@@ -656,6 +656,11 @@ def test_a_start_out_of_bounds_says_radians_when_degrees_were_meant_and_a_wrong_
     with pytest.raises(ConfigurationError, match=r"must be 1 number, one per configuration joint \(elbow\), got 2; not configuration joints "
                                                  r"\(no range: held at qpos0\): shoulder$"):
         RobotModel.from_xml(scene).validate([0.3, 1.0])
+    # A range that limited="false" switches off was listed as "no range", which the MJCF contradicts.
+    scene.write_text(scene.read_text().replace('name="shoulder"', 'name="shoulder" range="-1 1" limited="false"', 1))
+    with pytest.raises(ConfigurationError, match=r"not configuration joints \(no range: held at qpos0\): shoulder \(its range is not "
+                                                 r"applied: limited=\"false\"\)$"):
+        RobotModel.from_xml(scene).validate([0.3, 1.0])
 
 
 def test_a_keyframe_places_the_mocap_obstacles_where_mujoco_puts_them_and_the_saved_scene_does_too(tmp_path):
