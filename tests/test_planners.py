@@ -469,13 +469,13 @@ def test_the_time_limit_also_ends_the_corridor_refinement(oracles, monkeypatch):
     has passed no new round starts, and the first path, certified, is returned as it is."""
     import time
 
-    from foam_mj.planners import bubbletree
+    from foam_mj.planners import routes  # bubbletree builds its corridor(s) through routes.build_routes
     from foam_mj.planners.base import check_result
 
     s = load_scenario("obstacle")
     oracle = oracles["obstacle"]
     seen = []
-    real = bubbletree.build_corridor
+    real = routes.build_corridor
 
     def corridor(problem, centers, radii, link, options, rng, passed=False):
         seen.append(options.deadline)
@@ -485,13 +485,13 @@ def test_the_time_limit_also_ends_the_corridor_refinement(oracles, monkeypatch):
             options = dataclasses.replace(options, deadline=time.perf_counter())
         return real(problem, centers, radii, link, options, rng)
 
-    monkeypatch.setattr(bubbletree, "build_corridor", corridor)
+    monkeypatch.setattr(routes, "build_corridor", corridor)
     before = time.perf_counter()
     full = get_planner("bubbletree").plan(_problem(oracle, s, time_limit=30.0), seed=2)
     after = time.perf_counter()
     assert before + 30.0 <= seen[0] <= after + 30.0  # the planner's own start plus its time limit
     assert full.stats.details["refine_rounds"] >= 1 and "refine_stopped" not in full.stats.details
-    monkeypatch.setattr(bubbletree, "build_corridor", lambda *a: corridor(*a, passed=True))
+    monkeypatch.setattr(routes, "build_corridor", lambda *a: corridor(*a, passed=True))
     cut = get_planner("bubbletree").plan(_problem(oracle, s, time_limit=30.0), seed=2)
     d = cut.stats.details
     assert d["refine_rounds"] == 0 and d["refine_stopped"] == "time limit"

@@ -121,7 +121,8 @@ from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, i
 from foam_mj.foam import seed_rng
 from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer, check_problem, too_small_to_grow
 from foam_mj.planners.chains import HATCH
-from foam_mj.planners.corridor import CorridorOptions, build_corridor, load_solvers, overlap_pairs
+from foam_mj.planners.corridor import CorridorOptions, load_solvers, overlap_pairs
+from foam_mj.planners.routes import build_routes
 from foam_mj.planners.informed import InformedSampler
 from foam_mj.planners.trees import SHRINK, SHRINK_FROM, SPAN, Bubbles, GapHistory, lifted
 
@@ -164,8 +165,7 @@ ESCAPE = 1.1
 #: A root that leaves the joint box (an end point on an edge or corner of it: foam_mj.bubbles.BubbleOracle.holding_bubble)
 #: has children of radius r_min, or CORNER x its own if that is less: next to the corner the bounds keep every bubble
 #: in the box small (a child on the root's surface is about r / sqrt(2) from two faces), and from such a child GROW
-#: takes over. With r_min alone, a corner goal of the step_down scene 7.4 mm from the floor (root 2.16e-3, r_min 2.1e-3)
-#: never grew in 20 s.
+#: takes over. With r_min alone, a corner goal of step_down 7.4 mm from the floor (root 2.16e-3, r_min 2.1e-3) never grew.
 CORNER = 0.5
 #: TOWARD_SMALL: with such a root, an extension toward a bubble of the other tree below r_min (aimed at its centre:
 #: the nearest-pair and newest-bubble targets of step 1) keeps children of CORNER x that bubble's radius, or of the
@@ -173,8 +173,7 @@ CORNER = 0.5
 #: obstacle, every in-box bubble is bound- and clearance-limited below r_min, and the other tree came within a few
 #: such radii of the stalled tree without reaching it: a step_down start on an edge 7.4 mm from the floor (root
 #: 2.2e-3, r_min 2.1e-3) failed after the whole budget (seed 0: 4 start bubbles after 5 s); now seeds 0-4 plan in
-#: 0.3-4.7 s, certified, and so do delta 6, 6.5 and 7.2 mm there (seed 0; 7 mm still fails in 3 s). Plans without such
-#: a root are unchanged (the rule is off).
+#: 0.3-4.7 s, certified, and so do delta 6, 6.5 and 7.2 mm there (seed 0; 7 mm fails in 3 s). Other plans: unchanged.
 #: A failed plan names an end point on a joint limit whose tree holds fewer bubbles than this (it stalled beside it).
 STALLED = 20
 #: ``refine_chain = 0``: refinement starts no new round once the chain holds this many bubbles per joint
@@ -235,7 +234,7 @@ class BubbleTreeOptions:
     or ``"q"`` (the planner's coordinates; the same unless a joint is normalized); ``refine_chain``: no new
     refinement round once the chain holds this many bubbles (0: 20 per joint, or twice the first chain's if more); ``stall``: give up (outcome "stalled") when the
     trees have come no closer (by r_min / 2) in this many iterations before they meet, or in as many as the search had run
-    when they last came closer, if more (0: search until a budget ends)."""
+    when they last came closer, if more (0: search until a budget ends); ``routes``: corridors from this many chains, the shortest kept (see routes)."""
 
     batch: int = 24
     connect: int = 4
@@ -250,12 +249,13 @@ class BubbleTreeOptions:
     refine_chain: int = 0
     metric: str = "qpos"
     stall: int = STALL
+    routes: int = 1
 
     def __post_init__(self) -> None:
-        for name in ("batch", "connect", "refine_rounds", "refine_chain", "stall"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= (1 if name == "batch" else 0)):
-                raise ValueError(f"`{name}` must be an integer >= {1 if name == 'batch' else 0}, got {v!r}")
+        for name in ("batch", "connect", "refine_rounds", "refine_chain", "stall", "routes"):
+            v, lo = getattr(self, name), 1 if name in ("batch", "routes") else 0
+            if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= lo):
+                raise ValueError(f"`{name}` must be an integer >= {lo}, got {v!r}")
         for name in ("batch", "connect"):  # candidates are sized in one MuJoCo batch: memory grows with them
             if getattr(self, name) > MAX_EXTENSIONS:
                 raise ValueError(f"`{name}` must be at most {MAX_EXTENSIONS} extensions per tree per iteration, got {getattr(self, name)!r}")
@@ -582,8 +582,8 @@ class BubbleTreePlanner(Planner):
             link = link if link is not None else met
 
         cpu_tree = time.process_time() - cpu0
-        corridor = build_corridor(
-            problem, B.c[: B.n], B.r[: B.n], link,
+        corridor = build_routes(
+            o.routes, problem, B.c[: B.n], B.r[: B.n], link,
             CorridorOptions(refine=o.refine, refine_tol=o.refine_tol, refine_rounds=o.refine_rounds, time_limit=o.refine_time,
                             floor_factor=o.refine_floor, metric=metric, max_chain=o.refine_chain or CHAIN_PER_JOINT * n,
                             max_chain_first=0.0 if o.refine_chain else CHAIN_FIRST,

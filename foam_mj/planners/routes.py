@@ -1,0 +1,69 @@
+"""More than one route for bubbletree's corridor (its option ``routes``).
+
+The corridor (:func:`foam_mj.planners.corridor.build_corridor`) refines the shortest chain of overlapping bubbles
+(Dijkstra's algorithm on the overlap graph), and its shortcuts cannot leave that chain's homotopy class when the free space
+between two routes is a ridge thinner than the refinement's floor: on step_down the seeds split between a route
+of qpos length 1.61-1.64 and one of 1.70-1.91, joined only over a ridge 0-0.7 mm above delta, so the first
+chain decides the route. With ``routes = k`` the corridor is also built from k - 1 further chains, each through
+the same certified bubbles minus the middle half of every earlier first chain's (so that it must pass elsewhere);
+each further corridor is first refined for one round only, and rebuilt with all its rounds only when that
+already beats the best so far; the shortest final corridor is kept (a losing further corridor's length in the
+stats is the one after its single round). Every corridor is built by the same code
+from the same certified bubbles and refinement, so the path kept is certified like the default one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from foam_mj.planners.corridor import Corridor, CorridorOptions, build_corridor, shortest_chain
+
+
+def build_routes(
+    routes: int, problem, centers: np.ndarray, radii: np.ndarray, link, options: CorridorOptions, rng: np.random.Generator,
+) -> Corridor:
+    """The shortest of the corridors built from ``routes`` chains (1: :func:`build_corridor`'s alone); with more,
+    the result's ``stats["routes"]`` says which won (1: the first chain's) and every corridor's length."""
+    best = build_corridor(problem, centers, radii, link, options, rng)
+    if routes <= 1:
+        return best
+    cpu0 = time.process_time()
+    n = len(radii)
+    banned = np.zeros(n, dtype=bool)
+    ids = shortest_chain(centers, radii, problem.q_init, problem.q_goal, options.metric)
+    lengths, won = [float(best.length)], 1
+    for k in range(2, routes + 1):
+        if ids is not None:
+            banned[ids[len(ids) // 4 : len(ids) - len(ids) // 4]] = True  # the chain's middle half
+        keep = np.flatnonzero(~banned)
+        sub_c, sub_r = centers[keep], radii[keep]
+        ids = shortest_chain(sub_c, sub_r, problem.q_init, problem.q_goal, options.metric)
+        if ids is None:  # no chain avoids the earlier routes' middles
+            break
+        ids = keep[ids]
+        state = rng.bit_generator.state
+        probe = build_corridor(problem, sub_c, sub_r, link, dataclasses.replace(options, refine_rounds=1), rng)
+        alt = probe
+        if probe.length < best.length:
+            rng.bit_generator.state = state
+            alt = build_corridor(problem, sub_c, sub_r, link, options, rng)
+        lengths.append(float(alt.length))
+        if alt.length < best.length:
+            best, won = _renumbered(alt, keep, n), k
+    best.stats["routes"] = {"won": won, "lengths": lengths}
+    best.stats["cpu_ms"] = {**best.stats["cpu_ms"], "routes": round(1e3 * (time.process_time() - cpu0), 2)}
+    return best
+
+
+def _renumbered(c: Corridor, keep: np.ndarray, n: int) -> Corridor:
+    """A corridor built on the bubbles ``keep`` of n, with its chain's ids in the numbering of all n (its added
+    bubbles numbered from n on, as the planner appends them)."""
+    m = len(keep)
+    ids = np.where(c.ids < m, keep[np.minimum(c.ids, m - 1)], c.ids + (n - m))
+    return dataclasses.replace(c, ids=ids)
+
+
+__all__ = ["build_routes"]
