@@ -414,16 +414,16 @@ class _Clock:
 
 def build_corridor(
     problem, centers: np.ndarray, radii: np.ndarray, link: tuple[int, int] | None, options: CorridorOptions,
-    rng: np.random.Generator | None = None,
+    rng: np.random.Generator | None = None, chain: np.ndarray | None = None,
 ) -> Corridor:
-    """The shortest chain through the bubbles, refined while the shortest path through it shortens."""
+    """The shortest chain through the bubbles (``chain``, if the caller found it already), refined while its path shortens."""
     oracle = problem.oracle
     rng = rng if rng is not None else np.random.default_rng(0)
     q0, q1 = problem.q_init, problem.q_goal
     n_base = len(radii)
     M = options.metric
     clock = _Clock()
-    ids = shortest_chain(centers, radii, q0, q1, M)
+    ids = shortest_chain(centers, radii, q0, q1, M) if chain is None else chain
     clock.lap("dijkstra")
     if ids is None:  # pragma: no cover - the trees met, so a chain exists
         raise RuntimeError("no chain of overlapping bubbles joins q_init and q_goal")

@@ -27,29 +27,29 @@ def build_routes(
 ) -> Corridor:
     """The shortest of the corridors built from ``routes`` chains (1: :func:`build_corridor`'s alone); with more,
     the result's ``stats["routes"]`` says which won (1: the first chain's) and every corridor's length."""
-    best = build_corridor(problem, centers, radii, link, options, rng)
     if routes <= 1:
-        return best
+        return build_corridor(problem, centers, radii, link, options, rng)
+    ids = shortest_chain(centers, radii, problem.q_init, problem.q_goal, options.metric)  # each chain found once
+    best = build_corridor(problem, centers, radii, link, options, rng, chain=ids)
     cpu0 = time.process_time()
     n = len(radii)
     banned = np.zeros(n, dtype=bool)
-    ids = shortest_chain(centers, radii, problem.q_init, problem.q_goal, options.metric)
     lengths, won = [float(best.length)], 1
     for k in range(2, routes + 1):
         if ids is not None:
             banned[ids[len(ids) // 4 : len(ids) - len(ids) // 4]] = True  # the chain's middle half
         keep = np.flatnonzero(~banned)
         sub_c, sub_r = centers[keep], radii[keep]
-        ids = shortest_chain(sub_c, sub_r, problem.q_init, problem.q_goal, options.metric)
-        if ids is None:  # no chain avoids the earlier routes' middles
+        sub = shortest_chain(sub_c, sub_r, problem.q_init, problem.q_goal, options.metric)
+        if sub is None:  # no chain avoids the earlier routes' middles
             break
-        ids = keep[ids]
+        ids = keep[sub]
         state = rng.bit_generator.state
-        probe = build_corridor(problem, sub_c, sub_r, link, dataclasses.replace(options, refine_rounds=1), rng)
+        probe = build_corridor(problem, sub_c, sub_r, link, dataclasses.replace(options, refine_rounds=1), rng, chain=sub)
         alt = probe
         if probe.length < best.length:
             rng.bit_generator.state = state
-            alt = build_corridor(problem, sub_c, sub_r, link, options, rng)
+            alt = build_corridor(problem, sub_c, sub_r, link, options, rng, chain=sub)
         lengths.append(float(alt.length))
         if alt.length < best.length:
             best, won = _renumbered(alt, keep, n), k
