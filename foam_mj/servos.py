@@ -107,7 +107,8 @@ def explicit_damping_note(robot: RobotModel, m: mujoco.MjModel, actuators: np.nd
     configuration joints' servos, in their order."""
     if int(m.opt.integrator) != int(mujoco.mjtIntegrator.mjINT_EULER) or not len(qpos):
         return ""
-    ratio = kv * m.opt.timestep / effective_inertia(robot, qpos, least=True)
+    inertia = effective_inertia(robot, qpos, least=True)
+    ratio = kv * m.opt.timestep / inertia
     bad = np.flatnonzero(ratio > 2.0)
     if not bad.size:
         return ""
@@ -116,7 +117,7 @@ def explicit_damping_note(robot: RobotModel, m: mujoco.MjModel, actuators: np.nd
     others = f" (and {bad.size - 1} other servo{'s' * (bad.size > 2)})" if bad.size > 1 else ""
     return (f"servo '{name}' ({robot.config.joint_names[worst]}){others} is unstable under MuJoCo's Euler integrator, explicit in "
             f"actuator damping: kv {kv[worst]:.4g} x timestep {m.opt.timestep:g} s / the joint's least effective inertia "
-            f"{effective_inertia(robot, qpos, least=True)[worst]:.3g} = {ratio[worst]:.3g} > 2, as in MuJoCo's own simulation "
+            f"{inertia[worst]:.3g} = {ratio[worst]:.3g} > 2, as in MuJoCo's own simulation "
             "of this model; step it with <option integrator=\"implicitfast\"/> (an <attach>ed model's <option> gives way "
             "to its parent's)")
 
