@@ -377,6 +377,31 @@ def test_a_start_whose_every_neighbour_is_under_r_min_fails_at_once_by_a_cover_o
     assert not surface_holds_no_child(oracle, s.q_init, r0, 0.07, budget=10)  # a proof that needs more queries: none
 
 
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_a_one_joint_robot_whose_every_bubble_is_under_r_min_fails_at_once_by_a_cover_of_its_two_end_points(tmp_path, variant):
+    """One hinge swinging a capsule 34 mm beside a wall parallel to its plane (an exoskeleton's knee held by a coupling,
+    its hip alone free): every bubble has radius 0.045 < r_min = 0.07. The root's "surface" is its two end points; the
+    cover proves them at once. It raised "ValueError: cannot reshape array of size 0 into shape (0)" (exit 1) when the
+    cover, with no sub-patch left, split an empty set of 0-dimensional patches."""
+    from foam_mj.planners.closure import surface_holds_no_child
+
+    scene = tmp_path / "pendulum_by_a_wall.xml"
+    scene.write_text('<mujoco><compiler angle="radian"/><worldbody><geom name="floor" type="plane" size="3 3 0.1"/>'
+                     '<geom name="side_wall" type="box" pos="0 0.084 0.6" size="1.5 0.01 0.6"/>'
+                     '<body name="leg" pos="0 0 1"><joint name="hip" axis="0 1 0" range="-1.5 1.5"/>'
+                     '<geom name="leg" type="capsule" fromto="0 0 0 0 0 -0.6" size="0.04"/></body></worldbody></mujoco>')
+    oracle = BubbleOracle(RobotModel.from_xml(scene), delta=0.005)
+    q_init, q_goal = np.array([-0.3]), np.array([1.0])
+    r0 = float(oracle.radii(q_init[None])[0])
+    assert 0.04 < r0 < 0.05
+    assert surface_holds_no_child(oracle, q_init, r0, 0.07)
+    assert not surface_holds_no_child(oracle, q_init, r0, r0)  # a child of the root's radius fits beside it
+    params = FoamParams(K=10, r_min=0.07, delta=0.005, time_limit=60.0)
+    with pytest.raises(PlanningFailed, match=r"\(queue empty\) after 1 bubbles .*: no bubble of radius >= r_min = 0.07 fits on "
+                                             r"the start's bubble \(radius 0.04\d+\); lower r_min, or plan with bubbletree"):
+        VARIANTS[variant](oracle, q_init, q_goal, params, seed=0)
+
+
 def test_a_start_bubble_of_micrometres_is_named_by_its_radius(scene_oracles):
     """A start 0.01 mm above the margin: its bubble (radius 8.3e-6) was named 'radius 0.0000', which reads as none."""
     from foam_mj.foam import plan as plan_pfm

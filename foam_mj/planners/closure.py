@@ -75,7 +75,7 @@ def surface_cover(oracle: BubbleOracle, c: np.ndarray, r: float, r_min: float, b
         half /= 2
         left = ~closed  # each open patch's 2^(n-1) quarters, in order
         K, S = np.repeat(K[left], len(corners)), np.repeat(S[left], len(corners))
-        M = (M[left][:, None, :] + half * corners[None]).reshape(-1, n - 1)
+        M = (M[left][:, None, :] + half * corners[None]).reshape(len(K), n - 1)  # len(K), not -1: n = 1 has 0 columns
     return True, None
 
 
