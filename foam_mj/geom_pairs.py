@@ -94,7 +94,9 @@ def pair_coordinates(m: mujoco.MjModel, config: "ConfigurationMap", moves: np.nd
     the distance changes only with the motion along the plane's normal n, so a hinge whose axis is
     parallel to n or a slide perpendicular to it cannot change it either, provided every configuration
     hinge above it also turns about an axis parallel to n (so that this holds in every configuration):
-    a vertical pan joint cannot bring a shoulder closer to the floor.
+    a vertical pan joint cannot bring a shoulder closer to the floor. Against a fixed sphere, capsule or cylinder,
+    the hinges that turn the other geom about its axis of symmetry, root first, cannot either
+    (:func:`_turned_about_own_axis`): a pan joint standing on its pedestal.
     """
     active = moves[a] ^ moves[b]
     for plane, other in ((a, b), (b, a)):
@@ -113,7 +115,40 @@ def pair_coordinates(m: mujoco.MjModel, config: "ConfigurationMap", moves: np.nd
                 active[i] = False
             if hinge and not parallel:
                 upstream_parallel = False
+    for solid, other in ((a, b), (b, a)):
+        if int(m.geom_type[solid]) in _REVOLUTION and not moves[solid].any() and moves[other].any():
+            active &= ~_turned_about_own_axis(m, config, moves, solid, other)
     return active
+
+
+_SPHERE = int(mujoco.mjtGeom.mjGEOM_SPHERE)
+#: Solids of revolution about their local z axis (a sphere about any line through its centre).
+_REVOLUTION = (_SPHERE, int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER))
+
+
+def _turned_about_own_axis(m: mujoco.MjModel, config: "ConfigurationMap", moves: np.ndarray, solid: int,
+                           other: int) -> np.ndarray:
+    """(n,) bool: the configuration hinges that turn geom ``other`` about the symmetry axis of the fixed solid of
+    revolution ``solid`` (a robot's pedestal cylinder under its pan joint; a sphere about any line through its
+    centre), root first, as long as each one above does too: such a turn maps the solid onto itself, so it cannot
+    change the pair's distance, in every configuration (a turn about the line leaves the line, and so the next such
+    hinge's axis, where they were)."""
+    d = _reference_data(m, config)
+    centre = d.geom_xpos[solid]
+    z = d.geom_xmat[solid].reshape(3, 3)[:, 2]
+    sphere = int(m.geom_type[solid]) == _SPHERE
+    out = np.zeros(config.dim, dtype=bool)
+    for i in sorted(np.flatnonzero(moves[other]), key=lambda i: int(config.joint_ids[i])):  # root first
+        j = int(config.joint_ids[i])
+        if int(m.jnt_type[j]) != HINGE:
+            break
+        axis = d.xaxis[j] / np.linalg.norm(d.xaxis[j])
+        arm = d.xanchor[j] - centre
+        tol = 1e-9 * (1.0 + float(np.linalg.norm(arm)) + float(m.geom_rbound[solid]))
+        if np.linalg.norm(np.cross(axis, arm)) > tol or (not sphere and np.linalg.norm(np.cross(axis, z)) > 1e-9):
+            break
+        out[i] = True
+    return out
 
 
 def bodies_moved_by(m: mujoco.MjModel, config: "ConfigurationMap") -> np.ndarray:

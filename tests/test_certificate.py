@@ -99,6 +99,39 @@ def test_an_excluded_body_pair_is_not_checked(tmp_path):
 
 
 # -- pairs no joint can change, and the per-pair bound ---------------------------------------------------------
+@pytest.mark.parametrize("pedestal, fixed", [
+    ('type="cylinder" pos="0 0 -0.01" size="0.08 0.02"', True),  # coaxial with the pan joint, 43 mm below the shoulder
+    ('type="capsule" fromto="0 0 -0.3 0 0 -0.02" size="0.04"', True),
+    ('type="sphere" pos="0 0 -0.03" size="0.05"', True),  # centred on the pan axis
+    ('type="cylinder" pos="0.01 0 -0.01" size="0.08 0.02"', False),  # 1 cm off the axis: the pan changes the distance
+    ('type="box" pos="0 0 -0.01" size="0.08 0.08 0.02"', False),  # not a solid of revolution
+])
+def test_a_pedestal_of_revolution_under_the_pan_joint_drops_out_of_the_bound(tmp_path, pedestal, fixed):
+    """A fixed cylinder, capsule or sphere whose symmetry axis is the pan joint's: turning the arm about it maps the
+    pedestal onto itself, so the pan cannot change any arm geom's distance to it (checked here with MuJoCo over random
+    poses), and only the pan moves the shoulder: that pair drops out, and the upper arm's keeps the lift
+    but not the pan, as against a floor under a pan. The pan's rho capped every bubble at (gap - delta) / ||rho|| (a
+    planar 3-link arm 40 mm above its pedestal: 7,116 bubbles instead of 1,837). Off the axis, or a box, the pan
+    changes the distances and counts."""
+    xml = PAN_ARM.replace('<geom name="floor" type="plane" size="2 2 0.1"/>', f'<geom name="pedestal" {pedestal}/>')
+    robot = _robot(tmp_path, xml.replace('<body name="shoulder" pos="0 0 0.1">', '<body name="shoulder" pos="0 0 0.15">'))
+    m, d = robot.model, mujoco.MjData(robot.model)
+    shoulder, upper, ped = _gid(m, "shoulder_collision"), _gid(m, "upper_arm_collision"), _gid(m, "pedestal")
+    pairs = [tuple(sorted(p)) for p in robot.pairs]
+    assert (tuple(sorted((ped, shoulder))) in {tuple(sorted(p)) for p in robot.fixed_pairs}) == fixed
+    assert robot.pair_active[pairs.index(tuple(sorted((ped, upper))))].tolist() == [not fixed, True, False]
+    rng = np.random.default_rng(0)
+    pans = []
+    for _ in range(10):
+        q = robot.lower + rng.random(3) * (robot.upper - robot.lower)
+        dist = []
+        for pan in np.linspace(-3.0, 3.0, 7):
+            robot.set_configuration(np.array([pan, q[1], q[2]]), d)
+            dist.append([mujoco.mj_geomDistance(m, d, g, ped, 1.0, None) for g in (shoulder, upper)])
+        pans.append(np.ptp(dist, axis=0).max())
+    assert (max(pans) < 1e-9) == fixed
+
+
 def test_a_pair_no_joint_can_change_drops_out_and_the_arm_plans(tmp_path):
     """The shoulder is 3 mm above the floor and only the pan joint moves it. With delta = 2 mm, one global
     clearance would make every radius tiny: the pair drops out, the others keep their own rho, and the foam
