@@ -12,10 +12,12 @@ JSON (``format`` "foam-mj/bubble", version 1)::
      "delta": 0.005, "clearance": 0.1103, "closest_pair": ["foot_collision", "obstacle_box"],
      "radius": 0.0878, "limiting_pair": [...], "rho": [...], "rho_norm": 1.1998, "to_bounds": 0.3,
      "pairs": [{"geoms": [a, b], "self": false, "distance": d_p, "rho": [...], "rho_norm": ..., "radius": term}, ...],
-     "fixed_pairs": [[a, b], ...], "labels": {"geom11": "geom11 (on body forearm_link)"}}
+     "fixed_pairs": [[a, b], ...], "fixed_distances": [{"geoms": [robot geom, obstacle], "distance": d}, ...],
+     "labels": {"geom11": "geom11 (on body forearm_link)"}}
 
 ``rho`` is the limiting pair's rho_p in metres per unit of each coordinate (radians or the coordinate's
-normalized unit); ``fixed_pairs`` are the pairs no coordinate can change (left out of the bound); ``labels`` names
+normalized unit); ``fixed_pairs`` are the pairs no coordinate can change (left out of the bound), ``fixed_distances``
+the robot/obstacle ones with their distance (not in ``clearance``); ``labels`` names
 the body of each unnamed geom (``geom<i>``) of the closest and limiting pairs, as the printed lines do.
 """
 
@@ -65,13 +67,18 @@ def bubble_report(robot: RobotModel, q, delta: float = 0.005, name: str = "q") -
         "to_bounds": rep.to_bounds,
         "pairs": pairs,
         "fixed_pairs": [[robot.geom_name(a), robot.geom_name(b)] for a, b in robot.fixed_pairs],
+        "fixed_distances": [{"geoms": [robot.geom_label(a), robot.geom_label(b)], "distance": dist}
+                            for a, b, dist in robot.fixed_obstacle_distances],
         "labels": {robot.geom_name(g): robot.geom_label(g) for g in range(robot.model.ngeom)  # geom<i> (on body ...)
                    if robot.geom_name(g) in (*rep.closest_pair, *rep.limiting_pair) and robot.geom_label(g) != robot.geom_name(g)},
     }
 
 
 def format_report(doc: dict) -> list[str]:
-    """The four lines ``foam-mj bubble`` prints: clearance, closest pair, rho per joint, radius."""
+    """The four lines ``foam-mj bubble`` prints: clearance, closest pair, rho per joint, radius; and a fifth naming the
+    robot/obstacle pairs left out of the bound, whose distance no configuration joint changes (a pan joint's link
+    over its pedestal): MuJoCo, ``plan``'s min clear and ``foam-mj verify`` count them, so the clearance line alone
+    would read higher than theirs."""
     rho = ", ".join(f"{j} {v:.4f}" for j, v in zip(doc["joints"], doc["rho"]))
     labels = doc.get("labels", {})  # an unnamed geom with its body, which a user can find in the MJCF
     limit = " / ".join(labels.get(g, g) for g in doc["limiting_pair"])
@@ -84,4 +91,6 @@ def format_report(doc: dict) -> list[str]:
         f"rho per joint (m per unit, pair {limit}): {rho}; ||rho||_2 = {doc['rho_norm']:.4f}",
         f"certified radius: {doc['radius']:.6f} (delta {doc['delta']:g} m, set by {setter}; "
         f"distance to the joint bounds {doc['to_bounds']:.6f})",
-    ]
+    ] + (["left out of the bound, as no configuration joint changes their distance: "
+          + ", ".join(f"{' / '.join(f['geoms'])} {f['distance']:.6f} m" for f in doc["fixed_distances"])]
+         if doc.get("fixed_distances") else [])

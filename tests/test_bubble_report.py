@@ -119,3 +119,30 @@ def test_the_printed_pairs_name_the_body_of_an_unnamed_geom(tmp_path, capsys):
     assert "closest pair: geom1 (on body upper) / wall" in out and "set by geom1 (on body upper) / wall;" in out, out
     doc = json.loads((tmp_path / "b.json").read_text())
     assert doc["closest_pair"] == ["geom1", "wall"] and doc["labels"] == {"geom1": "geom1 (on body upper)"}
+
+
+def test_a_pair_left_out_of_the_bound_is_printed_with_the_distance_mujoco_measures(tmp_path, capsys):
+    """A link turned by a pan joint over a coaxial pedestal cylinder 40 mm below it: no joint changes that distance,
+    so the pair is left out of the bound and of the clearance line (0.225 m, to the next link), yet MuJoCo, plan's
+    min clear and `foam-mj verify` read 0.040 m there. The report names it with that distance (it printed only the
+    0.225 m, which a user choosing an end point above delta took for the robot's clearance)."""
+    scene, out = tmp_path / "pedestal_arm.xml", tmp_path / "bubble.json"
+    scene.write_text('<mujoco><compiler angle="radian"/><worldbody>'
+                     '<geom name="base" type="cylinder" pos="0 0 -0.1" size="0.06 0.03"/>'
+                     '<body name="l1"><joint name="j1" axis="0 0 1" range="-3 3"/>'
+                     '<geom name="g1" type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>'
+                     '<body name="l2" pos="0.3 0 0"><joint name="j2" axis="0 1 0" range="-1 1"/>'
+                     '<geom name="g2" type="capsule" fromto="0.05 0 0 0.25 0 0" size="0.025"/></body></body>'
+                     '</worldbody></mujoco>')
+    assert main(["bubble", "--mjcf", str(scene), "--q=0.5 0", "--json", str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1] == "closest pair: g2 / base"
+    assert lines[4] == "left out of the bound, as no configuration joint changes their distance: g1 / base 0.040000 m"
+    doc = json.loads(out.read_text())
+    assert doc["fixed_distances"] == [{"geoms": ["g1", "base"], "distance": pytest.approx(0.04)}]
+    m = mujoco.MjModel.from_xml_path(str(scene))
+    d = mujoco.MjData(m)
+    d.qpos[:] = [0.5, 0.0]
+    mujoco.mj_kinematics(m, d)
+    measured = mujoco.mj_geomDistance(m, d, 1, 0, 1.0, None)  # g1 / base
+    assert measured == pytest.approx(0.04) and measured < doc["clearance"]
