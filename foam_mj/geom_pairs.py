@@ -116,14 +116,14 @@ def pair_coordinates(m: mujoco.MjModel, config: "ConfigurationMap", moves: np.nd
             if hinge and not parallel:
                 upstream_parallel = False
     for solid, other in ((a, b), (b, a)):
-        if int(m.geom_type[solid]) in _REVOLUTION and not moves[solid].any() and moves[other].any():
+        if int(m.geom_type[solid]) in REVOLUTION and not moves[solid].any() and moves[other].any():
             active &= ~_turned_about_own_axis(m, config, moves, solid, other)
     return active
 
 
 _SPHERE = int(mujoco.mjtGeom.mjGEOM_SPHERE)
 #: Solids of revolution about their local z axis (a sphere about any line through its centre).
-_REVOLUTION = (_SPHERE, int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER))
+REVOLUTION = (_SPHERE, int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER))
 
 
 def _turned_about_own_axis(m: mujoco.MjModel, config: "ConfigurationMap", moves: np.ndarray, solid: int,

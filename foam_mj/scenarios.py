@@ -77,6 +77,7 @@ from foam_mj.bubbles import BubbleOracle, distance_cap
 from foam_mj.data import models_dir, scenarios_dir
 from foam_mj.clearance import Clearance
 from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioError, clearance_text, file_problem, file_problem_text, is_number, unknown_names
+from foam_mj.geom_pairs import REVOLUTION as _REVOLUTION
 from foam_mj.foam import check_candidate_bound
 from foam_mj.model import RobotModel
 from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
@@ -541,10 +542,15 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
                 continue
             q = np.asarray(getattr(scenario, field_name), dtype=float)
             d = clearance(q)
-            if d <= scenario.params.delta:
-                i = int(np.argmin(clearance.pair_distances(q)))
-                a, b = robot.pairs[i]
-                own = bool(np.asarray(robot.self_pair)[i])  # a robot/robot pair: no obstacle in it
+            # A link turned about the axis of a fixed sphere, capsule or cylinder (its pedestal, a held pelvis) is a pair no
+            # joint changes, out of the clearance: an end point within delta of it is named as on others, with the way out.
+            fixed = min((t for t in robot.fixed_obstacle_distances if int(robot.model.geom_type[t[1]]) in _REVOLUTION),
+                        key=lambda t: t[2], default=(0, 0, np.inf))
+            if min(d, fixed[2]) <= scenario.params.delta:
+                i = int(np.argmin(clearance.pair_distances(q))) if d <= fixed[2] else -1  # -1: the fixed pair
+                a, b = robot.pairs[i] if i >= 0 else fixed[:2]
+                own = i >= 0 and bool(np.asarray(robot.self_pair)[i])  # a robot/robot pair: no obstacle in it
+                d = min(d, fixed[2])
                 state = "in collision" if d < 0 else "too close to itself" if own else "too close to an obstacle"
                 hint = robot.hull_hint(int(a), int(b))
                 if own:
