@@ -50,7 +50,7 @@ from foam_mj.configuration import (
 from foam_mj.constraints import binding_tendon_limits, coupling_equalities, coupling_refusal, describe_equality
 from foam_mj.errors import ConfigurationError, ModelError, clearance_text, unknown_names
 from foam_mj.fingerprint import PARTS
-from foam_mj.geom_pairs import attached, body_subtree, collision_pairs, geom_moved_by, pair_coordinates
+from foam_mj.geom_pairs import _reference_data, attached, body_subtree, collision_pairs, geom_moved_by, pair_coordinates
 from foam_mj.mjcf import (
     _custom_text,
     compile_spec,
@@ -329,8 +329,12 @@ class RobotModel:
             self_pair.append(both)
         if not pairs:
             what = "any obstacle geom" + (" or with itself" if self_collision else "")
+            d0, nm = _reference_data(m, config), lambda g: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}"
+            left = ", ".join(f"{nm(a)} / {nm(b)} {mujoco.mj_geomDistance(m, d0, a, b, 1.0, None):.4f} m"
+                             for a, b in (pr if is_robot[pr[0]] else pr[::-1] for pr in fixed))  # a pan-only arm over its floor or coaxial pedestal: no joint changes these
             raise ModelError(f"{p}: no robot geom can collide with {what} (no obstacles, or contype/conaffinity and "
-                             "<contact><exclude> filter every pair, or no configuration joint moves the geoms of a pair); to "
+                             "<contact><exclude> filter every pair, or no configuration joint moves the geoms of a pair"
+                             + (f": {left}, whose distance no configuration joint changes" if left else "") + "); to "
                              "time a free motion, add a small obstacle beyond the robot's reach (a sphere the links turn about)")
         order = sorted(range(len(pairs)), key=lambda i: pairs[i])
         pairs, self_pair = [pairs[i] for i in order], [self_pair[i] for i in order]

@@ -365,3 +365,17 @@ def test_a_plan_whose_hinge_ranges_are_all_a_few_degrees_says_they_may_be_radian
     example = Path(__file__).resolve().parents[1] / "examples" / "two_link_arm" / "arm.xml"
     assert main(["plan", "--mjcf", str(example), "--start", "0.3 2.0", "--goal", "0.1 0.6", "--no-rrd", "--no-replay", "--smoother", "none"]) == 0
     assert "spans only a few degrees" not in capsys.readouterr().out
+
+
+def test_a_pan_only_arm_whose_one_pair_no_joint_changes_is_refused_naming_that_pair_and_its_distance(tmp_path, capsys):
+    """A one-joint pan arm whose link overlaps the pedestal cylinder it turns about (2.8 cm): that pair is the only
+    one, and no joint changes it, so no pair is left to certify. The refusal said 'no robot geom can collide with any
+    obstacle geom', which a user read as the arm being clear of its pedestal; it now names the pair and its distance."""
+    (tmp_path / "pan.xml").write_text(
+        '<mujoco><compiler angle="radian"/><worldbody><geom name="base" type="cylinder" pos="0 0 -0.032" size="0.06 0.03"/>'
+        '<body name="l1"><joint name="j1" axis="0 0 1" range="-3 3"/><geom name="g1" type="capsule" fromto="0 0 0 0.3 0 0" '
+        'size="0.03"/></body></worldbody></mujoco>')
+    assert main(["plan", "--mjcf", str(tmp_path / "pan.xml"), "--start", "0", "--goal", "2", "--no-rrd"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "no robot geom can collide with any obstacle geom" in err
+    assert "no configuration joint moves the geoms of a pair: g1 / base -0.0280 m, whose distance no configuration joint changes)" in err
