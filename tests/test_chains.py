@@ -71,6 +71,31 @@ def test_a_chords_chain_is_thinned_to_fewer_bubbles_that_still_hold_it():
         assert np.all(np.min(np.linalg.norm(s[:, None] - p2[None], axis=2) - r2[None], axis=1) <= 1e-12)
 
 
+def test_a_chord_thinned_with_a_cap_is_rejected_exactly_when_its_thinned_chain_is_longer():
+    """thin_line_chain(most=k): the same chain as without the cap when that keeps at most k bubbles, else None
+    (the walk stops at the cap: the corridor splices a chord only if its chain is short enough)."""
+    from foam_mj.planners.chains import thin_line_chain
+
+    rng = np.random.default_rng(1)
+    seen = set()
+    for _ in range(60):
+        m = int(rng.integers(2, 30))
+        A, B = rng.random(3), rng.random(3)
+        pts = A + np.linspace(0.0, 1.0, m)[:, None] * (B - A)
+        r = np.linalg.norm(B - A) / max(m - 1, 1) * (0.7 + 2.0 * rng.random(m))
+        full = thin_line_chain(pts, r)
+        for k in (len(full[1]) - 1, len(full[1]), len(full[1]) + 1):
+            capped = thin_line_chain(pts, r, most=k)
+            if len(full[1]) <= k:
+                np.testing.assert_array_equal(capped[0], full[0])
+                np.testing.assert_array_equal(capped[1], full[1])
+                seen.add("kept")
+            else:
+                assert capped is None
+                seen.add("rejected")
+    assert seen == {"kept", "rejected"}
+
+
 def test_splicing_a_chord_and_a_pressing_bubble_keeps_a_polyline_held_segment_by_segment():
     """splice_chain: after a chord (balls centred on it, consecutive ones overlapping) replaces a stretch of
     the chain and a pressing bubble goes into a hatch, segment j of the new polyline lies in bubble j, the

@@ -123,13 +123,15 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
     return out
 
 
-def thin_line_chain(pts: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def thin_line_chain(pts: np.ndarray, r: np.ndarray, most: int | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """The fewest of a chord's bubbles (centres in order along the chord) that still hold it: from each kept
     bubble, the farthest later one that overlaps it with a deep hatch (DEEP). Two balls centred on a
-    segment that overlap cover the segment between their centres, so the kept chain holds the chord."""
+    segment that overlap cover the segment between their centres, so the kept chain holds the chord.
+    ``most``: None instead if that keeps more than ``most`` bubbles (the walk stops there: a chord whose chain
+    is too long to be spliced, a third of the chords certified on obstacle, walked up to 38 bubbles)."""
     m = len(r)
     if m <= 2:
-        return pts, r
+        return (pts, r) if most is None or m <= most else None
     # The centres lie on one line: distances are those of their positions along it (no (m, m, n) array).
     u = pts[-1] - pts[0]
     s = (pts - pts[0]) @ (u / max(float(np.linalg.norm(u)), 1e-300))
@@ -138,10 +140,14 @@ def thin_line_chain(pts: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndar
     # Consecutive bubbles overlap deeply by construction (certify_chords bisects until they do).
     far = m - 1 - np.argmax(ok[:, ::-1], axis=1)  # the last bubble each one overlaps deeply
     if (far[:-1] <= np.arange(1, m)).all():
-        return pts, r  # none overlaps a later one than the next deeply: all kept (most chords: 97 % of their bubbles)
+        # none overlaps a later one than the next deeply: all kept (most chords: 97 % of their bubbles)
+        return (pts, r) if most is None or m <= most else None
     far = far.tolist()
     keep = [0]
+    cap = m if most is None else most
     while keep[-1] < m - 1:
+        if len(keep) >= cap:
+            return None
         keep.append(max(far[keep[-1]], keep[-1] + 1))
     return pts[keep], r[keep]
 

@@ -277,7 +277,7 @@ def shortest_chain(
     n = len(radii)
     s = 1.0 if metric is None else np.asarray(metric, dtype=float)
     i, j = overlap_pairs(centers, radii)
-    w = np.linalg.norm((centers[i] - centers[j]) * s, axis=1)
+    w = row_norms((centers[i] - centers[j]) * s)
     S, G = n, n + 1
     hs = np.flatnonzero(np.linalg.norm(centers - q_init, axis=1) <= radii)
     hg = np.flatnonzero(np.linalg.norm(centers - q_goal, axis=1) <= radii)
@@ -482,8 +482,8 @@ def build_corridor(
                 for i, ch in zip(todo, res):
                     if ch is None or used[ja[i] : jb[i] + 1].any():
                         continue
-                    ch = thin_line_chain(*ch)
-                    if len(ch[1]) <= CHORD_GROWTH * (jb[i] - ja[i] + 1):
+                    ch = thin_line_chain(*ch, most=int(CHORD_GROWTH * (jb[i] - ja[i] + 1)))
+                    if ch is not None:
                         used[ja[i] : jb[i] + 1] = True
                         splices[int(ja[i])] = (int(jb[i]), *ch)
             return splices
