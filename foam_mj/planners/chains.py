@@ -32,9 +32,9 @@ GAP_POINTS = 8
 
 def arc_points(P: np.ndarray, x: np.ndarray, metric: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Points of the polyline P at arc lengths x (weighted by ``metric``), and the segment index of each."""
-    seg = np.linalg.norm(np.diff(P, axis=0) * (1.0 if metric is None else metric), axis=1)
+    seg = row_norms(np.diff(P, axis=0) * (1.0 if metric is None else metric))
     cum = np.concatenate([[0.0], np.cumsum(seg)])
-    j = np.clip(np.searchsorted(cum, x, side="right") - 1, 0, len(seg) - 1)
+    j = np.minimum(np.maximum(np.searchsorted(cum, x, side="right") - 1, 0), len(seg) - 1)
     f = np.clip((x - cum[j]) / np.where(seg[j] > 0, seg[j], 1.0), 0.0, 1.0)
     return P[j] + f[:, None] * (P[j + 1] - P[j]), j
 
@@ -52,7 +52,7 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
     if K == 0:
         return []
     V = B - A
-    m = np.maximum(1, np.ceil(np.linalg.norm(V, axis=1) / spacing).astype(np.int64))
+    m = np.maximum(1, np.ceil(row_norms(V) / spacing).astype(np.int64))
     cid = np.repeat(np.arange(K), m + 1)
     start = np.repeat(np.cumsum(m + 1) - (m + 1), m + 1)
     t = (np.arange(len(cid)) - start) / m[cid]
@@ -94,7 +94,7 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
         # Each gap gets evenly spaced points, as many as its ends' smaller radius suggests (SPLIT x that radius
         # apart: deep overlaps if the radius holds in between), at most GAP_POINTS; one if GAP_POINTS is 1.
         dg = d[g]
-        cnt = np.clip(np.ceil(dg / (SPLIT * np.maximum(np.minimum(r[g], r[g + 1]), 1e-12))).astype(np.int64) - 1, 1, GAP_POINTS)
+        cnt = np.minimum(np.maximum(np.ceil(dg / (SPLIT * np.maximum(np.minimum(r[g], r[g + 1]), 1e-12))).astype(np.int64) - 1, 1), GAP_POINTS)
         gi = np.repeat(g, cnt)
         frac = (np.arange(len(gi)) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1) / np.repeat(cnt + 1, cnt)
         cm = cid[gi]
@@ -249,7 +249,7 @@ def prune_chain(
         cj = jj[np.repeat(lo_, cnt) + (np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt))]
         ok = s_[cj] <= e[ii]
         ii, cj = ii[ok], cj[ok]
-        slack = R[ii] + R[cj] - np.linalg.norm(np.take(C, ii, axis=0) - np.take(C, cj, axis=0), axis=1)
+        slack = R[ii] + R[cj] - row_norms(np.take(C, ii, axis=0) - np.take(C, cj, axis=0))
         small = np.minimum(R[ii], R[cj])
         for depth in (HATCH, DEEP):
             sel = slack >= depth * small
@@ -276,7 +276,7 @@ def deepen(oracle, C: np.ndarray, R: np.ndarray, ids: np.ndarray, new_ids) -> tu
     bubble centred at their portal centre m. m lies in both balls, so r(m) > 0 (r is 1-Lipschitz), and
     each new hatch is more than r(m) deep: |c_a - m| < r_a gives r_a + r(m) - |c_a - m| > r(m) >= min(r_a, r(m)).
     Returns the new chain and the added bubbles."""
-    d = np.linalg.norm(np.diff(C, axis=0), axis=1)
+    d = row_norms(np.diff(C, axis=0))
     thin = np.flatnonzero(d > R[:-1] + R[1:] - DEEP * np.minimum(R[:-1], R[1:]))
     n = C.shape[1]
     if thin.size == 0:
@@ -310,8 +310,8 @@ def held(C: np.ndarray, R: np.ndarray, w: np.ndarray) -> bool:
 def press_bubbles(oracle, C, R, w, floor):
     """Certified bubbles for the waypoints that press on a ball's boundary, pushed outward (see PUSH):
     (positions in the chain after which each goes, centres, radii)."""
-    da = np.linalg.norm(w - C[:-1], axis=1)
-    db = np.linalg.norm(w - C[1:], axis=1)
+    da = row_norms(w - C[:-1])
+    db = row_norms(w - C[1:])
     tol = 1e-3 * np.minimum(R[:-1], R[1:]) + 4 * INSET
     on_a, on_b = da >= R[:-1] - tol, db >= R[1:] - tol
     press = np.flatnonzero(on_a | on_b)
@@ -322,7 +322,7 @@ def press_bubbles(oracle, C, R, w, floor):
     # Outward: away from the centres of the pressed balls. r is 1-Lipschitz (the Cauchy-Schwarz ball of
     # Nascimento and Alsina 2021 Eq. 4), so a centre pushed by t r with t <= 1/2 still holds w.
     nrm = (wp - C[press]) * on_a[press, None] + (wp - C[press + 1]) * on_b[press, None]
-    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+    nrm /= np.maximum(row_norms(nrm), 1e-300)[:, None]
     cands = wp[:, None, :] + (PUSH[None, :, None] * rp[:, None, None]) * nrm[:, None, :]
     flat = cands.reshape(-1, wp.shape[1])
     okb = np.all((flat >= oracle.robot.lower) & (flat <= oracle.robot.upper), axis=1)
@@ -339,8 +339,8 @@ def press_bubbles(oracle, C, R, w, floor):
     pr = np.where(has, rc[row, best], rp)
     useful = (
         (pr >= floor)
-        & (np.linalg.norm(pc - C[press], axis=1) + pr > R[press] * (1 + 1e-6))
-        & (np.linalg.norm(pc - C[press + 1], axis=1) + pr > R[press + 1] * (1 + 1e-6))
+        & (row_norms(pc - C[press]) + pr > R[press] * (1 + 1e-6))
+        & (row_norms(pc - C[press + 1]) + pr > R[press + 1] * (1 + 1e-6))
     )
     return press[useful], pc[useful], pr[useful]
 

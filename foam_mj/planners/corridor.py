@@ -255,7 +255,7 @@ def overlap_pairs(centers: np.ndarray, radii: np.ndarray, hatch: float = HATCH) 
             J.append(groups[b][M["j"]])
     i, j = np.concatenate(I), np.concatenate(J)
     i, j = np.minimum(i, j), np.maximum(i, j)
-    d = np.linalg.norm(centers[i] - centers[j], axis=1)
+    d = row_norms(centers[i] - centers[j])
     ok = d <= radii[i] + radii[j] - hatch * np.minimum(radii[i], radii[j])
     return i[ok], j[ok]
 
@@ -279,11 +279,11 @@ def shortest_chain(
     i, j = overlap_pairs(centers, radii)
     w = row_norms((centers[i] - centers[j]) * s)
     S, G = n, n + 1
-    hs = np.flatnonzero(np.linalg.norm(centers - q_init, axis=1) <= radii)
-    hg = np.flatnonzero(np.linalg.norm(centers - q_goal, axis=1) <= radii)
+    hs = np.flatnonzero(row_norms(centers - q_init) <= radii)
+    hg = np.flatnonzero(row_norms(centers - q_goal) <= radii)
     rows = np.concatenate([i, j, np.full(len(hs), S), hg])
     cols = np.concatenate([j, i, hs, np.full(len(hg), G)])
-    vals = np.concatenate([w, w, np.linalg.norm((centers[hs] - q_init) * s, axis=1), np.linalg.norm((centers[hg] - q_goal) * s, axis=1)])
+    vals = np.concatenate([w, w, row_norms((centers[hs] - q_init) * s), row_norms((centers[hg] - q_goal) * s)])
     vals = np.maximum(vals, 1e-12)  # an explicit zero would read as "no edge"
     # The CSR arrays directly (no two equal (row, column) pairs), as scipy's COO -> CSR conversion orders them, for
     # a fifth of its time: a matrix's CSR arrays are its transpose's CSC arrays.
@@ -458,10 +458,10 @@ def build_corridor(
                 return splices
             k = len(R)
             u = np.sort(rng.random((options.chords, 2)), axis=1)
-            x = u * np.sum(np.linalg.norm(np.diff(P, axis=0) * (1.0 if M is None else M), axis=1))
+            x = u * np.sum(row_norms(np.diff(P, axis=0) * (1.0 if M is None else M)))
             AB, jab = arc_points(P, x.T.ravel(), M)  # both ends in one call
             A, B, ja, jb = AB[: options.chords], AB[options.chords :], jab[: options.chords], jab[options.chords :]
-            gain = (x[:, 1] - x[:, 0]) - np.linalg.norm((B - A) * (1.0 if M is None else M), axis=1)
+            gain = (x[:, 1] - x[:, 0]) - row_norms((B - A) * (1.0 if M is None else M))
             cand = np.flatnonzero((jb > ja) & (gain > min_gain * length))
             # The chords by gain, certified in batches of CHORD_BATCH (one batch of distance queries each),
             # each batch the best ones disjoint from those taken; a certified chord is thinned to its fewest
