@@ -134,25 +134,32 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
     na = active.size
     st_idx = np.flatnonzero(straight)
     ns = st_idx.size
-    # SOCP in z = [t, lambda (na), g (ns n)]: min t, |grad + B g - C lambda|_inf <= t, lambda >= 0, |g_i| <= 1.
-    nz = 1 + na + ns * n
-    Gm = np.zeros((nv, nz))
-    dd = np.arange(n)
-    if na:  # -grad c_j in lambda_j's column, at the rows of its point
-        Gm[(col[own[active]] * n)[:, None] + dd, (1 + np.arange(na))[:, None]] = 2.0 * (xx[active] - centres[active])
+    # The residual's terms (module docstring): -grad c_j = 2 (x - c_j) at the point of active constraint j, and
+    # (w_angle / M) J_ij^T g_i at the free points i + j of straight vertex i.
+    lam_point = col[own[active]]
+    lam_dir = 2.0 * (xx[active] - centres[active])
+    g_terms = []
     for j in range(3):
         c = col[st_idx + j]
         ok = c >= 0
-        r = (c[ok] * n)[:, None, None] + dd[None, :, None]
-        cc = (1 + na + np.flatnonzero(ok) * n)[:, None, None] + dd[None, None, :]
-        Gm[r, cc] = weights.angle / M * np.swapaxes(vx.J[st_idx[ok], j], 1, 2)
+        g_terms.append((c[ok], np.flatnonzero(ok), weights.angle / M * vx.J[st_idx[ok], j]))
     # Row scaling: the residual at a point times its neighbour distance ell (<= 1), see Certificate.
     ell = np.minimum(1.0, np.minimum(np.concatenate(([np.inf], qlens)), np.concatenate((qlens, [np.inf]))))[free]
     scale = np.repeat(ell, n)
 
+    def residual(lam_v: np.ndarray, g: np.ndarray) -> np.ndarray:
+        # grad + sum_j lambda_j (-grad c_j) + sum_i (w_angle / M) J_i^T g_i, point by point (no dense matrix:
+        # a certificate checked with the SCP's multipliers needs no more).
+        R = grad.reshape(-1, n).copy()
+        if na:
+            np.add.at(R, lam_point, lam_v[:, None] * lam_dir)
+        for c, i, Jc in g_terms:
+            R[c] += np.einsum("kde,kd->ke", Jc, g[i])  # (each point once per j)
+        return R.ravel()
+
     def certificate(lam_v: np.ndarray, g: np.ndarray) -> Certificate:
         # The residual of given multipliers (lambda >= 0, |g_i| <= 1), computed exactly.
-        resid = grad + Gm[:, 1:] @ np.r_[lam_v, g.ravel()]
+        resid = residual(lam_v, g)
         return Certificate(
             stationarity=float(np.max(np.abs(resid * scale))) if nv else 0.0,
             raw_stationarity=float(np.max(np.abs(resid))) if nv else 0.0,
@@ -171,7 +178,15 @@ def kkt_certificate(rosary: Rosary, waypoints: np.ndarray, weights: ObjectiveWei
         cert = certificate(lam_v, g)
         if cert.certified(tol if guess_tol is None else min(tol, guess_tol)) or not solve:
             return cert
-    Gs, grad_s = Gm[:, 1:] * scale[:, None], grad * scale
+    # SOCP in z = [t, lambda (na), g (ns n)]: min t, |grad + B g - C lambda|_inf <= t, lambda >= 0, |g_i| <= 1.
+    nz = 1 + na + ns * n
+    Gm = np.zeros((nv, nz - 1))
+    dd = np.arange(n)
+    if na:  # -grad c_j in lambda_j's column, at the rows of its point
+        Gm[(lam_point * n)[:, None] + dd, np.arange(na)[:, None]] = lam_dir
+    for c, i, Jc in g_terms:
+        Gm[(c * n)[:, None, None] + dd[None, :, None], (na + i * n)[:, None, None] + dd[None, None, :]] = np.swapaxes(Jc, 1, 2)
+    Gs, grad_s = Gm * scale[:, None], grad * scale
     # Rows: t >= +-(Gs z + grad_s) (2 nv), lambda >= 0 (na), then the cones (1, g_i) (1 + n each).
     r, c = np.nonzero(Gs)
     v = Gs[r, c]
