@@ -171,10 +171,44 @@ def check_ray_address(address: str) -> None:
     if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
         raise FoamError(f"--ray {address}: expected auto, HOST:PORT or ray://HOST:PORT")
     try:
-        socket.create_connection((host.strip("[]"), int(port)), timeout=5).close()
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=5) as conn:
+            reply = _http2_reply(conn)
     except OSError as exc:
         raise FoamError(f"--ray {address}: no Ray cluster answers there ({exc.strerror or type(exc).__name__}); "
                         "start one (ray start --head) or leave the address out for a local instance") from None
+    if reply is not None:
+        raise FoamError(f"--ray {address}: something answers there, but not a Ray cluster (it does not speak gRPC: {reply}); "
+                        "give the head node's GCS address (ray start --head prints it) or ray://HOST:10001")
+
+
+#: The client's opening of an HTTP/2 connection (RFC 9113 section 3.4): the preface, then an empty SETTINGS frame.
+_HTTP2_PREFACE = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + bytes([0, 0, 0, 4, 0, 0, 0, 0, 0])
+
+
+def _http2_reply(conn) -> str | None:
+    """None if the server on ``conn`` answers an HTTP/2 preface with a SETTINGS frame, as every gRPC server does
+    (Ray's GCS and its client server speak gRPC); else what it did instead. ray.init on an address where a web
+    server or anything else listens retried for minutes, printing 'Failed to connect to GCS' every few seconds."""
+    import socket
+
+    try:
+        conn.sendall(_HTTP2_PREFACE)
+        head = b""
+        while len(head) < 9:
+            chunk = conn.recv(9 - len(head))
+            if not chunk:
+                break
+            head += chunk
+    except socket.timeout:
+        return "no reply within 5 s"
+    except OSError as exc:
+        return f"the connection failed: {exc.strerror or type(exc).__name__}"
+    if len(head) == 9 and head[3] == 4:  # frame type 4: SETTINGS
+        return None
+    if not head:
+        return "it closed the connection"
+    text = head.decode("ascii", "replace")
+    return f"it replied {text!r}" if text.isprintable() else f"it replied {head.hex()}"
 
 
 def ray_engine(tasks: Iterator[Task], workers: int, address: str | None, *, poll: float = 0.5) -> Iterator[Event]:

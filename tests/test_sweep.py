@@ -366,6 +366,40 @@ def test_a_ray_address_where_no_cluster_answers_is_exit_2_before_any_work(tmp_pa
     assert not out.exists()
 
 
+@pytest.mark.parametrize("reply, message", [(b"HTTP/1.0 400 Bad request\r\n\r\n", "it replied 'HTTP/1.0 '"),
+                                            (b"", "it closed the connection")])
+def test_a_ray_address_where_something_else_answers_is_exit_2_at_once(tmp_path, capsys, reply, message):
+    """`--ray 127.0.0.1:PORT` where a web server listens waited in ray.init for minutes, printing 'Failed to connect to
+    GCS' every 5 s (a TCP connection alone passed the address check): now one line, exit 2, no output folder."""
+    import socket
+    import threading
+    import time
+
+    pytest.importorskip("ray")
+    server = socket.create_server(("127.0.0.1", 0))
+    port = server.getsockname()[1]
+
+    def answer():
+        conn, _ = server.accept()
+        with conn:
+            conn.recv(64)
+            conn.sendall(reply)
+
+    threading.Thread(target=answer, daemon=True).start()
+    out = tmp_path / "out"
+    start = time.monotonic()
+    try:
+        code = main(["sweep", str(write(tmp_path, STUDY)), "--out", str(out), "--ray", f"127.0.0.1:{port}"])
+    finally:
+        server.close()
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.splitlines()) == 1, err
+    assert err.startswith(f"foam-mj: error: --ray 127.0.0.1:{port}: something answers there, but not a Ray cluster "
+                          f"(it does not speak gRPC: {message}"), err
+    assert time.monotonic() - start < 30 and not out.exists()
+    assert not out.exists()
+
+
 def test_bad_random_tables_and_fields_are_named(tmp_path):
     bad = {
         '[random]\nsamples = 3\n[random.uniform]\n"planner.r_min" = [0.09, 0.05]\n': "low <= high",
