@@ -14,9 +14,47 @@ from foam_mj.errors import FoamError
 MAX_SEED = 2**63 - 1
 
 
+def non_ascii_text(text: str) -> str:
+    """'' for a number written in ASCII, else what names its first other character (`` ('١' is U+0661 ARABIC-INDIC
+    DIGIT ONE)``). Python's float() and int() read any script's decimal digits (``float('١٢')`` is 12.0, ``'１２'``
+    full-width likewise), which TOML, JSON and every other reader of a scenario or result refuse; a number on the
+    command line is ASCII too, so that what a command line means does not depend on the font it was typed in."""
+    import unicodedata
+
+    other = next((c for c in text if not c.isascii()), None)
+    if other is None:
+        return ""
+    return f" ({other!r} is U+{ord(other):04X} {unicodedata.name(other, 'an unnamed character')}: write numbers with ASCII characters, 0-9)"
+
+
+def real_number(text: str) -> float:
+    """argparse type of a float option (``--delta``, ``--time-limit``, ...): Python's float() of ASCII text without
+    ``_`` (float() reads ``0_005`` as 5.0: a margin typed for 0.005 m became 5 m)."""
+    if non_ascii_text(text):
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}{non_ascii_text(text)}")
+    try:
+        if "_" in text:
+            raise ValueError
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+
+
+def whole_number(text: str) -> int:
+    """argparse type of an integer option (``--workers``, ``--dpi``, ...): Python's int() of ASCII text."""
+    if non_ascii_text(text):
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}{non_ascii_text(text)}")
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+
+
 def seed_number(text: str) -> int:
     """argparse type of ``--seed``: an integer in [0, 2**63 - 1], decimal (leading zeros too: ``007``, which
-    ``int(text, 0)`` refuses) or as Python spells it (``0x10``, ``1_000``)."""
+    ``int(text, 0)`` refuses) or as Python spells it (``0x10``, ``1_000``), in ASCII."""
+    if non_ascii_text(text):
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}{non_ascii_text(text)}")
     try:
         value = int(text, 10)
     except ValueError:
@@ -125,6 +163,8 @@ _NEGATIVE_VALUE = re.compile(r"-(\.?[0-9]|inf|nan)", re.IGNORECASE)
 
 def port_number(text: str) -> int:
     """argparse type of ``--web-port`` and ``--grpc-port``: an integer in [0, 65535]."""
+    if non_ascii_text(text):
+        raise argparse.ArgumentTypeError(f"must be a port number, got {text!r}{non_ascii_text(text)}")
     try:
         value = int(text)
     except ValueError:

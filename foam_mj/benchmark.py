@@ -407,12 +407,13 @@ RUNS, QUICK_RUNS = 50, 3
 
 def build_parser():
     """``foam-mj bench``'s own parser (:class:`foam_mj.arguments.Parser`: one-line errors)."""
+    from foam_mj.arguments import whole_number
     from foam_mj.cli import Parser
 
     ap = Parser(prog="foam-mj bench", description=__doc__.splitlines()[0],
                 epilog="exit codes: 0 done; 1 a smoothed path left its hatches, a method found a lower f than the optimal "
                 "smoother, or an internal error; 2 bad argument or --json location; 130 interrupted.")
-    ap.add_argument("--runs", type=int, default=None, metavar="N",
+    ap.add_argument("--runs", type=whole_number, default=None, metavar="N",
                     help=f"runs per stochastic method, 1-{MAX_RUNS:,} (default: {RUNS}; with --quick, {QUICK_RUNS})")
     ap.add_argument("--quick", action="store_true", help="a few runs, for CI")
     ap.add_argument("--json", default=str(DEFAULT_JSON), metavar="OUT.json", help=f"where to write the JSON (default: {DEFAULT_JSON})")

@@ -36,7 +36,7 @@ import sys
 from pathlib import Path
 
 from foam_mj import __version__
-from foam_mj.arguments import CONFIGURATION_METAVAR, Parser, UsageError, port_number, seed_number
+from foam_mj.arguments import CONFIGURATION_METAVAR, Parser, UsageError, port_number, real_number, seed_number, whole_number
 from foam_mj.errors import FoamError, PlanningFailed
 from foam_mj.interrupts import EXIT_INTERRUPTED, RETURNED, SIGNALLED, caused_by_interrupt, exit_now, forget_handled_interrupt, install, interrupt
 from foam_mj.streams import OutputWithoutReader, reopen_closed_streams
@@ -232,7 +232,7 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--format", nargs="+", choices=FIGURE_FORMATS, default=["png"], dest="formats",
                    help="figure file formats, one or more of png, svg, pdf (default: png)")
     p.add_argument("--paths", nargs="+", metavar="NAME", default=None, help="only these paths (default: all in the result)")
-    p.add_argument("--dpi", type=int, default=FIGURE_DPI, metavar="N", help=f"resolution of PNG files, at most {FIGURE_MAX_DPI} (default {FIGURE_DPI})")
+    p.add_argument("--dpi", type=whole_number, default=FIGURE_DPI, metavar="N", help=f"resolution of PNG files, at most {FIGURE_MAX_DPI} (default {FIGURE_DPI})")
     p.set_defaults(func=_cmd_figures)
     return p
 
@@ -335,11 +335,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--start", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the start configuration, one number per configuration joint (radians, metres), or a keyframe's name (home: its configuration joints' values; the other joints are held there)")
     p.add_argument("--goal", metavar=CONFIGURATION_METAVAR, help="with --mjcf: the goal configuration (numbers or a keyframe's name)")
     p.add_argument("--joints", metavar="a,b,c", help="the configuration joints, in order (default: the scenario's or the MJCF's declaration, else every limited hinge/slide joint)")
-    p.add_argument("--delta", type=float, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
-    p.add_argument("--time-limit", type=float, metavar="S", help="the planner's time budget in seconds: a plan that has not "
+    p.add_argument("--delta", type=real_number, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
+    p.add_argument("--time-limit", type=real_number, metavar="S", help="the planner's time budget in seconds: a plan that has not "
                    "reached the goal by then fails (exit 3; default: the scenario's [planner] time_limit, else 60)")
-    p.add_argument("--subject-height", type=float, metavar="M", help="scale the leg to a subject this tall, 1.2-2.2 m (Winter's segment fractions; a model that declares foam_mj:segments)")
-    p.add_argument("--subject-mass", type=float, metavar="KG", help="scale the leg's segment masses to a subject this heavy, 25-200 kg")
+    p.add_argument("--subject-height", type=real_number, metavar="M", help="scale the leg to a subject this tall, 1.2-2.2 m (Winter's segment fractions; a model that declares foam_mj:segments)")
+    p.add_argument("--subject-mass", type=real_number, metavar="KG", help="scale the leg's segment masses to a subject this heavy, 25-200 kg")
     p.add_argument("--robot-root", metavar="BODY", help="the body whose subtree is the robot (other moving bodies are fixed obstacles at their qpos0 pose)")
     p.add_argument("--no-self-collision", action="store_true", help="do not check robot/robot pairs (the scenario's self_collision = false)")
     p.add_argument(
@@ -387,7 +387,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="any MJCF scene instead of a scenario")
     p.add_argument("--q", required=True, metavar=CONFIGURATION_METAVAR, help="the configuration, one number per configuration joint, separated by spaces or commas")
     p.add_argument("--joints", metavar="a,b,c", help="the configuration joints, in order (default: the scenario's or the MJCF's declaration, else every limited hinge/slide joint)")
-    p.add_argument("--delta", type=float, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
+    p.add_argument("--delta", type=real_number, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
     p.add_argument("--robot-root", metavar="BODY", help="the body whose subtree is the robot (other bodies are obstacles)")
     p.add_argument("--no-self-collision", action="store_true", help="do not check robot/robot pairs")
     p.add_argument("--json", metavar="OUT.json", help="also write the report as JSON (clearance, radius, rho, joints, closest_pair, every pair)")
@@ -427,7 +427,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=f"exit codes: 0 every sample keeps the result's margin; 4 some sample is closer; 2 bad input; {EXIT_ANY}.",
     )
     p.add_argument("result", metavar="RESULT.json", help="a JSON file written by `foam-mj plan --json`")
-    p.add_argument("--step", type=float, default=1e-3, metavar="S", help="largest step between samples, in q and in qpos, "
+    p.add_argument("--step", type=real_number, default=1e-3, metavar="S", help="largest step between samples, in q and in qpos, "
                    "at most 0.1 (rad or m; default: 1e-3)")
     p.set_defaults(func=cmd_verify)
     p = sub.add_parser(
@@ -458,12 +458,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("sweep", metavar="SWEEP.toml", help="the sweep file (see README, 'Studies')")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder: DIR/rows/*.parquet and DIR/sweep.json")
-    p.add_argument("--workers", type=int, default=None, metavar="N", help="worker processes (default and at most: one per core this process may use; a larger number is capped, with a note); with --ray, the local Ray instance's CPUs (capped alike)")
+    p.add_argument("--workers", type=whole_number, default=None, metavar="N", help="worker processes (default and at most: one per core this process may use; a larger number is capped, with a note); with --ray, the local Ray instance's CPUs (capped alike)")
     p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS", help="run the plans as Ray tasks (needs foam-mj[cluster]): alone, on a local Ray instance; with an address (auto, ray://host:10001), on that cluster")
-    p.add_argument("--batch", type=int, default=200, metavar="N", help="rows per Parquet file (default 200)")
-    p.add_argument("--flush-seconds", type=float, default=10.0, metavar="S", help="write the rows received at least this often (default 10 s)")
-    p.add_argument("--limit", type=int, default=None, metavar="N", help="run at most this many plans now (try a sweep; re-run to continue)")
-    p.add_argument("--progress-interval", type=float, default=5.0, metavar="S", help="seconds between progress lines when stderr is not a terminal (default 5)")
+    p.add_argument("--batch", type=whole_number, default=200, metavar="N", help="rows per Parquet file (default 200)")
+    p.add_argument("--flush-seconds", type=real_number, default=10.0, metavar="S", help="write the rows received at least this often (default 10 s)")
+    p.add_argument("--limit", type=whole_number, default=None, metavar="N", help="run at most this many plans now (try a sweep; re-run to continue)")
+    p.add_argument("--progress-interval", type=real_number, default=5.0, metavar="S", help="seconds between progress lines when stderr is not a terminal (default 5)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=cmd_sweep)
     p = sub.add_parser(

@@ -62,6 +62,8 @@ def check_hz(hz) -> float:
     try:
         if isinstance(hz, (bool, np.bool_)):  # True is 1.0 to float(): a table at 1 Hz
             raise TypeError
+        if isinstance(hz, str) and (not hz.isascii() or "_" in hz):  # float("５00") is 500.0 (foam_mj.arguments)
+            raise ValueError
         v = float(hz)
     except (TypeError, ValueError):
         raise FoamError(f"--hz must be a number of samples per second, got {hz!r}") from None

@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+from foam_mj.arguments import non_ascii_text
 from foam_mj.cli import DEFAULT_SCENE, EXIT_OK, EXIT_PLANNING_FAILED, EXIT_UNSAFE
 from foam_mj.progress import Progress
 from foam_mj.errors import FoamError, PlanningFailed, file_problem
@@ -38,6 +39,8 @@ def parse_q(text: str, flag: str, *, keyframe: bool = False) -> list[float] | st
     if keyframe and _KEYFRAME_NAME.fullmatch(text.strip()) and text.strip().lower() not in ("nan", "inf", "infinity"):
         return text.strip()
     parts = text.replace(",", " ").split()
+    if non_ascii_text(text):  # float("٠.٢") is 0.2: a number is written in ASCII (foam_mj.arguments)
+        raise FoamError(f"{flag} must be numbers separated by spaces or commas, got {text!r}{non_ascii_text(text)}")
     try:
         if any("_" in v for v in parts):  # float() reads "0_08" as 8: a typo must not become another number
             raise ValueError

@@ -888,6 +888,38 @@ def test_a_bad_seed_is_one_line_naming_the_flag(text, message, capsys):
     assert capsys.readouterr().err == f"foam-mj plan: error: argument --seed: {message} (see foam-mj plan --help)\n"
 
 
+FULL_WIDTH = "('\uff11' is U+FF11 FULLWIDTH DIGIT ONE: write numbers with ASCII characters, 0-9)"
+ARABIC = "('\u0663' is U+0663 ARABIC-INDIC DIGIT THREE: write numbers with ASCII characters, 0-9)"
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["plan", "--delta", "0.0\uff11"], f"foam-mj plan: error: argument --delta: must be a number, got '0.0\uff11' {FULL_WIDTH}"),
+    (["plan", "--time-limit", "\uff11"], f"foam-mj plan: error: argument --time-limit: must be a number, got '\uff11' {FULL_WIDTH}"),
+    (["plan", "--seed", "\u0663"], f"foam-mj plan: error: argument --seed: must be an integer, got '\u0663' {ARABIC}"),
+    (["plan", "--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.\u0663 0.08", "--goal", "0.45 0.4536 1.45"],
+     f"foam-mj: error: --start must be numbers separated by spaces or commas, got '0.2 0.\u0663 0.08' {ARABIC}"),
+    (["bubble", "--scene", "obstacle", "--q", "0.2 0.\u0663 0.08"],
+     f"foam-mj: error: --q must be numbers separated by spaces or commas, got '0.2 0.\u0663 0.08' {ARABIC}"),
+    (["verify", "--step", "0.0\uff11", "r.json"], f"foam-mj verify: error: argument --step: must be a number, got '0.0\uff11' {FULL_WIDTH}"),
+    (["export", "--hz", "\uff1100", "--out", "t.csv", "r.json"], "foam-mj: error: --hz must be a number of samples per second, got '\uff1100'"),
+    (["figures", "--dpi", "\uff11", "r.json", "figs"], f"foam-mj figures: error: argument --dpi: must be an integer, got '\uff11' {FULL_WIDTH}"),
+    (["view", "--web-port", "\uff11", "r.rrd"], f"foam-mj view: error: argument --web-port: must be a port number, got '\uff11' {FULL_WIDTH}"),
+    (["sweep", "--workers", "\uff11", "--out", "o", "s.toml"], f"foam-mj sweep: error: argument --workers: must be an integer, got '\uff11' {FULL_WIDTH}"),
+    (["bench", "--runs", "\uff11"], f"foam-mj bench: error: argument --runs: must be an integer, got '\uff11' {FULL_WIDTH}"),
+    (["plan", "--delta", "0_005"], "foam-mj plan: error: argument --delta: must be a number, got '0_005'"),
+])
+def test_a_number_is_written_in_ascii_digits(argv, message, tmp_path, monkeypatch, capsys):
+    """Python's float() and int() read any script's digits: `--seed \u0663` planned with seed 3 and `--time-limit \uff11`
+    with 1 s, though no scenario TOML, result JSON or sweep file may spell a number so. A number on the command line is
+    now ASCII too, refused with the character named; and `--delta 0_005` (float() reads 5.0: a 5 m margin) is refused
+    as `--start 0_08` already was."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(message) and len(err.splitlines()) == 1, err
+    assert os.listdir(tmp_path) == []
+
+
 def test_a_file_name_with_control_characters_is_named_with_escapes(tmp_path, monkeypatch, capsys):
     """A name holding ESC or DEL was printed as it is: `foam-mj verify $'a\\x1b[31mb.json'` turned the terminal red and
     named a file the user could not see. The error names it with escapes, on one line."""
