@@ -139,6 +139,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     doc = read_result(args.result)
     if not doc["paths"]:
         raise FoamError(f"{args.result}: the result has no paths to replay (outcome: {doc.get('outcome', 'unknown')})")
+    if "delta" not in doc["planner"]:  # the replay was judged against a margin of 0 (its clearance used 5 mm)
+        raise FoamError(f"{args.result}: missing field 'planner.delta' (the safety margin the replay is checked against)")
     progress = Progress()
     try:
         outcome = outcome_from_result(doc, args.result, dynamic=not args.kinematic_only, report=progress)
@@ -156,7 +158,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         finally:
             progress.done()
         print(f"wrote {rrd}")
-    margin = float(doc["planner"].get("delta", 0.0))
+    margin = outcome.scenario.params.delta
     bad = _unsafe_paths(outcome, margin)
     if bad:
         print(f"foam-mj: replay found contacts or clearance below the margin {margin * 1000:g} mm: {'; '.join(bad)}", file=sys.stderr)

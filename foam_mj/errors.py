@@ -72,6 +72,20 @@ def is_number(value: Any) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)  # numpy's bool_ is no Real
 
 
+def only_numbers(value: Any) -> bool:
+    """True if ``value`` is a number or (nested) lists of numbers only (:func:`is_number`): numpy's
+    ``asarray(value, dtype=float)`` also reads the strings "0.3" and "\uff11" (full-width 1) and the booleans of a
+    hand-edited JSON result as numbers, and the result passed as clean."""
+    stack = [value]  # not recursive: a result's arrays may nest as deep as the JSON parser allows
+    while stack:
+        v = stack.pop()
+        if isinstance(v, (list, tuple)):
+            stack.extend(v)
+        elif not is_number(v):
+            return False
+    return True
+
+
 def is_finite_number(value: Any) -> bool:
     """:func:`is_number` and finite. Never raises: ``np.isfinite(2**70)`` is a TypeError ("ufunc 'isfinite' not
     supported"), ``math.isfinite(10**400)`` an OverflowError; such an integer is simply not a finite float."""

@@ -81,7 +81,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.atomic import atomic_write_text
-from foam_mj.errors import FoamError, foreign_file_hint
+from foam_mj.errors import FoamError, foreign_file_hint, only_numbers
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 FORMAT = "foam-mj/result"
@@ -324,7 +324,7 @@ def _finite_array(value: Any, source: Path, where: str, ndim: int, width: int | 
     if width is not None:
         expected += f", {width} per {'list' if ndim == 1 else 'row'} (one per configuration coordinate)"
     try:
-        arr = np.asarray(value, dtype=float)
+        arr = np.asarray(value, dtype=float) if only_numbers(value) else None
     except (TypeError, ValueError):
         arr = None
     if arr is None or arr.ndim != ndim or arr.shape[-1] == 0 or (width is not None and arr.shape[-1] != width) or (ndim == 2 and len(arr) < 2):

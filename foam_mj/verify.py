@@ -40,7 +40,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.errors import FoamError, file_problem, foreign_file_hint, is_number
+from foam_mj.errors import FoamError, file_problem, foreign_file_hint, is_number, only_numbers
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 #: The most samples of one polyline (a path's waypoints or its qpos rows): --step 1e-3, the default, takes a few
@@ -229,6 +229,10 @@ def _subtree(m: mujoco.MjModel, root: int | None) -> np.ndarray:
 def _configuration_map(doc: dict, m: mujoco.MjModel, source: Path):
     cfg = doc.get("configuration") or {}
     try:
+        if not all(only_numbers(cfg[key]) for key in ("qpos_index", "scale", "offset", "qpos0")):
+            raise _fail(source, "field 'configuration': qpos_index, scale, offset and qpos0 must be lists of numbers")
+        if not all(isinstance(i, int) for i in cfg["qpos_index"]):  # dtype=int truncated 1.7 to 1
+            raise _fail(source, f"field 'configuration': qpos_index must be integers, got {cfg['qpos_index']!r}")
         idx = np.asarray(cfg["qpos_index"], dtype=int)
         scale = np.asarray(cfg["scale"], dtype=float)
         offset = np.asarray(cfg["offset"], dtype=float)
@@ -238,6 +242,8 @@ def _configuration_map(doc: dict, m: mujoco.MjModel, source: Path):
                             "written by an older foam-mj; plan it again") from None
     if qpos0.shape != (m.nq,) or not (idx.shape == scale.shape == offset.shape) or idx.ndim != 1 or np.any((idx < 0) | (idx >= m.nq)):
         raise _fail(source, f"field 'configuration' does not fit the scene (nq = {m.nq})")
+    if not all(np.all(np.isfinite(a)) for a in (scale, offset, qpos0)):
+        raise _fail(source, "field 'configuration': scale, offset and qpos0 must be finite numbers (no NaN or infinity)")
     if np.any(scale == 0):
         raise _fail(source, "field 'configuration': a scale is 0")
     return idx, scale, offset, qpos0
@@ -378,7 +384,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
             continue
         try:
             ends[key] = np.asarray(doc[key], dtype=float)
-            if ends[key].shape != (len(idx),):
+            if ends[key].shape != (len(idx),) or not only_numbers(doc[key]):
                 raise ValueError
         except (KeyError, TypeError, ValueError):
             raise _fail(source, f"field '{key}' must be a list of {len(idx)} numbers, got {doc[key]!r}") from None
@@ -390,6 +396,8 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         arrays = []
         for key, value, width in (("waypoints", entry["waypoints"], len(idx)), ("qpos", entry.get("qpos", []), m.nq)):
             try:
+                if not only_numbers(value):  # numpy reads the string "0.3" as 0.3
+                    raise ValueError
                 arrays.append(np.asarray(value, dtype=float))
             except (TypeError, ValueError):
                 raise _fail(source, f"path '{name}': field '{key}' must be a list of rows of {width} numbers each") from None

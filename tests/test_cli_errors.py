@@ -221,6 +221,16 @@ def test_a_result_moved_away_from_its_scene_still_replays_by_its_absolute_path(p
     assert main(["replay", str(moved / "r.json"), "--kinematic-only"]) == 0
 
 
+def test_replay_refuses_a_result_without_its_margin(planned_result, tmp_path, capsys):
+    """A result whose planner.delta was deleted replayed with exit 0: its clearance was measured with 5 mm but the
+    exit-4 check used a margin of 0. verify refuses such a result; replay now does too, before any work."""
+    bad = _edited(planned_result, tmp_path, lambda d: d["planner"].pop("delta"))
+    assert main(["replay", str(bad), "--kinematic-only", "--rrd", str(tmp_path / "r.rrd")]) == 2
+    err = capsys.readouterr().err
+    assert err == f"foam-mj: error: {bad}: missing field 'planner.delta' (the safety margin the replay is checked against)\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["edited.json"]
+
+
 def test_replay_exits_4_when_its_replay_is_closer_than_the_margin(planned_result, tmp_path, capsys):
     """The same result with a margin larger than its clearance (0.5 m): the replay is below the margin."""
     bad = _edited(planned_result, tmp_path, lambda d: d["planner"].update(delta=0.5))
@@ -538,6 +548,9 @@ def test_an_output_never_overwrites_an_input_or_another_output(planned_result, t
         (lambda d: d.update(q_goal="abc"), "field 'q_goal' must be a list of numbers"),
         (lambda d: d["paths"]["centre"]["waypoints"][2].__setitem__(0, float("nan")), "path 'centre': field 'waypoints' holds a number that is not finite"),
         (lambda d: d["paths"]["centre"]["waypoints"][2].append(0.1), "path 'centre': field 'waypoints' must be a list of at least 2 rows of numbers, 3 per row"),
+        (lambda d: d["paths"]["centre"]["waypoints"][1].__setitem__(0, str(d["paths"]["centre"]["waypoints"][1][0])),
+         "path 'centre': field 'waypoints' must be a list of at least 2 rows of numbers, 3 per row"),
+        (lambda d: d["q_init"].__setitem__(0, str(d["q_init"][0])), "field 'q_init' must be a list of numbers"),
         (lambda d: d["paths"]["centre"].update(waypoints=[[0.2, 0.3, 0.08]]), "path 'centre': field 'waypoints' must be a list of at least 2 rows"),
     ],
 )

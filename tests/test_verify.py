@@ -193,9 +193,20 @@ def test_a_waypoint_far_beyond_the_scene_is_named_in_one_line(tmp_path, planned_
     (lambda d, p: d["paths"][p].__setitem__("qpos", [[0.1, "x", 0.2]]), "field 'qpos' must be a list of rows of 3 numbers each"),
     (lambda d, p: d["paths"][p]["waypoints"][1].append([1]), "field 'waypoints' must be a list of rows of 3 numbers each"),
     (lambda d, p: d["paths"].__setitem__(p, [1, 2]), "misses field 'waypoints'"),
+    (lambda d, p: d["paths"][p]["waypoints"][1].__setitem__(0, str(d["paths"][p]["waypoints"][1][0])),
+     "field 'waypoints' must be a list of rows of 3 numbers each"),
+    (lambda d, p: d["paths"][p]["waypoints"][1].__setitem__(0, True), "field 'waypoints' must be a list of rows of 3 numbers each"),
+    (lambda d, p: d["paths"][p]["qpos"][1].__setitem__(0, str(d["paths"][p]["qpos"][1][0])), "field 'qpos' must be a list of rows of 3 numbers each"),
+    (lambda d, p: d["q_init"].__setitem__(0, str(d["q_init"][0])), "field 'q_init' must be a list of 3 numbers"),
+    (lambda d, p: d["configuration"].__setitem__("qpos_index", [i + 0.25 for i in d["configuration"]["qpos_index"]]),
+     "field 'configuration': qpos_index must be integers"),
+    (lambda d, p: d["configuration"]["scale"].__setitem__(0, float("nan")),
+     "field 'configuration': scale, offset and qpos0 must be finite numbers (no NaN or infinity)"),
 ])
 def test_a_damaged_field_is_named_as_it_is(tmp_path, planned_result, capsys, edit, words):
-    """A margin that is a string was called missing; a bad qpos row was blamed on 'waypoints and qpos' together."""
+    """A margin that is a string was called missing; a bad qpos row was blamed on 'waypoints and qpos' together.
+    A number written as a string ("0.3", as numpy reads it), true for 1, a qpos_index of 1.25 (read as 1) or a NaN
+    scale (every sample NaN) passed as clean (exit 0)."""
     doc = json.loads(planned_result.read_text())
     edit(doc, next(iter(doc["paths"])))
     (tmp_path / "bad.json").write_text(json.dumps(doc))
