@@ -35,7 +35,7 @@ problem's (5 mm for the built-in problems; ``delta`` in the JSON and the table),
 OMPL's validity checker (MuJoCo clearance > delta at each checked state) and for the dense check.
 
 Fairness: both sides plan on the same compiled MJCF, within the same joint bounds (OMPL in qpos units, so that
-RRT* minimizes the ``len qpos`` it is compared in; :class:`OMPLRunner`), against
+RRT* minimizes the ``len qpos`` it is compared in; :class:`ompl_peer.OMPLRunner`), against
 the same checked geom pairs (robot/obstacle and the robot/robot pairs of self-collision: OMPL's validity
 checker is our certificate's clearance function, ``BubbleOracle.clearance``) with the same margin. Our
 distance queries run in one thread here (``Clearance.threads = 1``; ``foam-mj plan`` splits large batches
@@ -46,7 +46,7 @@ unlimited joint is never a configuration joint: it stays at qpos0 for both). OMP
 the JSON with the step it gives (``ompl.longest_valid_segment``: 0.063 rad on the two-link arm, 0.134 on arm6), so
 its paths can come closer than delta between checked states (``below delta``); they still count as solved (a finer
 resolution makes OMPL slower and safer: the choice is the user's, the default OMPL's). Each OMPL run seeds OMPL's
-generators with its own seed (``RNG.setSeed(seed + 1)``, :class:`OMPLRunner`), so an RRTConnect row repeats
+generators with its own seed (``RNG.setSeed(seed + 1)``, :class:`ompl_peer.OMPLRunner`), so an RRTConnect row repeats
 whatever ran before it in the process; RRT*'s budget is 10 x RRTConnect's wall time, so its iterations vary with
 the load. Ours depend on the seed alone (unless a run meets the wall-time limit). A run of either side that fails
 or raises counts as a failure (``ok`` is successes out of seeds; the failures are listed after the table by
@@ -106,7 +106,6 @@ import math
 import os
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):  # before numpy loads its BLAS (module docstring)
@@ -121,187 +120,22 @@ from _common import progress, table  # noqa: E402
 from foam_mj.atomic import OutputError, atomic_write_text, check_output  # noqa: E402
 from foam_mj.bubbles import BubbleOracle  # noqa: E402
 from foam_mj.cli import Parser, UsageError  # noqa: E402
-from foam_mj.data import models_dir  # noqa: E402
-from foam_mj.errors import ConfigurationError, FoamError, PlanningFailed, ScenarioError  # noqa: E402
-from foam_mj.model import RobotModel  # noqa: E402
+from foam_mj.errors import ConfigurationError, FoamError, PlanningFailed  # noqa: E402
 from foam_mj.paths import metrics  # noqa: E402
-from foam_mj.planners import PLANNERS, PlannerError, PlanningProblem, get_planner  # noqa: E402
-from foam_mj.planners.base import option_names, smoother_start  # noqa: E402
+from foam_mj.planners import PLANNERS, PlanningProblem, get_planner  # noqa: E402
+from foam_mj.planners.base import smoother_start  # noqa: E402
 from foam_mj.planners.corridor import shortest_path  # noqa: E402
-from foam_mj.scenarios import available_scenarios, load_scenario, read_scenario_doc, scenario_from_dict  # noqa: E402
 from foam_mj.smoothing import OptimalSmoother  # noqa: E402
-from foam_mj.verify import collision_pairs  # noqa: E402
 
-DELTA = 0.005  # m: the built-in problems' margin, and a scenario's without a [planner] delta
-DEFAULT_K, DEFAULT_R_MIN = 10, 0.05  # the foam family's K and r_min where a problem does not set them
-FOAM_FAMILY = ("pfm", "gbpf", "rbpf", "hpf")
-QUICK_PROBLEMS = ("obstacle", "step_up", "step_down")
-ALL_PROBLEMS = QUICK_PROBLEMS + ("obstacle5", "arm6", "arm7")
-EXTRA_PROBLEMS = ("shelf6",)  # only when named with --problems
-CHECK_STEP = 1e-3  # rad (max-norm in q) between densely checked configurations
+# The concepts of this benchmark, one module each: its problems, the dense check of a final path, the OMPL peer.
+from dense_check import CHECK_STEP, DenseChecker, qpos_length  # noqa: E402
+from ompl_peer import NO_OMPL, OMPL_RESOLUTION, OMPLRunner, finish_ompl, have_ompl  # noqa: E402
+from planner_problems import (  # noqa: E402
+    ALL_PROBLEMS, EXTRA_PROBLEMS, QUICK_PROBLEMS, Problem, check_margins, check_options, load_problems, mjcf_problem, planner_options,
+)
+from planner_problems import DEFAULT_K, DEFAULT_R_MIN, DELTA, problem  # noqa: E402,F401  (planners.problem etc., as before the split)
+
 MAX_SEEDS = 10_000  # a typo of a few zeros would run for days
-NO_OMPL = "OMPL is not installed (the optional extra: pip install -e \".[peers]\")"
-OMPL_RESOLUTION = 0.01  # OMPL's default state validity checking resolution (fraction of the space's extent)
-
-
-@dataclass(frozen=True)
-class Problem:
-    """One benchmark problem: the compiled scene, start and goal, the foam family's K and r_min, the margin."""
-
-    name: str
-    robot: RobotModel
-    q_init: np.ndarray
-    q_goal: np.ndarray
-    K: int
-    r_min: float
-    delta: float = DELTA
-    source: str | None = None  # the scenario TOML a user's problem came from
-
-
-def problem(name: str) -> Problem:
-    """A built-in problem by name, else a scenario (a TOML path or a built-in scenario's name); ScenarioError
-    (naming the file and field) when the scenario fails its checks."""
-    if name in QUICK_PROBLEMS or name == "obstacle5":
-        s = load_scenario(name)
-        K, r_min = (int(s.params.K), float(s.params.r_min)) if name in QUICK_PROBLEMS else (DEFAULT_K, DEFAULT_R_MIN)
-        return Problem(name, s.robot, s.q_init, s.q_goal, K, r_min)
-    if name == "arm6":
-        # Mirror poses either side of the box, the tool low beside it; the straight line cuts 42 mm into the box.
-        a = np.array([-0.7, 0.87, 1.12, -0.08, 0.0, 0.0])
-        return Problem(name, RobotModel.from_xml(models_dir() / "bench_arm6.xml"), a, a * np.array([-1, 1, 1, 1, 1, 1]), DEFAULT_K, DEFAULT_R_MIN)
-    if name == "arm7":
-        # Mirror poses either side of the box (iiwa-like axes); the straight line cuts 66 mm into the box.
-        a = np.array([-0.7, 0.9, 0.0, 1.2, 0.0, 0.2, 0.0])
-        return Problem(name, RobotModel.from_xml(models_dir() / "bench_arm7.xml"), a, a * np.array([-1, 1, 1, 1, 1, 1, 1]), DEFAULT_K, DEFAULT_R_MIN)
-    if name == "shelf6":
-        s = load_scenario(Path(__file__).resolve().parents[1] / "examples" / "industrial_arm" / "reach_shelf.toml")
-        return Problem(name, s.robot, s.q_init, s.q_goal, DEFAULT_K, DEFAULT_R_MIN)
-    return scenario_problem(name)
-
-
-def scenario_problem(name_or_path: str) -> Problem:
-    """A scenario as a problem: its robot (with the scenario's edits and options), q_init, q_goal, and from its
-    [planner] table K and r_min (else the defaults) and delta."""
-    raw, path = read_scenario_doc(name_or_path)
-    s = scenario_from_dict(raw, path.parent, source=path)
-    opts = s.params.options
-    return Problem(s.name, s.robot, s.q_init, s.q_goal, int(opts.get("K", DEFAULT_K)), float(opts.get("r_min", DEFAULT_R_MIN)),
-                   float(s.params.delta), str(path))
-
-
-def mjcf_problem(args) -> Problem:
-    """``--mjcf FILE --start Q --goal Q`` (with ``--joints``, ``--robot-root``, ``--no-self-collision``) as a problem,
-    made into a scenario by ``foam-mj plan``'s own code (:func:`foam_mj.plan_command.plan_scenario`: the same parsing,
-    keyframe names, checks and one-line messages naming the flag); K and r_min the defaults, delta 5 mm unless
-    ``--delta``."""
-    import argparse
-
-    from foam_mj.plan_command import plan_scenario
-
-    ns = argparse.Namespace(scene=None, mjcf=args.mjcf, start=args.start, goal=args.goal, joints=args.joints, delta=None,
-                            time_limit=None, subject_height=None, subject_mass=None, robot_root=args.robot_root,
-                            no_self_collision=args.no_self_collision)
-    s = plan_scenario(ns)
-    return Problem(s.name, s.robot, s.q_init, s.q_goal, DEFAULT_K, DEFAULT_R_MIN, float(s.params.delta), str(Path(args.mjcf).resolve()))
-
-
-def load_problems(names: list[str], flags: list[str] | None = None, extra: tuple[Problem, ...] = ()) -> list[Problem]:
-    """Every problem of ``names`` (each given with the flag of ``flags``: --problems or --scenario) and ``extra``
-    (--mjcf's), loaded and checked before any run; UsageError (one line) for a bad one or a name given twice."""
-    out: list[Problem] = []
-    flags = flags or ["--problems"] * len(names)
-    for name, flag in [*zip(names, flags), *((pb, "--mjcf") for pb in extra)]:
-        if isinstance(name, Problem):
-            pb, name = name, name.source
-        else:
-            try:
-                pb = problem(name) if flag == "--problems" else scenario_problem(name)
-            except ScenarioError as exc:
-                p = Path(name)
-                if p.suffix != ".toml" and len(p.parts) == 1 and not p.exists():
-                    raise UsageError(f"{flag}: unknown {'problem' if flag == '--problems' else 'scenario'} '{name}'; "
-                                     + (f"built-in problems: {', '.join(ALL_PROBLEMS + EXTRA_PROBLEMS)}; or " if flag == "--problems" else "")
-                                     + f"a scenario TOML file, or a built-in scenario: {', '.join(available_scenarios())}") from None
-                raise UsageError(f"{flag}: {exc}") from None
-        same = [o.source or o.name for o in out if o.name == pb.name]
-        if same and same[0] == (pb.source or name):
-            raise UsageError(f"{flag}: '{name}' is given twice")
-        if same:
-            raise UsageError(f"{flag}: two problems are named '{pb.name}' ({same[0]} and {pb.source or name}): "
-                             "give each once (a scenario's row is named by its 'name' field)")
-        out.append(pb)
-    return out
-
-
-class DenseChecker:
-    """The smallest mj_geomDistance along a path, own code over :func:`foam_mj.verify.collision_pairs` (independent
-    of the planner's model): robot/obstacle pairs (a geom moved by a configuration joint, or held in the subtree of the
-    problem's ``robot_root``, against every other collision geom) and, when ``robot.self_collision``, the robot/robot
-    pairs MuJoCo's collision detection tests (``foam-mj verify``'s pairs)."""
-
-    def __init__(self, robot: RobotModel) -> None:
-        m = self.m = robot.model
-        self.d = mujoco.MjData(m)
-        self.to_qpos = robot.config.to_qpos
-        idx = robot.config.qpos_index
-        # The robot_root's subtree is the robot, held parts (a floating base) included, as the planner has it: without
-        # the root, a held base was an obstacle of its own arm and not checked against the floor.
-        root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, robot.robot_root) if robot.robot_root else None
-        self.pairs = [tuple(map(int, p)) for p in collision_pairs(m, idx, root=root)]
-        obstacle = set(self.pairs)
-        self.self_pairs = [tuple(map(int, p)) for p in collision_pairs(m, idx, self_collision=robot.self_collision, root=root)
-                           if tuple(map(int, p)) not in obstacle]
-
-    def min_clearance(self, path: np.ndarray) -> tuple[float, float | None]:
-        """(robot/obstacle, robot/robot) smallest distance along ``path`` (rows of q), sampled every CHECK_STEP;
-        the second is None without self pairs."""
-        best, best_self = np.inf, np.inf
-        m, d, gd = self.m, self.d, mujoco.mj_geomDistance
-        for a, b in zip(path[:-1], path[1:]):
-            n = max(1, int(np.ceil(np.max(np.abs(b - a)) / CHECK_STEP)))
-            for qpos in self.to_qpos(a + (b - a) * np.linspace(0.0, 1.0, n + 1)[:, None]):
-                d.qpos[:] = qpos
-                mujoco.mj_kinematics(m, d)
-                best = min(best, min(gd(m, d, g, o, 1.0, None) for g, o in self.pairs))
-                if self.self_pairs:
-                    best_self = min(best_self, min(gd(m, d, g, o, 1.0, None) for g, o in self.self_pairs))
-        return float(best), (float(best_self) if self.self_pairs else None)
-
-    def record(self, path: np.ndarray) -> dict:
-        """The dense check's fields of a run's record: clearance and self_clearance (metres)."""
-        clear, self_clear = self.min_clearance(path)
-        return {"clearance": clear, "self_clearance": self_clear}
-
-
-def qpos_length(robot: RobotModel, path: np.ndarray) -> float:
-    qp = robot.config.to_qpos(path)[:, robot.config.qpos_index]
-    return float(np.sum(np.linalg.norm(np.diff(qp, axis=0), axis=1)))
-
-
-def planner_options(name: str, pb: Problem) -> dict:
-    """The options planner ``name`` gets on ``pb``: the problem's K and r_min for the foam family, else none."""
-    return {k: getattr(pb, k) for k in ("K", "r_min") if name in FOAM_FAMILY and k in option_names(PLANNERS[name])}
-
-
-def check_options(planners: list[str], problems: list[Problem]) -> None:
-    """UsageError (one line) when a problem's K or r_min is not valid for a planner of the run (a scenario's
-    ``r_min = 0``, bubbletree's "derive it from delta", is no resolution for pfm)."""
-    for pb in problems:
-        for name in planners:
-            try:
-                get_planner(name, **planner_options(name, pb))
-            except PlannerError as exc:
-                raise UsageError(f"--problems: {pb.source or pb.name}: [planner] K / r_min do not suit the foam planners: {exc}") from None
-
-
-def check_margins(problems: list[Problem]) -> None:
-    """UsageError (one line) when a robot/obstacle pair that no configuration joint moves is within a problem's delta (``RobotModel.check_fixed_pairs``: left out of every clearance
-    query, ours and OMPL's, so OMPL would plan where every path breaks the margin while our planners refuse)."""
-    for pb in problems:
-        try:
-            pb.robot.check_fixed_pairs(pb.delta)
-        except ConfigurationError as exc:
-            raise UsageError(f"{pb.source or pb.name}: {exc}") from None
 
 
 def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker, seed: int, time_limit: float) -> dict:
@@ -340,118 +174,6 @@ def run_ours(name: str, pb: Problem, oracle: BubbleOracle, checker: DenseChecker
     }
 
 
-class OMPLRunner:
-    """OMPL on the same MJCF: a RealVectorStateSpace over the joint bounds in MuJoCo's units (x = scale * q: the
-    leg's normalized hip displacement in metres), valid when MuJoCo's clearance > delta. In qpos units OMPL's
-    distances (RRT*'s path length, simplification, ranges) are those of the ``len qpos`` column it is compared
-    in; in q, RRT* minimized another length than the one compared (the leg problems).
-
-    The bounds are the configuration joints' ranges, the box our planners sample in (every configuration joint is a
-    limited hinge or slide: an unlimited joint is no configuration joint and stays at qpos0 for both sides). The
-    validity checker is our certificate's clearance function (the same geom pairs: contype/conaffinity, excluded
-    and fixed pairs, self-collision as the problem says). Motions are checked every ``resolution`` x the box's
-    diagonal in qpos units (``setStateValidityCheckingResolution``; 0.01, OMPL's default, unless
-    ``--ompl-resolution``); the absolute step is in the JSON (``ompl.longest_valid_segment``).
-
-    Seeds: OMPL 2.0.1 draws every generator's seed from one process-wide seed (``RNG.setSeed``); each run sets it
-    to the run's seed + 1 (0 means "random" to OMPL) before it builds its planner, so a run's samples depend on its
-    seed alone, not on the runs before it in the process (measured: the same RRTConnect path whichever problems
-    and seeds ran first). RRT* and BIT* stop on wall time (10 x RRTConnect's), so their iterations, and paths,
-    still vary with the machine's load."""
-
-    def __init__(self, pb: Problem, oracle: BubbleOracle, resolution: float = OMPL_RESOLUTION) -> None:
-        from ompl import base as ob
-        from ompl import geometric as og
-        from ompl import util as ou
-
-        self.ob, self.og, self.ou = ob, og, ou
-        r = oracle.robot
-        n = self.n = r.dim
-        self.scale = np.asarray(r.config.scale, dtype=float)
-        lo, hi = np.sort([self.scale * r.lower, self.scale * r.upper], axis=0)
-        self.bounds = (lo, hi)
-        self.space = ob.RealVectorStateSpace(n)
-        bounds = ob.RealVectorBounds(n)
-        for i in range(n):
-            bounds.setLow(i, float(lo[i]))
-            bounds.setHigh(i, float(hi[i]))
-        self.space.setBounds(bounds)
-        self.resolution = float(resolution)
-        self.longest_valid_segment = self.resolution * float(np.linalg.norm(hi - lo))  # OMPL: fraction x getMaximumExtent()
-        self.clearance = oracle.clearance  # the pairs and MuJoCo queries of our certificate
-        self.checks = 0
-        self.pb = pb
-
-    def _setup(self, seed: int):
-        ou, og = self.ou, self.og
-        ou.setLogLevel(ou.LogLevel.LOG_NONE)  # setSeed's "generation already started" error: the seed applies to the generators made after it
-        ou.RNG.setSeed(int(seed) + 1)
-        ou.setLogLevel(ou.LogLevel.LOG_WARN)
-        ss = og.SimpleSetup(self.space)
-        n, clearance, delta, scale = self.n, self.clearance, self.pb.delta, self.scale
-
-        def valid(state) -> bool:
-            self.checks += 1
-            return bool(clearance(np.array([state[i] for i in range(n)]) / scale) > delta)
-
-        ss.setStateValidityChecker(valid)
-        ss.getSpaceInformation().setStateValidityCheckingResolution(self.resolution)
-        start, goal = self.space.allocState(), self.space.allocState()
-        x_init, x_goal = scale * self.pb.q_init, scale * self.pb.q_goal
-        for i in range(n):
-            start[i], goal[i] = float(x_init[i]), float(x_goal[i])
-        ss.setStartAndGoalStates(start, goal)
-        return ss
-
-    def _path(self, p) -> np.ndarray:
-        """The solution path as rows of q."""
-        return np.array([[p.getState(k)[i] for i in range(self.n)] for k in range(p.getStateCount())]) / self.scale
-
-    def rrtconnect(self, time_limit: float, seed: int) -> dict:
-        t0, c0 = time.perf_counter(), time.process_time()
-        self.checks = 0
-        try:
-            ss = self._setup(seed)
-            si = ss.getSpaceInformation()
-            ss.setPlanner(self.og.RRTConnect(si))
-            solved = ss.solve(time_limit)
-            first = time.perf_counter() - t0
-            if not ss.haveExactSolutionPath():
-                return {"ok": False, "outcome": str(solved), "seed": seed, "time": first, "queries": self.checks}
-            p = ss.getSolutionPath()
-            self.og.PathSimplifier(si).simplifyMax(p)
-        except Exception as exc:  # OMPL's crash is counted as its failure, not a reason to lose every other run
-            return {"ok": False, "outcome": f"ompl error: {type(exc).__name__}: {exc}", "seed": seed, "time": time.perf_counter() - t0}
-        total, total_cpu = time.perf_counter() - t0, time.process_time() - c0
-        return {"ok": True, "outcome": str(solved), "seed": seed, "first": first, "total": total, "total_cpu": total_cpu,
-                "queries": self.checks, "path": self._path(p)}
-
-    def optimizing(self, budget: float, seed: int, which: str = "rrtstar") -> dict:
-        t0, c0 = time.perf_counter(), time.process_time()
-        self.checks = 0
-        try:
-            ss = self._setup(seed)
-            si = ss.getSpaceInformation()
-            ss.setOptimizationObjective(self.ob.PathLengthOptimizationObjective(si))
-            ss.setPlanner(self.og.RRTstar(si) if which == "rrtstar" else self.og.BITstar(si))
-            solved = ss.solve(budget)
-        except Exception as exc:
-            return {"ok": False, "outcome": f"ompl error: {type(exc).__name__}: {exc}", "seed": seed, "budget": budget,
-                    "time": time.perf_counter() - t0}
-        total, total_cpu = time.perf_counter() - t0, time.process_time() - c0
-        if not ss.haveExactSolutionPath():
-            return {"ok": False, "outcome": str(solved), "seed": seed, "budget": budget, "time": total, "queries": self.checks}
-        return {"ok": True, "outcome": str(solved), "seed": seed, "budget": budget, "first": None, "total": total, "total_cpu": total_cpu,
-                "queries": self.checks, "path": self._path(ss.getSolutionPath())}
-
-
-def finish_ompl(rec: dict, robot: RobotModel, checker: DenseChecker) -> dict:
-    if rec.get("ok"):
-        path = rec.pop("path")
-        m = metrics(path)
-        rec.update(len_q=m.length, len_qpos=qpos_length(robot, path), f=m.f, **checker.record(path), bubbles=None)
-    return rec
-
 
 def reproduce_info(args, planners: list[str], use_ompl: bool) -> dict:
     """What the JSON needs to repeat the run: the command line, the versions, the thread settings, the seeds' rule."""
@@ -484,13 +206,6 @@ def problem_info(pb: Problem, checker: DenseChecker) -> dict:
             "dense_pairs": len(checker.pairs), "dense_self_pairs": len(checker.self_pairs),
             "scenario_toml": Path(pb.source).read_text() if pb.source and pb.source.endswith(".toml") else None}
 
-
-def have_ompl() -> bool:
-    try:
-        import ompl.geometric  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 KEYS = ("first", "plan", "total", "total_cpu", "rosary", "bubbles", "queries", "len_q", "len_qpos", "len_sp", "f", "clearance", "self_clearance")

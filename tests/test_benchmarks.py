@@ -92,6 +92,27 @@ def test_a_users_problem_flags_are_checked_before_any_run(args, message):
     assert message in str(exc.value) and "\n" not in str(exc.value)
 
 
+def test_an_mjcf_problem_is_the_scenario_foam_mj_plan_builds_from_every_field_of_plans_parser(tmp_path):
+    """mjcf_problem handed plan_scenario a Namespace naming, by hand, the fields it read (scene, mjcf, ..., delta,
+    time_limit, subject_height): a field plan's parser gained and plan_scenario read was an AttributeError (exit 1)
+    here. The Namespace is now plan's own parse of ``plan`` with the --mjcf flags set: every field of plan's parser is
+    in it, and the problem is the scenario `foam-mj plan --mjcf` plans (same joints, ends, robot and margin)."""
+    from foam_mj.cli import build_parser
+    from foam_mj.plan_command import plan_scenario
+
+    import planner_problems
+
+    flags = ["--mjcf", str(TWO_LINK_ARM), "--start", "0.3 2.0", "--goal", "0.1 0.6", "--joints", "shoulder,elbow", "--no-self-collision"]
+    args, _, (pb,), _ = planners.parse(["--no-ompl", *flags])
+    ns = planner_problems.plan_namespace(args)
+    plan = next(a for a in build_parser()._actions if a.dest == "command").choices["plan"]
+    assert {a.dest for a in plan._actions if a.dest != "help"} <= set(vars(ns))
+    s = plan_scenario(build_parser().parse_args(["plan", *flags]))
+    assert pb.name == s.name and pb.delta == s.params.delta and pb.source == str(TWO_LINK_ARM.resolve())
+    assert np.array_equal(pb.q_init, s.q_init) and np.array_equal(pb.q_goal, s.q_goal)
+    assert np.array_equal(pb.robot.config.joint_ids, s.robot.config.joint_ids) and pb.robot.self_collision is s.robot.self_collision is False
+
+
 def test_a_scenario_that_fails_its_checks_is_refused_naming_the_field(tmp_path):
     toml = two_link_toml(tmp_path, q_goal="[0.1]")
     r = run_planners("--problems", str(toml), "--no-ompl")
