@@ -98,7 +98,24 @@ class Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # noqa: D401 - argparse's hook
-        raise UsageError(f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)")
+        raise UsageError(f"{self.prog}: error: {' '.join(message.split())}{self._greedy_hint(message)} (see {self.prog} --help)")
+
+    def _greedy_hint(self, message: str) -> str:
+        """For 'the following arguments are required' after an option of several values: which option took them.
+        `foam-mj figures --paths optimal r.json figs` said only 'the following arguments are required: RESULT.json,
+        DIR': --paths had taken the file and the folder as path names."""
+        args = getattr(self, "_last_args", None) or []
+        if not message.startswith("the following arguments are required") or "--" in args:
+            return ""
+        greedy = [i for i, a in enumerate(args) if getattr(self._option_string_actions.get(a), "nargs", None) in ("+", "*")]
+        if not greedy:
+            return ""
+        i = greedy[-1]
+        values = [a for a in args[i + 1 :] if not a.startswith("-")]
+        if not values:
+            return ""
+        return (f"; {args[i]} took every value after it ({', '.join(values)}): give the positional arguments before "
+                f"{args[i]}, or end its values with --")
 
     def parse_args(self, args=None, namespace=None):
         """argparse's, but an argument the command does not take is refused by that command's parser: argparse's
@@ -127,6 +144,7 @@ class Parser(argparse.ArgumentParser):
         option that takes one (``--start=-0.1,0.3,0.08``), up to a ``--``. A configuration given unquoted
         (``--start 0.2 -0.3 0.08``: argparse said 'unrecognized arguments: -0.3 0.08') is read as one value: the
         numbers that follow a configuration option (``metavar`` ``CONFIGURATION_METAVAR``) are joined."""
+        self._last_args = None if args is None else list(args)
         if args is not None:
             args = list(args)
             i = 0

@@ -933,6 +933,20 @@ def test_a_number_is_written_in_ascii_digits(argv, message, tmp_path, monkeypatc
     assert os.listdir(tmp_path) == []
 
 
+@pytest.mark.parametrize("argv, option, values", [
+    (["figures", "--paths", "optimal", "r.json", "figs"], "--paths", "optimal, r.json, figs"),
+    (["report", "--axes", "subject.height", "planner.delta", "out"], "--axes", "subject.height, planner.delta, out"),
+])
+def test_an_option_of_several_values_that_took_the_positionals_is_named(argv, option, values, tmp_path, monkeypatch, capsys):
+    """`foam-mj figures --paths optimal r.json figs` said only 'the following arguments are required: RESULT.json, DIR',
+    though both were given: --paths took them as path names. The error now says which option took which values."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"; {option} took every value after it ({values}): give the positional arguments before {option}, or end its values with --" in err
+    assert len(err.splitlines()) == 1 and os.listdir(tmp_path) == []
+
+
 def test_a_file_name_with_control_characters_is_named_with_escapes(tmp_path, monkeypatch, capsys):
     """A name holding ESC or DEL was printed as it is: `foam-mj verify $'a\\x1b[31mb.json'` turned the terminal red and
     named a file the user could not see. The error names it with escapes, on one line."""
