@@ -96,6 +96,8 @@ def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | Non
             raise OutputError(f"{what} output: file name of {len(os.fsencode(p.name))} bytes is longer than this file system allows ({limit})")
         if p.is_dir():
             raise OutputError(f"{what} output {shown} is a directory")
+        if suffix is not None and link.name == suffix:  # Path(".json").suffix is '': 'must end in .json' puzzled
+            raise OutputError(f"{what} output {link} is only the suffix {suffix}: give a name before it (out{suffix})")
         if suffix is not None and link.suffix != suffix:
             raise OutputError(f"{what} output {link} must end in {suffix}")
         if p.exists() and not p.is_file():
