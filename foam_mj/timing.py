@@ -112,9 +112,15 @@ def _held_loads(robot: RobotModel, kin: PathKinematics, u: np.ndarray) -> tuple[
     return g, np.where(np.abs(qu) > 1e-9, kin.friction, 0.0)
 
 
+def _amount(x: float) -> str:
+    """A torque or force for a message: one decimal from 0.05 up, two significant digits below (a limit of 1e-9 N m
+    read "0.0")."""
+    return f"{x:.1f}" if abs(x) >= 0.05 or x == 0 else f"{x:.2g}"
+
+
 def _load_text(g: float, f: float, unit: str) -> str:
     """'gravity (5.4 N m)', or with joint friction 'gravity (5.4 N m) and joint friction (27.0 N m)'."""
-    return f"gravity ({g:.1f} {unit})" + (f" and joint friction ({f:.1f} {unit})" if f > 0 else "")
+    return f"gravity ({_amount(g)} {unit})" + (f" and joint friction ({_amount(f)} {unit})" if f > 0 else "")
 
 
 def check_gravity(robot: RobotModel, curve: SafeCurve, torque: np.ndarray, samples: int = 2000) -> None:
@@ -131,12 +137,12 @@ def check_gravity(robot: RobotModel, curve: SafeCurve, torque: np.ndarray, sampl
             ratio = np.where(np.isfinite(torque), over / torque, -np.inf)
         i, j = np.unravel_index(int(np.argmax(ratio)), over.shape)
         name, unit = robot.config.joint_names[j], joint_units(robot)[j][3]
-        need = (f"gravity alone needs {g[i, j]:.1f} {unit}" if f[i, j] == 0 else
-                f"{_load_text(g[i, j], f[i, j], unit)} need {g[i, j] + f[i, j]:.1f} {unit}")
+        need = (f"gravity alone needs {_amount(g[i, j])} {unit}" if f[i, j] == 0 else
+                f"{_load_text(g[i, j], f[i, j], unit)} need {_amount(g[i, j] + f[i, j])} {unit}")
         raise TimingInfeasible(
             f"no timing fits the torque limit of {name}: {need} at "
-            f"{100 * u[i] / curve.length:.0f}% of the path, over its limit {torque[j]:.1f} {unit} by "
-            f"{over[i, j]:.1f} {unit} ({_percent(over[i, j] / torque[j])})",
+            f"{100 * u[i] / curve.length:.0f}% of the path, over its limit {_amount(torque[j])} {unit} by "
+            f"{_amount(over[i, j])} {unit} ({_percent(over[i, j] / torque[j])})",
             joint=name, excess=float(over[i, j]),
         )
 

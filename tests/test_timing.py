@@ -144,6 +144,14 @@ def test_gravity_beyond_the_limit_is_infeasible_and_names_the_joint(planned):
         assert exc.value.joint == "knee_flexion" and exc.value.excess > 0
 
 
+def test_a_tiny_torque_limit_is_printed_with_its_digits_not_as_zero(planned):
+    robot, paths = planned
+    res, base = paths["convex"]
+    with pytest.raises(TimingInfeasible, match=r"over its limit 1e-09 N m by [0-9.]+ N m") as exc:
+        retime(robot, base, res.rosary, Limits(torque=(400.0, 1e-9, 3000.0)), "own")
+    assert "limit 0.0 N m" not in str(exc.value)
+
+
 def test_joint_loads_match_an_independent_inverse_dynamics(planned):
     robot, paths = planned
     res, base = paths["convex"]
