@@ -425,11 +425,12 @@ class BubbleOracle:
         Q = self.robot.validate_batch(Q)
         return self.radius_from_distances(self.clearance.batch_pairs(Q), Q)
 
-    def radii_below(self, Q: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    def radii_below(self, Q: np.ndarray, upper: np.ndarray, bounds: np.ndarray | None = None) -> np.ndarray:
         """Certified radii for every row of Q (N, n) whose radius is known to be at most ``upper`` (N,), measuring each
         pair only as far as it could set the radius: the same values as :meth:`radii` to the last bit wherever
         r <= upper, and never larger than them anywhere (so certified whatever ``upper`` is). Rows are not checked
-        (the planners' inner loop, as :meth:`radius_from_distances`).
+        (the planners' inner loop, as :meth:`radius_from_distances`); ``bounds``, if given, must be :meth:`to_bounds` (Q)
+        (a caller that has it saves recomputing it).
 
         Pair p's distance is capped at c_p = delta + (upper (1 + CAP_SLACK_REL) + CAP_SLACK / ||rho_p||) ||rho_p||
         (at most ``distmax``; :meth:`foam_mj.clearance.Clearance.batch_pairs`), which reads: where |d_p| < c_p the
@@ -449,7 +450,16 @@ class BubbleOracle:
         # An upper bound above distmax / the least ||rho_p|| caps no pair below distmax (and inf x a factor 0 is NaN).
         upper = np.minimum(np.asarray(upper, dtype=float), self.clearance.distmax * self._inv.max())
         cap = self.delta + CAP_SLACK + upper[:, None] * (self.pair_factor * (1.0 + CAP_SLACK_REL))
-        return self.radius_from_distances(self.clearance.batch_pairs(Q, cap), Q)
+        D = self.clearance.batch_pairs(Q, cap)
+        if bounds is None:
+            return self.radius_from_distances(D, Q)
+        # ``bounds``: the caller's :meth:`to_bounds` (Q), the radius's bounds terms already reduced (the same minimum).
+        P = D.shape[1]
+        M = np.empty((P + 1, len(D)))
+        np.subtract(D.T, self.delta, out=M[:P])
+        np.multiply(M[:P], self._inv[:, None], out=M[:P])
+        M[P] = bounds
+        return np.maximum(np.minimum.reduce(M, axis=0), 0.0)
 
     def explain(self, q) -> "BubbleReport":
         """Everything behind the radius at q: per-pair distances and bounds, the pair that sets the radius."""

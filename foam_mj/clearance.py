@@ -99,12 +99,38 @@ class _ProfilerOff:
 _PROFILER_OFF = _ProfilerOff()
 
 
+def _qpos_block(index: np.ndarray) -> tuple[slice, np.ndarray | None] | None:
+    """Where the coordinates' qpos addresses ``index`` are a block a, a + 1, ..., b - 1 in some order: the slice a:b and
+    the coordinate written to each of its columns (None: in order), so that ``qpos[:, a:b] = q[:, order]`` is
+    ``qpos[:, index] = q``; None for addresses with gaps."""
+    index = np.asarray(index, dtype=np.int64)
+    if len(index) == 0 or len(np.unique(index)) != len(index) or index.max() - index.min() + 1 != len(index):
+        return None
+    order = np.argsort(index)
+    return slice(int(index.min()), int(index.max()) + 1), None if (order == np.arange(len(index))).all() else order
+
+
+def _raw_forward(batch: mj_batch.Batch, ids: np.ndarray):
+    """The compiled forward call of ``batch`` for sorted unique int32 ids in range (so ``ids[:n]``), which
+    :meth:`mujoco.batch.Batch.forward` checks anew at every call, or None where this mujoco's Batch is not built so
+    (then the public call is used)."""
+    raw = getattr(getattr(batch, "_b", None), "forward", None)
+    if raw is None or not callable(getattr(batch, "_check", None)):
+        return None
+    try:
+        if mj_batch._ids(ids, batch.nsim) is not ids:  # the check passes them through untouched: the same call
+            return None
+    except (AttributeError, TypeError, ValueError):
+        return None
+    return raw
+
+
 class _ThreadState:
     """One thread's scratch: its MjData, its batches and the configurations it evaluated."""
 
     def __init__(self, m: mujoco.MjModel) -> None:
         self.data = mujoco.MjData(m)
-        self.batches: dict[int, tuple] = {}  # threads -> (Batch, its qpos rows, its sensordata rows, ids, its cutoffs)
+        self.batches: dict[int, tuple] = {}  # threads -> (Batch, its qpos rows, its sensordata rows, ids, its cutoffs, raw forward)
         self.calls = 0
 
 
@@ -125,6 +151,7 @@ class Clearance:
         self._m = robot.model
         self._pairs = [(int(g), int(o)) for g, o in robot.pairs]
         self._batch_model = self._sensor_model()
+        self._qpos_block = _qpos_block(robot.config.qpos_index)
         self._local = threading.local()
 
     def _state(self) -> _ThreadState:
@@ -234,28 +261,41 @@ class Clearance:
             return np.empty((0, P))
         state = self._state()
         state.calls += n
-        batch, qpos, sensordata, ids, cutoff = self._batch(state, n, min(self.threads, 2) if n >= THREADED_BATCH else 1)
+        batch, qpos, sensordata, ids, cutoff, forward = self._batch(state, n, min(self.threads, 2) if n >= THREADED_BATCH else 1)
         cfg = self.robot.config
         qpos[:n] = cfg.qpos0  # as ConfigurationMap.to_qpos, written straight into the batch's rows
-        qpos[:n, cfg.qpos_index] = cfg.offset + cfg.scale * Q
+        q = cfg.offset + cfg.scale * Q
+        if self._qpos_block is None:
+            qpos[:n, cfg.qpos_index] = q
+        else:  # the coordinates fill a block of qpos: a slice and a column permutation, not a 2-D scatter (5x faster)
+            block, order = self._qpos_block
+            qpos[:n, block] = q if order is None else q.take(order, axis=1)
         ours = cutoff[:n, cutoff.shape[1] - P :]
         if cap is None:
             ours.fill(self.distmax)
         else:
             np.minimum(cap, self.distmax, out=ours)
         with _PROFILER_OFF:
-            batch.forward(None if n == batch.nsim else ids[:n], _STAGE_POS)
+            if n == batch.nsim:
+                batch.forward(None, _STAGE_POS)
+            elif forward is None:
+                batch.forward(ids[:n], _STAGE_POS)
+            else:  # ids[:n] were checked once (_batch): mujoco.batch's per-call check of them took 3 % of a query loop
+                ids_n = ids[:n]
+                batch._check(ids_n, forward(ids_n, _STAGE_POS))
         return sensordata[:n, sensordata.shape[1] - P :].copy()  # our sensors come last, after any the model has
 
     def _batch(self, state: _ThreadState, n: int, nthread: int) -> tuple:
         """The calling thread's Batch of ``nthread`` threads with room for n configurations (grown by doubling): the
-        batch, its qpos and sensordata rows, the simulation ids and the sensors' cutoffs per simulation."""
+        batch, its qpos and sensordata rows, the simulation ids, the sensors' cutoffs per simulation and the batch's
+        unchecked forward call (:func:`_raw_forward`)."""
         b = state.batches.get(nthread)
         if b is None or b[0].nsim < n:
             size = max(n, 2 * b[0].nsim if b is not None else FIRST_BATCH)
             batch = mj_batch.Batch(self._batch_model, size, nthread=nthread)
-            b = state.batches[nthread] = (batch, batch.bind("qpos"), batch.bind("sensordata"), np.arange(size, dtype=np.int32),
-                                          batch.expand("sensor_cutoff"))
+            ids = np.arange(size, dtype=np.int32)
+            b = state.batches[nthread] = (batch, batch.bind("qpos"), batch.bind("sensordata"), ids, batch.expand("sensor_cutoff"),
+                                          _raw_forward(batch, ids))
         return b
 
     def close(self) -> None:

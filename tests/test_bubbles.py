@@ -272,6 +272,7 @@ def test_radii_below_an_upper_bound_are_the_full_radii_where_they_are_below_it_a
     capped = oracle.radii_below(Q, upper)
     assert np.all(capped <= full)
     assert np.array_equal(capped[full <= upper], full[full <= upper])
+    assert np.array_equal(oracle.radii_below(Q, upper, oracle.to_bounds(Q)), capped)  # bounds' terms given: the same bits
     assert np.all(capped >= np.minimum(full, upper))
     oracle.close()
 

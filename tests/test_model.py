@@ -92,6 +92,30 @@ def test_batch_clearance_of_a_model_with_a_singular_inertia_matrix_is_silent_and
     assert "WARNING" not in capfd.readouterr().err and not (tmp_path / "MUJOCO_LOG.TXT").exists()
 
 
+def test_the_qpos_block_written_by_a_batch_is_the_coordinates_addresses_in_any_order():
+    """Clearance writes q into a batch's qpos rows as one slice and a column order where the coordinates' qpos addresses
+    form a block (the obstacle leg's are 1, 2, 0): the same columns as the addresses themselves; none with gaps or repeats."""
+    q = np.array([[10.0, 20.0, 30.0]])
+    for index in ([1, 2, 0], [0, 1, 2], [4, 2, 3]):
+        block, order = clearance._qpos_block(np.array(index))
+        by_block, by_index = np.zeros((1, 6)), np.zeros((1, 6))
+        by_block[:, block] = q if order is None else q[:, order]
+        by_index[:, index] = q
+        assert np.array_equal(by_block, by_index)
+    assert clearance._qpos_block(np.array([0, 1, 2]))[1] is None
+    assert clearance._qpos_block(np.array([0, 2, 3])) is None and clearance._qpos_block(np.array([1, 1, 2])) is None
+
+
+def test_a_batch_gives_each_configuration_the_distances_of_a_query_of_it_alone(obstacle_robot):
+    """batch_pairs (the coordinates written as a permuted qpos block, the simulations called without mujoco.batch's
+    per-call check of their ids) reads every pair as pair_distances does for that configuration alone."""
+    c = Clearance(obstacle_robot, threads=1)
+    assert c._qpos_block is not None and c._qpos_block[1] is not None  # the leg's addresses 1, 2, 0
+    Q = np.random.default_rng(5).uniform(obstacle_robot.lower, obstacle_robot.upper, size=(37, 3))
+    for rows in (Q, Q[:5], Q[:1]):  # fewer rows than the batch holds: the unchecked call on ids[:n]
+        np.testing.assert_allclose(c.batch_pairs(rows), [c.pair_distances(q) for q in rows], atol=1e-12)
+
+
 def test_a_one_thread_clearance_gives_the_two_thread_batches_values_bit_for_bit(obstacle_robot):
     # benchmarks/planners.py times our planners in one thread, as the single-threaded peers (OMPL).
     Q = np.random.default_rng(4).uniform(obstacle_robot.lower, obstacle_robot.upper, size=(2 * THREADED_BATCH, 3))
