@@ -154,8 +154,8 @@ def test_every_upper_bound_given_to_radii_below_in_a_plan_bounds_the_full_radius
     oracle = BubbleOracle(robot, delta=0.005)
     calls, capped = [], oracle.radii_below
 
-    def spy(Q, upper):
-        r = capped(Q, upper)
+    def spy(Q, upper, *bounds):  # bounds: the growth passes the candidates' distances to the joint bounds
+        r = capped(Q, upper, *bounds)
         full = oracle.radii(Q)
         assert np.all(full <= upper), f"an upper bound below the full radius: {np.max(full - upper):.3g}"
         assert np.array_equal(r, full)

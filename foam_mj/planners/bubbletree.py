@@ -18,7 +18,7 @@ One iteration, for both trees at once, with one batched distance query (``Cleara
    |x - c|^2 - r^2 (the bubble whose surface is nearest in the Laguerre sense); for a nearest-pair
    target, the bubble itself.
 3. Candidates. Along the unit direction u from the parent's centre c_p (radius r_p) to the target,
-   centres c_p + s r_p u for s in :data:`STEPS` (but not beyond the target), all evaluated in the batch
+   centres c_p + s r_p u for s in :data:`foam_mj.planners.extend.STEPS` (but not beyond the target), all evaluated in the batch
    except those too near the joint bounds for a good radius (step 4; a radius is at most the distance to
    the bounds).
 4. Children. Per extension, the farthest candidate whose certified radius r is at least ``r_min`` (or
@@ -120,14 +120,12 @@ import numpy as np
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_finite_number, radius_text
 from foam_mj.foam import seed_rng
 from foam_mj.planners.base import PlanningProblem, PlanResult, PlanStats, Planner, ProgressFn, Timer, check_problem, too_small_to_grow
-from foam_mj.planners.chains import HATCH
 from foam_mj.planners.corridor import CorridorOptions, load_solvers, overlap_pairs
+from foam_mj.planners.extend import ESCAPING, GOAL, SAMPLED, Extender
 from foam_mj.planners.routes import build_routes
 from foam_mj.planners.informed import InformedSampler
 from foam_mj.planners.trees import SHRINK, SHRINK_FROM, SPAN, Bubbles, GapHistory, lifted
 
-#: Candidate centres per extension, at s r_p from the parent's centre along the direction to the target.
-STEPS = np.array([1.0, 2.0])
 #: The exploration after the first path counts at most this many iterations per unit of ``explore``: a bound for
 #: slow narrow-passage searches (a box 0.52 m tall on the obstacle scene met after 16,049 iterations), not for a
 #: large configuration space. At 20, a UR5e (MuJoCo Menagerie, joints +-2 pi, a pillar between home and a pose
@@ -212,8 +210,6 @@ STALL = 3_000
 FINER = 4.0
 FINER_LEVELS = 3
 FINER_STALL = 10
-#: An extension's kind: toward a sample, up the radius's gradient (ESCAPE), toward the other tree (as masks only when read).
-SAMPLED, ESCAPING, GOAL = 0, 1, 2
 #: Upper bounds of ``batch``/``connect`` and of ``explore`` (beyond them memory or time explode, nothing improves).
 MAX_EXTENSIONS = 1_000
 MAX_EXPLORE = 100.0
@@ -374,8 +370,8 @@ class BubbleTreePlanner(Planner):
             return target if wn == 0.0 else np.clip(c + d * w / wn, lo, hi)
 
         sampler: InformedSampler | None = None
-        k_max = o.batch + 2 * o.connect + 1  # extensions per tree per iteration (one ESCAPE)
-        later = ~np.tri(k_max, k_max, -1, dtype=bool)  # later[i, j]: sibling j is not earlier than i
+        extender = Extender(oracle, o.batch + 2 * o.connect + 1, problem.max_bubbles)  # per tree per iteration: one ESCAPE
+        small = [not out for out in outside.tolist()]  # a tree (its root in the box) all of whose bubbles may be below r_min
         newest = B.add(np.stack([c0, c1]), np.array([r0, r1]), np.array([-1, -1]), np.array([0, 1], dtype=np.int8))
         link = B.update_gaps(newest)
         if link is None:  # an end bubble below SMALLEST never grows, and no other bubble comes to hold its centre
@@ -383,7 +379,7 @@ class BubbleTreePlanner(Planner):
                 if r < SMALLEST:
                     raise ConfigurationError(too_small_to_grow(oracle, name, q, r, SMALLEST))
         t_first: float | None = None
-        it_first = 0
+        it_first = it_last = 0  # the iteration of the first path, and the last one to run after it
         foam_first = 0
         gap_then, it_then = np.inf, 0  # the gap at the last progress (the trees came r_min / 2 closer), and its iteration
         r_coarse, it_level = r_min, 0  # the first resolution, and the iteration at which the present one began (FINER)
@@ -398,7 +394,8 @@ class BubbleTreePlanner(Planner):
                 cpu_first = time.process_time() - cpu0
                 if o.informed:
                     sampler = InformedSampler(q0, q1, chain_length(link), metric)
-            if t_first is not None and counters["iterations"] - it_first >= int(np.ceil(o.explore * min(it_first, EXPLORE_CAP))):
+                it_last = it_first + int(np.ceil(o.explore * min(it_first, EXPLORE_CAP)))
+            if t_first is not None and counters["iterations"] >= it_last:
                 break  # the first path, then `explore` x as many iterations again (at most EXPLORE_CAP) for other routes
             window = o.stall if not finer_at else -(-o.stall // FINER_STALL)  # a finer level's window is shorter (FINER)
             since = max(it_then, it_level)  # this level's last progress, or its start
@@ -448,20 +445,26 @@ class BubbleTreePlanner(Planner):
                         tail += (f": the time limit ({problem.time_limit:g} s) ended the search before the trees stalled; with more "
                                  "(--time-limit, the [planner] time_limit) it goes on until they meet or stall")
                 raise PlanningFailed.after(f"the trees did not meet ({why}) after {B.n} bubbles", st, tail, B.foam(q0, q1))
-            timer.report(B.n, lambda: "the trees met, exploring" if t_first is not None else f"trees {B.closest:.3g} apart, last closer at "
-                         f"iteration {it_then:,} of {counters['iterations']:,}{f', r_min refined to {r_min:.3g}' if finer_at else ''}")
+            if progress is not None:
+                timer.report(B.n, lambda: "the trees met, exploring" if t_first is not None else f"trees {B.closest:.3g} apart, last closer at "
+                             f"iteration {it_then:,} of {counters['iterations']:,}{f', r_min refined to {r_min:.3g}' if finer_at else ''}")
             counters["iterations"] += 1
             parents, targets, target_r, blocks = [], [], [], []  # blocks: (size, kind) of each array of `parents`
+            escaping = False
             for t in (0, 1):
                 T = B.trees[t]
                 mine = T.idx[: T.n]
-                if not outside[t] and T.r[: T.n].max() < r_min:  # ESCAPE: up the radius's gradient from its largest bubble
-                    top = int(mine[T.r[: T.n].argmax()])
-                    parents.append(np.array([top]))
-                    targets.append(escape_target(B.c[top], B.r[top])[None])
-                    blocks.append((1, ESCAPING))
-                    if corner_roots:
-                        target_r.append(np.full(1, np.inf))
+                if small[t]:  # ESCAPE: up the radius's gradient from its largest bubble (no longer, once one has r_min: r_min only falls)
+                    if T.r[: T.n].max() < r_min:
+                        top = int(mine[T.r[: T.n].argmax()])
+                        parents.append(np.array([top]))
+                        targets.append(escape_target(B.c[top], B.r[top])[None])
+                        blocks.append((1, ESCAPING))
+                        escaping = True
+                        if corner_roots:
+                            target_r.append(np.full(1, np.inf))
+                    else:
+                        small[t] = False
                 # Exploration: uniform samples (after the first path: only where a shorter path can pass).
                 if sampler is None:
                     X = lo + span * rng.random((o.batch, n))
@@ -476,15 +479,19 @@ class BubbleTreePlanner(Planner):
                         k = min(o.connect, len(fresh))
                         near = fresh[T.gap[fresh].argpartition(k - 1)[:k]] if k < len(fresh) else fresh
                         T.tries[near] += 1
-                        toward = B.c[T.mate[near]]
-                        toward_r = B.r[T.mate[near]]
+                        mates = T.mate[near]
+                        toward = B.c[mates]
                         near = mine[near]
+                        if corner_roots:
+                            toward_r = B.r[mates]
                         if finer_at:  # RIDGE: a bubble below the first r_min aims up the radius's gradient as well
                             toward = np.array([uphill(B.c[i], B.r[i], x) if B.r[i] < r_coarse else x for i, x in zip(near, toward)])
                     theirs = newest[1 - t]
                     if len(theirs):
                         chosen = theirs[rng.permutation(len(theirs))[: o.connect]]
-                        pick, pick_r = B.c[chosen], B.r[chosen]
+                        pick = B.c[chosen]
+                        if corner_roots:
+                            pick_r = B.r[chosen]
                 # Samples and newest bubbles extend the bubble of smallest power distance |x - c|^2 - r^2.
                 Y = X if pick is None else np.concatenate([X, pick])
                 par = mine[(lifted(Y) @ T.pw[: T.n].T).argmin(axis=1)]
@@ -505,79 +512,28 @@ class BubbleTreePlanner(Planner):
                     blocks.append((len(pick), GOAL))
                     if corner_roots:
                         target_r.append(pick_r)
-            P = np.concatenate(parents)  # the start tree's extensions first, then the goal tree's
-            cP, rP = B.c[P], B.r[P]
-            v = np.concatenate(targets) - cP
-            escaping = any(k == ESCAPING for _, k in blocks)
             kind = np.repeat(np.array([k for _, k in blocks], dtype=np.int8), [b for b, _ in blocks]) if escaping or finer_at else None
-            dist = np.sqrt(np.einsum("ij,ij->i", v, v))
-            ok = dist > rP * (1 + 1e-9)  # a target inside its parent adds nothing
-            if not ok.all():
-                P, cP, rP, v, dist, kind = P[ok], cP[ok], rP[ok], v[ok], dist[ok], None if kind is None else kind[ok]
-            m = len(P)
-            if m == 0:
+
+            def floors(live: np.ndarray | None, P: np.ndarray, rP: np.ndarray) -> np.ndarray:
+                """The smallest radius kept per extension (of the extensions ``live``, None: all) from parents P of radii rP."""
+                kd = kind if kind is None or live is None else kind.take(live)
+                # Past a stall (FINER), a bubble of at least the first r_min keeps no child below it toward a random sample.
+                r_row = np.where((kd == SAMPLED) & (rP >= r_coarse), r_coarse, r_min) if finer_at else r_min
+                floor = np.where(rP >= SMALLEST, np.minimum(r_row, GROW * rP), r_row)  # (GROW, SMALLEST)
+                if corner_roots:  # children of a root on an edge or corner of the box (CORNER), and TOWARD_SMALL
+                    root = P < 2
+                    floor[root] = np.where(outside[P[root]], np.minimum(r_min, CORNER * rP[root]), floor[root])
+                    tr = np.concatenate(target_r)  # toward a bubble of the other tree below r_min
+                    tr = tr if live is None else tr.take(live)
+                    floor = np.where(tr < r_min, np.minimum(floor, CORNER * np.maximum(tr, r_corner)), floor)
+                if escaping:
+                    floor = np.where(kd == ESCAPING, np.minimum(r_min, ESCAPE * rP), floor)
+                return floor
+
+            grown = extender.children(B, np.concatenate(parents), np.concatenate(targets), floors, counters)
+            if grown is None:
                 continue
-            s = np.minimum(STEPS[None, :] * rP[:, None], dist[:, None])  # (m, S) distances from the parent's centre
-            cand = cP[:, None, :] + (s / dist[:, None])[..., None] * v[:, None, :]  # (m, S, n)
-            # Every candidate lies on the segment from its parent's centre to its target, both in the joint box
-            # (convex). A radius is at most the distance to the bounds: a candidate too near them for a good
-            # radius (below) is not sized (radius 0, never kept: 12 % of them on the obstacle scene, nearly all
-            # at s = 2); the rest are, in one batch.
-            flat = cand.reshape(-1, n)
-            wall = oracle.to_bounds(flat).reshape(s.shape)
-            reach = rP[:, None]
-            # Past a stall (FINER), a bubble of at least the first r_min keeps no child below it toward a random sample.
-            r_row = np.where((kind == SAMPLED) & (rP >= r_coarse), r_coarse, r_min) if finer_at else r_min
-            floor = np.where(rP >= SMALLEST, np.minimum(r_row, GROW * rP), r_row)  # (GROW, SMALLEST)
-            if corner_roots:  # children of a root on an edge or corner of the box (CORNER), and TOWARD_SMALL
-                root = P < 2
-                floor[root] = np.where(outside[P[root]], np.minimum(r_min, CORNER * rP[root]), floor[root])
-                tr = np.concatenate(target_r)[ok]  # toward a bubble of the other tree below r_min
-                floor = np.where(tr < r_min, np.minimum(floor, CORNER * np.maximum(tr, r_corner)), floor)
-            if escaping:
-                floor = np.where(kind == ESCAPING, np.minimum(r_min, ESCAPE * rP), floor)
-            floor = floor[:, None]
-            ask = np.flatnonzero((wall >= floor) & (s <= reach + (1 - HATCH) * wall))
-            flat = flat.take(ask, axis=0)
-            r = np.zeros(s.shape)
-            # A candidate's radius is at most its parent's plus the step (r is 1-Lipschitz) and its distance to the
-            # bounds: MuJoCo measures each pair only that far (the same radii to the last bit).
-            r.put(ask, oracle.radii_below(flat, np.minimum(reach + s, wall).take(ask)))
-            counters["candidates"] += len(flat)
-            good = (r >= floor) & (s <= reach + (1 - HATCH) * r)
-            counters["rejected_small"] += len(flat) - int(np.count_nonzero(good))
-            # The farthest good candidate of each extension.
-            rows = np.logical_or.reduce(good, axis=1).nonzero()[0]
-            if rows.size == 0:
-                continue
-            pick = STEPS.size - 1 - good[rows, ::-1].argmax(axis=1)
-            cc, cr, cp = cand[rows, pick], r[rows, pick], P[rows]
-            ct = B.tree[cp]
-            # Not inside another bubble of its tree (the parent excluded), nor inside an earlier sibling of this
-            # batch: per tree (the start tree's extensions come first), power distances < 0 to the tree's
-            # bubbles and to the siblings' balls, in one product.
-            keep = np.empty(len(rows), dtype=bool)
-            k0 = int(np.count_nonzero(ct == 0))
-            L = lifted(cc)
-            for t, sl in ((0, slice(0, k0)), (1, slice(k0, len(rows)))):
-                k = sl.stop - sl.start
-                if k == 0:
-                    continue
-                T = B.trees[t]
-                T.reserve(T.n + k)  # the siblings' rows [-2c, |c|^2 - r^2, 1] go after the tree's own
-                sib = T.pw[T.n : T.n + k]
-                np.multiply(cc[sl], -2.0, out=sib[:, :n])
-                sib[:, n] = L[sl, -1] - cr[sl] ** 2
-                pw = L[sl] @ T.pw[: T.n + k].T
-                pw[np.arange(k), B.pos[cp[sl]]] = np.inf
-                pw[:, T.n :][later[:k, :k]] = np.inf
-                keep[sl] = pw.min(axis=1) >= 0.0
-            counters["rejected_covered"] += int(np.count_nonzero(~keep))
-            room = problem.max_bubbles - B.n
-            sel = keep.nonzero()[0][:room]
-            if sel.size == 0:
-                continue
-            newest = B.add(cc[sel], cr[sel], cp[sel], ct[sel], L[sel])
+            newest = B.add(*grown)
             met = B.update_gaps(newest, link is None)
             link = link if link is not None else met
 

@@ -87,6 +87,14 @@ class Bubbles:
         self.trees = (Tree(dim), Tree(dim))
         self.n = 0
         self.closest = np.inf  # the smallest gap between the trees so far (update_gaps)
+        self._ar = np.arange(cap)
+
+    @property
+    def _rows(self) -> np.ndarray:
+        """0, 1, ..., at least as many as the bubbles (row numbers for :meth:`update_gaps`, made once per doubling)."""
+        if len(self._ar) < len(self.r):
+            self._ar = np.arange(len(self.r))
+        return self._ar
 
     def add(self, c: np.ndarray, r: np.ndarray, parent: np.ndarray, tree: np.ndarray, lift: np.ndarray | None = None) -> list[np.ndarray]:
         """Append bubbles, ``tree`` in non-decreasing order (the start tree's first, then the goal tree's, then
@@ -100,11 +108,12 @@ class Bubbles:
         if lift is None and ends[1]:
             lift = lifted(c)
         out = []
+        rows = self._rows  # views of its rows, not new aranges (it is replaced, never written, when it grows)
         for t, (a, b) in enumerate(((0, ends[0]), (ends[0], ends[1]))):
-            out.append(np.arange(self.n + a, self.n + b))
+            out.append(rows[self.n + a : self.n + b])
             if b > a:
                 T = self.trees[t]
-                self.pos[self.n + a : self.n + b] = np.arange(T.n, T.n + b - a)
+                self.pos[self.n + a : self.n + b] = rows[T.n : T.n + b - a]
                 T.add(out[t], lift[a:b], r[a:b])
         self.n += m
         return out
@@ -127,7 +136,7 @@ class Bubbles:
             D -= T.r[sl, None]
             D -= O.r[None, : O.n]
             j = D.argmin(axis=1)
-            g = D[np.arange(k), j]
+            g = D[self._rows[:k], j]
             self.closest = min(self.closest, float(g.min()))
             better = g < T.gap[sl]
             np.copyto(T.gap[sl], g, where=better)
