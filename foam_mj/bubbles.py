@@ -333,16 +333,24 @@ class BubbleOracle:
         self._inv = 1.0 / np.maximum(self.pair_factor, 1e-12)
         self._factor = float(self.pair_factor.max())
 
-    def radius_from_distances(self, distances: np.ndarray, q: np.ndarray) -> np.ndarray:
+    def radius_from_distances(self, distances: np.ndarray, q: np.ndarray, bounds: np.ndarray | None = None) -> np.ndarray:
         """Radii for per-pair distances (..., P) at centres q (..., n): the per-pair bound, the least of the P
         pair terms and the 2n distances to the bounds, written as the rows of one (P + 2n, ...) array and reduced
         over its first axis (numpy reduces a short last axis of many rows far slower than it takes element-wise
-        minima along a long one: 9-13 us per call against 12-37 for 10-300 configurations of the 3-joint leg)."""
+        minima along a long one: 9-13 us per call against 12-37 for 10-300 configurations of the 3-joint leg).
+        ``bounds``, if given, must be :meth:`to_bounds` (q): the bounds' terms already reduced (the same least value),
+        one row instead of 2n (every radius still passes here: the one place a test can scale them all)."""
         q = np.asarray(q, dtype=float)
         d = np.asarray(distances)
         P, n = d.shape[-1], q.shape[-1]
         column = (P,) + (1,) * (q.ndim - 1), (n,) + (1,) * (q.ndim - 1)
         dT, qT = d.T, q.T
+        if bounds is not None:
+            M = np.empty((P + 1,) + dT.shape[1:])
+            np.subtract(dT, self.delta, out=M[:P])
+            np.multiply(M[:P], self._inv.reshape(column[0]), out=M[:P])
+            M[P] = np.asarray(bounds).T
+            return np.maximum(np.minimum.reduce(M, axis=0), 0.0).T
         M = np.empty((P + 2 * n,) + dT.shape[1:])
         np.subtract(dT, self.delta, out=M[:P])
         np.multiply(M[:P], self._inv.reshape(column[0]), out=M[:P])
@@ -450,16 +458,7 @@ class BubbleOracle:
         # An upper bound above distmax / the least ||rho_p|| caps no pair below distmax (and inf x a factor 0 is NaN).
         upper = np.minimum(np.asarray(upper, dtype=float), self.clearance.distmax * self._inv.max())
         cap = self.delta + CAP_SLACK + upper[:, None] * (self.pair_factor * (1.0 + CAP_SLACK_REL))
-        D = self.clearance.batch_pairs(Q, cap)
-        if bounds is None:
-            return self.radius_from_distances(D, Q)
-        # ``bounds``: the caller's :meth:`to_bounds` (Q), the radius's bounds terms already reduced (the same minimum).
-        P = D.shape[1]
-        M = np.empty((P + 1, len(D)))
-        np.subtract(D.T, self.delta, out=M[:P])
-        np.multiply(M[:P], self._inv[:, None], out=M[:P])
-        M[P] = bounds
-        return np.maximum(np.minimum.reduce(M, axis=0), 0.0)
+        return self.radius_from_distances(self.clearance.batch_pairs(Q, cap), Q, bounds)
 
     def explain(self, q) -> "BubbleReport":
         """Everything behind the radius at q: per-pair distances and bounds, the pair that sets the radius."""

@@ -778,7 +778,7 @@ def test_plan_exits_4_when_its_own_replay_finds_a_trajectory_below_the_margin(tm
     toml.write_text(f"scene = '{s.scene}'\nq_init = {s.q_init.tolist()}\nq_goal = {s.q_goal.tolist()}\n"
                     "[planner]\nalgorithm = 'bubbletree'\n[limits]\ntorque = [1e9, 1e9, 1e9]\n")
     certified = foam_mj.bubbles.BubbleOracle.radius_from_distances
-    monkeypatch.setattr(foam_mj.bubbles.BubbleOracle, "radius_from_distances", lambda self, D, Q: 2.5 * certified(self, D, Q))
+    monkeypatch.setattr(foam_mj.bubbles.BubbleOracle, "radius_from_distances", lambda self, D, Q, bounds=None: 2.5 * certified(self, D, Q, bounds))
     monkeypatch.setattr("foam_mj.pipeline.check_result", lambda result, problem, planner: result)
     out = tmp_path / "r.json"
     assert main(["plan", "--scene", str(toml), "--no-rrd", "--smoother", "convex", "--json", str(out)]) == 4
