@@ -442,8 +442,12 @@ class BubbleTreePlanner(Planner):
                 else:  # a budget ended it: whether they were still coming closer tells whether more could help
                     tail += f"{finer.replace(',', ';', 1)}; they last came r_min / 2 closer at iteration {it_then:,} of {total:,}"
                     if outcome == "time budget" and o.stall and total - since < max(window, since - it_level):
-                        tail += (f": the time limit ({problem.time_limit:g} s) ended the search before the trees stalled; with more "
-                                 "(--time-limit, the [planner] time_limit) it goes on until they meet or stall")
+                        rule = f"{max(window, since - it_level):,} iterations without coming r_min / 2 closer"
+                        if not finer_at:  # the first level also ends by SHRINK
+                            rule += (f", or from iteration {SHRINK_FROM:,} a gap shrinking by less than {SHRINK:.0%} while the "
+                                     f"iterations grow {SPAN}-fold; the gap is {B.closest:.3g} now")
+                        tail += (f": the time limit ({problem.time_limit:g} s) ended the search before the trees stalled ({rule}); "
+                                 "with more (--time-limit, the [planner] time_limit) it goes on until they meet or stall")
                 raise PlanningFailed.after(f"the trees did not meet ({why}) after {B.n} bubbles", st, tail, B.foam(q0, q1))
             if progress is not None:
                 timer.report(B.n, lambda: "the trees met, exploring" if t_first is not None else f"trees {B.closest:.3g} apart, last closer at "
