@@ -238,11 +238,11 @@ def test_a_corridor_whose_cone_programs_stop_short_still_gives_a_certified_rosar
     # pressing bubble centred outside a ball need not overlap it) and says why, and the certificate does not depend
     # on the solver: the rosary is still a chain of certified bubbles with deep hatches, and the optimal smoother's
     # path, started from its own convex path when the planner's waypoints are outside their hatches, is collision-free.
-    from foam_mj.planners import corridor
+    from foam_mj.planners import conepath
     from foam_mj.planners.base import smoother_start
     from foam_mj.smoothing import OptimalSmoother
 
-    monkeypatch.setattr(corridor, "SOLVER_MAX_ITER", max_iter)
+    monkeypatch.setattr(conepath, "SOLVER_MAX_ITER", max_iter)
     s = load_scenario("obstacle")
     res = get_planner("bubbletree").plan(_problem(oracles["obstacle"], s), seed=0)
     assert res.stats.details["socp_unsolved"] >= 2
@@ -600,7 +600,7 @@ def test_the_corridors_cone_program_is_the_convex_smoothers_for_any_chain():
 def test_the_corridors_cone_program_template_is_build_socps_program():
     """_socp_template writes build_socp's own entries in CSC order directly: the same P, q, A (segment rows
     weighted by the metric), cones and b rows, entry for entry."""
-    from foam_mj.planners.corridor import _socp_template
+    from foam_mj.planners.conepath import _socp_template
     from foam_mj.rosary import Rosary
     from foam_mj.smoothing.convex import build_socp
 
