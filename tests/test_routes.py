@@ -64,3 +64,39 @@ def test_a_scenario_file_sets_routes_in_its_planner_table_and_a_bad_value_is_nam
         with pytest.raises(ScenarioError, match=re.escape(message)) as err:
             load_scenario(write(value))
         assert "s.toml" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_corridor_refined_in_steps_is_the_corridor_refined_at_once(oracles, monkeypatch):
+    """routes = k lets a further route's one-round probe go on with its rounds (CorridorBuild) instead of building it
+    again: one round, a corridor taken, then the remaining rounds give build_corridor's corridor array for array, its
+    stats (CPU times aside) and the same random numbers drawn; the corridor taken in between changed nothing."""
+    import dataclasses
+
+    import foam_mj.planners.bubbletree as bt
+    from foam_mj.planners.corridor import CorridorBuild, build_corridor
+
+    seen = []
+    real = bt.build_routes
+
+    def capture(routes, problem, centers, radii, link, options, rng):
+        seen.append((problem, centers.copy(), radii.copy(), dataclasses.replace(options, deadline=float("inf")), rng.bit_generator.state))
+        return real(routes, problem, centers, radii, link, options, rng)
+
+    monkeypatch.setattr(bt, "build_routes", capture)
+    _plan(oracles["step_down"], load_scenario("step_down"), 1)
+    problem, centers, radii, options, state = seen[0]
+    g1, g2 = np.random.default_rng(), np.random.default_rng()
+    g1.bit_generator.state = g2.bit_generator.state = state
+    whole = build_corridor(problem, centers, radii, None, options, g1)
+    build = CorridorBuild(problem, centers, radii, options, g2)
+    build.refine(1)
+    probe = build.corridor()
+    assert probe.stats["refine_rounds"] == 1 and whole.stats["refine_rounds"] >= 2  # rounds left to go on with
+    assert probe.length > whole.length
+    build.refine(options.refine_rounds - 1)
+    steps = build.corridor()
+    for a in ("centers", "radii", "ids", "waypoints", "added_centers", "added_radii"):
+        np.testing.assert_array_equal(getattr(steps, a), getattr(whole, a))
+    assert steps.length == whole.length
+    assert {k: v for k, v in steps.stats.items() if k != "cpu_ms"} == {k: v for k, v in whole.stats.items() if k != "cpu_ms"}
+    assert g2.bit_generator.state == g1.bit_generator.state

@@ -318,79 +318,101 @@ def build_corridor(
     rng: np.random.Generator | None = None, chain: np.ndarray | None = None,
 ) -> Corridor:
     """The shortest chain through the bubbles (``chain``, if the caller found it already), refined while its path shortens."""
-    oracle = problem.oracle
-    rng = rng if rng is not None else np.random.default_rng(0)
-    q0, q1 = problem.q_init, problem.q_goal
-    n_base = len(radii)
-    M = options.metric
-    clock = _Clock()
-    ids = shortest_chain(centers, radii, q0, q1, M) if chain is None else chain
-    clock.lap("dijkstra")
-    if ids is None:  # pragma: no cover - the trees met, so a chain exists
-        raise RuntimeError("no chain of overlapping bubbles joins q_init and q_goal")
-    C, R = centers[ids], radii[ids]
-    added_c: list[np.ndarray] = []
-    added_r: list[np.ndarray] = []
-    statuses: list[str] = []
-    w, length = shortest_path(C, R, q0, q1, M, status=statuses)
-    clock.lap("socp")
-    stats = {"chain_first": int(len(ids)), "length_first": length, "refine_rounds": 0, "refine_added": 0, "shortcuts": 0}
-    max_chain = max(options.max_chain, int(options.max_chain_first * len(ids)))
+    build = CorridorBuild(problem, centers, radii, options, rng, chain)
+    build.refine(options.refine_rounds)
+    return build.corridor()
 
-    def next_id() -> int:
+
+class CorridorBuild:
+    """:func:`build_corridor` in steps: the chain and its first program (constructor), refinement rounds
+    (:meth:`refine`, resumable: ``refine(1)`` then ``refine(k - 1)`` are the rounds of ``refine(k)``, the same
+    random numbers drawn), and the last chain's re-cover, deepening and program (:meth:`corridor`, which leaves
+    the rounds' state as it was, so that the rounds can go on after it)."""
+
+    def __init__(self, problem, centers: np.ndarray, radii: np.ndarray, options: CorridorOptions,
+                 rng: np.random.Generator | None = None, chain: np.ndarray | None = None) -> None:
+        self.problem, self.options, self.dim = problem, options, centers.shape[1]
+        self.rng = rng if rng is not None else np.random.default_rng(0)
+        self.n_base = len(radii)
+        self.clock = clock = _Clock()
+        q0, q1, M = problem.q_init, problem.q_goal, options.metric
+        ids = shortest_chain(centers, radii, q0, q1, M) if chain is None else chain
+        clock.lap("dijkstra")
+        if ids is None:  # pragma: no cover - the trees met, so a chain exists
+            raise RuntimeError("no chain of overlapping bubbles joins q_init and q_goal")
+        self.C, self.R, self.ids = centers[ids], radii[ids], ids
+        self.added_c: list[np.ndarray] = []
+        self.added_r: list[np.ndarray] = []
+        self.statuses: list[str] = []
+        self.w, self.length = shortest_path(self.C, self.R, q0, q1, M, status=self.statuses)
+        clock.lap("socp")
+        self.stats = {"chain_first": int(len(ids)), "length_first": self.length, "refine_rounds": 0, "refine_added": 0, "shortcuts": 0}
+        self.max_chain = max(options.max_chain, int(options.max_chain_first * len(ids)))
+        self.done = False  # no further round would run (a round ended them, or none can start)
+        if not held(self.C, self.R, self.w):  # the first program stopped short with a waypoint outside its balls (see held): no rounds
+            self.stats["refine_stopped"] = "cone program unsolved"
+            self.done = True
+        elif not (options.refine and len(ids) > 1):
+            self.done = True
+        else:
+            self.floor = options.floor_factor * max(problem.delta, 1e-4) / problem.oracle.bound.ball_factor
+            self.t_end = time.process_time() + options.time_limit  # CPU time: the same rounds on a loaded machine
+
+    def next_id(self, added_r: list | None = None) -> int:
         """The id of the next bubble the refinement adds (after the planner's and those added so far)."""
-        return n_base + sum(len(x) for x in added_r)
+        return self.n_base + sum(len(x) for x in (self.added_r if added_r is None else added_r))
 
-    def new_ids(count: int) -> np.ndarray:
-        start = next_id()
-        return np.arange(start, start + count)
-
-    if not held(C, R, w):  # the first program stopped short with a waypoint outside its balls (see held): no rounds
-        stats["refine_stopped"] = "cone program unsolved"
-    elif options.refine and len(ids) > 1:
-        floor = options.floor_factor * max(problem.delta, 1e-4) / oracle.bound.ball_factor
-        t_end = time.process_time() + options.time_limit  # CPU time: the same rounds on a loaded machine
-
-        def pick_chords(P: np.ndarray, R: np.ndarray, min_gain: float = 1e-3) -> dict[int, tuple[int, np.ndarray, np.ndarray]]:
-            """The chords to splice into the chain whose segment j of P lies in bubble j (R: its radii), each
-            shorter than the stretch of P it replaces by more than ``min_gain`` x the length."""
-            splices: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
-            if not options.chords:
-                return splices
-            k = len(R)
-            u = np.sort(rng.random((options.chords, 2)), axis=1)
-            x = u * np.sum(row_norms(np.diff(P, axis=0) * (1.0 if M is None else M)))
-            AB, jab = arc_points(P, x.T.ravel(), M)  # both ends in one call
-            A, B, ja, jb = AB[: options.chords], AB[options.chords :], jab[: options.chords], jab[options.chords :]
-            gain = (x[:, 1] - x[:, 0]) - row_norms((B - A) * (1.0 if M is None else M))
-            cand = np.flatnonzero((jb > ja) & (gain > min_gain * length))
-            # The chords by gain, certified in batches of CHORD_BATCH (one batch of distance queries each),
-            # each batch the best ones disjoint from those taken; a certified chord is thinned to its fewest
-            # bubbles and spliced if it has at most CHORD_GROWTH x as many as the stretch it replaces. The
-            # result is that of certifying all at once (the same chords taken), with fewer queries: most
-            # chords overlap the best one.
-            pending = cand[np.argsort(-gain[cand], kind="stable")]
-            used = np.zeros(k + 1, dtype=bool)
-            spacing = max(CHORD_SPACING * float(np.median(R)), floor)
-            while pending.size:
-                cu = np.concatenate([[0], np.cumsum(used)])  # used segments before each index
-                free = cu[jb[pending] + 1] == cu[ja[pending]]
-                pending = pending[free]
-                todo, pending = pending[:CHORD_BATCH], pending[CHORD_BATCH:]
-                if todo.size == 0:
-                    break
-                res = certify_chords(oracle, A[todo], B[todo], floor * CHORD_FLOOR, spacing)
-                for i, ch in zip(todo, res):
-                    if ch is None or used[ja[i] : jb[i] + 1].any():
-                        continue
-                    ch = thin_line_chain(*ch, most=int(CHORD_GROWTH * (jb[i] - ja[i] + 1)))
-                    if ch is not None:
-                        used[ja[i] : jb[i] + 1] = True
-                        splices[int(ja[i])] = (int(jb[i]), *ch)
+    def pick_chords(self, P: np.ndarray, R: np.ndarray, min_gain: float = 1e-3) -> dict[int, tuple[int, np.ndarray, np.ndarray]]:
+        """The chords to splice into the chain whose segment j of P lies in bubble j (R: its radii), each
+        shorter than the stretch of P it replaces by more than ``min_gain`` x the length."""
+        options, M, oracle, floor = self.options, self.options.metric, self.problem.oracle, self.floor
+        splices: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
+        if not options.chords:
             return splices
+        k = len(R)
+        u = np.sort(self.rng.random((options.chords, 2)), axis=1)
+        x = u * np.sum(row_norms(np.diff(P, axis=0) * (1.0 if M is None else M)))
+        AB, jab = arc_points(P, x.T.ravel(), M)  # both ends in one call
+        A, B, ja, jb = AB[: options.chords], AB[options.chords :], jab[: options.chords], jab[options.chords :]
+        gain = (x[:, 1] - x[:, 0]) - row_norms((B - A) * (1.0 if M is None else M))
+        cand = np.flatnonzero((jb > ja) & (gain > min_gain * self.length))
+        # The chords by gain, certified in batches of CHORD_BATCH (one batch of distance queries each),
+        # each batch the best ones disjoint from those taken; a certified chord is thinned to its fewest
+        # bubbles and spliced if it has at most CHORD_GROWTH x as many as the stretch it replaces. The
+        # result is that of certifying all at once (the same chords taken), with fewer queries: most
+        # chords overlap the best one.
+        pending = cand[np.argsort(-gain[cand], kind="stable")]
+        used = np.zeros(k + 1, dtype=bool)
+        spacing = max(CHORD_SPACING * float(np.median(R)), floor)
+        while pending.size:
+            cu = np.concatenate([[0], np.cumsum(used)])  # used segments before each index
+            free = cu[jb[pending] + 1] == cu[ja[pending]]
+            pending = pending[free]
+            todo, pending = pending[:CHORD_BATCH], pending[CHORD_BATCH:]
+            if todo.size == 0:
+                break
+            res = certify_chords(oracle, A[todo], B[todo], floor * CHORD_FLOOR, spacing)
+            for i, ch in zip(todo, res):
+                if ch is None or used[ja[i] : jb[i] + 1].any():
+                    continue
+                ch = thin_line_chain(*ch, most=int(CHORD_GROWTH * (jb[i] - ja[i] + 1)))
+                if ch is not None:
+                    used[ja[i] : jb[i] + 1] = True
+                    splices[int(ja[i])] = (int(jb[i]), *ch)
+        return splices
 
-        for _ in range(options.refine_rounds):
-            if time.process_time() > t_end:
+    def refine(self, rounds: int) -> None:
+        """Up to ``rounds`` more refinement rounds (fewer if the length stops dropping, the chain is full, a
+        program stops short or the time is up: then no round follows, :attr:`done`)."""
+        if self.done:
+            return
+        options, oracle, stats, clock = self.options, self.problem.oracle, self.stats, self.clock
+        q0, q1, M, floor, max_chain = self.problem.q_init, self.problem.q_goal, options.metric, self.floor, self.max_chain
+        C, R, ids, w, length = self.C, self.R, self.ids, self.w, self.length
+        added_c, added_r, statuses = self.added_c, self.added_r, self.statuses
+        done = True
+        for _ in range(rounds):
+            if time.process_time() > self.t_end:
                 stats["refine_stopped"] = "time"
                 break
             if time.perf_counter() > options.deadline:
@@ -401,7 +423,8 @@ def build_corridor(
             # 1. Shortcuts: certified chords between random points of the path; the best disjoint ones
             #    replace the bubbles between their ends: C[:ja+1] + chord + C[jb:] (segment j lies in bubble j).
             clock.lap("other")
-            splices = pick_chords(P, R)
+            self.length = length  # (the chords' least gain is a share of the current length)
+            splices = self.pick_chords(P, R)
             clock.lap("chords")
             # 2. Bubbles where the path presses on a boundary, spliced in place (hatch p: bubbles p, p + 1),
             #    except inside a chord's span.
@@ -413,7 +436,7 @@ def build_corridor(
             press = {int(p_): (c_, r_) for p_, c_, r_ in zip(sp_, pc, pr) if not conflict[p_]}
             if not splices and not press:
                 break
-            C2, R2, ids2, P2, nc_, nr_ = splice_chain(C, R, ids, P, splices, press, next_id())
+            C2, R2, ids2, P2, nc_, nr_ = splice_chain(C, R, ids, P, splices, press, self.next_id())
             added_c += nc_
             added_r += nr_
             stats["shortcuts"] += len(splices)
@@ -421,10 +444,10 @@ def build_corridor(
             for _step in range(CHORD_STEPS - 1):
                 if len(R2) >= max_chain:
                     break
-                more = pick_chords(P2, R2, STEP_GAIN * options.refine_tol)
+                more = self.pick_chords(P2, R2, STEP_GAIN * options.refine_tol)
                 if not more:
                     break
-                C2, R2, ids2, P2, nc_, nr_ = splice_chain(C2, R2, ids2, P2, more, {}, next_id())
+                C2, R2, ids2, P2, nc_, nr_ = splice_chain(C2, R2, ids2, P2, more, {}, self.next_id())
                 added_c += nc_
                 added_r += nr_
                 stats["shortcuts"] += len(more)
@@ -453,49 +476,66 @@ def build_corridor(
                 C, R, ids, w, length = C2, R2, ids2, w2, length2
             if gain <= options.refine_tol or len(R) >= max_chain:
                 break
-    # 4. The last chain pruned (rounds skip a prune that drops few bubbles), then every hatch made deep enough
-    #    to sample from: the smaller ball's centre inside the larger ball. One cone program for both.
-    clock.lap("other")
-    changed = False
-    if options.refine and options.prune and len(R) > 2:
-        P = np.concatenate([[q0], w, [q1]])
-        extra = None
-        if RECOVER:
-            D = path_samples(P, PIECES)
-            at = np.arange(0, len(D), PIECES // RECOVER)
-            # Segment j of P (w_j to w_(j+1), P[0] = q0) lies in chain bubble j, so a sample's radius is at most that
-            # bubble's plus its distance to the centre (r is 1-Lipschitz); the nearest of all bubbles, a (samples x
-            # chain) product, doubled the re-cover's instructions on the 3-joint leg for the same radii.
-            X, home = D[at], np.minimum(at // PIECES, len(R) - 1)
-            rE = oracle.radii_below(X, R[home] + row_norms(X - C[home]))
-            ok = rE > 4 * INSET
-            extra = (at[ok], rE[ok])
-            clock.lap("recover")
-        keep_pos = prune_chain(C, R, P, extra=extra)
-        if len(keep_pos) < len(R) or np.any(keep_pos >= len(R)):
-            new = keep_pos >= len(R)
-            if new.any():
-                j = keep_pos[new] - len(R)
-                ids = np.concatenate([ids, np.full(len(extra[1]), -1)])
-                ids[keep_pos[new]] = new_ids(int(new.sum()))
-                added_c.append(D[extra[0][j]])
-                added_r.append(extra[1][j])
-                C, R = np.concatenate([C, D[extra[0]]]), np.concatenate([R, extra[1]])
-                stats["recovered"] = int(new.sum())
-            C, R, ids = C[keep_pos], R[keep_pos], ids[keep_pos]
-            changed = True
-        clock.lap("prune")
-    C, R, ids, extra_c, extra_r = deepen(oracle, C, R, ids, new_ids)
-    if len(extra_r):
-        added_c.append(extra_c)
-        added_r.append(extra_r)
-        stats["deepened"] = int(len(extra_r))
-    clock.lap("deepen")
-    if changed or len(extra_r):
-        w, length = shortest_path(C, R, q0, q1, M, status=statuses)
-        clock.lap("socp")
-    stats.update(socp_unsolved=sum(st not in ("Solved", "AlmostSolved") for st in statuses), chain=int(len(ids)), length=length, cpu_ms=clock.ms())
-    n = centers.shape[1]
-    ac = np.concatenate(added_c) if added_c else np.empty((0, n))
-    ar = np.concatenate(added_r) if added_r else np.empty(0)
-    return Corridor(C, R, ids, ac, ar, np.full(len(ar), -1, dtype=np.int64), w, length, stats)
+        else:
+            done = False  # every round asked for ran and none ended the rounds
+        self.C, self.R, self.ids, self.w, self.length, self.done = C, R, ids, w, length, done
+
+    def corridor(self) -> Corridor:
+        """The corridor of the rounds so far (its chain re-covered and deepened; the rounds' state unchanged)."""
+        options, oracle, clock = self.options, self.problem.oracle, self.clock
+        q0, q1, M = self.problem.q_init, self.problem.q_goal, options.metric
+        C, R, ids, w, length = self.C, self.R, self.ids, self.w, self.length
+        added_c, added_r, statuses, stats = list(self.added_c), list(self.added_r), list(self.statuses), dict(self.stats)
+        acc = dict(clock.acc)  # this step's laps are not the rounds' (restored below)
+
+        def new_ids(count: int) -> np.ndarray:
+            start = self.next_id(added_r)
+            return np.arange(start, start + count)
+
+        # 4. The last chain pruned (rounds skip a prune that drops few bubbles), then every hatch made deep enough
+        #    to sample from: the smaller ball's centre inside the larger ball. One cone program for both.
+        clock.lap("other")
+        changed = False
+        if options.refine and options.prune and len(R) > 2:
+            P = np.concatenate([[q0], w, [q1]])
+            extra = None
+            if RECOVER:
+                D = path_samples(P, PIECES)
+                at = np.arange(0, len(D), PIECES // RECOVER)
+                # Segment j of P (w_j to w_(j+1), P[0] = q0) lies in chain bubble j, so a sample's radius is at most that
+                # bubble's plus its distance to the centre (r is 1-Lipschitz); the nearest of all bubbles, a (samples x
+                # chain) product, doubled the re-cover's instructions on the 3-joint leg for the same radii.
+                X, home = D[at], np.minimum(at // PIECES, len(R) - 1)
+                rE = oracle.radii_below(X, R[home] + row_norms(X - C[home]))
+                ok = rE > 4 * INSET
+                extra = (at[ok], rE[ok])
+                clock.lap("recover")
+            keep_pos = prune_chain(C, R, P, extra=extra)
+            if len(keep_pos) < len(R) or np.any(keep_pos >= len(R)):
+                new = keep_pos >= len(R)
+                if new.any():
+                    j = keep_pos[new] - len(R)
+                    ids = np.concatenate([ids, np.full(len(extra[1]), -1)])
+                    ids[keep_pos[new]] = new_ids(int(new.sum()))
+                    added_c.append(D[extra[0][j]])
+                    added_r.append(extra[1][j])
+                    C, R = np.concatenate([C, D[extra[0]]]), np.concatenate([R, extra[1]])
+                    stats["recovered"] = int(new.sum())
+                C, R, ids = C[keep_pos], R[keep_pos], ids[keep_pos]
+                changed = True
+            clock.lap("prune")
+        C, R, ids, extra_c, extra_r = deepen(oracle, C, R, ids, new_ids)
+        if len(extra_r):
+            added_c.append(extra_c)
+            added_r.append(extra_r)
+            stats["deepened"] = int(len(extra_r))
+        clock.lap("deepen")
+        if changed or len(extra_r):
+            w, length = shortest_path(C, R, q0, q1, M, status=statuses)
+            clock.lap("socp")
+        stats.update(socp_unsolved=sum(st not in ("Solved", "AlmostSolved") for st in statuses), chain=int(len(ids)), length=length, cpu_ms=clock.ms())
+        clock.acc, clock.t = acc, time.process_time()
+        n = self.dim
+        ac = np.concatenate(added_c) if added_c else np.empty((0, n))
+        ar = np.concatenate(added_r) if added_r else np.empty(0)
+        return Corridor(C, R, ids, ac, ar, np.full(len(ar), -1, dtype=np.int64), w, length, stats)

@@ -6,8 +6,8 @@ between two routes is a ridge thinner than the refinement's floor: on step_down 
 of qpos length 1.61-1.64 and one of 1.70-1.91, joined only over a ridge 0-0.7 mm above delta, so the first
 chain decides the route. With ``routes = k`` the corridor is also built from k - 1 further chains, each through
 the same certified bubbles minus the middle half of every earlier first chain's (so that it must pass elsewhere);
-each further corridor is first refined for one round only, and rebuilt with all its rounds only when that
-already beats the best so far; the shortest final corridor is kept (a losing further corridor's length in the
+each further corridor is first refined for one round only, and its rounds go on (up to all its rounds, the
+same rounds as a corridor built with all of them from the start) only when that already beats the best so far; the shortest final corridor is kept (a losing further corridor's length in the
 stats is the one after its single round). Every corridor is built by the same code
 from the same certified bubbles and refinement, so the path kept is certified like the default one.
 """
@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from foam_mj.planners.corridor import Corridor, CorridorOptions, build_corridor, shortest_chain
+from foam_mj.planners.corridor import Corridor, CorridorBuild, CorridorOptions, build_corridor, shortest_chain
 
 
 def build_routes(
@@ -45,11 +45,16 @@ def build_routes(
             break
         ids = keep[sub]
         state = rng.bit_generator.state
-        probe = build_corridor(problem, sub_c, sub_r, link, dataclasses.replace(options, refine_rounds=1), rng, chain=sub)
-        alt = probe
-        if probe.length < best.length:
-            rng.bit_generator.state = state
-            alt = build_corridor(problem, sub_c, sub_r, link, options, rng, chain=sub)
+        build = CorridorBuild(problem, sub_c, sub_r, options, rng, chain=sub)
+        build.refine(1)
+        alt = build.corridor()
+        if alt.length < best.length:  # the probe's rounds go on (the rounds of a build from scratch, see CorridorBuild)
+            if options.refine_rounds >= 1:
+                build.refine(options.refine_rounds - 1)
+                alt = build.corridor()
+            else:  # no rounds at all: built again without the probe's
+                rng.bit_generator.state = state
+                alt = build_corridor(problem, sub_c, sub_r, link, options, rng, chain=sub)
         lengths.append(float(alt.length))
         if alt.length < best.length:
             best, won = _renumbered(alt, keep, n), k
