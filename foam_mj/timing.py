@@ -113,8 +113,7 @@ def _held_loads(robot: RobotModel, kin: PathKinematics, u: np.ndarray) -> tuple[
 
 
 def _amount(x: float) -> str:
-    """A torque or force for a message: one decimal from 0.05 up, two significant digits below (a limit of 1e-9 N m
-    read "0.0")."""
+    """A torque for a message: one decimal from 0.05 up, two significant digits below (1e-9 N m read "0.0")."""
     return f"{x:.1f}" if abs(x) >= 0.05 or x == 0 else f"{x:.2g}"
 
 
@@ -137,8 +136,7 @@ def check_gravity(robot: RobotModel, curve: SafeCurve, torque: np.ndarray, sampl
             ratio = np.where(np.isfinite(torque), over / torque, -np.inf)
         i, j = np.unravel_index(int(np.argmax(ratio)), over.shape)
         name, unit = robot.config.joint_names[j], joint_units(robot)[j][3]
-        need = (f"gravity alone needs {_amount(g[i, j])} {unit}" if f[i, j] == 0 else
-                f"{_load_text(g[i, j], f[i, j], unit)} need {_amount(g[i, j] + f[i, j])} {unit}")
+        need = (f"gravity alone needs {_amount(g[i, j])} {unit}" if f[i, j] == 0 else f"{_load_text(g[i, j], f[i, j], unit)} need {_amount(g[i, j] + f[i, j])} {unit}")
         raise TimingInfeasible(
             f"no timing fits the torque limit of {name}: {need} at "
             f"{100 * u[i] / curve.length:.0f}% of the path, over its limit {_amount(torque[j])} {unit} by "
