@@ -362,9 +362,9 @@ class CorridorBuild:
         """The id of the next bubble the refinement adds (after the planner's and those added so far)."""
         return self.n_base + sum(len(x) for x in (self.added_r if added_r is None else added_r))
 
-    def pick_chords(self, P: np.ndarray, R: np.ndarray, min_gain: float = 1e-3) -> dict[int, tuple[int, np.ndarray, np.ndarray]]:
+    def pick_chords(self, P: np.ndarray, R: np.ndarray, length: float, min_gain: float = 1e-3) -> dict[int, tuple[int, np.ndarray, np.ndarray]]:
         """The chords to splice into the chain whose segment j of P lies in bubble j (R: its radii), each
-        shorter than the stretch of P it replaces by more than ``min_gain`` x the length."""
+        shorter than the stretch of P it replaces by more than ``min_gain`` x ``length`` (the round's)."""
         options, M, oracle, floor = self.options, self.options.metric, self.problem.oracle, self.floor
         splices: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
         if not options.chords:
@@ -375,7 +375,7 @@ class CorridorBuild:
         AB, jab = arc_points(P, x.T.ravel(), M)  # both ends in one call
         A, B, ja, jb = AB[: options.chords], AB[options.chords :], jab[: options.chords], jab[options.chords :]
         gain = (x[:, 1] - x[:, 0]) - row_norms((B - A) * (1.0 if M is None else M))
-        cand = np.flatnonzero((jb > ja) & (gain > min_gain * self.length))
+        cand = np.flatnonzero((jb > ja) & (gain > min_gain * length))
         # The chords by gain, certified in batches of CHORD_BATCH (one batch of distance queries each),
         # each batch the best ones disjoint from those taken; a certified chord is thinned to its fewest
         # bubbles and spliced if it has at most CHORD_GROWTH x as many as the stretch it replaces. The
@@ -423,8 +423,7 @@ class CorridorBuild:
             # 1. Shortcuts: certified chords between random points of the path; the best disjoint ones
             #    replace the bubbles between their ends: C[:ja+1] + chord + C[jb:] (segment j lies in bubble j).
             clock.lap("other")
-            self.length = length  # (the chords' least gain is a share of the current length)
-            splices = self.pick_chords(P, R)
+            splices = self.pick_chords(P, R, length)
             clock.lap("chords")
             # 2. Bubbles where the path presses on a boundary, spliced in place (hatch p: bubbles p, p + 1),
             #    except inside a chord's span.
@@ -444,7 +443,7 @@ class CorridorBuild:
             for _step in range(CHORD_STEPS - 1):
                 if len(R2) >= max_chain:
                     break
-                more = self.pick_chords(P2, R2, STEP_GAIN * options.refine_tol)
+                more = self.pick_chords(P2, R2, length, STEP_GAIN * options.refine_tol)
                 if not more:
                     break
                 C2, R2, ids2, P2, nc_, nr_ = splice_chain(C2, R2, ids2, P2, more, {}, self.next_id())
