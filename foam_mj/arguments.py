@@ -27,11 +27,17 @@ def non_ascii_text(text: str) -> str:
     return f" ({other!r} is U+{ord(other):04X} {unicodedata.name(other, 'an unnamed character')}: write numbers with ASCII characters, 0-9)"
 
 
+def _ascii_only(text: str, expected: str) -> None:
+    """Refuse, as an argparse type does, ``text`` written with a non-ASCII character: 'must be {expected}, got ...'."""
+    why = non_ascii_text(text)
+    if why:
+        raise argparse.ArgumentTypeError(f"must be {expected}, got {text!r}{why}")
+
+
 def real_number(text: str) -> float:
     """argparse type of a float option (``--delta``, ``--time-limit``, ...): Python's float() of ASCII text without
     ``_`` (float() reads ``0_005`` as 5.0: a margin typed for 0.005 m became 5 m)."""
-    if non_ascii_text(text):
-        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}{non_ascii_text(text)}")
+    _ascii_only(text, "a number")
     try:
         if "_" in text:
             raise ValueError
@@ -42,8 +48,7 @@ def real_number(text: str) -> float:
 
 def whole_number(text: str) -> int:
     """argparse type of an integer option (``--workers``, ``--dpi``, ...): Python's int() of ASCII text."""
-    if non_ascii_text(text):
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}{non_ascii_text(text)}")
+    _ascii_only(text, "an integer")
     try:
         return int(text)
     except ValueError:
@@ -53,8 +58,7 @@ def whole_number(text: str) -> int:
 def seed_number(text: str) -> int:
     """argparse type of ``--seed``: an integer in [0, 2**63 - 1], decimal (leading zeros too: ``007``, which
     ``int(text, 0)`` refuses) or as Python spells it (``0x10``, ``1_000``), in ASCII."""
-    if non_ascii_text(text):
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}{non_ascii_text(text)}")
+    _ascii_only(text, "an integer")
     try:
         value = int(text, 10)
     except ValueError:
@@ -181,8 +185,7 @@ _NEGATIVE_VALUE = re.compile(r"-(\.?[0-9]|inf|nan)", re.IGNORECASE)
 
 def port_number(text: str) -> int:
     """argparse type of ``--web-port`` and ``--grpc-port``: an integer in [0, 65535]."""
-    if non_ascii_text(text):
-        raise argparse.ArgumentTypeError(f"must be a port number, got {text!r}{non_ascii_text(text)}")
+    _ascii_only(text, "a port number")
     try:
         value = int(text)
     except ValueError:

@@ -39,8 +39,8 @@ def parse_q(text: str, flag: str, *, keyframe: bool = False) -> list[float] | st
     if keyframe and _KEYFRAME_NAME.fullmatch(text.strip()) and text.strip().lower() not in ("nan", "inf", "infinity"):
         return text.strip()
     parts = text.replace(",", " ").split()
-    if non_ascii_text(text):  # float("٠.٢") is 0.2: a number is written in ASCII (foam_mj.arguments)
-        raise FoamError(f"{flag} must be numbers separated by spaces or commas, got {text!r}{non_ascii_text(text)}")
+    if why := non_ascii_text(text):  # float("٠.٢") is 0.2: a number is written in ASCII (foam_mj.arguments)
+        raise FoamError(f"{flag} must be numbers separated by spaces or commas, got {text!r}{why}")
     try:
         if any("_" in v for v in parts):  # float() reads "0_08" as 8: a typo must not become another number
             raise ValueError
