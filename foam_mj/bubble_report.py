@@ -77,16 +77,20 @@ def bubble_report(robot: RobotModel, q, delta: float = 0.005, name: str = "q") -
 def format_report(doc: dict) -> list[str]:
     """The four lines ``foam-mj bubble`` prints: clearance, closest pair, rho per joint, radius; and a fifth naming the
     robot/obstacle pairs left out of the bound, whose distance no configuration joint changes (a pan joint's link
-    over its pedestal): MuJoCo, ``plan``'s min clear and ``foam-mj verify`` count them, so the clearance line alone
-    would read higher than theirs."""
+    over its pedestal): MuJoCo, ``plan``'s min clear and ``foam-mj verify`` count them, so where one of them is
+    nearer, the clearance line also gives the smallest distance over every pair, which is theirs."""
     rho = ", ".join(f"{j} {v:.4f}" for j, v in zip(doc["joints"], doc["rho"]))
     labels = doc.get("labels", {})  # an unnamed geom with its body, which a user can find in the MJCF
     limit = " / ".join(labels.get(g, g) for g in doc["limiting_pair"])
     pair_term = min((p["radius"] for p in doc["pairs"]), default=float("inf"))
     # The joint bounds set the radius where q is nearer to them than the pairs allow (on a bound: radius 0).
     setter = f"the joint bounds (pair {limit} alone: {pair_term:.6f})" if doc["to_bounds"] < pair_term else limit
+    fixed = min(doc.get("fixed_distances") or [], key=lambda f: f["distance"], default=None)
+    # A pair left out of the bound that is nearer than every pair in it: the first line says which clearance it gives.
+    overall = (f" over the pairs in the bound; {fixed['distance']:.6f} m over every pair ({' / '.join(fixed['geoms'])}, "
+               f"left out of the bound)" if fixed is not None and fixed["distance"] < doc["clearance"] else "")
     return [
-        f"clearance: {doc['clearance']:.6f} m",
+        f"clearance: {doc['clearance']:.6f} m{overall}",
         f"closest pair: {' / '.join(labels.get(g, g) for g in doc['closest_pair'])}",
         f"rho per joint (m per unit, pair {limit}): {rho}; ||rho||_2 = {doc['rho_norm']:.4f}",
         f"certified radius: {doc['radius']:.6f} (delta {doc['delta']:g} m, set by {setter}; "

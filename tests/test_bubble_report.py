@@ -125,7 +125,8 @@ def test_a_pair_left_out_of_the_bound_is_printed_with_the_distance_mujoco_measur
     """A link turned by a pan joint over a coaxial pedestal cylinder 40 mm below it: no joint changes that distance,
     so the pair is left out of the bound and of the clearance line (0.225 m, to the next link), yet MuJoCo, plan's
     min clear and `foam-mj verify` read 0.040 m there. The report names it with that distance (it printed only the
-    0.225 m, which a user choosing an end point above delta took for the robot's clearance)."""
+    0.225 m, which a user choosing an end point above delta took for the robot's clearance); the clearance line
+    now gives both."""
     scene, out = tmp_path / "pedestal_arm.xml", tmp_path / "bubble.json"
     scene.write_text('<mujoco><compiler angle="radian"/><worldbody>'
                      '<geom name="base" type="cylinder" pos="0 0 -0.1" size="0.06 0.03"/>'
@@ -136,6 +137,8 @@ def test_a_pair_left_out_of_the_bound_is_printed_with_the_distance_mujoco_measur
                      '</worldbody></mujoco>')
     assert main(["bubble", "--mjcf", str(scene), "--q=0.5 0", "--json", str(out)]) == 0
     lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == ("clearance: %.6f m over the pairs in the bound; 0.040000 m over every pair (g1 / base, left out of "
+                        "the bound)" % json.loads(out.read_text())["clearance"])
     assert lines[1] == "closest pair: g2 / base"
     assert lines[4] == "left out of the bound, as no configuration joint changes their distance: g1 / base 0.040000 m"
     doc = json.loads(out.read_text())
