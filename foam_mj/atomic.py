@@ -75,7 +75,8 @@ def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | Non
     an existing file that is not writable, an existing path that is not a regular file (``/dev/null``, a
     FIFO, a socket: the final rename would replace it, as root even the device node), a name ending in a
     path separator (a folder, not a file name), less than ``min_free`` bytes free (default
-    :data:`MIN_FREE_BYTES`), and (with ``suffix``) a name not ending in it.
+    :data:`MIN_FREE_BYTES`), and (with ``suffix``, lower case) a name not ending in it in any case (``X.JSON`` is a
+    JSON file: a suffix names a format, and Rerun's viewer too reads a recording's suffix lower-cased).
     """
     if path is None:
         return None
@@ -96,9 +97,9 @@ def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | Non
             raise OutputError(f"{what} output: file name of {len(os.fsencode(p.name))} bytes is longer than this file system allows ({limit})")
         if p.is_dir():
             raise OutputError(f"{what} output {shown} is a directory")
-        if suffix is not None and link.name == suffix:  # Path(".json").suffix is '': 'must end in .json' puzzled
+        if suffix is not None and link.name.lower() == suffix:  # Path(".json").suffix is '': 'must end in .json' puzzled
             raise OutputError(f"{what} output {link} is only the suffix {suffix}: give a name before it (out{suffix})")
-        if suffix is not None and link.suffix != suffix:
+        if suffix is not None and link.suffix.lower() != suffix:  # in any case: X.JSON was refused
             raise OutputError(f"{what} output {link} must end in {suffix}")
         if p.exists() and not p.is_file():
             raise OutputError(f"{what} output {shown} exists and is not a regular file ({_kind(p)}): writing it would replace it; give a file name")

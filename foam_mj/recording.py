@@ -186,7 +186,7 @@ class Recording:
 
     def __init__(self, path: str | Path, app_id: str = "foam-mj", recording_id: str | None = None) -> None:
         p = Path(path)
-        if p.suffix != ".rrd":
+        if p.suffix.lower() != ".rrd":  # X.RRD too: Rerun's viewer reads the suffix lower-cased
             raise ValueError(f"`path` must end in .rrd, got {str(p)!r}")
         if not p.parent.is_dir():
             raise ValueError(f"`path`'s folder does not exist: {p.parent}")

@@ -80,7 +80,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     problem = file_problem_text(p, "recording")
     if problem:
         raise FoamError(problem)
-    if p.suffix != ".rrd":
+    if p.suffix.lower() != ".rrd":  # X.RRD too: Rerun's viewer reads the suffix lower-cased
         raise FoamError(f"{p} is not a Rerun recording (.rrd)")
     try:
         with open(p, "rb") as f:

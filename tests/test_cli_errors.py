@@ -1061,3 +1061,18 @@ def test_a_result_field_of_the_wrong_type_found_by_fuzzing_is_named(planned_resu
         assert list(tmp_path.iterdir()) == []
     finally:
         bad.unlink()
+
+
+def test_an_output_suffix_in_capitals_is_the_same_suffix(tmp_path, capsys):
+    """`plan --json X.JSON` was refused ('must end in .json') and `--rrd X.RRD` likewise: a file system's names are
+    case-sensitive, but a suffix is a format's name, and Rerun's viewer picks its loader by the lower-cased suffix. Both
+    are written, read back by verify, and `view` takes the recording as one."""
+    result, rec = tmp_path / "X.JSON", tmp_path / "Rec.RRD"
+    assert main(["plan", "--scene", "obstacle", "--json", str(result), "--rrd", str(rec)]) == 0
+    capsys.readouterr()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["Rec.RRD", "X.JSON"]
+    assert main(["verify", str(result), "--step", "0.05"]) == 0
+    assert main(["view", str(rec), "--bind", "nonsense"]) == 2  # past the recording's checks: the address is refused
+    assert capsys.readouterr().err.strip().endswith("--bind must be an IP address (127.0.0.1, 0.0.0.0, ::1), got 'nonsense'")
+    assert main(["replay", str(result), "--kinematic-only", "--rrd", str(tmp_path / "again.Rrd")]) == 0
+    assert (tmp_path / "again.Rrd").stat().st_size > 0
