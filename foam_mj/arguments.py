@@ -159,11 +159,21 @@ class Parser(argparse.ArgumentParser):
                     if action.metavar == CONFIGURATION_METAVAR:
                         while end < len(args) and _is_number_list(args[end]):
                             end += 1
-                    if end > i + 2 or _NEGATIVE_VALUE.match(args[i + 1]):
+                    if end > i + 2 or _NEGATIVE_VALUE.match(args[i + 1]) or self._file_name_value(action, args[i + 1]):
                         args[i:end] = [f"{args[i]}={' '.join(args[i + 1 : end])}"]
                 i += 1
         return super().parse_known_args(args, namespace)
 
+    def _file_name_value(self, action: argparse.Action, value: str) -> bool:
+        """True for a file or folder name that begins with one minus sign (``--out -.csv``, ``--json -r.json``) given to
+        an option that takes a file or folder (its metavar in :data:`FILE_METAVARS`): argparse said 'expected one
+        argument'. A flag of this command (``--out --hz``, ``--out -h``) stays a flag."""
+        return (action.metavar in FILE_METAVARS and len(value) > 1 and value.startswith("-") and not value.startswith("--")
+                and value.split("=", 1)[0] not in self._option_string_actions)
+
+
+#: The metavars of the options whose value is a file or folder name, which may begin with a minus sign.
+FILE_METAVARS = frozenset({"FILE", "DIR", "FIGDIR", "OUT.json", "OUT.rrd", "ROBOT.xml", "SCENE"})
 
 #: The metavar of an option whose value is a configuration (--start, --goal, --q): numbers, quoted or not.
 CONFIGURATION_METAVAR = '"q1 q2 ..."'

@@ -1076,3 +1076,19 @@ def test_an_output_suffix_in_capitals_is_the_same_suffix(tmp_path, capsys):
     assert capsys.readouterr().err.strip().endswith("--bind must be an IP address (127.0.0.1, 0.0.0.0, ::1), got 'nonsense'")
     assert main(["replay", str(result), "--kinematic-only", "--rrd", str(tmp_path / "again.Rrd")]) == 0
     assert (tmp_path / "again.Rrd").stat().st_size > 0
+
+
+def test_a_file_name_that_starts_with_a_minus_sign_is_its_options_value(planned_result, tmp_path, monkeypatch, capsys):
+    """`foam-mj export r.json --out -.csv` said 'argument --out: expected one argument': argparse took the file name for
+    an option. A value of a file or folder option (--out, --json, --rrd, --figures, --scene, --mjcf) that starts with a
+    single minus sign and is no flag of the command is the option's value; a flag (--out --format) still is not."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["export", str(planned_result), "--out", "-.csv"]) == 0
+    assert main(["export", str(planned_result), "--out", "-x.npz", "--hz", "100"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["-.csv", "-x.npz"]
+    assert (tmp_path / "-.csv").read_text().startswith('# {"format":"foam-mj/trajectory"')
+    capsys.readouterr()
+    assert main(["export", str(planned_result), "--out", "--hz", "100"]) == 2
+    assert "argument --out: expected one argument" in capsys.readouterr().err
+    assert main(["plan", "--scene", "-missing.toml", "--no-rrd"]) == 2
+    assert "-missing.toml" in capsys.readouterr().err
