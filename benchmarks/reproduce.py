@@ -602,7 +602,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.from_json is not None:
         try:
-            res = json.loads(args.from_json.read_text())
+            res = json.loads(args.from_json.read_text(encoding="utf-8-sig"))
             res["table2"]["maps"] = {int(k): v for k, v in res["table2"]["maps"].items()}
         except (OSError, ValueError, KeyError) as exc:
             p.error(f"--from-json {args.from_json}: {exc}")

@@ -58,7 +58,7 @@ def read_manifest(out: Path) -> dict | None:
     if not p.is_file():
         return None
     try:
-        doc = json.loads(p.read_text())
+        doc = json.loads(p.read_text(encoding="utf-8-sig"))  # UTF-8 whatever the locale; an editor's byte-order mark let through
     except RecursionError:
         raise SweepError(f"{p}: unreadable sweep manifest: nested too deeply to read") from None
     except (OSError, ValueError) as exc:

@@ -99,7 +99,7 @@ def _fail(source: Path, msg: str) -> FoamError:
 
 def _load(source: Path) -> dict:
     try:
-        doc = json.loads(source.read_text(encoding="utf-8"))
+        doc = json.loads(source.read_text(encoding="utf-8-sig"))  # an editor's byte-order mark is no part of the JSON (RFC 8259 §8.1)
     except FileNotFoundError:
         raise FoamError(f"result file not found: {source}") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:

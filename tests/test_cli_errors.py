@@ -1092,3 +1092,17 @@ def test_a_file_name_that_starts_with_a_minus_sign_is_its_options_value(planned_
     assert "argument --out: expected one argument" in capsys.readouterr().err
     assert main(["plan", "--scene", "-missing.toml", "--no-rrd"]) == 2
     assert "-missing.toml" in capsys.readouterr().err
+
+
+def test_a_result_that_starts_with_a_byte_order_mark_is_read_by_every_command(planned_result, tmp_path, capsys):
+    """A result saved by an editor that writes a UTF-8 byte-order mark got Python's own words in every command that reads
+    results ('Unexpected UTF-8 BOM (decode using utf-8-sig)', exit 2): the mark is not part of the JSON (RFC 8259 lets a
+    reader ignore it), so verify, replay, export and figures read the result as if it were not there."""
+    bom = tmp_path / "bom.json"
+    bom.write_bytes(b"\xef\xbb\xbf" + planned_result.read_bytes())
+    assert main(["verify", str(bom), "--step", "0.05"]) == 0
+    assert main(["replay", str(bom), "--kinematic-only"]) == 0
+    assert main(["export", str(bom), "--out", str(tmp_path / "t.csv")]) == 0
+    assert main(["figures", str(bom), str(tmp_path / "figs"), "--paths", "optimal"]) == 0
+    assert "BOM" not in capsys.readouterr().err
+    assert (tmp_path / "t.csv").stat().st_size > 0 and any((tmp_path / "figs").iterdir())

@@ -799,6 +799,20 @@ def test_a_corrupt_or_foreign_parquet_file_is_named_by_report_and_by_a_rerun(stu
     assert sorted(p.name for p in (out / "rows").iterdir()) == before and not (tmp_path / "figs").exists()
 
 
+def test_a_manifest_saved_with_a_byte_order_mark_is_read_by_report_and_a_rerun(study, tmp_path, capsys):
+    """A sweep.json re-saved by an editor that adds a UTF-8 byte-order mark was 'unreadable sweep manifest: Unexpected
+    UTF-8 BOM' (exit 2) in report and in a rerun: the mark is no part of the JSON, and the manifest is read as UTF-8
+    whatever the locale."""
+    import shutil
+
+    out = tmp_path / "study"
+    shutil.copytree(study["out"], out)
+    (out / "sweep.json").write_bytes(b"\xef\xbb\xbf" + (out / "sweep.json").read_bytes())
+    assert main(["report", str(out), "--figures", str(tmp_path / "figs")]) == 0
+    assert main(["sweep", str(study["spec"]), "--out", str(out), "--quiet"]) == 0
+    assert "BOM" not in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("rows, message", [
     ("empty", r"no rows to report: the \d+ Parquet file\(s\) in {rows} hold 0 rows"),
     ("none", r"no rows to report: no Parquet file in {rows}"),
