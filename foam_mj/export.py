@@ -97,7 +97,7 @@ def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float
     import mujoco
 
     from foam_mj.dynamics import inverse_dynamics, joint_units
-    from foam_mj.results import check_ends, outcome_robot
+    from foam_mj.results import check_ends, check_saved_trajectory, outcome_robot
     from foam_mj.rosary import Rosary
     from foam_mj.limits import Limits
     from foam_mj.timing import METHODS, time_path
@@ -125,6 +125,7 @@ def export_table(doc: dict, source: str | Path, path_name: str | None, hz: float
     if report:
         report(f"exporting: timing path '{path_name}'")
     traj = time_path(robot, path_name, path, rosary, limits, time_law)
+    check_saved_trajectory(source, path_name, entry, traj, robot)  # the waypoints are exported: refuse an edited qpos
 
     T = traj.duration
     k = np.arange(int(np.floor(T * hz + 1e-9)) + 1)

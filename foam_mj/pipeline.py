@@ -276,16 +276,16 @@ def run(
 
 
 def time_and_replay(po: PathOutcome, robot, path, limits: Limits, time_law: str, clearance, dynamic: bool,
-                    report: Report | None = None, where: str = "") -> None:
+                    report: Report | None = None, where: str = "", trajectory=None) -> None:
     """Time ``path`` (po's waypoints with its ends) under ``limits``, then its joint loads (the robot's mass: a scaled
     model's) and its kinematic and, with ``dynamic``, servo replay, into ``po``; a TimingInfeasible is kept in
     ``po.timing_error`` (this path only: the caller times and replays the others). ``where`` ("2 of 5") goes into the
-    progress messages."""
+    progress messages; ``trajectory``, when given, is that timing already done."""
     say = report or (lambda _s: None)
     label = LABELS.get(po.name, po.name)
     say(f"replaying: {label}{f' ({where})' if where else ''}")
     try:
-        po.trajectory = time_path(robot, po.name, path, po.rosary, limits, time_law)
+        po.trajectory = trajectory if trajectory is not None else time_path(robot, po.name, path, po.rosary, limits, time_law)
     except TimingInfeasible as exc:
         po.timing_error = exc
         return

@@ -51,7 +51,9 @@ Layout (format "foam-mj/result", version 1)::
 configuration joint (N m for hinges, N for slides): peak and RMS torque, peak power (W), positive and
 negative work (J), the MJCF's torque limit (null: none) and the peak's share of it, and the peak per
 kilogram of the subject's body mass. "limits" and "time_law" are what the trajectories were timed with
-(foam_mj.timing); ``replay`` and ``export`` rebuild the same trajectories from them.
+(foam_mj.timing); ``replay`` and ``export`` rebuild the same trajectories from them and the waypoints, and refuse
+a path whose saved "qpos" or "times" differ from the rebuilt trajectory by more than :data:`TRAJECTORY_TOL` (edited
+by hand: they would replay another motion than the one ``verify`` checked), naming the path and the first such row.
 
 "configuration" holds the affine map between the planner's q and MuJoCo's qpos:
 ``qpos = qpos0; qpos[qpos_index] = offset + scale * q`` (q may be normalized, e.g. the Ortholeg's hip slide).
@@ -317,6 +319,42 @@ def check_ends(source, name: str, path: np.ndarray, q_init: np.ndarray, q_goal: 
                             f"refusing to {verb} it")
 
 
+#: How far (rad or m, and s) a saved trajectory may lie from the one replay and export rebuild from its waypoints: the JSON
+#: keeps every float exactly, and the timing is deterministic; this allows only for another machine's last bits.
+TRAJECTORY_TOL = 1e-6
+
+
+def check_saved_trajectory(source, name: str, entry: dict, trajectory, robot) -> None:
+    """Refuse (FoamError naming the path and its first differing row) a path whose saved timed trajectory ("qpos" and
+    "times") is not ``trajectory``, the one ``replay`` and ``export`` rebuild from its waypoints. They replay and export
+    the rebuilt one, while ``verify`` checks the saved rows: an edited "qpos" would otherwise be replaced by another
+    motion without a word. A path saved without "times" (untimed) has nothing to compare."""
+    if "times" not in entry or "qpos" not in entry:
+        return
+    where = f"{source}: path '{name}'"
+    hint = "replay and export rebuild it from the waypoints, verify checks the saved rows; restore them or plan again"
+    try:
+        times, qpos = np.asarray(entry["times"], float), np.asarray(entry["qpos"], float)
+    except (TypeError, ValueError):
+        raise FoamError(f"{where}: fields 'times' and 'qpos' must be lists of numbers") from None
+    nq = robot.model.nq
+    if times.ndim != 1 or qpos.ndim != 2 or qpos.shape[1] != nq or len(qpos) != len(times):
+        raise FoamError(f"{where}: 'qpos' must be rows of {nq} numbers, one row per entry of 'times'; got shapes "
+                        f"{qpos.shape} and {times.shape}")
+    if len(qpos) != len(trajectory.qpos):
+        raise FoamError(f"{where}: 'qpos' has {len(qpos)} rows, the trajectory its waypoints give {len(trajectory.qpos)}: {hint}")
+    names = _qpos_names(robot.model)
+    for key, saved, rebuilt in (("times", times[:, None], trajectory.times[:, None]), ("qpos", qpos, trajectory.qpos)):
+        off = np.abs(saved - rebuilt)
+        bad = np.flatnonzero(~np.all(off <= TRAJECTORY_TOL, axis=1))  # NaN is never <= tol
+        if len(bad):
+            i = int(bad[0])
+            j = int(np.argmax(np.where(np.isnan(off[i]), np.inf, off[i])))
+            what = f"it differs by {off[i, j]:.3g} s" if key == "times" else f"{names[j]} differs by {off[i, j]:.3g}"
+            raise FoamError(f"{where}: {key} row {i} (t = {trajectory.times[i]:.4g} s) is not the trajectory its "
+                            f"waypoints give ({what}): {hint}")
+
+
 def _finite_array(value: Any, source: Path, where: str, ndim: int, width: int | None = None) -> np.ndarray:
     """``value`` as a float array of ``ndim`` (1: one configuration, 2: rows of them, at least 2) of finite
     numbers, ``width`` numbers per configuration; FoamError naming ``where`` otherwise."""
@@ -397,7 +435,8 @@ def robot_options(doc: dict, source: str | Path) -> dict:
 
 def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, report: Callable[[str], None] | None = None):
     """Rebuild trajectories from a result's waypoints and rosaries and replay them on its scene; ``report`` is told
-    which path is being timed and replayed (as ``foam-mj plan``'s progress line)."""
+    which path is being timed and replayed (as ``foam-mj plan``'s progress line). The waypoints are what is replayed:
+    a path whose saved "qpos"/"times" are not the trajectory they give is refused (:func:`check_saved_trajectory`)."""
     from foam_mj.foam import Foam
     from foam_mj.planners import PlannerConfig, PlanResult, PlanStats
     from foam_mj.paths import metrics
@@ -408,7 +447,7 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, rep
     from foam_mj.smoothing import SmoothingResult
     from foam_mj.pipeline import require_a_timing, time_and_replay
     from foam_mj.limits import Limits
-    from foam_mj.timing import METHODS
+    from foam_mj.timing import METHODS, TimingInfeasible, time_path
 
     try:
         # Results written before the torque-limited time laws have neither field: they were timed by "own".
@@ -459,10 +498,18 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, rep
             raise
         raise FoamError(f"{source}: malformed result: {type(exc).__name__}: {exc}") from None
     # The result is read; what fails from here on is the replay's own doing, not the file's.
+    timed = {}  # every saved trajectory is compared with the rebuilt one before any replay
+    for name, po in outcome.paths.items():
+        try:
+            timed[name] = time_path(robot, name, waypoints[name], po.rosary, limits, time_law)
+        except TimingInfeasible:  # time_and_replay keeps it in po.timing_error
+            continue
+        check_saved_trajectory(source, name, doc["paths"][name], timed[name], robot)
     clearance = replay_clearance(robot, params.delta)
     try:
         for k, (name, po) in enumerate(outcome.paths.items(), 1):
-            time_and_replay(po, robot, waypoints[name], limits, time_law, clearance, dynamic, report, f"{k} of {len(outcome.paths)}")
+            time_and_replay(po, robot, waypoints[name], limits, time_law, clearance, dynamic, report, f"{k} of {len(outcome.paths)}",
+                            trajectory=timed.get(name))
     finally:
         clearance.close()
     require_a_timing(outcome.paths)

@@ -1106,3 +1106,28 @@ def test_a_result_that_starts_with_a_byte_order_mark_is_read_by_every_command(pl
     assert main(["figures", str(bom), str(tmp_path / "figs"), "--paths", "optimal"]) == 0
     assert "BOM" not in capsys.readouterr().err
     assert (tmp_path / "t.csv").stat().st_size > 0 and any((tmp_path / "figs").iterdir())
+
+
+@pytest.mark.parametrize(("edit", "words"), [
+    (lambda p: p["qpos"][40].__setitem__(1, p["qpos"][40][1] + 0.05),
+     "path 'optimal': qpos row 40 (t = 0.08 s) is not the trajectory its waypoints give (hip_flexion differs by 0.05)"),
+    (lambda p: p.update(qpos=p["qpos"][:-3], times=p["times"][:-3]),
+     "path 'optimal': 'qpos' has 471 rows, the trajectory its waypoints give 474"),
+    (lambda p: p["times"].__setitem__(10, p["times"][10] + 0.001),
+     "path 'optimal': times row 10 (t = 0.02 s) is not the trajectory its waypoints give (it differs by 0.001 s)"),
+])
+def test_a_result_whose_saved_trajectory_was_edited_is_refused_by_replay_and_export(planned_result, tmp_path, edit, words, capsys):
+    """replay and export rebuild each trajectory from the path's waypoints, as plan made it; verify checks the saved
+    'qpos' rows. A user who edited qpos (or times) got a replay and an export of another motion than the one verify
+    had passed, without a word. Both now refuse a saved trajectory that is not the one its waypoints give, naming the
+    path and the row: one line, exit 2, nothing written."""
+    bad = _edited(planned_result, planned_result.parent, lambda d: edit(d["paths"]["optimal"]))
+    try:
+        for argv in (["replay", str(bad), "--kinematic-only", "--rrd", str(tmp_path / "r.rrd")],
+                     ["export", str(bad), "--out", str(tmp_path / "t.csv")]):
+            assert main(argv) == 2, argv
+            err = capsys.readouterr().err.strip()
+            assert len(err.splitlines()) == 1 and words in err, (argv, err)
+        assert list(tmp_path.iterdir()) == []
+    finally:
+        bad.unlink()
