@@ -994,6 +994,37 @@ def test_trees_that_cannot_meet_name_where_they_came_nearest_and_what_blocks_it(
     assert MujocoChecker(s.robot).distance(q) == pytest.approx(float(m.group(2)), abs=1e-4) and float(m.group(2)) < 0
 
 
+ONE_JOINT_ARM = """<mujoco><worldbody><geom type="sphere" pos="0.3 0 0" size="0.05"/>
+  <body><joint name="hinge" type="hinge" axis="0 0 1" range="-170 170"/><geom type="capsule" fromto="0.05 0 0 0.5 0 0" size="0.02"/></body>
+</worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("limit", ["60", "0.3"])
+def test_a_one_joint_robot_blocked_between_start_and_goal_is_told_the_goal_is_unreachable(tmp_path, capsys, limit):
+    """One limited hinge and a post in its sweep between start and goal: the plan said "the goal may be unreachable from
+    the start" (or, ended by the time limit, that more time goes on), though in one dimension a configuration between
+    start and goal closer than delta proves no motion reaches the goal, with any budget. It now says so (exit 3), and no
+    more that a finer search or more time might help; the configuration it names is inside the post (MuJoCo's distance)."""
+    import mujoco
+
+    from foam_mj.cli import main
+
+    xml = tmp_path / "one.xml"
+    xml.write_text(ONE_JOINT_ARM)
+    assert main(["plan", "--mjcf", str(xml), "--start", "-1", "--goal", "1", "--no-rrd", "--time-limit", limit]) == 3
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    m = re.search(r"they came nearest at q = \[(-?[0-9.]+)\] .* with clearance (-?[0-9.]+) m between \w+ and \w+: the goal is "
+                  r"unreachable from the start: with one joint every motion between them passes this q, closer than delta "
+                  r"\(`foam-mj bubble` shows more\)$", err)
+    assert m and "may be" not in err and "time limit" not in err and "stays closed" not in err, err
+    model = mujoco.MjModel.from_xml_path(str(xml))
+    data = mujoco.MjData(model)
+    data.qpos[0] = float(m.group(1))
+    mujoco.mj_forward(model, data)
+    assert -1 < data.qpos[0] < 1 and float(m.group(2)) < 0.005
+    assert mujoco.mj_geomDistance(model, data, 0, 1, 1.0, None) == pytest.approx(float(m.group(2)), abs=1e-4)
+
+
 def test_trees_that_stop_coming_closer_give_up_before_the_time_budget(tmp_path):
     """The same 0.8 m box: the trees fill their own sides with their smallest gap unchanged, and used to do so for the
     whole time budget (60 s by default). After `stall` iterations without coming r_min / 2 closer (at least as many as

@@ -312,13 +312,16 @@ class BubbleTreePlanner(Planner):
             details.update(extra or {})
             return PlanStats(self.name, outcome, B.n, oracle.clearance.calls - calls0, timer.elapsed(), t_first, details)
 
-        def closest_approach(unreachable: bool) -> str:
+        def closest_approach(unreachable: bool) -> tuple[str, bool]:
             """Where the trees came nearest: the configuration halfway across the gap between the two bubbles
             nearest each other, its clearance and the pair that sets it (what blocks the way, for the user); with
-            ``unreachable``, that the goal may be unreachable (not said when the time budget cut the search short)."""
+            ``unreachable``, that the goal may be unreachable (not said when the time budget cut the search short).
+            With one joint (an interval: every configuration joint is limited) a configuration between q_init and
+            q_goal closer than delta proves the goal unreachable, whatever the budget: then that is said, and True
+            returned with the text."""
             T = B.trees[0]
             if T.n == 0 or not np.isfinite(T.gap[: T.n]).any():
-                return ""
+                return "", False
             i = int(np.argmin(T.gap[: T.n]))
             a, b = int(T.idx[i]), int(T.mate[i])
             u = B.c[b] - B.c[a]
@@ -327,9 +330,12 @@ class BubbleTreePlanner(Planner):
             report = oracle.explain(q)
             robot = oracle.robot
             hint = robot.hull_hint(*(int(g) for g in robot.pairs[int(np.argmin(report.pair_distances))]))
-            return (f"; they came nearest at q = {np.round(q, 4).tolist()} (a gap of {T.gap[i]:.3g} between their bubbles), with "
+            proven = n == 1 and min(q0[0], q1[0]) <= q[0] <= max(q0[0], q1[0]) and report.clearance < problem.delta
+            verdict = (": the goal is unreachable from the start: with one joint every motion between them passes this q, "
+                       "closer than delta" if proven else ": the goal may be unreachable from the start" if unreachable else "")
+            return (f"; they came nearest at q = {(np.round(q, 4) + 0.0).tolist()} (a gap of {T.gap[i]:.3g} between their bubbles), with "
                     f"clearance {clearance_text(report.clearance, problem.delta)} between {report.closest_pair[0]} and {report.closest_pair[1]}"
-                    f"{': the goal may be unreachable from the start' if unreachable else ''} (`foam-mj bubble` shows more){hint}")
+                    f"{verdict} (`foam-mj bubble` shows more){hint}"), proven
 
         def chain_length(pair: tuple[int, int]) -> float:
             """Length of the polyline q_init -> centres of the tree chain through ``pair`` -> q_goal (an upper
@@ -428,7 +434,8 @@ class BubbleTreePlanner(Planner):
                     for side, name, q, r, out, T in (("start", "q_init", q0, r0, outside[0], B.trees[0]), ("goal", "q_goal", q1, r1, outside[1], B.trees[1]))
                     if (T.n == 1 and r < r_min) or (T.n < STALLED and (out or oracle.to_bounds(q) < r_min))
                 )
-                why, tail = outcome, stuck or closest_approach(outcome != "time budget")
+                approach, proven = ("", False) if stuck else closest_approach(outcome != "time budget")
+                why, tail = outcome, stuck or approach
                 idle, total = counters["iterations"] - it_then, counters["iterations"]
                 finer = (f", r_min refined from {r_coarse:.3g} to {r_min:.3g} at iteration{'s' if len(finer_at) > 1 else ''} "
                          f"{', '.join(f'{i:,}' for i in finer_at)}{first_shrank}") if finer_at else ""
@@ -436,10 +443,10 @@ class BubbleTreePlanner(Planner):
                     why += f": the trees stopped coming closer, their gap {B.closest:.3g} shrank by less than {SHRINK:.0%} from iteration {total // SPAN:,} to {total:,}"
                 elif outcome == "stalled":
                     why += f": {idle:,} iterations without coming r_min / 2 = {0.5 * r_coarse:.3g} closer{finer}"
-                    tail += (f"; a passage whose free bubbles all have radius below {r_min:.3g} (clearance less than about "
+                    tail += "" if proven else (f"; a passage whose free bubbles all have radius below {r_min:.3g} (clearance less than about "
                              f"{r_min * factor:.2g} m above delta) stays closed to this search; the [planner] option stall = 0 "
                              "searches until the time budget ends")
-                else:  # a budget ended it: whether they were still coming closer tells whether more could help
+                elif not proven:  # a budget ended it: whether they were still coming closer tells whether more could help
                     tail += f"{finer.replace(',', ';', 1)}; they last came r_min / 2 closer at iteration {it_then:,} of {total:,}"
                     if outcome == "time budget" and o.stall and total - since < max(window, since - it_level):
                         rule = f"{max(window, since - it_level):,} iterations without coming r_min / 2 closer"
