@@ -66,6 +66,9 @@ FIGURE_DPI = 150
 #: The largest --dpi: a 10 x 8 inch figure at 600 dpi is 29 million pixels (about 115 MB to draw); 100,000 dpi ended in
 #: a MemoryError.
 FIGURE_MAX_DPI = 600
+#: The smallest --dpi: below it the figures' 8 pt legend text is under a pixel high, and FreeType refused to size it
+#: ('invalid ppem value', an internal error at 6 dpi and below).
+FIGURE_MIN_DPI = 10
 
 
 def cmd_scenes(args: argparse.Namespace) -> int:
@@ -234,7 +237,7 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--format", nargs="+", choices=FIGURE_FORMATS, default=["png"], dest="formats",
                    help="figure file formats, one or more of png, svg, pdf (default: png)")
     p.add_argument("--paths", nargs="+", metavar="NAME", default=None, help="only these paths (default: all in the result)")
-    p.add_argument("--dpi", type=whole_number, default=FIGURE_DPI, metavar="N", help=f"resolution of PNG files, at most {FIGURE_MAX_DPI} (default {FIGURE_DPI})")
+    p.add_argument("--dpi", type=whole_number, default=FIGURE_DPI, metavar="N", help=f"resolution of PNG files, {FIGURE_MIN_DPI} to {FIGURE_MAX_DPI} (default {FIGURE_DPI})")
     p.set_defaults(func=_cmd_figures)
     return p
 

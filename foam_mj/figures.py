@@ -51,7 +51,7 @@ from typing import Any, Sequence
 import mujoco
 import numpy as np
 
-from foam_mj.cli import FIGURE_DPI, FIGURE_FORMATS, FIGURE_MAX_DPI, add_figures_parser
+from foam_mj.cli import FIGURE_DPI, FIGURE_FORMATS, FIGURE_MAX_DPI, FIGURE_MIN_DPI, add_figures_parser
 from foam_mj.atomic import atomic_path
 from foam_mj.errors import FoamError
 from foam_mj.figure_data import (
@@ -504,9 +504,9 @@ def write_figures(doc, out_dir, formats: Sequence[str] = ("png",), paths: Sequen
 
     Raises :class:`~foam_mj.errors.FoamError` when matplotlib is missing, the document is malformed, a
     format or path name is unknown, or the folder cannot be written."""
-    if not (isinstance(dpi, (int, np.integer)) and not isinstance(dpi, bool) and 0 < dpi <= FIGURE_MAX_DPI):
+    if not (isinstance(dpi, (int, np.integer)) and not isinstance(dpi, bool) and FIGURE_MIN_DPI <= dpi <= FIGURE_MAX_DPI):
         # NaN, inf, 1.5 or True reached matplotlib: a ValueError, an OverflowError, FreeType's "invalid ppem value"
-        raise FoamError(f"`dpi` (--dpi) must be an integer in [1, {FIGURE_MAX_DPI}], got {dpi!r}")
+        raise FoamError(f"`dpi` (--dpi) must be an integer in [{FIGURE_MIN_DPI}, {FIGURE_MAX_DPI}], got {dpi!r}")
     if isinstance(paths, str):  # one name, not its letters
         paths = (paths,)
     mpl = _matplotlib()
@@ -559,8 +559,8 @@ def cmd_figures(args: argparse.Namespace) -> int:
 
     from foam_mj.atomic import check_output_dir
 
-    if not 0 < args.dpi <= FIGURE_MAX_DPI:  # before the folder is made (write_figures checks it too)
-        raise FoamError(f"--dpi must be in [1, {FIGURE_MAX_DPI}], got {args.dpi}")
+    if not FIGURE_MIN_DPI <= args.dpi <= FIGURE_MAX_DPI:  # before the folder is made (write_figures checks it too)
+        raise FoamError(f"--dpi must be in [{FIGURE_MIN_DPI}, {FIGURE_MAX_DPI}], got {args.dpi}")
     check_output_dir(args.out_dir, "DIR")
     doc = read_result(args.result)
     for p in write_figures(doc, args.out_dir, formats=args.formats, paths=args.paths, dpi=args.dpi):

@@ -160,7 +160,7 @@ def test_bad_requests_are_foam_errors(planned, tmp_path):
     with pytest.raises(FoamError, match="times for"):
         write_figures(bad, tmp_path / "bad")
     for dpi in (float("nan"), float("inf"), 1.5, True, 0, 601, None):  # were matplotlib's ValueError, OverflowError,
-        with pytest.raises(FoamError, match=r"`dpi` \(--dpi\) must be an integer in \[1, 600\]"):  # FreeType's error
+        with pytest.raises(FoamError, match=r"`dpi` \(--dpi\) must be an integer in \[10, 600\]"):  # FreeType's error
             write_figures(planned, tmp_path / "dpi", dpi=dpi)
     assert not (tmp_path / "dpi").exists()
     with pytest.raises(FoamError, match=r"no path named \['nope'\]"):  # one name, not ['n', 'o', 'p', 'e']
@@ -242,15 +242,17 @@ def test_cli_entry_point(planned, tmp_path, capsys):
     assert "result file not found" in capsys.readouterr().err
 
 
-def test_a_dpi_beyond_600_or_below_1_is_refused_before_any_drawing(planned, tmp_path, capsys):
-    """--dpi 100000 ended in a MemoryError (exit 1) after creating the output folder."""
+def test_a_dpi_beyond_600_or_below_10_is_refused_before_any_drawing(planned, tmp_path, capsys):
+    """--dpi 100000 ended in a MemoryError (exit 1) after creating the output folder; --dpi 1 to 6 in FreeType's
+    'invalid ppem value' (exit 1, an empty folder left): an 8 pt legend is under a pixel high. The lowest, 10, draws."""
     result = tmp_path / "r.json"
     result.write_text(json.dumps(planned))
-    for dpi in ("0", "601", "100000"):
+    for dpi in ("0", "1", "6", "9", "601", "100000"):
         assert figures.main([str(result), str(tmp_path / "out"), "--dpi", dpi]) == 2
         err = capsys.readouterr().err
-        assert err.strip() == f"foam-mj: error: --dpi must be in [1, 600], got {dpi}"
+        assert err.strip() == f"foam-mj: error: --dpi must be in [10, 600], got {dpi}"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
+    assert figures.main([str(result), str(tmp_path / "out"), "--dpi", "10"]) == 0 and any((tmp_path / "out").iterdir())
 
 
 def test_missing_matplotlib_says_how_to_install(planned, tmp_path, monkeypatch, capsys):
