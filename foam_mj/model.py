@@ -257,8 +257,10 @@ class RobotModel:
         if robot_root is not None:
             root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, robot_root)
             if root < 0:
-                known = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, m.nbody)]
-                raise ModelError(f"{p}: robot_root {unknown_names([robot_root], known)} is not a body of the model (bodies: {known})")
+                names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, m.nbody)]
+                known = [name for name in names if name]  # an unnamed body was listed as None
+                unnamed = f"; {len(names) - len(known)} unnamed: name the root in the MJCF" if len(known) < len(names) else ""
+                raise ModelError(f"{p}: robot_root {unknown_names([robot_root], known)} is not a body of the model (bodies: {known}{unnamed})")
         by_default = joints is None and _custom_text(m, CONFIGURATION_FIELD) is None  # every limited hinge/slide
         if root is not None and by_default:
             in_root = body_subtree(m, root)

@@ -379,3 +379,16 @@ def test_a_pan_only_arm_whose_one_pair_no_joint_changes_is_refused_naming_that_p
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "no robot geom can collide with any obstacle geom" in err
     assert "no configuration joint moves the geoms of a pair: g1 / base -0.0280 m, whose distance no configuration joint changes)" in err
+
+
+def test_an_unknown_robot_root_lists_the_named_bodies_and_counts_the_unnamed(tmp_path, capsys):
+    """`--robot-root nope` on an MJCF whose bodies have no names listed them as "(bodies: [None])"."""
+    xml = tmp_path / "arm.xml"
+    xml.write_text('<mujoco><worldbody><geom type="sphere" pos="0.3 0 0" size="0.05"/><body name="upper"><joint type="hinge" '
+                   'axis="0 0 1" range="-170 170"/><geom type="capsule" fromto="0.05 0 0 0.2 0 0" size="0.02"/><body pos="0.2 0 0">'
+                   '<joint type="hinge" axis="0 0 1" range="-90 90"/><geom type="capsule" fromto="0.05 0 0 0.2 0 0" size="0.02"/>'
+                   '</body></body></worldbody></mujoco>')
+    assert main(["plan", "--mjcf", str(xml), "--robot-root", "nope", "--start", "-1 0", "--goal", "-2 0", "--no-rrd"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("robot_root 'nope' is not a body of the model (bodies: ['upper']; 1 unnamed: name the root in the MJCF)"), err
+    assert "None" not in err and list(tmp_path.iterdir()) == [xml]
