@@ -161,3 +161,16 @@ def unknown_names(unknown: Iterable[str], known: Iterable[str], elsewhere: dict[
                 text += f" (did you mean {close[0]!r}?)"
         parts.append(text)
     return ", ".join(parts)
+
+
+def text_problem(exc: OSError | UnicodeDecodeError) -> str:
+    """Why a text file could not be read, for "PATH: cannot read: ..." or "PATH: ...": a file saved as UTF-16 (a
+    Windows editor's "Unicode") is named as such with what to do, any other byte that is not UTF-8 by its place;
+    Python's "'utf-8' codec can't decode byte 0xff in position 0" said neither."""
+    if not isinstance(exc, UnicodeDecodeError):
+        return exc.strerror or str(exc)
+    head = bytes(exc.object[:2])
+    for bom, order in ((b"\xff\xfe", "little-endian"), (b"\xfe\xff", "big-endian")):
+        if head == bom:
+            return f"the file is UTF-16 text ({order}); save it as UTF-8"
+    return f"not UTF-8 text: byte 0x{exc.object[exc.start]:02x} at offset {exc.start} ({exc.reason}); save it as UTF-8"

@@ -83,7 +83,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.atomic import atomic_write_text
-from foam_mj.errors import FoamError, foreign_file_hint, only_numbers
+from foam_mj.errors import FoamError, foreign_file_hint, only_numbers, text_problem
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 FORMAT = "foam-mj/result"
@@ -274,7 +274,9 @@ def read_result(path: str | Path) -> dict:
     except FileNotFoundError:
         raise FoamError(f"result file not found: {p}") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise FoamError(f"{p}: not a readable JSON result{foreign_file_hint(p)}: {exc}") from None
+        hint = foreign_file_hint(p)
+        why = text_problem(exc) if isinstance(exc, UnicodeDecodeError) and not hint else exc
+        raise FoamError(f"{p}: not a readable JSON result{hint}: {why}") from None
     except RecursionError:  # arrays nested thousands deep: an internal error (exit 1)
         raise FoamError(f"{p}: not a readable JSON result: nested too deeply to read") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:

@@ -76,7 +76,7 @@ import numpy as np
 from foam_mj.bubbles import BubbleOracle, distance_cap
 from foam_mj.data import models_dir, scenarios_dir
 from foam_mj.clearance import Clearance
-from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioError, clearance_text, file_problem, file_problem_text, is_number, unknown_names
+from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioError, clearance_text, file_problem, file_problem_text, is_number, text_problem, unknown_names
 from foam_mj.geom_pairs import REVOLUTION as _REVOLUTION
 from foam_mj.foam import check_candidate_bound
 from foam_mj.model import RobotModel
@@ -345,7 +345,9 @@ def read_scenario_doc(name_or_path: str | Path) -> tuple[dict, Path]:
         raise ScenarioError(f"{path}: malformed TOML: {exc}") from None
     except RecursionError:  # arrays nested thousands deep: an internal error (exit 1)
         raise ScenarioError(f"{path}: malformed TOML: nested too deeply to read") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{path}: {text_problem(exc)}") from None
+    except OSError as exc:
         raise ScenarioError(f"{path}: cannot read: {exc}") from None
 
 

@@ -8,7 +8,7 @@ import math
 import tomllib
 from pathlib import Path
 
-from foam_mj.errors import FoamError, ScenarioError, file_problem_text, unknown_names
+from foam_mj.errors import FoamError, ScenarioError, file_problem_text, text_problem, unknown_names
 from foam_mj.fingerprint import model_fingerprint
 from foam_mj.sweep import (
     MAX_TASKS,
@@ -45,7 +45,9 @@ def load_sweep(path: str | Path) -> Sweep:
         raise SweepError(f"{path}: malformed TOML: {exc}") from None
     except RecursionError:  # arrays nested thousands deep: an internal error (exit 1)
         raise SweepError(f"{path}: malformed TOML: nested too deeply to read") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        raise SweepError(f"{path}: {text_problem(exc)}") from None
+    except OSError as exc:
         raise SweepError(f"{path}: cannot read: {exc}") from None
     where = str(path)
     unknown = set(raw) - _TOP_FIELDS

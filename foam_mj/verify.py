@@ -40,7 +40,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.errors import FoamError, file_problem, foreign_file_hint, is_number, only_numbers
+from foam_mj.errors import FoamError, file_problem, foreign_file_hint, is_number, only_numbers, text_problem
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 #: The most samples of one polyline (a path's waypoints or its qpos rows): --step 1e-3, the default, takes a few
@@ -103,7 +103,9 @@ def _load(source: Path) -> dict:
     except FileNotFoundError:
         raise FoamError(f"result file not found: {source}") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise _fail(source, f"not a readable JSON result{foreign_file_hint(source)}: {' '.join(str(exc).split())}") from None
+        hint = foreign_file_hint(source)
+        why = text_problem(exc) if isinstance(exc, UnicodeDecodeError) and not hint else " ".join(str(exc).split())
+        raise _fail(source, f"not a readable JSON result{hint}: {why}") from None
     except RecursionError:  # arrays nested thousands deep: an internal error (exit 1)
         raise _fail(source, "not a readable JSON result: nested too deeply to read") from None
     if not isinstance(doc, dict) or doc.get("format") != "foam-mj/result":

@@ -1131,3 +1131,21 @@ def test_a_result_whose_saved_trajectory_was_edited_is_refused_by_replay_and_exp
         assert list(tmp_path.iterdir()) == []
     finally:
         bad.unlink()
+
+
+@pytest.mark.parametrize("bom, words", [(b"\xff\xfe", "UTF-16 (little-endian)"), (b"\xfe\xff", "UTF-16 (big-endian)")])
+def test_a_file_saved_as_utf16_is_named_as_such_by_every_reader(planned_result, tmp_path, bom, words, capsys):
+    """A scenario, sweep file or result saved as UTF-16 (Windows editors' 'Unicode') got Python's words: "cannot read:
+    'utf-8' codec can't decode byte 0xff in position 0: invalid start byte". It is now named: one line, exit 2."""
+    enc = "utf-16-le" if bom == b"\xff\xfe" else "utf-16-be"
+    files = {"scenario": tmp_path / "s.toml", "sweep": tmp_path / "w.toml", "result": tmp_path / "r.json"}
+    files["scenario"].write_bytes(bom + (ROOT / "scenarios" / "obstacle.toml").read_text().encode(enc))
+    files["sweep"].write_bytes(bom + 'scenario = "obstacle"\nseeds = 1\n'.encode(enc))
+    files["result"].write_bytes(bom + planned_result.read_text().encode(enc))
+    expected = f"is UTF-16 text ({words.split('(')[1]}; save it as UTF-8"
+    for argv in (["plan", "--scene", str(files["scenario"]), "--no-rrd"], ["sweep", str(files["sweep"]), "--out", str(tmp_path / "o")],
+                 ["verify", str(files["result"])], ["replay", str(files["result"])], ["export", str(files["result"]), "--out", str(tmp_path / "t.csv")]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and expected in err and "codec" not in err, (argv, err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json", "s.toml", "w.toml"]

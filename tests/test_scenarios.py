@@ -165,7 +165,7 @@ def test_a_scenario_saved_with_a_byte_order_mark_loads_and_one_in_latin_1_is_nam
     p.write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
     assert load_scenario(p).description == "stépping"
     p.write_bytes(text.encode("latin-1"))
-    with pytest.raises(ScenarioError, match="s.toml: cannot read: 'utf-8' codec can't decode byte 0xe9"):
+    with pytest.raises(ScenarioError, match=r"s.toml: not UTF-8 text: byte 0xe9 at offset \d+ \(invalid continuation byte\); save it as UTF-8"):
         load_scenario(p)
 
 
