@@ -169,6 +169,8 @@ def load(out: str | Path) -> tuple[dict, Any]:
 
     out = Path(out)
     if not os.path.isdir(out):  # never raises (Path.is_dir raised OSError for a name too long on Python 3.11)
+        if os.path.lexists(out):  # was "sweep folder not found" for a file that is there
+            raise FoamError(f"{out} is a file, not a sweep folder (the --out folder of foam-mj sweep)")
         raise FoamError(f"sweep folder not found: {out}")
     manifest = read_manifest(out)
     if manifest is None:

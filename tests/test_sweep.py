@@ -1184,3 +1184,15 @@ def test_the_readme_query_counts_success_over_the_valid_plans_as_the_report_does
     monkeypatch.chdir(tmp_path)
     query = re.findall(r"```sql\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)[0]
     assert [(r[2], r[-1]) for r in duckdb.sql(query).fetchall()] == [(1.0, 3), (1.0, 3)]  # success, plans
+
+
+def test_report_on_a_file_or_a_missing_folder_says_which(tmp_path, capsys):
+    """`foam-mj report result.json` said 'sweep folder not found: result.json' of a file that is there."""
+    result = tmp_path / "result.json"
+    result.write_text("{}")
+    for given, words in ((result, f"{result} is a file, not a sweep folder (the --out folder of foam-mj sweep)"),
+                         (tmp_path / "missing", f"sweep folder not found: {tmp_path / 'missing'}")):
+        assert main(["report", str(given)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err == f"foam-mj: error: {words}", err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["result.json"]
