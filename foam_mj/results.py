@@ -334,7 +334,8 @@ def check_saved_trajectory(source, name: str, entry: dict, trajectory, robot) ->
     if "times" not in entry or "qpos" not in entry:
         return
     where = f"{source}: path '{name}'"
-    hint = "replay and export rebuild it from the waypoints, verify checks the saved rows; restore them or plan again"
+    hint = ("replay and export rebuild it from the waypoints under the result's 'limits' and 'time_law', verify checks "
+            "the saved rows; restore them or plan again")
     try:
         times, qpos = np.asarray(entry["times"], float), np.asarray(entry["qpos"], float)
     except (TypeError, ValueError):
@@ -352,7 +353,10 @@ def check_saved_trajectory(source, name: str, entry: dict, trajectory, robot) ->
         if len(bad):
             i = int(bad[0])
             j = int(np.argmax(np.where(np.isnan(off[i]), np.inf, off[i])))
-            what = f"it differs by {off[i, j]:.3g} s" if key == "times" else f"{names[j]} differs by {off[i, j]:.3g}"
+            if not np.isfinite(saved[i, j]):
+                what = f"{'its time' if key == 'times' else names[j]} is {saved[i, j]}"
+            else:
+                what = f"it differs by {off[i, j]:.3g} s" if key == "times" else f"{names[j]} differs by {off[i, j]:.3g}"
             raise FoamError(f"{where}: {key} row {i} (t = {trajectory.times[i]:.4g} s) is not the trajectory its "
                             f"waypoints give ({what}): {hint}")
 
@@ -457,7 +461,10 @@ def outcome_from_result(doc: dict, source: str | Path, dynamic: bool = True, rep
         time_law = doc.get("time_law") or "own"
         if time_law not in METHODS:
             raise FoamError(f"{source}: field 'time_law' must be one of {list(METHODS)}, got {time_law!r}")
-        params = PlannerConfig.from_dict(doc["planner"])  # results written before the seam were pfm's
+        try:
+            params = PlannerConfig.from_dict(doc["planner"])  # results written before the seam were pfm's
+        except ValueError as exc:  # a PlannerError too: "unknown planner 'x'" named neither the file nor the field
+            raise FoamError(f"{source}: field 'planner': {exc}") from None
         scenario = Scenario(
             doc.get("scenario", "result"), "", resolve_model(doc, source), np.asarray(doc["q_init"], float), np.asarray(doc["q_goal"], float), params, int(doc.get("seed", 0)), Path(source),
             **robot_options(doc, source),  # the robot it was planned as: a keyframe's pose of the other joints, its root, its pairs

@@ -1115,6 +1115,8 @@ def test_a_result_that_starts_with_a_byte_order_mark_is_read_by_every_command(pl
      "path 'optimal': 'qpos' has 471 rows, the trajectory its waypoints give 474"),
     (lambda p: p["times"].__setitem__(10, p["times"][10] + 0.001),
      "path 'optimal': times row 10 (t = 0.02 s) is not the trajectory its waypoints give (it differs by 0.001 s)"),
+    (lambda p: p["times"].__setitem__(3, float("nan")), "path 'optimal': times row 3 (t = 0.006 s) is not the trajectory its "
+     "waypoints give (its time is nan): replay and export rebuild it from the waypoints under the result's 'limits' and 'time_law'"),
 ])
 def test_a_result_whose_saved_trajectory_was_edited_is_refused_by_replay_and_export(planned_result, tmp_path, edit, words, capsys):
     """replay and export rebuild each trajectory from the path's waypoints, as plan made it; verify checks the saved
@@ -1149,3 +1151,12 @@ def test_a_file_saved_as_utf16_is_named_as_such_by_every_reader(planned_result, 
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and expected in err and "codec" not in err, (argv, err)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json", "s.toml", "w.toml"]
+
+
+def test_replay_names_the_file_and_field_of_an_unknown_planner(planned_result, tmp_path, capsys):
+    """replay of a result whose planner.algorithm is unknown said "unknown planner 'nope'; known planners: ...", naming
+    neither the file nor the field (export and figures do not need the planner and go on)."""
+    bad = _edited(planned_result, tmp_path, lambda d: d["planner"].update(algorithm="nope"))
+    assert main(["replay", str(bad), "--kinematic-only"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"foam-mj: error: {bad}: field 'planner': unknown planner 'nope'; known planners: ") and len(err.splitlines()) == 1
