@@ -139,18 +139,37 @@ def _read_paths(doc: dict, robot: RobotModel, names: Sequence[str] | None) -> li
             label = str(e["label"])
         smoother = e.get("smoother") if isinstance(e.get("smoother"), dict) else {}
         objective = smoother.get("objective") or (conv or {}).get("objective")
-        ros = _rosary_arrays(e.get("rosary"))
+        ros = _rosary_arrays(e.get("rosary"), f"path '{name}': field 'rosary'")
         out.append(_Path(name, label, colour, w, qpos, times, conv, dict(e.get("metrics") or {}),
                          None if objective is None else str(objective), ros))
     return out
 
 
-def _rosary_arrays(ros) -> tuple[np.ndarray, np.ndarray] | None:
+def foam_arrays(doc: dict) -> tuple[np.ndarray, np.ndarray] | None:
+    """The result's foam, (centers, radii), or None when it has none; FoamError for rows that are not q's width or
+    numbers that are not finite (an infinite centre was matplotlib's "Axis limits cannot be infinite", exit 1)."""
+    foam = doc.get("foam")
+    if not isinstance(foam, dict) or not foam.get("centers"):
+        return None
+    try:
+        c, r = np.asarray(foam["centers"], dtype=float), np.asarray(foam.get("radii"), dtype=float)
+    except (TypeError, ValueError):
+        raise FoamError("field 'foam': centers and radii must be numbers") from None
+    if c.ndim != 2 or c.shape[1] != len(doc["q_init"]) or r.shape != (len(c),):
+        raise FoamError(f"field 'foam': {r.size} radii for centers of shape {c.shape}; expected one radius per centre of {len(doc['q_init'])} numbers")
+    if not (np.all(np.isfinite(c)) and np.all(np.isfinite(r)) and np.all(r > 0)):
+        raise FoamError("field 'foam': centers must be finite numbers and radii finite numbers > 0")
+    return c, r
+
+
+def _rosary_arrays(ros, where: str = "field 'rosary'") -> tuple[np.ndarray, np.ndarray] | None:
     if not isinstance(ros, dict) or not ros.get("centers") or ros.get("radii") is None:
         return None
     c, r = np.asarray(ros["centers"], dtype=float), np.asarray(ros["radii"], dtype=float)
     if c.ndim != 2 or r.shape != (len(c),):
         raise FoamError(f"a rosary has {len(r)} radii for centers of shape {c.shape}")
+    if not (np.all(np.isfinite(c)) and np.all(np.isfinite(r)) and np.all(r > 0)):  # NaN was matplotlib's ValueError (exit 1)
+        raise FoamError(f"{where}: centers must be finite numbers and radii finite numbers > 0")
     return c, r
 
 

@@ -68,6 +68,7 @@ from foam_mj.figure_data import (
     _joint_labels,
     _read_paths,
     _rosary_groups,
+    foam_arrays,
     _sample_qpos,
     path_style,
 )
@@ -149,11 +150,10 @@ def _set_box_aspect_equal(ax, points: np.ndarray) -> None:
 
 def _fig_foam(mpl, doc, labels) -> Any | None:
     _, Figure, _, _, art3d = mpl
-    foam = doc.get("foam")
-    if not foam or not foam.get("centers"):
+    foam, arrays = doc.get("foam"), foam_arrays(doc)
+    if arrays is None:
         return None
-    c = np.asarray(foam["centers"], dtype=float)
-    r = np.asarray(foam["radii"], dtype=float)
+    c, r = arrays
     q0, q1 = np.asarray(doc.get("q_init"), dtype=float), np.asarray(doc.get("q_goal"), dtype=float)
     fig = Figure(figsize=(6.4, 5.4), layout="constrained")
     if c.shape[1] == 1:
@@ -520,6 +520,8 @@ def write_figures(doc, out_dir, formats: Sequence[str] = ("png",), paths: Sequen
         raise FoamError(f"figure folder {out} is a file")
     robot = RobotModel.from_xml(doc["mjcf"])
     sel = _read_paths(doc, robot, paths)   # an unknown path name is refused before the folder is made
+    foam_arrays(doc)  # and a foam or a rosary of numbers that cannot be drawn
+    groups = _rosary_groups(doc, sel)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -527,7 +529,6 @@ def write_figures(doc, out_dir, formats: Sequence[str] = ("png",), paths: Sequen
     labels = _coord_labels(robot)
     matplotlib = mpl[0]
     written: list[Path] = []
-    groups = _rosary_groups(doc, sel)
     with matplotlib.rc_context(_RC):
         makers = [
             ("foam", lambda: _fig_foam(mpl, doc, labels)),

@@ -408,3 +408,23 @@ def test_a_one_joint_robots_rosary_draws_the_joint_against_the_path_parameter(tm
     foam = figures._fig_foam(mpl, doc, labels).axes[0]
     assert foam.get_xlabel() == labels[0] and "radius" in foam.get_ylabel()
     assert foam.get_ylim()[1] >= max(doc["foam"]["radii"])
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda d: d["paths"]["centre"]["rosary"]["radii"].__setitem__(0, float("nan")), "path 'centre': field 'rosary': centers must be finite"),
+    (lambda d: d["rosary"]["radii"].__setitem__(2, -1.0), "field 'rosary': centers must be finite numbers and radii finite numbers > 0"),
+    (lambda d: d["foam"]["centers"][5].__setitem__(0, float("inf")), "field 'foam': centers must be finite numbers and radii finite numbers > 0"),
+    (lambda d: d["foam"]["radii"].__setitem__(5, float("nan")), "field 'foam': centers must be finite numbers and radii finite numbers > 0"),
+])
+def test_a_foam_or_rosary_that_cannot_be_drawn_is_refused_before_the_folder_is_made(planned, tmp_path, edit, words, capsys):
+    """A NaN rosary radius was matplotlib's 'Axis limits cannot be NaN or Inf' (exit 1) and an infinite foam centre
+    'Axis limits -inf, inf cannot be infinite' (exit 1), each after creating the folder; a NaN foam radius was drawn
+    without a word. Each is one line, exit 2, and no folder."""
+    bad = copy.deepcopy(planned)
+    edit(bad)
+    result = tmp_path / "r.json"
+    result.write_text(json.dumps(bad))
+    assert figures.main([str(result), str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and words in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
