@@ -5,6 +5,7 @@ style (the thesis's colours for its four paths: Nascimento and Alsina 2021 Fig. 
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -258,3 +259,22 @@ def _joint_labels(robot: RobotModel) -> list[tuple[str, str, str]]:
             nice = f"{nice} (${_SYMBOLS[name]}$)" if hinge else nice
         out.append((nice, "rad" if hinge else "m", "rad/s" if hinge else "m/s"))
     return out
+
+
+#: The names of the figures foam-mj draws (module foam_mj.figures), for the note on those an earlier run left in a folder.
+_FIGURE_NAME = re.compile(r"(foam|rosary(_\w+)?|paths|strobe|convergence|joints|map)\.(png|svg|pdf)")
+
+
+def stale_figures_note(folder, written) -> str | None:
+    """A note naming the figure files in ``folder`` that this run did not write (``written``): an earlier run's, of
+    another result or other --paths, which the folder would otherwise show beside this run's without a word."""
+    try:
+        here = {p.name for p in Path(folder).iterdir() if _FIGURE_NAME.fullmatch(p.name)}
+    except OSError:
+        return None
+    stale = sorted(here - {Path(p).name for p in written})
+    if not stale:
+        return None
+    return (f"note: {folder} also holds {len(stale)} figure(s) this run did not draw, left by an earlier run: "
+            f"{', '.join(stale[:8])}{', ...' if len(stale) > 8 else ''} (remove them, or draw into an empty folder)")
+

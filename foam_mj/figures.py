@@ -69,6 +69,7 @@ from foam_mj.figure_data import (
     _read_paths,
     _rosary_groups,
     foam_arrays,
+    stale_figures_note,
     _sample_qpos,
     path_style,
 )
@@ -564,8 +565,12 @@ def cmd_figures(args: argparse.Namespace) -> int:
         raise FoamError(f"--dpi must be in [{FIGURE_MIN_DPI}, {FIGURE_MAX_DPI}], got {args.dpi}")
     check_output_dir(args.out_dir, "DIR")
     doc = read_result(args.result)
-    for p in write_figures(doc, args.out_dir, formats=args.formats, paths=args.paths, dpi=args.dpi):
+    written = write_figures(doc, args.out_dir, formats=args.formats, paths=args.paths, dpi=args.dpi)
+    for p in written:
         print(f"wrote {p}")
+    note = stale_figures_note(args.out_dir, written)  # an earlier run's figures, shown beside these without a word
+    if note:
+        print(note)
     return 0
 
 

@@ -437,6 +437,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
         write_outcome(json_out, outcome)
         print(f"wrote {json_out}")
     if figures_dir is not None:
+        from foam_mj.figure_data import stale_figures_note
         from foam_mj.figures import write_figures
         from foam_mj.results import outcome_dict
 
@@ -444,6 +445,9 @@ def _plan(args: argparse.Namespace, recorder) -> int:
         written = write_figures(outcome_dict(outcome), figures_dir, formats=tuple(args.figure_format or ["png"]))
         progress.done()
         print(f"wrote {len(written)} figures to {figures_dir}")
+        note = stale_figures_note(figures_dir, written)
+        if note:
+            print(note)
     print(f"total {time.perf_counter() - t0:.2f} s")
     below = below_margin(outcome, scenario.params.delta)
     if below:  # every returned path is certified: this is a fault of ours, and it must not pass as a success

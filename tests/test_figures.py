@@ -428,3 +428,22 @@ def test_a_foam_or_rosary_that_cannot_be_drawn_is_refused_before_the_folder_is_m
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and words in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
+
+
+def test_figures_an_earlier_run_left_in_the_folder_are_named(planned, tmp_path, capsys):
+    """Figures of a `--smoother all` result (rosary_adjusted.png, convergence.png), then of a default one into the same
+    folder: the first run's were left beside the second's without a word, and the folder looked like one result's. The
+    second run names them (stdout) and leaves them; the user's own files are not named."""
+    result = tmp_path / "r.json"
+    result.write_text(json.dumps(planned))
+    out = tmp_path / "figs"
+    out.mkdir()
+    for name in ("rosary_adjusted.png", "convergence.svg", "notes.png"):  # the earlier run's two, and the user's own
+        (out / name).write_bytes(b"x")
+    assert figures.main([str(result), str(out)]) == 0
+    text = capsys.readouterr().out
+    assert (f"note: {out} also holds 2 figure(s) this run did not draw, left by an earlier run: convergence.svg, "
+            "rosary_adjusted.png (remove them, or draw into an empty folder)") in text, text
+    assert (out / "convergence.svg").exists() and "notes.png" not in text
+    assert figures.main([str(result), str(out), "--paths", "centre"]) == 0
+    assert "note:" in capsys.readouterr().out  # still there: named again
