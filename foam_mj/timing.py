@@ -67,7 +67,7 @@ from foam_mj.model import RobotModel
 from foam_mj.path_kinematics import PathKinematics
 from foam_mj.rosary import Rosary, in_ball
 from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError, in_box
-from foam_mj.trajectory import JointLimits, Trajectory, _motion, make_trajectory, row_acceleration_cap
+from foam_mj.trajectory import JointLimits, Trajectory, TrajectoryTooLong, _motion, make_trajectory, row_acceleration_cap, whole_steps
 
 #: Time laws accepted by :func:`retime` / :func:`timed_trajectory`.
 METHODS = ("toppra", "own")
@@ -341,6 +341,7 @@ def _speed_bound(kin: PathKinematics, grid: np.ndarray, vmax: np.ndarray) -> np.
 
 # -- sampling a time law on the curve ----------------------------------------------------------------------------
 def _sample(robot: RobotModel, rosary: Rosary, curve: SafeCurve, law, duration: float, dt: float, waypoint_times) -> Trajectory:
+    whole_steps(duration, dt)  # past MAX_STEPS: TrajectoryTooLong
     steps = max(1, int(round(duration / dt)))
     times = np.arange(steps + 1) * dt
     q, qd, qdd, u = _motion(curve, law, times / times[-1], times[-1])
@@ -365,10 +366,6 @@ def _peaks(robot: RobotModel, traj: Trajectory) -> tuple[np.ndarray, np.ndarray,
     dof = robot.model.jnt_dofadr[robot.config.joint_ids]
     tau = inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]
     return np.abs(traj.qvel[:, dof]).max(axis=0), np.abs(traj.qacc[:, dof]).max(axis=0), np.abs(tau).max(axis=0)
-
-
-def _whole_steps(duration: float, dt: float) -> float:
-    return max(1, int(np.ceil(duration / dt - 1e-9))) * dt
 
 
 def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Trajectory:
@@ -406,7 +403,7 @@ def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Tra
             free = _toppra_law(kin, vmax, amax, np.full_like(tmax, np.inf))
             if law.native > MAX_SLOWDOWN * free.native:
                 _report_slowdown(robot, kin, law, free, tmax)
-        T = _whole_steps(law.native, dt)
+        T = whole_steps(law.native, dt) * dt
         law = PathTiming(law.s, law.sd, law.sdd, law.t, T)
         traj = _sample(robot, rosary, curve, law, T, dt, law.time_at(curve.knots)[knots_of_points])
         pv, pa, pt = _peaks(robot, traj)
@@ -492,7 +489,7 @@ def _stretch_to_limits(robot, rosary, curve, law: PathTiming, vmax, amax, tmax, 
             gl, lim = g[:, limited], L[limited] * (1 - A_MARGIN)  # aimed inside: the samples fall elsewhere on the curve
             x_tau = float(np.min(np.minimum(_smallest_positive_root(R, D, gl - lim), _smallest_positive_root(R, D, gl + lim)), initial=1.0))
         lam = max(1.0, float((qd / vmax).max()), float(np.sqrt((qdd / amax).max())), 1.0 / x_tau)
-        T = _whole_steps(law.duration * lam * (1 + 1e-3), dt)
+        T = whole_steps(law.duration * lam * (1 + 1e-3), dt) * dt
         if T > MAX_SLOWDOWN * law.native:
             return None
         law = PathTiming(law.s, law.sd, law.sdd, law.t, T)
@@ -521,7 +518,7 @@ def _retime_own(robot, rosary, base: Trajectory, tmax, dt) -> Trajectory:
             _report_margin(robot, PathKinematics(robot, base.curve), tmax,
                            f"the smooth timing would take {T0 / x_max:.1f} s, over {MAX_SLOWDOWN:g} times its "
                            f"{T0:.2f} s without torque limits")
-        T = _whole_steps(T0 / x_max, dt)
+        T = whole_steps(T0 / x_max, dt) * dt
         law = type(base.time_law)(base.time_law.grid, base.time_law.weight, T)
         traj = _sample(robot, rosary, base.curve, law, T, dt, base.waypoint_times * T / T0)
     raise TimingInfeasible("the stretched time law still exceeds the torque limits")  # pragma: no cover
@@ -588,8 +585,11 @@ def timed_trajectory(robot: RobotModel, path, rosary: Rosary, limits: Limits | J
     """The safe curve through ``path`` (:func:`make_trajectory`) timed under velocity, acceleration and
     torque ``limits`` by ``method``."""
     lim = as_limits(limits)
-    base = make_trajectory(robot, path, rosary, lim.joint_limits(robot), dt)
-    return retime(robot, base, rosary, lim, method, dt)
+    try:
+        base = make_trajectory(robot, path, rosary, lim.joint_limits(robot), dt)
+        return retime(robot, base, rosary, lim, method, dt)
+    except TrajectoryTooLong as exc:
+        raise TimingInfeasible(str(exc)) from None
 
 
 def time_path(robot: RobotModel, name: str, path, rosary: Rosary, limits: Limits, time_law: str = DEFAULT_METHOD) -> Trajectory:

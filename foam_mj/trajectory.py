@@ -349,6 +349,28 @@ class Trajectory:
         return _motion(self.curve, self.time_law, tau, self.duration)[:3]
 
 
+#: The most timesteps one timed trajectory may have: 2,000,000 (4,000 s at MuJoCo's default 2 ms; its samples are a few
+#: hundred MB). Limits asking for a longer motion were internal errors: [limits] velocity = 1e-6 a MemoryError,
+#: 1e-300 an OverflowError (an infinite duration).
+MAX_STEPS = 2_000_000
+
+
+class TrajectoryTooLong(ValueError):
+    """A timing needs more than :data:`MAX_STEPS` timesteps; ``duration`` in seconds (may be inf)."""
+
+    def __init__(self, duration: float, dt: float) -> None:
+        super().__init__(f"its timing under these limits lasts {duration:.3g} s, {duration / dt:,.3g} timesteps of {dt:g} s: "
+                         f"more than the {MAX_STEPS:,} a trajectory may have")
+        self.duration = duration
+
+
+def whole_steps(duration: float, dt: float) -> int:
+    """The timesteps of a motion of ``duration`` (rounded up, at least 1); :class:`TrajectoryTooLong` past MAX_STEPS."""
+    if not duration / dt <= MAX_STEPS:  # inf and NaN too
+        raise TrajectoryTooLong(duration, dt)
+    return max(1, int(np.ceil(duration / dt - 1e-9)))
+
+
 def make_trajectory(
     robot: RobotModel,
     path,
@@ -381,7 +403,7 @@ def make_trajectory(
         law, duration = _time_law(curve, scale, vmax, amax)
         duration = max(duration, dt)
         for _ in range(20):  # round up to whole timesteps; check the limits on the samples themselves
-            steps = int(np.ceil(duration / dt - 1e-9))
+            steps = whole_steps(duration, dt)
             times = np.arange(steps + 1) * dt
             tau = times / times[-1]
             q, qd, qdd, u = _motion(curve, law, tau, times[-1])

@@ -423,3 +423,35 @@ def test_an_excess_below_one_percent_is_not_printed_as_zero():
     from foam_mj.timing import _percent
 
     assert [_percent(x) for x in (0.0038, 0.08, 1.87)] == ["0.38%", "8%", "187%"]
+
+
+@pytest.mark.parametrize("velocity, steps", [("1e-6", "3.05e+08"), ("1e-300", "3.05e+302")])
+def test_limits_that_ask_for_an_endless_motion_are_refused_before_planning(tmp_path, capsys, velocity, steps):
+    """[limits] velocity = 1e-6 asked for a 7-day swing: 311 million timesteps, a MemoryError (exit 1) after planning, or
+    the machine's memory; 1e-300 an infinite duration, an OverflowError (exit 1) under numpy's overflow warnings. Each
+    joint moves at least |q_goal - q_init| (joint units), which takes at least max(d / v, 2 sqrt(d / a)) rest to rest:
+    past MAX_STEPS timesteps the scenario is refused before any work (exit 2), naming the joint and its limits."""
+    from foam_mj.cli import main
+
+    s = load_scenario("obstacle")
+    toml = tmp_path / "slow.toml"
+    toml.write_text(f"scene = '{s.scene}'\nq_init = {s.q_init.tolist()}\nq_goal = {s.q_goal.tolist()}\n"
+                    f"[limits]\nvelocity = [1, 1, {velocity}]\n")
+    assert main(["plan", "--scene", str(toml), "--no-rrd"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"foam-mj: error: {toml}: [limits] joint hip_displacement moves 0.611 from q_init to q_goal: at velocity "
+                   f"{float(velocity):g} and acceleration 10 that takes {steps} timesteps or more, past the 2,000,000 a trajectory may have"), err
+
+
+def test_a_timing_past_max_steps_is_a_timing_that_does_not_fit(tmp_path):
+    """What the scenario check cannot see (a path longer than the straight line, a library caller's limits): a timing
+    of more than MAX_STEPS timesteps is TimingInfeasible naming its length, not a MemoryError or an OverflowError."""
+    from foam_mj.timing import TimingInfeasible, timed_trajectory
+    from foam_mj.limits import Limits
+
+    robot = RobotModel.from_xml(arm_with(tmp_path, ""))
+    line = segment_rosary(np.array([-0.3, 0.2]), np.array([-1.2, 0.8]))
+    for v, lasts in ((1e-5, r"1\.\d+e\+05 s, 6\.\d+e\+07 timesteps"), (1e-300, "inf s, inf timesteps")):
+        with pytest.raises(TimingInfeasible, match=rf"^its timing under these limits lasts {lasts} of 0\.002 s: more than the "
+                                                   r"2,000,000 a trajectory may have$"):
+            timed_trajectory(robot, line.path(np.empty((0, 2))), line, Limits(velocity=[v, 1.0]))
