@@ -543,7 +543,7 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
     if np.any(t > MAX_STEPS):  # [limits] velocity = 1e-6 was a MemoryError after planning, 1e-300 an OverflowError
         j = int(np.argmax(t))
         raise ScenarioError(f"{where}: [limits] joint {robot.config.joint_names[j]} moves {d[j]:.3g} from q_init to q_goal: at velocity {v[j]:g} "
-                            f"and acceleration {a[j]:g} that takes {t[j]:,.3g} timesteps or more, past the {MAX_STEPS:,} a trajectory may have")
+                            f"and acceleration {a[j]:g} that takes {t[j]:,.3g} timesteps of {robot.model.opt.timestep:g} s or more, past the {MAX_STEPS:,} a trajectory may have")
     clearance = Clearance(robot, distmax=distance_cap(robot, scenario.params.delta))
     try:
         for field_name in ("q_init", "q_goal"):

@@ -440,7 +440,7 @@ def test_limits_that_ask_for_an_endless_motion_are_refused_before_planning(tmp_p
     assert main(["plan", "--scene", str(toml), "--no-rrd"]) == 2
     err = capsys.readouterr().err.strip()
     assert err == (f"foam-mj: error: {toml}: [limits] joint hip_displacement moves 0.611 from q_init to q_goal: at velocity "
-                   f"{float(velocity):g} and acceleration 10 that takes {steps} timesteps or more, past the 2,000,000 a trajectory may have"), err
+                   f"{float(velocity):g} and acceleration 10 that takes {steps} timesteps of 0.002 s or more, past the 2,000,000 a trajectory may have"), err
 
 
 def test_a_timing_past_max_steps_is_a_timing_that_does_not_fit(tmp_path):
