@@ -10,7 +10,7 @@ import numpy as np
 
 from foam_mj.dynamics import torque_limits
 from foam_mj.model import RobotModel
-from foam_mj.trajectory import JointLimits
+from foam_mj.trajectory import MAX_STEPS, JointLimits
 
 
 def _positive_list(value, name: str, allow_inf: bool = False) -> tuple[float, ...] | None:
@@ -87,3 +87,20 @@ def as_limits(limits: Limits | JointLimits | None) -> Limits:
     if isinstance(limits, Limits):
         return limits
     raise ValueError(f"`limits` must be a Limits or JointLimits, got {type(limits).__name__}")
+
+
+def endless_motion(limits: "Limits | None", robot: RobotModel, q_init, q_goal) -> str | None:
+    """Why no timing of any path from ``q_init`` to ``q_goal`` fits in :data:`~foam_mj.trajectory.MAX_STEPS` timesteps
+    under ``limits`` (None: the defaults), or None. Each joint moves at least d = |q_goal - q_init| (joint units), which
+    takes at least max(d / v, 2 sqrt(d / a)) from rest to rest: [limits] velocity = 1e-6 was a MemoryError after
+    planning, 1e-300 an OverflowError."""
+    v, a, _ = (limits or Limits()).resolve(robot)
+    d = np.abs((np.asarray(q_goal, float) - np.asarray(q_init, float)) * robot.config.scale)
+    dt = robot.model.opt.timestep
+    t = np.maximum(d / v, 2 * np.sqrt(d / a)) / dt
+    if not np.any(t > MAX_STEPS):
+        return None
+    j = int(np.argmax(t))
+    return (f"joint {robot.config.joint_names[j]} moves {d[j]:.3g} from q_init to q_goal: at its velocity limit {v[j]:g} and "
+            f"acceleration limit {a[j]:g} that takes {t[j]:,.3g} timesteps of {dt:g} s or more, past the {MAX_STEPS:,} a trajectory may have")
+

@@ -379,6 +379,12 @@ def _plan(args: argparse.Namespace, recorder) -> int:
     check_distinct({"--json": json_out, "--rrd": rrd,
                     "--json's scene file": json_out.with_name(json_out.stem + ".scene.xml") if json_out is not None and scenario.edits.changes_scene else None},
                    {"the scenario file": scenario.source, "the scene (MJCF)": scenario.scene})
+    if not args.no_replay:  # limits too low for any timing: refused before planning (untimed plans need none)
+        from foam_mj.limits import endless_motion
+
+        endless = endless_motion(scenario.limits, scenario.robot, scenario.q_init, scenario.q_goal)
+        if endless:
+            raise FoamError(f"{scenario.source or '--mjcf'}: {endless}: raise the limits, or plan untimed with --no-replay")
     seed = scenario.seed if args.seed is None else args.seed
     from foam_mj.pipeline import run
     from foam_mj.results import write_failure, write_outcome

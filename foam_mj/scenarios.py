@@ -85,7 +85,6 @@ from foam_mj.planners.base import COMMON_FIELDS, option_names
 from foam_mj.safe_curve import apart_text, coincide
 from foam_mj.scene_edits import BoxObstacle, MeshObstacle, SceneEdits, Subject, build_robot
 from foam_mj.limits import Limits
-from foam_mj.trajectory import MAX_STEPS
 from foam_mj.mjcf import load_spec
 from foam_mj.timing import METHODS as TIME_LAWS
 
@@ -533,17 +532,11 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
     except ConfigurationError as exc:
         raise ScenarioError(f"{where}: [planner] {exc}") from None
     try:  # the [limits] table against the joints, and the MJCF's own foam_mj:limits:<joint> fields
-        v, a, _ = (scenario.limits or Limits()).resolve(robot)
+        (scenario.limits or Limits()).resolve(robot)
     except ModelError as exc:
         raise ScenarioError(f"{where}: field 'scene': {exc}") from None
     except ValueError as exc:
         raise ScenarioError(f"{where}: [limits] {exc}") from None
-    d = np.abs((np.asarray(scenario.q_goal, float) - scenario.q_init) * robot.config.scale)  # each joint moves this far at least,
-    t = np.maximum(d / v, 2 * np.sqrt(d / a)) / robot.model.opt.timestep  # in at least these timesteps (rest to rest)
-    if np.any(t > MAX_STEPS):  # [limits] velocity = 1e-6 was a MemoryError after planning, 1e-300 an OverflowError
-        j = int(np.argmax(t))
-        raise ScenarioError(f"{where}: [limits] joint {robot.config.joint_names[j]} moves {d[j]:.3g} from q_init to q_goal: at velocity {v[j]:g} "
-                            f"and acceleration {a[j]:g} that takes {t[j]:,.3g} timesteps of {robot.model.opt.timestep:g} s or more, past the {MAX_STEPS:,} a trajectory may have")
     clearance = Clearance(robot, distmax=distance_cap(robot, scenario.params.delta))
     try:
         for field_name in ("q_init", "q_goal"):

@@ -430,7 +430,8 @@ def test_limits_that_ask_for_an_endless_motion_are_refused_before_planning(tmp_p
     """[limits] velocity = 1e-6 asked for a 7-day swing: 311 million timesteps, a MemoryError (exit 1) after planning, or
     the machine's memory; 1e-300 an infinite duration, an OverflowError (exit 1) under numpy's overflow warnings. Each
     joint moves at least |q_goal - q_init| (joint units), which takes at least max(d / v, 2 sqrt(d / a)) rest to rest:
-    past MAX_STEPS timesteps the scenario is refused before any work (exit 2), naming the joint and its limits."""
+    past MAX_STEPS timesteps `plan` refuses it before any work (exit 2), naming the joint and its limits, unless it is
+    to plan untimed (--no-replay)."""
     from foam_mj.cli import main
 
     s = load_scenario("obstacle")
@@ -439,8 +440,10 @@ def test_limits_that_ask_for_an_endless_motion_are_refused_before_planning(tmp_p
                     f"[limits]\nvelocity = [1, 1, {velocity}]\n")
     assert main(["plan", "--scene", str(toml), "--no-rrd"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == (f"foam-mj: error: {toml}: [limits] joint hip_displacement moves 0.611 from q_init to q_goal: at velocity "
-                   f"{float(velocity):g} and acceleration 10 that takes {steps} timesteps of 0.002 s or more, past the 2,000,000 a trajectory may have"), err
+    assert err == (f"foam-mj: error: {toml}: joint hip_displacement moves 0.611 from q_init to q_goal: at its velocity limit "
+                   f"{float(velocity):g} and acceleration limit 10 that takes {steps} timesteps of 0.002 s or more, past the 2,000,000 "
+                   "a trajectory may have: raise the limits, or plan untimed with --no-replay"), err
+    assert main(["plan", "--scene", str(toml), "--no-rrd", "--no-replay"]) == 0  # an untimed plan needs no timing
 
 
 def test_a_timing_past_max_steps_is_a_timing_that_does_not_fit(tmp_path):
