@@ -98,3 +98,20 @@ def _custom_numeric(m: mujoco.MjModel, name: str) -> np.ndarray | None:
         return None
     adr, size = int(m.numeric_adr[i]), int(m.numeric_size[i])
     return np.array(m.numeric_data[adr : adr + size])
+
+
+def mocap_apart(m: mujoco.MjModel, k: int, held: int) -> list[str]:
+    """The mocap bodies that keyframe ``k`` poses elsewhere than keyframe ``held`` (its ``mpos``, or its ``mquat`` up to
+    sign), each as 'NAME at [x, y, z] (not [x, y, z])' (or 'turned to' its quaternion)."""
+    out = []
+    for b in np.flatnonzero(m.body_mocapid >= 0):
+        i = int(m.body_mocapid[b])
+        pos, pos0 = m.key_mpos[k, 3 * i : 3 * i + 3], m.key_mpos[held, 3 * i : 3 * i + 3]
+        quat, quat0 = m.key_mquat[k, 4 * i : 4 * i + 4], m.key_mquat[held, 4 * i : 4 * i + 4]
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(b)) or f"body {b}"
+        fmt = lambda v: "[" + ", ".join(f"{x:.6g}" for x in v) + "]"  # noqa: E731
+        if np.abs(pos - pos0).max() > 1e-9:
+            out.append(f"{name} at {fmt(pos)} (not {fmt(pos0)})")
+        elif min(np.abs(quat - quat0).max(), np.abs(quat + quat0).max()) > 1e-9:
+            out.append(f"{name} turned to {fmt(quat)} (not {fmt(quat0)})")
+    return out

@@ -85,7 +85,7 @@ from foam_mj.planners.base import COMMON_FIELDS, option_names
 from foam_mj.safe_curve import apart_text, coincide
 from foam_mj.scene_edits import BoxObstacle, MeshObstacle, SceneEdits, Subject, build_robot
 from foam_mj.limits import Limits
-from foam_mj.mjcf import load_spec
+from foam_mj.mjcf import load_spec, mocap_apart
 from foam_mj.timing import METHODS as TIME_LAWS
 
 SCENARIO_DIR = scenarios_dir()
@@ -202,13 +202,15 @@ def _end_point(value, where: str, robot, held_at: str | None = None) -> np.ndarr
     if held_at is not None and value != held_at:
         held = np.setdiff1d(np.arange(m.nq), config.qpos_index)
         apart = held[np.abs(m.key_qpos[k][held] - config.qpos0[held]) > 1e-9]
-        if len(apart):
-            joints = [f"{_qpos_joint(m, int(a))} {m.key_qpos[k][a]:.6g} (not {config.qpos0[a]:.6g})" for a in apart[:4]]
+        moved = mocap_apart(m, k, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, held_at))  # obstacles stay put too
+        if len(apart) or moved:
+            joints = [f"{_qpos_joint(m, int(a))} {m.key_qpos[k][a]:.6g} (not {config.qpos0[a]:.6g})" for a in apart[:4]] + moved[:4]
+            kinds = " and ".join(t for t, on in (("joints outside the configuration", len(apart)), ("mocap bodies", moved)) if on)
             raise ScenarioError(
-                f"{where} = {value!r}: that keyframe puts joints outside the configuration elsewhere than keyframe {held_at!r}, "
-                f"where the other end point holds them ({', '.join(joints)}{', ...' if len(apart) > 4 else ''}), and they stay "
-                "at one pose along a path: name the pose to hold them at (keyframe = \"NAME\" in a scenario), plan over them "
-                "too (joints), or give this end point as numbers")
+                f"{where} = {value!r}: that keyframe puts {kinds} elsewhere than keyframe {held_at!r}, "
+                f"where the other end point holds them ({', '.join(joints)}{', ...' if len(apart) > 4 or len(moved) > 4 else ''}), "
+                "and they stay at one pose along a path: name the pose to hold them at (keyframe = \"NAME\" in a scenario), "
+                f"{'plan over them too (joints), ' if len(apart) else ''}or give this end point as numbers")
     return np.asarray(config.to_q(m.key_qpos[k]), dtype=float)
 
 

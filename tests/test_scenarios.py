@@ -348,6 +348,28 @@ def test_an_end_point_named_after_a_keyframe_holds_the_other_joints_at_that_keyf
     assert scenario_from_dict({**base, "q_init": [0.1, 0.2], "q_goal": [-0.5, -0.6]}, tmp_path).keyframe is None
 
 
+def test_a_second_keyframe_that_moves_a_mocap_obstacle_elsewhere_is_refused_as_one_that_moves_a_held_joint(tmp_path):
+    """Keyframes 'a' and 'b' put a mocap post at x = 0.52 and x = 0.9: --start a --goal b planned around the post at
+    0.52 (the first end point's pose) and said nothing of b's, while a second keyframe that moved a held joint was
+    refused. An obstacle stays at one pose along a path as a held joint does: the same refusal now names the mocap
+    body and both poses; keyframes that agree on it, or a scenario's own keyframe, still plan."""
+    (tmp_path / "arm.xml").write_text(
+        '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+        '<body name="post" mocap="true" pos=".45 0 .15"><geom type="box" size=".04 .2 .15"/></body>'
+        '<body pos="0 0 .5"><joint name="a" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>'
+        '</body></worldbody><keyframe><key name="a" qpos="0.1" mpos=".52 0 .2"/><key name="b" qpos="0.6" mpos=".9 0 .2"/>'
+        '<key name="c" qpos="0.6" mpos=".52 0 .2"/></keyframe></mujoco>'
+    )
+    base = {"name": "arm", "scene": "arm.xml"}
+    with pytest.raises(ScenarioError, match=r"field 'q_goal' = 'b': that keyframe puts mocap bodies elsewhere than keyframe "
+                                            r"'a', .*\(post at \[0\.9, 0, 0\.2\] \(not \[0\.52, 0, 0\.2\]\)\)"):
+        scenario_from_dict({**base, "q_init": "a", "q_goal": "b"}, tmp_path)
+    s = scenario_from_dict({**base, "q_init": "a", "q_goal": "c"}, tmp_path)
+    np.testing.assert_allclose(s.robot.model.body_pos[1], [0.52, 0, 0.2])
+    s = scenario_from_dict({**base, "keyframe": "a", "q_init": "a", "q_goal": "b"}, tmp_path)
+    np.testing.assert_allclose(s.robot.model.body_pos[1], [0.52, 0, 0.2])
+
+
 def test_q_init_or_q_goal_may_name_a_keyframe_of_the_scene(tmp_path):
     """A scenario's end point may be a keyframe's name: its qpos of the configuration joints, as q (hip displacement
     normalized); a scene without such a keyframe is refused before any work, naming those it has."""
