@@ -84,16 +84,41 @@ def scene_xml(spec: mujoco.MjSpec, scene: Path) -> str:
     return spec.to_xml()
 
 
+def _attached(m: mujoco.MjModel, kind: mujoco.mjtObj, name: str) -> list[tuple[int, str]]:
+    """(index, prefix) of each field that an ``<attach>``ed model brought in under a prefix and that stands for ``name``:
+    MuJoCo prefixes every name of an attached model, its custom fields' too ('P' + 'foam_mj:configuration', and
+    'P' + 'foam_mj:limits:j1' for the joint now named 'P' + 'j1'); in model order."""
+    out = []
+    for i in range(m.ntext if kind == mujoco.mjtObj.mjOBJ_TEXT else m.nnumeric):
+        full = mujoco.mj_id2name(m, kind, i) or ""
+        at = full.find("foam_mj:")
+        if at <= 0:
+            continue
+        prefix, parts = full[:at], full[at:].split(":", 2)
+        if ":".join(parts[:2] + [prefix + parts[2]] if len(parts) == 3 else parts) == name:
+            out.append((i, prefix))
+    return out
+
+
 def _custom_text(m: mujoco.MjModel, name: str) -> str | None:
+    """A text field's data; without one of that name, those of attached models (:func:`_attached`) joined, each word
+    (a joint name) under its model's prefix, as MuJoCo named the joints: two attached arms declare both configurations."""
     i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TEXT, name)
-    if i < 0:
+    found = [(i, "")] if i >= 0 else _attached(m, mujoco.mjtObj.mjOBJ_TEXT, name)
+    if not found:
         return None
-    adr, size = int(m.text_adr[i]), int(m.text_size[i])
-    return bytes(m.text_data[adr : adr + size]).rstrip(b"\x00").decode()
+    words = []
+    for i, prefix in found:
+        adr, size = int(m.text_adr[i]), int(m.text_size[i])
+        words += [prefix + w for w in bytes(m.text_data[adr : adr + size]).rstrip(b"\x00").decode().split()]
+    return " ".join(words)
 
 
 def _custom_numeric(m: mujoco.MjModel, name: str) -> np.ndarray | None:
+    """A numeric field's data; without one of that name, the first attached model's (:func:`_attached`)."""
     i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_NUMERIC, name)
+    if i < 0:
+        i = next((j for j, _ in _attached(m, mujoco.mjtObj.mjOBJ_NUMERIC, name)), -1)
     if i < 0:
         return None
     adr, size = int(m.numeric_adr[i]), int(m.numeric_size[i])

@@ -392,3 +392,38 @@ def test_an_unknown_robot_root_lists_the_named_bodies_and_counts_the_unnamed(tmp
     err = capsys.readouterr().err.strip()
     assert err.endswith("robot_root 'nope' is not a body of the model (bodies: ['upper']; 1 unnamed: name the root in the MJCF)"), err
     assert "None" not in err and list(tmp_path.iterdir()) == [xml]
+
+
+def test_the_foam_mj_fields_of_an_attached_robot_are_read_under_its_prefix(tmp_path):
+    """MuJoCo prefixes every name of an <attach>ed model, its <custom> fields' too: an arm declaring its configuration
+    "j2 j1" (and j1's time-law limits) attached with prefix "a_" gave the texts 'a_foam_mj:configuration' and
+    'a_foam_mj:limits:j1', which foam-mj did not read: the configuration fell back silently to every limited joint in
+    model order (a_j1, a_j2), so end points given in the arm's declared order went to the other joints. The fields are
+    now read under the prefix, the names they hold prefixed as MuJoCo prefixed the joints; two arms attached under two
+    prefixes plan over both declarations, in model order, and the scene's own declaration still decides."""
+    from foam_mj.trajectory import JointLimits
+
+    (tmp_path / "arm.xml").write_text(
+        '<mujoco><custom><text name="foam_mj:configuration" data="j2 j1"/><numeric name="foam_mj:limits:j1" data="2 5"/>'
+        '<numeric name="foam_mj:normalize:j2" data="2"/></custom><worldbody><body name="l1" pos="0 0 .5">'
+        '<joint name="j1" axis="0 1 0" range="-100 100"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".03"/>'
+        '<body pos=".3 0 0"><joint name="j2" axis="0 1 0" range="-150 150"/><geom type="capsule" fromto="0 0 0 .25 0 0" size=".025"/>'
+        '</body></body></worldbody></mujoco>')
+
+    def scene(attach: str, custom: str = "") -> Path:
+        p = tmp_path / f"scene{len(list(tmp_path.iterdir()))}.xml"
+        p.write_text(f'<mujoco><asset><model name="arm" file="arm.xml"/></asset>{custom}<worldbody>'
+                     f'<geom name="floor" type="plane" size="2 2 .1"/>{attach}</worldbody></mujoco>')
+        return p
+
+    one = RobotModel.from_xml(scene('<body name="mount"><attach model="arm" body="l1" prefix="a_"/></body>'))
+    assert one.config.joint_names == ("a_j2", "a_j1")
+    np.testing.assert_allclose(one.upper, [2.0, np.radians(100)])  # normalize:j2 read under the prefix
+    velocity, acceleration = JointLimits().resolve(one)
+    assert velocity[1] == 2 and acceleration[1] == 5
+    two = RobotModel.from_xml(scene('<frame pos="0 .3 0"><attach model="arm" body="l1" prefix="L/"/></frame>'
+                                    '<frame pos="0 -.3 0"><attach model="arm" body="l1" prefix="R/"/></frame>'))
+    assert two.config.joint_names == ("L/j2", "L/j1", "R/j2", "R/j1")
+    own = RobotModel.from_xml(scene('<body name="mount"><attach model="arm" body="l1" prefix="a_"/></body>',
+                                    '<custom><text name="foam_mj:configuration" data="a_j1"/></custom>'))
+    assert own.config.joint_names == ("a_j1",)
