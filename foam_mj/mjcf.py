@@ -140,3 +140,14 @@ def mocap_apart(m: mujoco.MjModel, k: int, held: int) -> list[str]:
         elif min(np.abs(quat - quat0).max(), np.abs(quat + quat0).max()) > 1e-9:
             out.append(f"{name} turned to {fmt(quat)} (not {fmt(quat0)})")
     return out
+
+
+def check_no_flex(m: mujoco.MjModel, path: str | Path) -> None:
+    """ModelError naming the flexes that can collide (contype or conaffinity non-zero): MuJoCo's distance queries, the
+    planner's and every MuJoCo-only checker's, measure geoms, not flexes, so a plan would pass through one unseen."""
+    flexes = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_FLEX, f) or f"flex{f}" for f in range(m.nflex)
+              if m.flex_contype[f] or m.flex_conaffinity[f]]
+    if flexes:
+        raise ModelError(f"{path}: flex(es) {flexes} can collide (contype/conaffinity), but MuJoCo's distance queries (the "
+                         "planner's) do not measure flexes, so a path could pass through one; model it with geoms (boxes, "
+                         "capsules, a mesh), or set its contype and conaffinity to 0 if nothing should touch it")

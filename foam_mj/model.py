@@ -53,6 +53,7 @@ from foam_mj.fingerprint import PARTS
 from foam_mj.geom_pairs import _reference_data, attached, body_subtree, collision_pairs, geom_moved_by, pair_coordinates
 from foam_mj.mjcf import (
     _custom_text,
+    check_no_flex,
     compile_spec,
     load_spec,
     name_unnamed_geoms,
@@ -329,6 +330,7 @@ class RobotModel:
                 continue
             pairs.append((a, b) if is_robot[a] else (b, a))
             self_pair.append(both)
+        check_no_flex(m, p)
         if not pairs:
             what = "any obstacle geom" + (" or with itself" if self_collision else "")
             d0, nm = _reference_data(m, config), lambda g: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}"

@@ -382,6 +382,26 @@ def test_a_height_field_obstacle_is_refused_naming_it(tmp_path):
         RobotModel.from_xml(scene)
 
 
+def test_a_flex_that_can_collide_is_refused_naming_it_and_one_that_cannot_is_not(tmp_path):
+    """A pinned cloth (<flexcomp>, contype 1) hung across an arm's sweep was not seen at all: MuJoCo's distance queries
+    (the planner's, and the checkers') measure geoms, not flexes, so `foam-mj bubble` read 0.109 m of clearance with the
+    arm through the cloth and a plan would pass through it while MuJoCo's simulation collides with it. A flex that can
+    collide is now refused as a height field is (exit 2, naming it); one with contype = conaffinity = 0 is visual only."""
+    def scene(bits: str):
+        p = tmp_path / f"flex{bits.count('0')}.xml"
+        p.write_text(
+            '<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+            '<flexcomp name="cloth" type="grid" count="3 3 1" spacing=".15 .15 .1" pos=".45 0 .15" dim="2" radius=".01">'
+            f'<pin id="0 1 2 3 4 5 6 7 8"/><contact {bits}/></flexcomp>'
+            '<body pos="0 0 .5"><joint name="j1" axis="0 1 0" range="-100 100"/><geom type="capsule" fromto="0 0 0 .6 0 0" size=".03"/>'
+            '</body></worldbody></mujoco>')
+        return p
+
+    with pytest.raises(ModelError, match=r"flex\(es\) \['cloth'\] can collide .* do not measure flexes"):
+        RobotModel.from_xml(scene('contype="1" conaffinity="1"'))
+    assert RobotModel.from_xml(scene('contype="0" conaffinity="0"')).dim == 1
+
+
 def test_an_obstacle_in_another_collision_group_is_still_checked(tmp_path):
     """MuJoCo's contype/conaffinity bits and <exclude> keep a box from colliding with the arm, but the box is
     in the way all the same, and `foam-mj verify` and MuJoCo-only checkers count it: the planner checks it.
