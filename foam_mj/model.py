@@ -39,6 +39,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from foam_mj.capsule_box import geom_distance
 from foam_mj.configuration import (
     _SUPPORTED_JOINTS,
     CONFIGURATION_FIELD,
@@ -424,7 +425,7 @@ class RobotModel:
         for a, b in self.fixed_pairs:
             a, b = (int(a), int(b)) if int(a) in robot else (int(b), int(a))
             if b not in robot:  # robot/robot pairs no joint changes are left out by the checkers too
-                out.append((a, b, float(mujoco.mj_geomDistance(m, d, a, b, FIXED_DISTMAX, None))))
+                out.append((a, b, float(geom_distance(m, d, a, b, FIXED_DISTMAX))))
         return tuple(out)
 
     def check_fixed_pairs(self, delta: float) -> None:

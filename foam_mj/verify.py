@@ -9,7 +9,8 @@ fingerprint helpers, which use nothing else). For every path of the result:
   normalized, e.g. the Ortholeg's hip slide);
 * its timed trajectory, the "qpos" rows, with linear samples between rows at the same step;
 
-and at every sample, ``mujoco.mj_geomDistance`` between every moving collision geom (on a body a
+and at every sample, ``mujoco.mj_geomDistance`` (at most minus a capsule's radius where its axis runs through a box,
+which MuJoCo can misread as apart) between every moving collision geom (on a body a
 configuration joint moves) and every other one (contype or conaffinity non-zero; a loose object on a
 joint that is not a configuration coordinate is an obstacle where the rows put it), with no
 contype/conaffinity filtering, as the planner (only a geom on the same or the parent or child
@@ -272,6 +273,26 @@ def _densify(points: np.ndarray, extra: np.ndarray, step: float, what: str = "a 
     return np.vstack([out, extra[-1:]])
 
 
+def _distance(m: mujoco.MjModel, d: mujoco.MjData, a: int, b: int, distmax: float) -> float:
+    """``mj_geomDistance``, but at most minus a capsule's radius where its axis runs through a box: MuJoCo's capsule/box
+    test reads a positive distance in some such poses (a link stuck through a 2 cm wall: +25 mm). Checked here on
+    its own: an end of the axis inside the box, or MuJoCo's ray from one end along the axis meeting the box before
+    the other end (the planner's guard is a slab test)."""
+    v = mujoco.mj_geomDistance(m, d, a, b, distmax, None)
+    kinds = (int(m.geom_type[a]), int(m.geom_type[b]))
+    if sorted(kinds) != sorted((int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_BOX))):
+        return v
+    cap, box = (a, b) if kinds[0] == int(mujoco.mjtGeom.mjGEOM_CAPSULE) else (b, a)
+    half, radius = float(m.geom_size[cap][1]), float(m.geom_size[cap][0])
+    if v <= -radius:
+        return v
+    axis = d.geom_xmat[cap].reshape(3, 3)[:, 2].copy()
+    start = d.geom_xpos[cap] - half * axis
+    inside = np.all(np.abs((start - d.geom_xpos[box]) @ d.geom_xmat[box].reshape(3, 3)) <= m.geom_size[box])
+    hit = mujoco.mju_rayGeom(d.geom_xpos[box], d.geom_xmat[box], m.geom_size[box], start, axis, mujoco.mjtGeom.mjGEOM_BOX)
+    return -radius if inside or 0 <= hit <= 2 * half else v
+
+
 class _Checker:
     """Distances of every (sample, pair), exact where it matters (see the module docstring)."""
 
@@ -318,7 +339,7 @@ class _Checker:
                 d.qpos[:] = qpos[s]
                 mujoco.mj_kinematics(m, d)
                 last = s
-            out[k] = mujoco.mj_geomDistance(m, d, int(self.pairs[p, 0]), int(self.pairs[p, 1]), distmax, None)
+            out[k] = _distance(m, d, int(self.pairs[p, 0]), int(self.pairs[p, 1]), distmax)
         self.calls += len(cand)
         return out
 

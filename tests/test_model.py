@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from foam_mj import clearance
+from foam_mj.capsule_box import segment_meets_box
 from foam_mj.clearance import FIRST_BATCH, THREADED_BATCH, Clearance
 from foam_mj.errors import ConfigurationError, ModelError
 from foam_mj.model import RobotModel
@@ -88,7 +89,14 @@ def test_batch_clearance_of_a_model_with_a_singular_inertia_matrix_is_silent_and
         c = Clearance(robot)
     capfd.readouterr()
     Q = np.random.default_rng(3).uniform(robot.lower, robot.upper, size=(300, 3))
-    np.testing.assert_allclose(c.batch(Q), [c(q) for q in Q], atol=1e-12)
+    # Where a link's axis runs through the box, one at a time reads at most minus its radius (foam_mj.capsule_box);
+    # the batch, which measures only certified bubble centres, keeps MuJoCo's value.
+    box = robot.model.geom("box").id
+    through = np.array([any(segment_meets_box(robot.model, robot.set_configuration(q), int(g), box) for g in robot.robot_geoms)
+                        for q in Q])
+    single = np.array([c(q) for q in Q])
+    np.testing.assert_allclose(c.batch(Q)[~through], single[~through], atol=1e-12)
+    assert 0 < through.sum() < 30 and (single[through] <= -0.02).all()
     assert "WARNING" not in capfd.readouterr().err and not (tmp_path / "MUJOCO_LOG.TXT").exists()
 
 
