@@ -39,7 +39,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.capsule_box import geom_distance
+from foam_mj.capsule_box import check_sizes, geom_distance
 from foam_mj.configuration import (
     _SUPPORTED_JOINTS,
     CONFIGURATION_FIELD,
@@ -332,6 +332,7 @@ class RobotModel:
             pairs.append((a, b) if is_robot[a] else (b, a))
             self_pair.append(both)
         check_no_flex(m, p)
+        check_sizes(m, pairs, p)
         if not pairs:
             what = "any obstacle geom" + (" or with itself" if self_collision else "")
             d0, nm = _reference_data(m, config), lambda g: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}"

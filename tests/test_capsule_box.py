@@ -89,3 +89,24 @@ def test_verify_reads_a_capsule_through_a_box_as_a_penetration_on_its_own():
         v = _distance(m, d, cap, box, 1.0)
         assert (v <= -0.02) if meets else (v == mujoco.mj_geomDistance(m, d, cap, box, 1.0, None))
     assert met > 20
+
+
+def test_a_capsule_and_box_too_small_for_mujocos_distance_are_refused_naming_them(tmp_path):
+    """The arm drawn 1,000 times smaller (delta too): MuJoCo read its last link 0.067 mm from the post as 1 m apart,
+    and random bubbles of the plan held poses 0.056 mm deep in the post. A capsule/box pair below MuJoCo's sizes
+    (a box under 0.1 mm thick, or both under 1 mm) is now refused before planning, naming both geoms; the same arm
+    at full size, and a 0.4 mm sheet, plan."""
+    import re
+
+    from foam_mj.errors import ModelError
+
+    def scaled(k: float) -> str:
+        return re.sub(r'(pos|size|fromto)="([^"]*)"', lambda g: f'{g[1]}="' + " ".join(str(float(v) * k) for v in g[2].split()) + '"',
+                      ARM).replace("<mujoco>", '<mujoco><compiler boundmass="1e-9" boundinertia="1e-15"/>')
+
+    (tmp_path / "tiny.xml").write_text(scaled(0.001))
+    with pytest.raises(ModelError, match=r"collision geoms g\d \(capsule, radius .* and wall \(box, half-sizes 1e-05 x 0\.0003 x "
+                                         r"0\.00015 m\) are smaller than MuJoCo's capsule/box distance measures"):
+        RobotModel.from_xml(tmp_path / "tiny.xml")
+    (tmp_path / "arm.xml").write_text(ARM.replace('size=".01 .3 .15"', 'size=".0002 .3 .15"'))
+    assert RobotModel.from_xml(tmp_path / "arm.xml").dim == 3
