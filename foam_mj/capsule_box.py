@@ -10,11 +10,10 @@ smaller of MuJoCo's value and that bound where the segment meets the box (a slab
 interval inside each pair of the box's faces, as in Kay and Kajiya, "Ray tracing complex scenes", SIGGRAPH 1986),
 and MuJoCo's value, to the last bit, everywhere else.
 
-Bubbles never reach such a pose from free space: a motion into it reads a penetration first, where the capsule's
-surface meets the box's and MuJoCo measures it, so the batched queries of bubble growth (whose centres lie on
-certified bubbles) keep MuJoCo's values (checking there too, with frame sensors for the poses, took the obstacle
-scene's batch from 3.95 to 7.3 us per configuration); the single-configuration queries that judge an uncertified pose
-(a start or goal, a fixed pair, ``foam-mj bubble``) go through this guard, and ``foam-mj verify`` has its own.
+The single-configuration queries (a start or goal, a fixed pair, ``foam-mj bubble``) go through
+:func:`geom_distance`, the batched ones of bubble growth through the same test on the batch's own poses
+(:meth:`foam_mj.clearance.Clearance.batch_pairs`: a candidate child may lie up to twice its parent's radius out,
+outside every certified bubble), and ``foam-mj verify`` has its own.
 """
 
 from __future__ import annotations

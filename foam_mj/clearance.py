@@ -13,9 +13,14 @@ Computed with MuJoCo's own distance queries, never with a C-obstacle map:
   ``mujoco.rollout``, which runs a whole ``mj_step`` for the same sensor values (identical to the last bit:
   the sensors are computed from the same kinematics).
 
-The batch reads MuJoCo's values as they are: it measures bubble centres on certified bubbles, where no capsule is
-through a box (checking it there cost 3.95 -> 7.3 us per configuration on the obstacle scene); a configuration with a
-capsule through a box may read more in a batch than one at a time.
+The batch applies the same guard (:meth:`Clearance._guard_capsule_box`): its candidates are not all inside certified
+bubbles (bubbletree's extensions reach up to twice the parent's radius, the corridor's chords fill gaps between
+bubbles), so a candidate with a capsule through a box must not read as apart either. The poses come from the batch's
+own kinematics (its ``geom_xpos`` and ``geom_xmat``), so the test costs about twenty numpy calls per batch and no
+extra MuJoCo work (sensors for the poses had doubled a query's cost); still, bubbletree's plan on the obstacle scene
+takes about 13 % more CPU time with it (per-seed median ratio 1.127, seeds 0-9 x 3, interleaved, loaded machine). The
+values are MuJoCo's to the last bit wherever no capsule's segment meets its box, as one configuration at a time: the
+plans of the shipped scenes are unchanged.
 
 ``pair_distances`` and ``batch_pairs`` return every pair's distance (the bubble radius is taken per
 pair, ``foam_mj.bubbles``); ``__call__`` and ``batch`` their minimum. All return
@@ -45,7 +50,7 @@ import mujoco
 import numpy as np
 from mujoco import batch as mj_batch
 
-from foam_mj.capsule_box import geom_distance
+from foam_mj.capsule_box import _CAPSULE, geom_distance, is_capsule_box
 from foam_mj.model import RobotModel
 
 #: Batches at least this large are split over two threads (measured crossover on a 2-core machine).
@@ -136,7 +141,7 @@ class _ThreadState:
 
     def __init__(self, m: mujoco.MjModel) -> None:
         self.data = mujoco.MjData(m)
-        self.batches: dict[int, tuple] = {}  # threads -> (Batch, its qpos rows, its sensordata rows, ids, its cutoffs, raw forward)
+        self.batches: dict[int, tuple] = {}  # threads -> (Batch, qpos, sensordata, ids, cutoffs, raw forward, geom poses)
         self.calls = 0
 
 
@@ -157,6 +162,7 @@ class Clearance:
         self._m = robot.model
         self._pairs = [(int(g), int(o)) for g, o in robot.pairs]
         self._batch_model = self._sensor_model()
+        self._capsule_box = self._capsule_box_pairs()
         self._qpos_block = _qpos_block(robot.config.qpos_index)
         self._local = threading.local()
 
@@ -267,7 +273,8 @@ class Clearance:
             return np.empty((0, P))
         state = self._state()
         state.calls += n
-        batch, qpos, sensordata, ids, cutoff, forward = self._batch(state, n, min(self.threads, 2) if n >= THREADED_BATCH else 1)
+        batch, qpos, sensordata, ids, cutoff, forward, batch_xpos, batch_xmat = self._batch(
+            state, n, min(self.threads, 2) if n >= THREADED_BATCH else 1)
         cfg = self.robot.config
         qpos[:n] = cfg.qpos0  # as ConfigurationMap.to_qpos, written straight into the batch's rows
         q = cfg.offset + cfg.scale * Q
@@ -289,19 +296,71 @@ class Clearance:
             else:  # ids[:n] were checked once (_batch): mujoco.batch's per-call check of them took 3 % of a query loop
                 ids_n = ids[:n]
                 batch._check(ids_n, forward(ids_n, _STAGE_POS))
-        return sensordata[:n, sensordata.shape[1] - P :].copy()  # our sensors come last, after any the model has
+        out = sensordata[:n, sensordata.shape[1] - P :].copy()  # our sensors come last, after any the model has
+        if self._capsule_box is not None:
+            self._guard_capsule_box(out, batch_xpos[:n], batch_xmat[:n])
+        return out
+
+    def _capsule_box_pairs(self) -> tuple | None:
+        """The checked capsule/box pairs as arrays for :meth:`_guard_capsule_box`: their columns, the capsule's and the
+        box's geom ids in the batch model (read from the distance sensors, which the lean copy renumbers), the capsule's
+        half-length and radius, the box's half-sizes, and the squared reach (half-length plus the box's half-diagonal)
+        within which the capsule's centre must lie for its segment to meet the box; None for a model without such a pair."""
+        m, P = self._batch_model, len(self._pairs)
+        first = m.nsensor - P
+        rows = []
+        for p, (g, o) in enumerate(self._pairs):
+            if is_capsule_box(self._m, g, o):
+                a, b = int(m.sensor_objid[first + p]), int(m.sensor_refid[first + p])
+                rows.append((p, a, b) if int(m.geom_type[a]) == _CAPSULE else (p, b, a))
+        if not rows:
+            return None
+        cols, caps, boxes = (np.array(v) for v in zip(*rows))
+        half, size = m.geom_size[caps, 1].copy(), m.geom_size[boxes].copy()
+        reach = (half + np.linalg.norm(size, axis=1)) ** 2 * (1 + 1e-9)  # squared, with room for rounding
+        return cols, caps, boxes, half, m.geom_size[caps, 0].copy(), size, reach
+
+    def _guard_capsule_box(self, out: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> None:
+        """In place: each capsule/box pair's distance at most minus the capsule's radius where the capsule's segment
+        meets the box, as :func:`foam_mj.capsule_box.geom_distance` does for one configuration; untouched elsewhere.
+        The same slab test as :func:`foam_mj.capsule_box.meets`, written for the batch's rows: first only the rows
+        whose capsule centre lies within its half-length plus the box's half-diagonal of the box's centre (the
+        segment cannot meet the box elsewhere), then the box's frame from its rotation matrix (row-major, axes as
+        columns) by hand, as numpy's small-matrix products and reductions over a length-3 axis cost more than the test."""
+        cols, caps, boxes, half, radius, sizes, reach = self._capsule_box
+        d = xpos[:, caps] - xpos[:, boxes]  # (n, k, 3)
+        near = np.flatnonzero(((d * d).sum(axis=2) <= reach).ravel())
+        if len(near) == 0:
+            return
+        rows, pair = np.divmod(near, len(cols))
+        d = d.reshape(-1, 3)[near]
+        R = xmat[rows, boxes[pair]]  # (m, 9)
+        a = xmat[rows, caps[pair]]  # the capsule's axis: its z column, entries 2, 5, 8
+        p = d[:, 0:1] * R[:, 0:3] + d[:, 1:2] * R[:, 3:6] + d[:, 2:3] * R[:, 6:9]  # centre in the box's frame
+        u = a[:, 2:3] * R[:, 0:3] + a[:, 5:6] * R[:, 3:6] + a[:, 8:9] * R[:, 6:9]  # axis in the box's frame
+        size = sizes[pair]
+        with np.errstate(divide="ignore", invalid="ignore"):  # an axis parallel to a face: +-inf, the whole line
+            t0, t1 = (-size - p) / u, (size - p) / u
+        lo, hi = np.minimum(t0, t1), np.maximum(t0, t1)
+        h = half[pair]
+        enter = np.fmax(np.fmax(np.fmax(lo[:, 0], lo[:, 1]), lo[:, 2]), -h)
+        leave = np.fmin(np.fmin(np.fmin(hi[:, 0], hi[:, 1]), hi[:, 2]), h)
+        vals = out[rows, cols[pair]]
+        misread = (enter <= leave) & (vals > -radius[pair])
+        if misread.any():
+            out[rows[misread], cols[pair][misread]] = -radius[pair][misread]
 
     def _batch(self, state: _ThreadState, n: int, nthread: int) -> tuple:
         """The calling thread's Batch of ``nthread`` threads with room for n configurations (grown by doubling): the
         batch, its qpos and sensordata rows, the simulation ids, the sensors' cutoffs per simulation and the batch's
-        unchecked forward call (:func:`_raw_forward`)."""
+        unchecked forward call (:func:`_raw_forward`), and its geoms' poses (for :meth:`_guard_capsule_box`)."""
         b = state.batches.get(nthread)
         if b is None or b[0].nsim < n:
             size = max(n, 2 * b[0].nsim if b is not None else FIRST_BATCH)
             batch = mj_batch.Batch(self._batch_model, size, nthread=nthread)
             ids = np.arange(size, dtype=np.int32)
             b = state.batches[nthread] = (batch, batch.bind("qpos"), batch.bind("sensordata"), ids, batch.expand("sensor_cutoff"),
-                                          _raw_forward(batch, ids))
+                                          _raw_forward(batch, ids), batch.bind("geom_xpos"), batch.bind("geom_xmat"))
         return b
 
     def close(self) -> None:

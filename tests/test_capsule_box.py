@@ -110,3 +110,21 @@ def test_a_capsule_and_box_too_small_for_mujocos_distance_are_refused_naming_the
         RobotModel.from_xml(tmp_path / "tiny.xml")
     (tmp_path / "arm.xml").write_text(ARM.replace('size=".01 .3 .15"', 'size=".0002 .3 .15"'))
     assert RobotModel.from_xml(tmp_path / "arm.xml").dim == 3
+
+
+def test_a_batch_reads_a_link_stuck_through_a_wall_as_one_configuration_does(tmp_path):
+    """Batched candidates are not all inside certified bubbles (bubbletree's extensions reach twice the parent's radius,
+    the corridor's chords fill gaps between bubbles), so the batch must not read THROUGH as apart either: it read
+    MuJoCo's +25 mm there. Now every row equals the one-at-a-time value, THROUGH among random configurations."""
+    (tmp_path / "arm.xml").write_text(ARM)
+    robot = RobotModel.from_xml(tmp_path / "arm.xml")
+    clearance = Clearance(robot, threads=1)
+    try:
+        rng = np.random.default_rng(1)
+        Q = np.vstack([robot.lower + rng.random((300, 3)) * (robot.upper - robot.lower), THROUGH])
+        batch = clearance.batch_pairs(Q)
+        one = np.array([clearance.pair_distances(q) for q in Q])
+        np.testing.assert_array_equal(batch, one)
+        assert batch[-1].min() == -0.02 and clearance.batch(Q)[-1] == -0.02
+    finally:
+        clearance.close()
