@@ -8,6 +8,7 @@ import math
 import tomllib
 from pathlib import Path
 
+from foam_mj.arguments import MAX_SEED
 from foam_mj.errors import FoamError, ScenarioError, file_problem_text, text_problem, unknown_names
 from foam_mj.fingerprint import model_fingerprint
 from foam_mj.sweep import (
@@ -53,8 +54,10 @@ def load_sweep(path: str | Path) -> Sweep:
     unknown = set(raw) - _TOP_FIELDS
     if unknown:
         raise SweepError(f"{where}: unknown field(s) {unknown_names(unknown, _TOP_FIELDS)}; expected {sorted(_TOP_FIELDS)}")
-    if "scenario" not in raw or not isinstance(raw["scenario"], str):
+    if "scenario" not in raw:
         raise SweepError(f"{where}: field 'scenario' (a built-in scenario name or a TOML path) is required")
+    if not isinstance(raw["scenario"], str):
+        raise SweepError(f"{where}: field 'scenario' must be a built-in scenario name or a TOML path (text), got {raw['scenario']!r}")
     ref = raw["scenario"]
     candidate = path.parent / ref
     try:
@@ -74,8 +77,8 @@ def load_sweep(path: str | Path) -> Sweep:
         if seeds > MAX_TASKS:
             raise SweepError(f"{where}: field 'seeds' = {seeds:,} is more plans than one sweep takes ({MAX_TASKS:,}){_SPLIT}")
         seeds = list(range(seeds))
-    if not (isinstance(seeds, list) and seeds and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)):
-        raise SweepError(f"{where}: field 'seeds' must be a count >= 1 or a non-empty list of integers >= 0, got {seeds!r}")
+    if not (isinstance(seeds, list) and seeds and all(isinstance(s, int) and not isinstance(s, bool) and 0 <= s <= MAX_SEED for s in seeds)):
+        raise SweepError(f"{where}: field 'seeds' must be a count >= 1 or a non-empty list of integers in [0, 2**63 - 1], got {seeds!r}")
     if len(set(seeds)) != len(seeds):
         raise SweepError(f"{where}: field 'seeds' has repeated values {seeds}")
     # smoothers and replay

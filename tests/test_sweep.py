@@ -1196,3 +1196,17 @@ def test_report_on_a_file_or_a_missing_folder_says_which(tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert err == f"foam-mj: error: {words}", err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["result.json"]
+
+
+@pytest.mark.parametrize("top, named", [
+    ("seeds = [1, 9223372036854775808]\n", "'seeds' must be a count >= 1 or a non-empty list of integers in [0, 2**63 - 1]"),
+    ("seeds = 3\nscenario = 3\n", "field 'scenario' must be a built-in scenario name or a TOML path (text), got 3"),
+])
+def test_a_seed_past_2_63_or_a_scenario_that_is_not_text_is_named_exit_2_and_creates_nothing(tmp_path, capsys, top, named):
+    # a seed of 2**63 was an internal error (exit 1, OverflowError) after --out was created; scenario = 3 said it was missing
+    spec = write(tmp_path, (top if "scenario" in top else f'scenario = "obstacle"\n{top}') + '[grid]\n"planner.delta" = [0.005]\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(spec), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and named in err
+    assert not out.exists()
