@@ -336,9 +336,26 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
 
 #: The legend of a hatched cell: every plan of it was invalid.
 INVALID_LABEL = "every plan invalid (start or goal not free): no problem to solve"
+#: The legends of a grey cell: no plan in it (success), or no plan of it reached (the measures of reached plans).
+NO_PLAN_LABEL = "no plan in this cell"
+NOT_REACHED_LABEL = "no plan reached: nothing to measure"
 
 
 def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, invalid, formats, dpi) -> list[Path]:
+    fig = _figure(title, unit, cmap, lims, agg, x, y, panel, mask, invalid)
+    if fig is None:
+        return []
+    out = []
+    for fmt in formats:
+        p = folder / f"{stem}.{fmt}"
+        with atomic_path(p) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=dpi, metadata={"Creator": "foam-mj"} if fmt == "png" else {"Creator": "foam-mj", "Date": None})
+        out.append(p)
+    return out
+
+
+def _figure(title, unit, cmap, lims, agg, x, y, panel, mask, invalid):
+    """The heatmap figure of one measure of one path (None: nothing measured)."""
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch, Rectangle
 
@@ -347,10 +364,12 @@ def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, invalid
     blocked = [grid_values(x, y, m, lambda idx: 1.0 if invalid[idx].all() else np.nan) == 1.0 for _, m in panels]
     finite = np.concatenate([g[np.isfinite(g)] for g in grids]) if grids else np.array([])
     if not finite.size and (lims is None or not any(b.any() for b in blocked)):
-        return []  # nothing measured (no replay, so no clearance); success (fixed scale) still shows invalid cells
+        return None  # nothing measured (no replay, so no clearance); success (fixed scale) still shows invalid cells
     vmin, vmax = lims if lims is not None else (float(finite.min()), float(finite.max()))
-    if vmax <= vmin:
-        vmax = vmin + 1e-9
+    single = vmax <= vmin  # one value in every cell (one cell reached): a scale around it, its one tick that value
+    if single:  # was vmax = vmin + 1e-9: a colour bar ticked 2.00 ... 2.75 under an offset '1e-9+8.620876132e1'
+        value, pad = vmin, max(0.05 * abs(vmin), 1e-3)
+        vmin, vmax = value - pad, value + pad
     ncell_x = len(x.labels)
     ny = 1 if y is None else len(y.labels)
     ncols = min(len(panels), MAX_PANELS)  # rows of at most MAX_PANELS panels: every value of the third key is drawn
@@ -385,17 +404,16 @@ def _draw(folder, stem, title, unit, cmap, lims, agg, x, y, panel, mask, invalid
                     ink = "white" if 0.299 * r + 0.587 * gg + 0.114 * b < 0.5 else "black"
                     ax.text(i, j, f"{v:.2f}" if abs(v) < 10 else f"{v:.0f}", ha="center", va="center", fontsize=7, color=ink)
     if im is not None:
-        fig.colorbar(im, ax=list(axs[: len(panels)]), label=f"{title.split(' (')[0]}{f' ({unit})' if unit else ''}", shrink=0.9)
-    if any(b.any() for b in blocked):
-        fig.legend(handles=[Patch(**hatch, label=INVALID_LABEL)], loc="outside lower center", fontsize=8, frameon=False)
+        bar = fig.colorbar(im, ax=list(axs[: len(panels)]), label=f"{title.split(' (')[0]}{f' ({unit})' if unit else ''}", shrink=0.9)
+        if single:
+            bar.set_ticks([value], labels=[f"{value:.4g}"])
+    handles = [Patch(**hatch, label=INVALID_LABEL)] if any(b.any() for b in blocked) else []
+    if any((~np.isfinite(g) & ~b).any() for g, b in zip(grids, blocked)):  # a grey cell was unexplained in the figure
+        handles.append(Patch(facecolor="#d0d0d0", label=NO_PLAN_LABEL if lims is not None else NOT_REACHED_LABEL))
+    if handles:
+        fig.legend(handles=handles, loc="outside lower center", fontsize=8, frameon=False, ncols=1)
     fig.suptitle(title, fontsize=10)
-    out = []
-    for fmt in formats:
-        p = folder / f"{stem}.{fmt}"
-        with atomic_path(p) as tmp:
-            fig.savefig(tmp, format=fmt, dpi=dpi, metadata={"Creator": "foam-mj"} if fmt == "png" else {"Creator": "foam-mj", "Date": None})
-        out.append(p)
-    return out
+    return fig
 
 
 def _write_text(path: Path, text: str) -> Path:

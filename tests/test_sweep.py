@@ -922,7 +922,7 @@ def test_the_envelope_tells_cells_without_a_valid_problem_from_cells_the_planner
     no success value and is hatched in every figure, with a legend saying why, and a failed cell stays 0."""
     from matplotlib.figure import Figure
 
-    from foam_mj.report import INVALID_LABEL, _measures, _data, envelope_axes, grid_values, load, write_report
+    from foam_mj.report import INVALID_LABEL, NOT_REACHED_LABEL, _measures, _data, envelope_axes, grid_values, load, write_report
     from foam_mj.sweep_run import RowStore
 
     spec = write(tmp_path, 'scenario = "obstacle"\nseeds = [0, 1]\nsmoothers = "none"\nreplay = "none"\n'
@@ -955,11 +955,11 @@ def test_the_envelope_tells_cells_without_a_valid_problem_from_cells_the_planner
     real = Figure.savefig
     monkeypatch.setattr(Figure, "savefig", lambda fig, fname, **kw: drawn.setdefault(fig._suptitle.get_text(), fig) and real(fig, fname, **kw))
     write_report(out)
-    for title in ("success rate of valid plans (centre)", "median f (centre)"):
+    for title, legend in (("success rate of valid plans (centre)", [INVALID_LABEL]), ("median f (centre)", [INVALID_LABEL, NOT_REACHED_LABEL])):
         fig = drawn[title]
         hatched = [(p.get_x() + 0.5, p.get_y() + 0.5) for ax in fig.axes for p in ax.patches if p.get_hatch()]
         assert sorted(hatched) == [(2.0, 0.0), (2.0, 1.0)]  # the r_min 0.07 column, and only it
-        assert [t.get_text() for t in fig.legends[0].get_texts()] == [INVALID_LABEL]
+        assert [t.get_text() for t in fig.legends[0].get_texts()] == legend  # f's failed cells (delta 0.01) are grey: said so
 
 
 def test_a_study_whose_every_cell_is_invalid_still_draws_its_success_figure_all_hatched(tmp_path):
@@ -1210,3 +1210,41 @@ def test_a_seed_past_2_63_or_a_scenario_that_is_not_text_is_named_exit_2_and_cre
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and named in err
     assert not out.exists()
+
+
+def test_a_study_where_one_cell_reached_reads_that_value_on_the_colour_bar_and_names_its_grey_cells(tmp_path):
+    """With one cell reached, every measure but success has one value: the colour bar spanned it +- 1e-9 and read
+    '2.00 ... 2.75' under an offset '1e-9+8.620876132e1' (min clearance 86.2 mm); the grey cell beside it (no plan
+    reached) had no legend. The bar now has one tick, the value; a legend names the grey cells."""
+    from foam_mj.report import NOT_REACHED_LABEL, _data, _figure, _measures, _torque_column, envelope_axes, load
+    from foam_mj.sweep_run import RowStore
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "kinematic"\n[grid]\n"planner.max_bubbles" = [5, 200000]\n')
+    sweep = load_sweep(spec)
+    out = tmp_path / "out"
+    store = RowStore(out, sweep, batch=16)
+    store.open(sweep)
+    for task in sweep.tasks():
+        budget = dict(task.params)["planner.max_bubbles"]
+        store.add([{"key": k, "planner.max_bubbles": budget, "seed": task.seed, "smoother": path, "outcome": "reached" if budget > 5 else "failed",
+                    "f": 3.258 if budget > 5 else None, "min_clearance": 0.08620876132 if budget > 5 else None,
+                    "peak_torque_knee_flexion": 91.6 if budget > 5 else None}
+                   for k, path in zip(task.keys, task.paths)])
+    store.flush()
+    store.close()
+    manifest, table = load(out)
+    (x,) = envelope_axes(manifest, table)
+    data = _data(table)
+    mask, invalid = data["smoother"] == "centre", data["outcome"] == "invalid"
+    seen = {}
+    for stem, title, unit, cmap, agg, lims in _measures(data, _torque_column(table.column_names)):
+        fig = _figure(title, unit, cmap, lims, agg, x, None, None, mask, invalid)
+        assert fig is not None, stem
+        fig.canvas.draw()
+        bar = fig.axes[-1]
+        seen[stem] = ([t.get_text() for t in bar.get_yticklabels()], bar.yaxis.get_offset_text().get_text(),
+                      [t.get_text() for t in fig.legends[0].get_texts()] if fig.legends else [])
+    assert seen["min_clearance"] == (["86.21"], "", [NOT_REACHED_LABEL])
+    assert seen["f"] == (["3.258"], "", [NOT_REACHED_LABEL])
+    assert seen["knee_torque"] == (["91.6"], "", [NOT_REACHED_LABEL])
+    assert seen["success"][1:] == ("", []) and len(seen["success"][0]) > 2  # success keeps its 0-1 scale; its cells all coloured
