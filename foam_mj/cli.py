@@ -301,13 +301,16 @@ def cmd_report(args: argparse.Namespace) -> int:
     from foam_mj.report import write_report
 
     progress = Progress()
+    drew: list[str] = []
     try:
-        text, written = write_report(args.dir, args.figures, formats=tuple(args.format), progress=progress, axes=tuple(args.axes or ()))
+        text, written = write_report(args.dir, args.figures, formats=tuple(args.format), progress=progress, axes=tuple(args.axes or ()), drew=drew)
     finally:
         progress.done()
     print(text)
     figs = [p for p in written if p.suffix != ".txt" and p.suffix != ".json"]
     folder = written[0].parent if written else args.dir
+    for line in drew:
+        print(line)
     print(f"wrote {len(figs)} figure(s), summary.txt and summary.json to {folder}")
     return EXIT_OK
 

@@ -290,8 +290,11 @@ def choose_axes(levels: list[Level], names: Sequence[str], out) -> list[Level]:
 
 
 def write_report(out: str | Path, figures_dir: str | Path | None = None, *, formats: Sequence[str] = ("png",), dpi: int = 120,
-                 progress: Callable[[str], None] | None = None, axes: Sequence[str] = ()) -> tuple[str, list[Path]]:
+                 progress: Callable[[str], None] | None = None, axes: Sequence[str] = (),
+                 drew: list[str] | None = None) -> tuple[str, list[Path]]:
     """Draw the envelope figures into ``figures_dir`` (default DIR/report) and return (summary text, files).
+    ``drew``, when given, is appended one line saying over which keys the figures were drawn and which measures
+    were not (and why).
     ``progress`` is told what is being done (reading the rows, each figure drawn). ``axes``: the swept keys to draw
     (x, y, the panel key), instead of the most varied ones; the keys left out are pooled, and each figure's title
     names them."""
@@ -316,7 +319,9 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
     say(f"binning the swept keys of {table.num_rows:,} rows")
     levels = envelope_axes(manifest, table)
     chosen = choose_axes(levels, axes, out) if axes else levels[:3]
+    say_drew = drew.append if drew is not None else (lambda _text: None)
     if not chosen:
+        say_drew("no figure: no swept key to draw over (the summary only)")
         return text, written
     x, y = chosen[0], (chosen[1] if len(chosen) > 1 else None)
     panel = chosen[2] if len(chosen) > 2 else None
@@ -327,10 +332,20 @@ def write_report(out: str | Path, figures_dir: str | Path | None = None, *, form
     torque = _torque_column(table.column_names)
     invalid = data["outcome"] == "invalid"
     figures = [(path, measure) for path in _paths(manifest, data) for measure in _measures(data, torque)]
+    empty: dict[str, list[str]] = {}
     for k, (path, (stem, title, unit, cmap, agg, lims)) in enumerate(figures, 1):
         say(f"drawing {stem}-{path} ({k} of {len(figures)}, {table.num_rows:,} rows)")
         mask = data["smoother"] == path
-        written += _draw(figures_dir, f"{stem}-{path}", f"{title} ({path}{note})", unit, cmap, lims, agg, x, y, panel, mask, invalid, formats, dpi)
+        files = _draw(figures_dir, f"{stem}-{path}", f"{title} ({path}{note})", unit, cmap, lims, agg, x, y, panel, mask, invalid, formats, dpi)
+        written += files
+        if not files:
+            empty.setdefault(stem, []).append(path)
+    over = f"x: {x.name}" + (f", y: {y.name}" if y is not None else "") + (f", one panel per {panel.name}" if panel is not None else "")
+    line = f"figures over {over}" + (f"; pooled: {', '.join(pooled)}" if pooled else "")
+    for stem, paths in empty.items():  # was only 'wrote 2 figure(s)' when no plan reached: which, and why not the others?
+        why = "no replayed plan reached" if stem in ("min_clearance", "knee_torque") else "no plan reached"
+        line += f"; no {stem} figure for {', '.join(paths)}: {why}"
+    say_drew(line)
     return text, written
 
 

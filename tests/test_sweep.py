@@ -1248,3 +1248,25 @@ def test_a_study_where_one_cell_reached_reads_that_value_on_the_colour_bar_and_n
     assert seen["f"] == (["3.258"], "", [NOT_REACHED_LABEL])
     assert seen["knee_torque"] == (["91.6"], "", [NOT_REACHED_LABEL])
     assert seen["success"][1:] == ("", []) and len(seen["success"][0]) > 2  # success keeps its 0-1 scale; its cells all coloured
+
+
+def test_report_says_over_which_keys_it_drew_and_why_a_measure_has_no_figure(tmp_path, capsys):
+    """A study where no plan reached printed only 'wrote 2 figure(s)': not which, over what, nor why the clearance
+    and f figures were missing. It now says the axes and names each measure left out and why."""
+    from foam_mj.sweep_run import RowStore
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = [0, 1]\nsmoothers = "convex"\nreplay = "kinematic"\n[grid]\n"planner.max_bubbles" = [5, 10]\n')
+    sweep = load_sweep(spec)
+    out = tmp_path / "out"
+    store = RowStore(out, sweep, batch=16)
+    store.open(sweep)
+    for task in sweep.tasks():
+        store.add([{"key": k, **dict(task.params), "seed": task.seed, "smoother": path, "outcome": "failed", "reason": "bubble budget"}
+                   for k, path in zip(task.keys, task.paths)])
+    store.flush()
+    store.close()
+    assert main(["report", str(out)]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[-2] == ("figures over x: planner.max_bubbles; no min_clearance figure for centre, convex: no replayed plan reached; "
+                         "no f figure for centre, convex: no plan reached; no knee_torque figure for centre, convex: no replayed plan reached")
+    assert lines[-1] == f"wrote 2 figure(s), summary.txt and summary.json to {out / 'report'}"
