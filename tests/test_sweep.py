@@ -1287,3 +1287,28 @@ def test_plan_time_is_the_planners_own_time_not_a_workers_first_imports(tmp_path
     assert first[:2] == second[:2] == ["reached", first[1]]  # the same foam: its budget is never reached
     assert first[2] < first[3] - 0.1  # the first task's imports are in its task time, not its plan time
     assert first[2] < 1.5 * second[2] + 0.05, (first, second)
+
+
+def test_the_summary_counts_success_over_the_valid_plans_as_the_figure_does(tmp_path):
+    """The summary's success was reached / every plan: a study whose valid plans all reached, beside as many
+    invalid ones (a subject too tall for the box), read '4 (50%)' while its success figure drew 1.00 and the README's
+    query gave 1.0. It is now of the valid plans, and '-' (None in summary.json) where no plan was valid."""
+    from foam_mj.report import format_summary, load, summary
+    from foam_mj.sweep_run import RowStore
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = [0, 1]\nsmoothers = "none"\nreplay = "none"\n[grid]\n"subject.height" = [1.55, 1.95]\n')
+    sweep = load_sweep(spec)
+    out = tmp_path / "out"
+    store = RowStore(out, sweep, batch=16)
+    store.open(sweep)
+    for task in sweep.tasks():
+        tall = dict(task.params)["subject.height"] > 1.9
+        store.add([{"key": k, **dict(task.params), "seed": task.seed, "smoother": path, "outcome": "invalid" if tall else "reached",
+                    "f": None if tall else 3.0} for k, path in zip(task.keys, task.paths)])
+    store.flush()
+    store.close()
+    (line,) = summary(*load(out))
+    assert (line["plans"], line["reached"], line["invalid"], line["success"]) == (4, 2, 2, 1.0)
+    assert re.search(r"centre\s+4\s+2 \(100%\)", format_summary([line]))
+    none_valid = {**line, "reached": 0, "invalid": 4, "success": None}
+    assert re.search(r"centre\s+4\s+0 \(-\)", format_summary([none_valid]))
