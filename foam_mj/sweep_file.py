@@ -233,10 +233,16 @@ def _uniform_axis(where: str, key: str, low, high) -> Axis:
         lo, hi = _normalize(low, kind), _normalize(high, kind)
         if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
             raise SweepError(f"{where}: {section} '{key}' = [{low}, {high}]: need finite low <= high")
+        if lo == hi:  # every draw the same value: planned once, as if the key were not swept at random
+            raise SweepError(f"{where}: {section} '{key}' = [{low}, {high}] is an empty range (low = high): give low < high, "
+                             f"or put the one value in [grid]")
         return Axis(key, kind, low=lo, high=hi, source="uniform")
     if isinstance(low, list) and isinstance(high, list) and len(low) == len(high) and low and all(numbers(v) for v in low + high):
         lo, hi = [float(v) for v in low], [float(v) for v in high]
         if not all(math.isfinite(a) and math.isfinite(b) and a <= b for a, b in zip(lo, hi)):
             raise SweepError(f"{where}: {section} '{key}': need finite low <= high element-wise, got {low} and {high}")
+        if lo == hi:
+            raise SweepError(f"{where}: {section} '{key}' = [{low}, {high}] is an empty range (low = high in every element): "
+                             f"give low < high in the elements to vary, or put the one value in [grid]")
         return Axis(key, "json", low=lo, high=hi, source="uniform")
     raise SweepError(f"{where}: {section} '{key}' must be [low, high] with two numbers or two lists of numbers of one length")

@@ -403,6 +403,9 @@ def test_a_ray_address_where_something_else_answers_is_exit_2_at_once(tmp_path, 
 def test_bad_random_tables_and_fields_are_named(tmp_path):
     bad = {
         '[random]\nsamples = 3\n[random.uniform]\n"planner.r_min" = [0.09, 0.05]\n': "low <= high",
+        # an empty range drew one value every time (2 samples, 1 plan, 'the 1 distinct ones are planned'), exit 0
+        '[random]\nsamples = 2\n[random.uniform]\n"subject.height" = [1.5, 1.5]\n': "'subject.height' = [1.5, 1.5] is an empty range (low = high)",
+        '[random]\nsamples = 2\n[random.uniform]\n"obstacle.size" = [[0.2, 0.5, 0.1], [0.2, 0.5, 0.1]]\n': "is an empty range (low = high in every element)",
         '[random]\nsamples = 0\n[random.uniform]\n"planner.r_min" = [0.05, 0.09]\n': "'samples'",
         '[random]\nsamples = 2\n[random.uniform]\n"planner.r_min" = [0.0, 0.09]\n': "'planner.r_min' = 0.0",
         'grids = 1\n': "unknown field(s) 'grids' (did you mean 'grid'?)",
