@@ -14,13 +14,13 @@ Computed with MuJoCo's own distance queries, never with a C-obstacle map:
   the sensors are computed from the same kinematics).
 
 The batch applies the same guard (:meth:`Clearance._guard_capsule_box`): its candidates are not all inside certified
-bubbles (bubbletree's extensions reach up to twice the parent's radius, the corridor's chords fill gaps between
-bubbles), so a candidate with a capsule through a box must not read as apart either. The poses come from the batch's
-own kinematics (its ``geom_xpos`` and ``geom_xmat``), so the test costs about twenty numpy calls per batch and no
-extra MuJoCo work (sensors for the poses had doubled a query's cost); still, bubbletree's plan on the obstacle scene
-takes about 13 % more CPU time with it (per-seed median ratio 1.127, seeds 0-9 x 3, interleaved, loaded machine). The
-values are MuJoCo's to the last bit wherever no capsule's segment meets its box, as one configuration at a time: the
-plans of the shipped scenes are unchanged.
+bubbles (bubbletree's extensions reach twice the parent's radius, the corridor's chords fill gaps between bubbles),
+so a candidate with a capsule through a box must not read as apart either. The poses come from frame sensors added
+beside the distance sensors (each capsule's position and axis, each box's position and axes), read with them; the
+test is about twenty numpy calls per batch over every row at once. Measured on the obstacle scene (seeds 0-9 x 3,
+interleaved, CPU time, a loaded machine): about 90 us per batch call, 4 ms per plan, bubbletree's plan x1.12 (binding
+MuJoCo's geom poses instead cost as much again). The values are MuJoCo's to the last bit wherever no capsule's
+segment meets its box, as one configuration at a time: the plans of the shipped scenes are unchanged.
 
 ``pair_distances`` and ``batch_pairs`` return every pair's distance (the bubble radius is taken per
 pair, ``foam_mj.bubbles``); ``__call__`` and ``batch`` their minimum. All return
@@ -141,7 +141,7 @@ class _ThreadState:
 
     def __init__(self, m: mujoco.MjModel) -> None:
         self.data = mujoco.MjData(m)
-        self.batches: dict[int, tuple] = {}  # threads -> (Batch, qpos, sensordata, ids, cutoffs, raw forward, geom poses)
+        self.batches: dict[int, tuple] = {}  # threads -> (Batch, qpos, sensordata, ids, cutoffs, raw forward)
         self.calls = 0
 
 
@@ -214,6 +214,14 @@ class Clearance:
             unused = [g for g in spec.geoms if g.name not in used]
             for obj in [*unused, *spec.lights, *spec.actuators, *spec.keys, *spec.pairs, *spec.sensors]:
                 spec.delete(obj)
+        _, caps, boxes = self._capsule_box_geoms()  # their frames for the batch's capsule/box guard, before ours
+        frames = [(g, kind) for g in caps for kind in ("FRAMEPOS", "FRAMEZAXIS")]
+        frames += [(g, kind) for g in boxes for kind in ("FRAMEPOS", "FRAMEXAXIS", "FRAMEYAXIS", "FRAMEZAXIS")]
+        for g, kind in frames:
+            s = spec.add_sensor()
+            s.type = getattr(mujoco.mjtSensor, f"mjSENS_{kind}")
+            s.objtype = mujoco.mjtObj.mjOBJ_GEOM
+            s.objname = self.robot.geom_name(g)
         for g, o in names:
             s = spec.add_sensor()
             s.type = mujoco.mjtSensor.mjSENS_GEOMDIST
@@ -273,8 +281,7 @@ class Clearance:
             return np.empty((0, P))
         state = self._state()
         state.calls += n
-        batch, qpos, sensordata, ids, cutoff, forward, batch_xpos, batch_xmat = self._batch(
-            state, n, min(self.threads, 2) if n >= THREADED_BATCH else 1)
+        batch, qpos, sensordata, ids, cutoff, forward = self._batch(state, n, min(self.threads, 2) if n >= THREADED_BATCH else 1)
         cfg = self.robot.config
         qpos[:n] = cfg.qpos0  # as ConfigurationMap.to_qpos, written straight into the batch's rows
         q = cfg.offset + cfg.scale * Q
@@ -296,71 +303,78 @@ class Clearance:
             else:  # ids[:n] were checked once (_batch): mujoco.batch's per-call check of them took 3 % of a query loop
                 ids_n = ids[:n]
                 batch._check(ids_n, forward(ids_n, _STAGE_POS))
-        out = sensordata[:n, sensordata.shape[1] - P :].copy()  # our sensors come last, after any the model has
-        if self._capsule_box is not None:
-            self._guard_capsule_box(out, batch_xpos[:n], batch_xmat[:n])
+        width = sensordata.shape[1]
+        out = sensordata[:n, width - P :].copy()  # our sensors come last, after any the model has
+        if self._capsule_box is not None:  # the capsules' and boxes' poses: the frame sensors before ours
+            self._guard_capsule_box(out, sensordata[:n, width - P - self._capsule_box[0] : width - P])
         return out
 
-    def _capsule_box_pairs(self) -> tuple | None:
-        """The checked capsule/box pairs as arrays for :meth:`_guard_capsule_box`: their columns, the capsule's and the
-        box's geom ids in the batch model (read from the distance sensors, which the lean copy renumbers), the capsule's
-        half-length and radius, the box's half-sizes, and the squared reach (half-length plus the box's half-diagonal)
-        within which the capsule's centre must lie for its segment to meet the box; None for a model without such a pair."""
-        m, P = self._batch_model, len(self._pairs)
-        first = m.nsensor - P
+    def _capsule_box_geoms(self) -> tuple[list[tuple[int, int, int]], list[int], list[int]]:
+        """The checked capsule/box pairs as (column, capsule, box) in the robot model's geom ids, and the capsules and
+        boxes among them (each once, in order)."""
         rows = []
         for p, (g, o) in enumerate(self._pairs):
             if is_capsule_box(self._m, g, o):
-                a, b = int(m.sensor_objid[first + p]), int(m.sensor_refid[first + p])
-                rows.append((p, a, b) if int(m.geom_type[a]) == _CAPSULE else (p, b, a))
+                rows.append((p, g, o) if int(self._m.geom_type[g]) == _CAPSULE else (p, o, g))
+        return rows, list(dict.fromkeys(r[1] for r in rows)), list(dict.fromkeys(r[2] for r in rows))
+
+    def _capsule_box_pairs(self) -> tuple | None:
+        """The frame sensors' layout for :meth:`_guard_capsule_box`, None for a model without a capsule/box pair: their
+        width; the columns of the pairs; the entries of the frame block holding each box's rotation matrix (R[j, i],
+        its axis i's component j, at 3 j + i) and each capsule's axis, (12, k), and the capsule's and box's centres,
+        (6, k); the box's faces [-size, +size] as (2, 3, k, 1); the capsule's half-length and radius, (k, 1). The
+        block (:meth:`_compile`): per capsule its position and z axis (6 values), then per box its position and x, y, z
+        axes (12)."""
+        rows, caps, boxes = self._capsule_box_geoms()
         if not rows:
             return None
-        cols, caps, boxes = (np.array(v) for v in zip(*rows))
-        half, size = m.geom_size[caps, 1].copy(), m.geom_size[boxes].copy()
-        reach = (half + np.linalg.norm(size, axis=1)) ** 2 * (1 + 1e-9)  # squared, with room for rounding
-        return cols, caps, boxes, half, m.geom_size[caps, 0].copy(), size, reach
+        cols = np.array([r[0] for r in rows])
+        c0 = np.array([6 * caps.index(r[1]) for r in rows])
+        b0 = np.array([6 * len(caps) + 12 * boxes.index(r[2]) for r in rows])
+        j = np.arange(3)[:, None]
+        # Row 3 j + i of mat: R[j, i], component j of box axis i (at b0 + 3 + 3 i + j); rows 9-11 the capsule's axis.
+        mat = np.array([b0 + 3 + 3 * (k % 3) + k // 3 for k in range(9)] + [c0 + 3 + k for k in range(3)])
+        pos = np.concatenate([c0 + j, b0 + j])
+        size = self._m.geom_size[[r[2] for r in rows]].T[:, :, None]  # (3, k, 1)
+        capsule = self._m.geom_size[[r[1] for r in rows]]
+        return (6 * len(caps) + 12 * len(boxes), cols, mat, pos, np.stack([-size, size]), capsule[:, 1:2].copy(),
+                capsule[:, 0:1].copy())
 
-    def _guard_capsule_box(self, out: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> None:
+    def _guard_capsule_box(self, out: np.ndarray, frames: np.ndarray) -> None:
         """In place: each capsule/box pair's distance at most minus the capsule's radius where the capsule's segment
         meets the box, as :func:`foam_mj.capsule_box.geom_distance` does for one configuration; untouched elsewhere.
-        The same slab test as :func:`foam_mj.capsule_box.meets`, written for the batch's rows: first only the rows
-        whose capsule centre lies within its half-length plus the box's half-diagonal of the box's centre (the
-        segment cannot meet the box elsewhere), then the box's frame from its rotation matrix (row-major, axes as
-        columns) by hand, as numpy's small-matrix products and reductions over a length-3 axis cost more than the test."""
-        cols, caps, boxes, half, radius, sizes, reach = self._capsule_box
-        d = xpos[:, caps] - xpos[:, boxes]  # (n, k, 3)
-        near = np.flatnonzero(((d * d).sum(axis=2) <= reach).ravel())
-        if len(near) == 0:
-            return
-        rows, pair = np.divmod(near, len(cols))
-        d = d.reshape(-1, 3)[near]
-        R = xmat[rows, boxes[pair]]  # (m, 9)
-        a = xmat[rows, caps[pair]]  # the capsule's axis: its z column, entries 2, 5, 8
-        p = d[:, 0:1] * R[:, 0:3] + d[:, 1:2] * R[:, 3:6] + d[:, 2:3] * R[:, 6:9]  # centre in the box's frame
-        u = a[:, 2:3] * R[:, 0:3] + a[:, 5:6] * R[:, 3:6] + a[:, 8:9] * R[:, 6:9]  # axis in the box's frame
-        size = sizes[pair]
-        with np.errstate(divide="ignore", invalid="ignore"):  # an axis parallel to a face: +-inf, the whole line
-            t0, t1 = (-size - p) / u, (size - p) / u
-        lo, hi = np.minimum(t0, t1), np.maximum(t0, t1)
-        h = half[pair]
-        enter = np.fmax(np.fmax(np.fmax(lo[:, 0], lo[:, 1]), lo[:, 2]), -h)
-        leave = np.fmin(np.fmin(np.fmin(hi[:, 0], hi[:, 1]), hi[:, 2]), h)
-        vals = out[rows, cols[pair]]
-        misread = (enter <= leave) & (vals > -radius[pair])
+        ``frames``: the rows' frame sensors (:meth:`_capsule_box_pairs`). The slab test of
+        :func:`foam_mj.capsule_box.meets` over every row and pair at once: the capsule's centre and axis in the box's
+        frame (R^T v), the parameter interval between each pair of faces (an axis parallel to a face gives +-inf: the
+        whole line or nothing), intersected and clipped to the segment. Arrays are held component first, (component,
+        pair, row), so that every numpy call works on contiguous blocks: their count, not the rows, sets the cost."""
+        _, cols, mat, pos, faces, half, radius = self._capsule_box
+        F = frames.T
+        M = F[mat]  # (12, k, n): R row-major, then the capsule's axis
+        X = F[pos]  # (6, k, n): the capsule's centre, then the box's
+        R = M[:9].reshape(3, 3, *M.shape[1:])
+        p = ((X[:3] - X[3:])[:, None] * R).sum(axis=0)  # (3, k, n): R^T (capsule centre - box centre)
+        u = (M[9:, None] * R).sum(axis=0)  # R^T axis
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (faces - p) / u  # (2, 3, k, n): where the axis crosses each face
+        enter = np.maximum(np.minimum(t[0], t[1]).max(axis=0), -half)
+        leave = np.minimum(np.maximum(t[0], t[1]).min(axis=0), half)
+        vals = out[:, cols]
+        misread = ((enter <= leave) & (vals.T > -radius)).T
         if misread.any():
-            out[rows[misread], cols[pair][misread]] = -radius[pair][misread]
+            out[:, cols] = np.where(misread, -radius.T, vals)
 
     def _batch(self, state: _ThreadState, n: int, nthread: int) -> tuple:
         """The calling thread's Batch of ``nthread`` threads with room for n configurations (grown by doubling): the
         batch, its qpos and sensordata rows, the simulation ids, the sensors' cutoffs per simulation and the batch's
-        unchecked forward call (:func:`_raw_forward`), and its geoms' poses (for :meth:`_guard_capsule_box`)."""
+        unchecked forward call (:func:`_raw_forward`)."""
         b = state.batches.get(nthread)
         if b is None or b[0].nsim < n:
             size = max(n, 2 * b[0].nsim if b is not None else FIRST_BATCH)
             batch = mj_batch.Batch(self._batch_model, size, nthread=nthread)
             ids = np.arange(size, dtype=np.int32)
             b = state.batches[nthread] = (batch, batch.bind("qpos"), batch.bind("sensordata"), ids, batch.expand("sensor_cutoff"),
-                                          _raw_forward(batch, ids), batch.bind("geom_xpos"), batch.bind("geom_xmat"))
+                                          _raw_forward(batch, ids))
         return b
 
     def close(self) -> None:

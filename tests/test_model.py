@@ -260,7 +260,8 @@ def test_a_models_own_sensors_do_not_take_the_place_of_the_distances(tmp_path):
     <sensor><jointpos joint="j1"/><jointpos joint="j2"/><jointpos joint="j1"/></sensor></mujoco>""")
     robot = RobotModel.from_xml(tmp_path / "r.xml")
     c = Clearance(robot)
-    assert c._batch_model.nsensor == 3 + len(robot.pairs)
+    frames = 2 + 4 if c._capsule_box is not None else 0  # a capsule/box pair's poses (capsule_box guard): 2 + 4 sensors
+    assert c._batch_model.nsensor == 3 + frames + len(robot.pairs)
     Q = np.array([[0.0, 0.0], [0.9, -0.5], [-0.7, 0.3]])
     np.testing.assert_allclose(c.batch_pairs(Q), [c.pair_distances(q) for q in Q], rtol=0, atol=1e-12)
 
