@@ -84,9 +84,12 @@ MJCF_FIELD_FLAGS = (("fields 'q_goal' and 'q_init' are", "--start and --goal are
 def robot_overrides(doc: dict, args: argparse.Namespace) -> None:
     """--joints, --robot-root and --no-self-collision (plan and bubble) into a scenario document."""
     if args.joints is not None:
-        joints = [j.strip() for j in args.joints.split(",") if j.strip()]
-        if not joints:
+        joints = [j.strip() for j in args.joints.split(",")]
+        if not any(joints):
             raise FoamError("--joints must name joints separated by commas")
+        if not all(joints):  # "j1,,j3": a name left out, which would plan over the other joints only
+            at = joints.index("") + 1
+            raise FoamError(f"--joints must name joints separated by commas, got an empty name at position {at} in {args.joints!r}")
         doc["joints"] = joints
     if args.robot_root is not None:
         if not args.robot_root.strip():

@@ -602,6 +602,9 @@ def test_a_saved_path_moved_off_its_start_or_goal_is_refused_by_replay_export_an
         (["--mjcf", str(MODELS / "obstacle.xml"), "--start", "0.2 0.3 0.08", "--goal", "0.2 0.3 0.08"], "--start and --goal are equal"),
         (["--mjcf", str(MODELS / "obstacle.xml"), "--joints", "a,b,c", "--start", "0.2 0.3 0.08", "--goal", "0.45 0.4536 1.45"],
          "--mjcf: " + str(MODELS / "obstacle.xml") + ": configuration joint 'a' is not in the model"),
+        # a name left out between commas planned silently over the other two joints
+        (["--mjcf", str(MODELS / "obstacle.xml"), "--joints", "hip_flexion,,hip_displacement", "--start", "0.2 0.08", "--goal", "0.45 1.45"],
+         "--joints must name joints separated by commas, got an empty name at position 2 in 'hip_flexion,,hip_displacement'"),
     ],
 )
 def test_a_bad_flag_is_named_as_the_flag_not_as_a_scenario_field(args, message, tmp_path, monkeypatch, capsys):
