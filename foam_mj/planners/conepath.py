@@ -2,7 +2,9 @@
 
 Waypoint i of the polyline lies in the hatch b_i ∩ b_(i+1) of a chain of overlapping balls b_0 .. b_m (each ball
 shrunk by INSET); each segment then lies in one ball, so the path keeps the balls' margin. Minimising the sum of
-the segments' (weighted) lengths is a second-order cone program, solved with the interior-point solver Clarabel. The
+the segments' (weighted) lengths is a second-order cone program (a sum of norms: Lobo, Vandenberghe, Boyd and Lebret,
+"Applications of second-order cone programming", Linear Algebra and its Applications, 1998), solved with the
+interior-point solver Clarabel (Goulart and Chen, arXiv, 2024). The
 program is that of :func:`foam_mj.smoothing.convex.build_socp`; its bubble-independent parts are cached per chain
 length (:func:`_socp_template`). The corridor (:mod:`foam_mj.planners.corridor`) solves it for each refinement round's chain.
 """

@@ -10,7 +10,10 @@ lie in the (shrunk) hatches, so it is the yardstick for HS, GA and the thesis's 
 (docs/bubbles-math.md). With lambda > 0 the squared second differences (a convex stand-in
 for the turning angles of Eq. 4, which are not convex) trade length for smoothness.
 
-Solved to optimality by Clarabel (interior point; the problem is convex, so the optimum is global),
+A sum of Euclidean norms under norm constraints is a second-order cone program (Lobo, Vandenberghe, Boyd and Lebret,
+"Applications of second-order cone programming", Linear Algebra and its Applications, 1998). Solved to optimality by
+Clarabel (Goulart and Chen, "Clarabel: an interior-point solver for conic programs with quadratic objectives",
+arXiv, 2024; interior point; the problem is convex, so the optimum is global),
 with the sparse matrices built in one vectorized pass. The balls are shrunk by ``inset`` (default
 1e-6 in configuration units) so that the returned waypoints lie strictly inside the hatches despite
 the solver's feasibility tolerance (1e-8); the solution is then projected onto the shrunk hatches
