@@ -13,7 +13,8 @@ The residual
 residual of 1e-4 after a solve to 1e-9 is rounding, not a descent direction; ell_k |r_k| is F's first-order
 change when point k moves by its own neighbour distance, the quantity the trust region controls. The
 unscaled residual is reported too (``kkt_raw_stationarity``). During the SCP the last subproblem's duals
-(vertex cones -> g_i, ball cones -> lambda_j) are tried first as the multipliers: when their residual,
+(vertex cones -> g_i, ball cones -> lambda_j; at the points it kept on a straight run's chord, g_i in closed
+form, foam_mj.smoothing.collapse) are tried first as the multipliers: when their residual,
 computed exactly as above, already certifies, the SOCP is not solved. Scaled stationarity and complementarity
 (max lambda_j * slack_j) below ``KKT_TOL`` (1e-4) certify a local optimum; the angle is not convex, so
 the optimal smoother's ``multistart`` looks for better ones (foam_mj.smoothing.optimal).

@@ -12,7 +12,8 @@ The method, sequential convex programming with a composite model, its curvature,
 :mod:`foam_mj.smoothing.scp`.
 
 Certificate: :func:`foam_mj.smoothing.certificate.kkt_certificate` checks first-order optimality of the
-true objective (its module docstring); during the SCP the last subproblem's duals are tried first as its multipliers.
+true objective (its module docstring); during the SCP the last subproblem's duals are tried first as its multipliers
+(at the points a subproblem kept on a straight run's chord, their closed form: :mod:`foam_mj.smoothing.collapse`).
 
 Strictly inside: the balls are shrunk by ``inset`` (1e-6; less in a hatch too thin for it,
 :meth:`~foam_mj.smoothing.base.Hatches.fitting_inset`); each accepted step is projected onto the

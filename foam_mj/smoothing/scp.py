@@ -123,6 +123,24 @@ iterations about half, building the solvers a sixth); the subproblems are made s
   model is certified to only 1.4e-5..3.9e-5, and the plain model's polishing (1-2 subproblems, the
   SOCP) is no longer run. The certificate's SOCP, when the duals do not certify, is assembled sparse
   (obstacle seed 0: 12 ms, 21 before), and asked once per point.
+- Straight runs on their chords (``COLLAPSE``, foam_mj.smoothing.collapse): at the planner's waypoints and at
+  the optimum about 80 % of the interior vertices are straight (obstacle seed 0: 82 of 87), and their vertex
+  and segment cones were most of a subproblem's rows. While the curvature model is on, every first solve
+  (without the trust region's rows) keeps the free, untied straight points away from their spheres on their
+  run's chord at their arclength fractions: the variables are the chord polyline's points, F on that set is
+  F of the chord polyline exactly, and the collapsed vertices' multipliers, which the certificate needs,
+  come in closed form (linear in arclength between the run's ends: that module's docstring); a solution
+  outside the trust region, or a failed solve, gives way to the full subproblem as above. A collapsed
+  point moves only with its run's ends, so its balls enter the first solve only within ``NEAR_RUN`` (0.03)
+  sqrt(n) |last step|_inf (+ 2 TIE), as against NEAR for the others (no ball re-solve on the 60 runs below;
+  with NEAR for them too, 37 % more rows on obstacle). Why not drop the straight vertices' cones from the
+  full subproblem instead: they model the angle there and their duals were the certificate's multipliers
+  (least-squares multipliers did not certify). On the planner's waypoints of obstacle, step_up, step_down,
+  obstacle5, arm6 and arm7 (seeds 0-9): subproblem rows 59 to 79 % fewer per problem (obstacle 16459 ->
+  5216; solves 132 -> 126 in all, obstacle 24 -> 25; none failed), F within -1.2e-7..+2.7e-8 relative,
+  lengths within 1.1e-6, all certified (stationarity <= 8.6e-5), waypoints inside; on multistarts (3
+  random starts) and convex starts, seeds 0-2 of the six, every start's F within 6.1e-8, all certified.
+  Smoother callgrind instructions per run, before -> after: CG_NUMBERS.
 
 Smoother CPU medians, before (the trust region's rows and every reachable ball in every solve, EARLY
 1e-7) -> now, best of 5: obstacle 24.6 -> 16.2 ms (-34 %; per-seed ratio median 0.66), step_up 12.8 ->
@@ -166,7 +184,9 @@ from foam_mj.smoothing.subproblem import (
     _subproblem,
     _vertex_data,
     _within_trust,
+    PROX,
 )
+from foam_mj.smoothing import collapse
 
 LOOSE_TOL = 1e-7  # curvature model: a subproblem is solved to min(this, max(SOLVER_TOL, 1e-3 pred_last / |F|))
 
@@ -187,6 +207,10 @@ NEAR = 0.1  # curvature steps solved first with only the balls within NEAR sqrt(
 #: Iterative refinement of the linear solves from the first subproblem on where the configuration has more than this many
 #: coordinates (below it, only once a subproblem fails: module docstring, Speed).
 REFINE_ABOVE = 3
+#: Curvature runs collapse straight runs onto their chords (foam_mj.smoothing.collapse).
+COLLAPSE = True
+#: ... and a collapsed point's balls enter the first solve only within NEAR_RUN sqrt(n) |last step|_inf (+ 2 TIE).
+NEAR_RUN = 0.03
 
 
 def _snap(p: np.ndarray, h: Hatches, inset: float, tie: float) -> np.ndarray:
@@ -273,7 +297,7 @@ def sequential_convex(
     trace = SCPTrace(values=[F])
     delta = delta0
     refine = weights.sv > 0 or st.n > REFINE_ABOVE
-    solver, relaxed = _Solver(refine), _Solver(refine)
+    solver, relaxed, collapsed = _Solver(refine), _Solver(refine), _Solver(refine)
     radii = np.stack([h.ra, h.rb], axis=1) - inset
     step_last = 0.1 * delta0  # (the first steps moved 2e-3 to 5e-3 on the 36 bubbletree corridors)
     try_relaxed = weights.sv == 0  # (SV: no faster, and its flat optimum moves with the rows)
@@ -326,12 +350,33 @@ def sequential_convex(
         # outside a ball left out is solved again with it; one outside the region (or a failed solve) gives way
         # to the subproblem with the region, whose rows the rest of the run keeps (the plain model's steps end
         # on the region's edge).
-        status, free = "", True  # free: the solution is the model's own minimiser (not held by the trust region)
+        status, free, cp = "", True, None  # free: the solution is the model's own minimiser (not held by the trust region)
         if try_relaxed:
             near = keep
             if keep is not None:
                 near = keep & (slack <= NEAR * np.sqrt(st.n) * step_last + 2 * tie)
-            while True:
+            cp = collapse.plan(p, vx, slack, tie) if curvature and COLLAPSE else None
+            if cp is not None:  # a collapsed point's balls: only the nearest (its run's ends move it)
+                on_chord = cp.interior[np.searchsorted(vx.D, vx.rep[1:-1])]
+                near = near & ~(on_chord[:, None] & (slack > NEAR_RUN * np.sqrt(st.n) * step_last + 2 * tie))
+            while cp is not None:  # straight runs on their chords (foam_mj.smoothing.collapse)
+                P, q, A, b, cones, cinfo = collapse.subproblem(cp, st, p, weights, None if y is None else y_pt, near,
+                                                               PROX * max(weights.as_tuple))
+                sol = collapsed.solve(P, q, A, b, cones, sub_tol)
+                status = str(sol.status).rsplit(".", 1)[-1]
+                if status not in ("Solved", "AlmostSolved"):
+                    cp, status = None, ""  # (the full subproblem below)
+                    break
+                x = np.asarray(sol.x)
+                Qn, Wn = collapse.expand(x, cp)
+                if near is keep:
+                    break
+                out = keep & ~near & (h.centre_distances(Wn) > radii)
+                if not out.any():
+                    break
+                near = near | out
+                trace.ball_solves += 1
+            while cp is None:
                 P, q, A, b, cones, curv, ball_row = _subproblem(st, p, weights, delta, vx, y, rel, near, long_seg, trust=False)
                 sol = relaxed.solve(P, q, A, b, cones, sub_tol)
                 status = str(sol.status).rsplit(".", 1)[-1]
@@ -344,8 +389,8 @@ def sequential_convex(
                 near = near | out
                 trace.ball_solves += 1
             if status in ("Solved", "AlmostSolved"):
-                if not _within_trust(x, p, vx, delta, rel):
-                    try_relaxed, status = False, ""
+                if not _within_trust(x if cp is None else Wn.ravel(), p, vx, delta, rel):
+                    try_relaxed, status, cp = False, "", None
                 elif keep is not None:
                     keep = near  # (the balls of the problem solved: its duals are the certificate's guess)
         if status not in ("Solved", "AlmostSolved"):
@@ -356,10 +401,16 @@ def sequential_convex(
             trace.trust_solves += 1
             free = curvature and _within_trust(x, p, vx, 0.99 * delta, 0.99 * rel)  # (the rows inactive)
         if status in ("Solved", "AlmostSolved"):
-            pred = F - _model_value(x, st, weights, vx, p, curv)
+            if cp is None:
+                pred = F - _model_value(x, st, weights, vx, p, curv)
+            else:
+                pred = F - collapse.model_value(x, cp, weights, st.M, cinfo)
             pred_last = pred
             z, cd, Mv = sol.z, st.n + 1, len(vx.s0)  # (a list: only its vertex and ball parts become arrays)
-            if Mv and weights.angle:
+            z0 = np.zeros((st.M, 2))
+            if cp is not None:
+                collapse.multipliers(z, cp, Qn, weights, st.M, cinfo, vx.D, y_pt, z0)
+            elif Mv and weights.angle:
                 # y_i = -(the v part of vertex cone i's dual): Clarabel's dual z of the cone (s_i, v_i + J_i dW)
                 # enters the Lagrangian as -z . (s_i, v_i + ...), so y_i multiplies v_i as in F's Lagrangian.
                 y_pt[:] = 0.0
@@ -374,9 +425,9 @@ def sequential_convex(
                 # The subproblem's duals as the certificate's first guess of its multipliers: y for the
                 # straight vertices, and z0 / (2 R) for the balls (the cone (R, w - c) against the
                 # certificate's R^2 - |w - c|^2 >= 0, whose gradient is -2 (w - c) = -2 R (w - c)/|w - c|).
-                z0 = np.zeros((st.M, 2))
-                kept = np.ones((st.M, 2), dtype=bool) if keep is None else keep
-                z0[kept] = z[ball_row:ball_row + int(kept.sum()) * cd:cd]
+                if cp is None:
+                    kept = np.ones((st.M, 2), dtype=bool) if keep is None else keep
+                    z0[kept] = z[ball_row:ball_row + int(kept.sum()) * cd:cd]
                 guess = (y_pt.copy(), z0 / (2.0 * radii))
             if certify is not None and pred <= certify_tol * abs(F):
                 cert = certify(w, guess)
@@ -390,7 +441,7 @@ def sequential_convex(
                     continue
                 certify_tol *= 0.1
             p_new = p.copy()
-            p_new[1:-1] = x[: st.nw].reshape(w.shape)
+            p_new[1:-1] = x[: st.nw].reshape(w.shape) if cp is None else Wn
             p_new = _snap(rosary.path(h.project(p_new[vx.rep][1:-1], inset)), h, inset, tie)
             w_new = p_new[1:-1].copy()
             F_new = _true_value(p_new, weights)
@@ -398,7 +449,7 @@ def sequential_convex(
         else:
             if not refine:  # ill-conditioned: iterative refinement from now on, and the same step again
                 refine = True
-                solver, relaxed = _Solver(True), _Solver(True)
+                solver, relaxed, collapsed = _Solver(True), _Solver(True), _Solver(True)
                 continue
             unsnapped = close & (lens > paths._EPS)
             if unsnapped.any():  # a tie the hatches (or the trust region) do not allow: refuse it, retry
