@@ -141,7 +141,7 @@ iterations about half, building the solvers a sixth); the subproblems are made s
   lengths within 1.1e-6, all certified (stationarity <= 8.6e-5), waypoints inside; on multistarts (3
   random starts) and convex starts, seeds 0-2 of the six, every start's F within 6.1e-8, all certified.
   Smoother callgrind instructions per run (seeds 0-9), before -> after: obstacle 116.1 -> 43.2 M (-63 %),
-  step_up 48.8 -> 32.0, step_down 73.7 -> 28.2, obstacle5 404 -> 139, arm6 254 -> 94 M; NEAR for the collapsed
+  step_up 48.8 -> 32.0, step_down 73.7 -> 28.2, obstacle5 404 -> 139, arm6 254 -> 94, arm7 364 -> 196 M; NEAR for the collapsed
   points' balls too: obstacle 69.6 M, step_up 27.1 (one full solve fewer).
 
 Smoother CPU medians, before (the trust region's rows and every reachable ball in every solve, EARLY
