@@ -50,7 +50,7 @@ import mujoco
 import numpy as np
 from mujoco import batch as mj_batch
 
-from foam_mj.capsule_box import _CAPSULE, geom_distance, is_capsule_box
+from foam_mj.capsule_box import _CAPSULE, is_capsule_box
 from foam_mj.model import RobotModel
 
 #: Batches at least this large are split over two threads (measured crossover on a 2-core machine).
@@ -136,6 +136,34 @@ def _raw_forward(batch: mj_batch.Batch, ids: np.ndarray):
     return raw
 
 
+def _segment_meets(d: mujoco.MjData, cap: int, box: int, half: float, size: tuple, reach: float) -> bool:
+    """:func:`foam_mj.capsule_box.meets` for one capsule and box at the kinematics of ``d``, in Python floats: the
+    capsule's centre and axis in the box's frame, the parameter interval between each pair of faces, intersected and
+    clipped to the segment [-half, half]; False at once where the centres are farther apart than ``reach`` (squared:
+    the half-length plus the box's half-diagonal)."""
+    cx, cy, cz = d.geom_xpos[cap].tolist()
+    bx, by, bz = d.geom_xpos[box].tolist()
+    dx, dy, dz = cx - bx, cy - by, cz - bz
+    if dx * dx + dy * dy + dz * dz > reach:
+        return False
+    R = d.geom_xmat[box].tolist()  # row-major: the box's axis i is column i
+    A = d.geom_xmat[cap].tolist()
+    ax, ay, az = A[2], A[5], A[8]
+    lo, hi = -half, half
+    for i in range(3):
+        p = dx * R[i] + dy * R[3 + i] + dz * R[6 + i]
+        u = ax * R[i] + ay * R[3 + i] + az * R[6 + i]
+        if abs(u) < 1e-12:  # parallel to these faces: between them or nowhere
+            if abs(p) > size[i]:
+                return False
+            continue
+        t0, t1 = (-size[i] - p) / u, (size[i] - p) / u
+        lo, hi = max(lo, min(t0, t1)), min(hi, max(t0, t1))
+        if lo > hi:
+            return False
+    return True
+
+
 class _ThreadState:
     """One thread's scratch: its MjData, its batches and the configurations it evaluated."""
 
@@ -163,6 +191,10 @@ class Clearance:
         self._pairs = [(int(g), int(o)) for g, o in robot.pairs]
         self._batch_model = self._sensor_model()
         self._capsule_box = self._capsule_box_pairs()
+        self._single_guard = [(p, cap, box, float(self._m.geom_size[cap][1]), float(self._m.geom_size[cap][0]),
+                               tuple(float(v) for v in self._m.geom_size[box]),
+                               (float(self._m.geom_size[cap][1]) + float(np.linalg.norm(self._m.geom_size[box]))) ** 2 * (1 + 1e-9))
+                              for p, cap, box in self._capsule_box_geoms()[0]]
         self._qpos_block = _qpos_block(robot.config.qpos_index)
         self._local = threading.local()
 
@@ -239,8 +271,18 @@ class Clearance:
         d.qpos[:] = self.robot.config.to_qpos(q)
         mujoco.mj_kinematics(self._m, d)
         state.calls += 1
-        m, dm, gd = self._m, self.distmax, geom_distance
-        return min([gd(m, d, g, o, dm) for g, o in self._pairs])
+        return min(self._distances(d))
+
+    def mujoco_clearance(self, q: np.ndarray) -> float:
+        """MuJoCo's own minimum over the checked pairs at q, without the capsule/box guard (:mod:`foam_mj.capsule_box`):
+        what a peer planner's validity checker built on MuJoCo reads (``benchmarks/ompl_peer.py``), at MuJoCo's cost."""
+        state = self._state()
+        d = state.data
+        d.qpos[:] = self.robot.config.to_qpos(q)
+        mujoco.mj_kinematics(self._m, d)
+        state.calls += 1
+        m, dm, gd = self._m, self.distmax, mujoco.mj_geomDistance
+        return min([gd(m, d, g, o, dm, None) for g, o in self._pairs])
 
     def pair_distances(self, q: np.ndarray) -> np.ndarray:
         """d_p(q) of every checked pair (shape (P,), in ``robot.pairs`` order)."""
@@ -249,8 +291,18 @@ class Clearance:
         d.qpos[:] = self.robot.config.to_qpos(q)
         mujoco.mj_kinematics(self._m, d)
         state.calls += 1
-        m, dm, gd = self._m, self.distmax, geom_distance
-        return np.array([gd(m, d, g, o, dm) for g, o in self._pairs])
+        return np.array(self._distances(d))
+
+    def _distances(self, d: mujoco.MjData) -> list[float]:
+        """Every checked pair's distance at the kinematics of ``d``: MuJoCo's, at most minus a capsule's radius where its
+        segment meets its box (:func:`foam_mj.capsule_box.geom_distance`'s values, by :func:`_segment_meets` in Python
+        floats: a peer's validity checker calls this once per state, where numpy's per-call cost would double it)."""
+        m, dm, gd = self._m, self.distmax, mujoco.mj_geomDistance
+        out = [gd(m, d, g, o, dm, None) for g, o in self._pairs]
+        for p, cap, box, half, radius, size, reach in self._single_guard:
+            if out[p] > -radius and _segment_meets(d, cap, box, half, size, reach):
+                out[p] = -radius
+        return out
 
     def pairwise(self, q: np.ndarray) -> dict[tuple[str, str], float]:
         """Distance of every checked pair at q, keyed by geom names (for reports and debugging)."""

@@ -128,3 +128,19 @@ def test_a_batch_reads_a_link_stuck_through_a_wall_as_one_configuration_does(tmp
         assert batch[-1].min() == -0.02 and clearance.batch(Q)[-1] == -0.02
     finally:
         clearance.close()
+
+
+def test_one_configuration_reads_the_guard_and_mujoco_clearance_reads_mujoco(tmp_path):
+    """At THROUGH the single query reads -0.02 (the guard, in Python floats) while ``mujoco_clearance``, a peer's
+    validity checker, reads MuJoCo's own value there (+25 mm); elsewhere the two agree to the last bit."""
+    (tmp_path / "arm.xml").write_text(ARM)
+    robot = RobotModel.from_xml(tmp_path / "arm.xml")
+    clearance = Clearance(robot, threads=1)
+    try:
+        assert clearance(np.array(THROUGH)) == -0.02 and clearance.mujoco_clearance(np.array(THROUGH)) > 0.02
+        rng = np.random.default_rng(2)
+        Q = robot.lower + rng.random((300, 3)) * (robot.upper - robot.lower)
+        guarded, raw = np.array([clearance(q) for q in Q]), np.array([clearance.mujoco_clearance(q) for q in Q])
+        assert np.all(guarded <= raw) and np.mean(guarded == raw) > 0.9
+    finally:
+        clearance.close()
