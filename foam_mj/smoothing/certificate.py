@@ -9,7 +9,9 @@ The residual
     s.t. |g_i| <= 1,  lambda_j >= 0
 
 (k over the distinct free points, ell_k = min(1, the shorter of k's segments)) is itself a small SOCP
-(Clarabel). Why the scaling by ell_k: at two vertices 1e-4 apart the gradient is 1e4 times larger, and a
+(Clarabel). These are the KKT conditions with their multipliers g_i and lambda_j (Boyd and Vandenberghe, "Convex
+Optimization", Cambridge University Press, 2004, section 5.5), with the subdifferential of phi at a straight
+vertex in place of its gradient. Why the scaling by ell_k: at two vertices 1e-4 apart the gradient is 1e4 times larger, and a
 residual of 1e-4 after a solve to 1e-9 is rounding, not a descent direction; ell_k |r_k| is F's first-order
 change when point k moves by its own neighbour distance, the quantity the trust region controls. The
 unscaled residual is reported too (``kkt_raw_stationarity``). During the SCP the last subproblem's duals
