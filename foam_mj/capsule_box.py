@@ -19,7 +19,6 @@ outside every certified bubble), and ``foam-mj verify`` has its own.
 from __future__ import annotations
 
 import mujoco
-import numpy as np
 
 _CAPSULE, _BOX = int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_BOX)
 
@@ -29,24 +28,39 @@ def is_capsule_box(m: mujoco.MjModel, a: int, b: int) -> bool:
     return {int(m.geom_type[a]), int(m.geom_type[b])} == {_CAPSULE, _BOX}
 
 
-def meets(capsule_pos, capsule_axis, box_pos, box_axes, half, size) -> np.ndarray:
-    """Whether each capsule segment (centre ``capsule_pos`` (..., 3), unit axis ``capsule_axis``, half-length
-    ``half``) meets its box (centre ``box_pos``, ``box_axes`` (..., 3, 3) its x, y and z axes as rows, half-sizes
-    ``size`` (3,)): the segment's parameter interval inside each pair of faces, intersected (module docstring)."""
-    p = np.einsum("...ij,...j->...i", box_axes, capsule_pos - box_pos)
-    u = np.einsum("...ij,...j->...i", box_axes, capsule_axis)
-    flat = np.abs(u) < 1e-12
-    safe = np.where(flat, 1.0, u)
-    t0, t1 = (-size - p) / safe, (size - p) / safe
-    lo = np.where(flat, -np.inf, np.minimum(t0, t1)).max(axis=-1)
-    hi = np.where(flat, np.inf, np.maximum(t0, t1)).min(axis=-1)
-    return (np.maximum(lo, -half) <= np.minimum(hi, half)) & ~(flat & (np.abs(p) > size)).any(axis=-1)
+def segment_meets(d: mujoco.MjData, capsule: int, box: int, half: float, size, reach: float | None = None) -> bool:
+    """Whether the capsule's segment (half-length ``half``) meets the box (half-sizes ``size``) at the kinematics of
+    ``d`` (after ``mj_kinematics``), in Python floats: the capsule's centre and axis in the box's frame, the segment's
+    parameter interval inside each pair of faces, intersected and clipped to [-half, half] (module docstring); an
+    axis parallel to a pair of faces meets it where it lies between them. ``reach``: False at once where the centres
+    are farther apart than its square root (the half-length plus the box's half-diagonal), a necessary condition the
+    clearance's per-query guard precomputes."""
+    cx, cy, cz = d.geom_xpos[capsule].tolist()
+    bx, by, bz = d.geom_xpos[box].tolist()
+    dx, dy, dz = cx - bx, cy - by, cz - bz
+    if reach is not None and dx * dx + dy * dy + dz * dz > reach:
+        return False
+    R = d.geom_xmat[box].tolist()  # row-major: the box's axis i is column i
+    A = d.geom_xmat[capsule].tolist()
+    ax, ay, az = A[2], A[5], A[8]
+    lo, hi = -half, half
+    for i in range(3):
+        p = dx * R[i] + dy * R[3 + i] + dz * R[6 + i]
+        u = ax * R[i] + ay * R[3 + i] + az * R[6 + i]
+        if abs(u) < 1e-12:  # parallel to these faces: between them or nowhere
+            if abs(p) > size[i]:
+                return False
+            continue
+        t0, t1 = (-size[i] - p) / u, (size[i] - p) / u
+        lo, hi = max(lo, min(t0, t1)), min(hi, max(t0, t1))
+        if lo > hi:
+            return False
+    return True
 
 
 def segment_meets_box(m: mujoco.MjModel, d: mujoco.MjData, capsule: int, box: int) -> bool:
-    """:func:`meets` at the poses of ``d`` (after ``mj_kinematics``)."""
-    return bool(meets(d.geom_xpos[capsule], d.geom_xmat[capsule].reshape(3, 3)[:, 2], d.geom_xpos[box],
-                      d.geom_xmat[box].reshape(3, 3).T, float(m.geom_size[capsule][1]), m.geom_size[box]))
+    """:func:`segment_meets` with the sizes of the model's geoms."""
+    return segment_meets(d, capsule, box, float(m.geom_size[capsule][1]), m.geom_size[box].tolist())
 
 
 def geom_distance(m: mujoco.MjModel, d: mujoco.MjData, a: int, b: int, distmax: float) -> float:

@@ -50,7 +50,7 @@ import mujoco
 import numpy as np
 from mujoco import batch as mj_batch
 
-from foam_mj.capsule_box import _CAPSULE, is_capsule_box
+from foam_mj.capsule_box import _CAPSULE, is_capsule_box, segment_meets
 from foam_mj.model import RobotModel
 
 #: Batches at least this large are split over two threads (measured crossover on a 2-core machine).
@@ -136,34 +136,6 @@ def _raw_forward(batch: mj_batch.Batch, ids: np.ndarray):
     return raw
 
 
-def _segment_meets(d: mujoco.MjData, cap: int, box: int, half: float, size: tuple, reach: float) -> bool:
-    """:func:`foam_mj.capsule_box.meets` for one capsule and box at the kinematics of ``d``, in Python floats: the
-    capsule's centre and axis in the box's frame, the parameter interval between each pair of faces, intersected and
-    clipped to the segment [-half, half]; False at once where the centres are farther apart than ``reach`` (squared:
-    the half-length plus the box's half-diagonal)."""
-    cx, cy, cz = d.geom_xpos[cap].tolist()
-    bx, by, bz = d.geom_xpos[box].tolist()
-    dx, dy, dz = cx - bx, cy - by, cz - bz
-    if dx * dx + dy * dy + dz * dz > reach:
-        return False
-    R = d.geom_xmat[box].tolist()  # row-major: the box's axis i is column i
-    A = d.geom_xmat[cap].tolist()
-    ax, ay, az = A[2], A[5], A[8]
-    lo, hi = -half, half
-    for i in range(3):
-        p = dx * R[i] + dy * R[3 + i] + dz * R[6 + i]
-        u = ax * R[i] + ay * R[3 + i] + az * R[6 + i]
-        if abs(u) < 1e-12:  # parallel to these faces: between them or nowhere
-            if abs(p) > size[i]:
-                return False
-            continue
-        t0, t1 = (-size[i] - p) / u, (size[i] - p) / u
-        lo, hi = max(lo, min(t0, t1)), min(hi, max(t0, t1))
-        if lo > hi:
-            return False
-    return True
-
-
 class _ThreadState:
     """One thread's scratch: its MjData, its batches and the configurations it evaluated."""
 
@@ -189,12 +161,13 @@ class Clearance:
         self.distmax = float(distmax)
         self._m = robot.model
         self._pairs = [(int(g), int(o)) for g, o in robot.pairs]
+        self._capsule_box_rows = self._capsule_box_geoms()
         self._batch_model = self._sensor_model()
         self._capsule_box = self._capsule_box_pairs()
-        self._single_guard = [(p, cap, box, float(self._m.geom_size[cap][1]), float(self._m.geom_size[cap][0]),
-                               tuple(float(v) for v in self._m.geom_size[box]),
-                               (float(self._m.geom_size[cap][1]) + float(np.linalg.norm(self._m.geom_size[box]))) ** 2 * (1 + 1e-9))
-                              for p, cap, box in self._capsule_box_geoms()[0]]
+        size = self._m.geom_size
+        self._single_guard = [(p, cap, box, float(size[cap][1]), float(size[cap][0]), size[box].tolist(),
+                               (float(size[cap][1]) + float(np.linalg.norm(size[box]))) ** 2 * (1 + 1e-9))
+                              for p, cap, box in self._capsule_box_rows[0]]
         self._qpos_block = _qpos_block(robot.config.qpos_index)
         self._local = threading.local()
 
@@ -246,7 +219,7 @@ class Clearance:
             unused = [g for g in spec.geoms if g.name not in used]
             for obj in [*unused, *spec.lights, *spec.actuators, *spec.keys, *spec.pairs, *spec.sensors]:
                 spec.delete(obj)
-        _, caps, boxes = self._capsule_box_geoms()  # their frames for the batch's capsule/box guard, before ours
+        _, caps, boxes = self._capsule_box_rows  # their frames for the batch's capsule/box guard, before ours
         frames = [(g, kind) for g in caps for kind in ("FRAMEPOS", "FRAMEZAXIS")]
         frames += [(g, kind) for g in boxes for kind in ("FRAMEPOS", "FRAMEXAXIS", "FRAMEYAXIS", "FRAMEZAXIS")]
         for g, kind in frames:
@@ -295,12 +268,13 @@ class Clearance:
 
     def _distances(self, d: mujoco.MjData) -> list[float]:
         """Every checked pair's distance at the kinematics of ``d``: MuJoCo's, at most minus a capsule's radius where its
-        segment meets its box (:func:`foam_mj.capsule_box.geom_distance`'s values, by :func:`_segment_meets` in Python
-        floats: a peer's validity checker calls this once per state, where numpy's per-call cost would double it)."""
+        segment meets its box (:func:`foam_mj.capsule_box.geom_distance`'s values, by its scalar test
+        :func:`~foam_mj.capsule_box.segment_meets`: a peer's validity checker calls this once per state, where numpy's
+        per-call cost would double it)."""
         m, dm, gd = self._m, self.distmax, mujoco.mj_geomDistance
         out = [gd(m, d, g, o, dm, None) for g, o in self._pairs]
         for p, cap, box, half, radius, size, reach in self._single_guard:
-            if out[p] > -radius and _segment_meets(d, cap, box, half, size, reach):
+            if out[p] > -radius and segment_meets(d, cap, box, half, size, reach):
                 out[p] = -radius
         return out
 
@@ -377,7 +351,7 @@ class Clearance:
         its axis i's component j: 3, 3, k); the box's faces [-size, +size] as (2, 3, k, 1); the capsule's half-length and radius, (k, 1). The
         block (:meth:`_compile`): per capsule its position and z axis (6 values), then per box its position and x, y, z
         axes (12)."""
-        rows, caps, boxes = self._capsule_box_geoms()
+        rows, caps, boxes = self._capsule_box_rows
         if not rows:
             return None
         cols = np.array([r[0] for r in rows])
@@ -397,7 +371,7 @@ class Clearance:
         """In place: each capsule/box pair's distance at most minus the capsule's radius where the capsule's segment
         meets the box, as :func:`foam_mj.capsule_box.geom_distance` does for one configuration; untouched elsewhere.
         ``frames``: the rows' frame sensors (:meth:`_capsule_box_pairs`). The slab test of
-        :func:`foam_mj.capsule_box.meets` over every row and pair at once: the capsule's centre and axis in the box's
+        :func:`foam_mj.capsule_box.segment_meets` over every row and pair at once: the capsule's centre and axis in the box's
         frame (R^T v), the parameter interval between each pair of faces (an axis parallel to a face gives +-inf: the
         whole line or nothing), intersected and clipped to the segment. Arrays are held component first, (component,
         pair, row), so that every numpy call works on contiguous blocks: their count, not the rows, sets the cost."""

@@ -112,35 +112,35 @@ def test_a_capsule_and_box_too_small_for_mujocos_distance_are_refused_naming_the
     assert RobotModel.from_xml(tmp_path / "arm.xml").dim == 3
 
 
-def test_a_batch_reads_a_link_stuck_through_a_wall_as_one_configuration_does(tmp_path):
+@pytest.fixture
+def arm_clearance(tmp_path):
+    """The 3-link arm by the 2 cm wall, its robot and a one-thread Clearance (closed afterwards)."""
+    (tmp_path / "arm.xml").write_text(ARM)
+    robot = RobotModel.from_xml(tmp_path / "arm.xml")
+    clearance = Clearance(robot, threads=1)
+    yield robot, clearance
+    clearance.close()
+
+
+def test_a_batch_reads_a_link_stuck_through_a_wall_as_one_configuration_does(arm_clearance):
     """Batched candidates are not all inside certified bubbles (bubbletree's extensions reach twice the parent's radius,
     the corridor's chords fill gaps between bubbles), so the batch must not read THROUGH as apart either: it read
     MuJoCo's +25 mm there. Now every row equals the one-at-a-time value, THROUGH among random configurations."""
-    (tmp_path / "arm.xml").write_text(ARM)
-    robot = RobotModel.from_xml(tmp_path / "arm.xml")
-    clearance = Clearance(robot, threads=1)
-    try:
-        rng = np.random.default_rng(1)
-        Q = np.vstack([robot.lower + rng.random((300, 3)) * (robot.upper - robot.lower), THROUGH])
-        batch = clearance.batch_pairs(Q)
-        one = np.array([clearance.pair_distances(q) for q in Q])
-        np.testing.assert_array_equal(batch, one)
-        assert batch[-1].min() == -0.02 and clearance.batch(Q)[-1] == -0.02
-    finally:
-        clearance.close()
+    robot, clearance = arm_clearance
+    rng = np.random.default_rng(1)
+    Q = np.vstack([robot.lower + rng.random((300, 3)) * (robot.upper - robot.lower), THROUGH])
+    batch = clearance.batch_pairs(Q)
+    one = np.array([clearance.pair_distances(q) for q in Q])
+    np.testing.assert_array_equal(batch, one)
+    assert batch[-1].min() == -0.02 and clearance.batch(Q)[-1] == -0.02
 
 
-def test_one_configuration_reads_the_guard_and_mujoco_clearance_reads_mujoco(tmp_path):
+def test_one_configuration_reads_the_guard_and_mujoco_clearance_reads_mujoco(arm_clearance):
     """At THROUGH the single query reads -0.02 (the guard, in Python floats) while ``mujoco_clearance``, a peer's
     validity checker, reads MuJoCo's own value there (+25 mm); elsewhere the two agree to the last bit."""
-    (tmp_path / "arm.xml").write_text(ARM)
-    robot = RobotModel.from_xml(tmp_path / "arm.xml")
-    clearance = Clearance(robot, threads=1)
-    try:
-        assert clearance(np.array(THROUGH)) == -0.02 and clearance.mujoco_clearance(np.array(THROUGH)) > 0.02
-        rng = np.random.default_rng(2)
-        Q = robot.lower + rng.random((300, 3)) * (robot.upper - robot.lower)
-        guarded, raw = np.array([clearance(q) for q in Q]), np.array([clearance.mujoco_clearance(q) for q in Q])
-        assert np.all(guarded <= raw) and np.mean(guarded == raw) > 0.9
-    finally:
-        clearance.close()
+    robot, clearance = arm_clearance
+    assert clearance(np.array(THROUGH)) == -0.02 and clearance.mujoco_clearance(np.array(THROUGH)) > 0.02
+    rng = np.random.default_rng(2)
+    Q = robot.lower + rng.random((300, 3)) * (robot.upper - robot.lower)
+    guarded, raw = np.array([clearance(q) for q in Q]), np.array([clearance.mujoco_clearance(q) for q in Q])
+    assert np.all(guarded <= raw) and np.mean(guarded == raw) > 0.9
