@@ -514,6 +514,13 @@ def test_replay_of_a_result_without_paths_is_bad_input(planned_result, tmp_path,
     assert len(err.splitlines()) == 1 and "no paths to replay" in err and "queue empty" in err
 
 
+def _refused(argv: list[str], words: str, capsys) -> None:
+    """``foam-mj ARGV`` exits 2 with one line on stderr that holds ``words``."""
+    assert main(argv) == 2, argv
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and words in err, (argv, err)
+
+
 def test_an_output_never_overwrites_an_input_or_another_output(planned_result, tmp_path, capsys):
     """Refused before any work (exit 2, one line, every file left as it was): the result as export's
     --out or replay's --rrd, the scenario or the MJCF as plan's --json, --json and --rrd on one file."""
@@ -532,9 +539,7 @@ def test_an_output_never_overwrites_an_input_or_another_output(planned_result, t
         (["plan", "--scene", str(scenario), "--rrd", str(tmp_path / "o.rrd"), "--json", str(tmp_path / "o.rrd")], "must end in .json"),
     ]
     for argv, words in cases:
-        assert main(argv) == 2, argv
-        err = capsys.readouterr().err.strip()
-        assert len(err.splitlines()) == 1 and words in err, (argv, err)
+        _refused(argv, words, capsys)
     assert {p: p.read_bytes() for p in before} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["arm.xml", "r.json", "s.toml"]
 
@@ -580,9 +585,7 @@ def test_a_saved_path_moved_off_its_start_or_goal_is_refused_by_replay_export_an
         for argv in (["replay", str(bad), "--kinematic-only", "--rrd", str(tmp_path / "r.rrd")],
                      ["export", str(bad), "--out", str(tmp_path / "t.csv")],
                      ["verify", str(bad), "--step", "0.05"]):
-            assert main(argv) == 2, argv
-            err = capsys.readouterr().err.strip()
-            assert len(err.splitlines()) == 1 and words in err, (argv, err)
+            _refused(argv, words, capsys)
         assert list(tmp_path.iterdir()) == []
     finally:
         bad.unlink()
@@ -1130,9 +1133,7 @@ def test_a_result_whose_saved_trajectory_was_edited_is_refused_by_replay_and_exp
     try:
         for argv in (["replay", str(bad), "--kinematic-only", "--rrd", str(tmp_path / "r.rrd")],
                      ["export", str(bad), "--out", str(tmp_path / "t.csv")]):
-            assert main(argv) == 2, argv
-            err = capsys.readouterr().err.strip()
-            assert len(err.splitlines()) == 1 and words in err, (argv, err)
+            _refused(argv, words, capsys)
         assert list(tmp_path.iterdir()) == []
     finally:
         bad.unlink()

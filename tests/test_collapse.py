@@ -5,24 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from foam_mj.planners import PlanningProblem, get_planner
 from foam_mj.planners.base import smoother_start
-from foam_mj.scenarios import load_scenario
 from foam_mj.smoothing import Hatches, collapse, scp, subproblem
 from foam_mj.smoothing.objective import ObjectiveWeights, tie_mask
 from foam_mj.smoothing.optimal import OptimalSmoother
+from test_optimal import _bubbletree_corridor
 
 F = ObjectiveWeights.named("f")
-
-
-def _bubbletree_corridor(scenario: str, seed: int = 0):
-    """bubbletree's plan (its rosary and waypoints) of a built-in scenario, as foam-mj plan makes it."""
-    sc = load_scenario(scenario)
-    oracle = sc.oracle()
-    try:
-        return get_planner("bubbletree").plan(PlanningProblem(oracle, sc.q_init, sc.q_goal, delta=oracle.delta), seed=seed)
-    finally:
-        oracle.close()
 
 
 def _lagrangian_gradient(p: np.ndarray, y: np.ndarray) -> np.ndarray:
