@@ -42,6 +42,22 @@ def write(folder: Path, text: str, name: str = "sweep.toml") -> Path:
     return p
 
 
+def _stored_rows(spec: Path, row) -> Path:
+    """A study's rows written straight to an --out folder beside ``spec`` ("out"), without planning: ``row(task, key,
+    path)`` gives each (parameters, seed, smoother) row, as a sweep would store it."""
+    from foam_mj.sweep_run import RowStore
+
+    sweep = load_sweep(spec)
+    out = spec.parent / "out"
+    store = RowStore(out, sweep, batch=16)
+    store.open(sweep)
+    for task in sweep.tasks():
+        store.add([row(task, k, path) for k, path in zip(task.keys, task.paths)])
+    store.flush()
+    store.close()
+    return out
+
+
 def deterministic(rows: list[dict]) -> list[dict]:
     """Rows without their timings, sorted by key."""
     return sorted(({k: v for k, v in r.items() if k not in TIMING_COLUMNS} for r in rows), key=lambda r: r["key"])
@@ -589,7 +605,6 @@ def test_a_list_key_drawn_at_random_gives_one_binned_axis_per_element_that_varie
     figures 235,000 pixels wide, in 11 minutes and 3 GB. Each element that varies is now a numeric axis of at most
     BINS bins, and the report says what it is doing (reading, summarising, each figure)."""
     from foam_mj.report import BINS, envelope_axes, load, write_report
-    from foam_mj.sweep_run import RowStore
 
     spec = write(tmp_path, """
 scenario = "obstacle"
@@ -601,16 +616,8 @@ seed = 0
 [random.uniform]
 "obstacle.size" = [[0.15, 0.45, 0.03], [0.25, 0.55, 0.2]]
 """)
-    sweep = load_sweep(spec)
-    out = tmp_path / "out"
-    store = RowStore(out, sweep, batch=16)
-    store.open(sweep)
-    for task in sweep.tasks():
-        store.add([{"key": k, "obstacle.size": json.dumps(dict(task.params)["obstacle.size"]), "seed": task.seed, "smoother": path,
-                    "outcome": "reached", "f": 3.0}
-                   for k, path in zip(task.keys, task.paths)])
-    store.flush()
-    store.close()
+    out = _stored_rows(spec, lambda task, k, path: {"key": k, "obstacle.size": json.dumps(dict(task.params)["obstacle.size"]),
+                                                    "seed": task.seed, "smoother": path, "outcome": "reached", "f": 3.0})
     manifest, table = load(out)
     axes = envelope_axes(manifest, table)
     assert [a.name for a in axes] == ["obstacle.size[0]", "obstacle.size[1]", "obstacle.size[2]"]
@@ -1220,21 +1227,15 @@ def test_a_study_where_one_cell_reached_reads_that_value_on_the_colour_bar_and_n
     '2.00 ... 2.75' under an offset '1e-9+8.620876132e1' (min clearance 86.2 mm); the grey cell beside it (no plan
     reached) had no legend. The bar now has one tick, the value; a legend names the grey cells."""
     from foam_mj.report import NOT_REACHED_LABEL, _data, _figure, _measures, _torque_column, envelope_axes, load
-    from foam_mj.sweep_run import RowStore
 
     spec = write(tmp_path, 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "kinematic"\n[grid]\n"planner.max_bubbles" = [5, 200000]\n')
-    sweep = load_sweep(spec)
-    out = tmp_path / "out"
-    store = RowStore(out, sweep, batch=16)
-    store.open(sweep)
-    for task in sweep.tasks():
+    def row(task, k, path):
         budget = dict(task.params)["planner.max_bubbles"]
-        store.add([{"key": k, "planner.max_bubbles": budget, "seed": task.seed, "smoother": path, "outcome": "reached" if budget > 5 else "failed",
-                    "f": 3.258 if budget > 5 else None, "min_clearance": 0.08620876132 if budget > 5 else None,
-                    "peak_torque_knee_flexion": 91.6 if budget > 5 else None}
-                   for k, path in zip(task.keys, task.paths)])
-    store.flush()
-    store.close()
+        return {"key": k, "planner.max_bubbles": budget, "seed": task.seed, "smoother": path, "outcome": "reached" if budget > 5 else "failed",
+                "f": 3.258 if budget > 5 else None, "min_clearance": 0.08620876132 if budget > 5 else None,
+                "peak_torque_knee_flexion": 91.6 if budget > 5 else None}
+
+    out = _stored_rows(spec, row)
     manifest, table = load(out)
     (x,) = envelope_axes(manifest, table)
     data = _data(table)
@@ -1256,18 +1257,10 @@ def test_a_study_where_one_cell_reached_reads_that_value_on_the_colour_bar_and_n
 def test_report_says_over_which_keys_it_drew_and_why_a_measure_has_no_figure(tmp_path, capsys):
     """A study where no plan reached printed only 'wrote 2 figure(s)': not which, over what, nor why the clearance
     and f figures were missing. It now says the axes and names each measure left out and why."""
-    from foam_mj.sweep_run import RowStore
 
     spec = write(tmp_path, 'scenario = "obstacle"\nseeds = [0, 1]\nsmoothers = "convex"\nreplay = "kinematic"\n[grid]\n"planner.max_bubbles" = [5, 10]\n')
-    sweep = load_sweep(spec)
-    out = tmp_path / "out"
-    store = RowStore(out, sweep, batch=16)
-    store.open(sweep)
-    for task in sweep.tasks():
-        store.add([{"key": k, **dict(task.params), "seed": task.seed, "smoother": path, "outcome": "failed", "reason": "bubble budget"}
-                   for k, path in zip(task.keys, task.paths)])
-    store.flush()
-    store.close()
+    out = _stored_rows(spec, lambda task, k, path: {"key": k, **dict(task.params), "seed": task.seed, "smoother": path,
+                                                    "outcome": "failed", "reason": "bubble budget"})
     assert main(["report", str(out)]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
     assert lines[-2] == ("figures over x: planner.max_bubbles; no min_clearance figure for centre, convex: no replayed plan reached; "
@@ -1297,19 +1290,14 @@ def test_the_summary_counts_success_over_the_valid_plans_as_the_figure_does(tmp_
     invalid ones (a subject too tall for the box), read '4 (50%)' while its success figure drew 1.00 and the README's
     query gave 1.0. It is now of the valid plans, and '-' (None in summary.json) where no plan was valid."""
     from foam_mj.report import format_summary, load, summary
-    from foam_mj.sweep_run import RowStore
 
     spec = write(tmp_path, 'scenario = "obstacle"\nseeds = [0, 1]\nsmoothers = "none"\nreplay = "none"\n[grid]\n"subject.height" = [1.55, 1.95]\n')
-    sweep = load_sweep(spec)
-    out = tmp_path / "out"
-    store = RowStore(out, sweep, batch=16)
-    store.open(sweep)
-    for task in sweep.tasks():
+    def row(task, k, path):
         tall = dict(task.params)["subject.height"] > 1.9
-        store.add([{"key": k, **dict(task.params), "seed": task.seed, "smoother": path, "outcome": "invalid" if tall else "reached",
-                    "f": None if tall else 3.0} for k, path in zip(task.keys, task.paths)])
-    store.flush()
-    store.close()
+        return {"key": k, **dict(task.params), "seed": task.seed, "smoother": path, "outcome": "invalid" if tall else "reached",
+                "f": None if tall else 3.0}
+
+    out = _stored_rows(spec, row)
     (line,) = summary(*load(out))
     assert (line["plans"], line["reached"], line["invalid"], line["success"]) == (4, 2, 2, 1.0)
     assert re.search(r"centre\s+4\s+2 \(100%\)", format_summary([line]))
