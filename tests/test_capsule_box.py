@@ -39,20 +39,27 @@ def test_an_end_point_with_a_link_stuck_through_a_wall_is_in_collision(tmp_path)
         scenario_from_dict({"name": "arm", "scene": "arm.xml", "q_init": [-0.5, 0.3, 0.3], "q_goal": THROUGH}, tmp_path)
 
 
+def _random_poses(box_size: str, capsule_size: str, spread: float, seed: int, count: int = 600):
+    """A box at the origin and a capsule on a mocap body, moved to ``count`` random poses (centre uniform in
+    [-spread, spread]^3, orientation uniform): (model, data after mj_kinematics, capsule id, box id) for each."""
+    m = mujoco.MjModel.from_xml_string(
+        f'<mujoco><worldbody><geom name="box" type="box" size="{box_size}"/>'
+        f'<body mocap="true"><geom name="cap" type="capsule" size="{capsule_size}"/></body></worldbody></mujoco>')
+    d = mujoco.MjData(m)
+    box, cap = m.geom("box").id, m.geom("cap").id
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        quat = rng.normal(size=4)
+        d.mocap_pos[0], d.mocap_quat[0] = rng.uniform(-spread, spread, 3), quat / np.linalg.norm(quat)
+        mujoco.mj_kinematics(m, d)
+        yield m, d, cap, box
+
+
 def test_a_capsule_whose_segment_meets_a_box_reads_at_most_minus_its_radius_and_mujocos_value_elsewhere():
     """Random poses of a capsule about a box: where the segment meets the box (checked against points along it), the
     distance is at most minus the capsule's radius; elsewhere it is MuJoCo's to the last bit (plans do not change)."""
-    m = mujoco.MjModel.from_xml_string(
-        '<mujoco><worldbody><geom name="box" type="box" size=".04 .2 .15"/>'
-        '<body mocap="true"><geom name="cap" type="capsule" size=".025 .125"/></body></worldbody></mujoco>')
-    d = mujoco.MjData(m)
-    box, cap = m.geom("box").id, m.geom("cap").id
-    rng = np.random.default_rng(0)
     met = 0
-    for _ in range(600):
-        quat = rng.normal(size=4)
-        d.mocap_pos[0], d.mocap_quat[0] = rng.uniform(-0.25, 0.25, 3), quat / np.linalg.norm(quat)
-        mujoco.mj_kinematics(m, d)
+    for m, d, cap, box in _random_poses(".04 .2 .15", ".025 .125", 0.25, seed=0):
         axis = d.geom_xmat[cap].reshape(3, 3)[:, 2]
         points = d.geom_xpos[cap] + np.outer(np.linspace(-0.125, 0.125, 2001), axis)
         local = (points - d.geom_xpos[box]) @ d.geom_xmat[box].reshape(3, 3)
@@ -73,17 +80,8 @@ def test_verify_reads_a_capsule_through_a_box_as_a_penetration_on_its_own():
     meeting it) agrees with the planner's slab test on random poses, and reads at most minus the radius there."""
     from foam_mj.verify import _distance
 
-    m = mujoco.MjModel.from_xml_string(
-        '<mujoco><worldbody><geom name="box" type="box" size=".01 .2 .15"/>'
-        '<body mocap="true"><geom name="cap" type="capsule" size=".02 .06"/></body></worldbody></mujoco>')
-    d = mujoco.MjData(m)
-    box, cap = m.geom("box").id, m.geom("cap").id
-    rng = np.random.default_rng(1)
     met = 0
-    for _ in range(600):
-        quat = rng.normal(size=4)
-        d.mocap_pos[0], d.mocap_quat[0] = rng.uniform(-0.15, 0.15, 3), quat / np.linalg.norm(quat)
-        mujoco.mj_kinematics(m, d)
+    for m, d, cap, box in _random_poses(".01 .2 .15", ".02 .06", 0.15, seed=1):
         meets = segment_meets_box(m, d, cap, box)
         met += meets
         v = _distance(m, d, cap, box, 1.0)
