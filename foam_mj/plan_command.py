@@ -216,6 +216,36 @@ def static_robot_note(robot, ends, delta: float) -> str:
             "them (give those static geoms contype=\"0\" conaffinity=\"0\" if they never meet the moving ones)")
 
 
+def mount_note(robot, ends, delta: float) -> str:
+    """A note naming the pairs of a moving robot geom and a geom on the fixed body its link hangs from (an arm on a
+    mocap mount: MuJoCo's parent/child filter leaves out a body and its parent unless the parent is welded to the
+    world) that lie within ``delta`` at an end point of ``ends`` (q): the planner leaves them out as MuJoCo does, but
+    a MuJoCo-only checker that counts every geom on a body no joint moves as an obstacle reads that pair at every
+    sample (a first link 10 mm into its mount's plate). The same plate on a static body is checked, so refused.
+    "" when there is none."""
+    import mujoco
+
+    from foam_mj.geom_pairs import attached, body_is_moving
+
+    m = robot.model
+    fixed = [g for g in range(m.ngeom) if (m.geom_contype[g] or m.geom_conaffinity[g])
+             and not body_is_moving(m, int(m.geom_bodyid[g]))]
+    pairs = [(int(a), b) for a in robot.robot_geoms if body_is_moving(m, int(m.geom_bodyid[a]))
+             for b in fixed if attached(m, int(a), b)]
+    least: dict[tuple[int, int], float] = {}
+    for q in ends if pairs else ():
+        d = robot.set_configuration(q)
+        for a, b in pairs:
+            least[a, b] = min(least.get((a, b), delta), mujoco.mj_geomDistance(m, d, a, b, delta, None))
+    close = sorted((dist, a, b) for (a, b), dist in least.items() if dist < delta)
+    if not close:
+        return ""
+    return (f"note: {len(close)} pair(s) of a moving robot geom and a geom on the fixed body it hangs from are within the margin "
+            f"at an end point ({_pairs_text(robot, close)}), left out as MuJoCo leaves a body and its parent out (the parent "
+            "is not welded to the world: a mocap mount), but a MuJoCo-only checker that counts every geom on a body no joint "
+            "moves as an obstacle reads them (move the fixed geom clear of the joint, or give it contype=\"0\" conaffinity=\"0\")")
+
+
 def default_recording(name: str, *, mjcf: Path | None = None) -> str:
     """The recording ``plan`` writes without --rrd: ``foam-mj-<scenario>.rrd``, and for --mjcf
     ``foam-mj-mjcf-<file stem>-<8 hex digits>.rrd``, the digits a hash of the file's resolved path: the scenario is
@@ -431,6 +461,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
                  held_by_equality_note(scenario.robot), no_obstacle_note(scenario.robot),
                  held_pose_note(scenario.robot, scenario.params.delta),
                  static_robot_note(scenario.robot, (scenario.q_init, scenario.q_goal), scenario.params.delta),
+                 mount_note(scenario.robot, (scenario.q_init, scenario.q_goal), scenario.params.delta),
                  capping_pair_note(scenario.robot, outcome.plan.rosary, scenario.params.delta, outcome.rosary_distances)):
         if note:
             print(note)

@@ -875,6 +875,29 @@ def test_plan_names_a_static_robot_geom_within_the_margin_of_a_moving_one(tmp_pa
     assert "body no joint moves" not in capsys.readouterr().out
 
 
+def test_plan_names_a_robot_link_within_the_margin_of_the_mocap_mount_it_hangs_from(tmp_path, capsys):
+    """An arm mounted on a mocap body (placed by a keyframe's mpos/mquat): its first link's capsule reaches 10 mm into
+    the mount's plate at the shoulder. MuJoCo never collides a body with its parent (the mount is not welded to the
+    world), so the planner leaves the pair out and verify passes, but a MuJoCo-only checker that counts every geom on a
+    body no joint moves as an obstacle read -10.00 mm at every sample (7,173 violations) without a word from plan, where
+    the same plate on a static body is refused; plan names the pair."""
+    xml = ('<mujoco><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+           '<body name="mount" mocap="true" pos="0 0 .5"><geom name="plate" type="box" size=".06 .06 .02" pos="0 0 {z}"/>'
+           '<body name="a1"><joint name="q1" axis="0 0 1" range="-150 150"/>'
+           '<geom name="c1" type="capsule" fromto="0 0 0 0 0 .12" size=".03"/>'
+           '<body pos="0 0 .12"><joint name="q2" axis="0 1 0" range="-90 90"/>'
+           '<geom type="capsule" fromto="0 0 0 .3 0 0" size=".025"/></body></body></body></worldbody></mujoco>')
+    args = ["--start", "-1 0.2", "--goal", "1 0.2", "--smoother", "none", "--no-replay", "--no-rrd"]
+    (tmp_path / "mounted.xml").write_text(xml.replace("{z}", "-.04"))  # plate top 20 mm below the joint, capsule 30 mm round
+    assert main(["plan", "--mjcf", str(tmp_path / "mounted.xml"), *args]) == 0
+    out = capsys.readouterr().out
+    assert "note: 1 pair(s) of a moving robot geom and a geom on the fixed body it hangs from are within the margin at an " \
+           "end point (c1 / plate -10.00 mm)" in out
+    (tmp_path / "clear.xml").write_text(xml.replace("{z}", "-.06"))
+    assert main(["plan", "--mjcf", str(tmp_path / "clear.xml"), *args]) == 0
+    assert "hangs from" not in capsys.readouterr().out
+
+
 def test_a_path_that_no_timing_fits_is_reported_alone_and_every_other_path_is_kept(tmp_path, capsys):
     """A hip torque limit of 52 N m fits obstacle's convex and optimal paths but not its centre path (gravity alone
     asks 56 N m). plan ended with exit 3 and nothing but that one message: no table, no JSON, the other smoothers'
