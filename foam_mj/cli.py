@@ -105,7 +105,7 @@ def cmd_bubble(args: argparse.Namespace) -> int:
     json_out = check_output(args.json, "--json", suffix=".json")
     if (args.scene is None) == (args.mjcf is None):
         raise FoamError("give one of --scene SCENE or --mjcf ROBOT.xml")
-    q = _parse_q(args.q, "--q")
+    q = _parse_q(args.q, "--q", keyframe=True)  # a keyframe's name: its configuration, the other joints held there
     _check_delta(args.delta)
     if args.mjcf is not None:
         mjcf = _mjcf_file(args.mjcf)
@@ -115,10 +115,12 @@ def cmd_bubble(args: argparse.Namespace) -> int:
         doc, source = read_scenario_doc(args.scene)
         base = source.parent
     doc = {**doc, "q_init": q, "q_goal": q}  # the scenario's own start and goal are not looked at
+    if args.keyframe is not None:  # the other joints and the mocap bodies where plan --start NAME holds them
+        doc["keyframe"] = args.keyframe
     _robot_overrides(doc, args)
     scenario = scenario_from_dict(doc, base, source=source, check=False)
     delta = scenario.params.delta if args.delta is None else args.delta
-    report = bubble_report(scenario.robot, q, delta, name="--q")
+    report = bubble_report(scenario.robot, scenario.q_init, delta, name="--q")
     print("\n".join(format_report(report)))
     if json_out is not None:
         from foam_mj.atomic import atomic_write_text
@@ -393,7 +395,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--scene", default=None, metavar="SCENE", help="a scenario name or TOML path (its scene, joints, margin and robot options)")
     p.add_argument("--mjcf", metavar="ROBOT.xml", help="any MJCF scene instead of a scenario")
-    p.add_argument("--q", required=True, metavar=CONFIGURATION_METAVAR, help="the configuration, one number per configuration joint, separated by spaces or commas")
+    p.add_argument("--q", required=True, metavar=CONFIGURATION_METAVAR, help="the configuration, one number per configuration joint, separated by spaces or commas, or a keyframe's name (its configuration; the other joints held there)")
+    p.add_argument("--keyframe", metavar="NAME", help="hold the joints outside the configuration and the mocap bodies at this keyframe's pose, as plan --start NAME does (default: the scenario's keyframe, else qpos0)")
     p.add_argument("--joints", metavar="a,b,c", help="the configuration joints, in order (default: the scenario's or the MJCF's declaration, else every limited hinge/slide joint)")
     p.add_argument("--delta", type=real_number, metavar="M", help="the safety margin in metres (default: the scenario's, else 0.005)")
     p.add_argument("--robot-root", metavar="BODY", help="the body whose subtree is the robot (other bodies are obstacles)")

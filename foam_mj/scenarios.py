@@ -577,10 +577,11 @@ def check_scenario(scenario: Scenario, robot: RobotModel | None = None, *, check
                             "as an obstacle whatever contype/conaffinity say: if it is part of the robot (a floating base, the other "
                             "leg), name the robot's root body (--robot-root; robot_root in a scenario), and its pairs with the planned "
                             "links follow MuJoCo's contact filters as self-collision")
+                keyframe_flag = f" --keyframe {scenario.keyframe}" if scenario.keyframe else ""  # bubble holds the rest there too
                 raise ScenarioError(
                     f"{where}: field '{field_name}' = {q.tolist()} is {state}: clearance {clearance_text(d, scenario.params.delta)} "
                     f"between {robot.geom_label(int(a))} and {robot.geom_label(int(b))} "
-                    f"(the safety margin delta is {scenario.params.delta} m; `foam-mj bubble` shows more){hint}"
+                    f"(the safety margin delta is {scenario.params.delta} m; `foam-mj bubble{keyframe_flag}` shows more){hint}"
                 )
         if check_clearance:  # a per-plan check in a sweep, as the clearance's (see check_clearance)
             try:

@@ -149,3 +149,29 @@ def test_a_pair_left_out_of_the_bound_is_printed_with_the_distance_mujoco_measur
     mujoco.mj_kinematics(m, d)
     measured = mujoco.mj_geomDistance(m, d, 1, 0, 1.0, None)  # g1 / base
     assert measured == pytest.approx(0.04) and measured < doc["clearance"]
+
+
+def test_bubble_holds_the_other_joints_at_the_keyframe_plan_holds_them_at(tmp_path, capsys):
+    """`plan --mjcf --start home` holds the joints outside the configuration (an unlimited base yaw) at keyframe home's
+    pose, and a start in collision there was refused with "`foam-mj bubble` shows more"; but bubble could only hold
+    them at qpos0, where it read the same q 0.35 m clear (seen on a 7-joint arm whose home turns its base 0.8 rad).
+    bubble now takes --keyframe NAME (the other joints and mocap bodies at that keyframe) and --q NAME (a keyframe's
+    configuration, held there too), reads what plan reads, and plan's refusal names the flag."""
+    scene = tmp_path / "yaw.xml"
+    scene.write_text(
+        '<mujoco><compiler angle="radian"/><worldbody><geom name="post" type="box" size=".05 .05 .5" pos="0 .4 .5"/>'
+        '<body name="base" pos="0 0 .5"><joint name="yaw" axis="0 0 1"/><geom name="hub" type="sphere" size=".05"/>'
+        '<body name="upper" pos=".06 0 0"><joint name="j1" axis="0 1 0" range="-1 1"/>'
+        '<geom name="link" type="capsule" fromto="0 0 0 .4 0 0" size=".02"/></body></body></worldbody>'
+        '<keyframe><key name="home" qpos="1.5708 0"/></keyframe></mujoco>')
+    assert main(["bubble", "--mjcf", str(scene), "--q", "0"]) == 0
+    assert capsys.readouterr().out.startswith("clearance: 0.3")  # the link along x, far from the post
+    assert main(["plan", "--mjcf", str(scene), "--start", "home", "--goal", "0.5", "--no-rrd"]) == 2
+    err = capsys.readouterr().err
+    assert "clearance -0.0" in err and "between link and post" in err and "`foam-mj bubble --keyframe home` shows more" in err, err
+    for argv in (["--q", "0", "--keyframe", "home"], ["--q", "home"]):
+        assert main(["bubble", "--mjcf", str(scene), *argv]) == 0
+        out = capsys.readouterr().out
+        assert out.startswith("clearance: -0.0") and "closest pair: link / post" in out, (argv, out)
+    assert main(["bubble", "--mjcf", str(scene), "--q", "0", "--keyframe", "nope"]) == 2
+    assert "'nope'" in capsys.readouterr().err
