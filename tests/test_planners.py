@@ -778,6 +778,13 @@ CARRIAGE = """<mujoco><compiler angle="radian"/><worldbody>
      r"q_goal .* is too close to an obstacle to certify a path from it: clearance 0\.0495 m is 0\.0445 m above delta = "
      r"0\.005 m, but a unit of q moves link / block up to \|\|rho\|\| = 2e\+03 m, so its certified bubble has radius "
      r"1\.11e-05 < 3e-05 \(units of q\), too small to grow from .* map the coordinates onto longer spans"),
+    # 'big' mapped onto [0, 0.002] and the goal 1e-5 inside its upper bound (the link 0.6 m from the block): the joint
+    # bound, not the block, sets the radius. It was blamed on the block ("too close to an obstacle ... move it away"), as
+    # for a 0.5 mm robot on a 0.4 mm slide whose goal lay 16 um inside the slide's range and 0.26 mm from the obstacle.
+    ({"big": [0.002], "tiny": [1.0]}, [0.0005, 0.0, 0.5], [0.00199, 0.5, -2.5],
+     r"q_goal .* lies 1e-05 \(units of q\) inside the upper bound of 'big' \(0\.002\), which sets its certified bubble's "
+     r"radius 1e-05 < 3e-05, too small to grow from \(clearance 0\.4833 m; the obstacles alone allow 0\.000478\): move it "
+     r"away from that bound, or map that joint onto a longer span \(\[normalize\]\)"),
 ])
 def test_bubbletree_says_why_an_endpoint_far_from_any_obstacle_is_too_small_to_grow_from(tmp_path, normalize, q_init, q_goal, message):
     # Both end points are centimetres or more above delta; their bubbles are tiny because of how q is mapped onto the

@@ -400,6 +400,15 @@ def too_small_to_grow(oracle: BubbleOracle, name: str, q: np.ndarray, r: float, 
                 f"smallest that grows: map that joint onto a longer span ([normalize]) or leave it out of the configuration")
     report = oracle.explain(q)
     clearance = clearance_text(report.clearance, delta)
+    apart = float(np.min(report.pair_radii)) if len(report.pair_radii) else np.inf  # the radius the obstacles allow
+    if report.to_bounds < apart and np.isclose(r, report.to_bounds, rtol=1e-6, atol=0.0):  # a joint bound sets it (a short slide's end)
+        below, above = q - robot.lower, robot.upper - q
+        j = int(np.argmin(np.minimum(below, above)))
+        side, bound = ("lower", robot.lower[j]) if below[j] <= above[j] else ("upper", robot.upper[j])
+        return (f"{name} {q.tolist()} lies {min(below[j], above[j]):.3g} (units of q) inside the {side} bound of "
+                f"'{robot.config.joint_names[j]}' ({bound:g}), which sets its certified bubble's radius {r:.3g} < {smallest:g}, "
+                f"too small to grow from (clearance {clearance}; the obstacles alone allow {apart:.3g}): move it away from "
+                f"that bound, or map that joint onto a longer span ([normalize])")
     if report.clearance - delta <= 0.1 * delta:
         return (f"{name} {q.tolist()} is too close to an obstacle to certify a path from it: clearance {clearance}, barely "
                 f"above delta = {delta} m, gives a certified bubble of radius {r:.3g} < {smallest:g}, too small to grow "
