@@ -432,6 +432,10 @@ def _plan(args: argparse.Namespace, recorder) -> int:
 
         hint = ("; the paths themselves are certified: --no-replay plans and writes them without timing, or raise the "
                 "limits ([limits] in the scenario)") if isinstance(exc, TimingInfeasible) and not args.no_replay else ""
+        if not isinstance(exc, TimingInfeasible):
+            from foam_mj.configuration import short_slide_hint
+
+            hint = short_slide_hint(scenario.robot.model, scenario.robot.config)
         print(f"foam-mj: planning failed: {' '.join(str(exc).split())}{hint}", file=sys.stderr)
         if exc.foam is not None:
             if rrd is not None:

@@ -898,6 +898,29 @@ def test_plan_names_a_robot_link_within_the_margin_of_the_mocap_mount_it_hangs_f
     assert "hangs from" not in capsys.readouterr().out
 
 
+def test_a_failed_plan_over_a_slide_of_a_few_millimetres_beside_hinges_says_to_normalize_it(tmp_path, capsys):
+    """A 5 mm slide + hinge arm around two obstacles (a 1/100 copy of a 0.5 m one, delta scaled to 50 um): q mixes the
+    slide's metres and the hinge's radians, a bubble reaches no farther than the nearest joint bound (a few mm of q),
+    and bubbletree failed after its 60 s budget (45,260 bubbles) saying only that more time would go on; the same
+    scene with the slide mapped onto [0, 1] (foam_mj:normalize) plans in 585 bubbles. The failure now says so."""
+    xml = ('<mujoco><compiler angle="radian" boundmass="1e-6" boundinertia="1e-14"/><default><geom contype="2"/></default><worldbody>'
+           '<geom name="floor" size=".02 .02 .001" type="plane" contype="1" conaffinity="2"/>'
+           '<geom name="egg" size=".0006 .0012 .0004" pos=".003 0 .0075" quat=".965926 0 .258819 0" type="ellipsoid" contype="1" conaffinity="0"/>'
+           '<geom name="drum" size=".0005 .001" pos="-.0025 0 .0075" quat=".707107 .707107 0 0" type="cylinder" contype="4" conaffinity="4"/>'
+           '<body name="b" pos="0 0 .005"><joint name="lift" type="slide" range="-.001 .003" ref=".001"/>'
+           '<geom name="col" size=".0003 .0005" type="cylinder"/><body name="arm" pos="0 0 .0008">'
+           '<joint name="swing" range="-2.96706 2.96706" ref=".174533" axis="0 1 0"/>'
+           '<geom name="bar" size=".002 .0002 .0002" pos=".0017 0 0" type="ellipsoid"/></body></body></worldbody></mujoco>')
+    (tmp_path / "small.xml").write_text(xml)
+    args = ["--delta", "5e-5", "--time-limit", "2", "--smoother", "none", "--no-replay", "--no-rrd"]
+    assert main(["plan", "--mjcf", str(tmp_path / "small.xml"), "--start", "0.00155 -1.366", "--goal", "-0.00084 -2.869", *args]) == 3
+    err = capsys.readouterr().err
+    assert "slide 'lift' spans only 0.004 (metres of q) beside a hinge of 5.93 rad" in err and \
+           '<numeric name="foam_mj:normalize:lift" data="1"/>' in err, err
+    (tmp_path / "normalized.xml").write_text(xml.replace("<worldbody>", '<custom><numeric name="foam_mj:normalize:lift" data="1"/></custom><worldbody>'))
+    assert main(["plan", "--mjcf", str(tmp_path / "normalized.xml"), "--start", "0.6375 -1.366", "--goal", "0.04 -2.869", *args]) == 0
+
+
 def test_a_path_that_no_timing_fits_is_reported_alone_and_every_other_path_is_kept(tmp_path, capsys):
     """A hip torque limit of 52 N m fits obstacle's convex and optimal paths but not its centre path (gravity alone
     asks 56 N m). plan ended with exit 3 and nothing but that one message: no table, no JSON, the other smoothers'
