@@ -58,43 +58,9 @@ from foam_mj.mjcf import (
     compile_spec,
     load_spec,
     name_unnamed_geoms,
+    place_mocap_bodies,
     scene_xml,
 )
-
-
-def place_mocap_bodies(spec: mujoco.MjSpec, m: mujoco.MjModel, key: int, path: Path) -> bool:
-    """Move the mocap bodies of ``spec`` to keyframe ``key``'s ``mpos``/``mquat`` where they differ from the bodies' own
-    pose; True when one moved. MuJoCo places mocap bodies at the keyframe's pose when it is loaded (``mjData.mocap_pos``),
-    but distance queries of qpos alone (the planner's, ``foam-mj verify``'s, any MuJoCo-only checker's) see them at the
-    model's pose: the scene planned on (and saved with a result) carries the keyframe's. The keyframe's pose is in the
-    world frame, a body's in its ``<frame>``'s: the frame's pose is read by compiling the body at the identity."""
-    moving = []
-    for b in range(1, m.nbody):
-        i = int(m.body_mocapid[b])
-        if i < 0:
-            continue
-        pos, quat = np.array(m.key_mpos[key, 3 * i : 3 * i + 3]), np.array(m.key_mquat[key, 4 * i : 4 * i + 4])
-        if np.allclose(pos, m.body_pos[b], rtol=0, atol=1e-12) and np.allclose(quat, m.body_quat[b], rtol=0, atol=1e-12):
-            continue
-        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b)
-        if not name:
-            raise ModelError(f"{path}: keyframe {key} moves mocap body {b}, which has no name: name it to plan with that keyframe")
-        body = spec.body(name)
-        body.pos, body.quat, body.alt.type = np.zeros(3), np.array([1.0, 0, 0, 0]), mujoco.mjtOrientation.mjORIENTATION_QUAT
-        moving.append((b, body, pos, quat))
-    if not moving:
-        return False
-    frames = spec.compile()  # each moving body at the identity of its frame: its world pose is the frame's
-    for b, body, pos, quat in moving:
-        inverse = np.zeros(4)
-        mujoco.mju_negQuat(inverse, frames.body_quat[b])
-        local_quat, local_pos = np.zeros(4), np.zeros(3)
-        mujoco.mju_mulQuat(local_quat, inverse, quat)
-        mujoco.mju_rotVecQuat(local_pos, pos - frames.body_pos[b], inverse)
-        body.pos, body.quat = local_pos, local_quat
-    return True
-
-
 
 
 #: The cutoff of the fixed pairs' distances (metres): above any margin a plan could ask for.
