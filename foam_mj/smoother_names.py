@@ -22,7 +22,8 @@ SMOOTHERS["all"] = tuple(p for k in ("gradient", "adjust", "hs", "ga", "convex",
 #: Every path name: the centre path (always there) and those the smoothers produce.
 PATH_NAMES: tuple[str, ...] = tuple(dict.fromkeys(("centre",) + tuple(p for paths in SMOOTHERS.values() for p in paths)))
 #: What ``foam-mj plan`` runs when no smoother is named: the certified optimum of f, the best f of all the
-#: methods and among the fastest (benchmarks/smoothing.py).
+#: methods that keep the planner's rosary (the adjusted rosary's T_RCA can end lower) and among the fastest
+#: (benchmarks/smoothing.py).
 DEFAULT_SMOOTHER = "optimal"
 
 LABELS = {
