@@ -7,7 +7,8 @@ fingerprint helpers, which use nothing else). For every path of the result:
   ``step`` apart both in q (Euclidean) and in qpos (largest coordinate); q is mapped to qpos by the
   result's own "configuration" map (``qpos = qpos0; qpos[qpos_index] = offset + scale * q``; q may be
   normalized, e.g. the Ortholeg's hip slide);
-* its timed trajectory, the "qpos" rows, with linear samples between rows at the same step;
+* its timed trajectory, the "qpos" rows, with linear samples between rows at the same step (the rows must start and
+  end where the waypoints do and number one per entry of "times": rows cut short are refused, exit 2);
 
 and at every sample, ``mujoco.mj_geomDistance`` (at most minus a capsule's radius where its axis runs through a box,
 which MuJoCo can misread as apart) between every moving collision geom (on a body a
@@ -438,6 +439,16 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         if rows.size:
             if rows.ndim != 2 or rows.shape[1] != m.nq or not np.all(np.isfinite(rows)):
                 raise _fail(source, f"path '{name}': qpos rows of shape {rows.shape}, expected (N, {m.nq}) finite numbers")
+            for end, row, at in (("start", rows[0], wp_qpos[0]), ("end", rows[-1], wp_qpos[-1])):
+                # rows cut short (a copy, a hand edit) were checked as far as they went and called clean
+                if not np.all(np.abs(row[idx] - at[idx]) <= END_TOL * (1 + np.abs(at[idx]))):
+                    raise _fail(source, f"path '{name}': its qpos rows {end} at {row[idx].tolist()} (the configuration "
+                                        f"joints' qpos), not at its waypoints' {end} {at[idx].tolist()}: the trajectory is "
+                                        "not this path's whole motion; restore the rows or plan again")
+            times = entry.get("times")
+            if isinstance(times, list) and len(times) != len(rows):
+                raise _fail(source, f"path '{name}': 'qpos' has {len(rows)} rows but 'times' {len(times)} entries: one row "
+                                    "per entry; restore them or plan again")
             samples_tr = _densify((rows[:, idx] - offset) / scale, rows, step, f"{source}: path '{name}': qpos rows")
         else:
             samples_tr = np.empty((0, m.nq))
