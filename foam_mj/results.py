@@ -405,6 +405,9 @@ def resolve_model(doc: dict, source: str | Path) -> Path:
         named = ", ".join(f"{k} = {p}" for k, p in candidates) or "none"
         raise FoamError(f"{src}: the scene file it was planned on is not found ({named})")
     stored = doc.get("model_hash")
+    if stored is not None and not isinstance(stored, dict):  # a string or list skipped the check: any scene replayed
+        raise FoamError(f"{src}: field 'model_hash' must be an object {{\"sha256\": ..., \"parts\": {{...}}}} (the "
+                        f"fingerprint of the scene it was planned on), got {str(stored)[:40]!r}: restore it or plan again")
     if isinstance(stored, dict):
         for key, path in existing:
             current = model_fingerprint(load_mjcf(path))

@@ -127,6 +127,9 @@ def _scene(doc: dict, source: Path) -> tuple[Path, mujoco.MjModel]:
     if not existing:
         raise _fail(source, "the scene file it was planned on is not found (" + (", ".join(f"{k} = {p}" for k, p in candidates) or "no 'mjcf' field") + ")")
     stored = doc.get("model_hash")
+    if stored is not None and not isinstance(stored, dict):  # a string or list skipped the check: any scene passed
+        raise _fail(source, f"field 'model_hash' must be an object {{\"sha256\": ..., \"parts\": {{...}}}} (the fingerprint "
+                            f"of the scene it was planned on), got {str(stored)[:40]!r}: restore it or plan again")
     chosen = None
     for key, path in existing:
         try:

@@ -199,6 +199,11 @@ def test_the_result_names_its_scene_relative_to_itself_and_by_content_hash(plann
         (lambda d: d.update(mjcf_relative=os.path.relpath(MODELS / "step_up.xml", d["_folder"])), "field 'mjcf_relative' names"),
         (lambda d: d["model_hash"]["parts"].update(geometry="0" * 64), "geometry differs"),
         (lambda d: d.update(mjcf="/nowhere/scene.xml", mjcf_relative="nowhere.xml"), "not found"),
+        # a model_hash that is no object skipped the check: the obstacle's paths replayed on step_up with exit 0
+        (lambda d: (d.update(mjcf=str(MODELS / "step_up.xml"), model_hash="fe247d40"), d.pop("mjcf_relative")),
+         "field 'model_hash' must be an object"),
+        (lambda d: (d.update(mjcf=str(MODELS / "step_up.xml"), model_hash=[d["model_hash"]]), d.pop("mjcf_relative")),
+         "field 'model_hash' must be an object"),
     ],
 )
 def test_replay_refuses_a_result_that_does_not_match_its_scene(planned_result, tmp_path, edit, message, capsys):
