@@ -557,7 +557,7 @@ def write_figures(doc, out_dir, formats: Sequence[str] = ("png",), paths: Sequen
 # -- command line --------------------------------------------------------------------------------------------
 def cmd_figures(args: argparse.Namespace) -> int:
     """Run the ``figures`` command; raises FoamError for bad input (the CLI turns it into exit code 2)."""
-    from foam_mj.results import read_result
+    from foam_mj.results import read_result, resolve_model
 
     from foam_mj.atomic import check_output_dir
 
@@ -565,6 +565,9 @@ def cmd_figures(args: argparse.Namespace) -> int:
         raise FoamError(f"--dpi must be in [{FIGURE_MIN_DPI}, {FIGURE_MAX_DPI}], got {args.dpi}")
     check_output_dir(args.out_dir, "DIR")
     doc = read_result(args.result)
+    # the scene as replay finds it: "mjcf_relative" (a result moved with its models) or "mjcf", checked against the
+    # result's model_hash (a result naming another scene drew its strobe over that scene's obstacles)
+    doc["mjcf"] = str(resolve_model(doc, args.result))
     written = write_figures(doc, args.out_dir, formats=args.formats, paths=args.paths, dpi=args.dpi)
     for p in written:
         print(f"wrote {p}")

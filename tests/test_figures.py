@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import copy
 import json
+import shutil
 import sys
 import xml.etree.ElementTree as ET
 from foam_mj.data import scenarios_dir
@@ -240,6 +241,25 @@ def test_cli_entry_point(planned, tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out
     assert figures.main([str(tmp_path / "missing.json"), str(tmp_path / "out")]) == 2
     assert "result file not found" in capsys.readouterr().err
+
+
+def test_figures_find_the_result_s_scene_as_replay_does(planned, tmp_path, capsys):
+    """figures read only the result's 'mjcf' and never its model_hash: a result naming another scene (step_up's file
+    instead of the obstacle's) drew its strobe over that scene's step with exit 0, where replay, export and verify
+    refuse it; and a result moved together with its models (its absolute 'mjcf' gone, its 'mjcf_relative' still
+    right) could not be drawn at all. Both now go as for replay."""
+    other = dict(planned, mjcf=str(Path(planned["mjcf"]).with_name("step_up.xml")))
+    other.pop("mjcf_relative")
+    (tmp_path / "other.json").write_text(json.dumps(other))
+    assert figures.main([str(tmp_path / "other.json"), str(tmp_path / "out"), "--dpi", "60"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "field 'mjcf' names" in err and "compiles to a different model" in err and "\n" not in err, err
+    assert not (tmp_path / "out").exists()
+    shutil.copytree(Path(planned["mjcf"]).parent, tmp_path / "moved" / "models")
+    moved = dict(planned, mjcf=str(tmp_path / "nowhere" / "obstacle.xml"), mjcf_relative="models/obstacle.xml")
+    (tmp_path / "moved" / "r.json").write_text(json.dumps(moved))
+    assert figures.main([str(tmp_path / "moved" / "r.json"), str(tmp_path / "out"), "--format", "svg", "--dpi", "60"]) == 0
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["foam.svg", "rosary.svg", "strobe.svg"]
 
 
 def test_a_dpi_beyond_600_or_below_10_is_refused_before_any_drawing(planned, tmp_path, capsys):
