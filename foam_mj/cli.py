@@ -516,6 +516,8 @@ def main(argv: list[str] | None = None) -> int:
     command = argv is None  # the `foam-mj` command itself (not a call from Python)
     if command:
         reopen_closed_streams()  # `foam-mj plan >&-` wrote no result: exit 120, or 1 with a traceback
+        if hasattr(sys.stdout, "reconfigure"):  # an ASCII stdout printing `wrote é.csv` was an internal error (exit 1)
+            sys.stdout.reconfigure(errors="backslashreplace")
         sys.stdout = OutputWithoutReader(sys.stdout)
         # It never renders with MuJoCo's OpenGL; without this, `import mujoco` also loads GLFW (a tenth
         # of a second of start-up). A user's own MUJOCO_GL wins.

@@ -613,6 +613,19 @@ def test_a_command_run_with_stdout_or_stderr_closed_still_writes_its_files(tmp_p
     assert read_result(tmp_path / "r.json")["outcome"] == "reached"
 
 
+def test_a_file_name_the_terminal_cannot_encode_is_written_and_printed_escaped(tmp_path, planned_result):
+    """With an ASCII stdout (PYTHONIOENCODING=ascii, a C locale without UTF-8 mode, an old console), `export --out
+    é.csv` wrote the file and then ended in an internal error (exit 1: UnicodeEncodeError) printing its name. The
+    name is now printed with a backslash escape; exit 0."""
+    root = Path(__file__).resolve().parents[1]
+    run = subprocess.run([sys.executable, "-m", "foam_mj.cli", "export", str(planned_result), "--out", "\u00e9.csv"],
+                         capture_output=True, cwd=tmp_path, timeout=300,
+                         env={**os.environ, "PYTHONPATH": str(root), "PYTHONIOENCODING": "ascii"})
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.startswith(b"wrote \\xe9.csv: path 'optimal'") and not run.stderr, run
+    assert '"path":"optimal"' in (tmp_path / "\u00e9.csv").read_text().splitlines()[0]
+
+
 def test_view_refuses_a_missing_file(capsys):
     assert main(["view", "nowhere.rrd"]) == 2
     assert "not found" in capsys.readouterr().err
