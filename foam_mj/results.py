@@ -83,7 +83,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.atomic import atomic_write_text
-from foam_mj.errors import FoamError, foreign_file_hint, only_numbers, text_problem
+from foam_mj.errors import FoamError, file_problem_text, foreign_file_hint, only_numbers, text_problem
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 FORMAT = "foam-mj/result"
@@ -269,6 +269,9 @@ def write_failure(path: str | Path, scenario, failure, seed: int) -> Path:
 def read_result(path: str | Path) -> dict:
     """Load and check a result file (format and the fields replay needs)."""
     p = Path(path)
+    problem = file_problem_text(p, "result file")  # a named pipe waited for ever, /dev/zero was read until memory ran out
+    if problem:
+        raise FoamError(problem)
     try:
         doc = json.loads(p.read_text(encoding="utf-8-sig"))  # an editor's byte-order mark is no part of the JSON (RFC 8259 §8.1)
     except FileNotFoundError:

@@ -42,7 +42,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.errors import FoamError, file_problem, foreign_file_hint, is_number, only_numbers, text_problem
+from foam_mj.errors import FoamError, file_problem, file_problem_text, foreign_file_hint, is_number, only_numbers, text_problem
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 #: The most samples of one polyline (a path's waypoints or its qpos rows): --step 1e-3, the default, takes a few
@@ -100,6 +100,9 @@ def _fail(source: Path, msg: str) -> FoamError:
 
 
 def _load(source: Path) -> dict:
+    problem = file_problem_text(source, "result file")  # a named pipe waited for ever, /dev/zero filled the memory
+    if problem:
+        raise FoamError(problem)
     try:
         doc = json.loads(source.read_text(encoding="utf-8-sig"))  # an editor's byte-order mark is no part of the JSON (RFC 8259 §8.1)
     except FileNotFoundError:

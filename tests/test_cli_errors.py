@@ -185,6 +185,21 @@ def _edited(src: Path, folder: Path, edit) -> Path:
     return out
 
 
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
+@pytest.mark.parametrize("command", [["verify"], ["replay", "--kinematic-only"], ["export", "--out", "o.csv"], ["figures", "--dpi", "60"]])
+def test_a_result_that_is_no_regular_file_is_refused_before_reading(tmp_path, command):
+    """A named pipe given as the result waited for a writer for ever, and /dev/zero was read until memory ran out (an
+    internal error, exit 1, after gigabytes): the scenario, sweep and recording readers refuse both, the result readers
+    did not. Exit 2 at once, one line."""
+    os.mkfifo(tmp_path / "r.json")
+    argv = [command[0], "r.json", *(["figs"] if command[0] == "figures" else []), *command[1:]]
+    root = Path(__file__).resolve().parents[1]
+    run = subprocess.run([sys.executable, "-m", "foam_mj.cli", *argv], capture_output=True, text=True, cwd=tmp_path,
+                         env={**os.environ, "PYTHONPATH": str(root)}, timeout=120)
+    assert run.returncode == 2 and run.stderr == "foam-mj: error: result file r.json: not a regular file\n", run.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
+
+
 def test_the_result_names_its_scene_relative_to_itself_and_by_content_hash(planned_result):
     doc = json.loads(planned_result.read_text())
     assert (planned_result.parent / doc["mjcf_relative"]).resolve() == Path(doc["mjcf"]).resolve()
