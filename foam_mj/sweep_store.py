@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Iterable
 
 from foam_mj.atomic import OutputError, atomic_write_bytes
-from foam_mj.sweep import FORMAT, Sweep, SweepError
+from foam_mj.sweep import FORMAT, VERSION, Sweep, SweepError
 
 ROWS = "rows"
 MANIFEST = "sweep.json"
@@ -65,6 +65,20 @@ def read_manifest(out: Path) -> dict | None:
         raise SweepError(f"{p}: unreadable sweep manifest: {exc}") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise SweepError(f"{p} is not a foam-mj sweep manifest")
+    version = doc.get("version")
+    if version != VERSION:  # another format was read as this one
+        newer = isinstance(version, int) and not isinstance(version, bool) and version > VERSION
+        raise SweepError(f"{p}: field 'version' is {version!r}: "
+                         f"{f'written by a foam-mj that writes sweep format version {version}; ' if newer else ''}this one "
+                         f"reads {VERSION} (run the sweep again into a new folder)")
+    names = lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v)  # noqa: E731
+    for key, ok, what in (("keys", lambda v: isinstance(v, dict) and all(isinstance(x, str) for x in v.values()),
+                           "an object of swept key: kind"),
+                          ("columns", names, "a list of column names"), ("paths", names, "a list of path names")):
+        # a list of keys or a number of paths was an internal error (exit 1) in report
+        if key in doc and not ok(doc[key]):
+            raise SweepError(f"{p}: field '{key}' must be {what}, got {json.dumps(doc[key])[:60]} (restore it, or run the "
+                             "sweep again into a new folder)")
     return doc
 
 

@@ -823,6 +823,32 @@ def test_a_manifest_saved_with_a_byte_order_mark_is_read_by_report_and_a_rerun(s
     assert "BOM" not in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("edit, message", [
+    (lambda m: m.update(version=2), "field 'version' is 2: written by a foam-mj that writes sweep format version 2; this one reads 1"),
+    (lambda m: m.pop("version"), "field 'version' is None"),
+    (lambda m: m.update(keys=list(m["keys"])), "field 'keys' must be an object of swept key: kind"),
+    (lambda m: m.update(paths=3), "field 'paths' must be a list of path names"),
+    (lambda m: m.update(columns="key"), "field 'columns' must be a list of column names"),
+])
+def test_a_manifest_edited_by_hand_or_of_another_version_is_named_by_report_and_by_a_rerun(study, tmp_path, capsys, edit, message):
+    """A sweep.json whose 'keys' was a list or 'paths' a number was an internal error in report (exit 1); one of
+    format version 2 (or none) was read as version 1. Both report and a rerun now refuse it: exit 2, one line naming
+    the field, the folder left as it was."""
+    import shutil
+
+    out = tmp_path / "study"
+    shutil.copytree(study["out"], out)
+    manifest = json.loads((out / "sweep.json").read_text())
+    edit(manifest)
+    (out / "sweep.json").write_text(json.dumps(manifest))
+    before = sorted(p.name for p in out.rglob("*"))
+    for argv in (["report", str(out)], ["sweep", str(study["spec"]), "--out", str(out), "--quiet"]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f"foam-mj: error: {out / 'sweep.json'}: ") and message in err and "\n" not in err, err
+    assert sorted(p.name for p in out.rglob("*")) == before
+
+
 @pytest.mark.parametrize("rows, message", [
     ("empty", r"no rows to report: the \d+ Parquet file\(s\) in {rows} hold 0 rows"),
     ("none", r"no rows to report: no Parquet file in {rows}"),
