@@ -114,7 +114,7 @@ def _held_loads(robot: RobotModel, kin: PathKinematics, u: np.ndarray) -> tuple[
 
 def _amount(x: float) -> str:
     """A torque for a message: one decimal from 0.05 up, two significant digits below (1e-9 N m read "0.0")."""
-    return f"{x:.1f}" if abs(x) >= 0.05 or x == 0 else f"{x:.2g}"
+    return f"{x:.1f}" if 0.05 <= abs(x) < 1e6 or x == 0 else f"{x:.2g}"  # 1e300 printed in 301 digits
 
 
 def _load_text(g: float, f: float, unit: str) -> str:
@@ -148,7 +148,7 @@ def check_gravity(robot: RobotModel, curve: SafeCurve, torque: np.ndarray, sampl
 def _percent(fraction: float) -> str:
     """A share as a percentage: whole from 1 % up, two significant digits below (an excess of 0.4 % read "0%")."""
     pct = 100 * fraction
-    return f"{pct:.0f}%" if pct >= 1 else f"{pct:.2g}%"
+    return f"{pct:.0f}%" if 1 <= pct < 1e6 else f"{pct:.2g}%"  # a limit of 1e-300 printed 300 digits
 
 
 # -- toppra -----------------------------------------------------------------------------------------------------

@@ -18,7 +18,10 @@ from foam_mj.limits import Limits
 from foam_mj.timing import MAX_SLOWDOWN, TimingInfeasible, retime, timed_trajectory
 from foam_mj.trajectory import make_trajectory
 
-from conftest import TWO_LINK_ARM, MujocoChecker, arm_with, segment_rosary
+from conftest import MODELS, TWO_LINK_ARM, MujocoChecker, arm_with, segment_rosary
+from foam_mj.data import scenarios_dir
+
+SCENARIOS = scenarios_dir()
 
 
 @pytest.fixture(scope="module")
@@ -423,6 +426,19 @@ def test_an_excess_below_one_percent_is_not_printed_as_zero():
     from foam_mj.timing import _percent
 
     assert [_percent(x) for x in (0.0038, 0.08, 1.87)] == ["0.38%", "8%", "187%"]
+
+
+def test_a_torque_limit_of_1e_300_is_refused_in_a_line_of_readable_numbers(tmp_path, capsys):
+    """[limits] torque = [1e-300, ...]: the exit-3 line printed the excess as a 300-digit percentage
+    ('... by 56.0 N m (5597619144365212963890966046...%)'). Shares and amounts past a million print in
+    two significant digits."""
+    from foam_mj.cli import main
+
+    text = (SCENARIOS / "obstacle.toml").read_text().replace('scene = "../models/', f'scene = "{MODELS}/')
+    (tmp_path / "weak.toml").write_text(text + "\n[limits]\ntorque = [1e-300, 1e-300, 1e-300]\n")
+    assert main(["plan", "--scene", str(tmp_path / "weak.toml"), "--no-rrd", "--smoother", "none"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert re.search(r"over its limit 1e-300 N m by \d+\.\d N m \(\d\.\de\+30\d%\)", err) and len(err) < 400, err
 
 
 @pytest.mark.parametrize("velocity, steps", [("1e-6", "3.05e+08"), ("1e-300", "3.05e+302")])
