@@ -266,6 +266,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     for flag, value in (("--flush-seconds", args.flush_seconds), ("--progress-interval", args.progress_interval)):
         if not 0 < value < float("inf"):
             raise FoamError(f"{flag} must be a number of seconds > 0, got {value}")
+    if os.path.realpath(args.sweep) == os.path.realpath(os.path.join(args.out, "sweep.json")):  # read as a manifest
+        raise FoamError(f"the sweep file {args.sweep} is where --out {args.out} keeps its manifest (sweep.json): save the "
+                        "sweep file under another name, e.g. sweep.toml")
     sweep = load_sweep(args.sweep)  # every key and value checked: exit 2 naming it, before any plan
     if sweep.repeated_draws and not args.quiet:
         print(f"sweep: {sweep.repeated_draws} of the {sweep.samples} random samples repeat an earlier draw; "

@@ -823,6 +823,18 @@ def test_a_manifest_saved_with_a_byte_order_mark_is_read_by_report_and_a_rerun(s
     assert "BOM" not in capsys.readouterr().err
 
 
+def test_a_sweep_file_that_is_its_out_folders_manifest_is_refused_as_such(tmp_path, capsys):
+    """`foam-mj sweep study/sweep.json --out study` (the sweep file saved under the manifest's name) was refused as an
+    'unreadable sweep manifest: Expecting value' (it is TOML): the message now says which file is which."""
+    (tmp_path / "study").mkdir()
+    spec = write(tmp_path / "study", STUDY, "sweep.json")
+    assert main(["sweep", str(spec), "--out", str(tmp_path / "study"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"foam-mj: error: the sweep file {spec} is where --out {tmp_path / 'study'} keeps its manifest "
+                   "(sweep.json): save the sweep file under another name, e.g. sweep.toml"), err
+    assert spec.read_text() == STUDY and [p.name for p in (tmp_path / "study").iterdir()] == ["sweep.json"]
+
+
 @pytest.mark.parametrize("edit, message", [
     (lambda m: m.update(version=2), "field 'version' is 2: written by a foam-mj that writes sweep format version 2; this one reads 1"),
     (lambda m: m.pop("version"), "field 'version' is None"),
