@@ -285,7 +285,8 @@ def choose_axes(levels: list[Level], names: Sequence[str], out) -> list[Level]:
     chosen = []
     for name in names:
         if name not in by:
-            raise FoamError(f"--axes {name!r}: not a swept key that varies in {out}; choose from {[lv.name for lv in levels]}")
+            raise FoamError(f"--axes {name!r}: not a swept key that varies in {out}; " + (f"choose from {[lv.name for lv in levels]}"
+                            if levels else "no swept key varies in its rows yet (run more of the sweep, or leave --axes out)"))
         if by[name] in chosen:
             raise FoamError(f"--axes {name!r} is named twice")
         chosen.append(by[name])

@@ -1203,6 +1203,16 @@ def test_report_axes_are_chosen_by_name_and_the_title_names_the_keys_pooled(tmp_
                                               "choose from ['planner.delta', 'planner.r_min', 'planner.algorithm']")
 
 
+def test_report_axes_on_rows_where_no_key_varies_yet_say_so(tmp_path, capsys):
+    """A study run with --limit 1 so far (one value of each key in its rows): `report --axes planner.delta` said
+    'choose from []', a list with nothing to choose."""
+    text = 'scenario = "obstacle"\nsmoothers = "none"\nreplay = "none"\n[grid]\n"planner.delta" = [0.005]\n'
+    out = _fake_study(tmp_path, text, lambda p, seed: "reached")
+    assert main(["report", str(out), "--axes", "planner.delta"]) == 2
+    assert capsys.readouterr().err.strip() == (f"foam-mj: error: --axes 'planner.delta': not a swept key that varies in {out}; "
+                                              "no swept key varies in its rows yet (run more of the sweep, or leave --axes out)")
+
+
 def test_a_run_by_another_version_on_a_folder_says_so(tmp_path, capsys):
     """Rows made by another foam-mj or MuJoCo may join a study (each names its versions), but not silently."""
     import mujoco
