@@ -185,7 +185,10 @@ def cmd_export(args: argparse.Namespace) -> int:
     if fmt == "parquet":
         require_pyarrow()
     doc = read_result(args.result)
-    name = pick_path(doc, args.path)
+    try:
+        name = pick_path(doc, args.path)
+    except FoamError as exc:  # which file, as replay and verify name it
+        raise FoamError(f"{args.result}: {exc}") from None
     progress = Progress()
     try:
         table = export_table(doc, args.result, name, hz, report=progress)

@@ -77,7 +77,7 @@ def pick_path(doc: dict, name: str | None) -> str:
     the result's last path (``plan``'s smoothed one; the centre path when it is alone)."""
     names = list(doc.get("paths") or {})
     if not names:
-        raise FoamError("the result has no paths to export (planning failed?)")
+        raise FoamError(f"the result has no paths to export (outcome: {doc.get('outcome', 'unknown')})")  # as replay says
     if name is None:
         return names[-1]
     if name not in names:

@@ -294,3 +294,14 @@ def test_export_says_what_it_is_doing(planned):
     duration = table.metadata["duration_s"]
     assert messages == ["exporting: timing path 'optimal'",
                         f"exporting: path 'optimal', {table.n_rows:,} samples at 2000 Hz ({duration:.3f} s of motion)"]
+
+
+def test_a_failed_plan_s_result_is_refused_naming_the_file_and_its_outcome(tmp_path, capsys):
+    """export of a failed plan's result said 'the result has no paths to export (planning failed?)': no file named, a
+    guess where replay and verify give the outcome the result records."""
+    result = tmp_path / "failed.json"
+    assert main(["plan", "--scene", "obstacle", "--planner", "pfm", "--time-limit", "0.001", "--no-rrd", "--json", str(result)]) == 3
+    capsys.readouterr()
+    assert main(["export", str(result), "--out", str(tmp_path / "t.csv")]) == 2
+    assert capsys.readouterr().err == f"foam-mj: error: {result}: the result has no paths to export (outcome: time budget)\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["failed.json"]
