@@ -74,8 +74,10 @@ def read_manifest(out: Path) -> dict | None:
     names = lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v)  # noqa: E731
     for key, ok, what in (("keys", lambda v: isinstance(v, dict) and all(isinstance(x, str) for x in v.values()),
                            "an object of swept key: kind"),
-                          ("columns", names, "a list of column names"), ("paths", names, "a list of path names")):
-        # a list of keys or a number of paths was an internal error (exit 1) in report
+                          ("columns", names, "a list of column names"), ("paths", names, "a list of path names"),
+                          ("model_hash", lambda v: isinstance(v, dict), "an object (the base scene's fingerprint)")):
+        # a list of keys or a number of paths was an internal error (exit 1) in report; a model_hash string skipped the
+        # rerun's check that the scene still compiles to the same model
         if key in doc and not ok(doc[key]):
             raise SweepError(f"{p}: field '{key}' must be {what}, got {json.dumps(doc[key])[:60]} (restore it, or run the "
                              "sweep again into a new folder)")

@@ -841,10 +841,12 @@ def test_a_sweep_file_that_is_its_out_folders_manifest_is_refused_as_such(tmp_pa
     (lambda m: m.update(keys=list(m["keys"])), "field 'keys' must be an object of swept key: kind"),
     (lambda m: m.update(paths=3), "field 'paths' must be a list of path names"),
     (lambda m: m.update(columns="key"), "field 'columns' must be a list of column names"),
+    (lambda m: m.update(model_hash="fe247d40"), "field 'model_hash' must be an object"),
 ])
 def test_a_manifest_edited_by_hand_or_of_another_version_is_named_by_report_and_by_a_rerun(study, tmp_path, capsys, edit, message):
     """A sweep.json whose 'keys' was a list or 'paths' a number was an internal error in report (exit 1); one of
-    format version 2 (or none) was read as version 1. Both report and a rerun now refuse it: exit 2, one line naming
+    format version 2 (or none) was read as version 1, and a model_hash that is no object skipped a rerun's check that
+    the scene still compiles to the same model. Both report and a rerun now refuse it: exit 2, one line naming
     the field, the folder left as it was."""
     import shutil
 
