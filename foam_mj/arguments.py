@@ -102,7 +102,24 @@ class Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # noqa: D401 - argparse's hook
-        raise UsageError(f"{self.prog}: error: {' '.join(message.split())}{self._greedy_hint(message)} (see {self.prog} --help)")
+        raise UsageError(f"{self.prog}: error: {' '.join(message.split())}{self._greedy_hint(message)}{self._near_hint(message)} "
+                         f"(see {self.prog} --help)")
+
+    def _near_hint(self, message: str) -> str:
+        """'; did you mean ...?' for a mistyped command (`foam-mj plna`) or option (`plan --sceen`), as every other
+        name foam-mj checks is answered (argparse listed the choices, or said only 'unrecognized arguments')."""
+        import difflib
+
+        choice = re.match(r"argument \S+: invalid choice: '([^']*)' \(choose from (.*)\)$", " ".join(message.split()))
+        if choice:
+            wrong, known, cutoff = [choice.group(1)], re.findall(r"'([^']*)'", choice.group(2)), 0.75
+        elif message.startswith("unrecognized arguments: "):
+            wrong = [a.split("=", 1)[0] for a in message.split()[2:] if a.startswith("--")]
+            known, cutoff = [o for o in self._option_string_actions if o.startswith("--")], 0.8  # their '--' alike: replay --no-rrd is no --rrd
+        else:
+            return ""
+        near = [m[0] for w in wrong if (m := difflib.get_close_matches(w, known, n=1, cutoff=cutoff))]
+        return f"; did you mean {', '.join(near)}?" if near else ""
 
     def _greedy_hint(self, message: str) -> str:
         """For 'the following arguments are required' after an option of several values: which option took them.

@@ -882,13 +882,13 @@ def test_a_flag_the_command_does_not_take_is_refused_by_that_command(capsys):
 
 
 @pytest.mark.parametrize("argv, flag, prog", [
-    (["plan", "--sce", "obstacle", "--no-rrd"], "--sce obstacle", "foam-mj plan"),
-    (["plan", "--scene", "obstacle", "--no-rr"], "--no-rr", "foam-mj plan"),
-    (["plan", "--scene", "obstacle", "--no-rrd", "--see", "3"], "--see 3", "foam-mj plan"),
-    (["bubble", "--scene", "obstacle", "--q", "0.2 0.3 0.08", "--del", "0.01"], "--del 0.01", "foam-mj bubble"),
-    (["sweep", "s.toml", "--out", "o", "--work", "2"], "--work 2", "foam-mj sweep"),
-    (["bench", "--run", "1"], "--run 1", "foam-mj bench"),
-    (["--vers"], "--vers", "foam-mj"),
+    (["plan", "--sce", "obstacle", "--no-rrd"], "--sce obstacle; did you mean --scene?", "foam-mj plan"),
+    (["plan", "--scene", "obstacle", "--no-rr"], "--no-rr; did you mean --no-rrd?", "foam-mj plan"),
+    (["plan", "--scene", "obstacle", "--no-rrd", "--see", "3"], "--see 3; did you mean --seed?", "foam-mj plan"),
+    (["bubble", "--scene", "obstacle", "--q", "0.2 0.3 0.08", "--del", "0.01"], "--del 0.01; did you mean --delta?", "foam-mj bubble"),
+    (["sweep", "s.toml", "--out", "o", "--work", "2"], "--work 2; did you mean --workers?", "foam-mj sweep"),
+    (["bench", "--run", "1"], "--run 1; did you mean --runs?", "foam-mj bench"),
+    (["--vers"], "--vers; did you mean --version?", "foam-mj"),
 ])
 def test_an_abbreviated_flag_is_refused_not_taken_for_the_flag_it_begins(argv, flag, prog, tmp_path, monkeypatch, capsys):
     """argparse took `plan --sce obstacle` for --scene (any unambiguous prefix), so a flag added later could change what
@@ -906,7 +906,7 @@ def test_figures_module_entry_point_refuses_like_the_command(tmp_path, capsys):
     from foam_mj.figures import main as figures_main
 
     assert figures_main([str(tmp_path / "r.json"), str(tmp_path / "out"), "--dp", "10"]) == 2
-    assert capsys.readouterr().err == "foam-mj figures: error: unrecognized arguments: --dp 10 (see foam-mj figures --help)\n"
+    assert capsys.readouterr().err == "foam-mj figures: error: unrecognized arguments: --dp 10; did you mean --dpi? (see foam-mj figures --help)\n"
 
 
 @pytest.mark.parametrize("text, seed", [("7", 7), ("007", 7), ("0x10", 16), ("1_000", 1000), (str(2**63 - 1), 2**63 - 1)])
@@ -1184,3 +1184,17 @@ def test_replay_names_the_file_and_field_of_an_unknown_planner(planned_result, t
     assert main(["replay", str(bad), "--kinematic-only"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"foam-mj: error: {bad}: field 'planner': unknown planner 'nope'; known planners: ") and len(err.splitlines()) == 1
+
+
+@pytest.mark.parametrize("argv, hint", [
+    (["plna"], "; did you mean plan? (see foam-mj --help)"),
+    (["plan", "--sceen", "obstacle"], "unrecognized arguments: --sceen obstacle; did you mean --scene? (see foam-mj plan --help)"),
+    (["export", "r.json", "--out", "t.csv", "--formt=csv"], "; did you mean --format? (see foam-mj export --help)"),
+    (["plan", "--xyz"], "unrecognized arguments: --xyz (see foam-mj plan --help)"),
+])
+def test_a_mistyped_command_or_option_is_answered_with_the_nearest_name(argv, hint, capsys):
+    """`foam-mj plna` listed the eleven commands and `plan --sceen obstacle` said only 'unrecognized arguments', where
+    a mistyped scenario, planner or smoother name gets 'did you mean'. Nothing near: no guess."""
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.rstrip().endswith(hint), err
