@@ -218,6 +218,21 @@ def summary(manifest: dict, table) -> list[dict]:
     return lines
 
 
+def _percent(share: float | None) -> str:
+    """A share as a percentage, whole percents unless that would read 0% or 100% for a share strictly between them
+    (233 of 234 reached read '100%' beside a failed plan): then one decimal, and '<0.1%' / '>99.9%' beyond it."""
+    if share is None:
+        return "-"
+    p = 100.0 * share
+    if 0.0 < share < 1.0 and not 0.5 <= p < 99.5:
+        if p < 0.1:
+            return "<0.1%"
+        if p > 99.9:
+            return ">99.9%"
+        return f"{p:.1f}%"
+    return f"{p:.0f}%"
+
+
 def format_summary(lines: list[dict]) -> str:
     head = ["smoother", "plans", "reached (of valid)", "failed", "invalid", "error", "median f", "median length", "min clear", "plan time", "knee torque"]
     cells = [head]
@@ -228,7 +243,7 @@ def format_summary(lines: list[dict]) -> str:
 
         cells.append(
             [
-                ln["smoother"], str(ln["plans"]), f"{ln['reached']} ({'-' if ln['success'] is None else format(100 * ln['success'], '.0f') + '%'})", str(ln["failed"]), str(ln["invalid"]),
+                ln["smoother"], str(ln["plans"]), f"{ln['reached']} ({_percent(ln['success'])})", str(ln["failed"]), str(ln["invalid"]),
                 str(ln["error"]), f(ln["median_f"], ".4f"), f(ln["median_length"], ".4f"),
                 "-" if ln["min_clearance_mm"] is None else f"{ln['min_clearance_mm']:.1f} mm",
                 "-" if ln["median_plan_time_s"] is None else f"{ln['median_plan_time_s']:.3f} s",

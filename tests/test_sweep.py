@@ -1353,3 +1353,23 @@ def test_the_summary_counts_success_over_the_valid_plans_as_the_figure_does(tmp_
     assert re.search(r"centre\s+4\s+2 \(100%\)", format_summary([line]))
     none_valid = {**line, "reached": 0, "invalid": 4, "success": None}
     assert re.search(r"centre\s+4\s+0 \(-\)", format_summary([none_valid]))
+
+
+def test_the_summary_never_rounds_a_failure_away_to_100_percent_nor_a_success_to_0(tmp_path):
+    """233 of 234 valid plans reached in a 240-plan study (measured: random subjects and boxes, pfm and rbpf): the
+    summary read '233 (100%)' beside 'failed 1', the share rounded to whole percents. A share strictly between 0 and 1
+    now never reads 100% nor 0%: '99.6%' and, for 1 of 240, '0.4%'; whole percents elsewhere, as before."""
+    from foam_mj.report import format_summary, load, summary
+
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = 240\nsmoothers = "none"\nreplay = "none"\n')
+    out = _stored_rows(spec, lambda task, k, path: {"key": k, "seed": task.seed, "smoother": path,
+                                                    "outcome": "failed" if task.seed == 7 else "reached", "f": 3.0})
+    (line,) = summary(*load(out))
+    assert (line["plans"], line["reached"], line["failed"]) == (240, 239, 1)
+    text = format_summary([line])
+    assert re.search(r"centre\s+240\s+239 \(99\.6%\)\s+1\s", text), text
+    assert re.search(r"\(0\.4%\)", format_summary([{**line, "reached": 1, "failed": 239, "success": 1 / 240}]))
+    assert re.search(r"\(<0\.1%\)", format_summary([{**line, "success": 1 / 2000}]))
+    assert re.search(r"\(>99\.9%\)", format_summary([{**line, "success": 1999 / 2000}]))
+    assert re.search(r"\(50%\)", format_summary([{**line, "success": 0.5}]))
+    assert re.search(r"\(100%\)", format_summary([{**line, "success": 1.0}]))
