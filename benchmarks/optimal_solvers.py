@@ -10,19 +10,26 @@ over the waypoints in their hatches (balls shrunk by 1e-6), from the convex refe
 * ``trust-constr``: scipy's interior point with the same data (1,000 iterations at most).
 
 Each row: objective reached, its gap to the best of the three, the scaled KKT residual of
-:func:`foam_mj.smoothing.kkt_certificate` and the wall time (median of 3). Prints a table (about two
+:func:`foam_mj.smoothing.kkt_certificate`, the wall and CPU time (medians of 3), every solver in one thread
+(``OMP_NUM_THREADS`` and ``OPENBLAS_NUM_THREADS`` are set to 1 unless set already). Prints a table (about two
 minutes). Run: ``.venv/bin/python benchmarks/optimal_solvers.py [--json out.json]``.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 import warnings
 from pathlib import Path
 
-import numpy as np
-from scipy.optimize import NonlinearConstraint, minimize
+# One thread for every solver, as Clarabel (our SCP's) runs: OpenBLAS's default thread per core spun on a busy machine and
+# made SLSQP 5x slower in wall time (41 s against 8 s on the obstacle rosary's f, 2 cores). Set before numpy loads.
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
+from scipy.optimize import NonlinearConstraint, minimize  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import check_json, parser, run_script, table, write_json  # noqa: E402
@@ -87,27 +94,28 @@ def main(argv: list[str] | None = None) -> int:
             w = ObjectiveWeights.named(objective)
             found = {}
             for method in ("scp", "slsqp", "trust-constr"):
-                times, W = [], None
+                times, cpu, W = [], [], None
                 for _ in range(3):
-                    t0 = time.perf_counter()
+                    t0, c0 = time.perf_counter(), time.process_time()
                     W = (OptimalSmoother(objective=objective).smooth(ros).waypoints if method == "scp"
                          else scipy_solve(ros, w, method))
                     times.append(time.perf_counter() - t0)
+                    cpu.append(time.process_time() - c0)
                 p = ros.path(W)
                 value = float(paths.objective(p)) if objective == "f" else float(paths.sv(p))
                 cert = kkt_certificate(ros, W, w, INSET)
-                found[method] = {"value": value, "kkt": cert.stationarity, "seconds": float(np.median(times)),
+                found[method] = {"value": value, "kkt": cert.stationarity, "seconds": float(np.median(times)), "cpu_seconds": float(np.median(cpu)),
                                  "inside": bool(np.all(Hatches.of(ros).inside(W, INSET / 2)))}
             best = min(v["value"] for v in found.values())
             for method, v in found.items():
                 v["gap"] = v["value"] - best
                 rows.append([scene, ros.k, objective, method, f"{v['value']:.8f}", f"{v['gap']:.2e}", f"{v['kkt']:.1e}",
-                             f"{1e3 * v['seconds']:.0f}", "yes" if v["inside"] else "NO"])
+                             f"{1e3 * v['seconds']:.0f}", f"{1e3 * v['cpu_seconds']:.0f}", "yes" if v["inside"] else "NO"])
             out[f"{scene}/{objective}"] = found
             print(f"{scene} {objective} done", file=sys.stderr)
-    print(table(["rosary", "bubbles", "objective", "solver", "value", "gap to best", "scaled KKT", "ms", "inside"], rows))
+    print(table(["rosary", "bubbles", "objective", "solver", "value", "gap to best", "scaled KKT", "ms", "cpu ms", "inside"], rows))
     if args.json:
-        write_json(args.json, out)
+        write_json(args.json, {**out, "threads": {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}})
     return 0
 
 

@@ -337,3 +337,31 @@ def test_no_timed_run_of_the_planner_benchmark_pays_for_a_first_import(tmp_path)
     runs = json.loads((tmp_path / "p.json").read_text())["problems"]["obstacle"]["planners"]["bubbletree"]["runs"]
     assert all(x["ok"] for x in runs)
     assert runs[0]["total_cpu"] < 2.0 * runs[1]["total_cpu"] + 0.05, [(x["seed"], x["total_cpu"]) for x in runs]
+
+
+_BLAS_THREADS = """
+import ctypes, glob, os, sys
+sys.path.insert(0, {bench!r})
+import {script}  # noqa
+import numpy
+lib = ctypes.CDLL(glob.glob(os.path.join(os.path.dirname(numpy.__file__), '..', 'numpy.libs', '*openblas*'))[0])
+print(lib.scipy_openblas_get_num_threads64_())
+"""
+
+
+@pytest.mark.parametrize("script", ["optimal_solvers", "planners"])
+def test_a_benchmark_of_peers_runs_scipys_blas_in_one_thread(script):
+    """optimal_solvers.py times scipy's SLSQP and trust-constr beside our SCP (Clarabel: one thread), but left OpenBLAS
+    at one thread per core: on the shared 2-core machine SLSQP on the obstacle rosary's f took 41 s wall / 27 s CPU
+    with BLAS's 2 threads against 8 s / 4 s in one (trust-constr 12-15 s / 7.3-7.6 s against 7 s / 3.7 s), the peers'
+    times inflated 2-7x by threads spinning on a busy machine. It now sets OMP_NUM_THREADS and OPENBLAS_NUM_THREADS
+    to 1 (unless set) before numpy loads, as planners.py does."""
+    env = {k: v for k, v in __import__("os").environ.items() if k not in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
+    env["PYTHONPATH"] = str(BENCHMARKS.parent)
+    probe = subprocess.run([sys.executable, "-c", "import numpy, glob, os; print(len(glob.glob(os.path.join(os.path.dirname(numpy.__file__), "
+                            "'..', 'numpy.libs', '*openblas*'))))"], capture_output=True, text=True, env=env)
+    if probe.stdout.strip() != "1":
+        pytest.skip("numpy is not linked to scipy-openblas here")
+    r = subprocess.run([sys.executable, "-c", _BLAS_THREADS.format(bench=str(BENCHMARKS), script=script)], capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr[-1500:]
+    assert r.stdout.strip() == "1"
