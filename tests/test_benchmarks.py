@@ -318,8 +318,8 @@ def test_no_timed_run_of_the_planner_benchmark_pays_for_a_first_import(tmp_path)
     """The first timed run of ours imported scipy.spatial, scipy.linalg and Clarabel (the corridor's solvers, 145
     modules) inside its clock: on obstacle, seed 0 read 716 ms total (354 ms CPU) against 149-251 ms (72-125 ms CPU)
     for seeds 1-4, while OMPL's modules are imported before its first run. With --seeds 2 the median is the mean of
-    the two. The planners' solvers are now imported before the first timed run: no module is imported inside one,
-    and seed 0's CPU time is that of seed 1 (same plan sizes), not 3-4x."""
+    the two. The planners' solvers are now imported before the first timed run: no module is imported inside one
+    (the property itself; how long a run takes belongs in the benchmark, not in a test)."""
     code = ("import json, sys; sys.argv = ['planners.py']\n"
             f"sys.path.insert(0, {str(BENCHMARKS)!r})\n"
             "import planners as P\n"
@@ -336,7 +336,6 @@ def test_no_timed_run_of_the_planner_benchmark_pays_for_a_first_import(tmp_path)
     assert imported == [[], []], [m[:8] for m in imported]
     runs = json.loads((tmp_path / "p.json").read_text())["problems"]["obstacle"]["planners"]["bubbletree"]["runs"]
     assert all(x["ok"] for x in runs)
-    assert runs[0]["total_cpu"] < 2.0 * runs[1]["total_cpu"] + 0.05, [(x["seed"], x["total_cpu"]) for x in runs]
 
 
 _BLAS_THREADS = """
