@@ -369,18 +369,18 @@ def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl
         res: dict = {}
         jobs = len(planners) * seeds + (seeds * (2 + args.bitstar) if use_ompl else 0)
         done = 0
-        for name in planners:
-            runs = []
-            for s in range(seeds):
+        # Seed by seed, ours and then OMPL's runs of that seed: this machine's speed drifts by up to half over minutes,
+        # and running every seed of ours before every seed of OMPL's gave that drift to one side.
+        ours: dict[str, list] = {name: [] for name in planners}
+        rc, opt, bit = [], [], []
+        runner = OMPLRunner(pb, oracle, args.ompl_resolution) if use_ompl else None
+        for s in range(seeds):
+            for name in planners:
                 if not args.no_progress:
                     progress(done, jobs, f"{pname:>10}")
-                runs.append({"seed": s, **run_ours(name, pb, oracle, checker, s, args.time_limit)})
+                ours[name].append({"seed": s, **run_ours(name, pb, oracle, checker, s, args.time_limit)})
                 done += 1
-            res[name] = {"summary": summarize(runs, pb.delta), "runs": runs}
-        if use_ompl:
-            runner = OMPLRunner(pb, oracle, args.ompl_resolution)
-            rc, opt, bit = [], [], []
-            for s in range(seeds):
+            if runner is not None:
                 if not args.no_progress:
                     progress(done, jobs, f"{pname:>10}")
                 r = finish_ompl(runner.rrtconnect(args.time_limit, s), robot, checker)
@@ -390,6 +390,9 @@ def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl
                 if args.bitstar:
                     bit.append(finish_ompl(runner.optimizing(budget, s, "bitstar"), robot, checker))
                 done += 2 + args.bitstar
+        for name in planners:
+            res[name] = {"summary": summarize(ours[name], pb.delta), "runs": ours[name]}
+        if use_ompl:
             res["ompl:rrtconnect+simplify"] = {"summary": summarize(rc, pb.delta), "runs": rc}
             res["ompl:rrtstar(10x)"] = {"summary": summarize(opt, pb.delta), "runs": opt}
             if args.bitstar:
