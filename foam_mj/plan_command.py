@@ -188,26 +188,32 @@ def _pairs_text(robot, close: list[tuple[float, int, int]]) -> str:
     return named + (", ..." if len(close) > 3 else "")
 
 
+def _within(robot, pairs: list[tuple[int, int]], ends, delta: float) -> list[tuple[float, int, int]]:
+    """(distance, a, b) of the geom pairs closer than ``delta`` at some configuration of ``ends``, nearest first."""
+    import mujoco
+
+    m = robot.model
+    least: dict[tuple[int, int], float] = {}
+    for q in ends if pairs else ():
+        d = robot.set_configuration(q)
+        for a, b in pairs:
+            least[a, b] = min(least.get((a, b), delta), mujoco.mj_geomDistance(m, d, a, b, delta, None))
+    return sorted((dist, a, b) for (a, b), dist in least.items() if dist < delta)
+
+
 def static_robot_note(robot, ends, delta: float) -> str:
     """A note naming the pairs of a robot geom on a body no joint moves (the robot's root fixed to the world: MuJoCo
     Menagerie's LEAP hand planned with --robot-root palm) and a moving robot geom that lie within ``delta`` at an end
     point of ``ends`` (q) and that MuJoCo's filters leave out (``<exclude>``, contype/conaffinity): the planner checks
     the robot against itself as MuJoCo does, but a MuJoCo-only checker that counts every geom on a static body as an
     obstacle reads that pair (the palm rests on its finger bases at -0.00 mm). "" when there is none."""
-    import mujoco
-
     from foam_mj.geom_pairs import attached, body_is_moving
 
     m = robot.model
     moving = {int(g): body_is_moving(m, int(m.geom_bodyid[g])) for g in robot.robot_geoms}
     pairs = [(a, b) for a in moving if moving[a] for b in moving if not moving[b]
              if not robot.pair_table[a, b] and not attached(m, a, b)]
-    least: dict[tuple[int, int], float] = {}
-    for q in ends:
-        d = robot.set_configuration(q)
-        for a, b in pairs:
-            least[a, b] = min(least.get((a, b), delta), mujoco.mj_geomDistance(m, d, a, b, delta, None))
-    close = sorted((dist, a, b) for (a, b), dist in least.items() if dist < delta)
+    close = _within(robot, pairs, ends, delta)
     if not close:
         return ""
     return (f"note: {len(close)} pair(s) of a moving robot geom and a robot geom on a body no joint moves are within the margin "
@@ -223,8 +229,6 @@ def mount_note(robot, ends, delta: float) -> str:
     a MuJoCo-only checker that counts every geom on a body no joint moves as an obstacle reads that pair at every
     sample (a first link 10 mm into its mount's plate). The same plate on a static body is checked, so refused.
     "" when there is none."""
-    import mujoco
-
     from foam_mj.geom_pairs import attached, body_is_moving
 
     m = robot.model
@@ -232,12 +236,7 @@ def mount_note(robot, ends, delta: float) -> str:
              and not body_is_moving(m, int(m.geom_bodyid[g]))]
     pairs = [(int(a), b) for a in robot.robot_geoms if body_is_moving(m, int(m.geom_bodyid[a]))
              for b in fixed if attached(m, int(a), b)]
-    least: dict[tuple[int, int], float] = {}
-    for q in ends if pairs else ():
-        d = robot.set_configuration(q)
-        for a, b in pairs:
-            least[a, b] = min(least.get((a, b), delta), mujoco.mj_geomDistance(m, d, a, b, delta, None))
-    close = sorted((dist, a, b) for (a, b), dist in least.items() if dist < delta)
+    close = _within(robot, pairs, ends, delta)
     if not close:
         return ""
     return (f"note: {len(close)} pair(s) of a moving robot geom and a geom on the fixed body it hangs from are within the margin "
