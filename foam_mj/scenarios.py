@@ -255,10 +255,16 @@ def _table(raw: dict, key: str, fields: set[str], where: str) -> dict | None:
     return value
 
 
-def _vec3(value, where: str, positive: bool = False) -> tuple[float, float, float]:
+#: The largest [obstacle] size or position (m): MuJoCo overflowed beyond (size 1e300: "size 1 must be positive").
+MAX_METRES = 1e6
+
+
+def _vec3(value, where: str, positive: bool = False, most: float = np.inf) -> tuple[float, float, float]:
     arr = _number_list(value, where, 3)
     if not np.all(np.isfinite(arr)) or (positive and not np.all(arr > 0)):
         raise ScenarioError(f"{where} must be 3 finite numbers{' > 0' if positive else ''}, got {value!r}")
+    if np.any(np.abs(arr) > most):
+        raise ScenarioError(f"{where} must be 3 numbers of magnitude at most {most:g}, got {value!r}")
     return tuple(float(v) for v in arr)  # type: ignore[return-value]
 
 
@@ -287,8 +293,8 @@ def _scene_edits(raw: dict, where: str, base_dir: Path) -> SceneEdits:
     obstacle = None
     t = _table(raw, "obstacle", _OBSTACLE_FIELDS, where)
     if t is not None:
-        size = None if t.get("size") is None else _vec3(t["size"], f"{where}: [obstacle] field 'size' (full extents x, y, z in m)", positive=True)
-        pos = None if t.get("pos") is None else _vec3(t["pos"], f"{where}: [obstacle] field 'pos' (m)")
+        size = None if t.get("size") is None else _vec3(t["size"], f"{where}: [obstacle] field 'size' (full extents x, y, z in m)", positive=True, most=MAX_METRES)
+        pos = None if t.get("pos") is None else _vec3(t["pos"], f"{where}: [obstacle] field 'pos' (m)", most=MAX_METRES)
         euler = None if t.get("euler") is None else _vec3(t["euler"], f"{where}: [obstacle] field 'euler' (degrees)")
         name = t.get("name")
         if name is not None and (not isinstance(name, str) or not name):

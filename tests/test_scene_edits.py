@@ -44,6 +44,16 @@ def test_a_scenario_dict_is_validated_like_a_file():
         scenario_from_dict({**OBSTACLE, "obstacle": {"height": 0.2}}, MODELS)
 
 
+def test_an_obstacle_of_astronomical_size_or_position_is_refused_naming_the_field():
+    """[obstacle] size = [1e300, ...] (finite) was refused by MuJoCo's compiler as "size 1 must be positive" after its
+    geometry overflowed; sizes and positions beyond 1e6 m are refused naming the field, 1e5 m plans' checks pass."""
+    for field, value in (("size", [1e300, 0.5, 0.15]), ("pos", [0.5, 0.0, -2e6])):
+        with pytest.raises(ScenarioError, match=rf"\[obstacle\] field '{field}'.* magnitude at most 1e\+06"):
+            scenario_from_dict({**OBSTACLE, "obstacle": {field: value}}, MODELS)
+    far = scenario_from_dict({**OBSTACLE, "obstacle": {"pos": [1e5, 0.0, 0.075]}}, MODELS)  # far away: still a scene
+    assert far.robot.model.ngeom > 0
+
+
 @pytest.mark.parametrize("height, mass", [(1.62, 58.0), (1.90, 95.0), (1.75, 75.0)])
 def test_subject_scaling_sets_segment_lengths_to_winters_fractions(height, mass):
     base = _robot()
