@@ -174,6 +174,9 @@ def _configuration_map(
             if not (np.all(np.isfinite(norm)) and span > 0 and b > a and (b - a) / span > 0):  # an infinite span divided by 0
                 raise ModelError(f"{path}: {where} needs finite numbers, span > 0 and qpos_hi > qpos_lo "
                                  f"(qpos_hi - qpos_lo over span > 0), got {norm.tolist()}")
+            if not 1e-9 <= span / (b - a) <= 1e9:  # q in units of 1e-300 qpos: the bubbles' radii overflowed (NaN warnings)
+                raise ModelError(f"{path}: {where} maps qpos {a:g}..{b:g} onto [0, {span:g}], {span / (b - a):.3g} q per qpos unit: "
+                                 "the span must be within 1e-9..1e9 times qpos_hi - qpos_lo")
             hinge = int(m.jnt_type[j]) == HINGE
             turn = max(2 * np.pi, abs(jlo), abs(jhi))
             if hinge and norm.size == 3 and max(abs(a), abs(b)) > turn:  # beyond a turn and the range: degrees

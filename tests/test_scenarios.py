@@ -77,6 +77,9 @@ def test_a_scenario_file_loads(tmp_path):
          r"normalization given for 'hip_displacment' \(did you mean 'hip_displacement'\?\), which are not joints"),
         (lambda t: t + "[normalize]\nhip_displacement = [inf]\n", r"normalize.hip_displacement needs finite numbers"),
         (lambda t: t + "[normalize]\nhip_displacement = [0.0, inf, 1.0]\n", r"normalize.hip_displacement needs finite numbers"),
+        # a span of 1e300 planned with overflow warnings (q in units of 1e-300 m: the bubbles' radii were inf/NaN)
+        (lambda t: t + "[normalize]\nhip_displacement = [1e300]\n", r"normalize.hip_displacement maps qpos .* 1\.11e\+300 q per qpos unit"),
+        (lambda t: t + "[normalize]\nhip_displacement = [1e-300]\n", r"normalize.hip_displacement maps .*the span must be within 1e-9..1e9"),
         (lambda t: t.replace('scene = "', 'scene = "/nowhere/'), "scene.*not found"),
         # inf was planned with as "no time limit" and written to the result as `"time_limit": Infinity`, which is not
         # JSON (jq, JavaScript's JSON.parse refuse it); --time-limit inf was refused already
