@@ -487,9 +487,11 @@ def test_the_readmes_placeholders_are_the_help_texts():
 
 
 def test_the_product_cites_papers_not_the_project_process():
+    """Papers are cited by author and year, never by the numbers of the project's text copies ('paper 003', the pfm
+    planner's summary 'Nascimento et al. 2020 / 003', a file name '000_5b98...')."""
     import re
 
-    pattern = re.compile(r"issue [0-9]|shared/|paper 00[0-9]")
+    pattern = re.compile(r"issue [0-9]|shared/|paper 00[0-9]|00[0-9]_[0-9a-f]{6}|(?<![\w.,:-])00[0-4](?![\w.,:])")
     hits = []
     for top in ("README.md", "foam_mj", "models", "scenarios", "docs", "examples", "benchmarks"):
         files = [ROOT / top] if (ROOT / top).is_file() else [p for p in (ROOT / top).rglob("*") if p.suffix in (".py", ".md", ".xml", ".toml")]

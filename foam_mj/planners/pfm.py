@@ -39,7 +39,7 @@ def _stats(st: FoamStats, reached: bool) -> PlanStats:
 
 class PFMPlanner(Planner):
     name = "pfm"
-    summary = "Probabilistic Foam Method, breadth-first (Nascimento et al. 2020 / 003; the paper reproductions use it)"
+    summary = "Probabilistic Foam Method, breadth-first (Nascimento et al. 2020; Nascimento and Alsina 2021; the paper reproductions use it)"
     Options = PFMOptions
 
     def foam_params(self, problem: PlanningProblem) -> FoamParams:
