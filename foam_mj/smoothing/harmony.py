@@ -14,6 +14,13 @@ The new harmony replaces the worst in memory when its f (Nascimento et al. 2020 
 
 Choices (the paper leaves them open):
 
+* Memory consideration is decided waypoint by waypoint, each from its own harmony drawn from memory: the
+  paper's instruments are the decision variables (section 2.1), and per-variable consideration is the
+  Harmony Search of Geem et al. 2001 that it cites. Its sentence "a harmony h is selected from the HM with
+  probability HMCR" read as one whole harmony per improvisation would only copy a memory member and
+  pitch-adjust it, never combining waypoints of different harmonies.
+* BW is in configuration units (radians, or the normalized hip displacement), the same for every
+  coordinate, as section 5.1 gives it (BW = 0.01); it is not scaled to the hatches.
 * Infeasible pitch adjustments are **reverted**: a waypoint whose adjusted value leaves its hatch keeps
   its unadjusted (memory) value. Reverting needs no extra random draws, so the random stream depends
   only on the iteration index (which the speculative evaluation below relies on), and it never biases
