@@ -27,8 +27,8 @@ Choices (the paper leaves them open):
   the result towards the hatch boundary as clipping would.
 * The population's mean (Table 1's stop criterion) is the memory's mean f. It falls exactly when a
   harmony is replaced, so "no improvement in 200 iterations" is 200 improvisations without one. On
-  the obstacle rosary that almost never happens (replacements keep coming every <= ~70
-  improvisations up to 2 x 10^4), so HS runs to the cap; the paper's ~4,200 iterations cannot be
+  the obstacle rosary that never happens (PFM seed 0's rosary, HS seeds 0-4: 3,100-3,500 replacements in
+  2 x 10^4 improvisations, never more than 72-105 improvisations apart), so HS runs to the cap; the paper's ~4,200 iterations cannot be
   reproduced with this exact reading (a ``stall_tol`` > 0 is the knob for a looser one).
 
 Speed: all random numbers for 1024 improvisations are drawn at once. Improvisations are then
