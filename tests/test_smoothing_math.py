@@ -167,7 +167,8 @@ def test_projection_onto_lens_is_inside_and_nearest(args):
     [
         (lambda: HarmonySearch(HMCR=1.5), r"HMCR must be in \[0, 1\], got 1.5"),
         (lambda: HarmonySearch(PAR=-0.1), r"PAR must be in \[0, 1\]"),
-        (lambda: HarmonySearch(BW=-1.0), r"BW must be >= 0"),
+        (lambda: HarmonySearch(BW=-1.0), r"BW must be in \[0, 1\].*, got -1.0"),
+        (lambda: HarmonySearch(BW=1.5), r"BW must be in \[0, 1\] \(Nascimento et al. 2020 Eq. 1\), got 1.5"),
         (lambda: HarmonySearch(HMS=0), r"HMS must be an integer >= 1"),
         (lambda: HarmonySearch(HMS=2.5), r"HMS must be an integer"),
         (lambda: GeneticAlgorithm(pop_size=1), r"pop_size must be an integer >= 2"),
@@ -181,6 +182,8 @@ def test_projection_onto_lens_is_inside_and_nearest(args):
         (lambda: StopCriteria(f_threshold=float("nan")), r"f_threshold must be a finite number"),
         (lambda: StopCriteria(stall_tol=-1.0), r"stall_tol must be >= 0"),
         (lambda: GradientSmoothing(eta=0.0), r"eta must be > 0"),
+        (lambda: GradientSmoothing(eta=1.5), r"eta must be in \(0, 1\] \(Nascimento and Alsina 2021 Eq. 9\), got 1.5"),
+        (lambda: RosaryAdjustment(r_min=0.07, eta=2), r"eta must be in \(0, 1\] \(Nascimento and Alsina 2021 Eq. 8\), got 2"),
         (lambda: RosaryAdjustment(r_min=-0.07), r"r_min must be > 0"),
         (lambda: RosaryAdjustment(r_min=0.07, eta=float("inf")), r"eta must be > 0 and finite"),
         (lambda: ConvexShortestPath(smoothness=-1.0), r"smoothness must be >= 0"),
@@ -188,6 +191,8 @@ def test_projection_onto_lens_is_inside_and_nearest(args):
     ],
 )
 def test_bad_parameters_raise_value_error_naming_them(make, message):
+    """Ranges are the papers' where they give one: BW in [0, 1] (Nascimento et al. 2020 Eq. 1), eta in (0, 1]
+    (Nascimento and Alsina 2021 Eq. 8 and 9; BW = 1.5 and eta = 2 were accepted before)."""
     with pytest.raises(ValueError, match=message):
         make()
 
@@ -196,7 +201,7 @@ def test_bad_parameters_raise_value_error_naming_them(make, message):
     "make, message",
     [
         (lambda: HarmonySearch(HMCR=True), r"HMCR must be in \[0, 1\], got True"),
-        (lambda: HarmonySearch(BW=True), r"BW must be >= 0 and finite, got True"),
+        (lambda: HarmonySearch(BW=True), r"BW must be in \[0, 1\].*, got True"),
         (lambda: GeneticAlgorithm(mut_prob=True), r"mut_prob must be in \[0, 1\], got True"),
         (lambda: GeneticAlgorithm(alpha_range=(True, 2.0)), r"alpha_range must be a pair of numbers"),
         (lambda: GeneticAlgorithm(alpha_range=("0.9", "1.1")), r"alpha_range must be a pair of numbers"),

@@ -3,7 +3,7 @@
 Eq. 8 moves the bubble centres p_i (all but the root's, which is q_init) up the gradient of TC
 (Nascimento and Alsina 2021 Eq. 6) of the centre path [q_init, p_2, ..., p_k, q_goal]:
 
-    x_j^i <- x_j^i + eta dTC/dx_j^i,     eta = 0.1 (section 5.1).
+    x_j^i <- x_j^i + eta dTC/dx_j^i,     0 < eta <= 1 (Eq. 8's range), eta = 0.1 (section 5.1).
 
 After each move every bubble's radius is set so that its child stays on its surface,
 r_i = |c_(i+1) - c_i|, and the goal bubble takes the certified radius at its new centre. A move is
@@ -83,6 +83,8 @@ class RosaryAdjustment:
     def __post_init__(self) -> None:
         _check_positive("r_min", self.r_min)
         _check_positive("eta", self.eta)
+        if self.eta > 1:  # "0 < eta <= 1" (Eq. 8)
+            raise ValueError(f"eta must be in (0, 1] (Nascimento and Alsina 2021 Eq. 8), got {self.eta!r}")
         _check_int("max_halvings", self.max_halvings, 0)
         if not isinstance(self.stop, StopCriteria):
             raise ValueError(f"stop must be a StopCriteria, got {self.stop!r}")

@@ -2,7 +2,7 @@
 
 Eq. 9 moves every interior vertex p_i of the path down the gradient of SV (Nascimento and Alsina 2021 Eq. 7),
 
-    x_j^i <- x_j^i - eta dSV/dx_j^i,     eta = 0.005 (section 5.1),
+    x_j^i <- x_j^i - eta dSV/dx_j^i,     0 < eta <= 1 (Eq. 9's range), eta = 0.005 (section 5.1),
 
 with the ends q_init and q_goal fixed. Here the vertices are the waypoints sigma, and each step is
 followed by the Euclidean projection of every waypoint onto its hatch (closed form, see
@@ -389,6 +389,8 @@ class GradientSmoothing(Smoother):
 
     def __post_init__(self) -> None:
         _check_positive("eta", self.eta)
+        if self.eta > 1:  # "0 < eta <= 1" (Eq. 9)
+            raise ValueError(f"eta must be in (0, 1] (Nascimento and Alsina 2021 Eq. 9), got {self.eta!r}")
         _check_positive("tol", self.tol, allow_zero=True)
         _check_positive("inset", self.inset, allow_zero=True)
         if not isinstance(self.stop, StopCriteria):

@@ -61,8 +61,8 @@ from foam_mj.smoothing.base import (
     Smoother,
     StopCriteria,
     _check_int,
-    _check_positive,
     _check_unit,
+    _is_real,
     as_generator,
     check_initial,
     check_rosary,
@@ -98,7 +98,8 @@ class HarmonySearch(Smoother):
         _check_int("HMS", self.HMS, 1)
         _check_unit("HMCR", self.HMCR)
         _check_unit("PAR", self.PAR)
-        _check_positive("BW", self.BW, allow_zero=True)
+        if not (_is_real(self.BW) and 0.0 <= float(self.BW) <= 1.0):  # Eq. 1: "BW is a parameter between [0, 1]"
+            raise ValueError(f"BW must be in [0, 1] (Nascimento et al. 2020 Eq. 1), got {self.BW!r}")
         if not isinstance(self.stop, StopCriteria):
             raise ValueError(f"stop must be a StopCriteria, got {self.stop!r}")
 
