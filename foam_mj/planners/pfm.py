@@ -1,9 +1,18 @@
 """``pfm``: the Probabilistic Foam Method exactly as the papers give it (:func:`foam_mj.foam.plan`).
 
+The growth is Nascimento et al. 2020 section 3.1's: parents first-in-first-out, N = K floor(r / r_min)^(n-1)
+candidates (Eq. 2) drawn uniformly on each parent's surface, a candidate dropped when it lies in another bubble or its
+bubble is smaller than r_min, the search ended by the first bubble that holds q_goal. What foam-mj adds lies outside
+that loop, each where it is made: the radius is certified per geom pair with a margin delta and capped at the joint
+bounds (:mod:`foam_mj.bubbles`; the papers' Eq. 4 has one distance and no margin), candidates outside the joint
+bounds are dropped (the papers do not say what happens at the joint limits), and bubble and time budgets end a search the papers would run on.
+
 This wrapper only translates: the problem's margin and budgets and the options K and r_min become
 :class:`~foam_mj.foam.FoamParams`, the foam's statistics become :class:`PlanStats`. The same seed
 grows the same foam, bubble for bubble, as calling :func:`foam_mj.foam.plan` directly (the paper
-reproductions rely on it). PFM's own rule stays: the root bubble must have radius >= r_min.
+reproductions rely on it). A root bubble below r_min is refused before planning: the papers state r >= r_min for
+children only, but with n >= 2 Eq. 2 gives such a root floor(r / r_min) = 0, so N = 0 candidates and the foam could
+not grow (gbpf, rbpf and hpf accept it; rbpf and hpf give it K candidates, :mod:`foam_mj.planners.variants`).
 """
 
 from __future__ import annotations
