@@ -39,6 +39,9 @@ against the paper's text. The choices:
   parent's surface), so g is the centre path's length and g + h a lower bound of any centre path
   through b: the A* reading of "heuristic-guided" for short paths (one reimplementation adds the
   child's radius instead, which is not a length). Ties go to the older bubble.
+* K defaults to Nascimento et al. 2020's 10, as pfm's. Nascimento and Alsina 2021 (section 5.1) says that
+  Nascimento et al. 2021 defines K as a function of the dimension of C, and uses K = 6 for n = 3 (the leg and
+  the walker); the function itself could not be read, so it is not applied (pass K = 6 for the thesis's setting).
 * Every variant starts from a root bubble of *any* positive certified radius (pfm requires
   r >= r_min there): the root gets at least K candidates, since floor(r / r_min) = 0 would leave it
   none. A start or goal with clearance <= delta is refused (:class:`ConfigurationError`).
