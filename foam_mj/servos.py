@@ -148,7 +148,7 @@ def _exclude_held_contacts(spec: mujoco.MjSpec, m: mujoco.MjModel, robot: RobotM
 def servo_model(robot: RobotModel, qpos: np.ndarray | None = None) -> tuple[mujoco.MjModel, str]:
     """The model the dynamic replay drives, and a one-line note ("" when no servo was added): ``robot.model`` itself
     when it has a position servo on every configuration joint and no other joint; else a copy in which the joints
-    outside the configuration get the armature that makes them a fixed mount (:data:`HOLD_ARMATURE`) and, when some
+    outside the configuration get the armature that makes them a fixed mount (:data:`HOLD_ARMATURE`), their range not applied, and, when some
     configuration joint lacks a position servo, all actuators are replaced by position servos sized from the joints'
     largest inertia over the configurations ``qpos`` (T, nq) the replay visits (default: ``qpos0``), stepped with
     ``implicitfast`` where the model is Euler or RK4 (module docstring)."""
@@ -162,6 +162,9 @@ def servo_model(robot: RobotModel, qpos: np.ndarray | None = None) -> tuple[mujo
     hold = HOLD_ARMATURE * max(1.0, float(m.dof_M0.max()))
     for j in held:
         joints[j].armature += hold
+        # Held where the trajectory puts it (a keyframe may put it beyond its range), a joint's limit would push it
+        # back by an acceleration no armature resists, and that pushed the planned joints (module docstring).
+        joints[j].limited = mujoco.mjtLimited.mjLIMITED_FALSE
     _exclude_held_contacts(spec, m, robot)
     if problem is None:
         return spec.compile(), ""

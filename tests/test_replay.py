@@ -366,6 +366,23 @@ def test_an_actuator_the_replay_does_not_drive_is_never_named_as_clamped(tmp_pat
     assert not dyn.clamped_frames.any() and not dyn.saturated_frames.any() and dyn.limit_note == ""
 
 
+def test_a_joint_held_beyond_its_range_stays_a_fixed_mount(tmp_path):
+    """A keyframe may hold a joint outside its range (a wrist at 1.2 rad, range +-0.5: a range written in radians
+    under MuJoCo's default degrees, or the reverse). The planner holds it there; MuJoCo's limit pushed it back every
+    step and the planned elbow lagged 67 mrad (the shoulder 9), with no note. The replay tracks as with the wrist in range."""
+    a, b = np.array([-0.3, 0.6]), np.array([-1.0, 1.2])
+    line = segment_rosary(a, b)
+    errors = []
+    for wrist_range in ("-2 2", "-0.5 0.5"):
+        (tmp_path / "arm.xml").write_text(KEYFRAME_ARM.replace('range="-2 2"', f'range="{wrist_range}"'))
+        arm = RobotModel.from_xml(tmp_path / "arm.xml", ["shoulder", "elbow"], keyframe="home")
+        dyn = replay_dynamic(arm, make_trajectory(arm, line.path(np.empty((0, 2))), line))
+        assert np.all(dyn.qpos[:, 2] == 1.2) and dyn.warnings == () and dyn.limit_note == ""
+        errors.append(dyn.max_error)
+    assert np.all(errors[1] < 1e-9), errors  # rounding, as in range
+    assert np.allclose(errors[1], errors[0], atol=1e-12)
+
+
 def test_an_rk4_model_replays_dynamically(tmp_path):
     """mj_step1/mj_step2 have no RK4 form: a user's RK4 model ended `foam-mj plan` with an internal error after
     the planning. A model with its own servos keeps RK4 (added servos step with implicitfast): it is stepped whole by
