@@ -62,8 +62,9 @@ limit push it back every step, 67 mrad of tracking error on the planned elbow, w
 
 A servo can only do what its MJCF allows: MuJoCo clamps a ctrl outside the actuator's ``ctrlrange`` (a
 position servo whose set-point range is narrower than the motion, or than the set point plus the folded-in
-feed-forward) and caps its force at its ``forcerange``. The frames where either happened are counted per
-actuator (``clamped_frames``, ``saturated_frames``) and named in ``limit_note``, which ``plan`` and
+feed-forward) and caps its force at its ``forcerange``, and the total actuator force on a joint at the joint's
+``actuatorfrcrange``. The frames where one of these happened are counted per actuator (``clamped_frames``,
+``saturated_frames``) or joint (``joint_saturated_frames``) and named in ``limit_note``, which ``plan`` and
 ``replay`` print: the tracking error and contacts that follow are the servo's, not the path's.
 
 Contacts are read from ``data.contact`` after each ``mj_step1`` (collision detection at that frame's
@@ -169,6 +170,7 @@ class DynamicReplay(_ReplayMeasures):
     servo_kp: np.ndarray | None = None  # (n,) the added servos' kp per configuration joint (N m/rad, N/m), else None
     clamped_frames: np.ndarray | None = None  # (nu,) frames at which each actuator's ctrl lay outside its ctrlrange
     limit_note: str = ""  # set when a servo could not do what tracking asked (ctrl or force range; module docstring)
+    joint_saturated_frames: np.ndarray | None = None  # (n,) frames at which a joint's actuator force sat at its actuatorfrcrange
 
     @property
     def diverged(self) -> tuple[str, ...]:
@@ -396,6 +398,8 @@ def replay_dynamic(
     xpos = np.empty((T, len(ids), 3))
     xquat = np.empty((T, len(ids), 4))
     force = np.zeros((T, m.nu))
+    cfg_dof = m.jnt_dofadr[robot.config.joint_ids]
+    joint_force = np.zeros((T, len(cfg_dof)))  # qfrc_actuator: the actuators' force at each joint, clamped to its actuatorfrcrange
     contacts: list[Contact] = []
     for i in range(T):
         d.qpos[held_qpos] = trajectory.qpos[i, held_qpos]
@@ -425,6 +429,7 @@ def replay_dynamic(
         else:
             mujoco.mj_fwdActuation(m, d)  # the last frame's forces, for the record
         force[i] = d.actuator_force
+        joint_force[i] = d.qfrc_actuator[cfg_dof]
     cfg = robot.config
     error = qpos[:, cfg.qpos_index] - trajectory.qpos[:, cfg.qpos_index]
     lo, hi = m.actuator_forcerange.T
@@ -436,9 +441,12 @@ def replay_dynamic(
     saturated = at_limit.sum(axis=0)
     clo, chi = m.actuator_ctrlrange.T
     clamped = (servo & m.actuator_ctrllimited.astype(bool) & ((ctrl < clo) | (ctrl > chi))).sum(axis=0)
+    jlo, jhi = m.jnt_actfrcrange[cfg.joint_ids].T  # a joint's own clamp of its actuators' total force
+    joint_saturated = (m.jnt_actfrclimited[cfg.joint_ids].astype(bool)
+                       & ((joint_force <= jlo + 1e-9 * np.abs(jlo)) | (joint_force >= jhi - 1e-9 * np.abs(jhi)))).sum(axis=0)
     warned = tuple(mujoco.mjtWarning(w).name for w in range(len(d.warning)) if d.warning[w].number > 0)
     shaking = ""
-    if not note and (saturated.any() or warned or np.abs(error).max() > SHAKE_CHECK):  # own servos that did not track
+    if not note and (saturated.any() or joint_saturated.any() or warned or np.abs(error).max() > SHAKE_CHECK):  # own servos that did not track
         every = trajectory.qpos[:: max(1, T // 50)]
         shaking = explicit_damping_note(robot, m, servos.actuator, -servos.b2 * servos.gear**2, every)
     own = clearance is None
@@ -467,13 +475,16 @@ def replay_dynamic(
         servo_note=note,
         servo_kp=servos.gain * servos.gear**2 if note else None,
         clamped_frames=clamped,
-        limit_note="; ".join(filter(None, (shaking, _limit_note(m, clamped, saturated, T)))),
+        limit_note="; ".join(filter(None, (shaking, _limit_note(m, clamped, saturated, T, cfg.joint_ids, joint_saturated)))),
+        joint_saturated_frames=joint_saturated,
     )
 
 
-def _limit_note(m: mujoco.MjModel, clamped: np.ndarray, saturated: np.ndarray, frames: int) -> str:
+def _limit_note(m: mujoco.MjModel, clamped: np.ndarray, saturated: np.ndarray, frames: int,
+                joints: np.ndarray = (), joint_saturated: np.ndarray = ()) -> str:
     """One line naming the servos whose ctrl MuJoCo clamped to its ctrlrange, or whose force sat at its force
-    range, and in how many frames ("" when none): the reason of a large tracking error, never silent."""
+    range, and the ``joints`` whose actuators' total force sat at the joint's actuatorfrcrange (``joint_saturated``
+    frames each), and in how many frames ("" when none): the reason of a large tracking error, never silent."""
     parts = []
     for a in np.flatnonzero((clamped > 0) | (saturated > 0)):
         name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, int(a)) or f"actuator{int(a)}"
@@ -486,6 +497,10 @@ def _limit_note(m: mujoco.MjModel, clamped: np.ndarray, saturated: np.ndarray, f
             lo, hi = m.actuator_forcerange[a]
             what.append(f"force at its forcerange [{lo:g}, {hi:g}] in {int(saturated[a])}")
         parts.append(f"servo '{name}'{f' ({joint})' if joint else ''}: {' and '.join(what)} of {frames} frames")
+    for j, n in zip(joints, joint_saturated):
+        if n:
+            lo, hi = m.jnt_actfrcrange[j]
+            parts.append(f"joint '{m.joint(int(j)).name}': actuator force at its actuatorfrcrange [{lo:g}, {hi:g}] in {int(n)} of {frames} frames")
     if not parts:
         return ""
     return "; ".join(parts) + ": the tracking error and any contacts there are the servo's, not the path's"

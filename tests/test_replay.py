@@ -329,6 +329,24 @@ def test_a_servo_that_cannot_follow_is_named_with_its_ctrl_or_force_range(tmp_pa
         assert dyn.limit_note.startswith(f"servo 'el' (elbow): ctrl clamped to its ctrlrange [-1.5, 1.5] in {dyn.clamped_frames[1]} of {len(dyn.times)} frames")
 
 
+def test_a_joint_whose_actuatorfrcrange_caps_its_servo_is_named(tmp_path):
+    """MuJoCo also caps the total actuator force on a joint at the joint's ``actuatorfrcrange``: a shoulder capped
+    at 2 N m, below gravity, sagged 0.87 rad below the swing, and ``limit_note`` said nothing (the same servo capped
+    by its own forcerange was named). Now the joint, its range and the frames are named."""
+    xml = TWO_LINK_ARM.read_text().replace('damping="0.5"', 'damping="0.5" actuatorfrcrange="-2 2"')
+    (tmp_path / "arm.xml").write_text(xml.replace(
+        "</worldbody>", '</worldbody><actuator><position joint="shoulder" kp="300" kv="10"/><position joint="elbow" kp="100" kv="3"/></actuator>'))
+    arm = RobotModel.from_xml(tmp_path / "arm.xml")
+    a, b = np.array([-0.3, 0.6]), np.array([-1.2, 2.0])
+    line = segment_rosary(a, b)
+    dyn = replay_dynamic(arm, make_trajectory(arm, line.path(np.empty((0, 2))), line))
+    assert dyn.max_error[0] > 0.05 and not dyn.saturated_frames.any()
+    n = int(dyn.joint_saturated_frames[0])
+    assert n > 0 and dyn.joint_saturated_frames[1] == 0
+    assert re.search(rf"joint 'shoulder': actuator force at its actuatorfrcrange \[-2, 2\] in {n} of {len(dyn.times)} frames: "
+                     "the tracking error and any contacts there are the servo's", dyn.limit_note), dyn.limit_note
+
+
 def test_own_servos_that_euler_makes_unstable_are_named_with_the_way_out(tmp_path):
     """Two Kinova Gen3 arms <attach>ed to a parent whose <option> is Euler's default (the arm's own MJCF asks for
     implicitfast) tracked with 3,378 mrad of error, and the note blamed only the servos' force ranges. Euler is explicit
