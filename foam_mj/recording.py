@@ -88,6 +88,7 @@ from foam_mj.geom_pairs import body_is_moving
 from foam_mj.model import RobotModel
 from foam_mj.recording_geoms import (  # noqa: F401  (geom_rgba, HIDDEN_*, INFINITE_PLANE: re-exported)
     HIDDEN_ALPHA, HIDDEN_GROUP, INFINITE_PLANE, MeshInstances, _body_name, _geom_name, _rgba, _xyzw, geom_archetype, geom_rgba, is_mesh,
+    seconds_ns,
 )
 from foam_mj.recording_read import _store_chunks, read_blueprint, read_component, read_recording  # noqa: F401  (re-exported)
 from foam_mj.replay import DynamicReplay, KinematicReplay
@@ -306,7 +307,7 @@ class Recording:
         poses = replay.poses
         T = replay.n_frames
         color = self.path_color(name)
-        index = [rr.TimeColumn("time", duration=replay.times), rr.TimeColumn("frame", sequence=np.arange(T))]
+        index = [rr.TimeColumn("time", duration=seconds_ns(replay.times)), rr.TimeColumn("frame", sequence=np.arange(T))]
         self._log_geoms(name, m, poses.body_ids, color if tint else None)
         for k, b in enumerate(poses.body_ids):
             rec.send_columns(
@@ -373,7 +374,7 @@ class Recording:
         name = _name(name)
         if not isinstance(replay, DynamicReplay):
             raise ValueError(f"`replay` must be a DynamicReplay, got {type(replay).__name__}")
-        index = [rr.TimeColumn("time", duration=replay.times), rr.TimeColumn("frame", sequence=np.arange(replay.n_frames))]
+        index = [rr.TimeColumn("time", duration=seconds_ns(replay.times)), rr.TimeColumn("frame", sequence=np.arange(replay.n_frames))]
         self._scalars(f"plots/tracking/{name}", index, replay.error, [f"{joint} error" for joint in replay.joint_names],
                       self._series_colors(name, len(replay.joint_names)))
         if replay.contacts:
@@ -383,7 +384,7 @@ class Recording:
             pos = np.array([c.position for c in replay.contacts])
             rec.send_columns(
                 f"world/contacts/{name}",
-                indexes=[rr.TimeColumn("time", duration=replay.times[uniq]), rr.TimeColumn("frame", sequence=uniq)],
+                indexes=[rr.TimeColumn("time", duration=seconds_ns(replay.times[uniq])), rr.TimeColumn("frame", sequence=uniq)],
                 columns=rr.Points3D.columns(positions=pos).partition(counts),
             )
 
@@ -458,7 +459,7 @@ class Recording:
         if not isinstance(trajectory, Trajectory):
             raise ValueError(f"`trajectory` must be a Trajectory, got {type(trajectory).__name__}")
         T = len(trajectory)
-        index = [rr.TimeColumn("time", duration=trajectory.times), rr.TimeColumn("frame", sequence=np.arange(T))]
+        index = [rr.TimeColumn("time", duration=seconds_ns(trajectory.times)), rr.TimeColumn("frame", sequence=np.arange(T))]
         joints = list(trajectory.joint_names)
         self._scalars(f"plots/joints/{name}", index, trajectory.joint_positions, joints, self._series_colors(name, len(joints)))
         q3 = _points3(trajectory.q, "trajectory.q")
@@ -473,7 +474,7 @@ class Recording:
         self._check_open()
         name = _name(name)
         T = len(loads.times)
-        index = [rr.TimeColumn("time", duration=loads.times), rr.TimeColumn("frame", sequence=np.arange(T))]
+        index = [rr.TimeColumn("time", duration=seconds_ns(loads.times)), rr.TimeColumn("frame", sequence=np.arange(T))]
         joints = list(loads.joint_names)
         colors = self._series_colors(name, len(joints))
         self._scalars(f"plots/torque/{name}", index, loads.tau, [f"{j} ({u})" for j, u in zip(joints, loads.torque_units)], colors)
