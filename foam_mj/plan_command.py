@@ -182,6 +182,34 @@ def held_pose_note(robot, delta: float) -> str:
             "every sample (lift the held body clear, or plan over its joints)")
 
 
+def held_out_of_range_note(robot) -> str:
+    """A note naming the limited hinges and slides outside the configuration held beyond their range (a keyframe or
+    qpos0 that sets a wrist to 1.2 rad in a range of +-3 degrees: a degree/radian mix-up). The planner holds them
+    there and plans around that pose; a replay leaves them there too, but MuJoCo's own simulation of the model would
+    push them back by its joint limit. "" when there is none."""
+    import mujoco
+
+    m = robot.model
+    planned = {int(a) for a in robot.config.qpos_index}
+    slack = 1e-9
+    off = []
+    for j in range(m.njnt):
+        adr = int(m.jnt_qposadr[j])
+        if (int(m.jnt_type[j]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+                or not m.jnt_limited[j] or adr in planned):
+            continue
+        v, (lo, hi) = float(robot.config.qpos0[adr]), m.jnt_range[j]
+        if not lo - slack <= v <= hi + slack:
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
+            off.append(f"{name} at {v:.4g} outside [{lo:.4g}, {hi:.4g}]")
+    if not off:
+        return ""
+    return (f"note: held joint{'s' * (len(off) > 1)} beyond {('its', 'their')[len(off) > 1]} range ({', '.join(off[:3])}"
+            f"{', ...' if len(off) > 3 else ''}; qpos units: radians or metres): the plan holds {('it', 'them')[len(off) > 1]} "
+            "there as given, but MuJoCo's own simulation of this model pushes such a joint back to its range (a degree/radian "
+            "mix-up in a keyframe?)")
+
+
 def _pairs_text(robot, close: list[tuple[float, int, int]]) -> str:
     """The first three (distance, geom, geom) of ``close`` as 'a / b 1.23 mm', then ', ...' when there are more."""
     named = ", ".join(f"{robot.geom_label(a)} / {robot.geom_label(b)} {dist * 1000:.2f} mm" for dist, a, b in close[:3])
@@ -462,7 +490,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
 
     for note in (small_hinge_ranges_note(scenario.robot.model, scenario.robot.config),
                  held_by_equality_note(scenario.robot), no_obstacle_note(scenario.robot),
-                 held_pose_note(scenario.robot, scenario.params.delta),
+                 held_pose_note(scenario.robot, scenario.params.delta), held_out_of_range_note(scenario.robot),
                  static_robot_note(scenario.robot, (scenario.q_init, scenario.q_goal), scenario.params.delta),
                  mount_note(scenario.robot, (scenario.q_init, scenario.q_goal), scenario.params.delta),
                  capping_pair_note(scenario.robot, outcome.plan.rosary, scenario.params.delta, outcome.rosary_distances)):

@@ -867,6 +867,26 @@ def test_plan_names_a_held_body_within_the_margin_of_a_fixed_geom(tmp_path, caps
     assert "held body" not in capsys.readouterr().out
 
 
+def test_plan_names_a_held_joint_beyond_its_range(tmp_path, capsys):
+    """A keyframe holding a wrist at 1.2 rad in a range of +-3 degrees (a degree/radian mix-up): the planner holds it
+    there and plans clean, but MuJoCo's own simulation of the model pushes it back to its range; plan says so. A wrist
+    held inside its range gets no note."""
+    xml = ('<mujoco><compiler angle="degree"/><worldbody><geom name="floor" type="plane" size="2 2 .1"/>'
+           '<body name="arm" pos="0 0 .5"><joint name="a" axis="0 1 0" range="-90 90"/><geom type="capsule" fromto="0 0 0 .3 0 0" size=".03"/>'
+           '<body pos=".3 0 0"><joint name="w" axis="0 1 0" range="-3 3"/><geom type="capsule" fromto="0 0 0 .1 0 0" size=".02"/>'
+           '</body></body></worldbody><keyframe><key name="home" qpos="0 {w}"/></keyframe></mujoco>')
+    args = ["--smoother", "none", "--no-replay", "--no-rrd"]
+    for name, w in (("mixup", "1.2"), ("inside", "0.05")):
+        (tmp_path / f"{name}.xml").write_text(xml.replace("{w}", w))
+        (tmp_path / f"{name}.toml").write_text(f'name = "{name}"\nscene = "{name}.xml"\njoints = ["a"]\nkeyframe = "home"\n'
+                                               "q_init = [0.0]\nq_goal = [-0.8]\n")
+    assert main(["plan", "--scene", str(tmp_path / "mixup.toml"), *args]) == 0
+    out = capsys.readouterr().out
+    assert "note: held joint beyond its range (w at 1.2 outside [-0.05236, 0.05236]; qpos units: radians or metres)" in out, out
+    assert main(["plan", "--scene", str(tmp_path / "inside.toml"), *args]) == 0
+    assert "beyond its range" not in capsys.readouterr().out
+
+
 def test_plan_names_a_static_robot_geom_within_the_margin_of_a_moving_one(tmp_path, capsys):
     """MuJoCo Menagerie's LEAP hand planned with --robot-root palm: the palm (fixed to the world) rests on the finger
     bases, a pair its <exclude>s leave out, so the planner (robot against itself as MuJoCo filters it) and verify pass,
