@@ -101,9 +101,17 @@ def _custom(spec: mujoco.MjSpec, scene: Path) -> tuple[float, float, list[tuple[
         raise ModelError(f"{scene}: '{SEGMENTS_FIELD}' must hold triples 'body segment length'")
     rows = []
     for i in range(0, len(words), 3):
-        body, seg, length = words[i], words[i + 1], float(words[i + 2])
+        body, seg, word = words[i], words[i + 1], words[i + 2]
         if seg not in SEGMENTS:
             raise ModelError(f"{scene}: '{SEGMENTS_FIELD}': unknown segment '{seg}'; known: {sorted(SEGMENTS)}")
+        try:
+            length = float(word)
+        except ValueError:
+            length = float("nan")
+        if not (np.isfinite(length) and length > 0):
+            raise ModelError(f"{scene}: '{SEGMENTS_FIELD}': the length of body '{body}' must be a positive number of metres, got '{word}'")
+        if body in (r[0] for r in rows):
+            raise ModelError(f"{scene}: '{SEGMENTS_FIELD}' names body '{body}' twice; each body is one segment")
         rows.append((body, seg, length))
     return float(data[0]), float(data[1]), rows
 
@@ -127,6 +135,8 @@ def scale_to_subject(spec: mujoco.MjSpec, scene: Path, height: float | None, mas
         body = spec.body(body_name)
         if body is None:
             raise ModelError(f"{scene}: '{SEGMENTS_FIELD}' names body '{body_name}', which is not in the model")
+        if body_name == "world":
+            raise ModelError(f"{scene}: '{SEGMENTS_FIELD}' names the world body '{body_name}'; name the leg's moving bodies")
         first = first or body
         k = SEGMENTS[seg].length * h / length
         for child in body.bodies:

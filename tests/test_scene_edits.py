@@ -3,6 +3,8 @@ changes in its scene through MjSpec, and the robots refused before any planning.
 
 from __future__ import annotations
 
+import re
+
 import mujoco
 import numpy as np
 import pytest
@@ -86,6 +88,31 @@ def test_subject_scaling_needs_the_models_declaration(tmp_path):
     p.write_text(TWO_LINK)
     with pytest.raises(ModelError, match="foam_mj:subject"):
         scenario_from_dict({"scene": str(p), "q_init": [0, 0], "q_goal": [1, 1], "subject": {"height": 1.6}}, tmp_path, check=False).robot
+
+
+@pytest.mark.parametrize("segments, message", [
+    ("thigh thigh 0", "the length of body 'thigh' must be a positive number of metres, got '0'"),
+    ("thigh thigh abc", "the length of body 'thigh' must be a positive number of metres, got 'abc'"),
+    ("thigh thigh -0.43", "got '-0.43'"),
+    ("thigh thigh nan", "got 'nan'"),
+    ("thigh thigh 0.43 thigh thigh 0.43", "names body 'thigh' twice"),
+    ("world thigh 0.43", "names the world body 'world'"),
+])
+def test_a_malformed_segment_declaration_is_refused_naming_the_field(tmp_path, segments, message):
+    """A zero length divided by zero (ZeroDivisionError, exit 1), a word failed float() (ValueError, exit 1), a
+    negative or NaN length reached MuJoCo's compiler ("size 0 must be positive"), a body named twice was scaled
+    twice (its length k^2 times the model's) and the world body was asked for an <inertial>: each is now one
+    ModelError naming foam_mj:segments and the body."""
+    for f in MODELS.glob("*.xml"):
+        (tmp_path / f.name).write_text(f.read_text())
+    leg = tmp_path / "ortholeg.xml"
+    text = leg.read_text()
+    declared = 'data="thigh thigh 0.43 shank leg 0.43 foot foot 0.266"'
+    assert declared in text
+    leg.write_text(text.replace(declared, f'data="{segments}"'))
+    with pytest.raises(ModelError, match=r"'foam_mj:segments'.*" + re.escape(message)) as e:
+        scenario_from_dict({**OBSTACLE, "scene": str(tmp_path / "obstacle.xml"), "subject": {"height": 1.6}}, tmp_path, check=False).robot
+    assert "\n" not in str(e.value)
 
 
 def test_obstacle_table_resizes_the_box_and_keeps_it_on_the_floor():
