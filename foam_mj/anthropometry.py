@@ -20,7 +20,7 @@ For a subject of height H' and mass M', each declared body b with segment s and 
 
 * length factor ``k = SEGMENTS[s].length * H' / L`` (so its length becomes exactly Winter's fraction of
   H'): the positions of b's child bodies, geoms (pos, fromto, size), sites, joints and centre of mass
-  are multiplied by k (capsule radii and box half-widths too: girth is taken to scale with length);
+  are multiplied by k, and so are those of its ``<frame>`` elements (capsule radii and box half-widths too: girth is taken to scale with length);
 * mass ``m' = m + SEGMENTS[s].mass * (M' - M)``: the human part of the segment changes by Winter's
   mass fraction, an orthosis's mass (already in m) is kept;
 * inertia ``I' = I (m' / m) k^2``: the segment's inertia scaled as a rigid body of the same shape.
@@ -141,6 +141,8 @@ def scale_to_subject(spec: mujoco.MjSpec, scene: Path, height: float | None, mas
         k = SEGMENTS[seg].length * h / length
         for child in body.bodies:
             child.pos = np.asarray(child.pos) * k
+        for frame in body.frames:  # every <frame> of the body, nested ones too: what they place moves with them
+            frame.pos = np.asarray(frame.pos) * k
         for g in body.geoms:
             if g.type in (mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_SDF, mujoco.mjtGeom.mjGEOM_HFIELD):
                 raise ModelError(f"{scene}: subject scaling supports primitive geoms only; geom '{g.name}' of body '{body_name}' is not")

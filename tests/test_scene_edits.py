@@ -115,6 +115,27 @@ def test_a_malformed_segment_declaration_is_refused_naming_the_field(tmp_path, s
     assert "\n" not in str(e.value)
 
 
+def test_a_segment_placed_through_a_frame_gets_winters_length(tmp_path):
+    """The shank written inside <frame pos="0 0 -0.2"> at pos="0 0 -0.23" (the same compiled model): the frame's offset
+    was not scaled, so a 1.4 m subject's thigh came out 0.3835 m long instead of Winter's 0.245 x 1.4 = 0.343 m."""
+    for f in MODELS.glob("*.xml"):
+        (tmp_path / f.name).write_text(f.read_text())
+    leg = tmp_path / "ortholeg.xml"
+    text = leg.read_text()
+    i = text.index('<body name="foot"')
+    end = text.index("</body>", text.index("</body>", i) + 1) + len("</body>")  # the shank's closing tag
+    text = text[:end] + "</frame>" + text[end:]
+    text = text.replace('<body name="shank" pos="0 0 -0.43">', '<frame pos="0 0 -0.2"><body name="shank" pos="0 0 -0.23">')
+    leg.write_text(text)
+    scene = {**OBSTACLE, "scene": str(tmp_path / "obstacle.xml")}
+    plain = scenario_from_dict(scene, tmp_path, check=False).robot.model
+    assert np.linalg.norm(plain.body("shank").pos) == pytest.approx(0.43)
+    robot = scenario_from_dict({**scene, "subject": {"height": 1.4}}, tmp_path, check=False).robot
+    lengths = _segment_lengths(robot)
+    for seg in ("thigh", "leg", "foot"):
+        assert lengths[seg] == pytest.approx(segment_length(seg, 1.4), abs=1e-9)
+
+
 def test_obstacle_table_resizes_the_box_and_keeps_it_on_the_floor():
     r = _robot(obstacle={"size": [0.3, 0.6, 0.25]})
     g = r.model.geom("obstacle_box")
