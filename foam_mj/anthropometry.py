@@ -20,7 +20,7 @@ For a subject of height H' and mass M', each declared body b with segment s and 
 
 * length factor ``k = SEGMENTS[s].length * H' / L`` (so its length becomes exactly Winter's fraction of
   H'): the positions of b's child bodies, geoms (pos, fromto, size), sites, joints and centre of mass
-  are multiplied by k, and so are those of its ``<frame>`` elements (capsule radii and box half-widths too: girth is taken to scale with length);
+  are multiplied by k (sites given by fromto, cameras and lights too), and so are those of its ``<frame>`` elements (capsule radii and box half-widths too: girth is taken to scale with length);
 * mass ``m' = m + SEGMENTS[s].mass * (M' - M)``: the human part of the segment changes by Winter's
   mass fraction, an orthosis's mass (already in m) is kept;
 * inertia ``I' = I (m' / m) k^2``: the segment's inertia scaled as a rigid body of the same shape.
@@ -158,7 +158,11 @@ def scale_to_subject(spec: mujoco.MjSpec, scene: Path, height: float | None, mas
             g.size = np.asarray(g.size) * k
         for site in body.sites:
             site.pos = np.asarray(site.pos) * k
+            if not np.any(np.isnan(site.fromto)):
+                site.fromto = np.asarray(site.fromto) * k
             site.size = np.asarray(site.size) * k
+        for placed in (*body.cameras, *body.lights):
+            placed.pos = np.asarray(placed.pos) * k
         for j in body.joints:
             j.pos = np.asarray(j.pos) * k
         if not body.explicitinertial and body.mass == 0:

@@ -136,6 +136,26 @@ def test_a_segment_placed_through_a_frame_gets_winters_length(tmp_path):
         assert lengths[seg] == pytest.approx(segment_length(seg, 1.4), abs=1e-9)
 
 
+def test_sites_cameras_and_lights_of_a_segment_move_with_it(tmp_path):
+    """A site given by fromto (an ankle sensor site on the shank), a camera and a light kept their unscaled places,
+    0.415 m below the knee, while a 1.4 m subject's shank became 0.3444 m long: the ankle site ended up below the ankle."""
+    for f in MODELS.glob("*.xml"):
+        (tmp_path / f.name).write_text(f.read_text())
+    leg = tmp_path / "ortholeg.xml"
+    text = leg.read_text()
+    shank = '<body name="shank" pos="0 0 -0.43">'
+    assert shank in text
+    leg.write_text(text.replace(shank, shank + '<site name="ankle" type="capsule" size="0.01" fromto="0 0 -0.43 0 0 -0.40"/>'
+                                '<camera name="ankle_cam" pos="0 0 -0.415"/><light name="ankle_light" pos="0 0 -0.415"/>'))
+    robot = scenario_from_dict({**OBSTACLE, "scene": str(tmp_path / "obstacle.xml"), "subject": {"height": 1.4}}, tmp_path, check=False).robot
+    m = robot.model
+    k = segment_length("leg", 1.4) / 0.43
+    np.testing.assert_allclose(m.site("ankle").pos, [0, 0, -0.415 * k], atol=1e-6)  # the scene is saved with 6 digits
+    assert m.site("ankle").size[1] == pytest.approx(0.015 * k, abs=1e-6)  # the half-length of the capsule between the fromto ends
+    np.testing.assert_allclose(m.cam("ankle_cam").pos, [0, 0, -0.415 * k], atol=1e-6)  # the scene is saved with 6 digits
+    np.testing.assert_allclose(m.light("ankle_light").pos, [0, 0, -0.415 * k], atol=1e-6)  # the scene is saved with 6 digits
+
+
 def test_obstacle_table_resizes_the_box_and_keeps_it_on_the_floor():
     r = _robot(obstacle={"size": [0.3, 0.6, 0.25]})
     g = r.model.geom("obstacle_box")
