@@ -59,12 +59,15 @@ INTERRUPTED: Event = (None, [])
 
 
 def _worker_init() -> None:
-    """A pool worker ignores Ctrl-C (the sweep's to handle: it writes its rows and stops us) and ends when the
-    sweep's process dies (``kill -9``, out of memory): it would otherwise wait on the task queue forever."""
+    """A pool worker ignores Ctrl-C (the sweep's to handle: it writes its rows and stops us), ends quietly on SIGTERM
+    (how the sweep stops its pool, also when it is done: a worker that re-ran the ``foam-mj`` script as its main module
+    holds foam_mj.__main__'s handler, which would print "foam-mj: interrupted"), and ends when the sweep's process dies
+    (``kill -9``, out of memory): it would otherwise wait on the task queue forever."""
     import multiprocessing as mp
     import threading
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     parent = mp.parent_process()
     if parent is not None:
         threading.Thread(target=_exit_with, args=(parent.sentinel,), daemon=True, name="foam-mj-parent-watch").start()

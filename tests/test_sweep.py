@@ -1373,3 +1373,20 @@ def test_the_summary_never_rounds_a_failure_away_to_100_percent_nor_a_success_to
     assert re.search(r"\(>99\.9%\)", format_summary([{**line, "success": 1999 / 2000}]))
     assert re.search(r"\(50%\)", format_summary([{**line, "success": 0.5}]))
     assert re.search(r"\(100%\)", format_summary([{**line, "success": 1.0}]))
+
+
+def test_a_sweep_that_ends_normally_does_not_say_interrupted(tmp_path):
+    """Run as the `foam-mj` console script runs (a script that imports foam_mj.__main__, whose SIGTERM handler prints
+    "foam-mj: interrupted"), each spawned pool worker re-ran the script as its main module and kept that handler; the
+    pool's workers are ended with SIGTERM when the sweep is done, so a sweep that succeeded (exit 0) printed
+    "foam-mj: interrupted" once per worker. A sweep over subjects, 2 plans on 2 workers."""
+    spec = write(tmp_path, 'scenario = "obstacle"\nseeds = [1]\nsmoothers = "convex"\nreplay = "kinematic"\n'
+                           '[grid]\n"subject.height" = [1.5, 1.75]\n')
+    script = write(tmp_path, "import sys\nfrom foam_mj.__main__ import main\nif __name__ == '__main__':\n    sys.exit(main())\n", "foam-mj")  # as pip writes it
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, str(script), "sweep", str(spec), "--out", str(tmp_path / "out"), "--workers", "2"],
+                          env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "interrupted" not in done.stderr, done.stderr
+    rows = check_folder(tmp_path / "out")
+    assert sorted({r["subject.height"] for r in rows}) == [1.5, 1.75] and all(r["outcome"] == "reached" for r in rows), rows
