@@ -346,14 +346,16 @@ class Clearance:
 
     def _capsule_box_pairs(self) -> tuple | None:
         """The frame sensors' layout for :meth:`_guard_capsule_box`, None for a model without a capsule/box pair: their
-        width; the columns of the pairs; the entries of the frame block holding, per pair, the capsule's centre, the
-        box's centre and the capsule's axis (3, 3, k: component, vector, pair) and the box's rotation matrix (R[j, i],
-        its axis i's component j: 3, 3, k); the box's faces [-size, +size] as (2, 3, k, 1); the capsule's half-length and radius, (k, 1). The
-        block (:meth:`_compile`): per capsule its position and z axis (6 values), then per box its position and x, y, z
-        axes (12)."""
+        width; the columns of the pairs; two index arrays into the frame block, (3, 3 x 3 x k) flattened: per
+        component j, for each vector v (the capsule's centre, the box's centre, the capsule's axis), box axis i and
+        pair, the entry of component j of v (left) and of the box's axis i (right), so that summing their products
+        over j gives R^T v (one gather each, in the order (v, i, pair)); the box's faces [-size, +size] as (2, 3 k, 1)
+        (axis i, then pair); the capsule's half-length and radius, (k, 1). The block (:meth:`_compile`): per capsule its
+        position and z axis (6 values), then per box its position and x, y, z axes (12)."""
         rows, caps, boxes = self._capsule_box_rows
         if not rows:
             return None
+        k = len(rows)
         cols = np.array([r[0] for r in rows])
         c0 = np.array([6 * caps.index(r[1]) for r in rows])
         b0 = np.array([6 * len(caps) + 12 * boxes.index(r[2]) for r in rows])
@@ -362,10 +364,12 @@ class Clearance:
         # rot[j, i]: R[j, i], component j of the box's axis i (at b0 + 3 + 3 i + j).
         vecs = np.stack([c0 + j, b0 + j, c0 + 3 + j], axis=1)  # (3, 3, k)
         rot = np.stack([b0 + 3 + 3 * i + j for i in range(3)], axis=1)  # (3, 3, k)
+        left = np.broadcast_to(vecs[:, :, None], (3, 3, 3, k)).ravel()  # (j, v, i, pair)
+        right = np.broadcast_to(rot[:, None], (3, 3, 3, k)).ravel()
         size = self._m.geom_size[[r[2] for r in rows]].T[:, :, None]  # (3, k, 1)
         capsule = self._m.geom_size[[r[1] for r in rows]]
-        return (6 * len(caps) + 12 * len(boxes), cols, vecs, rot, np.stack([-size, size]), capsule[:, 1:2].copy(),
-                capsule[:, 0:1].copy())
+        return (6 * len(caps) + 12 * len(boxes), cols, left, right, np.stack([-size, size]).reshape(2, 3 * k, 1),
+                capsule[:, 1:2].copy(), capsule[:, 0:1].copy())
 
     def _guard_capsule_box(self, out: np.ndarray, frames: np.ndarray) -> None:
         """In place: each capsule/box pair's distance at most minus the capsule's radius where the capsule's segment
@@ -374,15 +378,18 @@ class Clearance:
         :func:`foam_mj.capsule_box.segment_meets` over every row and pair at once: the capsule's centre and axis in the box's
         frame (R^T v), the parameter interval between each pair of faces (an axis parallel to a face gives +-inf: the
         whole line or nothing), intersected and clipped to the segment. Arrays are held component first, (component,
-        pair, row), so that every numpy call works on contiguous blocks: their count, not the rows, sets the cost."""
-        _, cols, vecs, rot, faces, half, radius = self._capsule_box
+        pair, row), so that every numpy call works on contiguous blocks: their count, not the rows, sets the cost (the
+        products' operands gathered with one ``take`` each instead of two fancy indexings and a 5-D broadcast: 212,500
+        -> 199,800 instructions a call of 70 rows, the same values)."""
+        _, cols, left, right, faces, half, radius = self._capsule_box
+        k = len(cols)
         F = frames.T
-        W = (F[vecs][:, :, None] * F[rot][:, None]).sum(axis=0)  # (3, 3, k, n): R^T of each vector (vecs)
-        p, u = W[0] - W[1], W[2]  # the capsule's centre and axis in the box's frame
+        W = (F.take(left, axis=0) * F.take(right, axis=0)).reshape(3, 9 * k, -1).sum(axis=0)  # (v, i, pair, row): R^T v
+        p, u = W[: 3 * k] - W[3 * k : 6 * k], W[6 * k :]  # the capsule's centre and axis in the box's frame
         with np.errstate(divide="ignore", invalid="ignore"):
-            t = (faces - p) / u  # (2, 3, k, n): where the axis crosses each face
-        enter = np.maximum(np.minimum(t[0], t[1]).max(axis=0), -half)
-        leave = np.minimum(np.maximum(t[0], t[1]).min(axis=0), half)
+            t = (faces - p) / u  # (2, 3 k, n): where the axis crosses each face
+        enter = np.maximum(np.minimum(t[0], t[1]).reshape(3, k, -1).max(axis=0), -half)
+        leave = np.minimum(np.maximum(t[0], t[1]).reshape(3, k, -1).min(axis=0), half)
         hit = enter <= leave
         if not hit.any():  # (nearly every batch)
             return
