@@ -332,6 +332,10 @@ class BubbleOracle:
         # the division defined and the sign of (d_p - delta) decides.
         self._inv = 1.0 / np.maximum(self.pair_factor, 1e-12)
         self._factor = float(self.pair_factor.max())
+        # radii_below's constants (two numpy calls of each of its calls): the least upper bound that caps no pair below
+        # distmax, and the caps' per-pair slope.
+        self._upper_max = self.clearance.distmax * self._inv.max()
+        self._cap_slope = self.pair_factor * (1.0 + CAP_SLACK_REL)
 
     def radius_from_distances(self, distances: np.ndarray, q: np.ndarray, bounds: np.ndarray | None = None) -> np.ndarray:
         """Radii for per-pair distances (..., P) at centres q (..., n): the per-pair bound, the least of the P
@@ -456,8 +460,8 @@ class BubbleOracle:
         cap stops MuJoCo's query on the pairs farther than that needs (a UR5e's mesh pairs: 20 -> 12-15 us a
         configuration in bubbletree's growth)."""
         # An upper bound above distmax / the least ||rho_p|| caps no pair below distmax (and inf x a factor 0 is NaN).
-        upper = np.minimum(np.asarray(upper, dtype=float), self.clearance.distmax * self._inv.max())
-        cap = self.delta + CAP_SLACK + upper[:, None] * (self.pair_factor * (1.0 + CAP_SLACK_REL))
+        upper = np.minimum(np.asarray(upper, dtype=float), self._upper_max)
+        cap = self.delta + CAP_SLACK + upper[:, None] * self._cap_slope
         return self.radius_from_distances(self.clearance.batch_pairs(Q, cap), Q, bounds)
 
     def explain(self, q) -> "BubbleReport":
