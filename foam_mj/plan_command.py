@@ -187,7 +187,7 @@ def held_out_of_range_note(robot) -> str:
     qpos0 that sets a wrist to 1.2 rad in a range of +-3 degrees: a degree/radian mix-up). The planner holds them
     there and plans around that pose; a replay leaves them there too, but MuJoCo's own simulation of the model would
     push them back by its joint limit. "" when there is none."""
-    import mujoco
+    from foam_mj.configuration import HINGE, SLIDE, _joint_name
 
     m = robot.model
     planned = {int(a) for a in robot.config.qpos_index}
@@ -195,13 +195,11 @@ def held_out_of_range_note(robot) -> str:
     off = []
     for j in range(m.njnt):
         adr = int(m.jnt_qposadr[j])
-        if (int(m.jnt_type[j]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
-                or not m.jnt_limited[j] or adr in planned):
+        if int(m.jnt_type[j]) not in (HINGE, SLIDE) or not m.jnt_limited[j] or adr in planned:
             continue
         v, (lo, hi) = float(robot.config.qpos0[adr]), m.jnt_range[j]
         if not lo - slack <= v <= hi + slack:
-            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
-            off.append(f"{name} at {v:.4g} outside [{lo:.4g}, {hi:.4g}]")
+            off.append(f"{_joint_name(m, j)} at {v:.4g} outside [{lo:.4g}, {hi:.4g}]")
     if not off:
         return ""
     return (f"note: held joint{'s' * (len(off) > 1)} beyond {('its', 'their')[len(off) > 1]} range ({', '.join(off[:3])}"
