@@ -81,6 +81,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.clearance import Clearance
+from foam_mj.configuration import _joint_name
 from foam_mj.geom_pairs import body_is_moving
 from foam_mj.model import RobotModel
 from foam_mj.servos import explicit_damping_note, held_joints, servo_model, servo_problem
@@ -500,7 +501,7 @@ def _limit_note(m: mujoco.MjModel, clamped: np.ndarray, saturated: np.ndarray, f
     for j, n in zip(joints, joint_saturated):
         if n:
             lo, hi = m.jnt_actfrcrange[j]
-            parts.append(f"joint '{m.joint(int(j)).name}': actuator force at its actuatorfrcrange [{lo:g}, {hi:g}] in {int(n)} of {frames} frames")
+            parts.append(f"joint '{_joint_name(m, int(j))}': actuator force at its actuatorfrcrange [{lo:g}, {hi:g}] in {int(n)} of {frames} frames")
     if not parts:
         return ""
     return "; ".join(parts) + ": the tracking error and any contacts there are the servo's, not the path's"
