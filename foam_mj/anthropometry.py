@@ -19,8 +19,9 @@ A model that can be scaled declares, in ``<custom>``:
 For a subject of height H' and mass M', each declared body b with segment s and model length L gets
 
 * length factor ``k = SEGMENTS[s].length * H' / L`` (so its length becomes exactly Winter's fraction of
-  H'): the positions of b's child bodies, geoms (pos, fromto, size), sites, joints and centre of mass
-  are multiplied by k (sites given by fromto, cameras and lights too), and so are those of its ``<frame>`` elements (capsule radii and box half-widths too: girth is taken to scale with length);
+  H'): the positions of b's child bodies, ``<frame>`` elements, geoms (pos, fromto, size), sites (pos or
+  fromto), cameras, lights, joints and centre of mass are multiplied by k (capsule radii and box half-widths
+  too: girth is taken to scale with length);
 * mass ``m' = m + SEGMENTS[s].mass * (M' - M)``: the human part of the segment changes by Winter's
   mass fraction, an orthosis's mass (already in m) is kept;
 * inertia ``I' = I (m' / m) k^2``: the segment's inertia scaled as a rigid body of the same shape.
