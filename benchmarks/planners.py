@@ -84,7 +84,9 @@ Columns (medians over the successful seeds; ``ok`` counts them):
 
 OMPL 2.0.1 is an optional peer (``pip install -e ".[peers]"``): without it the OMPL rows are skipped, with a
 note on stderr (``--bitstar`` without OMPL is refused, exit 2).
-``--quick`` runs 3 seeds of the 3-joint scenes and finishes in well under a minute (CI runs it).
+``--quick`` runs 3 seeds of the 3-joint scenes and finishes in well under a minute (CI runs it); there a run of
+ours that fails (no path, refused, error) also fails the benchmark, exit 1, after the table and the JSON (a
+study's failures are data: without ``--quick`` they are listed and the exit status is 0).
 Timings are wall times on whatever machine runs it; on a shared 2-core machine they vary by 2x.
 The planners and OMPL are single-threaded, so the script sets ``OMP_NUM_THREADS`` and ``OPENBLAS_NUM_THREADS``
 to 1 unless they are set already: otherwise a BLAS product of the checks between runs leaves OpenBLAS threads
@@ -259,7 +261,7 @@ def parse(argv: list[str] | None) -> tuple:
     ap.add_argument("--bitstar", action="store_true", help="also run OMPL's BIT* with 10x RRTConnect's time")
     ap.add_argument("--ompl-resolution", type=float, default=OMPL_RESOLUTION, metavar="F",
                     help=f"OMPL's state validity checking resolution, a fraction of the joint box's diagonal in qpos units (default {OMPL_RESOLUTION:g}, OMPL's own)")
-    ap.add_argument("--quick", action="store_true", help="CI: 3 seeds, the 3-joint scenes")
+    ap.add_argument("--quick", action="store_true", help="CI: 3 seeds, the 3-joint scenes; a failed run of ours is exit 1")
     ap.add_argument("--no-progress", action="store_true")
     ap.add_argument("--json", help="write every run and the medians as JSON (written once, atomically, after the last run)")
     args = ap.parse_args(argv)
@@ -307,7 +309,7 @@ def parse(argv: list[str] | None) -> tuple:
 
 def main(argv: list[str] | None = None) -> dict:
     """Run the benchmark (module docstring): exit 2 on a bad argument, 130 when interrupted, 1 when a path of
-    ours breaks its margin."""
+    ours breaks its margin or, with ``--quick`` (CI), when a run of ours fails."""
     try:
         args, planners, problems, seeds = parse(argv)
     except UsageError as exc:
@@ -326,8 +328,12 @@ def main(argv: list[str] | None = None) -> dict:
         print(f"wrote {args.json}")
     for p, n, c in broken:
         print(f"MARGIN BROKEN: {n} on {p}: {c * 1e3:.3f} mm < delta = {out['problems'][p]['delta'] * 1e3:g} mm", file=sys.stderr)
-    if use_ompl or broken:
-        leave(1 if broken else 0, use_ompl)
+    lost = [(p, n, why, k) for p, v in out["problems"].items() for n in planners
+            for why, k in v["planners"][n]["summary"]["failures"].items()] if args.quick else []
+    for p, n, why, k in lost:
+        print(f"FAILED (--quick): {n} on {p}: {k} x {why}", file=sys.stderr)
+    if use_ompl or broken or lost:
+        leave(1 if broken or lost else 0, use_ompl)
     return out
 
 

@@ -364,3 +364,16 @@ def test_a_benchmark_of_peers_runs_scipys_blas_in_one_thread(script):
     r = subprocess.run([sys.executable, "-c", _BLAS_THREADS.format(bench=str(BENCHMARKS), script=script)], capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr[-1500:]
     assert r.stdout.strip() == "1"
+
+
+def test_in_ci_quick_mode_a_failed_run_of_ours_fails_the_benchmark_but_a_study_lists_it(tmp_path):
+    """CI runs `planners.py --quick`: a run of ours that finds no path (here a 1 ms budget) is exit 1 there, named on
+    stderr, with the table and the JSON still written; without --quick a study's failures are data (exit 0)."""
+    out = tmp_path / "quick.json"
+    args = ("--no-ompl", "--planners", "bubbletree", "--problems", "obstacle", "--seeds", "1", "--time-limit", "0.001")
+    r = run_planners("--quick", *args, "--json", str(out))
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
+    assert "FAILED (--quick): bubbletree on obstacle: 1 x time budget" in r.stderr
+    assert json.loads(out.read_text())["problems"]["obstacle"]["planners"]["bubbletree"]["summary"]["ok"] == 0
+    r = run_planners(*args)
+    assert r.returncode == 0 and "failed runs: obstacle bubbletree: 1 x time budget" in r.stdout, r.stderr
