@@ -1,14 +1,16 @@
-"""The package as a user gets it: a non-editable wheel finds every scene; the sdist is the whole source; every MJCF
-compiles on its own."""
+"""The package as a user gets it: a non-editable wheel finds every scene and ships every file of models/ and
+scenarios/; the sdist is the whole source; every MJCF compiles on its own."""
 
 from __future__ import annotations
 
 import os
 import shutil
+import struct
 import subprocess
 import sys
 import tarfile
 import zipfile
+import zlib
 from pathlib import Path
 
 import mujoco
@@ -23,12 +25,46 @@ def test_every_mjcf_compiles_on_its_own_with_plain_mujoco(xml):
     assert m.nbody >= 1  # at least the world (include fragments such as scene_common.xml hold only defaults)
 
 
+def _png(path: Path) -> None:
+    """A 2 x 2 grey PNG (a texture file MuJoCo reads), written with the standard library."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    raw = b"".join(b"\x00" + b"\x80\x80\x80" * 2 for _ in range(2))
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 2, 2, 8, 2, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+def _add_probe_assets(src: Path) -> str:
+    """A scene under models/ whose mesh and texture sit in subfolders (as a robot's meshes/ and textures/ do), and a
+    scenario in a subfolder of scenarios/: files a build that copied only the top level, or only some suffixes, would
+    leave out. Returns the probe scene's file name."""
+    assets = src / "models" / "probe_assets"
+    (assets / "textures").mkdir(parents=True)
+    (assets / "tetra.obj").write_text("v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    _png(assets / "textures" / "grey.png")
+    (src / "models" / "probe_scene.xml").write_text(
+        '<mujoco><asset><mesh name="tetra" file="probe_assets/tetra.obj"/>'
+        '<texture name="grey" type="2d" file="probe_assets/textures/grey.png"/><material name="m" texture="grey"/></asset>'
+        '<worldbody><body><joint type="hinge"/><geom type="mesh" mesh="tetra" material="m"/></body></worldbody></mujoco>')
+    (src / "scenarios" / "probe_extra").mkdir()
+    (src / "scenarios" / "probe_extra" / "note.toml").write_text("# a file in a subfolder of scenarios/\n")
+    return "probe_scene.xml"
+
+
+def _data_files(src: Path) -> list[str]:
+    return sorted(p.relative_to(src).as_posix() for folder in ("models", "scenarios") for p in (src / folder).rglob("*")
+                  if p.is_file() and "__pycache__" not in p.parts)
+
+
 @pytest.mark.slow
 def test_a_non_editable_wheel_finds_every_scene(tmp_path):
-    """`pip wheel` of a copy of the source, installed with `pip install --target`, run without the checkout."""
+    """`pip wheel` of a copy of the source, installed with `pip install --target`, run without the checkout: every file
+    under models/ and scenarios/ is in the wheel, subfolders included (the build hook once copied only *.xml, *.stl and
+    *.obj at the top level), and a scene whose mesh and texture sit in subfolders compiles from the installed copy."""
     src = tmp_path / "src"
     shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(".git", "build", "*.egg-info", "__pycache__", ".pytest_cache",
                                                                 ".hypothesis", "out", "tests", "docs", "benchmarks"))
+    probe = _add_probe_assets(src)
     pip = [sys.executable, "-m", "pip", "--disable-pip-version-check", "-q"]
     # No build isolation: the test extra brings setuptools>=77 (no network needed).
     build = subprocess.run([*pip, "wheel", "--no-deps", "--no-build-isolation", "-w", str(tmp_path / "dist"), str(src)],
@@ -37,6 +73,8 @@ def test_a_non_editable_wheel_finds_every_scene(tmp_path):
     wheel = next((tmp_path / "dist").glob("foam_mj-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "foam_mj/py.typed" in names and any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
+    missing = [rel for rel in _data_files(src) if f"foam_mj/{rel}" not in names]
+    assert missing == [], f"not in the wheel: {missing}"
     dist_info = "-".join(wheel.name.split("-")[:2]) + ".dist-info"
     assert [n for n in names if n.split("/")[0] not in ("foam_mj", dist_info)] == []  # no tests, docs or build junk
     site = tmp_path / "site"
@@ -50,6 +88,8 @@ def test_a_non_editable_wheel_finds_every_scene(tmp_path):
         "for n in names:\n"
         "    s = load_scenario(n)\n"
         "    assert str(s.scene).startswith(str(d.models_dir())), s.scene\n"
+        "import mujoco\n"
+        f"assert mujoco.MjModel.from_xml_path(str(d.model_path({probe!r}))).nmesh == 1\n"
         "print(len(names), d.models_dir())\n"
     )
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
@@ -68,6 +108,7 @@ def test_the_sdist_holds_the_whole_source_and_the_license(tmp_path):
     src = tmp_path / "src"
     shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(".git", "build", "dist", "*.egg-info", "__pycache__", "*.pyc",
                                                                 ".pytest_cache", ".hypothesis", ".venv", "out"))
+    _add_probe_assets(src)  # a texture in a subfolder of models/ was left out by MANIFEST.in's suffix list
     code = "from setuptools import build_meta; print(build_meta.build_sdist(sys.argv[1]))"
     run = subprocess.run([sys.executable, "-c", f"import sys; {code}", str(tmp_path / "dist")], capture_output=True,
                          text=True, cwd=src, timeout=300)
