@@ -18,7 +18,7 @@ Runs, for each published table or headline figure,
 
 and writes the report as Markdown (``--out``, default ``docs/reproduction.md``), its figures beside
 it (``figures/reproduction_*.png``) and, with ``--json``, every number. ``--quick`` runs few seeds
-and small swarms (under 2 minutes); the full run takes about 10-15 minutes on 2 cores.
+and small swarms (40 s at load 3); the full run took 434 s on 2 cores at load 0.9 (2026-11-28).
 
     python benchmarks/reproduce.py [--quick] [--seeds 20] [--out docs/reproduction.md] [--json out.json]
     python benchmarks/reproduce.py --from-json out.json     # re-render the report only
