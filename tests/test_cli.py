@@ -713,6 +713,24 @@ def test_listing_and_checking_scenarios_loads_no_solver_or_recording_package():
     assert out.stdout.splitlines()[-2:] == ["loaded: ", "sweep loaded: "]
 
 
+def test_a_plan_loads_no_optional_extra(tmp_path):
+    """`foam-mj plan` (planning, smoothing, timing, replay, the recording and the JSON) needs only the required
+    dependencies: it imports none of the optional extras' packages (CoACD and trimesh for mesh obstacles, Ray, DuckDB,
+    OMPL, rich, matplotlib), so an install without them plans, and their import time is not its start-up's."""
+    optional = ("trimesh", "coacd", "ray", "duckdb", "ompl", "rich", "matplotlib", "foam_mj.figures", "foam_mj.obstacles")
+    code = (
+        "import contextlib, io, sys\n"
+        "from foam_mj.cli import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):\n"
+        f"    assert main(['plan', '--scene', 'step_up', '--rrd', {str(tmp_path / 'p.rrd')!r}, '--json', {str(tmp_path / 'p.json')!r}]) == 0\n"
+        f"print('loaded:', ','.join(m for m in {optional!r} if m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines()[-1] == "loaded: "
+    assert (tmp_path / "p.rrd").is_file() and (tmp_path / "p.json").is_file()
+
+
 def test_the_command_runs_numpys_blas_in_one_thread_unless_told_otherwise():
     """The `foam-mj` command sets OPENBLAS_NUM_THREADS and OMP_NUM_THREADS to 1 before numpy loads (a second BLAS
     thread waits on a busy core: a long bubbletree search grew half as many bubbles); a user's own value wins."""

@@ -1200,3 +1200,45 @@ def test_a_mistyped_command_or_option_is_answered_with_the_nearest_name(argv, hi
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.rstrip().endswith(hint), err
+
+
+def _missing_extra_cases(d: Path) -> dict[str, tuple[tuple[str, ...], list[str], str, list[Path]]]:
+    """name: (modules made unimportable, argv, the extra the error must name, paths that must not appear)."""
+    import trimesh
+
+    trimesh.creation.box(extents=[0.3, 0.5, 0.1]).export(d / "kerb.stl")
+    kerb = d / "kerb.toml"
+    kerb.write_text(f'scene = "{MODELS / "step_up.xml"}"\n{GOOD}[[mesh]]\nfile = "kerb.stl"\npos = [1.5, 0.0, 0.05]\n'
+                    "decompose = true\n")
+    sweep = d / "sweep.toml"
+    sweep.write_text('scenario = "obstacle"\n[grid]\n"planner.delta" = [0.005]\n')
+    return {
+        "meshes": (("coacd",), ["plan", "--scene", str(kerb), "--rrd", str(d / "k.rrd"), "--json", str(d / "k.json")],
+                   "meshes", [d / "k.rrd", d / "k.json"]),
+        "cluster": (("ray",), ["sweep", str(sweep), "--out", str(d / "study"), "--ray"], "cluster", [d / "study"]),
+        "sweep": (("pyarrow", "pyarrow.parquet"), ["sweep", str(sweep), "--out", str(d / "study")], "sweep", [d / "study"]),
+        "export": (("pyarrow", "pyarrow.parquet"), ["export", str(d / "r.json"), "--format", "parquet", "--out", str(d / "t.parquet")],
+                   "export", [d / "t.parquet"]),
+        "figures": (("matplotlib",), ["plan", "--scene", "step_up", "--no-rrd", "--figures", str(d / "figs")], "figures",
+                    [d / "figs"]),
+    }
+
+
+@pytest.mark.parametrize("case", ["meshes", "cluster", "sweep", "export", "figures"])
+def test_a_missing_optional_extra_is_one_line_naming_it_exit_2_and_nothing_written(tmp_path, case):
+    """A user who installed foam-mj without an optional extra and runs the command that needs it gets one line on
+    stderr that names the extra to install (pip install 'foam-mj[EXTRA]'), exit 2, no traceback, and no output
+    file or folder; the extra's package is made unimportable in a fresh interpreter, as on an install without it."""
+    blocked, argv, extra, outputs = _missing_extra_cases(tmp_path)[case]
+    code = ("import sys\n"
+            f"for m in {blocked!r}:\n"
+            "    sys.modules[m] = None\n"
+            "from foam_mj.cli import main\n"
+            f"sys.exit(main({argv!r}))\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=env, timeout=300)
+    assert run.returncode == 2, (run.returncode, run.stderr)
+    lines = run.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("foam-mj: error: "), run.stderr
+    assert f"pip install 'foam-mj[{extra}]'" in lines[0], lines[0]
+    assert [p for p in outputs if p.exists()] == []
