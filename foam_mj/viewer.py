@@ -55,6 +55,15 @@ def _rerun_executable() -> str:
     return exe
 
 
+def _rerun_command() -> str:
+    """How to type the Rerun CLI in a hint: `rerun` where PATH finds it, else the path of the one beside this
+    interpreter (an environment used without activating it, as `.venv/bin/foam-mj`)."""
+    import shutil
+
+    viewer = Path(sys.executable).with_name("rerun")
+    return str(viewer) if shutil.which("rerun") is None and viewer.exists() else "rerun"
+
+
 #: The first bytes of every Rerun recording file (its stream header, "RRF2" in the rerun-sdk foam-mj uses).
 RRD_MAGIC = b"RRF"
 #: A closed recording ends with Rerun's footer marker, then 4 bytes (rerun-sdk 0.41); a file cut short lacks it.
@@ -104,7 +113,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     if not args.web and not _has_display():
         raise FoamError(
             f"no display (DISPLAY and WAYLAND_DISPLAY are unset): serve the web viewer with `foam-mj view --web {p}` "
-            f"(then open the URL it prints, e.g. through an SSH tunnel), or summarise the file with `rerun rrd stats {p}`"
+            f"(then open the URL it prints, e.g. through an SSH tunnel), or summarise the file with `{_rerun_command()} rrd stats {p}`"
         )
     if cut:  # the viewer shows what the file holds, without a word
         print(f"note: {p} does not end with Rerun's footer: the file was cut short (a copy or a run that was stopped); "

@@ -293,6 +293,26 @@ def test_view_without_a_display_says_what_to_do(tmp_path, monkeypatch, capsys):
     assert "no display" in err and "--web" in err and "rerun rrd stats" in err
 
 
+def test_view_without_a_display_names_a_rerun_that_runs_when_the_environment_is_not_active(tmp_path, monkeypatch, capsys):
+    """The README's first command runs `.venv/bin/foam-mj` without activating the environment: `rerun` (shipped with
+    rerun-sdk beside it) is then not on PATH, and the hint `rerun rrd stats FILE` was a command not found. Off PATH,
+    the hint names the interpreter's own rerun by its path; on PATH, plain `rerun`."""
+    rrd = tmp_path / "x.rrd"
+    rrd.write_bytes(b"RRF2")
+    beside = Path(sys.executable).with_name("rerun")
+    if not beside.exists():
+        pytest.skip("no rerun beside this interpreter")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))
+    assert main(["view", str(rrd)]) == 2
+    assert f"`{beside} rrd stats {rrd}`" in capsys.readouterr().err
+    monkeypatch.setenv("PATH", str(beside.parent))
+    assert main(["view", str(rrd)]) == 2
+    assert f"`rerun rrd stats {rrd}`" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(("content", "args", "message"), [
     (b"hello", [], "is not a Rerun recording: it does not start with Rerun's file header 'RRF'"),
     (b"", [], "header 'RRF' (the file is empty)"),
