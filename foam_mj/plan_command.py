@@ -501,7 +501,9 @@ def _plan(args: argparse.Namespace, recorder) -> int:
         progress("recording")
         record(rrd, outcome, recorder=recorder)
         progress.done()
-        print(f"wrote {rrd} (view it with: foam-mj view {rrd})")
+        from foam_mj.viewer import console_command
+
+        print(f"wrote {rrd} (view it with: {console_command('foam-mj')} view {rrd})")
     if json_out is not None:
         write_outcome(json_out, outcome)
         print(f"wrote {json_out}")

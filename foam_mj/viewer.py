@@ -55,13 +55,14 @@ def _rerun_executable() -> str:
     return exe
 
 
-def _rerun_command() -> str:
-    """How to type the Rerun CLI in a hint: `rerun` where PATH finds it, else the path of the one beside this
-    interpreter (an environment used without activating it, as `.venv/bin/foam-mj`)."""
+def console_command(name: str) -> str:
+    """How to type the console script ``name`` (``rerun``, ``foam-mj``) in a hint: ``name`` where PATH finds it, else
+    the path of the one beside this interpreter (an environment used without activating it, as the README's
+    `.venv/bin/foam-mj`: a hint naming plain `foam-mj` or `rerun` there is "command not found")."""
     import shutil
 
-    viewer = Path(sys.executable).with_name("rerun")
-    return str(viewer) if shutil.which("rerun") is None and viewer.exists() else "rerun"
+    beside = Path(sys.executable).with_name(name)
+    return str(beside) if shutil.which(name) is None and beside.exists() else name
 
 
 #: The first bytes of every Rerun recording file (its stream header, "RRF2" in the rerun-sdk foam-mj uses).
@@ -112,8 +113,8 @@ def cmd_view(args: argparse.Namespace) -> int:
         raise FoamError(f"--bind must be an IP address (127.0.0.1, 0.0.0.0, ::1), got {args.bind!r}") from None
     if not args.web and not _has_display():
         raise FoamError(
-            f"no display (DISPLAY and WAYLAND_DISPLAY are unset): serve the web viewer with `foam-mj view --web {p}` "
-            f"(then open the URL it prints, e.g. through an SSH tunnel), or summarise the file with `{_rerun_command()} rrd stats {p}`"
+            f"no display (DISPLAY and WAYLAND_DISPLAY are unset): serve the web viewer with `{console_command('foam-mj')} view --web {p}` "
+            f"(then open the URL it prints, e.g. through an SSH tunnel), or summarise the file with `{console_command('rerun')} rrd stats {p}`"
         )
     if cut:  # the viewer shows what the file holds, without a word
         print(f"note: {p} does not end with Rerun's footer: the file was cut short (a copy or a run that was stopped); "

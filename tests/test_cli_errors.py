@@ -307,10 +307,27 @@ def test_view_without_a_display_names_a_rerun_that_runs_when_the_environment_is_
     monkeypatch.setattr(sys, "platform", "linux")
     monkeypatch.setenv("PATH", str(tmp_path / "empty"))
     assert main(["view", str(rrd)]) == 2
-    assert f"`{beside} rrd stats {rrd}`" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"`{beside} rrd stats {rrd}`" in err
+    foam = beside.with_name("foam-mj")
+    assert f"`{foam if foam.exists() else 'foam-mj'} view --web {rrd}`" in err
     monkeypatch.setenv("PATH", str(beside.parent))
     assert main(["view", str(rrd)]) == 2
-    assert f"`rerun rrd stats {rrd}`" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"`rerun rrd stats {rrd}`" in err and f"`foam-mj view --web {rrd}`" in err
+
+
+def test_plan_names_a_foam_mj_that_runs_to_view_its_recording(tmp_path, monkeypatch, capsys):
+    """After `.venv/bin/foam-mj plan` (the README's first command, the environment not activated) the line "wrote
+    X.rrd (view it with: foam-mj view X.rrd)" named a command not found: off PATH it names the foam-mj beside the
+    interpreter by its path."""
+    foam = Path(sys.executable).with_name("foam-mj")
+    if not foam.exists():
+        pytest.skip("no foam-mj console script beside this interpreter")
+    rrd = tmp_path / "o.rrd"
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))
+    assert main(["plan", "--scene", "obstacle", "--no-replay", "--rrd", str(rrd)]) == 0
+    assert f"wrote {rrd} (view it with: {foam} view {rrd})" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(("content", "args", "message"), [
