@@ -131,6 +131,26 @@ def check_configuration_joint(m: mujoco.MjModel, path: str | Path, name: str) ->
     return j
 
 
+def checked_normalize(normalize) -> dict[str, list[float]] | None:
+    """``normalize`` as given to :meth:`foam_mj.model.RobotModel.from_spec` (joint name -> span, or [span], or [qpos_lo,
+    qpos_hi, span]) as a dict of float lists; TypeError naming the entry otherwise (a word was numpy's "could not convert
+    string to float", True a span of 1). The values themselves are checked with the joint's range (:func:`_configuration_map`)."""
+    if normalize is None:
+        return None
+    if not isinstance(normalize, Mapping):
+        raise TypeError(f"`normalize` must be a mapping joint name -> span or [qpos_lo, qpos_hi, span], got {type(normalize).__name__}")
+    out: dict[str, list[float]] = {}
+    for name, value in normalize.items():
+        if not isinstance(name, str):
+            raise TypeError(f"`normalize` keys must be joint names (strings), got {name!r}")
+        values = [value] if np.ndim(value) == 0 and not isinstance(value, str) else value
+        if isinstance(values, str) or not all(isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+                                               for v in values):
+            raise TypeError(f"`normalize[{name!r}]` must be a number (span) or 3 numbers (qpos_lo, qpos_hi, span), got {value!r}")
+        out[name] = [float(v) for v in values]
+    return out
+
+
 def _configuration_map(
     m: mujoco.MjModel,
     path: Path,

@@ -45,6 +45,7 @@ from foam_mj.configuration import (
     CONFIGURATION_FIELD,
     ConfigurationMap,
     _configuration_map,
+    checked_normalize,
     degrees_hint,
     _joint_name,
 )
@@ -199,8 +200,16 @@ class RobotModel:
         """
         if not isinstance(spec, mujoco.MjSpec):
             raise TypeError(f"RobotModel.from_spec takes a mujoco.MjSpec, got {type(spec).__name__}")
+        if not isinstance(path, (str, os.PathLike)):  # was pathlib's "expected str, bytes or os.PathLike object"
+            raise TypeError(f"`path` (the MJCF file the spec came from; it names the model in messages) must be a path, got {path!r}")
         if isinstance(joints, str):
             raise TypeError(f"`joints` must be a sequence of joint names, got the string {joints!r} (write [{joints!r}])")
+        if joints is not None:
+            joints = list(joints)
+            for i, name in enumerate(joints):  # mj_name2id dereferences a None name: the interpreter dies
+                if not isinstance(name, str):
+                    raise TypeError(f"`joints` must be joint names (strings), got {name!r} at position {i}")
+        normalize = checked_normalize(normalize)
         for name, value in (("robot_root", robot_root), ("keyframe", keyframe)):  # an int was mj_name2id's TypeError
             if value is not None and not isinstance(value, str):
                 raise TypeError(f"`{name}` must be a name (a string) or None, got {value!r}")

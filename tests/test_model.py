@@ -626,6 +626,41 @@ def test_the_constructors_name_an_argument_of_the_wrong_type(obstacle_robot):
     assert isinstance(obstacle_robot.spec_copy(), mujoco.MjSpec)
 
 
+def test_joint_names_and_normalizations_of_the_wrong_type_are_named_before_mujoco_sees_them():
+    """``joints`` and ``normalize`` from Python, not through a scenario's checks: a None joint name reached
+    ``mj_name2id``, which dereferences it (the interpreter died of a segmentation fault); an integer was its TypeError
+    listing overloads; a word as a normalization was numpy's "could not convert string to float", a list of joint names
+    dict()'s "update sequence element", and True a span of 1."""
+    import subprocess
+    import sys
+
+    import mujoco
+
+    xml = str(MODELS / "obstacle.xml")
+    code = ("from foam_mj.model import RobotModel\ntry:\n    RobotModel.from_xml(%r, joints=['knee_flexion', None])\n"
+            "except TypeError as e:\n    print(e)\n" % xml)
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, f"the process died (return code {run.returncode}): {run.stderr[-300:]}"
+    assert run.stdout.strip() == "`joints` must be joint names (strings), got None at position 1"
+    with pytest.raises(TypeError, match=r"^`joints` must be joint names \(strings\), got 3 at position 0$"):
+        RobotModel.from_xml(xml, joints=[3])
+    with pytest.raises(TypeError, match=r"^`normalize` must be a mapping joint name -> span or \[qpos_lo, qpos_hi, span\], got list$"):
+        RobotModel.from_xml(xml, normalize=["hip_displacement"])
+    for value, shown in (("abc", "'abc'"), ([0.0, "x", 1.0], r"\[0.0, 'x', 1.0\]"), (True, "True"), (None, "None")):
+        with pytest.raises(TypeError, match=rf"^`normalize\['hip_displacement'\]` must be a number \(span\) or 3 numbers "
+                                            rf"\(qpos_lo, qpos_hi, span\), got {shown}$"):
+            RobotModel.from_xml(xml, normalize={"hip_displacement": value})
+    with pytest.raises(TypeError, match=r"^`normalize` keys must be joint names \(strings\), got 0$"):
+        RobotModel.from_xml(xml, normalize={0: 1.0})
+    with pytest.raises(TypeError, match=r"^`path` \(the MJCF file the spec came from; .*\) must be a path, got None$"):
+        RobotModel.from_spec(mujoco.MjSpec.from_file(xml), None)
+    # what is right stays right: a number or a list, numpy numbers, a tuple of names
+    a = RobotModel.from_xml(xml, joints=("hip_flexion", "hip_displacement"), normalize={"hip_displacement": np.float64(1.5)})
+    b = RobotModel.from_xml(xml, joints=["hip_flexion", "hip_displacement"], normalize={"hip_displacement": [1.5]})
+    np.testing.assert_array_equal(a.upper, b.upper)
+    assert a.upper[1] == 1.5
+
+
 def test_configurations_given_to_the_model_are_validated_with_the_reason(obstacle_robot):
     with pytest.raises(ConfigurationError, match=r"q must be 3 numbers, one per configuration joint \(hip_flexion, knee_flexion, "
                                                  r"hip_displacement\), got 2$"):
