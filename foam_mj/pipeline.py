@@ -239,6 +239,9 @@ def run(
         smoothers = parse_smoothers(smoothers)
     if not (isinstance(smoothers, (tuple, list)) and all(isinstance(name, str) for name in smoothers)):
         raise TypeError(f"`smoothers` must be path names or a --smoother value such as 'convex,optimal', got {smoothers!r}")
+    for name, flag in (("replay", replay), ("dynamic", dynamic), ("require_timing", require_timing)):
+        if not isinstance(flag, (bool, np.bool_)):  # "no" is truthy: the replays would run
+            raise TypeError(f"`{name}` must be True or False, got {flag!r}")
     if report is not None and not callable(report):
         raise TypeError(f"`report` must be None or a callable taking a message (str), got {type(report).__name__}")
     unknown = [name for name in smoothers if name not in PATH_NAMES]

@@ -34,6 +34,10 @@ def no_planning(monkeypatch):
         ({"smoothers": "convex,nope"}, FoamError, "unknown smoother 'nope'"),
         ({"seed": np.random.default_rng(0)}, FoamError, "`seed` must be an integer in [0, 2**63 - 1] (the result records it"),
         ({"seed": -1}, FoamError, "`seed` must be an integer in [0, 2**63 - 1]"),
+        # "no" is truthy: the replays ran (and took their time) where the caller asked for none
+        ({"replay": "no"}, TypeError, "`replay` must be True or False, got 'no'"),
+        ({"dynamic": "false"}, TypeError, "`dynamic` must be True or False, got 'false'"),
+        ({"require_timing": None}, TypeError, "`require_timing` must be True or False, got None"),
     ],
 )
 def test_bad_arguments_are_named_before_any_planning(no_planning, kwargs, error, names):
