@@ -27,7 +27,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.errors import ModelError, unknown_names
+from foam_mj.errors import ConfigurationError, ModelError, unknown_names
 from foam_mj.mjcf import _custom_numeric, _custom_text
 
 CONFIGURATION_FIELD = "foam_mj:configuration"
@@ -58,6 +58,8 @@ class ConfigurationMap:
     def to_qpos(self, q: np.ndarray) -> np.ndarray:
         """qpos rows for configurations q of shape (n,) or (N, n)."""
         q = np.asarray(q, dtype=float)
+        if q.ndim == 0 or q.shape[-1] != self.dim:
+            raise ConfigurationError(self._shape_text("to_qpos", "configurations q", self.dim, q.shape, "to_q"))
         out = np.broadcast_to(self.qpos0, q.shape[:-1] + self.qpos0.shape).copy()
         out[..., self.qpos_index] = self.offset + self.scale * q
         return out
@@ -65,7 +67,19 @@ class ConfigurationMap:
     def to_q(self, qpos: np.ndarray) -> np.ndarray:
         """Configurations for qpos rows of shape (nq,) or (N, nq)."""
         qpos = np.asarray(qpos, dtype=float)
+        if qpos.ndim == 0 or qpos.shape[-1] != self.qpos0.size:
+            raise ConfigurationError(self._shape_text("to_q", "qpos rows", self.qpos0.size, qpos.shape, "to_qpos"))
         return (qpos[..., self.qpos_index] - self.offset) / self.scale
+
+    def _shape_text(self, method: str, what: str, width: int, shape: tuple[int, ...], other: str) -> str:
+        """A wrong-width argument of ``method`` named, and, when it has the other side's width, which method takes it
+        (numpy's "operands could not be broadcast" or "index 7 is out of bounds" named neither)."""
+        n, nq = self.dim, self.qpos0.size
+        text = (f"{method} takes {what} of shape ({width},) or (N, {width}) (n = {n} configuration joints: "
+                f"{', '.join(self.joint_names)}; nq = {nq} qpos entries), got shape {shape}")
+        if shape and shape[-1] == (nq if width == n else n):
+            text += f": {'qpos' if width == n else 'q'}'s width; {other}() maps that one"
+        return text
 
 
 _JOINT_TYPE_NAMES = {

@@ -661,6 +661,33 @@ def test_joint_names_and_normalizations_of_the_wrong_type_are_named_before_mujoc
     assert a.upper[1] == 1.5
 
 
+def test_the_configuration_map_says_when_it_is_given_qpos_for_q_or_q_for_qpos(tmp_path):
+    """An arm on a floating base: q holds its 2 hinges, qpos 9 numbers (7 of the free joint). qpos given to to_qpos was
+    numpy's "operands could not be broadcast together with shapes (2,) (9,)", q given to to_q "index 7 is out of bounds
+    for axis 0 with size 2": neither named q, qpos or the method that was meant."""
+    scene = tmp_path / "floating.xml"
+    scene.write_text(
+        '<mujoco><worldbody><geom name="floor" type="plane" size="3 3 0.1"/><body name="base" pos="0 0 0.5"><freejoint/>'
+        '<geom type="box" size="0.1 0.1 0.1"/><body pos="0 0 0.1"><joint name="s1" axis="0 1 0" range="-90 90"/>'
+        '<geom type="capsule" fromto="0 0 0.02 0 0 0.3" size="0.03"/><body pos="0 0 0.3"><joint name="s2" axis="0 1 0" '
+        'range="-150 150"/><geom type="capsule" fromto="0 0 0.02 0 0 0.25" size="0.025"/></body></body></body>'
+        '</worldbody></mujoco>')
+    cfg = RobotModel.from_xml(scene).config
+    q = np.array([[0.1, -0.2], [0.3, 0.4]])
+    qpos = cfg.to_qpos(q)
+    assert qpos.shape == (2, 9)
+    np.testing.assert_allclose(cfg.to_q(qpos), q)
+    with pytest.raises(ConfigurationError, match=r"^to_qpos takes configurations q of shape \(2,\) or \(N, 2\) \(n = 2 configuration "
+                                                 r"joints: s1, s2; nq = 9 qpos entries\), got shape \(2, 9\): qpos's width; to_q\(\) "
+                                                 r"maps that one$"):
+        cfg.to_qpos(qpos)
+    with pytest.raises(ConfigurationError, match=r"^to_q takes qpos rows of shape \(9,\) or \(N, 9\) .*, got shape \(2,\): q's width; "
+                                                 r"to_qpos\(\) maps that one$"):
+        cfg.to_q(q[0])
+    with pytest.raises(ConfigurationError, match=r"got shape \(3,\)$"):
+        cfg.to_qpos([0.1, 0.2, 0.3])
+
+
 def test_configurations_given_to_the_model_are_validated_with_the_reason(obstacle_robot):
     with pytest.raises(ConfigurationError, match=r"q must be 3 numbers, one per configuration joint \(hip_flexion, knee_flexion, "
                                                  r"hip_displacement\), got 2$"):
