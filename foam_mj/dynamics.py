@@ -48,7 +48,7 @@ import numpy as np
 
 from foam_mj.mjcf import _custom_numeric
 from foam_mj.model import RobotModel
-from foam_mj.trajectory import Trajectory
+from foam_mj.trajectory import Trajectory, check_trajectory
 
 #: MJCF custom numeric "height mass" of the subject the model is built for (metres, kilograms; kept
 #: up to date by subject scaling, foam_mj.anthropometry): its mass gives the per-kilogram torques.
@@ -237,6 +237,7 @@ def joint_loads(robot: RobotModel, trajectory: Trajectory, mass: float | None = 
     """Torques (``mj_inverse``), power and work of ``trajectory`` for ``robot``'s configuration joints.
     ``mass``: the subject's body mass in kg (default: the MJCF's ``foam_mj:subject``, if any); ``limit``:
     the torque limits (n,) the loads are compared with (default: the MJCF's, :func:`torque_limits`)."""
+    check_trajectory(robot, trajectory)  # another robot's trajectory gave that robot's loads of the wrong motion, silently
     if trajectory.qvel is None or trajectory.qacc is None:
         raise ValueError("`trajectory` needs qvel and qacc for inverse dynamics")
     m = robot.model

@@ -181,6 +181,19 @@ def _points3(points, field: str) -> np.ndarray:
     return p[..., :3]
 
 
+def _check_replay_of(robot: RobotModel, replay: KinematicReplay | DynamicReplay) -> None:
+    """ValueError unless ``replay`` is of ``robot``: its poses were read by body id, so another robot's replay drew that
+    robot's geoms at this one's poses, silently."""
+    if not isinstance(robot, RobotModel):
+        raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}")
+    ids, m = replay.poses.body_ids, robot.model
+    names = tuple(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(b)) or f"body{int(b)}" if 0 <= int(b) < m.nbody else f"(none: id {int(b)})"
+                  for b in ids)
+    if replay.qpos.shape[1] != m.nq or names != tuple(replay.poses.body_names):
+        raise ValueError(f"`replay` is not a replay of `robot` ({robot.path.name}): its bodies {list(replay.poses.body_names)} and "
+                         f"qpos width {replay.qpos.shape[1]}, the robot's bodies at those ids {list(names)} and nq = {m.nq}")
+
+
 class Recording:
     """A Rerun recording written to ``path`` (see the module docstring for entity paths). Use as a
     context manager, or call :meth:`close` to write the file's footer."""
@@ -303,6 +316,7 @@ class Recording:
             raise ValueError(f"`replay` must be a KinematicReplay or DynamicReplay, got {type(replay).__name__}")
         if not isinstance(tint, bool):
             raise ValueError(f"`tint` must be True or False, got {tint!r}")
+        _check_replay_of(robot, replay)
         m = robot.model
         poses = replay.poses
         T = replay.n_frames

@@ -86,6 +86,7 @@ from foam_mj.geom_pairs import body_is_moving
 from foam_mj.model import RobotModel
 from foam_mj.servos import explicit_damping_note, held_joints, servo_model, servo_problem
 from foam_mj.trajectory import Trajectory
+from foam_mj.trajectory import check_trajectory as _check
 
 #: The trajectory's sample spacing must match the model's timestep to within this (seconds).
 DT_TOL = 1e-9
@@ -223,20 +224,6 @@ def _addresses(m: mujoco.MjModel, joints: np.ndarray) -> tuple[np.ndarray, np.nd
 
 def _body_names(m: mujoco.MjModel, ids: np.ndarray) -> tuple[str, ...]:
     return tuple(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(b)) or f"body{int(b)}" for b in ids)
-
-
-def _check(robot: RobotModel, trajectory: Trajectory) -> None:
-    if not isinstance(robot, RobotModel):
-        raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}")
-    if not isinstance(trajectory, Trajectory):
-        raise ValueError(f"`trajectory` must be a Trajectory, got {type(trajectory).__name__}")
-    if tuple(trajectory.joint_names) != tuple(robot.config.joint_names):
-        raise ValueError(
-            f"`trajectory.joint_names` {list(trajectory.joint_names)} do not match the robot's configuration "
-            f"joints {list(robot.config.joint_names)}"
-        )
-    if trajectory.qpos.shape[1] != robot.model.nq:
-        raise ValueError(f"`trajectory.qpos` has {trajectory.qpos.shape[1]} columns, the model has nq = {robot.model.nq}")
 
 
 def replay_clearance(robot: RobotModel, delta: float) -> Clearance:

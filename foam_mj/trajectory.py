@@ -355,6 +355,22 @@ class Trajectory:
 MAX_STEPS = 2_000_000
 
 
+def check_trajectory(robot: RobotModel, trajectory: Trajectory) -> None:
+    """ValueError naming the argument unless ``trajectory`` is a :class:`Trajectory` of ``robot``'s configuration joints and
+    qpos width (what the replays and the joint loads read it with)."""
+    if not isinstance(robot, RobotModel):
+        raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}")
+    if not isinstance(trajectory, Trajectory):
+        raise ValueError(f"`trajectory` must be a Trajectory, got {type(trajectory).__name__}")
+    if tuple(trajectory.joint_names) != tuple(robot.config.joint_names):
+        raise ValueError(
+            f"`trajectory.joint_names` {list(trajectory.joint_names)} do not match the robot's configuration "
+            f"joints {list(robot.config.joint_names)}"
+        )
+    if trajectory.qpos.shape[1] != robot.model.nq:
+        raise ValueError(f"`trajectory.qpos` has {trajectory.qpos.shape[1]} columns, the model has nq = {robot.model.nq}")
+
+
 class TrajectoryTooLong(ValueError):
     """A timing needs more than :data:`MAX_STEPS` timesteps; ``duration`` in seconds (may be inf)."""
 

@@ -18,6 +18,8 @@ from foam_mj.replay import replay_dynamic, replay_kinematic
 from foam_mj.rosary import Rosary
 from foam_mj.trajectory import make_trajectory
 
+from conftest import TWO_LINK_ARM
+
 Q_INIT = [0.2, 0.3, 0.08]
 Q_GOAL = [0.45, 0.4536, 1.45]
 LEG_BODIES = ("pelvis", "thigh", "shank", "foot")
@@ -272,6 +274,14 @@ def test_bad_calls_raise_clear_errors(tmp_path, run):
             rec.log_foam(run["res"].rosary)
         with pytest.raises(ValueError, match="`replay` must be"):
             rec.log_replay("x", run["robot"], run["trajectories"]["centre"])
+        # another robot's replay: its poses, read by body id, drew that robot's geoms in the leg's poses, silently
+        arm = RobotModel.from_xml(TWO_LINK_ARM)
+        with pytest.raises(ValueError, match=r"^`replay` is not a replay of `robot` \(arm.xml\): its bodies \['pelvis', 'thigh', 'shank', "
+                                             r"'foot'\] and qpos width 3, the robot's bodies at those ids \['body1', 'body2', "
+                                             r"'\(none: id 3\)', '\(none: id 4\)'\] and nq = 2$"):
+            rec.log_replay("x", arm, run["replays"]["centre"])
+        with pytest.raises(ValueError, match=r"^`robot` must be a RobotModel, got BubbleOracle$"):
+            rec.log_replay("x", BubbleOracle(run["robot"], 0.005), run["replays"]["centre"])
     finally:
         rec.close()
     with pytest.raises(ValueError, match="is closed"):

@@ -173,6 +173,29 @@ def test_joint_loads_match_an_independent_inverse_dynamics(planned):
     assert 0.1 < HUMAN_SWING.hip < 1.0 and 0.1 < HUMAN_SWING.knee < 1.0
 
 
+ARM3_XML = """<mujoco><compiler angle="radian"/><worldbody><geom name="post" type="box" pos="0.5 0.5 0" size="0.05 0.05 0.2"/>
+<body name="l1"><joint name="a" axis="0 0 1" range="-2 2"/><geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+<body name="l2" pos="0.3 0 0"><joint name="b" axis="0 0 1" range="-2 2"/><geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.03"/>
+<body name="l3" pos="0.25 0 0"><joint name="c" axis="0 0 1" range="-2 2"/><geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.02"/>
+</body></body></body></worldbody></mujoco>"""
+
+
+def test_joint_loads_refuse_a_trajectory_of_another_robot(planned, tmp_path):
+    """A 3-joint arm (nq = 3, as the leg's) given the leg's trajectory: joint_loads returned loads labelled a, b, c of a
+    motion the arm never makes, silently; the replays already refused it. Now the same error as theirs."""
+    robot, paths = planned
+    res, base = paths["convex"]
+    (tmp_path / "arm3.xml").write_text(ARM3_XML)
+    arm = RobotModel.from_xml(tmp_path / "arm3.xml")
+    assert arm.model.nq == robot.model.nq == 3
+    with pytest.raises(ValueError, match=r"^`trajectory.joint_names` \['hip_flexion', 'knee_flexion', 'hip_displacement'\] do not "
+                                         r"match the robot's configuration joints \['a', 'b', 'c'\]$"):
+        joint_loads(arm, base)
+    with pytest.raises(ValueError, match=r"^`robot` must be a RobotModel, got str$"):
+        joint_loads("obstacle.xml", base)
+    assert joint_loads(robot, base).joint_names == robot.config.joint_names
+
+
 def test_limits_validate_their_input():
     with pytest.raises(ValueError, match="torque"):
         Limits(torque=(1.0, -2.0, 3.0))
