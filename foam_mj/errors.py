@@ -163,6 +163,15 @@ def unknown_names(unknown: Iterable[str], known: Iterable[str], elsewhere: dict[
     return ", ".join(parts)
 
 
+def indices_text(indices: Iterable[int], most: int = 8) -> str:
+    """Indices for a one-line message: all of them up to ``most``, else the first ``most`` and how many there are
+    ("[0, 1, 2, 3, 4, 5, 6, 7, ... (56 in all)]"); a list of every index of a long path filled a screen."""
+    items = [int(i) for i in indices]
+    if len(items) <= most:
+        return str(items)
+    return f"[{', '.join(map(str, items[:most]))}, ... ({len(items)} in all)]"
+
+
 def text_problem(exc: OSError | UnicodeDecodeError) -> str:
     """Why a text file could not be read, for "PATH: cannot read: ..." or "PATH: ...": a file saved as UTF-16 (a
     Windows editor's "Unicode") is named as such with what to do, any other byte that is not UTF-8 by its place;

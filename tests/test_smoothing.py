@@ -255,6 +255,25 @@ def test_adjustment_rejects_an_inconsistent_rosary(smoothing_setup, rosary):
 
 
 
+def test_the_adjustment_names_its_arguments_and_lists_a_few_broken_links(smoothing_setup, rosary):
+    """adjust(rosary, robot) was "'RobotModel' object has no attribute 'robot'", adjust(foam, oracle) "'Foam' object has no
+    attribute 'dim'"; a rosary that breaks the constraints at every link listed all of them (a screenful on a long one)."""
+    robot, oracle, _ = smoothing_setup
+    foam = plan(oracle, Q_INIT, Q_GOAL, FoamParams(K=10, r_min=R_MIN, delta=0.005), seed=0).foam
+    with pytest.raises(TypeError, match=r"^`oracle` must be a foam_mj.bubbles.BubbleOracle \(BubbleOracle\(robot, delta\)\), got RobotModel$"):
+        RosaryAdjustment(r_min=R_MIN).adjust(rosary, robot)
+    with pytest.raises(TypeError, match=r"^`rosary` must be a foam_mj.rosary.Rosary \(a plan's result.rosary, not result.foam\), got Foam$"):
+        RosaryAdjustment(r_min=R_MIN).adjust(foam, oracle)
+    assert rosary.k - 1 > 8
+    with pytest.raises(ValueError, match=rf"^the rosary given does not satisfy the adjustment's constraints: links \[0, 1, 2, 3, 4, 5, 6, "
+                                         rf"7, \.\.\. \({rosary.k - 1} in all\)\] \(of {rosary.k - 1}\) break r_min"):
+        RosaryAdjustment(r_min=100 * R_MIN).adjust(rosary, oracle)
+    far = rosary.center_waypoints() + 10.0
+    with pytest.raises(ValueError, match=rf"^initial waypoints \[0, 1, 2, 3, 4, 5, 6, 7, \.\.\. \({len(far)} in all\)\] \(of {len(far)}\) "
+                                         r"lie outside their hatches$"):
+        HS.smooth(rosary, initial=far)
+
+
 def test_adjustment_rejects_a_rosary_whose_last_bubble_does_not_hold_the_goal(smoothing_setup, rosary):
     """Its constraints include q_goal in the goal bubble: a goal a millimetre (of q) beyond that bubble is refused
     before any move, rather than adjusted into a chain whose last segment leaves the certified bubbles."""

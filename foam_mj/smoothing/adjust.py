@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from foam_mj.bubbles import BubbleOracle
+from foam_mj.errors import indices_text
 from foam_mj.rosary import Rosary
 from foam_mj.smoothing.base import (
     MeanStall,
@@ -49,6 +50,7 @@ from foam_mj.smoothing.base import (
     StopCriteria,
     _check_int,
     _check_positive,
+    check_rosary_type,
     trivial_result,
 )
 from foam_mj.smoothing.gradient import _EPS, GradientSmoothing, center_path_result
@@ -90,6 +92,10 @@ class RosaryAdjustment:
             raise ValueError(f"stop must be a StopCriteria, got {self.stop!r}")
 
     def adjust(self, rosary: Rosary, oracle: BubbleOracle) -> AdjustmentResult:
+        """The rosary's centres moved to raise TC (Eq. 8), each bubble certified by ``oracle`` (its margin delta)."""
+        check_rosary_type(rosary)
+        if not isinstance(oracle, BubbleOracle):  # a RobotModel was "'RobotModel' object has no attribute 'robot'"
+            raise TypeError(f"`oracle` must be a foam_mj.bubbles.BubbleOracle (BubbleOracle(robot, delta)), got {type(oracle).__name__}")
         if rosary.dim != oracle.robot.dim:
             raise ValueError(f"rosary dimension {rosary.dim} does not match the robot's {oracle.robot.dim}")
         return self._adjust(rosary, oracle, lipschitz=True, t_start=time.perf_counter(),
@@ -174,8 +180,8 @@ class RosaryAdjustment:
     def _feasible(self, c, cert, q_goal, r_min, tol=0.0) -> tuple[bool, str]:
         bad_link, bad_goal = self._violations(c, cert, q_goal, r_min, tol)
         if bad_link.any():
-            bad = np.flatnonzero(bad_link).tolist()
-            return False, f"links {bad} break r_min <= |c_(i+1) - c_i| <= certified radius"
+            bad = indices_text(np.flatnonzero(bad_link))
+            return False, f"links {bad} (of {len(bad_link)}) break r_min <= |c_(i+1) - c_i| <= certified radius"
         if bad_goal:
             return False, "the goal bubble is below r_min or does not hold q_goal"
         return True, ""

@@ -18,6 +18,7 @@ from typing import Any, Callable, ClassVar, Mapping
 import numpy as np
 
 from foam_mj import paths
+from foam_mj.errors import indices_text
 from foam_mj.paths import fill_index, row_norms
 from foam_mj.rosary import Rosary
 
@@ -445,7 +446,7 @@ def check_initial(rosary: Rosary, initial: np.ndarray | None, default: np.ndarra
         raise ValueError("initial waypoints must be finite")
     bad = np.flatnonzero(~rosary.in_hatches(w))
     if bad.size:
-        raise ValueError(f"initial waypoints {bad.tolist()} lie outside their hatches")
+        raise ValueError(f"initial waypoints {indices_text(bad)} (of {len(w)}) lie outside their hatches")
     return w
 
 
