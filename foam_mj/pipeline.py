@@ -35,7 +35,7 @@ with MuJoCo.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Callable
@@ -209,7 +209,7 @@ def smooth_paths(scenario: Scenario, rosary: Rosary, names: tuple[str, ...], see
 def run(
     scenario: Scenario,
     seed: int | None = None,
-    smoothers: tuple[str, ...] = SMOOTHERS[DEFAULT_SMOOTHER],
+    smoothers: str | Sequence[str] = SMOOTHERS[DEFAULT_SMOOTHER],
     *,
     replay: bool = True,
     dynamic: bool = True,
@@ -239,6 +239,7 @@ def run(
         smoothers = parse_smoothers(smoothers)
     if not (isinstance(smoothers, (tuple, list)) and all(isinstance(name, str) for name in smoothers)):
         raise TypeError(f"`smoothers` must be path names or a --smoother value such as 'convex,optimal', got {smoothers!r}")
+    smoothers = tuple(smoothers)
     for name, flag in (("replay", replay), ("dynamic", dynamic), ("require_timing", require_timing)):
         if not isinstance(flag, (bool, np.bool_)):  # "no" is truthy: the replays would run
             raise TypeError(f"`{name}` must be True or False, got {flag!r}")
