@@ -95,7 +95,10 @@ class Portal:
 
 @dataclass(frozen=True)
 class Rosary:
-    """Bubbles from the root (index 0, holds q_init) to the goal bubble (index k-1, holds q_goal)."""
+    """Bubbles from the root (index 0, holds q_init) to the goal bubble (index k-1, holds q_goal).
+
+    Everything is in the planner's coordinates q (radians for a hinge, metres for a slide, or a normalized joint's
+    units): ``radii`` are Euclidean distances in q, not metres of workspace. Read-only copies, validated."""
 
     centers: np.ndarray  # (k, n)
     radii: np.ndarray  # (k,)

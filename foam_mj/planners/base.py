@@ -126,8 +126,8 @@ class PlanningProblem:
 @dataclass(frozen=True)
 class PlanStats:
     """What a planner did. ``distance_queries`` counts configurations whose clearance MuJoCo evaluated;
-    ``time_to_first_path`` is the wall time until the first certified chain q_init -> q_goal existed
-    (``None`` when none did); ``details`` holds the planner's own counters."""
+    ``elapsed`` is the plan's wall time in seconds and ``time_to_first_path`` the wall time (s) until the first certified
+    chain q_init -> q_goal existed (``None`` when none did); ``details`` holds the planner's own counters."""
 
     planner: str
     outcome: str  # "reached", or why not: "queue empty", "bubble budget", "time budget", "stalled" (bubbletree), ...

@@ -219,8 +219,9 @@ class Smoother(ABC):
     """A path smoother: ``smooth(rosary, initial, seed)`` -> :class:`SmoothingResult`.
 
     ``initial`` is a (k-1, n) array of waypoints inside the hatches (None: the method's default, see
-    each class); ``seed`` an int or numpy Generator (same seed, same result). Implementations are
-    frozen dataclasses of their parameters, validated on construction.
+    each class); ``seed`` an int or numpy Generator (same seed, same result; None draws fresh entropy from the
+    operating system, numpy's convention, so two runs differ, where a planner's ``plan`` refuses None). Implementations
+    are frozen dataclasses of their parameters, validated on construction.
     """
 
     name: ClassVar[str]
