@@ -45,6 +45,9 @@ class Limits:
 
     def resolve(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(velocity, acceleration, torque), each (n,) in joint units; torque is inf where unlimited."""
+        if not isinstance(robot, RobotModel):  # an oracle was "'BubbleOracle' object has no attribute 'config'"
+            hint = " (a BubbleOracle's is oracle.robot)" if hasattr(robot, "robot") else ""
+            raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}{hint}")
         v, a = self.joint.resolve(robot)
         tau = torque_limits(robot)
         n = robot.dim

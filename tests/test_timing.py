@@ -196,6 +196,16 @@ def test_joint_loads_refuse_a_trajectory_of_another_robot(planned, tmp_path):
     assert joint_loads(robot, base).joint_names == robot.config.joint_names
 
 
+def test_timing_an_oracle_instead_of_its_robot_names_the_argument(planned):
+    """The README's oracle = s.oracle() given where the robot goes was "'BubbleOracle' object has no attribute 'config'"."""
+    from foam_mj.bubbles import BubbleOracle
+
+    robot, paths = planned
+    res, _ = paths["convex"]
+    with pytest.raises(ValueError, match=r"^`robot` must be a RobotModel, got BubbleOracle \(a BubbleOracle's is oracle.robot\)$"):
+        timed_trajectory(BubbleOracle(robot, 0.005), res.path, res.rosary)
+
+
 def test_limits_validate_their_input():
     with pytest.raises(ValueError, match="torque"):
         Limits(torque=(1.0, -2.0, 3.0))
