@@ -25,6 +25,18 @@ def _problem(oracle, scenario, **kw):
 
 
 # -- the registry ----------------------------------------------------------------------------------
+def test_the_seam_exports_the_errors_its_planners_raise():
+    """The README says a planner raises PlanningFailed or ConfigurationError; a script written against the seam could not
+    import them from it (ImportError: cannot import name 'PlanningFailed' from 'foam_mj.planners')."""
+    import foam_mj.errors
+    import foam_mj.planners as seam
+
+    for name in ("PlanningFailed", "ConfigurationError", "PlannerError", "PlanningProblem", "PlanResult", "get_planner"):
+        assert name in seam.__all__
+    assert seam.PlanningFailed is foam_mj.errors.PlanningFailed and seam.ConfigurationError is foam_mj.errors.ConfigurationError
+    assert all(hasattr(seam, name) for name in seam.__all__)
+
+
 def test_unknown_planner_lists_the_known_names():
     with pytest.raises(PlannerError, match="unknown planner 'nope'; known planners: .*pfm"):
         get_planner("nope")

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from foam_mj.errors import unknown_names
+from foam_mj.errors import ConfigurationError, PlanningFailed, unknown_names
 from foam_mj.planners.base import (
     Planner,
     PlannerConfig,
@@ -81,6 +81,6 @@ for _cls in (GBPFPlanner, RBPFPlanner, HPFPlanner):  # Nascimento et al., Sensor
     register(_cls)
 
 __all__ = [
-    "DEFAULT_PLANNER", "PLANNERS", "Planner", "PlannerConfig", "PlannerError", "PlanningProblem", "PlanResult",
-    "PlanStats", "Progress", "get_planner", "planner_class", "register",
+    "DEFAULT_PLANNER", "PLANNERS", "ConfigurationError", "Planner", "PlannerConfig", "PlannerError", "PlanningFailed",
+    "PlanningProblem", "PlanResult", "PlanStats", "Progress", "get_planner", "planner_class", "register",
 ]
