@@ -39,7 +39,7 @@ from foam_mj.errors import ModelError
 from foam_mj.mjcf import _custom_numeric
 from foam_mj.model import RobotModel
 from foam_mj.rosary import Rosary, in_ball
-from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError, _with_linear, in_box, safe_curve
+from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError, _with_linear, in_box, safe_curve, validate_path
 
 #: Largest distance (configuration units) between the straight line joining two consecutive samples (one
 #: timestep apart) and the certified curve between them: a consumer that interpolates the rows linearly
@@ -387,6 +387,19 @@ def whole_steps(duration: float, dt: float) -> int:
     return max(1, int(np.ceil(duration / dt - 1e-9)))
 
 
+def _check_within_bounds(robot: RobotModel, path: np.ndarray, tol: float = 1e-6) -> None:
+    """ValueError naming the first point of ``path`` beyond ``robot``'s joint bounds: every planned path keeps to them, so
+    such a path was planned for another robot (the curve's check then failed with "the control points left their
+    bubbles even as a polyline", which pointed at the library)."""
+    span = np.maximum(robot.upper - robot.lower, 1.0)
+    out = (path < robot.lower - tol * span) | (path > robot.upper + tol * span)
+    if out.any():
+        i, j = (int(v) for v in np.argwhere(out)[0])
+        raise ValueError(f"`path[{i}]` has {robot.config.joint_names[j]} = {path[i, j]:.6g}, outside `robot`'s joint bounds "
+                         f"[{robot.lower[j]:.6g}, {robot.upper[j]:.6g}] ({robot.path.name}): every planned path keeps to them; was "
+                         "it planned for another robot?")
+
+
 def make_trajectory(
     robot: RobotModel,
     path,
@@ -406,9 +419,10 @@ def make_trajectory(
     dt = float(robot.model.opt.timestep) if dt is None else dt
     if not (isinstance(dt, (int, float, np.floating)) and np.isfinite(dt) and dt > 0):
         raise ValueError(f"`dt` must be a finite number of seconds > 0, got {dt!r}")
-    curve = safe_curve(path, rosary, robot.lower, robot.upper)
-    if rosary.dim != robot.dim:
+    if isinstance(rosary, Rosary) and rosary.dim != robot.dim:
         raise ValueError(f"`rosary` has dimension {rosary.dim}, the robot's configuration has {robot.dim}")
+    _check_within_bounds(robot, validate_path(path, rosary))
+    curve = safe_curve(path, rosary, robot.lower, robot.upper)
     vmax, amax = limits.resolve(robot)
     amax = np.minimum(amax, row_acceleration_cap(robot, dt))  # rows dense enough to interpolate
     scale = robot.config.scale  # joint units per configuration unit

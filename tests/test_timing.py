@@ -206,6 +206,20 @@ def test_timing_an_oracle_instead_of_its_robot_names_the_argument(planned):
         timed_trajectory(BubbleOracle(robot, 0.005), res.path, res.rosary)
 
 
+def test_timing_a_path_of_another_robot_says_it_leaves_this_ones_joint_bounds(planned, tmp_path):
+    """The leg's path timed for a 3-joint arm whose joints turn +-0.3 rad failed with "the control points left their
+    bubbles even as a polyline", which pointed at the library; every planned path keeps to its robot's bounds."""
+    robot, paths = planned
+    res, _ = paths["convex"]
+    (tmp_path / "arm3.xml").write_text(ARM3_XML.replace('range="-2 2"', 'range="-0.3 0.3"'))
+    arm = RobotModel.from_xml(tmp_path / "arm3.xml")
+    i, j = (int(v) for v in np.argwhere((res.path < arm.lower) | (res.path > arm.upper))[0])
+    with pytest.raises(ValueError, match=rf"^`path\[{i}\]` has {'abc'[j]} = {res.path[i, j]:.6g}, outside `robot`'s joint bounds "
+                                         r"\[-0.3, 0.3\] \(arm3.xml\): every planned path keeps to them; was it planned for another robot\?$"):
+        timed_trajectory(arm, res.path, res.rosary)
+    assert timed_trajectory(robot, res.path, res.rosary).duration > 0
+
+
 def test_limits_validate_their_input():
     with pytest.raises(ValueError, match="torque"):
         Limits(torque=(1.0, -2.0, 3.0))
