@@ -664,3 +664,26 @@ def test_plan_reports_the_generations_of_the_genetic_algorithm(smoothing_setup, 
     pipeline.smooth_paths(load_scenario("obstacle"), smoothing_setup[2], ("ga",), 0, report=said.append)
     assert "smoothing: genetic algorithm, generation 300 of at most 300, best f " in said[-2]
     assert said[-1].startswith("smoothing: genetic algorithm done in ")
+
+
+def test_a_script_picks_a_smoother_by_its_smoother_flag_name_as_a_planner_by_name(rosary):
+    """`get_smoother(name, **params)` is to smoothers what `get_planner` is to planners: every `--smoother` name
+    that smooths a rosary alone has a class, the same parameters give the same path as the class itself, and an
+    unknown name or parameter is named with what there is (the rosary adjustment needs the oracle: said so)."""
+    from foam_mj.smoother_names import SMOOTHERS
+    from foam_mj.smoothing import SMOOTHER_CLASSES, get_smoother
+
+    assert set(SMOOTHER_CLASSES) == set(SMOOTHERS) - {"none", "all", "adjust"}
+    hs = get_smoother("hs", stop=StopCriteria(max_iterations=200))
+    assert isinstance(hs, HarmonySearch) and hs.stop.max_iterations == 200
+    a = get_smoother("optimal").smooth(rosary, seed=0)
+    b = OptimalSmoother().smooth(rosary, seed=0)
+    assert np.array_equal(a.waypoints, b.waypoints) and rosary.all_in_hatches(a.waypoints)
+    with pytest.raises(ValueError, match=r"unknown smoother 'optimum' \(did you mean 'optimal'\?\); known smoothers: hs, ga, "):
+        get_smoother("optimum")
+    with pytest.raises(ValueError, match=r"needs the oracle: RosaryAdjustment"):
+        get_smoother("adjust")
+    with pytest.raises(TypeError, match=r"smoother 'ga' \(GeneticAlgorithm\) has no parameter 'popsize'.*its parameters: pop_size, "):
+        get_smoother("ga", popsize=10)
+    with pytest.raises(ValueError, match="HMCR"):
+        get_smoother("hs", HMCR=1.5)

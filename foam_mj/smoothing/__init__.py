@@ -39,6 +39,42 @@ from foam_mj.smoothing.optimal import OptimalSmoother
 from foam_mj.smoothing.pareto import Archive, error_ratio, hypervolume_2d, knee_index, set_coverage
 from foam_mj.smoothing.pso import MOPSO, PSO, MOPSOSmoother
 
+#: The smoothers that share :class:`Smoother`'s ``smooth(rosary, initial=None, seed=0)``, by their ``--smoother`` names
+#: (:data:`foam_mj.smoother_names.SMOOTHERS`): a script picks one by name as ``foam-mj plan --smoother`` does, as
+#: :func:`foam_mj.planners.get_planner` picks a planner.
+SMOOTHER_CLASSES: dict[str, type[Smoother]] = {
+    "hs": HarmonySearch,
+    "ga": GeneticAlgorithm,
+    "gradient": GradientSmoothing,
+    "convex": ConvexShortestPath,
+    "optimal": OptimalSmoother,
+    "mgoa": MGOASmoother,
+    "mopso": MOPSOSmoother,
+}
+
+
+def get_smoother(name: str, **params) -> Smoother:
+    """A smoother by its ``--smoother`` name with its parameters (the class's fields, validated by the class): a
+    ValueError lists the names for an unknown one ("adjust" moves the bubbles and needs the oracle:
+    :class:`RosaryAdjustment`), a TypeError lists the parameters for an unknown parameter."""
+    import dataclasses
+
+    from foam_mj.errors import unknown_names
+
+    if not isinstance(name, str) or name not in SMOOTHER_CLASSES:
+        if name == "adjust":
+            raise ValueError("'adjust' moves the rosary's bubbles and needs the oracle: RosaryAdjustment(r_min=...)"
+                             ".adjust(rosary, oracle), then a smoother on its .rosary")
+        raise ValueError(f"unknown smoother {unknown_names([name], SMOOTHER_CLASSES)}; known smoothers: {', '.join(SMOOTHER_CLASSES)}")
+    cls = SMOOTHER_CLASSES[name]
+    fields = [f.name for f in dataclasses.fields(cls) if f.init]
+    unknown = [k for k in params if k not in fields]
+    if unknown:
+        raise TypeError(f"smoother '{name}' ({cls.__name__}) has no parameter {unknown_names(unknown, fields)}; "
+                        f"its parameters: {', '.join(fields)}")
+    return cls(**params)
+
+
 __all__ = [
     "PAPER_F_THRESHOLD",
     "PAPER_MAX_ITERATIONS",
@@ -64,6 +100,7 @@ __all__ = [
     "ParetoSmoother",
     "RosaryAdjustment",
     "RosaryProblem",
+    "SMOOTHER_CLASSES",
     "SmoothingResult",
     "Smoother",
     "StopCriteria",
@@ -71,6 +108,7 @@ __all__ = [
     "center_path_result",
     "coordinate_major_objective",
     "error_ratio",
+    "get_smoother",
     "hypervolume_2d",
     "kkt_certificate",
     "knee_index",
