@@ -883,3 +883,52 @@ def test_a_robot_whose_geoms_are_all_visual_is_refused_saying_so(tmp_path):
     scene.write_text(arm.replace("{geoms}", '<inertial pos="0 0 0" mass="1" diaginertia=".01 .01 .01"/>'))
     with pytest.raises(ModelError, match=r"no collision geom is attached to the robot \(a body moved by a configuration joint\)$"):
         RobotModel.from_xml(scene)
+
+
+def _mesh_heavy_arm(folder, meshes=10, points=20_000):
+    """A one-joint capsule arm beside a box post, carrying ``meshes`` visual meshes (OBJ point clouds of ``points``
+    vertices each, as a scanned robot's visual meshes are heavy) and an unnamed collision geom; the scene's path."""
+    rng = np.random.default_rng(0)
+    for i in range(meshes):
+        pts = rng.normal(size=(points, 3)) * 0.02
+        (folder / f"v{i}.obj").write_text("".join(f"v {a:.6f} {b:.6f} {c:.6f}\n" for a, b, c in pts))
+    assets = "".join(f'<mesh name="v{i}" file="v{i}.obj"/>' for i in range(meshes))
+    visuals = "".join(f'<geom type="mesh" mesh="v{i}" contype="0" conaffinity="0" pos="{0.03 * i} 0 0"/>' for i in range(meshes))
+    path = folder / "arm.xml"
+    path.write_text(f"""<mujoco><compiler angle="radian"/><asset>{assets}</asset><worldbody>
+      <geom name="post" type="box" size="0.05 0.05 0.3" pos="0.6 0 0.3"/>
+      <body name="link" pos="0 0 0.2"><joint name="j" axis="0 0 1" range="-2 2"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>{visuals}</body>
+    </worldbody></mujoco>""")
+    return path
+
+
+def test_spec_copy_deletes_elements_as_fast_as_a_spec_never_compiled(tmp_path):
+    # The lean distance model (foam_mj.clearance) deletes every geom of no checked pair from robot.spec_copy(); from a
+    # spec that has been compiled (or a copy of one) MuJoCo deletes an element at a cost that grows with the scene's
+    # mesh data: 12x a never-compiled spec's here, 8-14 ms a geom on MuJoCo Menagerie's Panda (1.7 s per distance model).
+    import time
+
+    from foam_mj.mjcf import load_spec
+
+    path = _mesh_heavy_arm(tmp_path)
+    robot = RobotModel.from_xml(path)
+
+    def per_delete(make) -> float:
+        best = np.inf
+        for _ in range(3):
+            spec = make()
+            visual = [g for g in spec.geoms if g.contype == 0 and g.conaffinity == 0]
+            t = time.process_time()
+            for g in visual:
+                spec.delete(g)
+            best = min(best, (time.process_time() - t) / len(visual))
+        return best
+
+    fresh = per_delete(lambda: load_spec(path))
+    assert per_delete(robot.spec_copy) < 3 * fresh + 2e-5
+    # ... and it is the model's spec: the unnamed collision geom carries the name the model gave it.
+    copy = robot.spec_copy()
+    names = [mujoco.mj_id2name(robot.model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in range(robot.model.ngeom)]
+    assert [g.name for g in copy.geoms] == names[1:] or [g.name for g in copy.geoms] == names
+    assert copy.compile().ngeom == robot.model.ngeom
