@@ -230,8 +230,8 @@ def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str,
     p = np.clip(c + r * to_goal[i] / dist[i], oracle.robot.lower, oracle.robot.upper)
     report = oracle.explain(p)
     near = (f": it came nearest with the bubble at q = {np.round(c, 4).tolist()} (radius {r:.3g}, its surface {dist[i] - r:.3g} "
-            f"from q_goal; clearance {clearance_text(report.clearance, oracle.delta)} between {report.closest_pair[0]} and "
-            f"{report.closest_pair[1]} there)")
+            f"from q_goal; clearance {clearance_text(report.clearance, oracle.delta)} between "
+            f"{oracle.robot.pair_label(int(np.argmin(report.pair_distances)))} there)")
     if outcome == "bubble budget":
         return near
     if outcome == "time budget":

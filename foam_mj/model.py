@@ -586,6 +586,11 @@ class RobotModel:
         a, b = self.pairs[p]
         return self.geom_name(a), self.geom_name(b)
 
+    def pair_label(self, p: int) -> str:
+        """Checked pair p for a message, "geom8 (on body ff_medial) and peg" (:meth:`geom_label`)."""
+        a, b = self.pairs[p]
+        return f"{self.geom_label(a)} and {self.geom_label(b)}"
+
 
 def _real_numbers(values) -> bool:
     """Are ``values`` (array-like) real numbers: no booleans, complex numbers, strings or None?"""

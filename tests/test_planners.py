@@ -1032,7 +1032,9 @@ def test_a_one_joint_robot_blocked_between_start_and_goal_is_told_the_goal_is_un
     xml.write_text(ONE_JOINT_ARM)
     assert main(["plan", "--mjcf", str(xml), "--start", "-1", "--goal", "1", "--no-rrd", "--time-limit", limit]) == 3
     err = capsys.readouterr().err.strip().splitlines()[-1]
-    m = re.search(r"they came nearest at q = \[(-?[0-9.]+)\] .* with clearance (-?[0-9.]+) m between \w+ and \w+: the goal is "
+    # The unnamed geoms are named with their bodies, as in every other message ("geom1" alone: not in the MJCF).
+    m = re.search(r"they came nearest at q = \[(-?[0-9.]+)\] .* with clearance (-?[0-9.]+) m between geom1 \(on body 1\) and "
+                  r"geom0 \(on body world\): the goal is "
                   r"unreachable from the start: with one joint every motion between them passes this q, closer than delta "
                   r"\(`foam-mj bubble` shows more\)$", err)
     assert m and "may be" not in err and "time limit" not in err and "stays closed" not in err, err

@@ -329,12 +329,13 @@ class BubbleTreePlanner(Planner):
             q = np.clip(B.c[a] + (B.r[a] + T.gap[i] / 2) * u, lo, hi)
             report = oracle.explain(q)
             robot = oracle.robot
-            hint = robot.hull_hint(*(int(g) for g in robot.pairs[int(np.argmin(report.pair_distances))]))
+            closest = int(np.argmin(report.pair_distances))
+            hint = robot.hull_hint(*(int(g) for g in robot.pairs[closest]))
             proven = n == 1 and min(q0[0], q1[0]) <= q[0] <= max(q0[0], q1[0]) and report.clearance < problem.delta
             verdict = (": the goal is unreachable from the start: with one joint every motion between them passes this q, "
                        "closer than delta" if proven else ": the goal may be unreachable from the start" if unreachable else "")
             return (f"; they came nearest at q = {(np.round(q, 4) + 0.0).tolist()} (a gap of {T.gap[i]:.3g} between their bubbles), with "
-                    f"clearance {clearance_text(report.clearance, problem.delta)} between {report.closest_pair[0]} and {report.closest_pair[1]}"
+                    f"clearance {clearance_text(report.clearance, problem.delta)} between {robot.pair_label(closest)}"
                     f"{verdict} (`foam-mj bubble` shows more){hint}"), proven
 
         def chain_length(pair: tuple[int, int]) -> float:
