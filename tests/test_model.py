@@ -7,6 +7,8 @@ import ctypes
 import mujoco
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from foam_mj import clearance
 from foam_mj.capsule_box import segment_meets_box
@@ -932,3 +934,27 @@ def test_spec_copy_deletes_elements_as_fast_as_a_spec_never_compiled(tmp_path):
     names = [mujoco.mj_id2name(robot.model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in range(robot.model.ngeom)]
     assert [g.name for g in copy.geoms] == names[1:] or [g.name for g in copy.geoms] == names
     assert copy.compile().ngeom == robot.model.ngeom
+
+
+# A free block whose frame MuJoCo puts at its centre of mass (alignfree), which a heavy visual sphere 0.6 m away sets:
+# a sensor model without that sphere would move the frame, and the full model's qpos would carry the block off its place.
+ALIGNFREE_SCENE = """<mujoco><compiler alignfree="true" angle="radian"/><worldbody>
+      <body name="arm" pos="0 0 0.5"><joint name="j" type="hinge" axis="0 0 1" range="-3 3"/>
+        <geom name="link" type="capsule" fromto="0 0 0 1 0 0" size="0.03"/></body>
+      <body name="loose" pos="0.8 0.3 0.5"><freejoint name="free"/>
+        <geom name="block" type="box" size="0.05 0.05 0.05"/>
+        <geom name="weight" type="sphere" size="0.1" pos="0 0.6 0" density="20000" contype="0" conaffinity="0"/></body>
+    </worldbody></mujoco>"""
+
+
+@settings(max_examples=40, deadline=None)
+@given(q=st.floats(-3.0, 3.0))
+def test_a_batch_reads_the_models_distance_where_dropping_geoms_would_move_a_free_bodys_frame(tmp_path_factory, q):
+    """The batch's distances are the model's own where the lean sensor model would place a body elsewhere
+    (``<compiler alignfree>``): before, the arm read 0.53 m clear of the block at q = 0.3, where it is 34 mm inside."""
+    path = tmp_path_factory.getbasetemp() / "alignfree.xml"
+    path.write_text(ALIGNFREE_SCENE)
+    robot = RobotModel.from_xml(path)
+    c = Clearance(robot)
+    assert c.batch_pairs(np.array([[q], [0.3]]))[:, 0] == pytest.approx([c.pair_distances(np.array([q]))[0], c(np.array([0.3]))], abs=1e-12)
+    assert c(np.array([0.3])) < 0  # the arm is inside the block there
