@@ -154,6 +154,40 @@ def check_no_flex(m: mujoco.MjModel, path: str | Path) -> None:
                          "capsules, a mesh), or set its contype and conaffinity to 0 if nothing should touch it")
 
 
+def check_mesh_hulls(spec: mujoco.MjSpec, m: mujoco.MjModel, geoms, path: str | Path) -> None:
+    """ModelError naming a checked mesh geom whose mesh sets ``maxhullvert`` below its convex hull's vertex count:
+    MuJoCo then collides (and measures distances to) a hull of only that many vertices, and the mesh's other
+    extreme points lie outside it, so a path certified by MuJoCo's distances could run through them (a 200-vertex
+    unit sphere capped at 8: probes 2 % inside 192 of its vertices read up to 0.40 m apart). Without the cap the hull
+    holds every vertex, conservative for the mesh itself. The test: every vertex of the mesh against the planes of the
+    hull's faces (``mesh_graph``), oriented away from the hull's vertex centroid."""
+    mesh_type = int(mujoco.mjtGeom.mjGEOM_MESH)
+    used = {int(m.geom_dataid[g]): int(g) for g in geoms if int(m.geom_type[g]) == mesh_type}
+    for i in sorted(used):
+        if i >= len(spec.meshes) or spec.meshes[i].maxhullvert < 0 or m.mesh_graphadr[i] < 0:
+            continue
+        adr, nvert = int(m.mesh_graphadr[i]), int(m.mesh_vertnum[i])
+        hv, hf = int(m.mesh_graph[adr]), int(m.mesh_graph[adr + 1])
+        faces_at = adr + 2 + 2 * hv + hv + 3 * hf
+        faces = m.mesh_graph[faces_at : faces_at + 3 * hf].reshape(hf, 3)
+        verts = m.mesh_vert[int(m.mesh_vertadr[i]) : int(m.mesh_vertadr[i]) + nvert].astype(float)
+        a, b, c = verts[faces[:, 0]], verts[faces[:, 1]], verts[faces[:, 2]]
+        normal = np.cross(b - a, c - a)
+        normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+        centre = verts[m.mesh_graph[adr + 2 + hv : adr + 2 + 2 * hv]].mean(axis=0)
+        normal *= np.where(np.einsum("ij,ij->i", normal, a - centre) < 0, -1.0, 1.0)[:, None]
+        out = ((verts @ normal.T) - np.einsum("ij,ij->i", normal, a)).max(axis=1)  # each vertex's height above the hull
+        scale = float(np.abs(verts).max(initial=0.0))
+        outside = out > 1e-9 * max(scale, 1.0)
+        if outside.any():
+            geom = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, used[i]) or f"geom{used[i]}"
+            mesh = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_MESH, i) or f"mesh{i}"
+            raise ModelError(f"{path}: collision geom '{geom}': its mesh '{mesh}' sets maxhullvert=\"{spec.meshes[i].maxhullvert}\", "
+                             f"so MuJoCo collides a hull of {hv} vertices that leaves {int(outside.sum())} of its {nvert} vertices "
+                             f"outside (up to {float(out.max()):.3g} m), where MuJoCo's distances (the planner's) do not see "
+                             "them: remove maxhullvert (or split the mesh into convex parts)")
+
+
 def place_mocap_bodies(spec: mujoco.MjSpec, m: mujoco.MjModel, key: int, path: Path) -> bool:
     """Move the mocap bodies of ``spec`` to keyframe ``key``'s ``mpos``/``mquat`` where they differ from the bodies' own
     pose; True when one moved. MuJoCo places mocap bodies at the keyframe's pose when it is loaded (``mjData.mocap_pos``),

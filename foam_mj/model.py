@@ -55,6 +55,7 @@ from foam_mj.fingerprint import PARTS
 from foam_mj.geom_pairs import _reference_data, attached, body_subtree, collision_pairs, geom_moved_by, pair_coordinates
 from foam_mj.mjcf import (
     _custom_text,
+    check_mesh_hulls,
     check_no_flex,
     compile_spec,
     load_spec,
@@ -340,6 +341,7 @@ class RobotModel:
         pairs, self_pair = [pairs[i] for i in order], [self_pair[i] for i in order]
         active = np.array([pair_coordinates(m, config, moves, a, b) for a, b in pairs], dtype=bool).reshape(-1, config.dim)
         checked = sorted({g for pr in pairs for g in pr})
+        check_mesh_hulls(spec, m, checked, p)
         hfields = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in checked
                    if int(m.geom_type[g]) == mujoco.mjtGeom.mjGEOM_HFIELD]
         if hfields:

@@ -958,3 +958,26 @@ def test_a_batch_reads_the_models_distance_where_dropping_geoms_would_move_a_fre
     c = Clearance(robot)
     assert c.batch_pairs(np.array([[q], [0.3]]))[:, 0] == pytest.approx([c.pair_distances(np.array([q]))[0], c(np.array([0.3]))], abs=1e-12)
     assert c(np.array([0.3])) < 0  # the arm is inside the block there
+
+
+def _sphere_mesh_scene(cap: str) -> str:
+    """A 1-joint arm beside a 200-vertex unit-sphere mesh obstacle; ``cap``: its maxhullvert attribute (or none)."""
+    points = np.random.default_rng(0).normal(size=(200, 3))
+    points /= np.linalg.norm(points, axis=1, keepdims=True)
+    return f"""<mujoco><compiler angle="radian"/><asset><mesh name="ball" vertex="{' '.join(map(str, points.ravel()))}" {cap}/>
+      </asset><worldbody><geom name="rock" type="mesh" mesh="ball" pos="2 0 0.5"/>
+      <body pos="0 0 0.5"><joint name="j" type="hinge" axis="0 0 1" range="-3 3"/>
+        <geom name="link" type="capsule" fromto="0 0 0 0.5 0 0" size="0.03"/></body></worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("cap, refused", [("", False), ('maxhullvert="8"', True), ('maxhullvert="1000"', False)])
+def test_a_mesh_whose_collision_hull_leaves_out_some_of_its_vertices_is_refused_by_name(tmp_path, cap, refused):
+    """maxhullvert below the hull's vertex count makes MuJoCo collide a smaller hull (8 of 200 vertices: points 2 %
+    inside the other 192 read up to 0.40 m apart); such a checked mesh geom is refused, naming it and the cap. A cap
+    the hull does not reach changes nothing and loads."""
+    (tmp_path / "r.xml").write_text(_sphere_mesh_scene(cap))
+    if not refused:
+        assert len(RobotModel.from_xml(tmp_path / "r.xml").pairs) == 1
+        return
+    with pytest.raises(ModelError, match=r"collision geom 'rock': its mesh 'ball' sets maxhullvert=\"8\", so MuJoCo collides a hull of 8 vertices that leaves 192 of its 200 vertices outside \(up to 0.4"):
+        RobotModel.from_xml(tmp_path / "r.xml")
