@@ -62,6 +62,7 @@ from foam_mj.mjcf import (
     name_unnamed_geoms,
     place_mocap_bodies,
     scene_xml,
+    uncompiled_twin,
 )
 
 
@@ -73,23 +74,6 @@ FIXED_TOLERANCE = 1e-9  # metres (per metre of delta above 1 m): a fixed pair's 
 #: :mod:`foam_mj.fingerprint`): an edit of one of them after the RobotModel was built is refused.
 SHAPE_FIELDS: tuple[str, ...] = PARTS["kinematics"] + PARTS["geometry"]
 
-
-
-def _uncompiled_twin(twin: mujoco.MjSpec, compiled: mujoco.MjSpec) -> mujoco.MjSpec:
-    """``twin`` (a copy of ``compiled`` made before it was ever compiled) with the geom names ``compiled`` was given
-    (:func:`~foam_mj.mjcf.name_unnamed_geoms`): the spec a model keeps for :meth:`RobotModel.spec_copy`. MuJoCo 4.0
-    deletes an element from a spec that has been compiled (or from a copy of one) in 8-14 ms when the scene has meshes,
-    against under 1 ms from one never compiled: the lean distance model (:mod:`foam_mj.clearance`) deletes every geom
-    of no checked pair, 68 on MuJoCo Menagerie's Panda, and that was 1.7 s of each of the three such models a plan
-    makes. Where the twin's geoms do not line up with the compiled spec's (a caller's spec edited between), the
-    compiled spec's own copy is kept, as before."""
-    geoms, named = list(twin.geoms), list(compiled.geoms)
-    if len(geoms) != len(named) or any(a.name and a.name != b.name for a, b in zip(geoms, named)):
-        return compiled.copy()
-    for a, b in zip(geoms, named):
-        if not a.name:
-            a.name = b.name
-    return twin
 
 @dataclass
 class RobotModel:
@@ -234,7 +218,7 @@ class RobotModel:
         if not isinstance(self_collision, (bool, np.bool_)):  # "no" is truthy: self-collision would stay on
             raise TypeError(f"`self_collision` must be True or False, got {self_collision!r}")
         p = Path(path)
-        twin = spec.copy()  # never compiled: the copy that spec_copy hands out (see _uncompiled_twin)
+        twin = spec.copy()  # never compiled: the copy that spec_copy hands out (see mjcf.uncompiled_twin)
         compile_spec(spec, p)
         name_unnamed_geoms(spec)
         m = compile_spec(spec, p)
@@ -364,7 +348,7 @@ class RobotModel:
             self_collision=self_collision,
             held_by_equality=held_by_equality,
         )
-        out.spec = _uncompiled_twin(twin, spec)
+        out.spec = uncompiled_twin(twin, spec)
         out.xml = xml
         return out
 
