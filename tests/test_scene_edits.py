@@ -4,6 +4,7 @@ changes in its scene through MjSpec, and the robots refused before any planning.
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -21,6 +22,14 @@ OBSTACLE = {"scene": "obstacle.xml", "q_init": [0.2, 0.3, 0.08], "q_goal": [0.45
 
 def _robot(**tables) -> RobotModel:
     return scenario_from_dict({**OBSTACLE, **tables}, MODELS, check=False).robot
+
+
+def _leg_copy(tmp_path: Path) -> tuple[Path, str]:
+    """The shipped models copied to ``tmp_path`` (the scenes include the leg by name): the copy's ortholeg.xml and its text."""
+    for f in MODELS.glob("*.xml"):
+        (tmp_path / f.name).write_text(f.read_text())
+    leg = tmp_path / "ortholeg.xml"
+    return leg, leg.read_text()
 
 
 def _segment_lengths(robot: RobotModel) -> dict[str, float]:
@@ -103,10 +112,7 @@ def test_a_malformed_segment_declaration_is_refused_naming_the_field(tmp_path, s
     negative or NaN length reached MuJoCo's compiler ("size 0 must be positive"), a body named twice was scaled
     twice (its length k^2 times the model's) and the world body was asked for an <inertial>: each is now one
     ModelError naming foam_mj:segments and the body."""
-    for f in MODELS.glob("*.xml"):
-        (tmp_path / f.name).write_text(f.read_text())
-    leg = tmp_path / "ortholeg.xml"
-    text = leg.read_text()
+    leg, text = _leg_copy(tmp_path)
     declared = 'data="thigh thigh 0.43 shank leg 0.43 foot foot 0.266"'
     assert declared in text
     leg.write_text(text.replace(declared, f'data="{segments}"'))
@@ -118,10 +124,7 @@ def test_a_malformed_segment_declaration_is_refused_naming_the_field(tmp_path, s
 def test_a_segment_placed_through_a_frame_gets_winters_length(tmp_path):
     """The shank written inside <frame pos="0 0 -0.2"> at pos="0 0 -0.23" (the same compiled model): the frame's offset
     was not scaled, so a 1.4 m subject's thigh came out 0.3835 m long instead of Winter's 0.245 x 1.4 = 0.343 m."""
-    for f in MODELS.glob("*.xml"):
-        (tmp_path / f.name).write_text(f.read_text())
-    leg = tmp_path / "ortholeg.xml"
-    text = leg.read_text()
+    leg, text = _leg_copy(tmp_path)
     i = text.index('<body name="foot"')
     end = text.index("</body>", text.index("</body>", i) + 1) + len("</body>")  # the shank's closing tag
     text = text[:end] + "</frame>" + text[end:]
@@ -139,10 +142,7 @@ def test_a_segment_placed_through_a_frame_gets_winters_length(tmp_path):
 def test_sites_cameras_and_lights_of_a_segment_move_with_it(tmp_path):
     """A site given by fromto (an ankle sensor site on the shank), a camera and a light kept their unscaled places,
     0.415 m below the knee, while a 1.4 m subject's shank became 0.3444 m long: the ankle site ended up below the ankle."""
-    for f in MODELS.glob("*.xml"):
-        (tmp_path / f.name).write_text(f.read_text())
-    leg = tmp_path / "ortholeg.xml"
-    text = leg.read_text()
+    leg, text = _leg_copy(tmp_path)
     shank = '<body name="shank" pos="0 0 -0.43">'
     assert shank in text
     leg.write_text(text.replace(shank, shank + '<site name="ankle" type="capsule" size="0.01" fromto="0 0 -0.43 0 0 -0.40"/>'
