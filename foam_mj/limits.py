@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from foam_mj.dynamics import torque_limits
-from foam_mj.model import RobotModel
+from foam_mj.model import RobotModel, require_robot_model
 from foam_mj.trajectory import MAX_STEPS, JointLimits
 
 
@@ -45,9 +45,8 @@ class Limits:
 
     def resolve(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(velocity, acceleration, torque), each (n,) in joint units; torque is inf where unlimited."""
-        if not isinstance(robot, RobotModel):  # an oracle was "'BubbleOracle' object has no attribute 'config'"
-            hint = " (a BubbleOracle's is oracle.robot)" if hasattr(robot, "robot") else ""
-            raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}{hint}")
+        # an oracle was "'BubbleOracle' object has no attribute 'config'"
+        require_robot_model(robot, " (a BubbleOracle's is oracle.robot)" if hasattr(robot, "robot") else "")
         v, a = self.joint.resolve(robot)
         tau = torque_limits(robot)
         n = robot.dim

@@ -578,6 +578,12 @@ class RobotModel:
         return f"{self.geom_label(a)} and {self.geom_label(b)}"
 
 
+def require_robot_model(robot, hint: str = "") -> None:
+    """ValueError naming the argument unless ``robot`` is a :class:`RobotModel` (``hint`` appended to the message)."""
+    if not isinstance(robot, RobotModel):
+        raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}{hint}")
+
+
 def _real_numbers(values) -> bool:
     """Are ``values`` (array-like) real numbers: no booleans, complex numbers, strings or None?"""
     a = np.asarray(values)

@@ -85,7 +85,7 @@ import rerun.blueprint as rrb
 
 from foam_mj.atomic import atomic_write_bytes
 from foam_mj.geom_pairs import body_is_moving
-from foam_mj.model import RobotModel
+from foam_mj.model import RobotModel, require_robot_model
 from foam_mj.recording_geoms import (  # noqa: F401  (geom_rgba, HIDDEN_*, INFINITE_PLANE: re-exported)
     HIDDEN_ALPHA, HIDDEN_GROUP, INFINITE_PLANE, MeshInstances, _body_name, _geom_name, _rgba, _xyzw, geom_archetype, geom_rgba, is_mesh,
     seconds_ns,
@@ -184,8 +184,7 @@ def _points3(points, field: str) -> np.ndarray:
 def _check_replay_of(robot: RobotModel, replay: KinematicReplay | DynamicReplay) -> None:
     """ValueError unless ``replay`` is of ``robot``: its poses were read by body id, so another robot's replay drew that
     robot's geoms at this one's poses, silently."""
-    if not isinstance(robot, RobotModel):
-        raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}")
+    require_robot_model(robot)
     ids, m = replay.poses.body_ids, robot.model
     names = tuple(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(b)) or f"body{int(b)}" if 0 <= int(b) < m.nbody else f"(none: id {int(b)})"
                   for b in ids)
@@ -278,8 +277,7 @@ class Recording:
     def log_scene(self, robot: RobotModel) -> None:
         """The static geoms of the scene at world poses, and the configuration axes named by the joints."""
         rec = self._check_open()
-        if not isinstance(robot, RobotModel):
-            raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}")
+        require_robot_model(robot)
         m = robot.model
         d = mujoco.MjData(m)
         mujoco.mj_kinematics(m, d)
@@ -363,8 +361,7 @@ class Recording:
         coordinates). The first in the model's colours, the others translucent (:data:`TINT_ALPHA`) in their colour
         (:func:`path_color`; ``q_init`` green and ``q_goal`` red, as their points in configuration space)."""
         rec = self._check_open()
-        if not isinstance(robot, RobotModel):
-            raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}")
+        require_robot_model(robot)
         from foam_mj.replay import leg_bodies
 
         m = robot.model

@@ -37,7 +37,7 @@ import numpy as np
 
 from foam_mj.errors import ModelError
 from foam_mj.mjcf import _custom_numeric
-from foam_mj.model import RobotModel
+from foam_mj.model import RobotModel, require_robot_model
 from foam_mj.rosary import Rosary, in_ball
 from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError, _with_linear, in_box, safe_curve, validate_path
 
@@ -358,8 +358,7 @@ MAX_STEPS = 2_000_000
 def check_trajectory(robot: RobotModel, trajectory: Trajectory) -> None:
     """ValueError naming the argument unless ``trajectory`` is a :class:`Trajectory` of ``robot``'s configuration joints and
     qpos width (what the replays and the joint loads read it with)."""
-    if not isinstance(robot, RobotModel):
-        raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}")
+    require_robot_model(robot)
     if not isinstance(trajectory, Trajectory):
         raise ValueError(f"`trajectory` must be a Trajectory, got {type(trajectory).__name__}")
     if tuple(trajectory.joint_names) != tuple(robot.config.joint_names):
@@ -411,8 +410,7 @@ def make_trajectory(
     (default: the model's timestep). Raises ValueError for bad inputs (naming the field) and
     :class:`TrajectoryError` if the result could not be verified (it always can: see the module docstring).
     """
-    if not isinstance(robot, RobotModel):
-        raise ValueError(f"`robot` must be a RobotModel, got {type(robot).__name__}")
+    require_robot_model(robot)
     limits = JointLimits() if limits is None else limits
     if not isinstance(limits, JointLimits):
         raise ValueError(f"`limits` must be a JointLimits, got {type(limits).__name__}")
