@@ -14,6 +14,7 @@ import zlib
 from pathlib import Path
 
 import mujoco
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -141,3 +142,45 @@ def test_the_readmes_layout_names_every_module_and_model():
     missing += [f"models/{p.name}" for p in sorted((ROOT / "models").glob("*.xml"))
                 if p.stem not in named and not re.fullmatch(r"(obstacle|step_up|step_down)5?|walker_(corridor|two_routes)", p.stem)]
     assert not missing, missing
+
+
+def test_the_package_exports_the_first_names_a_user_needs_without_importing_mujoco():
+    """``import foam_mj`` stays light (every command's start-up, ``--help`` included, goes through it); the names of
+    the README's Python example are attributes of the package, the very objects their modules define."""
+    code = (
+        "import sys, foam_mj\n"
+        "heavy = sorted(m for m in ('mujoco', 'scipy', 'clarabel', 'foam_mj.planners') if m in sys.modules)\n"
+        "assert not heavy, heavy\n"
+        "import foam_mj.planners, foam_mj.smoothing, foam_mj.scenarios, foam_mj.pipeline, foam_mj.errors\n"
+        "assert foam_mj.get_planner is foam_mj.planners.get_planner\n"
+        "assert foam_mj.get_smoother is foam_mj.smoothing.get_smoother\n"
+        "assert foam_mj.load_scenario is foam_mj.scenarios.load_scenario\n"
+        "assert foam_mj.run is foam_mj.pipeline.run\n"
+        "assert foam_mj.PlanningFailed is foam_mj.errors.PlanningFailed\n"
+        "assert set(foam_mj.__all__) <= set(dir(foam_mj))\n"
+        "missing = [n for n in foam_mj.__all__ if not hasattr(foam_mj, n)]\n"
+        "assert not missing, missing\n"
+        "try:\n"
+        "    foam_mj.no_such_name\n"
+        "except AttributeError as exc:\n"
+        "    assert 'no_such_name' in str(exc)\n"
+        "else:\n"
+        "    raise AssertionError('an unknown name must raise AttributeError')\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+
+
+def test_the_packages_docstring_example_plans_and_smooths_a_certified_path():
+    import foam_mj
+
+    s = foam_mj.load_scenario("obstacle")
+    oracle = s.oracle()
+    problem = foam_mj.PlanningProblem(oracle, s.q_init, s.q_goal, delta=oracle.delta)
+    result = foam_mj.get_planner("bubbletree").plan(problem, seed=0)
+    path = foam_mj.get_smoother("optimal").smooth(result.rosary, seed=0)
+    assert result.rosary.all_in_hatches(path.waypoints)
+    P = path.path
+    t = np.linspace(0.0, 1.0, 200)[:, None]
+    dense = np.concatenate([a + t * (b - a) for a, b in zip(P[:-1], P[1:])])
+    assert oracle.clearance.batch(dense).min() >= oracle.delta
