@@ -429,6 +429,7 @@ def replay_dynamic(
     saturated = at_limit.sum(axis=0)
     clo, chi = m.actuator_ctrlrange.T
     clamped = (servo & m.actuator_ctrllimited.astype(bool) & ((ctrl < clo) | (ctrl > chi))).sum(axis=0)
+    damping = _implicit_damping_notes(robot, m, trajectory, feedforward, ctrl, servos, at_limit) if saturated.any() else {}
     jlo, jhi = m.jnt_actfrcrange[cfg.joint_ids].T  # a joint's own clamp of its actuators' total force
     joint_saturated = (m.jnt_actfrclimited[cfg.joint_ids].astype(bool)
                        & ((joint_force <= jlo + 1e-9 * np.abs(jlo)) | (joint_force >= jhi - 1e-9 * np.abs(jhi)))).sum(axis=0)
@@ -463,16 +464,51 @@ def replay_dynamic(
         servo_note=note,
         servo_kp=servos.gain * servos.gear**2 if note else None,
         clamped_frames=clamped,
-        limit_note="; ".join(filter(None, (shaking, _limit_note(m, clamped, saturated, T, cfg.joint_ids, joint_saturated)))),
+        limit_note="; ".join(filter(None, (shaking, _limit_note(m, clamped, saturated, T, cfg.joint_ids, joint_saturated, damping)))),
         joint_saturated_frames=joint_saturated,
     )
 
 
+def _implicit_damping_notes(robot: RobotModel, m: mujoco.MjModel, trajectory: Trajectory, feedforward: str,
+                            ctrl: np.ndarray, servos: _Servo, at_limit: np.ndarray) -> dict[int, str]:
+    """Per servo that sat at its force range, under an implicit integrator and the exact feed-forward: how much of
+    its force is its own damping and what the joint was asked for ({actuator id: text}).
+
+    Under ``implicit`` and ``implicitfast`` MuJoCo integrates an actuator's velocity feedback implicitly: the force
+    it reports and clamps (``actuator_force`` = kp (ctrl - q) - kv qdot) is followed by the step's damping of the
+    velocity change, kv dt qacc, that the joint does not receive. To produce the planned motion the servo's force
+    must carry that share on top of the joint torque (``discrete_rates``' qacc: hip 200 rad/s^2 x 0.52 N m s^2/rad
+    = 104 N m on the Ortholeg), so it can sit at a force range the planned torque fits (foam_mj.dynamics):
+    the note says both numbers, so that the replay's saturation is not read as the plan asking too much."""
+    if feedforward != "inverse" or int(m.opt.integrator) not in (int(mujoco.mjtIntegrator.mjINT_IMPLICIT),
+                                                                 int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST)):
+        return {}
+    cfg = robot.config
+    dof = m.jnt_dofadr[cfg.joint_ids]
+    qvel, qacc = discrete_rates(robot, trajectory)
+    g, a = servos.gear, servos.actuator
+    qref = trajectory.qpos[:, cfg.qpos_index]
+    wanted = servos.gain * ctrl[:, a] + servos.b0 + servos.b1 * g * qref + servos.b2 * g * qvel[:, dof]  # the force at the reference
+    share = -servos.b2 * g * m.opt.timestep * qacc[:, dof]  # its implicit damping (actuator force units)
+    asked = wanted - share  # what the joint receives: the planned torque (over the gear)
+    notes = {}
+    for i, act in enumerate(a.tolist()):
+        sat = at_limit[:, act]
+        if not sat.any():
+            continue
+        slide = int(m.jnt_type[cfg.joint_ids[i]]) == int(mujoco.mjtJoint.mjJNT_SLIDE)
+        unit = (" N" if slide else " N m") if abs(g[i]) == 1 else ""
+        notes[act] = (f"its implicit damping kv dt qacc, up to {np.abs(share[sat, i]).max():.1f}{unit}, is in that force; "
+                      f"the joint torque asked peaks at {np.abs(asked[:, i]).max():.1f}{unit}")
+    return notes
+
+
 def _limit_note(m: mujoco.MjModel, clamped: np.ndarray, saturated: np.ndarray, frames: int,
-                joints: np.ndarray = (), joint_saturated: np.ndarray = ()) -> str:
+                joints: np.ndarray = (), joint_saturated: np.ndarray = (), damping: dict[int, str] | None = None) -> str:
     """One line naming the servos whose ctrl MuJoCo clamped to its ctrlrange, or whose force sat at its force
     range, and the ``joints`` whose actuators' total force sat at the joint's actuatorfrcrange (``joint_saturated``
-    frames each), and in how many frames ("" when none): the reason of a large tracking error, never silent."""
+    frames each), and in how many frames ("" when none): the reason of a large tracking error, never silent.
+    ``damping``: per saturated servo, the share of its force that is implicit damping (:func:`_implicit_damping_notes`)."""
     parts = []
     for a in np.flatnonzero((clamped > 0) | (saturated > 0)):
         name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, int(a)) or f"actuator{int(a)}"
@@ -484,7 +520,8 @@ def _limit_note(m: mujoco.MjModel, clamped: np.ndarray, saturated: np.ndarray, f
         if saturated[a]:
             lo, hi = m.actuator_forcerange[a]
             what.append(f"force at its forcerange [{lo:g}, {hi:g}] in {int(saturated[a])}")
-        parts.append(f"servo '{name}'{f' ({joint})' if joint else ''}: {' and '.join(what)} of {frames} frames")
+        extra = (damping or {}).get(int(a), "")
+        parts.append(f"servo '{name}'{f' ({joint})' if joint else ''}: {' and '.join(what)} of {frames} frames{f' ({extra})' if extra else ''}")
     for j, n in zip(joints, joint_saturated):
         if n:
             lo, hi = m.jnt_actfrcrange[j]
