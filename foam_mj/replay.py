@@ -31,7 +31,7 @@ into ctrl so that
 * ``"none"``: tau_ff = 0, a PD servo on the reference.
 
 Gains (``models/ortholeg.xml``, classes ``hinge_servo`` and ``slide_servo``): kp = 30000 N m/rad on the
-hinges and 100000 N/m on the slide, critically damped (dampratio 1), forces limited to 300 N m / 3000 N.
+hinges and 100000 N/m on the slide, critically damped (dampratio 1), forces limited to 400 N m / 3000 N.
 Measured on the obstacle scene's centre path (seed 0, default limits, own time law, 3.1 s), the maximum
 error with ``"inverse"`` is rounding (below 1e-16 rad and m; 0.41, 0.17 mrad and 0.17 mm with the continuous
 reference), so the replay's tracking error measures what the servos cannot do (a force or ctrl range, a
