@@ -69,13 +69,35 @@ def print_servo_note(outcome) -> None:
         gains = ", ".join(f"{name} {a:.4g}" if f"{a:.4g}" == f"{b:.4g}" else f"{name} {a:.4g}-{b:.4g}"
                           for name, a, b in zip(added[0].joint_names, lo, hi))
         print(f"note: {note}: kp {gains} (N m/rad or N/m)")
+    delta = getattr(getattr(getattr(outcome, "scenario", None), "params", None), "delta", None)
     for po in outcome.paths.values():
         if po.dynamic is not None and po.dynamic.limit_note:
             print(f"note: {po.label}: dynamic replay: {po.dynamic.limit_note}")
+        if delta is not None and po.dynamic is not None and not po.dynamic.diverged:
+            note = closer_than_margin(po, delta)
+            if note:
+                print(f"note: {po.label}: dynamic replay: {note}")
         if po.dynamic is not None and po.dynamic.diverged:
             print(f"note: {po.label}: dynamic replay: MuJoCo's simulation diverged ({', '.join(po.dynamic.diverged)}) and "
                   f"restarted from the model's initial state, so its tracking error and contacts mean nothing (likely cause: "
                   f"{po.dynamic.divergence_cause}); the planned path and its clearance do not depend on this replay")
+
+
+def closer_than_margin(po, delta: float) -> str:
+    """The simulated robot's approach under the margin ``delta`` in the servo replay of path ``po`` ("" when it kept
+    it): how close, in how many frames and from when, and the contacts; the table's ``min clear`` is the planned
+    trajectory's, so a servo that lags (force range, model) could take the robot under the margin unseen."""
+    import numpy as np
+
+    dyn = po.dynamic
+    clear = np.asarray(dyn.clearance, dtype=float)
+    below = clear < delta
+    if not below.any():
+        return ""
+    planned = fmt_mm(po.kinematic.min_clearance) if po.kinematic is not None else "-"
+    return (f"the simulated robot came within {fmt_mm(clear.min())} of contact (margin {fmt_mm(delta)}; {int(below.sum())} "
+            f"of {len(clear)} frames, from t = {dyn.times[np.argmax(below)]:.3f} s; {len(dyn.contacts)} contacts) where the "
+            f"planned trajectory keeps {planned}: the servos' tracking (track err), not the path")
 
 
 def print_row_cap_note(outcome) -> None:

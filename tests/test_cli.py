@@ -1021,3 +1021,35 @@ def test_the_summary_legend_explains_only_the_columns_a_run_computed(tmp_path, c
     out = capsys.readouterr().out
     assert "min clear: smallest MuJoCo clearance along the planned trajectory; track err: largest servo tracking error" in out
     assert "not computed" not in out
+
+
+def test_plan_says_when_the_simulated_leg_comes_closer_than_the_margin(tmp_path, capsys):
+    """The servo replay's leg deviates from the plan where a servo runs out of force; its clearance was kept in the
+    JSON only (``dynamic_min_clearance``). Timed for 400 N m with the Ortholeg's hip servo held to 90 N m, the obstacle's bubbletree
+    path (planned 10.2 mm from the box) was replayed 4.55 mm from it, under the 5 mm margin, without contact, and
+    plan printed 'min clear 10.2 mm' and 0 contacts, nothing else. plan now says it in a note; the shipped servos
+    (400 N m) replay the same path within the margin and get no such note."""
+    import shutil
+
+    models = tmp_path / "models"
+    shutil.copytree(MODELS, models)
+    leg = models / "ortholeg.xml"
+    text = leg.read_text()
+    assert text.count('forcerange="-400 400"') == 1
+    toml = tmp_path / "obstacle.toml"
+    toml.write_text(Path(MODELS.parent / "scenarios" / "obstacle.toml").read_text().replace('"../models/obstacle.xml"', '"models/obstacle.xml"')
+                    + "\n[limits]\ntorque = [400.0, 400.0, 3000.0]\n")  # timed for 400 N m: the weak servo lags
+    args = ["plan", "--scene", str(toml), "--planner", "bubbletree", "--no-rrd"]
+    assert main([*args, "--json", str(tmp_path / "strong.json")]) == 0
+    assert "simulated robot came" not in capsys.readouterr().out
+    leg.write_text(text.replace('forcerange="-400 400"', 'forcerange="-90 90"'))
+    assert main([*args, "--json", str(tmp_path / "weak.json")]) == 0
+    out = capsys.readouterr().out
+    replay = read_result(tmp_path / "weak.json")["paths"]["optimal"]["replay"]
+    assert 0 < replay["dynamic_min_clearance"] < 0.005 <= replay["min_clearance"] and replay["contacts"] == 0
+    got = re.search(r"note: optimal \(certified f\): dynamic replay: the simulated robot came within ([\d.]+) mm of contact "
+                    r"\(margin 5.0 mm; (\d+) of (\d+) frames, from t = [\d.]+ s; 0 contacts\) where the planned trajectory keeps "
+                    r"10.2 mm: the servos' tracking \(track err\), not the path", out)
+    assert got, out
+    assert float(got.group(1)) == pytest.approx(replay["dynamic_min_clearance"] * 1000, abs=0.05)
+    assert 0 < int(got.group(2)) < int(got.group(3))
