@@ -55,6 +55,9 @@ END_TOL = 1e-9
 #: (--step 1e308 checked only the vertices and said "clean"), and 0.1 rad already moves a 1 m link 10 cm.
 MAX_STEP = 0.1
 
+#: How far (relative, per qpos entry) a joint that is no coordinate may lie from where the planner held it.
+_HELD_TOL = 1e-9
+
 #: How many (sample, pair) candidates with the smallest lower bounds are evaluated first, to bound the minimum.
 _PROBES = 32
 
@@ -256,7 +259,45 @@ def _configuration_map(doc: dict, m: mujoco.MjModel, source: Path):
         raise _fail(source, "field 'configuration': scale, offset and qpos0 must be finite numbers (no NaN or infinity)")
     if np.any(scale == 0):
         raise _fail(source, "field 'configuration': a scale is 0")
+    names = cfg.get("joints")
+    if names is not None:  # plan writes them: each names the joint whose qpos address qpos_index gives
+        if not (isinstance(names, list) and len(names) == len(idx) and all(isinstance(n, str) for n in names)):
+            raise _fail(source, f"field 'configuration': joints must be a list of {len(idx)} joint names, got {str(names)[:60]!r}")
+        for i, (name, adr) in enumerate(zip(names, idx.tolist())):
+            j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
+            at = int(m.jnt_qposadr[j]) if j >= 0 else None
+            if at != adr:
+                whose = f"whose qpos address is {at}" if j >= 0 else "which is no joint of the scene"
+                raise _fail(source, f"field 'configuration': joints[{i}] is {name}, {whose}, not qpos_index[{i}] = {adr}")
     return idx, scale, offset, qpos0
+
+
+def _qpos_name(m: mujoco.MjModel, k: int) -> str:
+    """The joint that owns qpos entry ``k``, and the entry: 'shoulder (qpos[7])'."""
+    j = max(j for j in range(m.njnt) if int(m.jnt_qposadr[j]) <= k)
+    return f"{mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f'joint {j}'} (qpos[{k}])"
+
+
+def _held_pose(doc: dict, m: mujoco.MjModel, source: Path, idx: np.ndarray, qpos0: np.ndarray) -> np.ndarray:
+    """The qpos entries that are no coordinate (a loose object, a joint left out of the plan): the planner holds them
+    at the scene's qpos0, or at the pose of the result's keyframe, and which geoms verify counts as moving follows from
+    that. Refuses a configuration "qpos0" that holds one elsewhere; returns their addresses."""
+    robot = doc.get("robot")
+    key = robot.get("keyframe") if isinstance(robot, dict) else None
+    ref, where = np.asarray(m.qpos0, dtype=float), "qpos0"
+    if key is not None:
+        k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, str(key))
+        if k < 0:
+            raise _fail(source, f"field 'robot.keyframe' names {key!r}, which is no keyframe of the scene")
+        ref, where = np.asarray(m.key_qpos[k], dtype=float), f"keyframe '{key}'"
+    held = np.setdiff1d(np.arange(m.nq), idx)
+    off = held[np.abs(qpos0[held] - ref[held]) > _HELD_TOL * (1 + np.abs(ref[held]))]
+    if len(off):
+        k = int(off[0])
+        raise _fail(source, f"field 'configuration': qpos0 puts {_qpos_name(m, k)} at {qpos0[k]:.6g}, where the scene's "
+                            f"{where} has {ref[k]:.6g}: the planner holds every joint that is no coordinate there; "
+                            "restore it or plan again")
+    return held
 
 
 def _densify(points: np.ndarray, extra: np.ndarray, step: float, what: str = "a path") -> np.ndarray:
@@ -378,6 +419,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     doc = _load(source)
     mjcf, m = _scene(doc, source)
     idx, scale, offset, qpos0 = _configuration_map(doc, m, source)
+    held = _held_pose(doc, m, source, idx, qpos0)
     planner = doc.get("planner")
     if not isinstance(planner, dict) or "delta" not in planner:
         raise _fail(source, "missing field 'planner.delta' (the safety margin)")
@@ -445,6 +487,13 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         if rows.size:
             if rows.ndim != 2 or rows.shape[1] != m.nq or not np.all(np.isfinite(rows)):
                 raise _fail(source, f"path '{name}': qpos rows of shape {rows.shape}, expected (N, {m.nq}) finite numbers")
+            moved = np.abs(rows[:, held] - qpos0[held]) > _HELD_TOL * (1 + np.abs(qpos0[held]))
+            if np.any(moved):  # the upper arm swung by rows whose configuration left the shoulder out passed as a still link
+                r, c = np.argwhere(moved)[0]
+                k = int(held[c])
+                raise _fail(source, f"path '{name}': its qpos rows move {_qpos_name(m, k)}, to {rows[r, k]:.6g} in row {r}, "
+                                    f"which is no configuration coordinate: the planner held it at {qpos0[k]:.6g} "
+                                    "(configuration.qpos0); restore the rows or plan again")
             for end, row, at in (("start", rows[0], wp_qpos[0]), ("end", rows[-1], wp_qpos[-1])):
                 # rows cut short (a copy, a hand edit) were checked as far as they went and called clean
                 if not np.all(np.abs(row[idx] - at[idx]) <= END_TOL * (1 + np.abs(at[idx]))):

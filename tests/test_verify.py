@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import copy
 import json
 import re
 import warnings
@@ -448,3 +449,54 @@ def test_the_header_counts_pairs_in_words_that_agree_with_the_number():
     assert head(6, 1) == "verify r.json on s.xml: 6 moving/static geom pairs and 1 robot/robot pair, step 0.001, margin 5 mm"
     assert head(1, 8) == "verify r.json on s.xml: 1 moving/static geom pair and 8 robot/robot pairs, step 0.001, margin 5 mm"
     assert head(6, 0) == "verify r.json on s.xml: 6 moving/static geom pairs, step 0.001, margin 5 mm"
+
+
+def _plan_loose_box_arm(tmp_path, capsys, *args: str):
+    """LOOSE_BOX_ARM (with a home keyframe) planned over shoulder and elbow, no smoother, timed -> (JSON path, doc)."""
+    xml = tmp_path / "arm.xml"
+    xml.write_text(LOOSE_BOX_ARM.replace("</mujoco>", '<keyframe><key name="home" qpos="0.3 2.0 -0.6 0 0.05 1 0 0 0"/>'
+                                                      "</keyframe></mujoco>"))
+    out = tmp_path / "arm.json"
+    assert main(["plan", "--mjcf", str(xml), *args, "--goal", "0.1 0.6", "--smoother", "none", "--no-rrd",
+                 "--json", str(out)]) == 0
+    capsys.readouterr()
+    return out, json.loads(out.read_text())
+
+
+def _drop_shoulder(doc):
+    """The result as if planned over the elbow alone (configuration, ends, waypoints), its rows unchanged: they still
+    swing the shoulder, which the checker would then count as a link held still."""
+    cfg = doc["configuration"]
+    for key in ("joints", "lower", "upper", "qpos_index", "scale", "offset"):
+        cfg[key].pop(0)
+    for key in ("q_init", "q_goal"):
+        doc[key].pop(0)
+    for entry in doc["paths"].values():
+        entry["waypoints"] = [w[1:] for w in entry["waypoints"]]
+
+
+@pytest.mark.parametrize("start", ["0.3 2.0", "home"], ids=["qpos0", "keyframe"])
+def test_the_rows_and_the_configuration_hold_every_other_joint_where_the_planner_held_it(tmp_path, capsys, start):
+    """The planner holds every joint that is no coordinate at the scene's qpos0 (or the keyframe's pose), and the
+    pairs verify checks follow from which joints move: a result whose configuration leaves out the shoulder while its
+    rows swing it had the upper arm checked as a link held still, against nothing (an upper arm swung 15 mm into a
+    lintel passed as clean, 7.4 mm, where verify_result.py and a dense mj_geomDistance read -14.9 mm); and a result
+    whose qpos0 moves the loose box had it checked where no box is. Both are refused, naming the joint."""
+    out, doc = _plan_loose_box_arm(tmp_path, capsys, "--start", start)
+    assert main(["verify", str(out)]) == 0
+    capsys.readouterr()
+    for name, edit, words in [
+        ("dropped", _drop_shoulder, "its qpos rows move shoulder (qpos[0]"),
+        ("boxmoved", lambda d: d["configuration"]["qpos0"].__setitem__(2, 5.0),
+         "field 'configuration': qpos0 puts joint 2 (qpos[2]) at 5, where the scene's "
+         + ("keyframe 'home'" if start == "home" else "qpos0") + " has -0.6"),
+        ("rowsmoved", lambda d: d["paths"]["centre"]["qpos"][3].__setitem__(2, 5.0), "its qpos rows move joint 2 (qpos[2]"),
+        ("joints", lambda d: d["configuration"]["joints"].reverse(), "field 'configuration': joints[0] is elbow, "
+         "whose qpos address is 1, not qpos_index[0] = 0"),
+    ]:
+        bad = copy.deepcopy(doc)
+        edit(bad)
+        (tmp_path / f"{name}.json").write_text(json.dumps(bad))
+        assert main(["verify", str(tmp_path / f"{name}.json")]) == 2, name
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and words in err, err
