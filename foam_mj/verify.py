@@ -474,6 +474,11 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
             except (TypeError, ValueError):
                 raise _fail(source, f"path '{name}': field '{key}' must be a list of rows of {width} numbers each") from None
         wp, rows = arrays
+        times = entry.get("times")
+        given = entry.get("qpos", []) != []  # [[]] is a row of no numbers, not a path without rows
+        if not given and isinstance(times, list) and times:  # its waypoints were checked alone and called clean
+            raise _fail(source, f"path '{name}': 'times' has {len(times)} entries but 'qpos' no rows: its timed trajectory "
+                                "would go unchecked; restore the rows or plan again")
         if wp.ndim != 2 or wp.shape[1] != len(idx) or len(wp) < 2 or not np.all(np.isfinite(wp)):
             raise _fail(source, f"path '{name}': waypoints of shape {wp.shape}, expected (N >= 2, {len(idx)}) finite numbers")
         for end, row, key in (("starts", wp[0], "q_init"), ("ends", wp[-1], "q_goal")):
@@ -484,7 +489,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         wp_qpos = np.broadcast_to(qpos0, (len(wp), m.nq)).copy()
         wp_qpos[:, idx] = offset + scale * wp
         samples_wp = _densify(wp, wp_qpos, step, f"{source}: path '{name}': waypoints")
-        if rows.size:
+        if given:
             if rows.ndim != 2 or rows.shape[1] != m.nq or not np.all(np.isfinite(rows)):
                 raise _fail(source, f"path '{name}': qpos rows of shape {rows.shape}, expected (N, {m.nq}) finite numbers")
             moved = np.abs(rows[:, held] - qpos0[held]) > _HELD_TOL * (1 + np.abs(qpos0[held]))
@@ -500,7 +505,6 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
                     raise _fail(source, f"path '{name}': its qpos rows {end} at {row[idx].tolist()} (the configuration "
                                         f"joints' qpos), not at its waypoints' {end} {at[idx].tolist()}: the trajectory is "
                                         "not this path's whole motion; restore the rows or plan again")
-            times = entry.get("times")
             if isinstance(times, list) and len(times) != len(rows):
                 raise _fail(source, f"path '{name}': 'qpos' has {len(rows)} rows but 'times' {len(times)} entries: one row "
                                     "per entry; restore them or plan again")
