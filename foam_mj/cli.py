@@ -9,7 +9,8 @@ Exit codes (:data:`EXIT_CODES`; the README lists them too):
      where it can be; also an output that could not be written (nothing is left half-written)
 3    planning failed (the foam did not reach the goal; what was computed is still written), or no timing of a path fits
      the joint limits (``plan``, ``replay``, ``export``)
-4    a check found contacts or clearance below the margin (``verify``, ``replay``), or ``plan``'s own replay found a
+4    a check found contacts or clearance below the margin (``verify``, ``replay``; ``verify``: or a joint beyond its
+     range), or ``plan``'s own replay found a
      planned trajectory below its margin (a certification fault: everything is still written, for a report)
 130  interrupted (Ctrl-C or SIGTERM); no output is left half-written
 ===  =====================================================================================================
@@ -53,7 +54,7 @@ EXIT_CODES = {
     EXIT_INTERNAL: "internal error (a bug; FOAM_MJ_DEBUG=1 shows the traceback)",
     EXIT_BAD_INPUT: "bad input (argument, scenario, model, result file or output location), or an output that could not be written",
     EXIT_PLANNING_FAILED: "planning failed (the foam so far is still written), or no timing of a path fits the joint limits",
-    EXIT_UNSAFE: "verify/replay found contacts or clearance below the margin, or plan a planned trajectory below its margin",
+    EXIT_UNSAFE: "verify/replay found contacts or clearance below the margin (verify: or a joint beyond its range), or plan a planned trajectory below its margin",
     EXIT_INTERRUPTED: "interrupted",
 }
 EXIT_EPILOG = "exit codes: " + "; ".join(f"{k} {v}" for k, v in EXIT_CODES.items())
@@ -206,7 +207,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
     report = verify_result(args.result, step=args.step)
     print(format_report(report))
-    return EXIT_UNSAFE if report.violations else EXIT_OK
+    return EXIT_UNSAFE if report.unsafe else EXIT_OK
 
 
 def cmd_view(args: argparse.Namespace) -> int:
@@ -441,7 +442,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Independent check of a `plan --json` result, with none of the planner's code (MuJoCo, numpy and "
         "the JSON only): every path's waypoints (piecewise linear) and its timed trajectory (qpos rows), sampled "
         "densely, and mj_geomDistance over every pair of moving and static collision geoms.",
-        epilog=f"exit codes: 0 every sample keeps the result's margin; 4 some sample is closer; 2 bad input; {EXIT_ANY}.",
+        epilog=f"exit codes: 0 every sample keeps the result's margin and the joint ranges; 4 some sample is closer, or beyond "
+        f"a joint's range; 2 bad input; {EXIT_ANY}.",
     )
     p.add_argument("result", metavar="RESULT.json", help="a JSON file written by `foam-mj plan --json`")
     p.add_argument("--step", type=real_number, default=1e-3, metavar="S", help="largest step between samples, in q and in qpos, "

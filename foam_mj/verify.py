@@ -20,7 +20,10 @@ with ``self_collision`` false, between the robot's own geoms, for the pairs MuJo
 tests whose distance a configuration joint changes (:func:`collision_pairs`). A result planned with a ``robot_root``
 counts that body's subtree as the robot, as the planner does: its geoms no configuration joint moves (a held floating
 base) are checked against the static ones, and against the moving ones as robot/robot pairs. A sample is a *violation*
-when some pair is closer than the result's margin ("planner" / "delta").
+when some pair is closer than the result's margin ("planner" / "delta"); a sample that puts a configuration joint
+beyond its MJCF range (the planner's bounds) is unsafe too. The rows and "configuration"'s qpos0 must hold every
+joint that is no coordinate where the planner held it (the scene's qpos0, or the result's keyframe's pose): which
+geoms count as moving follows from the coordinates, so a joint left out of them but swung by the rows is refused.
 
 Speed: poses of all samples come from one ``mj_kinematics`` call each; a bounding-sphere lower bound
 (centre distance minus both ``geom_rbound``; for a plane, the signed distance of the other sphere)
@@ -73,6 +76,8 @@ class PathCheck:
     violations: int  # samples closer than the margin
     worst_pair: tuple[str, str]
     exact_calls: int  # mj_geomDistance calls made
+    outside_range: int = 0  # samples with a configuration joint beyond its MJCF range
+    range_note: str = ""  # the joint that went furthest beyond its range, how far, and the range
 
 
 @dataclass(frozen=True)
@@ -88,6 +93,15 @@ class VerifyReport:
     @property
     def violations(self) -> int:
         return sum(p.violations for p in self.paths)
+
+    @property
+    def outside_range(self) -> int:
+        return sum(p.outside_range for p in self.paths)
+
+    @property
+    def unsafe(self) -> bool:
+        """Some sample is closer than the margin, or beyond a joint range."""
+        return bool(self.violations or self.outside_range)
 
     @property
     def samples(self) -> int:
@@ -512,11 +526,31 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         else:
             samples_tr = np.empty((0, m.nq))
         allq = np.vstack([samples_wp, samples_tr])
+        outside, note = _beyond_ranges(m, idx, allq)
         calls0 = checker.calls
         dmin, bad, pair = checker.check(allq, margin)
         checks.append(PathCheck(name, len(samples_wp), len(samples_tr), dmin, bad,
-                                (names(pairs[pair, 0]), names(pairs[pair, 1])) if pair >= 0 else ("", ""), checker.calls - calls0))
+                                (names(pairs[pair, 0]), names(pairs[pair, 1])) if pair >= 0 else ("", ""), checker.calls - calls0,
+                                outside, note))
     return VerifyReport(source, mjcf, margin, step, len(pairs) - n_self, tuple(checks), n_self)
+
+
+def _beyond_ranges(m: mujoco.MjModel, idx: np.ndarray, qpos: np.ndarray) -> tuple[int, str]:
+    """(samples with a configuration joint beyond its MJCF range, a note on the furthest one): the planner's bounds
+    are those ranges, so a path that leaves one is not a plan of this robot, however clear of obstacles."""
+    jnt = {int(m.jnt_qposadr[j]): j for j in range(m.njnt) if m.jnt_limited[j] and int(m.jnt_type[j]) in (2, 3)}  # slide, hinge
+    adr = np.array([k for k in idx.tolist() if k in jnt], dtype=int)
+    if not len(adr):
+        return 0, ""
+    lo, hi = (np.array([m.jnt_range[jnt[k]][i] for k in adr]) for i in (0, 1))
+    tol = _HELD_TOL * (1 + np.maximum(np.abs(lo), np.abs(hi)))
+    excess = np.maximum(lo - qpos[:, adr], qpos[:, adr] - hi)
+    bad = np.any(excess > tol, axis=1)
+    if not bad.any():
+        return 0, ""
+    s, c = np.unravel_index(np.argmax(excess), excess.shape)
+    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, jnt[int(adr[c])]) or f"joint {jnt[int(adr[c])]}"
+    return int(bad.sum()), f"{name} reaches {qpos[s, adr[c]]:.6g} (range [{lo[c]:g}, {hi[c]:g}])"
 
 
 def _count(n: int, noun: str) -> str:
@@ -532,7 +566,12 @@ def format_report(r: VerifyReport) -> str:
     for p in r.paths:
         lines.append(f"{p.name:<20}{p.waypoint_samples:>17,}{p.trajectory_samples:>20,}{p.min_clearance * 1000:>8.2f} mm"
                      f"{p.violations:>11}  {p.worst_pair[0]} / {p.worst_pair[1]}")
-    verdict = "clean" if r.violations == 0 else f"UNSAFE: {r.violations} sample(s) closer than the margin"
+    for p in r.paths:
+        if p.outside_range:
+            lines.append(f"path '{p.name}': {p.outside_range} samples outside the joint ranges: {p.range_note}")
+    faults = ([f"{r.violations} sample(s) closer than the margin"] if r.violations else []) + \
+             ([f"{r.outside_range} sample(s) outside the joint ranges"] if r.outside_range else [])
+    verdict = "UNSAFE: " + "; ".join(faults) if faults else "clean"
     lines.append(f"paths {len(r.paths)} samples {r.samples} min_clearance_mm {r.min_clearance * 1000:.2f} "
                  f"violations {r.violations}: {verdict}")
     return "\n".join(lines)

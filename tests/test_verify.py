@@ -504,3 +504,25 @@ def test_the_rows_and_the_configuration_hold_every_other_joint_where_the_planner
         assert main(["verify", str(tmp_path / f"{name}.json")]) == 2, name
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and words in err, err
+
+
+def test_a_path_beyond_a_joint_range_is_unsafe_and_says_which_joint(planned_result, capsys):
+    """The planner keeps every configuration within the joint ranges (its bounds are the MJCF's ranges); a trajectory
+    row that bends the knee 0.05 rad past its 2.1 rad stop, clear of every obstacle, passed as clean (exit 0). It is
+    unsafe (exit 4) and the line after the table names the joint, how far it went and its range."""
+    doc = json.loads(planned_result.read_text())
+    m = mujoco.MjModel.from_xml_path(doc["mjcf"])
+    knee = int(m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "knee_flexion")])
+    hi = float(m.jnt_range[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "knee_flexion")][1])
+    rows = doc["paths"]["centre"]["qpos"]
+    rows[len(rows) // 2][knee] = hi + 0.05
+    bad = planned_result.parent / "bent.json"   # beside the result: its mjcf_relative still resolves
+    bad.write_text(json.dumps(doc))
+    assert main(["verify", str(bad)]) == 4
+    out = capsys.readouterr().out.splitlines()
+    report = verify_result(bad)
+    assert report.violations == 0 and report.min_clearance > doc["planner"]["delta"]   # clear of everything
+    assert report.paths[0].outside_range > 0 and report.paths[1].outside_range == 0
+    assert f"path 'centre': {report.paths[0].outside_range} samples outside the joint ranges: knee_flexion reaches " \
+           f"{hi + 0.05:.6g} (range [0, {hi:g}])" in out
+    assert out[-1].endswith(f"UNSAFE: {report.paths[0].outside_range} sample(s) outside the joint ranges")
