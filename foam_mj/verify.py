@@ -553,6 +553,12 @@ def _beyond_ranges(m: mujoco.MjModel, idx: np.ndarray, qpos: np.ndarray) -> tupl
     return int(bad.sum()), f"{name} reaches {qpos[s, adr[c]]:.6g} (range [{lo[c]:g}, {hi[c]:g}])"
 
 
+def _shown(name: str) -> str:
+    """A name from the file as printed: a character that does not print (a newline, ESC) as its escape, so that a
+    path named 'x\\npaths 2 ... violations 0: clean' cannot add a line to the report, nor colour the terminal."""
+    return name if name.isprintable() else "".join(c if c.isprintable() else repr(c)[1:-1] for c in name)
+
+
 def _count(n: int, noun: str) -> str:
     return f"{n:,} {noun}{'' if n == 1 else 's'}"
 
@@ -561,14 +567,14 @@ def format_report(r: VerifyReport) -> str:
     """The table ``foam-mj verify`` prints, and a last summary line."""
     head = f"{'path':<20}{'waypoint samples':>17}{'trajectory samples':>20}{'min clear':>11}{'violations':>11}  closest pair"
     pairs = _count(r.pairs, "moving/static geom pair") + (f" and {_count(r.self_pairs, 'robot/robot pair')}" if r.self_pairs else "")
-    lines = [f"verify {r.result} on {r.mjcf}: {pairs}, step {r.step:g}, margin {r.margin * 1000:g} mm",
+    lines = [f"verify {_shown(str(r.result))} on {_shown(str(r.mjcf))}: {pairs}, step {r.step:g}, margin {r.margin * 1000:g} mm",
              head, "-" * len(head)]
     for p in r.paths:
-        lines.append(f"{p.name:<20}{p.waypoint_samples:>17,}{p.trajectory_samples:>20,}{p.min_clearance * 1000:>8.2f} mm"
-                     f"{p.violations:>11}  {p.worst_pair[0]} / {p.worst_pair[1]}")
+        lines.append(f"{_shown(p.name):<20}{p.waypoint_samples:>17,}{p.trajectory_samples:>20,}{p.min_clearance * 1000:>8.2f} mm"
+                     f"{p.violations:>11}  {_shown(p.worst_pair[0])} / {_shown(p.worst_pair[1])}")
     for p in r.paths:
         if p.outside_range:
-            lines.append(f"path '{p.name}': {p.outside_range} samples outside the joint ranges: {p.range_note}")
+            lines.append(f"path '{_shown(p.name)}': {p.outside_range} samples outside the joint ranges: {p.range_note}")
     faults = ([f"{r.violations} sample(s) closer than the margin"] if r.violations else []) + \
              ([f"{r.outside_range} sample(s) outside the joint ranges"] if r.outside_range else [])
     verdict = "UNSAFE: " + "; ".join(faults) if faults else "clean"

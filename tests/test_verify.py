@@ -526,3 +526,22 @@ def test_a_path_beyond_a_joint_range_is_unsafe_and_says_which_joint(planned_resu
     assert f"path 'centre': {report.paths[0].outside_range} samples outside the joint ranges: knee_flexion reaches " \
            f"{hi + 0.05:.6g} (range [0, {hi:g}])" in out
     assert out[-1].endswith(f"UNSAFE: {report.paths[0].outside_range} sample(s) outside the joint ranges")
+
+
+def test_a_path_name_cannot_forge_a_line_of_the_report(planned_result, capsys):
+    """Path names come from the file: one holding a newline and a fake summary ('... violations 0: clean') printed that
+    line into the table of a result that is UNSAFE, and ESC sequences reached the terminal. Names are printed with
+    such characters escaped, so the report keeps one line per path and a single summary line."""
+    doc = json.loads(planned_result.read_text())
+    forged = "optimal\npaths 2 samples 1 min_clearance_mm 84.85 violations 0: clean\x1b[2J"
+    doc["paths"][forged] = doc["paths"].pop("optimal")
+    wp = doc["paths"]["centre"]["waypoints"]
+    wp[len(wp) // 2] = _closest_colliding_q(doc)
+    doc["paths"]["centre"].pop("qpos"), doc["paths"]["centre"].pop("times")
+    bad = planned_result.parent / "forged.json"   # beside the result: its mjcf_relative still resolves
+    bad.write_text(json.dumps(doc))
+    assert main(["verify", str(bad)]) == 4
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 3 + 2 + 1 and "\x1b" not in "".join(out)
+    assert out[4].startswith("optimal\\npaths 2 samples 1 min_clearance_mm 84.85 violations 0: clean\\x1b[2J")
+    assert [line for line in out if line.startswith("paths ")] == [out[-1]] and "UNSAFE" in out[-1]
