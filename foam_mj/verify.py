@@ -32,8 +32,9 @@ below max(margin, an upper bound of the minimum found from the most promising pa
 for both outputs: a pair skipped has a distance at least its bound, which is at least the margin and
 at least the smallest distance found.
 
-The scene is the result's "mjcf_relative" (resolved against the result's folder) or "mjcf", and must
-compile to the stored "model_hash" when there is one (otherwise it is refused: exit 2).
+The scene is the result's "mjcf_relative" or "mjcf" (both, when relative, resolved against the result's folder), and
+must compile to the stored "model_hash" when there is one (otherwise it is refused: exit 2); without one, the two
+fields must name the same model.
 """
 
 from __future__ import annotations
@@ -141,8 +142,8 @@ def _scene(doc: dict, source: Path) -> tuple[Path, mujoco.MjModel]:
     candidates = []
     if isinstance(doc.get("mjcf_relative"), str):
         candidates.append(("mjcf_relative", (source.parent / doc["mjcf_relative"]).resolve()))
-    if isinstance(doc.get("mjcf"), str) and doc["mjcf"]:
-        candidates.append(("mjcf", Path(doc["mjcf"])))
+    if isinstance(doc.get("mjcf"), str) and doc["mjcf"]:  # plan writes it absolute; a relative one is beside the result
+        candidates.append(("mjcf", source.parent / doc["mjcf"]))
     existing = [(k, p) for k, p in candidates if file_problem(p) is None]  # Path.is_file raised OSError for a name too long
     if not existing:
         raise _fail(source, "the scene file it was planned on is not found (" + (", ".join(f"{k} = {p}" for k, p in candidates) or "no 'mjcf' field") + ")")
@@ -150,7 +151,7 @@ def _scene(doc: dict, source: Path) -> tuple[Path, mujoco.MjModel]:
     if stored is not None and not isinstance(stored, dict):  # a string or list skipped the check: any scene passed
         raise _fail(source, f"field 'model_hash' must be an object {{\"sha256\": ..., \"parts\": {{...}}}} (the fingerprint "
                             f"of the scene it was planned on), got {str(stored)[:40]!r}: restore it or plan again")
-    chosen = None
+    chosen, first = None, None
     for key, path in existing:
         try:
             with open(path, "rb"):  # MuJoCo calls a file it may not read "empty file"
@@ -164,6 +165,14 @@ def _scene(doc: dict, source: Path) -> tuple[Path, mujoco.MjModel]:
             diff = fingerprint_differences(stored, model_fingerprint(m))
             if diff:
                 raise _fail(source, f"field '{key}' names {path}, which compiles to a different model than the one planned on ({', '.join(diff)} differ{'s' if len(diff) == 1 else ''}; model_hash {str(stored.get('sha256'))[:12]} in the result)")
+        elif first is None:
+            first = (key, path, model_fingerprint(m))
+        else:  # two scenes and no hash to tell which was planned on: other checkers read 'mjcf' alone
+            diff = fingerprint_differences(first[2], model_fingerprint(m))
+            if diff:
+                raise _fail(source, f"fields '{first[0]}' ({first[1]}) and '{key}' ({path}) compile to different models "
+                                    f"({', '.join(diff)} differ{'s' if len(diff) == 1 else ''}) and no model_hash says which "
+                                    "one was planned on: restore the result or plan again")
         chosen = chosen or (path, m)
     return chosen
 

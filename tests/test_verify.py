@@ -545,3 +545,27 @@ def test_a_path_name_cannot_forge_a_line_of_the_report(planned_result, capsys):
     assert len(out) == 3 + 2 + 1 and "\x1b" not in "".join(out)
     assert out[4].startswith("optimal\\npaths 2 samples 1 min_clearance_mm 84.85 violations 0: clean\\x1b[2J")
     assert [line for line in out if line.startswith("paths ")] == [out[-1]] and "UNSAFE" in out[-1]
+
+
+def test_the_scene_is_found_beside_the_result_and_two_scene_fields_must_agree(tmp_path, capsys, monkeypatch):
+    """A relative 'mjcf' is read against the result's folder, as 'mjcf_relative' is and as verify_result.py reads it
+    (it was read against the working folder: 'not found' from elsewhere, or another file of that name). Without a
+    model_hash to tell which scene was planned on, 'mjcf' and 'mjcf_relative' must name the same model: verify took
+    'mjcf_relative' (here a scene with the post moved into the arm's path, clean by its reading) while checkers that
+    read 'mjcf' alone took the other."""
+    out, doc = _plan_loose_box_arm(tmp_path, capsys, "--start", "0.3 2.0")
+    del doc["model_hash"]
+    (tmp_path / "moved.xml").write_text(LOOSE_BOX_ARM.replace('pos="0.45 0 0.125"', 'pos="0.9 0 0.125"'))
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    relative = dict(doc, mjcf="arm.xml")
+    relative.pop("mjcf_relative")
+    (tmp_path / "relative.json").write_text(json.dumps(relative))
+    assert main(["verify", str(tmp_path / "relative.json")]) == 0
+    assert f"on {tmp_path / 'arm.xml'}:" in capsys.readouterr().out
+    (tmp_path / "two.json").write_text(json.dumps(dict(doc, mjcf_relative="moved.xml")))
+    assert main(["verify", str(tmp_path / "two.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"fields 'mjcf_relative' ({tmp_path / 'moved.xml'}) and 'mjcf' ({tmp_path / 'arm.xml'}) " \
+        "compile to different models (geometry differs) and no model_hash says which one was planned on" in err, err
