@@ -117,14 +117,31 @@ def _fail(source: Path, msg: str) -> FoamError:
     return FoamError(f"{source}: {msg}")
 
 
+class _RepeatedKey(ValueError):
+    pass
+
+
+def _one_value_per_key(pairs: list) -> dict:
+    """json's object hook: a key given twice in one object is ambiguous (RFC 8259 §4: Python keeps the last, other
+    readers the first), so a "delta" given twice would be checked at whichever margin this reader kept."""
+    seen = set()
+    for key, _ in pairs:
+        if key in seen:
+            raise _RepeatedKey(f"key {key!r} appears twice in one object")
+        seen.add(key)
+    return dict(pairs)
+
+
 def _load(source: Path) -> dict:
     problem = file_problem_text(source, "result file")  # a named pipe waited for ever, /dev/zero filled the memory
     if problem:
         raise FoamError(problem)
     try:
-        doc = json.loads(source.read_text(encoding="utf-8-sig"))  # an editor's byte-order mark is no part of the JSON (RFC 8259 §8.1)
+        doc = json.loads(source.read_text(encoding="utf-8-sig"), object_pairs_hook=_one_value_per_key)  # an editor's byte-order mark is no part of the JSON (RFC 8259 §8.1)
     except FileNotFoundError:
         raise FoamError(f"result file not found: {source}") from None
+    except _RepeatedKey as exc:
+        raise _fail(source, f"not a readable JSON result: {exc}; keep one") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         hint = foreign_file_hint(source)
         why = text_problem(exc) if isinstance(exc, UnicodeDecodeError) and not hint else " ".join(str(exc).split())

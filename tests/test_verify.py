@@ -569,3 +569,16 @@ def test_the_scene_is_found_beside_the_result_and_two_scene_fields_must_agree(tm
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and f"fields 'mjcf_relative' ({tmp_path / 'moved.xml'}) and 'mjcf' ({tmp_path / 'arm.xml'}) " \
         "compile to different models (geometry differs) and no model_hash says which one was planned on" in err, err
+
+
+def test_a_key_given_twice_in_one_object_is_refused(planned_result, capsys):
+    """JSON leaves a repeated key to the reader (RFC 8259 section 4): Python keeps the last, other readers the first.
+    A result whose 'planner' held 'delta' twice (5 mm, then 0) was checked at whichever margin this reader kept (0);
+    it is refused, naming the key."""
+    text = planned_result.read_text().replace('"delta": 0.005', '"delta": 0.005, "delta": 0.0', 1)
+    assert text != planned_result.read_text()
+    bad = planned_result.parent / "twice.json"
+    bad.write_text(text)
+    assert main(["verify", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "not a readable JSON result: key 'delta' appears twice in one object" in err, err
