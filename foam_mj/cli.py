@@ -446,8 +446,8 @@ def build_parser() -> argparse.ArgumentParser:
         f"a joint's range; 2 bad input; {EXIT_ANY}.",
     )
     p.add_argument("result", metavar="RESULT.json", help="a JSON file written by `foam-mj plan --json`")
-    p.add_argument("--step", type=real_number, default=1e-3, metavar="S", help="largest step between samples, in q and in qpos, "
-                   "at most 0.1 (rad or m; default: 1e-3)")
+    p.add_argument("--step", type=real_number, default=1e-3, metavar="S", help="largest step between samples, in q, in qpos and "
+                   "in how far a point of the robot can travel, at most 0.1 (rad or m; default: 1e-3)")
     p.set_defaults(func=cmd_verify)
     p = sub.add_parser(
         "view",

@@ -4,7 +4,9 @@ None of the planner's code is used: only the JSON, numpy and MuJoCo (and foam_mj
 fingerprint helpers, which use nothing else). For every path of the result:
 
 * its waypoints, a polyline in the configuration q, sampled so that consecutive samples are at most
-  ``step`` apart both in q (Euclidean) and in qpos (largest coordinate); q is mapped to qpos by the
+  ``step`` apart in q (Euclidean), in qpos (largest coordinate) and in metres that any point of a collision geom can
+  travel (a bound from the joints' lever arms in the MJCF, :func:`_levers`: a 1e-3 rad step swings a point 20 m from
+  its hinge by 20 mm, past a thin plate between two clear samples); q is mapped to qpos by the
   result's own "configuration" map (``qpos = qpos0; qpos[qpos_index] = offset + scale * q``; q may be
   normalized, e.g. the Ortholeg's hip slide);
 * its timed trajectory, the "qpos" rows, with linear samples between rows at the same step (the rows must start and
@@ -340,15 +342,49 @@ def _held_pose(doc: dict, m: mujoco.MjModel, source: Path, idx: np.ndarray, qpos
     return held
 
 
-def _densify(points: np.ndarray, extra: np.ndarray, step: float, what: str = "a path") -> np.ndarray:
+def _levers(m: mujoco.MjModel, idx: np.ndarray) -> np.ndarray:
+    """(nq,) how far (m) any point of a collision geom can travel per unit of each qpos entry in ``idx``: 1 for a
+    slide; for a hinge, a bound on the distance from its anchor to any point of a collision geom below it, from the
+    MJCF's offsets alone (triangle inequality: joint, body and geom positions, a slide's largest travel, the geom's
+    bounding sphere), whatever the other joints' values. 0 elsewhere."""
+    lever = np.zeros(m.nq)
+    coll = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    for j in range(m.njnt):
+        k = int(m.jnt_qposadr[j])
+        if k not in set(idx.tolist()) or int(m.jnt_type[j]) not in (2, 3):  # slide, hinge
+            continue
+        if int(m.jnt_type[j]) == 2:
+            lever[k] = 1.0
+            continue
+        top, reach = int(m.jnt_bodyid[j]), 0.0
+        for g in coll:
+            b, r = int(m.geom_bodyid[g]), float(np.linalg.norm(m.geom_pos[g]) + m.geom_rbound[g])
+            while b > top:  # up to the hinge's body (MuJoCo numbers parents before children)
+                r += float(np.linalg.norm(m.body_pos[b]))
+                for i in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]):
+                    r += 2 * float(np.linalg.norm(m.jnt_pos[i]))  # a hinge off the body's origin swings it round
+                    if int(m.jnt_type[i]) == 2:
+                        a = int(m.jnt_qposadr[i])
+                        r += float(np.max(np.abs(m.jnt_range[i]))) if m.jnt_limited[i] else abs(float(m.qpos0[a]))
+                b = int(m.body_parentid[b])
+            if b == top:
+                reach = max(reach, r + float(np.linalg.norm(m.jnt_pos[j])))
+        lever[k] = reach
+    return lever
+
+
+def _densify(points: np.ndarray, extra: np.ndarray, step: float, what: str = "a path", lever: np.ndarray | None = None) -> np.ndarray:
     """Linear samples along a polyline of ``points`` (rows), consecutive ones at most ``step`` apart in
-    both the Euclidean norm of ``points`` and the max norm of ``extra`` (the same polyline in other units);
+    both the Euclidean norm of ``points`` and the max norm of ``extra`` (the same polyline in other units), and,
+    with ``lever`` (:func:`_levers`), in how far a point of a collision geom can travel (``|d extra| . lever``);
     ``what`` (e.g. "path 'optimal': waypoints") names it in the error when that takes too many samples."""
     if len(points) == 1:
         return extra.copy()
-    with np.errstate(over="ignore"):  # a coordinate of 1e308 (a damaged file): its square overflows, the count below says so
+    with np.errstate(over="ignore", invalid="ignore"):  # a coordinate of 1e308 (a damaged file): its square overflows, the count below says so
         d_pts = np.linalg.norm(np.diff(points, axis=0), axis=1)
         d_ext = np.max(np.abs(np.diff(extra, axis=0)), axis=1)
+        if lever is not None:
+            d_ext = np.maximum(d_ext, np.abs(np.diff(extra, axis=0)) @ lever)
         counts_f = np.maximum(1.0, np.ceil(np.maximum(d_pts, d_ext) / step))
         total = counts_f.sum()
     if total > MAX_SAMPLES:  # --step 1e-12 asked numpy for 33.6 TiB (a MemoryError, exit 1)
@@ -490,6 +526,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     if len(pairs) == 0:
         raise _fail(source, f"the scene {mjcf} has no pair of moving and static collision geoms")
     checker = _Checker(m, pairs)
+    lever = _levers(m, idx)
     ends = {}  # the end points each path must join, when the result has them (plan's always does)
     for key in ("q_init", "q_goal"):
         if key not in doc:
@@ -528,7 +565,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
                 raise _fail(source, f"path '{name}' {end} at {row.tolist()}, not at the result's {key} {q.tolist()}")
         wp_qpos = np.broadcast_to(qpos0, (len(wp), m.nq)).copy()
         wp_qpos[:, idx] = offset + scale * wp
-        samples_wp = _densify(wp, wp_qpos, step, f"{source}: path '{name}': waypoints")
+        samples_wp = _densify(wp, wp_qpos, step, f"{source}: path '{name}': waypoints", lever)
         if given:
             if rows.ndim != 2 or rows.shape[1] != m.nq or not np.all(np.isfinite(rows)):
                 raise _fail(source, f"path '{name}': qpos rows of shape {rows.shape}, expected (N, {m.nq}) finite numbers")
@@ -548,7 +585,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
             if isinstance(times, list) and len(times) != len(rows):
                 raise _fail(source, f"path '{name}': 'qpos' has {len(rows)} rows but 'times' {len(times)} entries: one row "
                                     "per entry; restore them or plan again")
-            samples_tr = _densify((rows[:, idx] - offset) / scale, rows, step, f"{source}: path '{name}': qpos rows")
+            samples_tr = _densify((rows[:, idx] - offset) / scale, rows, step, f"{source}: path '{name}': qpos rows", lever)
         else:
             samples_tr = np.empty((0, m.nq))
         allq = np.vstack([samples_wp, samples_tr])
