@@ -119,7 +119,9 @@ def _imports(path: Path) -> set[str]:
 
 def test_verify_uses_none_of_the_planners_code():
     assert _imports(ROOT / "foam_mj" / "verify.py") <= {
-        "__future__", "json", "dataclasses", "pathlib", "mujoco", "numpy", "foam_mj.errors", "foam_mj.fingerprint"}
+        "__future__", "json", "dataclasses", "pathlib", "mujoco", "numpy", "foam_mj.errors", "foam_mj.fingerprint",
+        "foam_mj.verify_geometry"}
+    assert _imports(ROOT / "foam_mj" / "verify_geometry.py") <= {"__future__", "mujoco", "numpy", "foam_mj.errors"}
     assert _imports(ROOT / "foam_mj" / "fingerprint.py") <= {"__future__", "hashlib", "mujoco", "numpy"}
     assert _imports(ROOT / "foam_mj" / "errors.py") <= {"__future__", "difflib", "math", "numbers", "os", "stat", "typing"}  # the standard library only
 
@@ -203,11 +205,19 @@ def test_a_waypoint_far_beyond_the_scene_is_named_in_one_line(tmp_path, planned_
      "field 'configuration': qpos_index must be integers"),
     (lambda d, p: d["configuration"]["scale"].__setitem__(0, float("nan")),
      "field 'configuration': scale, offset and qpos0 must be finite numbers (no NaN or infinity)"),
+    (lambda d, p: d["model_hash"].__setitem__("parts", "x"), "field 'model_hash' must be an object"),
+    (lambda d, p: d["planner"].__setitem__("delta", 10 ** 400), "field 'planner.delta' must be a margin >= 0 in metres"),
+    (lambda d, p: d.__setitem__("robot", [1]), "field 'robot' must be an object with robot_root, self_collision and keyframe"),
+    (lambda d, p: d["robot"].__setitem__("self_collision", "false"), "field 'robot.self_collision' must be true or false, got 'false'"),
+    (lambda d, p: d["robot"].__setitem__("keyframe", 3), "field 'robot.keyframe' must be a keyframe name or null, got 3"),
+    (lambda d, p: d["paths"][p].__setitem__("times", "abc"), "field 'times' must be a list of numbers"),
 ])
 def test_a_damaged_field_is_named_as_it_is(tmp_path, planned_result, capsys, edit, words):
     """A margin that is a string was called missing; a bad qpos row was blamed on 'waypoints and qpos' together.
     A number written as a string ("0.3", as numpy reads it), true for 1, a qpos_index of 1.25 (read as 1) or a NaN
-    scale (every sample NaN) passed as clean (exit 0)."""
+    scale (every sample NaN) passed as clean (exit 0). A model_hash whose parts are a string and a margin of 10**400
+    were internal errors (exit 1); a 'robot' that is a list, self_collision "false" (read as true) and 'times' that
+    are a string passed as clean."""
     doc = json.loads(planned_result.read_text())
     edit(doc, next(iter(doc["paths"])))
     (tmp_path / "bad.json").write_text(json.dumps(doc))

@@ -1,0 +1,266 @@
+"""The geometry of ``foam-mj verify`` (:mod:`foam_mj.verify`): which geom pairs it checks, how densely it samples
+a path, and the distances, with MuJoCo and numpy alone (none of the planner's code)."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from foam_mj.errors import FoamError
+
+#: The most samples of one polyline (a path's waypoints or its qpos rows): --step 1e-3, the default, takes a few
+#: thousand; a million keeps the (sample, pair) bounds within a few hundred MB.
+MAX_SAMPLES = 1_000_000
+
+#: How far (relative) a value may lie beyond a joint's range, or a joint that is no coordinate from where the planner
+#: held it, before verify says so.
+HELD_TOL = 1e-9
+
+#: How many (sample, pair) candidates with the smallest lower bounds are evaluated first, to bound the minimum.
+_PROBES = 32
+
+
+def _moving_joints(m: mujoco.MjModel, body: int, moved: set[int] | None = None) -> frozenset[int]:
+    """The joints above ``body`` (its own included) that move it: those whose qpos address is in ``moved``,
+    when given, otherwise every joint."""
+    out = set()
+    while body != 0:
+        for j in range(m.body_jntadr[body], m.body_jntadr[body] + m.body_jntnum[body]):
+            if moved is None or int(m.jnt_qposadr[j]) in moved:
+                out.add(j)
+        body = int(m.body_parentid[body])
+    return frozenset(out)
+
+
+def _mujoco_tests(m: mujoco.MjModel, a: int, b: int) -> bool:
+    """Would MuJoCo's collision detection test geoms a and b (no explicit pair)? Its documented filter:
+    contype/conaffinity match, different weld bodies, weld bodies not parent and child (unless the model
+    disables that filter or one is the world), body pair not in a ``<contact><exclude>``."""
+    ct, ca = m.geom_contype, m.geom_conaffinity
+    if not ((ct[a] & ca[b]) or (ct[b] & ca[a])):
+        return False
+    if _attached(m, a, b):
+        return False
+    ba, bb = int(m.geom_bodyid[a]), int(m.geom_bodyid[b])
+    return ((min(ba, bb) << 16) + max(ba, bb)) not in {int(x) for x in m.exclude_signature}
+
+
+def _attached(m: mujoco.MjModel, a: int, b: int) -> bool:
+    """Are geoms a and b on one weld body, or on weld bodies that are parent and child (neither the world;
+    unless the model disables that filter)? MuJoCo never collides such geoms: they meet at their joint by design."""
+    wa, wb = int(m.body_weldid[m.geom_bodyid[a]]), int(m.body_weldid[m.geom_bodyid[b]])
+    if wa == wb:
+        return True
+    filter_parent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
+    return bool(filter_parent and wa and wb and (wa == int(m.body_weldid[m.body_parentid[wb]]) or wb == int(m.body_weldid[m.body_parentid[wa]])))
+
+
+def collision_pairs(m: mujoco.MjModel, qpos_index: np.ndarray | None = None, self_collision: bool = False,
+                    root: int | None = None) -> np.ndarray:
+    """(P, 2) geom ids: every moving collision geom against every static one, and with ``self_collision``
+    the robot/robot pairs.
+
+    With ``qpos_index`` (the result's configuration coordinates), *moving* means moved by one of those
+    joints; a body on any other joint (a loose box with a free joint) stays where the rows put it and is
+    checked as an obstacle, as the planner treats it. Without it, any joint makes a body moving.
+    Moving/static pairs are checked with no contype/conaffinity filtering (as the planner),
+    except a geom attached to a moving one (:func:`_attached`: the same weld body, or parent and child, e.g. the
+    upper arm, held at its ``qpos0`` when only the elbow is a coordinate, and the forearm): they overlap at their
+    joint by design, MuJoCo never collides them and the planner does not check them.
+    Robot/robot pairs cannot be checked unfiltered (a thigh touches its shank at the knee by design), so
+    they are the pairs MuJoCo's own collision detection tests (explicit ``<contact><pair>`` elements, and
+    :func:`_mujoco_tests`) whose distance some configuration joint can change (a joint moves one geom and
+    not the other).
+
+    ``root`` (the result's ``robot_root`` body): the geoms of its subtree that no configuration joint moves (a floating
+    base, the other leg) are the robot too, as the planner has them: held where the rows put them, checked against the
+    static geoms, and against the moving ones only as robot/robot pairs."""
+    moved = None if qpos_index is None else {int(i) for i in qpos_index}
+    coll = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    joints = {g: _moving_joints(m, int(m.geom_bodyid[g]), moved) for g in coll}
+    in_root = _subtree(m, root)
+    moving = [g for g in coll if joints[g]]
+    held = [g for g in coll if not joints[g] and in_root[int(m.geom_bodyid[g])]]  # the robot's, moved by no coordinate
+    static = [g for g in coll if not joints[g] and not in_root[int(m.geom_bodyid[g])]]
+    out = [(a, b) for a in moving + held for b in static if not _attached(m, a, b)]
+    if self_collision:
+        explicit = {(min(int(a), int(b)), max(int(a), int(b))) for a, b in zip(m.pair_geom1, m.pair_geom2)}
+        robot = moving + held
+        for i, a in enumerate(moving):
+            for b in robot[i + 1:]:
+                pair = (min(a, b), max(a, b))
+                if joints[a] != joints[b] and (pair in explicit or _mujoco_tests(m, a, b)):
+                    out.append(pair)
+    return np.array(out, dtype=int).reshape(-1, 2)
+
+
+def _subtree(m: mujoco.MjModel, root: int | None) -> np.ndarray:
+    """Boolean mask over bodies: ``root`` and the bodies below it (none without a root)."""
+    inside = np.zeros(m.nbody, dtype=bool)
+    if root is None:
+        return inside
+    inside[root] = True
+    for b in range(1, m.nbody):  # MuJoCo numbers parents before children
+        inside[b] |= inside[int(m.body_parentid[b])]
+    return inside
+
+
+def _levers(m: mujoco.MjModel, idx: np.ndarray) -> np.ndarray:
+    """(nq,) how far (m) any point of a collision geom can travel per unit of each qpos entry in ``idx``: 1 for a
+    slide; for a hinge, a bound on the distance from its anchor to any point of a collision geom below it, from the
+    MJCF's offsets alone (triangle inequality: joint, body and geom positions, a slide's largest travel, the geom's
+    bounding sphere), whatever the other joints' values. 0 elsewhere."""
+    lever = np.zeros(m.nq)
+    coll = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    for j in range(m.njnt):
+        k = int(m.jnt_qposadr[j])
+        if k not in set(idx.tolist()) or int(m.jnt_type[j]) not in (2, 3):  # slide, hinge
+            continue
+        if int(m.jnt_type[j]) == 2:
+            lever[k] = 1.0
+            continue
+        top, reach = int(m.jnt_bodyid[j]), 0.0
+        for g in coll:
+            b, r = int(m.geom_bodyid[g]), float(np.linalg.norm(m.geom_pos[g]) + m.geom_rbound[g])
+            while b > top:  # up to the hinge's body (MuJoCo numbers parents before children)
+                r += float(np.linalg.norm(m.body_pos[b]))
+                for i in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]):
+                    r += 2 * float(np.linalg.norm(m.jnt_pos[i]))  # a hinge off the body's origin swings it round
+                    if int(m.jnt_type[i]) == 2:
+                        a = int(m.jnt_qposadr[i])
+                        r += float(np.max(np.abs(m.jnt_range[i]))) if m.jnt_limited[i] else abs(float(m.qpos0[a]))
+                b = int(m.body_parentid[b])
+            if b == top:
+                reach = max(reach, r + float(np.linalg.norm(m.jnt_pos[j])))
+        lever[k] = reach
+    return lever
+
+
+def _densify(points: np.ndarray, extra: np.ndarray, step: float, what: str = "a path", lever: np.ndarray | None = None) -> np.ndarray:
+    """Linear samples along a polyline of ``points`` (rows), consecutive ones at most ``step`` apart in
+    both the Euclidean norm of ``points`` and the max norm of ``extra`` (the same polyline in other units), and,
+    with ``lever`` (:func:`_levers`), in how far a point of a collision geom can travel (``|d extra| . lever``);
+    ``what`` (e.g. "path 'optimal': waypoints") names it in the error when that takes too many samples."""
+    if len(points) == 1:
+        return extra.copy()
+    with np.errstate(over="ignore", invalid="ignore"):  # a coordinate of 1e308 (a damaged file): its square overflows, the count below says so
+        d_pts = np.linalg.norm(np.diff(points, axis=0), axis=1)
+        d_ext = np.max(np.abs(np.diff(extra, axis=0)), axis=1)
+        if lever is not None:
+            d_ext = np.maximum(d_ext, np.abs(np.diff(extra, axis=0)) @ lever)
+        counts_f = np.maximum(1.0, np.ceil(np.maximum(d_pts, d_ext) / step))
+        total = counts_f.sum()
+    if total > MAX_SAMPLES:  # --step 1e-12 asked numpy for 33.6 TiB (a MemoryError, exit 1)
+        raise FoamError(f"{what}: its longest segment is {np.max(np.maximum(d_pts, d_ext)):.3g} long, {total:.3g} samples at "
+                        f"--step {step:g} (at most {MAX_SAMPLES:,} on one path): use a larger step, or check those numbers")
+    counts = counts_f.astype(int)
+    seg = np.repeat(np.arange(len(counts)), counts)
+    t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(counts, counts)
+    out = extra[seg] + (extra[seg + 1] - extra[seg]) * t[:, None]
+    return np.vstack([out, extra[-1:]])
+
+
+def _distance(m: mujoco.MjModel, d: mujoco.MjData, a: int, b: int, distmax: float) -> float:
+    """``mj_geomDistance``, but at most minus a capsule's radius where its axis runs through a box: MuJoCo's capsule/box
+    test reads a positive distance in some such poses (a link stuck through a 2 cm wall: +25 mm). Checked here on
+    its own: an end of the axis inside the box, or MuJoCo's ray from one end along the axis meeting the box before
+    the other end (the planner's guard is a slab test)."""
+    v = mujoco.mj_geomDistance(m, d, a, b, distmax, None)
+    kinds = (int(m.geom_type[a]), int(m.geom_type[b]))
+    if sorted(kinds) != sorted((int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_BOX))):
+        return v
+    cap, box = (a, b) if kinds[0] == int(mujoco.mjtGeom.mjGEOM_CAPSULE) else (b, a)
+    half, radius = float(m.geom_size[cap][1]), float(m.geom_size[cap][0])
+    if v <= -radius:
+        return v
+    axis = d.geom_xmat[cap].reshape(3, 3)[:, 2].copy()
+    start = d.geom_xpos[cap] - half * axis
+    inside = np.all(np.abs((start - d.geom_xpos[box]) @ d.geom_xmat[box].reshape(3, 3)) <= m.geom_size[box])
+    hit = mujoco.mju_rayGeom(d.geom_xpos[box], d.geom_xmat[box], m.geom_size[box], start, axis, mujoco.mjtGeom.mjGEOM_BOX)
+    return -radius if inside or 0 <= hit <= 2 * half else v
+
+
+class _Checker:
+    """Distances of every (sample, pair), exact where it matters (see the module docstring)."""
+
+    def __init__(self, m: mujoco.MjModel, pairs: np.ndarray) -> None:
+        self.m, self.d, self.pairs = m, mujoco.MjData(m), pairs
+        self.rb = np.asarray(m.geom_rbound, dtype=float)
+        plane = int(mujoco.mjtGeom.mjGEOM_PLANE)
+        self.plane_a = np.asarray(m.geom_type)[pairs[:, 0]] == plane
+        self.plane_b = np.asarray(m.geom_type)[pairs[:, 1]] == plane
+        self.calls = 0
+
+    def _poses(self, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        m, d = self.m, self.d
+        xpos = np.empty((len(qpos), m.ngeom, 3))
+        xnormal = np.empty((len(qpos), m.ngeom, 3))
+        for i, row in enumerate(qpos):
+            d.qpos[:] = row
+            mujoco.mj_kinematics(m, d)
+            xpos[i] = d.geom_xpos
+            xnormal[i] = d.geom_xmat.reshape(-1, 3, 3)[:, :, 2]
+        return xpos, xnormal
+
+    def _lower_bounds(self, xpos: np.ndarray, xnormal: np.ndarray) -> np.ndarray:
+        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        delta = xpos[:, b] - xpos[:, a]
+        lb = np.linalg.norm(delta, axis=2) - self.rb[a] - self.rb[b]
+        # A plane (rbound 0, infinite): signed distance of the other geom's centre, minus its sphere.
+        pa = np.einsum("spk,spk->sp", xnormal[:, a], delta) - self.rb[b]
+        pb = np.einsum("spk,spk->sp", xnormal[:, b], -delta) - self.rb[a]
+        lb = np.where(self.plane_a, pa, lb)
+        lb = np.where(self.plane_b, pb, lb)
+        lb = np.where(self.plane_a & self.plane_b, -np.inf, lb)
+        return lb
+
+    def _exact(self, qpos: np.ndarray, cand: np.ndarray, distmax: float) -> np.ndarray:
+        """mj_geomDistance at (sample, pair) indices ``cand`` (K, 2), grouped by sample."""
+        m, d = self.m, self.d
+        out = np.empty(len(cand))
+        order = np.argsort(cand[:, 0], kind="stable")
+        last = -1
+        for k in order:
+            s, p = int(cand[k, 0]), int(cand[k, 1])
+            if s != last:
+                d.qpos[:] = qpos[s]
+                mujoco.mj_kinematics(m, d)
+                last = s
+            out[k] = _distance(m, d, int(self.pairs[p, 0]), int(self.pairs[p, 1]), distmax)
+        self.calls += len(cand)
+        return out
+
+    def check(self, qpos: np.ndarray, margin: float) -> tuple[float, int, int]:
+        """(smallest distance, samples closer than margin, index of the closest pair) over the samples."""
+        xpos, xnormal = self._poses(qpos)
+        lb = self._lower_bounds(xpos, xnormal)
+        flat = lb.ravel()
+        probe = np.argsort(flat)[:_PROBES]
+        probe_idx = np.column_stack(np.unravel_index(probe, lb.shape))
+        upper = float(np.min(self._exact(qpos, probe_idx, np.inf))) if len(probe) else np.inf
+        threshold = max(margin, upper)
+        cand = np.column_stack(np.nonzero(lb < threshold))
+        dist = self._exact(qpos, cand, threshold + 1e-3) if len(cand) else np.empty(0)
+        if len(dist) == 0:
+            return upper, 0, int(probe_idx[0, 1]) if len(probe_idx) else -1
+        violating = np.unique(cand[dist < margin, 0])
+        k = int(np.argmin(dist))
+        return float(min(dist[k], upper)), len(violating), int(cand[k, 1])
+
+
+def _beyond_ranges(m: mujoco.MjModel, idx: np.ndarray, qpos: np.ndarray) -> tuple[int, str]:
+    """(samples with a configuration joint beyond its MJCF range, a note on the furthest one): the planner's bounds
+    are those ranges, so a path that leaves one is not a plan of this robot, however clear of obstacles."""
+    jnt = {int(m.jnt_qposadr[j]): j for j in range(m.njnt) if m.jnt_limited[j] and int(m.jnt_type[j]) in (2, 3)}  # slide, hinge
+    adr = np.array([k for k in idx.tolist() if k in jnt], dtype=int)
+    if not len(adr):
+        return 0, ""
+    lo, hi = (np.array([m.jnt_range[jnt[k]][i] for k in adr]) for i in (0, 1))
+    tol = HELD_TOL * (1 + np.maximum(np.abs(lo), np.abs(hi)))
+    excess = np.maximum(lo - qpos[:, adr], qpos[:, adr] - hi)
+    bad = np.any(excess > tol, axis=1)
+    if not bad.any():
+        return 0, ""
+    s, c = np.unravel_index(np.argmax(excess), excess.shape)
+    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, jnt[int(adr[c])]) or f"joint {jnt[int(adr[c])]}"
+    return int(bad.sum()), f"{name} reaches {qpos[s, adr[c]]:.6g} (range [{lo[c]:g}, {hi[c]:g}])"
