@@ -51,7 +51,7 @@ import numpy as np
 from foam_mj.errors import FoamError, file_problem, file_problem_text, foreign_file_hint, is_number, only_numbers, text_problem
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 from foam_mj.verify_geometry import HELD_TOL as _HELD_TOL
-from foam_mj.verify_geometry import MAX_SAMPLES, _Checker, _beyond_ranges, _densify, _levers, collision_pairs  # noqa: F401
+from foam_mj.verify_geometry import MAX_SAMPLES, _Checker, _beyond_ranges, _densify, _distance, _levers, collision_pairs  # noqa: F401
 
 #: How far (per coordinate, rad or m) a path's first and last waypoints may lie from the result's q_init and q_goal.
 END_TOL = 1e-9
