@@ -391,7 +391,7 @@ def resolve_model(doc: dict, source: str | Path) -> Path:
     """The scene file a result was planned on, checked against the result's model hash.
 
     Candidates are "mjcf_relative" (resolved against the result's folder: results moved together with
-    their models) and "mjcf"; every one that exists must compile to the stored "model_hash", else
+    their models) and "mjcf" (absolute as ``plan`` writes it; relative, also against the result's folder); every one that exists must compile to the stored "model_hash", else
     :class:`FoamError` naming the field, the file and the parts that differ. Returns the first that
     exists. A result without "model_hash" (written before it existed) is accepted unchecked.
     """
@@ -401,8 +401,8 @@ def resolve_model(doc: dict, source: str | Path) -> Path:
     candidates: list[tuple[str, Path]] = []
     if isinstance(doc.get("mjcf_relative"), str):
         candidates.append(("mjcf_relative", (src.parent / doc["mjcf_relative"]).resolve()))
-    if isinstance(doc.get("mjcf"), str) and doc["mjcf"]:
-        candidates.append(("mjcf", Path(doc["mjcf"])))
+    if isinstance(doc.get("mjcf"), str) and doc["mjcf"]:  # plan writes it absolute; a relative one is beside the result,
+        candidates.append(("mjcf", (src.parent / doc["mjcf"]).resolve()))  # as `verify` and verify_result.py read it
     existing = [(k, p) for k, p in candidates if os.path.isfile(p)]  # never raises, as Path.is_file did for a name too long
     if not existing:
         named = ", ".join(f"{k} = {p}" for k, p in candidates) or "none"

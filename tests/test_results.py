@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+from pathlib import Path
 
 from foam_mj.results import write_outcome
 
@@ -29,3 +30,27 @@ def test_replaying_a_result_reports_each_path_as_plan_does(tmp_path):
         "replaying: centre (T) (1 of 2"] * 2 + ["replaying: convex shortest (2 of 2"] * 2
     assert messages[1].endswith(f" s of motion, {steps['centre']:,} steps)")
     assert messages[3].endswith(f" s of motion, {steps['convex']:,} steps)")
+
+
+def test_a_relative_mjcf_is_read_beside_the_result_not_in_the_working_folder(tmp_path, monkeypatch):
+    """`replay`, `export` and `figures` find the scene as `foam-mj verify` and the shared verify_result.py do: a relative
+    "mjcf" (a result edited or written by another tool) names a file beside the result, wherever the command runs."""
+    import json
+    import os
+    import shutil
+
+    from foam_mj.cli import main
+    from foam_mj.results import resolve_model
+
+    js = tmp_path / "results" / "r.json"
+    js.parent.mkdir()
+    assert main(["plan", "--scene", "obstacle", "--smoother", "convex", "--no-rrd", "--no-replay", "--json", str(js)]) == 0
+    doc = json.loads(js.read_text())
+    shipped = Path(doc["mjcf"])
+    shutil.copytree(shipped.parent, tmp_path / "models")  # the scene and the robot it includes, beside the results
+    doc.pop("mjcf_relative")
+    doc["mjcf"] = os.path.join("..", "models", shipped.name)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    assert resolve_model(doc, js) == (tmp_path / "models" / shipped.name).resolve()
