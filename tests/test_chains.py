@@ -165,3 +165,33 @@ def test_every_upper_bound_given_to_radii_below_in_a_plan_bounds_the_full_radius
     oracle.radii_below = spy
     res = get_planner("bubbletree").plan(PlanningProblem(oracle, np.asarray(q_init, float), np.asarray(q_goal, float), delta=0.005), seed=0)
     assert res.stats.outcome == "reached" and len(calls) > res.stats.details["iterations"]  # the corridor's calls too
+
+
+def test_chords_sized_from_the_chain_they_shortcut_get_the_full_radii_with_capped_queries_only():
+    """certify_chords given the chain it shortcuts (``near``: bubbles whose radii are the certified radii at their
+    centres) sizes every point of a chord through radii_below, with the bound min_j r_j + |x - c_j| (r is 1-Lipschitz),
+    and returns the same chains to the last bit as with full queries of the coarse points."""
+    from foam_mj.bubbles import BubbleOracle
+    from foam_mj.planners import PlanningProblem, get_planner
+    from foam_mj.planners.chains import certify_chords
+    from foam_mj.scenarios import load_scenario
+
+    s = load_scenario("obstacle")
+    oracle = BubbleOracle(s.robot, delta=0.005)
+    res = get_planner("bubbletree", refine=False).plan(PlanningProblem(oracle, s.q_init, s.q_goal, delta=0.005), seed=0)
+    C, R = res.rosary.centers, res.rosary.radii
+    P = np.concatenate([[s.q_init], res.waypoints, [s.q_goal]])
+    rng = np.random.default_rng(0)
+    i, j = np.sort(rng.choice(len(P), (2, 12)), axis=0)
+    A, B = P[i], P[j] + 1e-3 * (j == i)[:, None]
+    floor, spacing = 0.3 * float(R.min()), 2.0 * float(np.median(R))
+    full = certify_chords(oracle, A, B, floor, spacing)
+    asked = []
+    oracle.radii = lambda Q: asked.append(len(Q))  # a full query would fail the comparison below
+    near = certify_chords(oracle, A, B, floor, spacing, near=(C, R))
+    assert not asked
+    assert sum(x is not None for x in full) >= 3  # some chords are certified, some are not
+    for a, b in zip(full, near):
+        assert (a is None) == (b is None)
+        if a is not None:
+            assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])

@@ -362,8 +362,8 @@ class CorridorBuild:
         """The id of the next bubble the refinement adds (after the planner's and those added so far)."""
         return self.n_base + sum(len(x) for x in (self.added_r if added_r is None else added_r))
 
-    def pick_chords(self, P: np.ndarray, R: np.ndarray, length: float, min_gain: float = 1e-3) -> dict[int, tuple[int, np.ndarray, np.ndarray]]:
-        """The chords to splice into the chain whose segment j of P lies in bubble j (R: its radii), each
+    def pick_chords(self, P: np.ndarray, C: np.ndarray, R: np.ndarray, length: float, min_gain: float = 1e-3) -> dict[int, tuple[int, np.ndarray, np.ndarray]]:
+        """The chords to splice into the chain whose segment j of P lies in bubble j (C, R: its centres and radii), each
         shorter than the stretch of P it replaces by more than ``min_gain`` x ``length`` (the round's)."""
         options, M, oracle, floor = self.options, self.options.metric, self.problem.oracle, self.floor
         splices: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
@@ -391,7 +391,7 @@ class CorridorBuild:
             todo, pending = pending[:CHORD_BATCH], pending[CHORD_BATCH:]
             if todo.size == 0:
                 break
-            res = certify_chords(oracle, A[todo], B[todo], floor * CHORD_FLOOR, spacing)
+            res = certify_chords(oracle, A[todo], B[todo], floor * CHORD_FLOOR, spacing, near=(C, R))
             for i, ch in zip(todo, res):
                 if ch is None or used[ja[i] : jb[i] + 1].any():
                     continue
@@ -423,7 +423,7 @@ class CorridorBuild:
             # 1. Shortcuts: certified chords between random points of the path; the best disjoint ones
             #    replace the bubbles between their ends: C[:ja+1] + chord + C[jb:] (segment j lies in bubble j).
             clock.lap("other")
-            splices = self.pick_chords(P, R, length)
+            splices = self.pick_chords(P, C, R, length)
             clock.lap("chords")
             # 2. Bubbles where the path presses on a boundary, spliced in place (hatch p: bubbles p, p + 1),
             #    except inside a chord's span.
@@ -443,7 +443,7 @@ class CorridorBuild:
             for _step in range(CHORD_STEPS - 1):
                 if len(R2) >= max_chain:
                     break
-                more = self.pick_chords(P2, R2, length, STEP_GAIN * options.refine_tol)
+                more = self.pick_chords(P2, C2, R2, length, STEP_GAIN * options.refine_tol)
                 if not more:
                     break
                 C2, R2, ids2, P2, nc_, nr_ = splice_chain(C2, R2, ids2, P2, more, {}, self.next_id())
