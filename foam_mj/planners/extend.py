@@ -20,8 +20,10 @@ STEPS = np.array([1.0, 2.0])
 #: one batch per step), a nearer step only for the extensions whose farther candidates are not good: the farthest good
 #: candidate is the child, so the children are the same to the last bit, with fewer queries (on MuJoCo Menagerie's
 #: arms the s = 2 candidate is good for 11-16 % of the extensions, so its s = 1 query is saved there), for one more
-#: batch call per iteration, which a cheap query does not repay (the 3-joint leg: 6 pairs, 3 us a query).
-BY_STEP_PAIRS = 32
+#: batch call per iteration (some 80 us with its numpy calls), which a cheap query does not repay: about 5 % of an
+#: iteration's ~130 queries are saved, so it pays from ~15 us a query (the 3-joint leg: 6 pairs, 3 us; the UR5e's 38
+#: capsule pairs, 11-13 us: break-even, left out; the Allegro finger's 89 primitive pairs 33 us, xArm7 and Panda 50-65).
+BY_STEP_PAIRS = 64
 #: An extension's kind: toward a sample, up the radius's gradient (ESCAPE), toward the other tree (as masks only when read).
 SAMPLED, ESCAPING, GOAL = 0, 1, 2
 
