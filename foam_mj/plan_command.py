@@ -182,6 +182,29 @@ def held_pose_note(robot, delta: float) -> str:
             "every sample (lift the held body clear, or plan over its joints)")
 
 
+def held_self_pair_note(robot, delta: float) -> str:
+    """A note naming the pairs of robot geoms that MuJoCo collides, that no configuration joint moves against each other
+    (joints held outside the configuration between them) and that lie within ``delta`` of each other where they are
+    held: no path can change their distance, so the planner leaves them out of its pairs (as it does such a
+    robot/obstacle pair, which it refuses instead: an obstacle can be moved, a robot's own held pose is the user's
+    choice) and ``foam-mj verify`` does too; without this note, a hand held 10 mm into its own forearm planned "clean".
+    "" when there is none."""
+    import mujoco
+
+    robot_geoms = {int(g) for g in robot.robot_geoms}
+    pairs = [(int(a), int(b)) for a, b in robot.fixed_pairs if int(a) in robot_geoms and int(b) in robot_geoms]
+    if not pairs:
+        return ""
+    m, d = robot.model, robot.set_configuration(robot.config.to_q(robot.config.qpos0))
+    close = sorted(c for c in ((mujoco.mj_geomDistance(m, d, a, b, delta, None), a, b) for a, b in pairs) if c[0] < delta)
+    if not close:
+        return ""
+    return (f"note: {len(close)} pair(s) of robot geoms are within the margin of each other where joints outside the "
+            f"configuration hold them ({_pairs_text(robot, close)}): no configuration joint moves one against the other, so "
+            "no path changes that distance and the planner (and foam-mj verify) leave them out: the margin holds between "
+            "every other pair (plan over a joint between them, move one clear, or <exclude> the pair if it never should collide)")
+
+
 def held_out_of_range_note(robot) -> str:
     """A note naming the limited hinges and slides outside the configuration held beyond their range (a keyframe or
     qpos0 that sets a wrist to 1.2 rad in a range of +-3 degrees: a degree/radian mix-up). The planner holds them
@@ -488,7 +511,8 @@ def _plan(args: argparse.Namespace, recorder) -> int:
 
     for note in (small_hinge_ranges_note(scenario.robot.model, scenario.robot.config),
                  held_by_equality_note(scenario.robot), no_obstacle_note(scenario.robot),
-                 held_pose_note(scenario.robot, scenario.params.delta), held_out_of_range_note(scenario.robot),
+                 held_pose_note(scenario.robot, scenario.params.delta), held_self_pair_note(scenario.robot, scenario.params.delta),
+                 held_out_of_range_note(scenario.robot),
                  static_robot_note(scenario.robot, (scenario.q_init, scenario.q_goal), scenario.params.delta),
                  mount_note(scenario.robot, (scenario.q_init, scenario.q_goal), scenario.params.delta),
                  capping_pair_note(scenario.robot, outcome.plan.rosary, scenario.params.delta, outcome.rosary_distances)):

@@ -1053,3 +1053,39 @@ def test_plan_says_when_the_simulated_leg_comes_closer_than_the_margin(tmp_path,
     assert got, out
     assert float(got.group(1)) == pytest.approx(replay["dynamic_min_clearance"] * 1000, abs=0.05)
     assert 0 < int(got.group(2)) < int(got.group(3))
+
+
+HELD_HAND = """<mujoco model="held_hand">
+  <compiler angle="radian"/>
+  <worldbody>
+    <geom name="post" type="box" size="0.05 0.05 0.3" pos="0.6 0 0.3"/>
+    <body name="upper" pos="0 0 0.3">
+      <joint name="shoulder" type="hinge" axis="0 0 1" range="-1.5 1.5"/>
+      <geom name="upper_link" type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+      <body name="elbow" pos="0.3 0 0">
+        <joint name="elbow" type="hinge" axis="0 0 1" range="-1 1"/>
+        <inertial pos="0 0 0" mass="0.1" diaginertia="1e-4 1e-4 1e-4"/>
+        <body name="hand">
+          <joint name="wrist" type="hinge" axis="0 1 0" range="-1 1"/>
+          <geom name="hand_pad" type="sphere" pos="PAD" size="0.03"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("pad, noted", [("-0.05 0 0", True), ("0 0 0.2", False)])
+def test_plan_names_robot_geoms_held_within_the_margin_of_each_other(tmp_path, capsys, pad, noted):
+    """Planned over the shoulder alone, the hand (held by elbow and wrist) and the upper arm keep one distance on every
+    path, so the planner leaves the pair out; held 60 mm into the upper arm, the plan said nothing and read clean (the
+    fuzzer's finding). A note names the pair and its distance; held clear, none."""
+    xml = tmp_path / "arm.xml"
+    xml.write_text(HELD_HAND.replace("PAD", pad))
+    assert main(["plan", "--mjcf", str(xml), "--joints", "shoulder", "--start", "-1.2", "--goal", "-0.5", "--no-rrd", "--no-replay"]) == 0
+    out = capsys.readouterr().out
+    note = [line for line in out.splitlines() if line.startswith("note: 1 pair(s) of robot geoms are within the margin")]
+    assert bool(note) == noted
+    if noted:
+        assert "upper_link / hand_pad -60.00 mm" in note[0]
