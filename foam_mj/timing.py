@@ -67,6 +67,7 @@ from foam_mj.model import RobotModel
 from foam_mj.path_kinematics import PathKinematics
 from foam_mj.rosary import Rosary, in_ball
 from foam_mj.safe_curve import SAFETY_TOL, SafeCurve, TrajectoryError, in_box
+from foam_mj.toppra_import import import_toppra
 from foam_mj.trajectory import JointLimits, Trajectory, TrajectoryTooLong, _motion, make_trajectory, row_acceleration_cap, whole_steps
 
 #: Time laws accepted by :func:`retime` / :func:`timed_trajectory`.
@@ -74,6 +75,11 @@ METHODS = ("toppra", "own")
 DEFAULT_METHOD = "toppra"
 #: Path positions of toppra's grid (uniform in u, plus the knots).
 GRID_POINTS = 800
+#: A knot 0.7 % of a grid spacing from a uniform grid point (1.5e-5 apart on a 4-joint arm's convex path) made
+#: toppra's seidel solver return NaN controllable sets there and no timing under velocity and acceleration limits
+#: alone (the own time law timed it in 0.26 s): where toppra finds none, the uniform points closer than this share
+#: of a spacing to a knot are dropped and it is asked once more (the grid is unchanged wherever toppra succeeds).
+NEAR_KNOT = 0.05
 #: Rounds of limit tightening after toppra (damping and discretization error, module docstring).
 REFINE_ROUNDS = 8
 #: Relative margins inside the velocity and acceleration (and torque) limits given to toppra, which meets
@@ -189,75 +195,12 @@ class PathTiming:
         return (self.t[i] + np.where(ds > 0, quad, 0.0)) * self.duration / self.native
 
 
-class _LazyScipyName:
-    """Stands for ``scipy.interpolate.<name>`` in toppra's modules: imports scipy.interpolate when used."""
-
-    def __init__(self, name: str) -> None:
-        self._name = name
-
-    def _real(self):
-        import importlib
-
-        return getattr(importlib.import_module("scipy.interpolate"), self._name)
-
-    def __call__(self, *args, **kwargs):
-        return self._real()(*args, **kwargs)
-
-    def __getattr__(self, attr: str):
-        return getattr(self._real(), attr)
-
-
-def _lazy_scipy_interpolate_name(name: str) -> _LazyScipyName:
-    if name.startswith("_"):  # module machinery (__path__, __spec__...): the stand-in has none
-        raise AttributeError(name)
-    return _LazyScipyName(name)
-
-
-def _import_toppra():
-    """``toppra`` (with its algorithm, constraint and interpolator modules).
-
-    toppra 0.6 imports ``matplotlib.pyplot`` and ``scipy.interpolate`` when it is imported, for plotting
-    helpers and spline paths foam-mj never uses (its path is :class:`CurvePath`); those imports cost about
-    0.5 s and 0.15 s of CPU on every ``plan``. While toppra is imported, a module not loaded yet is replaced
-    by a stand-in: empty for ``matplotlib`` and ``matplotlib.pyplot``; for ``scipy.interpolate``, names
-    that import the real module when toppra uses them (:class:`_LazyScipyName`). The stand-ins are removed
-    right after, so a later import (figures, or anyone's scipy.interpolate) loads the real modules.
-    """
-    import sys
-    import types
-
-    if "toppra.algorithm" in sys.modules:
-        import toppra
-        import toppra.algorithm  # noqa: F401
-        return toppra
-    stubs = {}
-    if "matplotlib" not in sys.modules:
-        stubs["matplotlib"] = types.ModuleType("matplotlib")
-        stubs["matplotlib.pyplot"] = types.ModuleType("matplotlib.pyplot")
-        stubs["matplotlib"].__path__ = []  # a package, so that "matplotlib.pyplot" resolves to its stand-in
-        stubs["matplotlib"].pyplot = stubs["matplotlib.pyplot"]
-    if "scipy.interpolate" not in sys.modules:
-        stubs["scipy.interpolate"] = interp = types.ModuleType("scipy.interpolate")
-        interp.__getattr__ = _lazy_scipy_interpolate_name  # any name toppra imports from it
-    sys.modules.update(stubs)
-    try:
-        import toppra
-        import toppra.algorithm  # noqa: F401
-        import toppra.constraint  # noqa: F401
-        import toppra.interpolator  # noqa: F401
-    finally:
-        for name, stub in stubs.items():
-            if sys.modules.get(name) is stub:
-                del sys.modules[name]
-    return toppra
-
-
-def _toppra_law(kin: PathKinematics, vmax, amax, tmax, x0: np.ndarray | None = None) -> PathTiming:
+def _toppra_law(kin: PathKinematics, vmax, amax, tmax, x0: np.ndarray | None = None, grid: np.ndarray | None = None) -> PathTiming:
     """toppra's time-optimal law under the limits; damping enters the torque constraint through the
     tangent bound sd <= (x + x0) / (2 sqrt(x0)) (x = sd^2, any x0 > 0; equality at x = x0), on the side
     of each bound where it adds torque: a conservative linear constraint, exact where x = x0. ``x0`` (at
     :func:`_grid`'s points) defaults to the square of the path speed at the velocity limits."""
-    toppra = _import_toppra()
+    toppra = import_toppra()
     tc = toppra.constraint
     AbstractGeometricPath = toppra.interpolator.AbstractGeometricPath
 
@@ -301,7 +244,7 @@ def _toppra_law(kin: PathKinematics, vmax, amax, tmax, x0: np.ndarray | None = N
             g = np.concatenate([self.lim, self.lim])
             return tc.canlinear_colloc_to_interpolate(A, B, C, F, g, None, None, gridpoints, identical=True)
 
-    grid = _grid(kin.curve)
+    grid = _grid(kin.curve) if grid is None else grid
     x_v = _speed_bound(kin, grid, vmax)
     quu_floor = CURVATURE_FLOOR * np.asarray(amax, dtype=float) / max(float(x_v.max()), 1e-300)
     if x0 is None:
@@ -317,6 +260,9 @@ def _toppra_law(kin: PathKinematics, vmax, amax, tmax, x0: np.ndarray | None = N
     algo = toppra.algorithm.TOPPRA(constraints, CurvePath(), gridpoints=grid, solver_wrapper="seidel")
     sdd, sd, _ = algo.compute_parameterization(0.0, 0.0)
     if sd is None or np.any(~np.isfinite(sd)):
+        keep = _apart(grid, kin.curve)
+        if not keep.all():  # NEAR_KNOT: the same law on the grid without the points crowding a knot
+            return _toppra_law(kin, vmax, amax, tmax, None if x0 is None else np.asarray(x0)[keep], grid[keep])
         raise TimingInfeasible("toppra found no timing of the path under the limits")
     sd = np.sqrt(np.maximum(np.asarray(sd, dtype=float) ** 2, 0.0))
     ds = np.diff(grid)
@@ -329,6 +275,13 @@ def _toppra_law(kin: PathKinematics, vmax, amax, tmax, x0: np.ndarray | None = N
 def _grid(curve: SafeCurve) -> np.ndarray:
     """toppra's grid: :data:`GRID_POINTS` uniform path positions plus the knots."""
     return np.unique(np.concatenate([np.linspace(0.0, curve.length, GRID_POINTS + 1), curve.knots]))
+
+
+def _apart(grid: np.ndarray, curve: SafeCurve) -> np.ndarray:
+    """The grid points to keep when toppra found no timing: all but the uniform ones within :data:`NEAR_KNOT` of a
+    grid spacing of a knot."""
+    near = np.abs(grid[:, None] - np.asarray(curve.knots)[None, :]).min(axis=1)
+    return (near == 0.0) | (near > NEAR_KNOT * curve.length / GRID_POINTS) | (grid == 0.0) | (grid == curve.length)
 
 
 def _speed_bound(kin: PathKinematics, grid: np.ndarray, vmax: np.ndarray) -> np.ndarray:
@@ -390,7 +343,8 @@ def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Tra
     law = None
     for round_ in range(REFINE_ROUNDS):
         try:
-            law = _toppra_law(kin, v_eff, a_eff, t_eff, x0)
+            law = _toppra_law(kin, v_eff, a_eff, t_eff, x0, grid)
+            grid = law.s  # the grid toppra used (NEAR_KNOT), which the next round's x0 follows
         except TimingInfeasible:
             if best is not None or law is not None:  # a tightened round found none: keep the best, or stretch the last law
                 break

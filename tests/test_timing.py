@@ -440,11 +440,11 @@ def test_a_refinement_round_that_finds_no_timing_stretches_the_last_law(tmp_path
     calls = []
     toppra_law = timing._toppra_law
 
-    def first_only(kin, vmax, amax, tmax, x0=None):  # the first law overshoots (timed as if unlimited), the next fails
+    def first_only(kin, vmax, amax, tmax, x0=None, grid=None):  # the first law overshoots (timed as if unlimited), the next fails
         calls.append(x0)
         if len(calls) > 1:
             raise TimingInfeasible("toppra found no timing of the path under the limits")
-        return toppra_law(kin, vmax, amax, np.full_like(tmax, np.inf), x0)
+        return toppra_law(kin, vmax, amax, np.full_like(tmax, np.inf), x0, grid)
 
     monkeypatch.setattr(timing, "_toppra_law", first_only)
     traj = retime(robot, base, line, Limits(torque=tuple(limit)), "toppra")
@@ -521,3 +521,71 @@ def test_a_timing_past_max_steps_is_a_timing_that_does_not_fit(tmp_path):
         with pytest.raises(TimingInfeasible, match=rf"^its timing under these limits lasts {lasts} of 0\.002 s: more than the "
                                                    r"2,000,000 a trajectory may have$"):
             timed_trajectory(robot, line.path(np.empty((0, 2))), line, Limits(velocity=[v, 1.0]))
+
+
+
+#: A random 4-joint robot (three slides, one hinge; a permuted, partly normalized configuration) from the safety fuzzing
+#: campaign, whose convex path puts a knot 1.5e-5 from one of toppra's uniform grid points.
+CROWDED_KNOT_ROBOT = """<mujoco model="fuzz9030">
+<compiler angle="radian"/>
+<asset>
+<mesh name="m_g1" vertex="0.0224925 0.00724661 0.0205466 0.0630977 0.0576402 -0.0465057 -0.0127037 0.0335333 -0.0973339 -0.0558191 -0.00609649 -0.0786521 -0.0220458 0.000956368 0.0402902"/>
+<mesh name="m_obs0" vertex="-0.0972278 -0.0500201 0.0638029 0.0671066 -0.121019 0.0252436 0.0505406 0.0177053 -0.0272127 -0.0653284 0.00941013 -0.0740238 -0.00259109 -0.0215099 0.0456795 0.0754139 0.110693 -0.00368958 -0.184873 -0.142383 -0.0354296 -0.0154488 0.0626216 0.101765 -0.0961572 0.0180888 -0.00281177 0.0608891 -0.103534 -0.0549011"/>
+</asset>
+<custom>
+<text name="foam_mj:configuration" data="j3 j1 j2 j0"/>
+<numeric name="foam_mj:normalize:j3" data="1.532"/>
+<numeric name="foam_mj:normalize:j0" data="2.547"/>
+</custom>
+<worldbody>
+<geom name="obs0" type="mesh" mesh="m_obs0" pos="0.0188117 0.0584322 -0.360679" xyaxes="0.319992 0.846747 -0.424999 0.548574 -0.531332 -0.645565" contype="2" conaffinity="1"/>
+<body name="mount" pos="0.000120383 0.0686204 0.0481353" euler="-1.35151 2.64089 2.3921">
+<body name="b0" pos="-0.00173657 -0.0395609 -0.00246148" euler="-0.435307 0.830951 2.71001">
+<inertial pos="0 0 0" mass="0.5" diaginertia="0.005 0.005 0.005"/>
+<joint name="j0" type="slide" axis="0 0 -1" pos="-0.00445208 -0.0745428 -0.0896341" ref="0" range="-0.0655878 0.036808"/>
+<joint name="j1" type="slide" axis="-0.0893368 -0.779268 -0.620291" pos="0.0441272 -0.0544209 0.0627182" ref="0" range="-0.106943 0.121854"/>
+<body name="b1" pos="-0.115905 -0.170409 -0.0635159" axisangle="-0.461613 0.686332 0.562016 2.25917">
+<inertial pos="0 0 0" mass="0.5" diaginertia="0.005 0.005 0.005"/>
+<joint name="j2" type="hinge" axis="0.695979 -0.434038 0.572035" pos="-0.0383854 0.0307185 -0.0451517" ref="0" range="-0.425415 -0.130876"/>
+<geom name="g0" type="capsule" fromto="0.0141481 -0.107719 -0.122738 0.0626497 0.0472775 0.0327126" size="0.0241481" contype="1" conaffinity="2"/>
+<geom name="g1" type="mesh" mesh="m_g1" pos="0.031631 -0.0322145 -0.0251079" euler="2.23587 -0.0200365 2.43929" contype="1" conaffinity="2"/>
+<body name="b2" pos="0.0485568 0.0395539 0.0459987" euler="0.264149 -1.93955 -2.54817">
+<inertial pos="0 0 0" mass="0.5" diaginertia="0.005 0.005 0.005"/>
+<joint name="j3" type="slide" axis="0 0 1" pos="-0.038841 0.0217491 0.0474132" ref="0" range="-0.195996 0.224155"/>
+<geom name="g2" type="capsule" fromto="-0.122884 -0.047822 -0.0819598 -0.104535 0.125759 0.133845" size="0.0258064" contype="1" conaffinity="2"/>
+</body>
+</body>
+</body>
+</body>
+</worldbody>
+</mujoco>"""
+
+
+def test_toppra_times_a_path_whose_knot_crowds_a_grid_point(tmp_path, monkeypatch):
+    """toppra's seidel solver read NaN controllable sets where a knot of the curve lay 0.7 % of a grid spacing from a
+    uniform grid point, and 'no timing fits the limits' was reported under velocity and acceleration limits alone (the
+    own time law timed the same path in 0.26 s). Asked again without the crowding points, toppra times it, within the
+    limits; with the retry switched off (NEAR_KNOT = 0) the failure shows that this path still meets the case."""
+    from foam_mj import pipeline, timing
+    from foam_mj.scenarios import scenario_from_dict
+
+    (tmp_path / "robot.xml").write_text(CROWDED_KNOT_ROBOT)
+    doc = {"name": "crowded_knot", "scene": "robot.xml", "self_collision": False,
+           "q_init": [0.8216028320154852, 0.00022618883798726508, -0.2661166454207937, 0.44885315430979106],
+           "q_goal": [0.383334767933603, 0.02966738305934445, -0.21519229184141545, 2.1610814339009514],
+           "planner": {"algorithm": "bubbletree", "delta": 0.0143, "time_limit": 60.0}}
+    scenario = scenario_from_dict(doc, tmp_path)
+
+    def convex():
+        return pipeline.run(scenario, 9030, smoothers=("convex",), replay=True, dynamic=False, require_timing=False)
+
+    out = convex()
+    po = out.paths["convex"]
+    assert po.timing_error is None
+    traj, robot = po.trajectory, scenario.robot
+    vmax, amax, _ = out.limits.resolve(robot)
+    dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    assert np.all(np.abs(traj.qvel[:, dof]) <= vmax * (1 + 1e-9))
+    assert np.all(np.abs(traj.qacc[:, dof]) <= amax * (1 + 1e-9))
+    monkeypatch.setattr(timing, "NEAR_KNOT", 0.0)
+    assert "toppra found no timing" in str(convex().paths["convex"].timing_error)
