@@ -195,32 +195,37 @@ def _unit_sphere(rng: np.random.Generator, count: int, dim: int) -> np.ndarray:
     return u / np.sqrt(row_sq_sums(u))[:, None]
 
 
-def small_goal_hint(oracle: BubbleOracle, q_goal: np.ndarray, r_min: float, outcome: str = "", time_limit: float | None = None) -> str:
+def small_goal_hint(oracle: BubbleOracle, q_goal: np.ndarray, r_min: float, outcome: str = "", time_limit: float | None = None,
+                    max_bubbles: int | None = None) -> str:
     """The reason a foam that did not reach q_goal may have missed it: its own certified bubble is below r_min, so
     only a bubble of at least r_min placed just so can hold it (and the coverage rule drops most candidates there);
-    and, when the time budget ended the search (``outcome``), that more time lets the foam grow on."""
+    and, when a budget ended the search (``outcome``), that more time or bubbles let the foam grow on."""
     r_goal = float(oracle.radius(q_goal))
     if r_goal >= r_min:
         return ""
     return (f": q_goal's own certified bubble has radius {radius_text(r_goal, r_min)} < r_min = {r_min}, so only a bubble of at least "
-            f"r_min placed to reach it can hold it; lower r_min, or plan with bubbletree{time_hint(outcome, time_limit)}")
+            f"r_min placed to reach it can hold it; lower r_min, or plan with bubbletree{time_hint(outcome, time_limit, max_bubbles)}")
 
 
-def time_hint(outcome: str, time_limit: float | None = None) -> str:
-    """When the time budget ended a foam's search (``outcome``), that the limit (``time_limit`` seconds, if given) did and
-    that more time lets it grow on: a limit of 0.01 s stopped it after a few bubbles, and the hint about r_min alone
-    read as if the geometry had."""
-    if outcome != "time budget":
-        return ""
-    limit = "" if time_limit is None else f" ({time_limit:g} s)"
-    return f"; the time limit{limit} ended the search: with more (--time-limit, the [planner] time_limit) the foam grows on"
+def time_hint(outcome: str, time_limit: float | None = None, max_bubbles: int | None = None) -> str:
+    """When a budget ended a foam's search (``outcome``: "time budget", "bubble budget"), that it did (the limit,
+    ``time_limit`` seconds or ``max_bubbles``, if given) and that more lets it grow on: a limit of 0.01 s or 60 bubbles
+    stopped it after a few bubbles, and the hint about r_min, or none, read as if the geometry had."""
+    if outcome == "time budget":
+        limit = "" if time_limit is None else f" ({time_limit:g} s)"
+        return f"; the time limit{limit} ended the search: with more (--time-limit, the [planner] time_limit) the foam grows on"
+    if outcome == "bubble budget":
+        limit = "" if max_bubbles is None else f" (max_bubbles = {max_bubbles:,})"
+        return f"; the bubble budget{limit} ended the search: with more (the [planner] max_bubbles) the foam grows on"
+    return ""
 
 
-def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str, time_limit: float | None = None) -> str:
+def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str, time_limit: float | None = None,
+                 max_bubbles: int | None = None) -> str:
     """Where a foam that did not reach q_goal came nearest to it: the bubble whose surface is nearest q_goal, the gap,
-    and what blocks the way there (the clearance and closest pair at that bubble's surface point toward q_goal); unless
-    the bubble budget stopped it (``outcome``), that every bubble has radius >= r_min, so a way that only smaller bubbles
-    fit through stays closed to the foam."""
+    and what blocks the way there (the clearance and closest pair at that bubble's surface point toward q_goal); when a
+    budget stopped it (``outcome``), that more lets it grow on (:func:`time_hint`); unless the bubble budget stopped it,
+    that every bubble has radius >= r_min, so a way that only smaller bubbles fit through stays closed to the foam."""
     if len(foam.radii) == 0:
         return ""
     to_goal = foam.q_goal - foam.centers
@@ -233,7 +238,7 @@ def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str,
             f"from q_goal; clearance {clearance_text(report.clearance, oracle.delta)} between "
             f"{oracle.robot.pair_label(int(np.argmin(report.pair_distances)))} there)")
     if outcome == "bubble budget":
-        return near
+        return f"{near}{time_hint(outcome, time_limit, max_bubbles)}"
     if outcome == "time budget":
         return (f"{near}{time_hint(outcome, time_limit)}, but every bubble has radius >= r_min = {r_min}, so a way narrower than that "
                 "stays closed to it either way: lower r_min, or plan with bubbletree")
@@ -399,8 +404,8 @@ def plan(
             goal = count - 1
     if goal is None:
         foam = foam_now()
-        hint = (small_goal_hint(oracle, q_goal, params.r_min, stats.outcome, params.time_limit)
-                or nearest_hint(oracle, foam, params.r_min, stats.outcome, params.time_limit))
+        hint = (small_goal_hint(oracle, q_goal, params.r_min, stats.outcome, params.time_limit, params.max_bubbles)
+                or nearest_hint(oracle, foam, params.r_min, stats.outcome, params.time_limit, params.max_bubbles))
         if stats.outcome == "queue empty":  # closed at r_min, or its candidates missed room (foam_mj.planners.variants)
             from foam_mj.planners.closure import queue_empty_text
 

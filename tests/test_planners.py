@@ -1007,7 +1007,7 @@ def test_trees_that_cannot_meet_name_where_they_came_nearest_and_what_blocks_it(
     with pytest.raises(PlanningFailed, match=r"the trees did not meet \(bubble budget\)") as err:
         get_planner("bubbletree").plan(PlanningProblem(oracle, s.q_init, s.q_goal, max_bubbles=1500), seed=0)
     m = re.search(r"they came nearest at q = \[([^]]+)\] \(a gap of [0-9.e-]+ between their bubbles\), with clearance "
-                  r"(-?[0-9.]+) m between (\w+) and (\w+): the goal may be unreachable", str(err.value))
+                  r"(-?[0-9.]+) m between (\w+) and (\w+) \(`foam-mj bubble` shows more\)", str(err.value))  # a budget, not a stall: no verdict
     assert m and "obstacle_box" in m.group(3, 4), str(err.value)
     q = np.array([float(v) for v in m.group(1).split(",")])
     assert MujocoChecker(s.robot).distance(q) == pytest.approx(float(m.group(2)), abs=1e-4) and float(m.group(2)) < 0
@@ -1128,6 +1128,28 @@ def test_a_time_limit_too_short_to_reach_the_goal_says_more_time_helps(oracles, 
     else:  # grown on, or stopped on the start's bubble (the variants' own words for that)
         assert re.search(r"; the time limit \(1e-06 s\) ended the search: with more \(--time-limit, the \[planner\] time_limit\) the foam grows on"
                          r"|: the time budget ended before a bubble .*; raise time_limit", text), text
+
+
+
+@pytest.mark.parametrize("name", sorted(PLANNERS))
+def test_a_bubble_budget_too_small_to_reach_the_goal_says_more_bubbles_help(oracles, name):
+    """max_bubbles = 60 on the obstacle scene, a feasible problem every planner solves with more: bubbletree said "the goal
+    may be unreachable from the start" after 10 iterations, and the foam family named where it came nearest and nothing
+    to try, as if the geometry, not the budget, had stopped them. Each now says the bubble budget ended the search and
+    that more bubbles (the [planner] max_bubbles) let it go on, as a time limit's failure does."""
+    s = load_scenario("obstacle")
+    with pytest.raises(PlanningFailed) as err:
+        get_planner(name).plan(PlanningProblem(oracles["obstacle"], s.q_init, s.q_goal, max_bubbles=60), seed=0)
+    text = str(err.value)
+    assert err.value.stats.outcome == "bubble budget" and err.value.foam.size == 60
+    assert "may be unreachable" not in text, text
+    if name == "bubbletree":
+        assert re.search(r"the bubble budget \(max_bubbles = 60\) ended the search before the trees stalled \([\d,]+ iterations "
+                         r"without coming r_min / 2 closer, or .*\); with more \(the \[planner\] max_bubbles\) it goes on until they "
+                         r"meet or stall$", text), text
+    else:
+        assert re.search(r"; the bubble budget \(max_bubbles = 60\) ended the search: with more \(the \[planner\] max_bubbles\) "
+                         r"the foam grows on", text), text
 
 
 def test_a_goal_in_a_slot_whose_bubbles_are_under_r_min_plans_at_a_finer_resolution(tmp_path):
@@ -1374,7 +1396,9 @@ def test_a_slot_narrower_than_r_min_bubbles_is_threaded(tmp_path, seed):
         get_planner("bubbletree", stall=300).plan(problem, seed=seed)
     # A budget that ends the search after a refinement names it, and the last real progress (not the refinement).
     with pytest.raises(PlanningFailed, match=r"\(bubble budget\) .*; r_min refined from 0.0025 to [0-9.e-]+ at iterations? [\d, ]+; they "
-                                             r"last came r_min / 2 closer at iteration \d of \d+$") as err:
+                                             r"last came r_min / 2 closer at iteration \d of \d+(: the bubble budget \(max_bubbles = 360\) "
+                                             r"ended the search before the trees stalled \(30 iterations without coming r_min / 2 closer\); "
+                                             r"with more \(the \[planner\] max_bubbles\) it goes on until they meet or stall)?$") as err:
         get_planner("bubbletree", stall=300).plan(PlanningProblem(oracle, problem.q_init, problem.q_goal, max_bubbles=360), seed=seed)
     assert err.value.stats.details["finer_at"]
 

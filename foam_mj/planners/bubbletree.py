@@ -315,7 +315,7 @@ class BubbleTreePlanner(Planner):
         def closest_approach(unreachable: bool) -> tuple[str, bool]:
             """Where the trees came nearest: the configuration halfway across the gap between the two bubbles
             nearest each other, its clearance and the pair that sets it (what blocks the way, for the user); with
-            ``unreachable``, that the goal may be unreachable (not said when the time budget cut the search short).
+            ``unreachable``, that the goal may be unreachable (not said when a budget, time or bubbles, cut the search short).
             With one joint (an interval: every configuration joint is limited) a configuration between q_init and
             q_goal closer than delta proves the goal unreachable, whatever the budget: then that is said, and True
             returned with the text."""
@@ -435,7 +435,7 @@ class BubbleTreePlanner(Planner):
                     for side, name, q, r, out, T in (("start", "q_init", q0, r0, outside[0], B.trees[0]), ("goal", "q_goal", q1, r1, outside[1], B.trees[1]))
                     if (T.n == 1 and r < r_min) or (T.n < STALLED and (out or oracle.to_bounds(q) < r_min))
                 )
-                approach, proven = ("", False) if stuck else closest_approach(outcome != "time budget")
+                approach, proven = ("", False) if stuck else closest_approach(outcome == "stalled")
                 why, tail = outcome, stuck or approach
                 idle, total = counters["iterations"] - it_then, counters["iterations"]
                 finer = (f", r_min refined from {r_coarse:.3g} to {r_min:.3g} at iteration{'s' if len(finer_at) > 1 else ''} "
@@ -449,13 +449,16 @@ class BubbleTreePlanner(Planner):
                              "searches until the time budget ends")
                 elif not proven:  # a budget ended it: whether they were still coming closer tells whether more could help
                     tail += f"{finer.replace(',', ';', 1)}; they last came r_min / 2 closer at iteration {it_then:,} of {total:,}"
-                    if outcome == "time budget" and o.stall and total - since < max(window, since - it_level):
+                    if o.stall and total - since < max(window, since - it_level):
                         rule = f"{max(window, since - it_level):,} iterations without coming r_min / 2 closer"
                         if not finer_at:  # the first level also ends by SHRINK
                             rule += (f", or from iteration {SHRINK_FROM:,} a gap shrinking by less than {SHRINK:.0%} while the "
                                      f"iterations grow {SPAN}-fold; the gap is {B.closest:.3g} now")
-                        tail += (f": the time limit ({problem.time_limit:g} s) ended the search before the trees stalled ({rule}); "
-                                 "with more (--time-limit, the [planner] time_limit) it goes on until they meet or stall")
+                        budget, more = ((f"time limit ({problem.time_limit:g} s)", "--time-limit, the [planner] time_limit")
+                                        if outcome == "time budget" else
+                                        (f"bubble budget (max_bubbles = {problem.max_bubbles:,})", "the [planner] max_bubbles"))
+                        tail += (f": the {budget} ended the search before the trees stalled ({rule}); "
+                                 f"with more ({more}) it goes on until they meet or stall")
                 raise PlanningFailed.after(f"the trees did not meet ({why}) after {B.n} bubbles", st, tail, B.foam(q0, q1))
             if progress is not None:
                 timer.report(B.n, lambda: "the trees met, exploring" if t_first is not None else f"trees {B.closest:.3g} apart, last closer at "

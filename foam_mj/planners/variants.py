@@ -256,8 +256,8 @@ class _Growth:
                 else:  # the candidates drawn all failed; others might not
                     stuck = f": none of the candidates drawn on {bubble} had radius >= {r_min}; lower r_min, or plan with bubbletree"
             else:
-                stuck = (small_goal_hint(self.oracle, self.q_goal, self.params.r_min, outcome, self.params.time_limit)
-                         or nearest_hint(self.oracle, foam, self.params.r_min, outcome, self.params.time_limit))
+                stuck = (small_goal_hint(self.oracle, self.q_goal, self.params.r_min, outcome, self.params.time_limit, self.params.max_bubbles)
+                         or nearest_hint(self.oracle, foam, self.params.r_min, outcome, self.params.time_limit, self.params.max_bubbles))
                 if self.closed:
                     stuck = f"{self.closed}; {stuck.removeprefix(': ')}"
                 elif outcome == "queue empty":  # rbpf, hpf: every bubble expanded once
