@@ -631,6 +631,19 @@ def test_gradient_smoothing_shortens_its_step_for_small_bubbles():
     assert len(r.history_best) == r.iterations and np.all(np.diff(r.history_best) <= 0)
 
 
+
+def test_gradient_smoothings_iteration_cap_counts_every_step_of_its_shorter_step_runs():
+    """StopCriteria(max_iterations=50) on the chain of 1 cm bubbles: the run with eta = 0.005 used its 50 steps without
+    lowering SV and each shorter-step run got 50 more, 150 steps in all (up to 7 x the cap: 140,000 under the default
+    20,000). The cap is the smoother's budget of steps: the runs share it, so no result has more steps than the cap, and
+    a run that ends on it is not repeated."""
+    ros = _chain([0.01] * 60, n=2)
+    for cap in (50, 120):
+        r = GradientSmoothing(stop=StopCriteria(max_iterations=cap, stall_iterations=None)).smooth(ros)
+        assert r.iterations <= cap and len(r.history_best) == r.iterations, (cap, r.iterations, r.info)
+        assert r.stop_reason == "iteration cap" and r.in_hatches()
+
+
 def test_gradient_smoothing_keeps_the_thesis_step_where_it_works(all_results):
     for name in ("T_CA", "T_RCA"):
         assert all_results[name].info["eta"] == 0.005 and all_results[name].info["eta_retries"] == 0

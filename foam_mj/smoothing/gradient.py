@@ -372,7 +372,8 @@ class GradientSmoothing(Smoother):
 
     ``initial`` defaults to the centre path's waypoints (the thesis smooths T into T_CA, and T_RA into
     T_RCA). ``stop`` applies to SV: by default the run stops once SV has fallen by less than 1e-5 over
-    100 steps (SV drops by ~95% in the first 200 steps, then creeps), capped at 20,000 steps; it also
+    100 steps (SV drops by ~95% in the first 200 steps, then creeps), capped at 20,000 steps (a run that never lowers SV
+    is repeated with a ten times shorter step; the cap counts the steps of every run); it also
     ends when a step moves no waypoint by more than ``tol``. ``inset`` shrinks the hatches the
     projection uses (configuration units; less in a hatch too thin for it, :meth:`Hatches.fitting_inset`), so
     waypoints end strictly inside. ``seed`` is accepted for the common interface, validated and unused (the
@@ -426,7 +427,7 @@ class GradientSmoothing(Smoother):
             eta_pts = np.full_like(path, eta)
             eta_pts[:, [0, -1]] = 0.0
             stall = MeanStall(sv, stop.stall_tol)
-            t_run, reason = 0, stop.reason(0, sv, 0)
+            reason = stop.reason(t, sv, 0)  # the cap counts the steps of every run (t): they share it
             while reason is None:
                 # Eq. 9 then the projection onto the hatches: w_new = P(w - eta grad)
                 mul(eta_pts, grad, trial)
@@ -436,16 +437,15 @@ class GradientSmoothing(Smoother):
                 path, other = new, path
                 sv, grad = sv_grad(path)
                 t += 1
-                t_run += 1
                 if sv < best:
                     best = sv
                     np.copyto(best_p, path)
                 stall.update(sv)
                 hist.append(best)
-                reason = stop.reason(t_run, best, stall.count)
+                reason = stop.reason(t, best, stall.count)
                 if reason is None and step <= tol:
                     reason = "converged"
-            if best < initial_sv or reason not in ("stall", "iteration cap"):
+            if best < initial_sv or reason != "stall":  # a run ended by the cap leaves no steps to repeat it with
                 break
             eta /= 10  # every step raised SV: eta is too long for this rosary's bubbles (see the docstring)
         best_w = best_p[:, 1:-1].T
