@@ -31,6 +31,7 @@ Engines run the same :func:`foam_mj.sweep.run_task` on picklable tasks, so they 
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
@@ -66,11 +67,30 @@ def _worker_init() -> None:
     import multiprocessing as mp
     import threading
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C held back while this worker started (_ctrl_c_held) is dropped
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     parent = mp.parent_process()
     if parent is not None:
         threading.Thread(target=_exit_with, args=(parent.sentinel,), daemon=True, name="foam-mj-parent-watch").start()
+
+
+@contextlib.contextmanager
+def _ctrl_c_held() -> Iterator[None]:
+    """Block SIGINT in this thread while the pool may start workers (ProcessPoolExecutor spawns them in ``submit``).
+    A spawned worker inherits the blocked signal across exec and keeps it so until :func:`_worker_init` ignores it:
+    before that it spends 0.5-5 s importing foam_mj, numpy and MuJoCo under Python's default handler, and a Ctrl-C
+    (sent to the whole process group) printed the worker's KeyboardInterrupt traceback above the sweep's own line.
+    The sweep's own Ctrl-C is only delayed: it is delivered when the mask is restored."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not POSIX
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _exit_with(sentinel: int) -> None:
@@ -116,7 +136,9 @@ def local_engine(tasks: Iterator[Task], workers: int, *, poll: float = 0.5) -> I
                         exhausted = True
                         break
                 try:
-                    inflight[pool.submit(run_task, task)] = task
+                    with _ctrl_c_held():
+                        future = pool.submit(run_task, task)
+                    inflight[future] = task
                 except BrokenProcessPool:
                     retry.appendleft(task)
                     refused = True
