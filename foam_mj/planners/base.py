@@ -42,7 +42,9 @@ class PlanningProblem:
     ``delta`` must equal ``oracle.delta`` (it is repeated so that a problem states its margin).
     ``time_limit`` (seconds of wall time) and ``max_bubbles`` bound the search for a certified chain; bubbletree's
     corridor, built after its trees meet, is not bounded by them (its refinement has its own CPU budget, the option
-    ``refine_time``), so a plan may return after ``time_limit``. q_init and q_goal are kept as
+    ``refine_time``), so a plan may return after ``time_limit``; the clock starts once the planner has imported its
+    solvers (scipy: a one-time 0.3-1 s per process, several seconds on a loaded machine), so that the first plan of a
+    process searches as long as the next. q_init and q_goal are kept as
     read-only float arrays (validated: shape, finite, within the joint bounds, not equal). Picklable.
     """
 
