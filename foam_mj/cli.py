@@ -381,6 +381,7 @@ def build_parser() -> argparse.ArgumentParser:
     rec.add_argument("--no-rrd", action="store_true", help="write no recording")
     p.add_argument("--json", metavar="OUT.json", help="write the result as JSON (see the README; `foam-mj verify` checks it)")
     p.add_argument("--no-replay", action="store_true", help="skip trajectories and replays (paths only)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr (off a terminal: no stage lines); errors and notes still print")
     p.add_argument(
         "--time-law",
         choices=["toppra", "own"],

@@ -470,7 +470,7 @@ def _plan(args: argparse.Namespace, recorder) -> int:
     from foam_mj.pipeline import run
     from foam_mj.results import write_failure, write_outcome
 
-    progress = Progress(lines=True)  # off a terminal: a line per stage (planning, each smoother, each replay)
+    progress = Progress(False) if args.quiet else Progress(lines=True)  # off a terminal: a line per stage (planning, each smoother, each replay)
     t0 = time.perf_counter()
     try:
         outcome = run(scenario, seed, names, replay=not args.no_replay, dynamic=not args.no_replay, time_law=args.time_law, report=progress)

@@ -1089,3 +1089,17 @@ def test_plan_names_robot_geoms_held_within_the_margin_of_each_other(tmp_path, c
     assert bool(note) == noted
     if noted:
         assert "upper_link / hand_pad -60.00 mm" in note[0]
+
+
+def test_plan_quiet_writes_no_progress_lines_but_keeps_its_notes(tmp_path, capsys):
+    """Off a terminal (CI logs, nohup) plan writes a line per stage on stderr; --quiet leaves stderr to errors, while the
+    summary and its notes stay on stdout (the budgets examiner's left-alone item: no flag silenced the lines)."""
+    argv = ["plan", "--scene", "step_up", "--smoother", "convex", "--no-rrd", "--no-replay"]
+    assert main(argv) == 0
+    loud = capsys.readouterr()
+    assert re.search(r"^\[\d+\.\d s\] smoothing: ", loud.err, re.M)
+    assert main([*argv, "--quiet"]) == 0
+    quiet = capsys.readouterr()
+    assert quiet.err == ""
+    timeless = [re.sub(r"[\d.,]+", "#", line) for line in quiet.out.splitlines()]
+    assert timeless == [re.sub(r"[\d.,]+", "#", line) for line in loud.out.splitlines()]
