@@ -77,7 +77,8 @@ class OptimalSmoother(Smoother):
     convex reference's shortest path (for objectives with an SV term, also the midpoint of that path
     and the hatch centres, whose close vertices can split corners); ``multistart`` more starts are random hatch points (from ``seed``); while no
     best result is not certified, up to ``restarts`` more random starts are tried. The lowest objective
-    value is returned, certified or not (``info["certified"]`` and ``stop_reason`` say which). ``info`` holds
+    value is returned, certified or not (``info["certified"]`` and ``stop_reason`` say which). ``max_iter`` caps the
+    sequential convex iterations of each start, not of all starts together (the total grows with the starts). ``info`` holds
     the objective value, the certificate of the returned waypoints (``kkt_stationarity``,
     ``kkt_complementarity``, ``certified``), and every start's outcome.
     """
