@@ -128,7 +128,7 @@ class RobotModel:
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         del state["_local"]
-        state.pop("fixed_obstacle_distances", None)  # caches
+        state.pop("fixed_distances", None)  # caches
         state.pop("contact_reach", None)
         state.pop("displacement_bound", None)
         if self.spec is not None:  # MjSpec does not pickle: its MJCF text does
@@ -394,20 +394,23 @@ class RobotModel:
         return DisplacementBound.from_model(self)
 
     @cached_property
-    def fixed_obstacle_distances(self) -> tuple[tuple[int, int, float], ...]:
-        """(robot geom, obstacle geom, distance) of every robot/obstacle pair in ``fixed_pairs``: no configuration
-        joint changes these distances, so they are measured once (at ``qpos0``)."""
+    def fixed_distances(self) -> tuple[tuple[int, int, float], ...]:
+        """(robot geom, other geom, distance) of every pair in ``fixed_pairs``, robot/obstacle and (with self-collision)
+        robot/robot: no configuration joint changes these distances, so they are measured once (at ``qpos0``)."""
         m = self.model
         robot = {int(g) for g in self.robot_geoms}
         d = mujoco.MjData(m)
         d.qpos[:] = self.config.qpos0
         mujoco.mj_kinematics(m, d)
-        out = []
-        for a, b in self.fixed_pairs:
-            a, b = (int(a), int(b)) if int(a) in robot else (int(b), int(a))
-            if b not in robot:  # robot/robot pairs no joint changes are left out by the checkers too
-                out.append((a, b, float(geom_distance(m, d, a, b, FIXED_DISTMAX))))
-        return tuple(out)
+        pairs = ((int(a), int(b)) if int(a) in robot else (int(b), int(a)) for a, b in self.fixed_pairs)
+        return tuple((a, b, float(geom_distance(m, d, a, b, FIXED_DISTMAX))) for a, b in pairs)
+
+    @property
+    def fixed_obstacle_distances(self) -> tuple[tuple[int, int, float], ...]:
+        """The robot/obstacle pairs of :attr:`fixed_distances` (robot/robot pairs no joint changes are left out by the
+        checkers too: ``plan`` names those within delta in a note)."""
+        robot = {int(g) for g in self.robot_geoms}
+        return tuple(t for t in self.fixed_distances if t[1] not in robot)
 
     def check_fixed_pairs(self, delta: float) -> None:
         """:class:`ConfigurationError` for a robot/obstacle pair closer than ``delta`` whose distance no configuration

@@ -189,14 +189,8 @@ def held_self_pair_note(robot, delta: float) -> str:
     robot/obstacle pair, which it refuses instead: an obstacle can be moved, a robot's own held pose is the user's
     choice) and ``foam-mj verify`` does too; without this note, a hand held 10 mm into its own forearm planned "clean".
     "" when there is none."""
-    import mujoco
-
     robot_geoms = {int(g) for g in robot.robot_geoms}
-    pairs = [(int(a), int(b)) for a, b in robot.fixed_pairs if int(a) in robot_geoms and int(b) in robot_geoms]
-    if not pairs:
-        return ""
-    m, d = robot.model, robot.set_configuration(robot.config.to_q(robot.config.qpos0))
-    close = sorted(c for c in ((mujoco.mj_geomDistance(m, d, a, b, delta, None), a, b) for a, b in pairs) if c[0] < delta)
+    close = sorted((dist, a, b) for a, b, dist in robot.fixed_distances if b in robot_geoms and dist < delta)
     if not close:
         return ""
     return (f"note: {len(close)} pair(s) of robot geoms are within the margin of each other where joints outside the "
