@@ -79,11 +79,13 @@ class Extender:
         r = np.zeros(s.shape)
         # A candidate's radius is at most its parent's plus the step (r is 1-Lipschitz) and its distance to the
         # bounds: MuJoCo measures each pair only that far (the same radii to the last bit).
+        def size(a: np.ndarray) -> None:  # the candidates at flat indices a
+            wall_a = wall.take(a)
+            r.put(a, oracle.radii_below(flat.take(a, axis=0), np.minimum((reach + s).take(a), wall_a), wall_a))
+            counters["candidates"] += len(a)
+
         if not self.by_step:
-            wall_ask = wall.take(ask)
-            r.put(ask, oracle.radii_below(flat.take(ask, axis=0), np.minimum((reach + s).take(ask), wall_ask), wall_ask))
-            counters["candidates"] += len(ask)
-            good = (r >= floor) & (s <= reach + (1 - HATCH) * r)
+            size(ask)
         else:  # BY_STEP: the farthest step first, a nearer one only for extensions with no good candidate farther out
             S = STEPS.size
             found = np.zeros(len(s), dtype=bool)
@@ -92,11 +94,9 @@ class Extender:
                 if k < S - 1:
                     a = a[~found.take(a // S)]
                 if a.size:
-                    wall_a = wall.take(a)
-                    r.put(a, oracle.radii_below(flat.take(a, axis=0), np.minimum((reach + s).take(a), wall_a), wall_a))
-                    counters["candidates"] += len(a)
+                    size(a)
                     found |= (r[:, k] >= floor[:, 0]) & (s[:, k] <= rP + (1 - HATCH) * r[:, k])
-            good = (r >= floor) & (s <= reach + (1 - HATCH) * r)
+        good = (r >= floor) & (s <= reach + (1 - HATCH) * r)
         counters["rejected_small"] += len(ask) - int(np.count_nonzero(good))
         # The farthest good candidate of each extension.
         rows = np.logical_or.reduce(good, axis=1).nonzero()[0]
