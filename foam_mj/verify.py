@@ -27,6 +27,13 @@ beyond its MJCF range (the planner's bounds) is unsafe too. The rows and "config
 joint that is no coordinate where the planner held it (the scene's qpos0, or the result's keyframe's pose): which
 geoms count as moving follows from the coordinates, so a joint left out of them but swung by the rows is refused.
 
+Between samples the clearance is proved, not assumed (:func:`foam_mj.verify_geometry.prove`): from two neighbouring
+samples' distances d_a, d_b and how far any point of a collision geom can travel between them (the lever arms), the
+clearance anywhere between them is at least (d_a + d_b - travel) / 2; a segment where that falls below the margin is
+halved until each piece is proved or a new sample breaks the margin. A stretch that stays unproved (a path running along
+the margin exactly) is unsafe too; a coordinate of a ball or free joint, whose travel the lever arms do not bound, gets
+no proof (said in the report), only its samples.
+
 Speed: poses of all samples come from one ``mj_kinematics`` call each; a bounding-sphere lower bound
 (centre distance minus both ``geom_rbound``; for a plane, the signed distance of the other sphere)
 is computed for every (sample, pair) with numpy, and ``mj_geomDistance`` runs only where that bound is
@@ -51,7 +58,8 @@ import numpy as np
 from foam_mj.errors import FoamError, file_problem, file_problem_text, foreign_file_hint, is_number, only_numbers, text_problem
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 from foam_mj.verify_geometry import HELD_TOL as _HELD_TOL
-from foam_mj.verify_geometry import MAX_SAMPLES, _Checker, _beyond_ranges, _densify, _distance, _levers, collision_pairs  # noqa: F401
+from foam_mj.verify_geometry import (MAX_SAMPLES, Measured, _Checker, _beyond_ranges, _densify, _distance, _levers,  # noqa: F401
+                                     _unprovable, collision_pairs, prove)
 
 #: How far (per coordinate, rad or m) a path's first and last waypoints may lie from the result's q_init and q_goal.
 END_TOL = 1e-9
@@ -73,6 +81,10 @@ class PathCheck:
     exact_calls: int  # mj_geomDistance calls made
     outside_range: int = 0  # samples with a configuration joint beyond its MJCF range
     range_note: str = ""  # the joint that went furthest beyond its range, how far, and the range
+    proved_clearance: float = float("nan")  # metres: a lower bound of the clearance everywhere between the samples (nan: no proof)
+    unproved: int = 0  # segments between samples whose clearance neither the proof nor a violation settled
+    proof_samples: int = 0  # samples the proof added (bisections), besides the waypoint and trajectory samples
+    proof_note: str = ""  # why there is no proof
 
 
 @dataclass(frozen=True)
@@ -94,9 +106,19 @@ class VerifyReport:
         return sum(p.outside_range for p in self.paths)
 
     @property
+    def unproved(self) -> int:
+        return sum(p.unproved for p in self.paths)
+
+    @property
     def unsafe(self) -> bool:
-        """Some sample is closer than the margin, or beyond a joint range."""
-        return bool(self.violations or self.outside_range)
+        """Some sample is closer than the margin, or beyond a joint range, or a stretch between samples is not proved
+        clear."""
+        return bool(self.violations or self.outside_range or self.unproved)
+
+    @property
+    def proved_clearance(self) -> float:
+        """The smallest proved clearance over the paths (nan when a path has no proof)."""
+        return min((p.proved_clearance for p in self.paths), default=float("inf"), key=lambda v: -np.inf if np.isnan(v) else v)
 
     @property
     def samples(self) -> int:
@@ -308,7 +330,9 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     if len(pairs) == 0:
         raise _fail(source, f"the scene {mjcf} has no pair of moving and static collision geoms")
     checker = _Checker(m, pairs)
+    self_from = len(pairs) - n_self  # collision_pairs lists the robot/robot pairs last
     lever = _levers(m, idx)
+    proof_note = _unprovable(m, idx)
     ends = {}  # the end points each path must join, when the result has them (plan's always does)
     for key in ("q_init", "q_goal"):
         if key not in doc:
@@ -375,10 +399,20 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         allq = np.vstack([samples_wp, samples_tr])
         outside, note = _beyond_ranges(m, idx, allq)
         calls0 = checker.calls
-        dmin, bad, pair = checker.check(allq, margin)
+        seen = checker.measure(allq, margin, self_from)
+        dmin, bad, pair = seen.min_distance, seen.violations, seen.pair
+        proved, unproved, added = float("nan"), 0, 0
+        if not proof_note:
+            proved = float("inf")
+            for part in (slice(0, len(samples_wp)), slice(len(samples_wp), len(allq))):
+                if part.stop - part.start:
+                    part_seen = Measured(dmin, bad, pair, seen.obstacle_bound[part], seen.self_bound[part])
+                    pr = prove(checker, allq[part], part_seen, lever, margin, self_from)
+                    proved, unproved, added = min(proved, pr.clearance), unproved + pr.unproved, added + pr.samples
+                    bad, dmin = bad + pr.violations, min(dmin, pr.min_distance)
         checks.append(PathCheck(name, len(samples_wp), len(samples_tr), dmin, bad,
                                 (names(pairs[pair, 0]), names(pairs[pair, 1])) if pair >= 0 else ("", ""), checker.calls - calls0,
-                                outside, note))
+                                outside, note, proved, unproved, added, proof_note))
     return VerifyReport(source, mjcf, margin, step, len(pairs) - n_self, tuple(checks), n_self)
 
 
@@ -394,19 +428,26 @@ def _count(n: int, noun: str) -> str:
 
 def format_report(r: VerifyReport) -> str:
     """The table ``foam-mj verify`` prints, and a last summary line."""
-    head = f"{'path':<20}{'waypoint samples':>17}{'trajectory samples':>20}{'min clear':>11}{'violations':>11}  closest pair"
+    head = (f"{'path':<20}{'waypoint samples':>17}{'trajectory samples':>20}{'min clear':>11}{'proved':>11}{'violations':>11}"
+            "  closest pair")
     pairs = _count(r.pairs, "moving/static geom pair") + (f" and {_count(r.self_pairs, 'robot/robot pair')}" if r.self_pairs else "")
     lines = [f"verify {_shown(str(r.result))} on {_shown(str(r.mjcf))}: {pairs}, step {r.step:g}, margin {r.margin * 1000:g} mm",
              head, "-" * len(head)]
     for p in r.paths:
+        proved = "none" if np.isnan(p.proved_clearance) else f"{p.proved_clearance * 1000:.2f} mm"
         lines.append(f"{_shown(p.name):<20}{p.waypoint_samples:>17,}{p.trajectory_samples:>20,}{p.min_clearance * 1000:>8.2f} mm"
-                     f"{p.violations:>11}  {_shown(p.worst_pair[0])} / {_shown(p.worst_pair[1])}")
+                     f"{proved:>11}{p.violations:>11}  {_shown(p.worst_pair[0])} / {_shown(p.worst_pair[1])}")
     for p in r.paths:
         if p.outside_range:
             lines.append(f"path '{_shown(p.name)}': {p.outside_range} samples outside the joint ranges: {p.range_note}")
+        if p.proof_note:
+            lines.append(f"path '{_shown(p.name)}': no proof between samples: {p.proof_note}")
     faults = ([f"{r.violations} sample(s) closer than the margin"] if r.violations else []) + \
-             ([f"{r.outside_range} sample(s) outside the joint ranges"] if r.outside_range else [])
+             ([f"{r.outside_range} sample(s) outside the joint ranges"] if r.outside_range else []) + \
+             ([f"{r.unproved:,} stretch(es) between samples not proved clear (the clearance touches the margin)"] if r.unproved else [])
     verdict = "UNSAFE: " + "; ".join(faults) if faults else "clean"
+    if not faults and not np.isnan(r.proved_clearance):
+        verdict += f", proved: every point of every path at least {r.proved_clearance * 1000:.2f} mm clear"
     lines.append(f"paths {len(r.paths)} samples {r.samples} min_clearance_mm {r.min_clearance * 1000:.2f} "
                  f"violations {r.violations}: {verdict}")
     return "\n".join(lines)

@@ -13,6 +13,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from foam_mj.cli import main
 from foam_mj.errors import FoamError
 from foam_mj.verify import _Checker, _densify, collision_pairs, verify_result
@@ -121,7 +124,7 @@ def test_verify_uses_none_of_the_planners_code():
     assert _imports(ROOT / "foam_mj" / "verify.py") <= {
         "__future__", "json", "dataclasses", "pathlib", "mujoco", "numpy", "foam_mj.errors", "foam_mj.fingerprint",
         "foam_mj.verify_geometry"}
-    assert _imports(ROOT / "foam_mj" / "verify_geometry.py") <= {"__future__", "mujoco", "numpy", "foam_mj.errors"}
+    assert _imports(ROOT / "foam_mj" / "verify_geometry.py") <= {"__future__", "dataclasses", "mujoco", "numpy", "foam_mj.errors"}
     assert _imports(ROOT / "foam_mj" / "fingerprint.py") <= {"__future__", "hashlib", "mujoco", "numpy"}
     assert _imports(ROOT / "foam_mj" / "errors.py") <= {"__future__", "difflib", "math", "numbers", "os", "stat", "typing"}  # the standard library only
 
@@ -619,3 +622,119 @@ def test_samples_are_close_in_the_world_not_only_in_joint_space(tmp_path):
     report = verify_result(tmp_path / "crane.json")
     assert report.paths[0].waypoint_samples >= 0.002 * 20.002 / 1e-3
     assert report.violations > 0 and report.min_clearance == pytest.approx(-0.0025, abs=2e-4)
+
+
+def test_a_clean_result_is_proved_clear_between_its_samples(planned_result, capsys):
+    """verify proves the clearance between samples, not only at them: its 'proved' value is a lower bound of the
+    clearance everywhere on the path, at least the margin on a plan and at most the smallest sampled distance."""
+    report = verify_result(planned_result)
+    margin = json.loads(planned_result.read_text())["planner"]["delta"]
+    for check in report.paths:
+        assert check.unproved == 0 and not check.proof_note
+        assert margin <= check.proved_clearance <= check.min_clearance
+    assert main(["verify", str(planned_result)]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.endswith(f"violations 0: clean, proved: every point of every path at least {report.proved_clearance * 1000:.2f} mm clear")
+
+
+def test_a_crossing_between_coarse_samples_is_found_by_the_proof(tmp_path):
+    """At --step 0.1 (the largest) the boom's swing is two samples, its tip 7.1 mm and 27.9 mm clear of the 1 mm plate
+    it passes through between them, and sampling alone said clean. The lever-arm bound cannot prove that segment
+    clear, so it is halved until a sample lands in the plate."""
+    (tmp_path / "crane.xml").write_text(CRANE)
+    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "crane.xml", "planner": {"delta": 0.005},
+           "configuration": {"qpos_index": [0], "scale": [1.0], "offset": [0.0], "qpos0": [0.0]},
+           "paths": {"swing": {"waypoints": [[0.0], [0.002]]}}}
+    (tmp_path / "crane.json").write_text(json.dumps(doc))
+    report = verify_result(tmp_path / "crane.json", step=0.1)
+    check = report.paths[0]
+    assert check.waypoint_samples == 2 and check.proof_samples > 0
+    assert check.violations > 0 and report.unsafe and check.min_clearance < 0
+    assert check.proved_clearance <= check.min_clearance
+
+
+SLIDE = """<mujoco model="a ball sliding along a table at exactly the margin">
+  <worldbody>
+    <geom name="table" type="box" pos="0 0 -0.5" size="2 2 0.5"/>
+    <body name="cart" pos="0 0 0.1328125">
+      <joint name="x" type="slide" axis="1 0 0" range="-1 1"/>
+      <geom name="ball" type="sphere" size="0.125"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+
+def test_a_path_running_along_the_margin_is_not_called_clean(tmp_path, capsys):
+    """A ball slides along a table exactly at the margin (7.8125 mm, exact in binary): every sample keeps it, and
+    verify said clean. Nothing proves the stretches between samples (halving never lifts the bound to the margin),
+    so the path is unsafe (exit 4), and the halving stops at its budget."""
+    (tmp_path / "slide.xml").write_text(SLIDE)
+    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "slide.xml", "planner": {"delta": 0.0078125},
+           "configuration": {"qpos_index": [0], "scale": [1.0], "offset": [0.0], "qpos0": [0.0]},
+           "paths": {"along": {"waypoints": [[-0.5], [0.5]]}}}
+    (tmp_path / "slide.json").write_text(json.dumps(doc))
+    report = verify_result(tmp_path / "slide.json")
+    check = report.paths[0]
+    assert check.violations == 0 and check.min_clearance == pytest.approx(0.0078125, abs=1e-12)
+    assert check.unproved > 0 and report.unsafe and check.proved_clearance < 0.0078125
+    assert check.proof_samples <= 100_000
+    assert main(["verify", str(tmp_path / "slide.json")]) == 4
+    assert "not proved clear (the clearance touches the margin)" in capsys.readouterr().out.strip().splitlines()[-1]
+
+
+BALL_ARM = """<mujoco model="an arm on a ball joint">
+  <worldbody>
+    <geom name="post" type="box" pos="1 0 0" size="0.05 0.05 0.05"/>
+    <body name="arm">
+      <joint name="shoulder" type="ball"/>
+      <geom name="tip" type="sphere" pos="0.5 0 0" size="0.05"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+
+def test_a_ball_joint_coordinate_has_no_proof_and_says_so(tmp_path, capsys):
+    """The lever arms bound hinges and slides only: a result whose coordinate is a ball joint's quaternion entry is
+    checked at its samples, and the report says there is no proof and why."""
+    (tmp_path / "ball.xml").write_text(BALL_ARM)
+    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "ball.xml", "planner": {"delta": 0.005},
+           "configuration": {"qpos_index": [0], "scale": [1.0], "offset": [0.0], "qpos0": [1.0, 0.0, 0.0, 0.0]},
+           "paths": {"turn": {"waypoints": [[1.0], [0.99]]}}}
+    (tmp_path / "ball.json").write_text(json.dumps(doc))
+    report = verify_result(tmp_path / "ball.json")
+    assert np.isnan(report.paths[0].proved_clearance) and "shoulder is a ball joint" in report.paths[0].proof_note
+    assert main(["verify", str(tmp_path / "ball.json")]) == 0
+    out = capsys.readouterr().out
+    assert "path 'turn': no proof between samples: shoulder is a ball joint" in out
+    assert out.strip().splitlines()[-1].endswith("violations 0: clean")
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), self_collision=st.booleans(),
+       scene=st.sampled_from(["models/obstacle5.xml", "examples/industrial_arm/shelf.xml"]))
+def test_the_segment_bound_never_exceeds_the_clearance_between_its_ends(seed, self_collision, scene):
+    """The proof's bound on a segment, from its ends' distances and the lever arms' travel, is at most the smallest
+    distance at 400 points along it (every pair, mj_geomDistance), on random segments of the five-joint leg and the
+    six-joint arm, with and without the robot/robot pairs."""
+    from foam_mj.verify_geometry import _levers, _segment_bounds
+
+    m = mujoco.MjModel.from_xml_path(str(ROOT / scene))
+    assert m.nq == m.njnt
+    idx = np.array([int(m.jnt_qposadr[j]) for j in range(m.njnt)])
+    pairs = collision_pairs(m, idx, self_collision)
+    self_from = len(pairs) - (len(pairs) - len(collision_pairs(m, idx)))
+    rng = np.random.default_rng(seed)
+    lo, hi = m.jnt_range[:, 0], m.jnt_range[:, 1]
+    qa = rng.uniform(lo, hi)
+    qb = np.clip(qa + rng.normal(0, 0.1, m.nq), lo, hi)
+    checker = _Checker(m, pairs)
+    ends = checker.measure(np.vstack([qa, qb]), 0.005, self_from)
+    travel = np.abs(qb - qa) @ _levers(m, idx)
+    bound = _segment_bounds(ends.obstacle_bound[None], ends.self_bound[None], np.array([travel]))[0]
+    d = mujoco.MjData(m)
+    dense = np.inf
+    for t in np.linspace(0, 1, 400):
+        d.qpos[:] = qa + t * (qb - qa)
+        mujoco.mj_kinematics(m, d)
+        dense = min(dense, min(mujoco.mj_geomDistance(m, d, int(a), int(b), 10.0, None) for a, b in pairs))
+    assert bound <= dense + 1e-9
