@@ -34,12 +34,14 @@ halved until each piece is proved or a new sample breaks the margin. A stretch t
 the margin exactly) is unsafe too; a coordinate of a ball or free joint, whose travel the lever arms do not bound, gets
 no proof (said in the report), only its samples.
 
-Speed: poses of all samples come from one ``mj_kinematics`` call each; a bounding-sphere lower bound
-(centre distance minus both ``geom_rbound``; for a plane, the signed distance of the other sphere)
-is computed for every (sample, pair) with numpy, and ``mj_geomDistance`` runs only where that bound is
-below max(margin, an upper bound of the minimum found from the most promising pairs). This is exact
-for both outputs: a pair skipped has a distance at least its bound, which is at least the margin and
-at least the smallest distance found.
+Speed: poses of all samples come from one ``mj_kinematics`` call each; a lower bound of every (sample, pair) is
+computed with numpy: the bounding spheres' (centre distance minus both ``geom_rbound``; for a plane, the signed
+distance of the other sphere), raised by the exact distances at every 16th sample (no point moves further between two
+samples than the lever arms allow, so a pair's distance changes at most that much, twice for a robot/robot pair).
+``mj_geomDistance`` then runs only where that bound is below max(margin, an upper bound of the minimum found from the
+most promising pairs). This is exact for both outputs: a pair skipped has a distance at least its bound, which is at
+least the margin and at least the smallest distance found. (The anchors took the 6-joint arm's check from 297,000
+distance calls and 9.0 s of CPU to 30,000 and 0.8 s, and the obstacle result's from 0.85 to 0.41 s.)
 
 The scene is the result's "mjcf_relative" or "mjcf" (both, when relative, resolved against the result's folder), and
 must compile to the stored "model_hash" when there is one (otherwise it is refused: exit 2); without one, the two
@@ -329,10 +331,10 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     n_self = len(pairs) - len(collision_pairs(m, idx, root=root))
     if len(pairs) == 0:
         raise _fail(source, f"the scene {mjcf} has no pair of moving and static collision geoms")
-    checker = _Checker(m, pairs)
     self_from = len(pairs) - n_self  # collision_pairs lists the robot/robot pairs last
     lever = _levers(m, idx)
     proof_note = _unprovable(m, idx)
+    checker = _Checker(m, pairs, None if proof_note else lever, self_from)
     ends = {}  # the end points each path must join, when the result has them (plan's always does)
     for key in ("q_init", "q_goal"):
         if key not in doc:

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from foam_mj.cli import main
 from foam_mj.errors import FoamError
-from foam_mj.verify import _Checker, _densify, collision_pairs, verify_result
+from foam_mj.verify import _Checker, _densify, _distance, _levers, collision_pairs, verify_result
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -93,12 +93,20 @@ def test_the_pruned_check_equals_the_brute_force_one(planned_result):
         d.qpos[:] = row
         mujoco.mj_kinematics(m, d)
         brute[i] = [mujoco.mj_geomDistance(m, d, a, b, 10.0, None) for a, b in pairs]
+    lever = _levers(m, np.asarray(doc["configuration"]["qpos_index"]))
     for margin in (0.005, 0.05):
-        checker = _Checker(m, pairs)
-        dmin, bad, _ = checker.check(rows, margin)
-        assert dmin == pytest.approx(brute.min(), abs=1e-12)
-        assert bad == int(np.sum(brute.min(axis=1) < margin))
-        assert checker.calls < brute.size  # and it did prune
+        calls = {}
+        for anchored in (False, True):  # sphere bounds alone, and raised from exact distances at every 16th row
+            checker = _Checker(m, pairs, lever if anchored else None)
+            dmin, bad, _ = checker.check(rows, margin)
+            assert dmin == pytest.approx(brute.min(), abs=1e-12)
+            assert bad == int(np.sum(brute.min(axis=1) < margin))
+            assert checker.calls < brute.size  # and it did prune
+            calls[anchored] = checker.calls
+        assert calls[True] < calls[False]
+    # The bounds it returns hold at every row: below each row's true minimum, over its moving/static pairs.
+    seen = _Checker(m, pairs, lever).measure(rows, 0.005)
+    assert np.all(seen.obstacle_bound <= brute.min(axis=1) + 1e-12)
 
 
 def test_densify_keeps_every_step_small_in_both_units():
@@ -738,3 +746,30 @@ def test_the_segment_bound_never_exceeds_the_clearance_between_its_ends(seed, se
         mujoco.mj_kinematics(m, d)
         dense = min(dense, min(mujoco.mj_geomDistance(m, d, int(a), int(b), 10.0, None) for a, b in pairs))
     assert bound <= dense + 1e-9
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), stride=st.sampled_from([0.002, 0.02, 0.2]))
+def test_anchored_bounds_keep_the_check_exact_on_random_walks(seed, stride):
+    """With the anchors (every pair's exact distance at every 16th row bounding the rows between), the smallest
+    distance, the violations and the closest pair equal a brute-force mj_geomDistance over every row and pair, and
+    each row's bounds stay below its true minimum, on random walks of the six-joint arm with its robot/robot pairs."""
+    m = mujoco.MjModel.from_xml_path(str(ROOT / "examples" / "industrial_arm" / "shelf.xml"))
+    idx = np.arange(m.nq)
+    pairs = collision_pairs(m, idx, self_collision=True)
+    self_from = len(collision_pairs(m, idx))
+    rng = np.random.default_rng(seed)
+    lo, hi = m.jnt_range[:, 0], m.jnt_range[:, 1]
+    rows = np.clip(rng.uniform(lo, hi) + np.cumsum(rng.normal(0, stride, (80, m.nq)), axis=0), lo, hi)
+    d = mujoco.MjData(m)
+    brute = np.empty((len(rows), len(pairs)))
+    for i, row in enumerate(rows):
+        d.qpos[:] = row
+        mujoco.mj_kinematics(m, d)
+        brute[i] = [_distance(m, d, int(a), int(b), 10.0) for a, b in pairs]  # (verify's capsule/box guard)
+    seen = _Checker(m, pairs, _levers(m, idx), self_from).measure(rows, 0.005)
+    assert seen.min_distance == pytest.approx(brute.min(), abs=1e-9)
+    assert seen.violations == int(np.sum(brute.min(axis=1) < 0.005))
+    assert brute[:, seen.pair].min() == pytest.approx(brute.min(), abs=1e-9)
+    assert np.all(seen.obstacle_bound <= brute[:, :self_from].min(axis=1) + 1e-9)
+    assert np.all(seen.self_bound <= brute[:, self_from:].min(axis=1, initial=np.inf) + 1e-9)
