@@ -332,9 +332,8 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     if len(pairs) == 0:
         raise _fail(source, f"the scene {mjcf} has no pair of moving and static collision geoms")
     self_from = len(pairs) - n_self  # collision_pairs lists the robot/robot pairs last
-    lever = _levers(m, idx)
     proof_note = _unprovable(m, idx)
-    checker = _Checker(m, pairs, None if proof_note else lever, self_from)
+    checker = _Checker(m, pairs, None, self_from)
     ends = {}  # the end points each path must join, when the result has them (plan's always does)
     for key in ("q_init", "q_goal"):
         if key not in doc:
@@ -375,6 +374,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
                 raise _fail(source, f"path '{name}' {end} at {row.tolist()}, not at the result's {key} {q.tolist()}")
         wp_qpos = np.broadcast_to(qpos0, (len(wp), m.nq)).copy()
         wp_qpos[:, idx] = offset + scale * wp
+        lever = _levers(m, idx, np.max(np.abs(wp_qpos), axis=0))
         samples_wp = _densify(wp, wp_qpos, step, f"{source}: path '{name}': waypoints", lever)
         if given:
             if rows.ndim != 2 or rows.shape[1] != m.nq or not np.all(np.isfinite(rows)):
@@ -395,12 +395,14 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
             if isinstance(times, list) and len(times) != len(rows):
                 raise _fail(source, f"path '{name}': 'qpos' has {len(rows)} rows but 'times' {len(times)} entries: one row "
                                     "per entry; restore them or plan again")
+            lever = np.maximum(lever, _levers(m, idx, np.max(np.abs(rows), axis=0)))  # (the proof's: both polylines)
             samples_tr = _densify((rows[:, idx] - offset) / scale, rows, step, f"{source}: path '{name}': qpos rows", lever)
         else:
             samples_tr = np.empty((0, m.nq))
         allq = np.vstack([samples_wp, samples_tr])
         outside, note = _beyond_ranges(m, idx, allq)
         calls0 = checker.calls
+        checker.lever = None if proof_note else lever
         seen = checker.measure(allq, margin, self_from)
         dmin, bad, pair = seen.min_distance, seen.violations, seen.pair
         proved, unproved, added = float("nan"), 0, 0

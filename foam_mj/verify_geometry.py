@@ -118,11 +118,13 @@ def _subtree(m: mujoco.MjModel, root: int | None) -> np.ndarray:
     return inside
 
 
-def _levers(m: mujoco.MjModel, idx: np.ndarray) -> np.ndarray:
+def _levers(m: mujoco.MjModel, idx: np.ndarray, span: np.ndarray | None = None) -> np.ndarray:
     """(nq,) how far (m) any point of a collision geom can travel per unit of each qpos entry in ``idx``: 1 for a
     slide; for a hinge, a bound on the distance from its anchor to any point of a collision geom below it, from the
     MJCF's offsets alone (triangle inequality: joint, body and geom positions, a slide's largest travel, the geom's
-    bounding sphere), whatever the other joints' values. 0 elsewhere."""
+    bounding sphere), whatever the other joints' values. 0 elsewhere. A slide's largest travel is its range's; an
+    unlimited slide's is the largest of |qpos0| and ``span`` (the largest |qpos| a path gives each entry: a result can
+    make an unlimited slide a coordinate, which the planner does not)."""
     lever = np.zeros(m.nq)
     coll = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
     for j in range(m.njnt):
@@ -141,7 +143,8 @@ def _levers(m: mujoco.MjModel, idx: np.ndarray) -> np.ndarray:
                     r += 2 * float(np.linalg.norm(m.jnt_pos[i]))  # a hinge off the body's origin swings it round
                     if int(m.jnt_type[i]) == 2:
                         a = int(m.jnt_qposadr[i])
-                        r += float(np.max(np.abs(m.jnt_range[i]))) if m.jnt_limited[i] else abs(float(m.qpos0[a]))
+                        r += float(np.max(np.abs(m.jnt_range[i]))) if m.jnt_limited[i] else \
+                            max(abs(float(m.qpos0[a])), 0.0 if span is None else float(span[a]))
                 b = int(m.body_parentid[b])
             if b == top:
                 reach = max(reach, r + float(np.linalg.norm(m.jnt_pos[j])))

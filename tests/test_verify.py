@@ -773,3 +773,34 @@ def test_anchored_bounds_keep_the_check_exact_on_random_walks(seed, stride):
     assert brute[:, seen.pair].min() == pytest.approx(brute.min(), abs=1e-9)
     assert np.all(seen.obstacle_bound <= brute[:, :self_from].min(axis=1) + 1e-9)
     assert np.all(seen.self_bound <= brute[:, self_from:].min(axis=1, initial=np.inf) + 1e-9)
+
+
+TELESCOPE = """<mujoco model="a boom that telescopes out on an unlimited slide, its tip swinging through a 1 mm plate">
+  <compiler angle="radian"/>
+  <worldbody>
+    <geom name="plate" type="box" pos="20 0.0096 0" size="0.5 0.0005 0.5"/>
+    <body name="boom">
+      <joint name="slew" type="hinge" axis="0 0 1" range="-0.1 0.1"/>
+      <geom name="mast" type="sphere" size="0.01" contype="0" conaffinity="0"/>
+      <body name="reach">
+        <joint name="extend" type="slide" axis="1 0 0" limited="false"/>
+        <geom name="tip" type="sphere" pos="1 0 0" size="0.002"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+
+def test_an_unlimited_slide_counts_with_the_travel_the_path_gives_it(tmp_path):
+    """The hinge's lever arm counted an unlimited slide below it at its qpos0 (0 here): with the boom telescoped out
+    19 m by the result's own rows, the tip swung 20 mm per sample and through a 1 mm plate unseen, and the proof
+    between samples, on that lever, would call it clean. The slide now counts with the largest value the path gives it."""
+    (tmp_path / "telescope.xml").write_text(TELESCOPE)
+    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "telescope.xml", "planner": {"delta": 0.005},
+           "configuration": {"qpos_index": [0, 1], "scale": [1.0, 1.0], "offset": [0.0, 0.0], "qpos0": [0.0, 0.0]},
+           "paths": {"swing": {"waypoints": [[0.0, 19.0], [0.002, 19.0]]}}}
+    (tmp_path / "telescope.json").write_text(json.dumps(doc))
+    report = verify_result(tmp_path / "telescope.json")
+    assert report.paths[0].waypoint_samples >= 0.002 * 20 / 1e-3
+    assert report.violations > 0 and report.min_clearance == pytest.approx(-0.0025, abs=2e-4)
+    assert report.paths[0].proved_clearance <= report.min_clearance  # (it read 3.83 mm proved, 1.23 mm sampled)
