@@ -41,7 +41,7 @@ import numpy as np
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.coverage import CoverageIndex, accept_in_order, inside_rows, row_sq_sums
 from foam_mj.errors import ConfigurationError, PlanningFailed, clearance_text, is_finite_number, is_number, radius_text
-from foam_mj.rosary import MEMBERSHIP_TOL, Rosary
+from foam_mj.rosary import MEMBERSHIP_TOL, Rosary, fields_equal
 from foam_mj.safe_curve import apart_text, coincide
 
 
@@ -108,6 +108,8 @@ class Foam:
     q_init: np.ndarray
     q_goal: np.ndarray
     goal_bubble: int | None = None
+
+    __eq__ = fields_equal  # arrays by value
 
     @property
     def size(self) -> int:

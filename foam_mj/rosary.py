@@ -18,12 +18,33 @@ counts as inside the parent.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
 #: Absolute tolerance (configuration units) of every ball-membership test.
 MEMBERSHIP_TOL = 1e-12
+
+
+def fields_equal(a, b) -> bool:
+    """``__eq__`` of a dataclass holding arrays: the same class and every compared field equal, arrays by shape and
+    value, also inside dicts, lists and tuples (the generated ``__eq__`` compares field tuples, and ``==`` of two arrays
+    has no single truth value: comparing two results raised numpy's ValueError). Another class: NotImplemented."""
+    if type(a) is not type(b):
+        return NotImplemented
+    return all(_same(getattr(a, f.name), getattr(b, f.name)) for f in fields(a) if f.compare)
+
+
+def _same(x, y) -> bool:
+    if x is y:
+        return True
+    if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+        return isinstance(x, np.ndarray) and isinstance(y, np.ndarray) and np.array_equal(x, y)
+    if isinstance(x, dict) and isinstance(y, dict):
+        return x.keys() == y.keys() and all(_same(x[k], y[k]) for k in x)
+    if isinstance(x, (list, tuple)) and isinstance(y, (list, tuple)):
+        return type(x) is type(y) and len(x) == len(y) and all(_same(u, v) for u, v in zip(x, y))
+    return bool(x == y)
 
 
 def in_ball(points: np.ndarray, centers: np.ndarray, radii: np.ndarray, tol: float = MEMBERSHIP_TOL) -> np.ndarray:
@@ -92,6 +113,8 @@ class Portal:
     radius: float
     normal: np.ndarray
 
+    __eq__ = fields_equal
+
 
 @dataclass(frozen=True)
 class Rosary:
@@ -105,6 +128,8 @@ class Rosary:
     q_init: np.ndarray  # (n,)
     q_goal: np.ndarray  # (n,)
     bubble_ids: np.ndarray | None = None  # (k,) indices into the foam, when extracted from one
+
+    __eq__ = fields_equal  # arrays by value
 
     def __post_init__(self) -> None:
         c = np.array(self.centers, dtype=float)  # copies, kept read-only: an in-place edit would leave it uncertified

@@ -277,6 +277,28 @@ def test_the_same_seed_grows_the_same_foam_and_path(oracles, name):
         assert np.array_equal(a.waypoints, b.waypoints)
 
 
+
+def test_results_and_problems_compare_by_value_and_a_pickled_copy_equals_the_original(oracles):
+    """`==` on a result, its rosary and foam, a problem, or a smoother's result holding arrays raised numpy's "truth value of
+    an array ... is ambiguous" (the dataclasses' generated __eq__ compares fields as tuples); an application that keeps
+    results (a cache, a test of its own, a process pool's returned copies) could not compare them."""
+    import pickle
+
+    from foam_mj.smoothing import get_smoother
+
+    s = load_scenario("obstacle")
+    problem = _problem(oracles["obstacle"], s, time_limit=30.0)
+    planner = get_planner("bubbletree")
+    a, b = planner.plan(problem, seed=0), planner.plan(problem, seed=1)
+    copy = pickle.loads(pickle.dumps(a))
+    assert copy == a and copy.rosary == a.rosary and copy.foam == a.foam and not (copy != a)
+    assert a != b and a.rosary != b.rosary and a.foam != b.foam  # another seed's chain and foam differ
+    assert problem == _problem(oracles["obstacle"], s, time_limit=30.0)  # the same oracle (by identity) and values
+    assert problem != _problem(oracles["obstacle"], s, time_limit=20.0)
+    smoothed = get_smoother("convex").smooth(a.rosary, seed=0)
+    assert smoothed == pickle.loads(pickle.dumps(smoothed)) and smoothed != get_smoother("convex").smooth(b.rosary, seed=0)
+    assert a != "a result" and a.rosary != a.foam  # other types are unequal, not an error
+
 # -- the scenario's [planner] table and the --planner flag -------------------------------------------
 def _toml(tmp_path, planner_table: str):
     from conftest import MODELS

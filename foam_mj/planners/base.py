@@ -27,7 +27,7 @@ import numpy as np
 from foam_mj.bubbles import BubbleOracle, EndBubble
 from foam_mj.errors import ConfigurationError, FoamError, clearance_text, is_finite_number, is_number, unknown_names
 from foam_mj.foam import Foam
-from foam_mj.rosary import Rosary
+from foam_mj.rosary import Rosary, fields_equal
 from foam_mj.safe_curve import apart_text, coincide
 
 
@@ -54,6 +54,8 @@ class PlanningProblem:
     delta: float = 0.005
     time_limit: float = 60.0
     max_bubbles: int = 200_000
+
+    __eq__ = fields_equal  # arrays by value (foam_mj.rosary)
 
     def __post_init__(self) -> None:
         if not isinstance(self.oracle, BubbleOracle):
@@ -167,6 +169,8 @@ class PlanResult:
     rosary: Rosary
     stats: PlanStats
     waypoints: np.ndarray | None = None
+
+    __eq__ = fields_equal  # arrays by value (foam_mj.rosary)
 
 
 def check_problem(problem: Any, progress: Any = None) -> PlanningProblem:

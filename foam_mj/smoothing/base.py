@@ -20,7 +20,7 @@ import numpy as np
 from foam_mj import paths
 from foam_mj.errors import indices_text
 from foam_mj.paths import fill_index, row_norms
-from foam_mj.rosary import Rosary
+from foam_mj.rosary import Rosary, fields_equal
 
 #: Nascimento et al. 2020 section 5.1/5.2's threshold f(sigma) < 0.38 (from Nascimento et al. 2019). Under Nascimento et al. 2020's own Eq. 5
 #: (length about 3.6) f never falls below it; see docs/references.md.
@@ -172,6 +172,8 @@ class SmoothingResult:
     stop_reason: str
     objective: str = "f"
     info: Mapping[str, Any] = field(default_factory=dict)
+
+    __eq__ = fields_equal  # arrays by value (foam_mj.rosary)
 
     @classmethod
     def build(
