@@ -52,6 +52,8 @@ _EXPORTS: dict[str, str] = {
     "ConfigurationError": "foam_mj.errors",
     "ScenarioError": "foam_mj.errors",
     "PlanningFailed": "foam_mj.errors",
+    "PlannerError": "foam_mj.planners",
+    "TimingInfeasible": "foam_mj.timing",
 }
 
 __all__ = ["__version__", *_EXPORTS]

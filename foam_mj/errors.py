@@ -1,4 +1,8 @@
-"""The exceptions foam-mj raises. Every error a user can cause derives from :class:`FoamError`."""
+"""The exceptions foam-mj raises. A model, scene, scenario, configuration, planner name or option that foam-mj cannot
+use, and a plan it cannot make, raise a :class:`FoamError` (the model, configuration, scenario and planner errors are
+ValueErrors too); a Python argument of the wrong type or value (``delta="0.1"``, an unknown smoother name) raises
+TypeError or ValueError naming the argument. ``foam_mj.planners.PlannerError`` and ``foam_mj.timing.TimingInfeasible``
+(a PlanningFailed) are defined beside their planners and time law; every one is an attribute of ``foam_mj``."""
 
 from __future__ import annotations
 

@@ -184,3 +184,30 @@ def test_the_packages_docstring_example_plans_and_smooths_a_certified_path():
     t = np.linspace(0.0, 1.0, 200)[:, None]
     dense = np.concatenate([a + t * (b - a) for a, b in zip(P[:-1], P[1:])])
     assert oracle.clearance.batch(dense).min() >= oracle.delta
+
+
+def test_every_error_the_python_api_raises_is_importable_from_the_package_and_named_in_the_readme():
+    """An application catches foam-mj's errors by class: each one the first names of the package raise for a user's mistake
+    or a plan that cannot be made is a FoamError, the package's own attribute, and named in the README. get_planner's
+    PlannerError and run()'s TimingInfeasible were neither (only foam_mj.planners.base and foam_mj.timing had them)."""
+    import foam_mj
+    from foam_mj.limits import Limits
+
+    s = foam_mj.load_scenario("obstacle")
+    oracle = s.oracle()
+    cases = {
+        "PlannerError": lambda: foam_mj.get_planner("no_such_planner"),
+        "ScenarioError": lambda: foam_mj.load_scenario("no_such_scenario"),
+        "ModelError": lambda: foam_mj.RobotModel.from_xml(Path("no_such_robot.xml")),
+        "ConfigurationError": lambda: foam_mj.PlanningProblem(oracle, s.q_init[:2], s.q_goal, delta=oracle.delta),
+        "PlanningFailed": lambda: foam_mj.get_planner("bubbletree").plan(
+            foam_mj.PlanningProblem(oracle, s.q_init, s.q_goal, delta=oracle.delta, max_bubbles=3), seed=0),
+        "TimingInfeasible": lambda: foam_mj.run(s, smoothers="convex", dynamic=False, limits=Limits(torque=(1e-3,) * 3)),
+    }
+    readme = (ROOT / "README.md").read_text()
+    for name, call in cases.items():
+        with pytest.raises(foam_mj.FoamError) as caught:
+            call()
+        assert type(caught.value).__name__ == name
+        assert name in foam_mj.__all__ and getattr(foam_mj, name) is type(caught.value), name
+        assert f"`{name}`" in readme, name
