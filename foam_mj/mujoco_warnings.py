@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import re
 import sys
+import threading
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -36,20 +37,34 @@ def install_if_routed() -> None:
         mujoco.set_mju_user_warning(_warn)
 
 
+#: The calling thread's held warnings while it is inside :func:`kept_unless_failed` (else no attribute).
+_HELD = threading.local()
+
+
 @contextmanager
 def kept_unless_failed() -> Iterator[None]:
-    """Hold the warnings raised inside; issue them if the block ends normally, drop them if it raises. A load that
-    fails is one error line: MuJoCo's warning on the way ('Must provide extension or content_type to
-    mjp_findDecoder' for a file that is no MJCF) only repeated it as a second line."""
-    with warnings.catch_warnings(record=True) as held:
-        warnings.simplefilter("always")
+    """Hold the MuJoCo warnings raised inside by this thread; issue them if the block ends normally, drop them if it
+    raises. A load that fails is one error line: MuJoCo's warning on the way ('Must provide extension or content_type to
+    mjp_findDecoder' for a file that is no MJCF) only repeated it as a second line. Held per thread in the handler
+    (:func:`_warn`), not with ``warnings.catch_warnings``, which saves and restores the process's warning filters: loads
+    overlapping in several threads restored each other's changes ('always' added to the filters for good) and took
+    the other threads' warnings."""
+    outer = getattr(_HELD, "texts", None)
+    _HELD.texts = texts = []
+    try:
         yield
-    for w in held:
-        warnings.warn(w.message, w.category, stacklevel=3)
+    finally:
+        _HELD.texts = outer
+    for text in texts:
+        _warn(text, stacklevel=4)
 
 
-def _warn(text: str) -> None:
-    warnings.warn(text, RuntimeWarning, stacklevel=2)
+def _warn(text: str, stacklevel: int = 2) -> None:
+    held = getattr(_HELD, "texts", None)
+    if held is not None:
+        held.append(text)
+    else:
+        warnings.warn(text, RuntimeWarning, stacklevel=stacklevel)
 
 
 _SHOWN: set[str] = set()

@@ -981,3 +981,19 @@ def test_a_mesh_whose_collision_hull_leaves_out_some_of_its_vertices_is_refused_
         return
     with pytest.raises(ModelError, match=r"collision geom 'rock': its mesh 'ball' sets maxhullvert=\"8\", so MuJoCo collides a hull of 8 vertices that leaves 192 of its 200 vertices outside \(up to 0.4"):
         RobotModel.from_xml(tmp_path / "r.xml")
+
+
+def test_loading_robots_from_several_threads_leaves_the_processs_warning_filters_alone():
+    """A service that builds RobotModels in a thread pool found ('always', Warning) added for good to the front of
+    warnings.filters (every warning of the whole application then shown at each call): each load held MuJoCo's
+    warnings with warnings.catch_warnings, which saves and restores process-wide state, so overlapping loads restored
+    each other's changed filters. 200 loads over 8 threads added it in every run before the fix."""
+    import warnings
+    from concurrent.futures import ThreadPoolExecutor
+
+    RobotModel.from_xml(MODELS / "obstacle.xml")
+    before, shown = list(warnings.filters), warnings.showwarning
+    with ThreadPoolExecutor(8) as pool:
+        dims = set(pool.map(lambda _: RobotModel.from_xml(MODELS / "obstacle.xml").dim, range(200)))
+    assert dims == {3}
+    assert warnings.filters == before and warnings.showwarning is shown
