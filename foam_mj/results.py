@@ -131,7 +131,7 @@ def _header(scenario, seed: int) -> dict:
 
 def _foam_dict(foam, stats) -> dict:
     return {
-        "stats": stats.as_dict(),
+        "stats": _plain(stats.as_dict()),  # a planner's own counters may be numpy numbers; no rate when elapsed is 0
         "centers": foam.centers.tolist(),
         "radii": foam.radii.tolist(),
         "parents": foam.parents.tolist(),

@@ -54,3 +54,25 @@ def test_a_relative_mjcf_is_read_beside_the_result_not_in_the_working_folder(tmp
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
     assert resolve_model(doc, js) == (tmp_path / "models" / shipped.name).resolve()
+
+
+def test_the_foam_statistics_are_written_as_strict_json_whatever_numbers_a_planner_reports(tmp_path):
+    """A planner's PlanStats went into the result as given: numpy counters in ``details`` (a planner of the user's,
+    registered with foam_mj.planners.register) stopped write_outcome with "Object of type int64 is not JSON
+    serializable", and a zero ``elapsed`` (an outcome read back from a result) wrote bubbles_per_second as the
+    token NaN, which strict JSON readers refuse. Like every other number of the result, they are plain JSON now."""
+    import dataclasses
+    import json
+
+    import numpy as np
+
+    import foam_mj
+
+    out = foam_mj.run(foam_mj.load_scenario("obstacle"), smoothers="convex", dynamic=False)
+    stats = dataclasses.replace(out.plan.stats, elapsed=0.0, details={**out.plan.stats.details, "rounds": np.int64(3),
+                                                                       "gain": np.float32(0.5), "spread": np.array([1.0, np.inf])})
+    out.plan = dataclasses.replace(out.plan, stats=stats)
+    p = write_outcome(tmp_path / "r.json", out)
+    written = json.loads(p.read_text(), parse_constant=lambda token: pytest.fail(f"non-standard JSON token {token}"))["foam"]["stats"]
+    assert written["rounds"] == 3 and written["gain"] == 0.5 and written["spread"] == [1.0, None]
+    assert written["bubbles_per_second"] is None and written["bubbles"] == out.plan.stats.bubbles
