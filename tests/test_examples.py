@@ -111,14 +111,15 @@ def test_the_readmes_first_session_and_own_robot_run(tmp_path, monkeypatch):
 @pytest.mark.slow
 def test_the_readmes_python_api_runs():
     """The Planners section's Python (a problem, a planner, a result; a scenario from a dict; pipeline.run and what
-    its outcome holds) runs as written, its blocks in order in one namespace."""
+    its outcome holds) runs as written, each block on its own as a reader pastes it into a fresh interpreter (the
+    second once used load_scenario, imported only by the first: a NameError when pasted alone)."""
     planners = _section((ROOT / "README.md").read_text(), "## Planners")
     blocks = re.findall(r"```python\n(.*?)```", planners, flags=re.S)
     assert len(blocks) == 2
-    namespace: dict = {}
-    for code in blocks:
+    seam, pipeline = {}, {}
+    for code, namespace in zip(blocks, (seam, pipeline)):
         exec(compile(code, "README.md", "exec"), namespace)
-    assert namespace["result"].stats.outcome == "reached" and namespace["po"].kinematic.min_clearance >= 0.005
+    assert seam["result"].stats.outcome == "reached" and pipeline["po"].kinematic.min_clearance >= 0.005
 
 
 def test_the_ortholeg5_command_line_scaling_is_the_small_subject_toml(tmp_path, monkeypatch):
