@@ -1101,5 +1101,6 @@ def test_plan_quiet_writes_no_progress_lines_but_keeps_its_notes(tmp_path, capsy
     assert main([*argv, "--quiet"]) == 0
     quiet = capsys.readouterr()
     assert quiet.err == ""
-    timeless = [re.sub(r"[\d.,]+", "#", line) for line in quiet.out.splitlines()]
-    assert timeless == [re.sub(r"[\d.,]+", "#", line) for line in loud.out.splitlines()]
+    # Numbers and column padding left out: a time column of 9 ms and of 10 ms pads differently (failed under load).
+    timeless = [" ".join(re.sub(r"[\d.,]+", "#", line).split()) for line in quiet.out.splitlines()]
+    assert timeless == [" ".join(re.sub(r"[\d.,]+", "#", line).split()) for line in loud.out.splitlines()]
