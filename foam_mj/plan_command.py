@@ -495,6 +495,9 @@ def _plan(args: argparse.Namespace, recorder) -> int:
         f"({st.bubbles_per_second:,.0f} bubbles/s), rosary of {outcome.plan.rosary.k} bubbles, margin {scenario.params.delta * 1000:g} mm"
     )
     print(summary_table(outcome))
+    if st.clock_cut:
+        print(f"note: {st.clock_cut}: this path depends on the machine's speed and load, and the same seed can give another; "
+              f"a larger time limit (--time-limit, the [planner] time_limit{', refine_time' if 'refine_time' in st.clock_cut else ''}) makes it repeat")
     skipped = [n for n in names if n in ("adjusted", "adjusted_gradient") and n not in outcome.paths]
     if skipped:
         print(

@@ -105,6 +105,30 @@ def _rosary_dict(ros) -> dict:
     }
 
 
+#: The packages whose numbers make a result (a result JSON's ``versions``, with foam-mj's, MuJoCo's and Python's): numpy's
+#: draws from a seed, Clarabel's cone programs (the corridor, the convex and optimal smoothers), toppra's timing.
+VERSIONED_PACKAGES = ("numpy", "scipy", "clarabel", "toppra")
+
+
+def software_versions() -> dict[str, str | None]:
+    """The versions of the software that makes a result: the same seed and inputs give the same numbers under the
+    same versions (another MuJoCo can measure other distances, so grow other bubbles); None for a package not installed."""
+    import platform
+    from importlib.metadata import PackageNotFoundError, version
+
+    import mujoco
+
+    from foam_mj import __version__
+
+    out: dict[str, str | None] = {"foam_mj": __version__, "mujoco": mujoco.__version__, "python": platform.python_version()}
+    for name in VERSIONED_PACKAGES:
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = None
+    return out
+
+
 def _header(scenario, seed: int) -> dict:
     robot = scenario.robot
     cfg = robot.config
@@ -126,6 +150,7 @@ def _header(scenario, seed: int) -> dict:
         "seed": int(seed),
         "planner": scenario.params.as_dict(),
         "robot": dict(getattr(scenario, "robot_options", {})),  # robot_root, self_collision, keyframe
+        "versions": software_versions(),
     }
 
 
@@ -167,6 +192,7 @@ def outcome_dict(outcome) -> dict:
     """The JSON document of a :class:`foam_mj.pipeline.Outcome`."""
     doc = _header(outcome.scenario, outcome.seed)
     doc["outcome"] = outcome.plan.stats.outcome
+    doc["clock_cut"] = outcome.plan.stats.clock_cut  # null: the seed alone decided the plan (PlanStats.clock_cut)
     doc["foam"] = _foam_dict(outcome.plan.foam, outcome.plan.stats)
     doc["rosary"] = _rosary_dict(outcome.plan.rosary)
     doc["timings"] = dict(outcome.timings)

@@ -391,6 +391,8 @@ def run_task(task: Task) -> list[dict]:
         # plan_time: the planner's own clock (PlanStats.elapsed), as a failed row's; the wall time around plan_scenario
         # also held a worker's first import of scipy.spatial (0.4 s: a first plan read 0.64 s where the others read 0.22)
         row.update(plan_time=float(out.plan.stats.elapsed), task_time=task_time, bubbles=int(out.plan.stats.bubbles))
+        if out.plan.stats.clock_cut:  # a reached plan a clock decided: its rows can differ between machines and engines
+            row["reason"] = f"clock: {out.plan.stats.clock_cut}"
         if po is None:
             row.update(outcome="error", reason=f"the pipeline produced no path '{row['smoother']}'")
             continue

@@ -149,6 +149,20 @@ class PlanStats:
     def clearance_calls(self) -> int:
         return self.distance_queries
 
+    @property
+    def clock_cut(self) -> str | None:
+        """Which phases of a plan a clock ended, in words (None: none did, and the seed alone decided the result).
+        A phase ended by the wall-clock ``time_limit`` or by bubbletree's CPU budget ``refine_time`` depends on the
+        machine's speed and load: the same seed can give another path elsewhere (``details``' ``explore_stopped``
+        and ``refine_stopped``)."""
+        d = self.details
+        cuts = [text for key, value, text in (
+            ("explore_stopped", "time limit", "the time limit ended the search for other routes after the first path"),
+            ("refine_stopped", "time limit", "the time limit ended the path's refinement"),
+            ("refine_stopped", "time", "refine_time (CPU seconds) ended the path's refinement"),
+        ) if d.get(key) == value]
+        return "; ".join(cuts) or None
+
     def as_dict(self) -> dict:
         d = dict(self.details)
         d.update(

@@ -386,6 +386,7 @@ class BubbleTreePlanner(Planner):
                 if r < SMALLEST:
                     raise ConfigurationError(too_small_to_grow(oracle, name, q, r, SMALLEST))
         t_first: float | None = None
+        explore_stopped: str | None = None  # why the search for other routes ended before its iterations, if it did
         it_first = it_last = 0  # the iteration of the first path, and the last one to run after it
         foam_first = 0
         gap_then, it_then = np.inf, 0  # the gap at the last progress (the trees came r_min / 2 closer), and its iteration
@@ -418,7 +419,8 @@ class BubbleTreePlanner(Planner):
                     T.tries[: T.n] = 0
                 stalled = False
             if timer.elapsed() > problem.time_limit or B.n >= problem.max_bubbles or stalled:
-                if t_first is not None:
+                if t_first is not None:  # the search for other routes ends early (PlanStats.clock_cut when by the clock)
+                    explore_stopped = "time limit" if timer.elapsed() > problem.time_limit else "bubble budget"
                     break
                 outcome = ("time budget" if timer.elapsed() > problem.time_limit else "bubble budget" if B.n >= problem.max_bubbles
                            else "stalled")
@@ -563,7 +565,8 @@ class BubbleTreePlanner(Planner):
         if len(corridor.added_centers):
             B.add(corridor.added_centers, corridor.added_radii, corridor.added_parents, np.full(len(corridor.added_radii), 2, dtype=np.int8))
         corridor.stats["cpu_ms"] = {"first": round(1e3 * cpu_first, 2), "explore": round(1e3 * (cpu_tree - cpu_first), 2), **corridor.stats["cpu_ms"]}
-        st = stats("reached", t_first, {"bubbles_at_first_path": foam_first, "iterations_at_first_path": it_first, **corridor.stats})
+        ended = {} if explore_stopped is None else {"explore_stopped": explore_stopped}
+        st = stats("reached", t_first, {"bubbles_at_first_path": foam_first, "iterations_at_first_path": it_first, **ended, **corridor.stats})
         foam = B.foam(q0, q1)
         return PlanResult(foam, corridor.rosary(problem.q_init, problem.q_goal), st, corridor.waypoints)
 
