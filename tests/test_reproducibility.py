@@ -93,3 +93,54 @@ def test_a_studys_reached_row_that_a_clock_decided_says_so_in_its_reason(tmp_pat
     for row in rows:
         assert row["outcome"] == "reached"
         assert row["reason"] is not None and "refine_time" in row["reason"], row
+
+
+# -- the same problem gives the same plan whatever ran before it, and whatever the batch threads ------------------
+
+_PLAN_B = """
+import hashlib, sys
+import numpy as np
+from foam_mj.planners import PlanningProblem, get_planner
+from foam_mj.planners.base import smoother_start
+from foam_mj.scenarios import load_scenario
+from foam_mj.smoothing import HarmonySearch, OptimalSmoother, StopCriteria
+
+def digest(name, threads=2, seed=1):
+    s = load_scenario(name)
+    oracle = s.oracle()
+    oracle.clearance.threads = threads
+    res = get_planner("bubbletree").plan(PlanningProblem(oracle, s.q_init, s.q_goal, delta=oracle.delta, time_limit=60.0), seed=seed)
+    paths = [OptimalSmoother().smooth(res.rosary, initial=smoother_start(res.rosary, res.waypoints), seed=seed).path,
+             HarmonySearch(stop=StopCriteria(max_iterations=300)).smooth(res.rosary, seed=seed).path]
+    h = hashlib.md5()
+    for a in (res.rosary.centers, res.rosary.radii, res.foam.centers, res.foam.radii, res.foam.parents, *paths):
+        h.update(np.ascontiguousarray(np.asarray(a, float)).tobytes())
+    h.update(repr((res.stats.bubbles, res.stats.distance_queries)).encode())
+    return h.hexdigest()
+"""
+
+
+def _digest_in_a_fresh_process(name: str) -> str:
+    import subprocess
+
+    code = _PLAN_B + f"\nprint(digest({name!r}))\n"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return out.stdout.strip()
+
+
+def test_a_plan_after_other_problems_in_one_process_equals_the_plan_alone_in_a_fresh_one():
+    """Caches that outlive a plan (the corridor's cone-program templates per chain length, the smoothers' index
+    tables) must not carry one problem into the next: step_down (seed 1) planned after step_up, obstacle and step_down
+    with other seeds (whose chains have the same lengths), in this process, is bit for bit step_down planned alone in
+    a new interpreter (another hash seed, nothing cached)."""
+    scope: dict = {}
+    exec(_PLAN_B, scope)
+    for other, seed in (("step_up", 1), ("obstacle", 1), ("step_down", 0), ("step_down", 2)):
+        scope["digest"](other, seed=seed)
+    assert scope["digest"]("step_down") == _digest_in_a_fresh_process("step_down")
+
+
+def test_the_distance_batches_threads_do_not_change_a_plan():
+    scope: dict = {}
+    exec(_PLAN_B, scope)
+    assert scope["digest"]("step_up", threads=1) == scope["digest"]("step_up", threads=2)
