@@ -374,7 +374,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
                 raise _fail(source, f"path '{name}' {end} at {row.tolist()}, not at the result's {key} {q.tolist()}")
         wp_qpos = np.broadcast_to(qpos0, (len(wp), m.nq)).copy()
         wp_qpos[:, idx] = offset + scale * wp
-        lever = _levers(m, idx, np.max(np.abs(wp_qpos), axis=0))
+        lever = _levers(m, idx, np.max(np.abs(wp_qpos - m.qpos0), axis=0))
         samples_wp = _densify(wp, wp_qpos, step, f"{source}: path '{name}': waypoints", lever)
         if given:
             if rows.ndim != 2 or rows.shape[1] != m.nq or not np.all(np.isfinite(rows)):
@@ -395,7 +395,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
             if isinstance(times, list) and len(times) != len(rows):
                 raise _fail(source, f"path '{name}': 'qpos' has {len(rows)} rows but 'times' {len(times)} entries: one row "
                                     "per entry; restore them or plan again")
-            lever = np.maximum(lever, _levers(m, idx, np.max(np.abs(rows), axis=0)))  # (the proof's: both polylines)
+            lever = np.maximum(lever, _levers(m, idx, np.max(np.abs(rows - m.qpos0), axis=0)))  # (the proof's: both polylines)
             samples_tr = _densify((rows[:, idx] - offset) / scale, rows, step, f"{source}: path '{name}': qpos rows", lever)
         else:
             samples_tr = np.empty((0, m.nq))

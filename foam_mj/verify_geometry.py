@@ -120,34 +120,45 @@ def _subtree(m: mujoco.MjModel, root: int | None) -> np.ndarray:
 
 def _levers(m: mujoco.MjModel, idx: np.ndarray, span: np.ndarray | None = None) -> np.ndarray:
     """(nq,) how far (m) any point of a collision geom can travel per unit of each qpos entry in ``idx``: 1 for a
-    slide; for a hinge, a bound on the distance from its anchor to any point of a collision geom below it, from the
+    slide; for a hinge, a bound on the distance from its anchor to any point of a collision geom it turns, from the
     MJCF's offsets alone (triangle inequality: joint, body and geom positions, a slide's largest travel, the geom's
-    bounding sphere), whatever the other joints' values. 0 elsewhere. A slide's largest travel is its range's; an
-    unlimited slide's is the largest of |qpos0| and ``span`` (the largest |qpos| a path gives each entry: a result can
-    make an unlimited slide a coordinate, which the planner does not)."""
+    bounding sphere), whatever the other joints' values. 0 elsewhere.
+
+    A hinge turns what its own body's later joints carry (MuJoCo applies a body's joints in order, each in the frame the
+    ones before it left): a slide after it on the same body swings round with it at its full travel, and a hinge after
+    it whose anchor is off the body's origin moves that origin by up to twice the anchor's offset.
+    A slide moves its body by qpos - qpos0 along its axis (MuJoCo's qpos0 is the joint's ``ref``), so its largest travel
+    is the largest |qpos - qpos0| ``span`` gives it (per entry, over the path: the segments between samples lie between
+    them); without ``span``, that of its range's ends (an unlimited one's |qpos0|)."""
     lever = np.zeros(m.nq)
     coll = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    wanted = set(idx.tolist())
+
+    def carried(i: int) -> float:  # how far joint i can move the origin of its body's frame (and what it carries)
+        if int(m.jnt_type[i]) == 2:  # slide
+            a, q0 = int(m.jnt_qposadr[i]), float(m.qpos0[int(m.jnt_qposadr[i])])
+            if span is not None:
+                return float(span[a])
+            return max(abs(float(m.jnt_range[i][0]) - q0), abs(float(m.jnt_range[i][1]) - q0)) if m.jnt_limited[i] else abs(q0)
+        return 2 * float(np.linalg.norm(m.jnt_pos[i]))  # a hinge (or ball) off the body's origin swings it round
+
     for j in range(m.njnt):
         k = int(m.jnt_qposadr[j])
-        if k not in set(idx.tolist()) or int(m.jnt_type[j]) not in (2, 3):  # slide, hinge
+        if k not in wanted or int(m.jnt_type[j]) not in (2, 3):  # slide, hinge
             continue
         if int(m.jnt_type[j]) == 2:
             lever[k] = 1.0
             continue
         top, reach = int(m.jnt_bodyid[j]), 0.0
+        after = sum(carried(i) for i in range(j + 1, m.body_jntadr[top] + m.body_jntnum[top]))  # its body's later joints
         for g in coll:
             b, r = int(m.geom_bodyid[g]), float(np.linalg.norm(m.geom_pos[g]) + m.geom_rbound[g])
             while b > top:  # up to the hinge's body (MuJoCo numbers parents before children)
                 r += float(np.linalg.norm(m.body_pos[b]))
-                for i in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]):
-                    r += 2 * float(np.linalg.norm(m.jnt_pos[i]))  # a hinge off the body's origin swings it round
-                    if int(m.jnt_type[i]) == 2:
-                        a = int(m.jnt_qposadr[i])
-                        r += float(np.max(np.abs(m.jnt_range[i]))) if m.jnt_limited[i] else \
-                            max(abs(float(m.qpos0[a])), 0.0 if span is None else float(span[a]))
+                r += sum(carried(i) for i in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]))
                 b = int(m.body_parentid[b])
             if b == top:
-                reach = max(reach, r + float(np.linalg.norm(m.jnt_pos[j])))
+                reach = max(reach, r + after + float(np.linalg.norm(m.jnt_pos[j])))
         lever[k] = reach
     return lever
 
