@@ -26,6 +26,8 @@ when some pair is closer than the result's margin ("planner" / "delta"); a sampl
 beyond its MJCF range (the planner's bounds) is unsafe too. The rows and "configuration"'s qpos0 must hold every
 joint that is no coordinate where the planner held it (the scene's qpos0, or the result's keyframe's pose): which
 geoms count as moving follows from the coordinates, so a joint left out of them but swung by the rows is refused.
+A scene whose checked pairs include a height field is refused: ``mj_geomDistance`` reads inf to one with an unbounded
+distmax and values that change with a finite one (the planner refuses such scenes too).
 
 Between samples the clearance is proved, not assumed (:func:`foam_mj.verify_geometry.prove`): from two neighbouring
 samples' distances d_a, d_b and how far any point of a collision geom can travel between them (the lever arms), the
@@ -252,6 +254,10 @@ def _qpos_name(m: mujoco.MjModel, k: int) -> str:
     return f"{mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f'joint {j}'} (qpos[{k}])"
 
 
+def _geom_name(m: mujoco.MjModel, g: int) -> str:
+    return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"geom{int(g)}"
+
+
 def _robot_options(doc: dict, source: Path) -> dict:
     """The result's "robot" (what the robot was when planned): robot_root and keyframe (names or null) and
     self_collision (true or false), each defaulting as plan does when the field is absent."""
@@ -332,6 +338,10 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
     if len(pairs) == 0:
         raise _fail(source, f"the scene {mjcf} has no pair of moving and static collision geoms")
     self_from = len(pairs) - n_self  # collision_pairs lists the robot/robot pairs last
+    hfield = [g for g in np.unique(pairs) if int(m.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_HFIELD)]
+    if hfield:  # mj_geomDistance reads inf to one with distmax inf, and values that change with a finite distmax
+        raise _fail(source, f"geom {_geom_name(m, hfield[0])!r} is a height field, whose distance MuJoCo's "
+                            "mj_geomDistance does not measure (the planner refuses such scenes): verify cannot check it")
     proof_note = _unprovable(m, idx)
     checker = _Checker(m, pairs, None, self_from)
     ends = {}  # the end points each path must join, when the result has them (plan's always does)

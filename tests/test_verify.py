@@ -848,3 +848,32 @@ def test_a_hinges_lever_arm_counts_everything_it_swings_round(tmp_path, carrier)
     assert report.unsafe and report.violations > 0
     assert report.paths[0].proved_clearance <= -0.0025 + 1e-9  # the tip's deepest point in the plate
     assert report.min_clearance == pytest.approx(-0.0025, abs=5e-4)
+
+
+HFIELD = """<mujoco model="a ball lowered 50 mm into a heightfield">
+  <asset><hfield name="hill" nrow="3" ncol="3" size="1 1 0.1 0.05" elevation="0 0 0 0 1 0 0 0 0"/></asset>
+  <worldbody>
+    <geom name="ground" type="hfield" hfield="hill"/>
+    <body name="b" pos="0 0 0.5">
+      <joint name="z" type="slide" axis="0 0 1" range="-1 1"/>
+      <geom name="ball" type="sphere" size="0.05"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+
+def test_a_heightfield_that_verify_cannot_measure_is_refused_not_called_clean(tmp_path, capsys):
+    """mj_geomDistance to a height field reads inf with an unbounded distmax and values that change with a finite
+    one (-0.17 or +0.04 m for one pose): verify measured every sample's heightfield pair as inf and printed 'clean,
+    proved: every point of every path at least inf mm clear' for a ball 50 mm inside the hill. The planner refuses
+    such scenes; verify now refuses them too (exit 2, one line naming the geom), with no partial report."""
+    (tmp_path / "hill.xml").write_text(HFIELD)
+    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "hill.xml", "planner": {"delta": 0.005},
+           "configuration": {"qpos_index": [0], "scale": [1.0], "offset": [0.0], "qpos0": [0.0]},
+           "paths": {"down": {"waypoints": [[0.0], [-0.46]]}}}
+    (tmp_path / "hill.json").write_text(json.dumps(doc))
+    with pytest.raises(FoamError, match=r"'ground' is a height field"):
+        verify_result(tmp_path / "hill.json")
+    assert main(["verify", str(tmp_path / "hill.json")]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and len(captured.err.strip().splitlines()) == 1 and "Traceback" not in captured.err
