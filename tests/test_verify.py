@@ -877,3 +877,20 @@ def test_a_heightfield_that_verify_cannot_measure_is_refused_not_called_clean(tm
     assert main(["verify", str(tmp_path / "hill.json")]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and len(captured.err.strip().splitlines()) == 1 and "Traceback" not in captured.err
+
+
+def test_a_slide_held_by_the_keyframe_after_the_hinge_on_its_body_counts_in_the_lever_arm(tmp_path):
+    """Only the slew hinge is a coordinate; the robot's keyframe holds the telescope (a slide after the hinge on the same
+    body) 19 m out. The lever arm left that held slide out: the tip 20 m out swung through the 1 mm plate between samples
+    3.83 mm clear and verify said 'clean, proved ... 3.83 mm'. It now counts the held slide's travel from its qpos0."""
+    rest = '<joint name="extend" type="slide" axis="1 0 0" range="0 20"/><geom name="tip" type="sphere" pos="1 0 0" size="0.002"/>'
+    xml = _SWING.format(plate=20, rest=rest).replace("</worldbody>", '</worldbody><keyframe><key name="out" qpos="0 19"/></keyframe>')
+    (tmp_path / "held.xml").write_text(xml)
+    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "held.xml", "planner": {"delta": 0.001},
+           "robot": {"robot_root": "boom", "keyframe": "out", "self_collision": True},
+           "configuration": {"qpos_index": [0], "scale": [1.0], "offset": [0.0], "qpos0": [0.0, 19.0]},
+           "paths": {"swing": {"waypoints": [[0.0], [0.002]]}}}
+    (tmp_path / "held.json").write_text(json.dumps(doc))
+    report = verify_result(tmp_path / "held.json")
+    assert report.unsafe and report.violations > 0
+    assert report.paths[0].proved_clearance <= -0.0025 + 1e-9
