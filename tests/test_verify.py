@@ -23,6 +23,22 @@ from foam_mj.verify import _Checker, _densify, _distance, _levers, collision_pai
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _hand_made(tmp_path: Path, name: str, mjcf: str | None, waypoints: list, delta: float = 0.005, qpos0: list | None = None,
+               **fields) -> Path:
+    """A result file written by hand (no planner): ``mjcf`` (if given) saved as NAME.xml beside it, every qpos entry a
+    configuration coordinate of scale 1 unless ``qpos0`` (the scene's held pose) says there are more qpos entries,
+    one path of ``waypoints``; ``fields`` are added to the document (robot, ...)."""
+    if mjcf is not None:
+        (tmp_path / f"{name}.xml").write_text(mjcf)
+    n = len(waypoints[0])
+    doc = {"format": "foam-mj/result", "version": 1, "mjcf": f"{name}.xml", "planner": {"delta": delta},
+           "configuration": {"qpos_index": list(range(n)), "scale": [1.0] * n, "offset": [0.0] * n,
+                             "qpos0": [0.0] * n if qpos0 is None else qpos0},
+           "paths": {name: {"waypoints": waypoints}}, **fields}
+    (tmp_path / f"{name}.json").write_text(json.dumps(doc))
+    return tmp_path / f"{name}.json"
+
+
 def test_a_clean_result_passes(planned_result, capsys):
     assert main(["verify", str(planned_result)]) == 0
     out = capsys.readouterr().out
@@ -649,12 +665,7 @@ def test_a_crossing_between_coarse_samples_is_found_by_the_proof(tmp_path):
     """At --step 0.1 (the largest) the boom's swing is two samples, its tip 7.1 mm and 27.9 mm clear of the 1 mm plate
     it passes through between them, and sampling alone said clean. The lever-arm bound cannot prove that segment
     clear, so it is halved until a sample lands in the plate."""
-    (tmp_path / "crane.xml").write_text(CRANE)
-    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "crane.xml", "planner": {"delta": 0.005},
-           "configuration": {"qpos_index": [0], "scale": [1.0], "offset": [0.0], "qpos0": [0.0]},
-           "paths": {"swing": {"waypoints": [[0.0], [0.002]]}}}
-    (tmp_path / "crane.json").write_text(json.dumps(doc))
-    report = verify_result(tmp_path / "crane.json", step=0.1)
+    report = verify_result(_hand_made(tmp_path, "crane", CRANE, [[0.0], [0.002]]), step=0.1)
     check = report.paths[0]
     assert check.waypoint_samples == 2 and check.proof_samples > 0
     assert check.violations > 0 and report.unsafe and check.min_clearance < 0
@@ -676,17 +687,13 @@ def test_a_path_running_along_the_margin_is_not_called_clean(tmp_path, capsys):
     """A ball slides along a table exactly at the margin (7.8125 mm, exact in binary): every sample keeps it, and
     verify said clean. Nothing proves the stretches between samples (halving never lifts the bound to the margin),
     so the path is unsafe (exit 4), and the halving stops at its budget."""
-    (tmp_path / "slide.xml").write_text(SLIDE)
-    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "slide.xml", "planner": {"delta": 0.0078125},
-           "configuration": {"qpos_index": [0], "scale": [1.0], "offset": [0.0], "qpos0": [0.0]},
-           "paths": {"along": {"waypoints": [[-0.5], [0.5]]}}}
-    (tmp_path / "slide.json").write_text(json.dumps(doc))
-    report = verify_result(tmp_path / "slide.json")
+    result = _hand_made(tmp_path, "slide", SLIDE, [[-0.5], [0.5]], delta=0.0078125)
+    report = verify_result(result)
     check = report.paths[0]
     assert check.violations == 0 and check.min_clearance == pytest.approx(0.0078125, abs=1e-12)
     assert check.unproved > 0 and report.unsafe and check.proved_clearance < 0.0078125
     assert check.proof_samples <= 100_000
-    assert main(["verify", str(tmp_path / "slide.json")]) == 4
+    assert main(["verify", str(result)]) == 4
     assert "not proved clear (the clearance touches the margin)" in capsys.readouterr().out.strip().splitlines()[-1]
 
 
@@ -704,14 +711,10 @@ BALL_ARM = """<mujoco model="an arm on a ball joint">
 def test_a_ball_joint_coordinate_has_no_proof_and_says_so(tmp_path, capsys):
     """The lever arms bound hinges and slides only: a result whose coordinate is a ball joint's quaternion entry is
     checked at its samples, and the report says there is no proof and why."""
-    (tmp_path / "ball.xml").write_text(BALL_ARM)
-    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "ball.xml", "planner": {"delta": 0.005},
-           "configuration": {"qpos_index": [0], "scale": [1.0], "offset": [0.0], "qpos0": [1.0, 0.0, 0.0, 0.0]},
-           "paths": {"turn": {"waypoints": [[1.0], [0.99]]}}}
-    (tmp_path / "ball.json").write_text(json.dumps(doc))
-    report = verify_result(tmp_path / "ball.json")
+    result = _hand_made(tmp_path, "turn", BALL_ARM, [[1.0], [0.99]], qpos0=[1.0, 0.0, 0.0, 0.0])
+    report = verify_result(result)
     assert np.isnan(report.paths[0].proved_clearance) and "shoulder is a ball joint" in report.paths[0].proof_note
-    assert main(["verify", str(tmp_path / "ball.json")]) == 0
+    assert main(["verify", str(result)]) == 0
     out = capsys.readouterr().out
     assert "path 'turn': no proof between samples: shoulder is a ball joint" in out
     assert out.strip().splitlines()[-1].endswith("violations 0: clean")
@@ -795,12 +798,7 @@ def test_an_unlimited_slide_counts_with_the_travel_the_path_gives_it(tmp_path):
     """The hinge's lever arm counted an unlimited slide below it at its qpos0 (0 here): with the boom telescoped out
     19 m by the result's own rows, the tip swung 20 mm per sample and through a 1 mm plate unseen, and the proof
     between samples, on that lever, would call it clean. The slide now counts with the largest value the path gives it."""
-    (tmp_path / "telescope.xml").write_text(TELESCOPE)
-    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "telescope.xml", "planner": {"delta": 0.005},
-           "configuration": {"qpos_index": [0, 1], "scale": [1.0, 1.0], "offset": [0.0, 0.0], "qpos0": [0.0, 0.0]},
-           "paths": {"swing": {"waypoints": [[0.0, 19.0], [0.002, 19.0]]}}}
-    (tmp_path / "telescope.json").write_text(json.dumps(doc))
-    report = verify_result(tmp_path / "telescope.json")
+    report = verify_result(_hand_made(tmp_path, "telescope", TELESCOPE, [[0.0, 19.0], [0.002, 19.0]]))
     assert report.paths[0].waypoint_samples >= 0.002 * 20 / 1e-3
     assert report.violations > 0 and report.min_clearance == pytest.approx(-0.0025, abs=2e-4)
     assert report.paths[0].proved_clearance <= report.min_clearance  # (it read 3.83 mm proved, 1.23 mm sampled)
@@ -838,13 +836,9 @@ def test_a_hinges_lever_arm_counts_everything_it_swings_round(tmp_path, carrier)
     verify printed 'clean, proved: every point of every path at least 3.80 mm clear' (16.50 mm for the flipped hinge)
     where the tip passes 2.5 mm into the plate."""
     rest, plate, q = SWINGS[carrier]
-    (tmp_path / "swing.xml").write_text(_SWING.format(plate=plate, rest=rest))
-    m = mujoco.MjModel.from_xml_path(str(tmp_path / "swing.xml"))
-    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "swing.xml", "planner": {"delta": 0.001},
-           "configuration": {"qpos_index": [0, 1], "scale": [1.0, 1.0], "offset": [0.0, 0.0], "qpos0": m.qpos0.tolist()},
-           "paths": {"swing": {"waypoints": [[0.0, q], [0.002, q]]}}}
-    (tmp_path / "swing.json").write_text(json.dumps(doc))
-    report = verify_result(tmp_path / "swing.json")
+    xml = _SWING.format(plate=plate, rest=rest)
+    qpos0 = mujoco.MjModel.from_xml_string(xml).qpos0.tolist()
+    report = verify_result(_hand_made(tmp_path, "swing", xml, [[0.0, q], [0.002, q]], delta=0.001, qpos0=qpos0))
     assert report.unsafe and report.violations > 0
     assert report.paths[0].proved_clearance <= -0.0025 + 1e-9  # the tip's deepest point in the plate
     assert report.min_clearance == pytest.approx(-0.0025, abs=5e-4)
@@ -867,14 +861,10 @@ def test_a_heightfield_that_verify_cannot_measure_is_refused_not_called_clean(tm
     one (-0.17 or +0.04 m for one pose): verify measured every sample's heightfield pair as inf and printed 'clean,
     proved: every point of every path at least inf mm clear' for a ball 50 mm inside the hill. The planner refuses
     such scenes; verify now refuses them too (exit 2, one line naming the geom), with no partial report."""
-    (tmp_path / "hill.xml").write_text(HFIELD)
-    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "hill.xml", "planner": {"delta": 0.005},
-           "configuration": {"qpos_index": [0], "scale": [1.0], "offset": [0.0], "qpos0": [0.0]},
-           "paths": {"down": {"waypoints": [[0.0], [-0.46]]}}}
-    (tmp_path / "hill.json").write_text(json.dumps(doc))
+    result = _hand_made(tmp_path, "hill", HFIELD, [[0.0], [-0.46]])
     with pytest.raises(FoamError, match=r"'ground' is a height field"):
-        verify_result(tmp_path / "hill.json")
-    assert main(["verify", str(tmp_path / "hill.json")]) == 2
+        verify_result(result)
+    assert main(["verify", str(result)]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and len(captured.err.strip().splitlines()) == 1 and "Traceback" not in captured.err
 
@@ -885,12 +875,7 @@ def test_a_slide_held_by_the_keyframe_after_the_hinge_on_its_body_counts_in_the_
     3.83 mm clear and verify said 'clean, proved ... 3.83 mm'. It now counts the held slide's travel from its qpos0."""
     rest = '<joint name="extend" type="slide" axis="1 0 0" range="0 20"/><geom name="tip" type="sphere" pos="1 0 0" size="0.002"/>'
     xml = _SWING.format(plate=20, rest=rest).replace("</worldbody>", '</worldbody><keyframe><key name="out" qpos="0 19"/></keyframe>')
-    (tmp_path / "held.xml").write_text(xml)
-    doc = {"format": "foam-mj/result", "version": 1, "mjcf": "held.xml", "planner": {"delta": 0.001},
-           "robot": {"robot_root": "boom", "keyframe": "out", "self_collision": True},
-           "configuration": {"qpos_index": [0], "scale": [1.0], "offset": [0.0], "qpos0": [0.0, 19.0]},
-           "paths": {"swing": {"waypoints": [[0.0], [0.002]]}}}
-    (tmp_path / "held.json").write_text(json.dumps(doc))
-    report = verify_result(tmp_path / "held.json")
+    report = verify_result(_hand_made(tmp_path, "held", xml, [[0.0], [0.002]], delta=0.001, qpos0=[0.0, 19.0],
+                                      robot={"robot_root": "boom", "keyframe": "out", "self_collision": True}))
     assert report.unsafe and report.violations > 0
     assert report.paths[0].proved_clearance <= -0.0025 + 1e-9
