@@ -26,6 +26,10 @@ PROOF_ROUNDS = 30
 #: along the margin doubles its samples at every round, and stops here unproved.
 PROOF_BUDGET = 100_000
 
+#: How much (m) MuJoCo's distance of a pair may change between two samples beyond the lever arms' travel before
+#: :meth:`_Checker._breach` says the travel bound fails (GJK's tolerance is far below it; a wrong lever arm, millimetres).
+BREACH_TOL = 1e-5
+
 #: :class:`_Checker` computes every pair's exact distance at every ANCHOR-th sample of a polyline, to bound the others.
 ANCHOR = 16
 
@@ -317,6 +321,9 @@ class _Checker:
             # min(distance, distmax): still at least the sphere bound, and exact below the threshold
             lb[cand[:, 0], cand[:, 1]] = self._exact(qpos, cand, threshold + 1e-3)
             known[cand[:, 0], cand[:, 1]] = True
+        capped = np.zeros_like(known)
+        if len(cand):
+            capped[cand[:, 0], cand[:, 1]] = lb[cand[:, 0], cand[:, 1]] >= threshold + 1e-3
         cut = self.self_from if self_from is None else self_from
         obs, own = lb[:, :cut].min(axis=1, initial=np.inf), lb[:, cut:].min(axis=1, initial=np.inf)
         if not known.any():
@@ -324,7 +331,23 @@ class _Checker:
         exact = np.where(known, lb, np.inf)
         s, k = np.unravel_index(int(np.argmin(exact)), exact.shape)
         violating = int(np.sum(np.any(exact < margin, axis=1)))
-        return Measured(float(exact[s, k]), violating, int(k), obs, own)
+        return Measured(float(exact[s, k]), violating, int(k), obs, own, self._breach(qpos, lb, known & ~capped, margin))
+
+    def _breach(self, qpos: np.ndarray, lb: np.ndarray, exact: np.ndarray, margin: float) -> tuple | None:
+        """A self-check of the lever arms: MuJoCo's own distances of a pair at neighbouring samples differ by at most
+        the travel between them (twice for a robot/robot pair). (sample, pair, change, allowed) where they differ by more
+        (the largest such excess, over the values ``exact`` says are MuJoCo's, uncapped by distmax, and at least the
+        margin, so that the capsule/box guard's jump does not count), else None: the travel bound, hence the proof and the anchors, does not hold there."""
+        if self.lever is None or len(qpos) < 2:
+            return None
+        allowed = (np.abs(np.diff(qpos, axis=0)) @ self.lever)[:, None] * np.where(np.arange(lb.shape[1]) < self.self_from, 1.0, 2.0)
+        sure = exact & (lb >= margin)
+        with np.errstate(invalid="ignore"):
+            excess = np.where(sure[:-1] & sure[1:], np.abs(np.diff(lb, axis=0)) - allowed - BREACH_TOL, -np.inf)
+        if not np.any(excess > 0):
+            return None
+        s, k = np.unravel_index(int(np.argmax(excess)), excess.shape)
+        return int(s), int(k), float(abs(lb[s + 1, k] - lb[s, k])), float(allowed[s, k])
 
     def check(self, qpos: np.ndarray, margin: float) -> tuple[float, int, int]:
         """(smallest distance, samples closer than margin, index of the closest pair) over the samples."""
@@ -341,6 +364,7 @@ class Measured:
     pair: int  # index of the closest pair (-1 without pairs)
     obstacle_bound: np.ndarray  # (S,) a lower bound of each sample's distance over the moving/static pairs
     self_bound: np.ndarray  # (S,) and over the robot/robot pairs (inf without them)
+    breach: tuple | None = None  # (sample, pair, change, allowed) where distances outran the lever arms (_Checker._breach)
 
 
 @dataclass(frozen=True)

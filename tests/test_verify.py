@@ -776,6 +776,7 @@ def test_anchored_bounds_keep_the_check_exact_on_random_walks(seed, stride):
     assert brute[:, seen.pair].min() == pytest.approx(brute.min(), abs=1e-9)
     assert np.all(seen.obstacle_bound <= brute[:, :self_from].min(axis=1) + 1e-9)
     assert np.all(seen.self_bound <= brute[:, self_from:].min(axis=1, initial=np.inf) + 1e-9)
+    assert seen.breach is None  # MuJoCo's distances never outran the lever arms' travel
 
 
 TELESCOPE = """<mujoco model="a boom that telescopes out on an unlimited slide, its tip swinging through a 1 mm plate">
@@ -879,3 +880,16 @@ def test_a_slide_held_by_the_keyframe_after_the_hinge_on_its_body_counts_in_the_
                                       robot={"robot_root": "boom", "keyframe": "out", "self_collision": True}))
     assert report.unsafe and report.violations > 0
     assert report.paths[0].proved_clearance <= -0.0025 + 1e-9
+
+
+def test_distances_that_outrun_the_lever_arms_are_caught(tmp_path):
+    """A self-check of the proof's premise: at neighbouring samples MuJoCo's own distances differ by at most the lever
+    arms' travel. With the crane's true lever arm no pair breaches it; with one a hundred times too short (as a missed
+    joint made them, 3.83 mm 'proved' for a tip 2.5 mm into a plate) the breach is found and named."""
+    m = mujoco.MjModel.from_xml_string(CRANE)
+    pairs = collision_pairs(m, np.array([0]))
+    lever = _levers(m, np.array([0]))
+    rows = np.linspace(-0.0005, -0.0001, 200)[:, None]  # the tip 10 mm to 2 mm from the plate's near face
+    assert _Checker(m, pairs, lever).measure(rows, 0.001).breach is None
+    s, k, change, allowed = _Checker(m, pairs, lever / 100).measure(rows, 0.001).breach
+    assert 0 <= s < len(rows) - 1 and k == 0 and change > allowed * 50
