@@ -62,7 +62,7 @@ import numpy as np
 from foam_mj.errors import FoamError, file_problem, file_problem_text, foreign_file_hint, is_number, only_numbers, text_problem
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 from foam_mj.verify_geometry import HELD_TOL as _HELD_TOL
-from foam_mj.verify_geometry import (MAX_SAMPLES, Measured, _Checker, _beyond_ranges, _densify, _distance, _levers,  # noqa: F401
+from foam_mj.verify_geometry import (MAX_SAMPLES, _Checker, _beyond_ranges, _densify, _distance, _levers,  # noqa: F401
                                      _unprovable, collision_pairs, prove)
 
 #: How far (per coordinate, rad or m) a path's first and last waypoints may lie from the result's q_init and q_goal.
@@ -354,7 +354,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
                 raise ValueError
         except (KeyError, TypeError, ValueError):
             raise _fail(source, f"field '{key}' must be a list of {len(idx)} numbers, got {doc[key]!r}") from None
-    names = lambda g: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"geom{int(g)}"  # noqa: E731
+    names = lambda g: _geom_name(m, g)  # noqa: E731
     checks = []
     for name, entry in paths.items():
         if not isinstance(entry, dict) or "waypoints" not in entry:
@@ -413,7 +413,7 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         outside, note = _beyond_ranges(m, idx, allq)
         calls0 = checker.calls
         checker.lever = None if proof_note else lever
-        seen = checker.measure(allq, margin, self_from)
+        seen = checker.measure(allq, margin)
         path_note = proof_note
         if seen.breach is not None:  # the travel bound fails here: no anchors and no proof, the samples alone
             s, k, change, allowed = seen.breach
@@ -421,15 +421,14 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
                          f"samples {s} and {s + 1}, more than the {allowed * 1000:.3g} mm the lever arms allow (a bound "
                          "verify gets wrong for this model: please report it); only the samples are checked")
             checker.lever = None
-            seen = checker.measure(allq, margin, self_from)
+            seen = checker.measure(allq, margin)
         dmin, bad, pair = seen.min_distance, seen.violations, seen.pair
         proved, unproved, added = float("nan"), 0, 0
         if not path_note:
             proved = float("inf")
             for part in (slice(0, len(samples_wp)), slice(len(samples_wp), len(allq))):
                 if part.stop - part.start:
-                    part_seen = Measured(dmin, bad, pair, seen.obstacle_bound[part], seen.self_bound[part])
-                    pr = prove(checker, allq[part], part_seen, lever, margin, self_from)
+                    pr = prove(checker, allq[part], seen.obstacle_bound[part], seen.self_bound[part], margin)
                     proved, unproved, added = min(proved, pr.clearance), unproved + pr.unproved, added + pr.samples
                     bad, dmin = bad + pr.violations, min(dmin, pr.min_distance)
         checks.append(PathCheck(name, len(samples_wp), len(samples_tr), dmin, bad,

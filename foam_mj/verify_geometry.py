@@ -298,10 +298,10 @@ class _Checker:
                           exact[right] - (cum[anchors[right]] - cum)[:, None] * rate)
         np.fmax(lb, lip, out=lb)
 
-    def measure(self, qpos: np.ndarray, margin: float, self_from: int | None = None) -> Measured:
+    def measure(self, qpos: np.ndarray, margin: float) -> Measured:
         """The samples' smallest distance, violations and closest pair (exact: see :mod:`foam_mj.verify`), and lower bounds
-        of each sample's smallest distance over the pairs before ``self_from`` (moving/static; default the checker's)
-        and from it on (robot/robot): the exact distance where it was computed, a bound elsewhere (the sphere bound,
+        of each sample's smallest distance over the moving/static pairs (before the checker's ``self_from``) and over
+        the robot/robot ones (from it on): the exact distance where it was computed, a bound elsewhere (the sphere bound,
         raised from the anchors' exact distances by :meth:`_anchored`). A (sample, pair) left inexact has a bound of at
         least max(margin, the smallest distance found), so the minimum and the violations are exact."""
         xpos, xnormal = self._poses(qpos)
@@ -317,14 +317,13 @@ class _Checker:
         upper = float(np.min(lb[known])) if known.any() else np.inf
         threshold = max(margin, upper)
         cand = np.column_stack(np.nonzero((lb < threshold) & ~known))
+        capped = np.zeros_like(known)  # values distmax cut short: not MuJoCo's distance (for _breach)
         if len(cand):
             # min(distance, distmax): still at least the sphere bound, and exact below the threshold
             lb[cand[:, 0], cand[:, 1]] = self._exact(qpos, cand, threshold + 1e-3)
             known[cand[:, 0], cand[:, 1]] = True
-        capped = np.zeros_like(known)
-        if len(cand):
             capped[cand[:, 0], cand[:, 1]] = lb[cand[:, 0], cand[:, 1]] >= threshold + 1e-3
-        cut = self.self_from if self_from is None else self_from
+        cut = self.self_from
         obs, own = lb[:, :cut].min(axis=1, initial=np.inf), lb[:, cut:].min(axis=1, initial=np.inf)
         if not known.any():
             return Measured(np.inf, 0, -1, obs, own)
@@ -390,20 +389,21 @@ def _segment_bounds(obs: np.ndarray, own: np.ndarray, travel: np.ndarray) -> np.
     return np.where(np.isnan(a) | np.isnan(b), -np.inf, np.minimum(a, b))  # (nan from inf - inf: nothing proved)
 
 
-def prove(checker: _Checker, samples: np.ndarray, measured: Measured, lever: np.ndarray, margin: float,
-          self_from: int, rounds: int = PROOF_ROUNDS) -> Proof:
+def prove(checker: _Checker, samples: np.ndarray, obstacle_bound: np.ndarray, self_bound: np.ndarray, margin: float,
+          rounds: int = PROOF_ROUNDS) -> Proof:
     """Prove the clearance between consecutive ``samples`` (qpos rows of one polyline, linear between them), not
-    only at them: a segment whose bound (:func:`_segment_bounds`, travel from the lever arms :func:`_levers`) is
+    only at them, from the samples' lower bounds (:class:`Measured`'s ``obstacle_bound`` and ``self_bound``): a segment
+    whose bound (:func:`_segment_bounds`, travel from the checker's lever arms, :func:`_levers`) is
     below ``margin`` while both its ends are clear is cut in half, up to ``rounds`` times, until each piece is
     proved, or a new sample is found closer than the margin (a violation), or the samples added reach
     :data:`PROOF_BUDGET`. A clearance touching the margin exactly stays unproved."""
     if len(samples) < 2:
-        d = float(min(measured.obstacle_bound.min(initial=np.inf), measured.self_bound.min(initial=np.inf)))
+        d = float(min(obstacle_bound.min(initial=np.inf), self_bound.min(initial=np.inf)))
         return Proof(d, 0, 0, np.inf, 0)
     qa, qb = samples[:-1], samples[1:]
-    obs = np.column_stack([measured.obstacle_bound[:-1], measured.obstacle_bound[1:]])
-    own = np.column_stack([measured.self_bound[:-1], measured.self_bound[1:]])
-    travel = np.abs(qb - qa) @ lever
+    obs = np.column_stack([obstacle_bound[:-1], obstacle_bound[1:]])
+    own = np.column_stack([self_bound[:-1], self_bound[1:]])
+    travel = np.abs(qb - qa) @ checker.lever
     proved, added, bad, closest = np.inf, 0, 0, np.inf
     budget = min(MAX_SAMPLES, max(PROOF_BUDGET, 4 * len(samples)))
     for r in range(rounds + 1):
@@ -416,7 +416,7 @@ def prove(checker: _Checker, samples: np.ndarray, measured: Measured, lever: np.
             break
         qa, qb, obs, own, travel = qa[open_], qb[open_], obs[open_], own[open_], travel[open_] / 2
         mid = (qa + qb) / 2
-        at = checker.measure(mid, margin + 2 * float(travel.max()), self_from)  # exact wherever a bound could fall short
+        at = checker.measure(mid, margin + 2 * float(travel.max()))  # exact wherever a bound could fall short
         added += len(mid)
         mo, mw = at.obstacle_bound, at.self_bound
         lowest = np.minimum(mo, mw)  # exact where below the margin

@@ -738,8 +738,8 @@ def test_the_segment_bound_never_exceeds_the_clearance_between_its_ends(seed, se
     lo, hi = m.jnt_range[:, 0], m.jnt_range[:, 1]
     qa = rng.uniform(lo, hi)
     qb = np.clip(qa + rng.normal(0, 0.1, m.nq), lo, hi)
-    checker = _Checker(m, pairs)
-    ends = checker.measure(np.vstack([qa, qb]), 0.005, self_from)
+    checker = _Checker(m, pairs, None, self_from)
+    ends = checker.measure(np.vstack([qa, qb]), 0.005)
     travel = np.abs(qb - qa) @ _levers(m, idx)
     bound = _segment_bounds(ends.obstacle_bound[None], ends.self_bound[None], np.array([travel]))[0]
     d = mujoco.MjData(m)
