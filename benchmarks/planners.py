@@ -193,7 +193,21 @@ def reproduce_info(args, planners: list[str], use_ompl: bool) -> dict:
             "seed_rule": "our planners and smoother: seed s; OMPL: RNG.setSeed(s + 1) before each run",
             "versions": {k: ver(k) for k in ("foam-mj", "mujoco", "numpy", "scipy", "ompl")} | {"python": platform.python_version()},
             "threads": {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}, "machine": platform.machine(),
-            "cpus": os.cpu_count()}
+            "cpus": os.cpu_count(), "cpu_model": cpu_model(), "load_average_start": list(os.getloadavg())}
+
+
+def cpu_model() -> str | None:
+    """The processor's name (Linux's /proc/cpuinfo, else the platform's): wall times compare only on one machine."""
+    import platform
+
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.lower().startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or None
 
 
 def problem_info(pb: Problem, checker: DenseChecker) -> dict:
@@ -437,6 +451,7 @@ def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl
                                    ratio(m["clearance"], peer["clearance"])]
                                   + ([ratio(m["len_qpos"], res["ompl:bitstar(10x)"]["summary"]["median"]["len_qpos"])] if args.bitstar else []))
     out["elapsed"] = time.perf_counter() - t_start
+    out["reproduce"]["load_average_end"] = list(os.getloadavg())
     print(f"\nmedians over {seeds} seeds (successful runs), time limit {args.time_limit:g} s per run")
     print(table(["problem", "delta mm", "planner", "ok", "first ms", "plan ms", "total ms", "cpu ms", "chain", "bubbles", "queries", "len q",
                  "len qpos", "sp qpos", "f", "clear mm", "worst mm", "self mm"], rows))
@@ -459,7 +474,9 @@ def run(args, planners: list[str], problems: list[Problem], seeds: int, use_ompl
               + ", ".join(f"{p} {v['ompl']['longest_valid_segment']:.3g}" for p, v in out["problems"].items()))
     elif not args.no_ompl:
         print(f"\n{NO_OMPL}: no peer rows")
-    print(f"benchmark time {out['elapsed']:.1f} s")
+    r = out["reproduce"]
+    print(f"benchmark time {out['elapsed']:.1f} s on {r['cpus']} x {r['cpu_model'] or 'an unnamed CPU'}, load average "
+          f"{r['load_average_start'][0]:.2f} at the start, {r['load_average_end'][0]:.2f} at the end")
     # Safety is the product: any path of ours closer than delta (to an obstacle or, with self-collision, to itself)
     # fails the benchmark (exit 1).
     broken = [(p, n, min(r["clearance"], r.get("self_clearance") or np.inf)) for p, v in out["problems"].items() for n in planners

@@ -49,6 +49,11 @@ def test_planners_benchmark_runs_a_users_scenario_with_its_margin_and_parameters
     assert doc["margin_violations"] == []
     table_row = next(line for line in r.stdout.splitlines() if line.split()[:3] == ["my_arm", "10", "pfm"])
     assert "1/1" in table_row  # the table states the problem's margin in mm
+    # Wall times compare only on one machine: the JSON and the last line name it and its load.
+    rep = doc["reproduce"]
+    assert rep["cpus"] >= 1 and rep["cpu_model"]
+    assert all(len(rep[k]) == 3 and min(rep[k]) >= 0 for k in ("load_average_start", "load_average_end"))
+    assert f"x {rep['cpu_model']}, load average" in r.stdout.splitlines()[-2 if "wrote" in r.stdout.splitlines()[-1] else -1]
 
 
 def test_a_scenario_without_planner_parameters_gets_the_benchmarks_defaults(tmp_path):
