@@ -64,11 +64,10 @@ a path to a TOML file.
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import re
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -80,6 +79,7 @@ from foam_mj.errors import ConfigurationError, FoamError, ModelError, ScenarioEr
 from foam_mj.geom_pairs import REVOLUTION as _REVOLUTION
 from foam_mj.foam import check_candidate_bound
 from foam_mj.model import RobotModel
+from foam_mj.rosary import fields_equal
 from foam_mj.planners import DEFAULT_PLANNER, PlannerConfig, PlannerError, planner_class
 from foam_mj.planners.base import COMMON_FIELDS, option_names
 from foam_mj.safe_curve import apart_text, coincide
@@ -108,8 +108,8 @@ _TOP_LEVEL = {f: "a top-level field: write it above the first [table]" for f in 
 
 @dataclass
 class Scenario:
-    """A planning problem: where (scene), from and to (q_init, q_goal), and how (params: the planner's
-    name, margin, budgets and options; seed)."""
+    """A planning problem: where (scene), from and to (q_init, q_goal), and how (params: the planner's name, margin,
+    budgets and options; seed). ``==`` compares by value (arrays too), not the compiled robot it caches; unhashable."""
 
     name: str
     description: str
@@ -122,10 +122,12 @@ class Scenario:
     robot_root: str | None = None  # the robot's root body (foam_mj.model); None: every body a coordinate moves
     self_collision: bool = True  # check robot/robot pairs too
     keyframe: str | None = None  # pose of the non-configuration joints; None: qpos0
-    _robot: RobotModel | None = field(default=None, repr=False)
+    _robot: RobotModel | None = field(default=None, repr=False, compare=False)  # a cache of scene + edits
     edits: SceneEdits = field(default_factory=SceneEdits)
     limits: Limits | None = None  # [limits]: the time law's joint limits (None: the model's)
     time_law: str | None = None  # [limits] time_law (None: foam_mj.timing.DEFAULT_METHOD)
+
+    __eq__ = fields_equal  # arrays by value (foam_mj.rosary)
 
     @property
     def robot(self) -> RobotModel:
@@ -330,17 +332,11 @@ def _scene_edits(raw: dict, where: str, base_dir: Path) -> SceneEdits:
         name = t.get("name")
         if name is not None and (not isinstance(name, str) or not name):
             raise ScenarioError(f"{w}: field 'name' must be a non-empty string")
-        meshes.append(
-            MeshObstacle(
-                f,
-                _vec3(t.get("pos", [0, 0, 0]), f"{w}: field 'pos' (m)"),
-                _vec3(t.get("euler", [0, 0, 0]), f"{w}: field 'euler' (degrees)"),
-                _vec3(scale, f"{w}: field 'scale'", positive=True),
-                name,
-                decompose,
-                _number(t.get("threshold", 0.05), f"{w}: field 'threshold'", 0.01, 1.0),
-            )
-        )
+        meshes.append(MeshObstacle(
+            f, _vec3(t.get("pos", [0, 0, 0]), f"{w}: field 'pos' (m)"), _vec3(t.get("euler", [0, 0, 0]), f"{w}: field 'euler' (degrees)"),
+            _vec3(scale, f"{w}: field 'scale'", positive=True), name, decompose,
+            _number(t.get("threshold", 0.05), f"{w}: field 'threshold'", 0.01, 1.0),
+        ))
     return SceneEdits(joints, norm, subject, obstacle, tuple(meshes))
 
 
@@ -436,7 +432,7 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
         expected = sorted(COMMON_FIELDS) + sorted(own)
         raise ScenarioError(f"{path}: unknown [planner] field(s) {unknown_names(unknown, expected, _TOP_LEVEL)} for algorithm "
                             f"'{algorithm}'; expected {expected}")
-    defaults = {f.name: f.default for f in dataclasses.fields(cls.Options)}
+    defaults = {f.name: f.default for f in fields(cls.Options)}
     for key, value in planner.items():
         numeric = key in ("delta", "max_bubbles", "time_limit") or (
             isinstance(defaults.get(key), (int, float)) and not isinstance(defaults.get(key), bool)

@@ -386,3 +386,21 @@ def test_q_init_or_q_goal_may_name_a_keyframe_of_the_scene(tmp_path):
         scenario_from_dict({"scene": scene, "q_init": "home", "q_goal": "stand"}, tmp_path)
     with pytest.raises(ScenarioError, match=r"its named keyframes: none"):
         scenario_from_dict({"scene": str(models_dir() / "bench_arm6.xml"), "q_init": "home", "q_goal": "home"}, tmp_path)
+
+
+def test_scenarios_compare_by_value_whether_or_not_their_scene_is_compiled():
+    """`==` on two scenarios raised numpy's "truth value of an array ... is ambiguous" (the generated __eq__ compares
+    q_init and q_goal inside field tuples); like the results (foam_mj.rosary.fields_equal) they compare by value, the
+    compiled robot each caches left out, and stay unhashable (mutable, holding arrays)."""
+    import dataclasses
+    import pickle
+
+    checked, unchecked = load_scenario("obstacle"), load_scenario("obstacle", check=False)
+    assert checked._robot is not None and unchecked._robot is None  # one compiled its scene, the other not
+    assert checked == unchecked and not (checked != unchecked)
+    assert pickle.loads(pickle.dumps(unchecked)) == checked
+    moved = dataclasses.replace(unchecked, q_goal=unchecked.q_goal + 1e-9)
+    assert moved != unchecked and dataclasses.replace(unchecked, seed=1) != unchecked
+    assert checked != load_scenario("step_up") and checked != "obstacle"  # another scenario, another type
+    with pytest.raises(TypeError, match="unhashable"):
+        hash(checked)
