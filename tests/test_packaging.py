@@ -211,3 +211,18 @@ def test_every_error_the_python_api_raises_is_importable_from_the_package_and_na
         assert type(caught.value).__name__ == name
         assert name in foam_mj.__all__ and getattr(foam_mj, name) is type(caught.value), name
         assert f"`{name}`" in readme, name
+
+
+def test_no_library_code_is_switched_off_by_a_module_constant():
+    """Dead code: a branch under ``if FLAG:`` where the module sets ``FLAG = False`` (or 0, None) never runs, yet is
+    read, linted and kept in step (the corridor's ``DEBUG = False`` guarded a print of every refinement round)."""
+    import ast
+
+    dead = []
+    for p in sorted((ROOT / "foam_mj").rglob("*.py")):
+        tree = ast.parse(p.read_text(encoding="utf-8"))
+        off = {t.id for node in tree.body if isinstance(node, ast.Assign) and isinstance(node.value, ast.Constant)
+               and not node.value.value for t in node.targets if isinstance(t, ast.Name)}
+        dead += [f"{p.relative_to(ROOT)}:{node.lineno} if {node.test.id}" for node in ast.walk(tree)
+                 if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id in off]
+    assert not dead, dead

@@ -131,7 +131,6 @@ def load_solvers() -> None:
     for name in _SOLVERS:
         import_module(name)
 
-DEBUG = False
 #: A round's pruned chain is solved again only if it drops more than this share of the bubbles (else the
 #: unpruned chain goes on: one cone program fewer); the last chain is always pruned.
 PRUNE_GAIN = 0.85
@@ -469,8 +468,6 @@ class CorridorBuild:
                 stats["refine_stopped"] = "cone program unsolved"
                 break
             gain = (length - length2) / length if length > 0 else 0.0
-            if DEBUG:
-                print(f"round: k {k} press {len(press)} chords {len(splices)} (+{sum(len(v[2]) for v in splices.values())} -{sum(v[0]-a for a, v in splices.items())}) chain {len(R2)} length {length:.4f} -> {length2:.4f}")
             if length2 <= length:
                 C, R, ids, w, length = C2, R2, ids2, w2, length2
             if gain <= options.refine_tol or len(R) >= max_chain:
