@@ -23,6 +23,7 @@ the body of each unnamed geom (``geom<i>``) of the closest and limiting pairs, a
 
 from __future__ import annotations
 
+from numpy.typing import ArrayLike
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.model import RobotModel
@@ -31,7 +32,7 @@ FORMAT = "foam-mj/bubble"
 VERSION = 1
 
 
-def bubble_report(robot: RobotModel, q, delta: float = 0.005, name: str = "q") -> dict:
+def bubble_report(robot: RobotModel, q: ArrayLike, delta: float = 0.005, name: str = "q") -> dict:
     """The report at q (validated: shape, finite, bounds; errors call it ``name``) as a JSON-able dict
     (module docstring)."""
     q = robot.validate(q, name)

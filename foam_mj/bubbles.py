@@ -83,6 +83,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from foam_mj.clearance import Clearance
 from foam_mj.configuration import HINGE
@@ -424,7 +425,7 @@ class BubbleOracle:
         k = int(np.argmax(np.where(holds, r, -1.0)))
         return EndBubble(C[k], float(r[k]), True)
 
-    def radius(self, q) -> float:
+    def radius(self, q: ArrayLike) -> float:
         """Certified radius at one configuration (validated: shape, finite, within bounds; the scene unedited)."""
         self.robot.check_unchanged()
         q = self.robot.validate(q)
@@ -464,7 +465,7 @@ class BubbleOracle:
         cap = self.delta + CAP_SLACK + upper[:, None] * self._cap_slope
         return self.radius_from_distances(self.clearance.batch_pairs(Q, cap), Q, bounds)
 
-    def explain(self, q) -> "BubbleReport":
+    def explain(self, q: ArrayLike) -> "BubbleReport":
         """Everything behind the radius at q: per-pair distances and bounds, the pair that sets the radius."""
         self.robot.check_unchanged()
         q = self.robot.validate(q)

@@ -14,6 +14,7 @@ from typing import Iterable
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from foam_mj.errors import FoamError
 from foam_mj.model import RobotModel
@@ -190,7 +191,7 @@ def _shapes(robot: RobotModel, data: mujoco.MjData, qpos: np.ndarray, plane: str
     return out
 
 
-def strobe_geometry(robot: RobotModel, q, plane: str | None = None, which: str = "all") -> list[Shape]:
+def strobe_geometry(robot: RobotModel, q: ArrayLike, plane: str | None = None, which: str = "all") -> list[Shape]:
     """The robot's and the obstacles' collision geoms at configuration ``q`` (planner coordinates),
     projected onto ``plane`` ("xz", "xy" or "yz"; default: "xz" for a leg, "xy" for a planar mobile
     base), as :class:`Shape` s. ``which`` selects "all", "robot" or "obstacles" geoms.

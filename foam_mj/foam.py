@@ -37,6 +37,7 @@ from importlib import import_module
 from typing import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.coverage import CoverageIndex, accept_in_order, inside_rows, row_sq_sums
@@ -250,8 +251,8 @@ def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str,
 
 def plan(
     oracle: BubbleOracle,
-    q_init,
-    q_goal,
+    q_init: ArrayLike,
+    q_goal: ArrayLike,
     params: FoamParams = FoamParams(),
     seed: int | np.random.Generator = 0,
     progress: Callable[[FoamStats], None] | None = None,

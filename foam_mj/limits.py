@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from foam_mj.dynamics import torque_limits
 from foam_mj.model import RobotModel, require_robot_model
@@ -91,7 +92,7 @@ def as_limits(limits: Limits | JointLimits | None) -> Limits:
     raise ValueError(f"`limits` must be a Limits or JointLimits, got {type(limits).__name__}")
 
 
-def endless_motion(limits: "Limits | None", robot: RobotModel, q_init, q_goal) -> str | None:
+def endless_motion(limits: "Limits | None", robot: RobotModel, q_init: ArrayLike, q_goal: ArrayLike) -> str | None:
     """Why no timing of any path from ``q_init`` to ``q_goal`` fits in :data:`~foam_mj.trajectory.MAX_STEPS` timesteps
     under ``limits`` (None: the defaults), or None. Each joint moves at least d = |q_goal - q_init| (joint units), which
     takes at least max(d / v, 2 sqrt(d / a)) from rest to rest: [limits] velocity = 1e-6 was a MemoryError after

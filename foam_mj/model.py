@@ -38,6 +38,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from foam_mj.capsule_box import check_sizes, geom_distance
 from foam_mj.configuration import (
@@ -481,7 +482,7 @@ class RobotModel:
                     f"(--delta), or set margin=\"0\" (or a gap as large) on {where}"
                 )
 
-    def validate(self, q, name: str = "q", *, check_bounds: bool = True) -> np.ndarray:
+    def validate(self, q: ArrayLike, name: str = "q", *, check_bounds: bool = True) -> np.ndarray:
         """Return q as a float array of shape (n,), or raise ConfigurationError saying what is wrong."""
         try:
             if not _real_numbers(q):  # True as 1.0, 0.2+1j as 0.2 (numpy only warns), "0.2" as 0.2 or None as nan

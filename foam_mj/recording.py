@@ -80,6 +80,7 @@ from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 import rerun as rr
 import rerun.blueprint as rrb
 
@@ -412,7 +413,7 @@ class Recording:
             rosary = foam.rosary()
         self.log_bubbles(foam.centers, foam.radii, foam.q_init, foam.q_goal, rosary)
 
-    def log_bubbles(self, centers, radii, q_init, q_goal, rosary: Rosary | None = None) -> None:
+    def log_bubbles(self, centers: ArrayLike, radii: ArrayLike, q_init: ArrayLike, q_goal: ArrayLike, rosary: Rosary | None = None) -> None:
         """Bubbles given by their centres (m, n) and radii (m,) as spheres at ``cspace/foam``, ``rosary``
         (if any) highlighted, and the configurations q_init and q_goal."""
         rec = self._check_open()

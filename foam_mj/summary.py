@@ -3,8 +3,13 @@ the Pareto fronts and the optimal smoother's certificates. Heavy modules are imp
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
 
-def fmt_q(q) -> str:
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+
+def fmt_q(q: ArrayLike) -> str:
     import numpy as np
 
     return "[" + ", ".join(f"{v:g}" for v in np.asarray(q)) + "]"

@@ -226,3 +226,20 @@ def test_no_library_code_is_switched_off_by_a_module_constant():
         dead += [f"{p.relative_to(ROOT)}:{node.lineno} if {node.test.id}" for node in ast.walk(tree)
                  if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id in off]
     assert not dead, dead
+
+
+def test_every_configuration_argument_of_the_library_is_typed():
+    """A configuration handed to the library (``q``, ``q_init``, ``q_goal``) is typed by every public function taking it:
+    the oracle's radius and explain, the model's validate, plan and the planners took an untyped q (any sequence of
+    numbers is validated, hence ``ArrayLike``)."""
+    import ast
+
+    untyped = []
+    for p in sorted((ROOT / "foam_mj").rglob("*.py")):
+        for node in ast.walk(ast.parse(p.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and not (node.name.startswith("_") and not node.name.startswith("__")):
+                a = node.args
+                untyped += [f"{p.relative_to(ROOT)}:{node.lineno} {node.name}({arg.arg})"
+                            for arg in a.posonlyargs + a.args + a.kwonlyargs
+                            if arg.arg in ("q", "q_init", "q_goal") and arg.annotation is None]
+    assert not untyped, untyped

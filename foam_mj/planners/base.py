@@ -376,7 +376,7 @@ class PlannerConfig:
 
         return get_planner(self.algorithm, **self.options)
 
-    def problem(self, oracle: BubbleOracle, q_init, q_goal) -> PlanningProblem:
+    def problem(self, oracle: BubbleOracle, q_init: np.ndarray, q_goal: np.ndarray) -> PlanningProblem:
         return PlanningProblem(oracle, q_init, q_goal, self.delta, self.time_limit, self.max_bubbles)
 
     def with_algorithm(self, name: str) -> "PlannerConfig":

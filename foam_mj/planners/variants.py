@@ -65,6 +65,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from foam_mj.bubbles import BubbleOracle
 from foam_mj.coverage import CoverageIndex, accept_in_order
@@ -110,7 +111,7 @@ def _unit(rng: np.random.Generator, count: int, dim: int) -> np.ndarray:
 class _Growth:
     """The foam under construction, shared by the three variants: storage, coverage, candidate tests, budget."""
 
-    def __init__(self, oracle: BubbleOracle, q_init, q_goal, params: FoamParams, seed, progress) -> None:
+    def __init__(self, oracle: BubbleOracle, q_init: ArrayLike, q_goal: ArrayLike, params: FoamParams, seed, progress) -> None:
         robot = oracle.robot
         self.oracle = oracle
         self.params = params
@@ -285,7 +286,7 @@ def _expand(g: _Growth, parent: int) -> np.ndarray:
 
 
 def plan_rbpf(
-    oracle: BubbleOracle, q_init, q_goal, params: FoamParams = FoamParams(), seed: int | np.random.Generator = 0,
+    oracle: BubbleOracle, q_init: ArrayLike, q_goal: ArrayLike, params: FoamParams = FoamParams(), seed: int | np.random.Generator = 0,
     progress: Callable[[FoamStats], None] | None = None,
 ) -> PlanResult:
     """Radius-biased Probabilistic Foam (RBPF, Nascimento et al. 2021, Algorithm 3): the next parent is drawn
@@ -316,7 +317,7 @@ def plan_rbpf(
 
 
 def plan_hpf(
-    oracle: BubbleOracle, q_init, q_goal, params: FoamParams = FoamParams(), seed: int | np.random.Generator = 0,
+    oracle: BubbleOracle, q_init: ArrayLike, q_goal: ArrayLike, params: FoamParams = FoamParams(), seed: int | np.random.Generator = 0,
     progress: Callable[[FoamStats], None] | None = None,
 ) -> PlanResult:
     """Heuristic-guided Probabilistic Foam (HPF, Nascimento et al. 2021, Algorithm 4): the open bubble with the
@@ -373,7 +374,7 @@ class _NearestCentre:
 
 
 def plan_gbpf(
-    oracle: BubbleOracle, q_init, q_goal, params: FoamParams = FoamParams(), seed: int | np.random.Generator = 0,
+    oracle: BubbleOracle, q_init: ArrayLike, q_goal: ArrayLike, params: FoamParams = FoamParams(), seed: int | np.random.Generator = 0,
     progress: Callable[[FoamStats], None] | None = None, goal_bias: GoalBias = GoalBias(),
 ) -> PlanResult:
     """Goal-biased Probabilistic Foam (GBPF, Nascimento et al. 2021, Algorithm 2): aim at q_goal with probability
