@@ -180,6 +180,11 @@ def _invert_min_jerk(s: np.ndarray) -> np.ndarray:
     return 0.5 * (lo + hi)
 
 
+#: :meth:`TimeLaw.at_tau` works on the weight scaled by a power of two when its largest value is outside
+#: [2**-_WEIGHT_EXP, 2**_WEIGHT_EXP] s per unit of u (a velocity limit of 1e-300 gave 1e300: its cube overflowed).
+_WEIGHT_EXP = 64
+
+
 @dataclass(frozen=True)
 class TimeLaw:
     """u(t) on [0, duration]: S(u(t)) = S(L) sigma(t / duration), with S(u) the integral of a positive,
@@ -199,13 +204,17 @@ class TimeLaw:
         """u, du/dt, d2u/dt2 at normalized times tau in [0, 1] for a traversal of ``duration`` seconds."""
         T = self.duration if duration is None else duration
         tau = np.clip(np.asarray(tau, dtype=float), 0.0, 1.0)
-        S = self.cumulative
+        law = self
+        k = int(np.frexp(self.weight.max())[1])
+        if abs(k) > _WEIGHT_EXP:  # w0 * w0, sd * sd and w**3 below would overflow (or underflow): scale the weight
+            law = TimeLaw(self.grid, np.ldexp(self.weight, -k), T)  # by 2**-k (exact): u, du/dt, d2u/dt2 are unchanged
+        S = law.cumulative
         sig, dsig, ddsig = _min_jerk(tau)
         target = S[-1] * sig
         cell = np.clip(np.searchsorted(S, target, side="right") - 1, 0, len(S) - 2)
         du = np.diff(self.grid)[cell]
-        w0 = self.weight[cell]
-        g = (self.weight[cell + 1] - w0) / du  # w' in the cell
+        w0 = law.weight[cell]
+        g = (law.weight[cell + 1] - w0) / du  # w' in the cell
         dS = np.maximum(target - S[cell], 0.0)
         delta = np.minimum(2 * dS / (w0 + np.sqrt(np.maximum(w0 * w0 + 2 * g * dS, 0.0))), du)
         u = self.grid[cell] + delta

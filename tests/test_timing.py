@@ -509,18 +509,36 @@ def test_limits_that_ask_for_an_endless_motion_are_refused_before_planning(tmp_p
     assert main(["plan", "--scene", str(toml), "--no-rrd", "--no-replay"]) == 0  # an untimed plan needs no timing
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")
 def test_a_timing_past_max_steps_is_a_timing_that_does_not_fit(tmp_path):
     """What the scenario check cannot see (a path longer than the straight line, a library caller's limits): a timing
-    of more than MAX_STEPS timesteps is TimingInfeasible naming its length, not a MemoryError or an OverflowError."""
+    of more than MAX_STEPS timesteps is TimingInfeasible naming its length, not a MemoryError or an OverflowError. A
+    velocity limit 1e295 times lower lasts 1e295 times longer, with no overflow on the way (the time law's weight
+    of 1e300 s per unit was squared and cubed: numpy warned, and the length read "inf s, inf timesteps")."""
     from foam_mj.timing import TimingInfeasible, timed_trajectory
     from foam_mj.limits import Limits
 
     robot = RobotModel.from_xml(arm_with(tmp_path, ""))
     line = segment_rosary(np.array([-0.3, 0.2]), np.array([-1.2, 0.8]))
-    for v, lasts in ((1e-5, r"1\.\d+e\+05 s, 6\.\d+e\+07 timesteps"), (1e-300, "inf s, inf timesteps")):
+    for v, lasts in ((1e-5, r"1\.21e\+05 s, 6\.03e\+07 timesteps"), (1e-300, r"1\.21e\+300 s, 6\.03e\+302 timesteps")):
         with pytest.raises(TimingInfeasible, match=rf"^its timing under these limits lasts {lasts} of 0\.002 s: more than the "
                                                    r"2,000,000 a trajectory may have$"):
             timed_trajectory(robot, line.path(np.empty((0, 2))), line, Limits(velocity=[v, 1.0]))
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_a_time_laws_motion_does_not_depend_on_the_scale_of_its_weight():
+    """u(t) solves S(u) = S(L) sigma(t / T): multiplying the weight w (s per unit of u) by any c > 0 leaves u, du/dt and
+    d2u/dt2 as they are; at c = 2**+-400 the weight's square and cube overflowed or underflowed (NaN motion)."""
+    from foam_mj.trajectory import TimeLaw
+
+    grid = np.linspace(0.0, 1.3, 60)
+    weight = 1.0 + 0.6 * np.sin(5 * grid) ** 2
+    tau = np.linspace(0.0, 1.0, 301)
+    expected = TimeLaw(grid, weight, 2.5).at_tau(tau)
+    for c in (2.0**-1000, 1e-300, 2.0**-400, 1e-30, 1e30, 2.0**400, 1e300, 2.0**1000):
+        for got, want in zip(TimeLaw(grid, weight * c, 2.5).at_tau(tau), expected):
+            np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13 * np.abs(want).max())
 
 
 
