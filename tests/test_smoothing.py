@@ -538,15 +538,21 @@ def test_rosary_adjustment_survives_a_wrong_lipschitz_bound(smoothing_setup, ros
     np.testing.assert_array_equal(got.path.history_mean, want.path.history_mean)
 
 
-def test_a_negative_or_boolean_seed_is_named():
-    """seed=-1 failed inside numpy ("expected non-negative integer"), naming no argument; True was seed 1."""
+def test_a_seed_outside_the_planners_range_is_named():
+    """seed=-1 failed inside numpy ("expected non-negative integer"), naming no argument; True was seed 1; and 2**63
+    or 2**64 - 1 were taken, where a planner, a scenario and --seed take [0, 2**63 - 1] (a seed one of them refuses
+    could not be recorded and repeated by the others)."""
     from foam_mj.smoothing.base import as_generator
 
-    for seed in (-1, True, 1.5, "0"):
-        with pytest.raises(ValueError, match=r"`seed` must be an integer >= 0, a numpy Generator or None, got"):
+    for seed in (-1, True, 1.5, "0", 2**63, np.uint64(2**64 - 1)):
+        with pytest.raises(ValueError, match=r"^`seed` must be an integer in \[0, 2\*\*63 - 1\], a numpy Generator or None, got"):
             as_generator(seed)
+    for sm in EDGE_SMOOTHERS:  # also those that draw nothing (convex, gradient)
+        with pytest.raises(ValueError, match=r"^`seed` must be an integer in \[0, 2\*\*63 - 1\]"):
+            sm.smooth(_chain([1.0, 1.0]), seed=2**63)
     g = np.random.default_rng(0)
     assert as_generator(g) is g and as_generator(np.int64(3)).integers(1 << 30) == np.random.default_rng(3).integers(1 << 30)
+    assert as_generator(2**63 - 1).integers(1 << 30) == np.random.default_rng(2**63 - 1).integers(1 << 30)
 
 
 # -- rosaries at the edges: bubbles far below the insets, one joint, seeds of the deterministic methods --------
@@ -583,6 +589,23 @@ def test_bubbles_smaller_than_the_insets_are_smoothed(radii):
         np.testing.assert_array_equal(r.path[[0, -1]], [ros.q_init, ros.q_goal])
 
 
+def test_a_run_without_a_seed_records_the_seed_it_drew_and_that_seed_repeats_it():
+    """seed=None drew fresh entropy and kept none of it, so a run worth keeping could not be repeated: every smoother
+    that draws random numbers records the integer seed of its run in info["seed"] (the given one, or one drawn in
+    [0, 2**63 - 1]), None for a Generator, whose seed it does not know."""
+    ros = _chain([1.0, 0.8, 1.0, 0.7, 1.0])
+    for sm in (HS, GA, OptimalSmoother(multistart=2), MGOASmoother(iterations=5, swarm_size=20),
+               MOPSOSmoother(iterations=5, swarm_size=20)):
+        a, b = sm.smooth(ros, seed=None), sm.smooth(ros, seed=None)
+        drawn = a.info["seed"]
+        assert type(drawn) is int and 0 <= drawn <= 2**63 - 1 and drawn != b.info["seed"], type(sm).__name__
+        again = sm.smooth(ros, seed=drawn)
+        assert again.info["seed"] == drawn and sm.smooth(ros, seed=7).info["seed"] == 7
+        np.testing.assert_array_equal(again.path, a.path)
+        np.testing.assert_array_equal(again.history_best, a.history_best)
+        assert sm.smooth(ros, seed=np.random.default_rng(drawn)).info["seed"] is None
+
+
 @pytest.mark.parametrize(
     "centers, radii, q_goal, problem",
     [
@@ -615,8 +638,8 @@ def test_a_one_joint_rosary_is_smoothed_by_every_method():
 @pytest.mark.parametrize("smoother", [GRAD, ConvexShortestPath()])
 def test_deterministic_methods_still_refuse_a_bad_seed(rosary, smoother):
     """They draw nothing, but seed='a' or -1 was silently accepted where the other methods refuse it."""
-    for seed in (-1, True, "a"):
-        with pytest.raises(ValueError, match=r"`seed` must be an integer >= 0"):
+    for seed in (-1, True, "a", 2**63):
+        with pytest.raises(ValueError, match=r"`seed` must be an integer in \[0, 2\*\*63 - 1\]"):
             smoother.smooth(rosary, seed=seed)
 
 

@@ -10,6 +10,7 @@ rosary's certified bubbles: no smoother needs a collision check (docs/bubbles-ma
 from __future__ import annotations
 
 import math
+import secrets
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -18,6 +19,7 @@ from typing import Any, Callable, ClassVar, Mapping
 import numpy as np
 
 from foam_mj import paths
+from foam_mj.arguments import MAX_SEED
 from foam_mj.errors import indices_text
 from foam_mj.paths import fill_index, row_norms
 from foam_mj.rosary import Rosary, fields_equal
@@ -40,19 +42,28 @@ _EPS = 1e-12  # the same "zero-length segment" threshold as foam_mj.paths
 
 
 def check_seed(seed: SeedLike) -> None:
-    """Refuse a seed that is not an integer >= 0, a numpy Generator or None (also where a method draws nothing)."""
+    """Refuse a seed that is not an integer in [0, 2**63 - 1] (a planner's, a scenario's and ``--seed``'s range), a
+    numpy Generator or None (also where a method draws nothing)."""
     if isinstance(seed, np.random.Generator) or seed is None:
         return
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"`seed` must be an integer >= 0, a numpy Generator or None, got {seed!r}")
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"`seed` must be an integer in [0, 2**63 - 1], a numpy Generator or None, got {seed!r}")
 
 
 def as_generator(seed: SeedLike) -> np.random.Generator:
     """A numpy Generator from an int seed (or None) or the Generator itself."""
+    return seeded(seed)[0]
+
+
+def seeded(seed: SeedLike) -> tuple[np.random.Generator, int | None]:
+    """The Generator a run draws from and the integer seed that made it, for the run's ``info["seed"]``: ``seed``
+    itself, or for None one drawn from the operating system's entropy (so that the run can be repeated with it);
+    a given Generator is used as it is, and its seed is None (unknown)."""
     if isinstance(seed, np.random.Generator):
-        return seed
+        return seed, None
     check_seed(seed)
-    return np.random.default_rng(seed)
+    used = secrets.randbelow(MAX_SEED + 1) if seed is None else int(seed)
+    return np.random.default_rng(used), used
 
 
 def _check_int(name: str, value: Any, low: int, allow_none: bool = False) -> None:
@@ -221,9 +232,11 @@ class Smoother(ABC):
     """A path smoother: ``smooth(rosary, initial, seed)`` -> :class:`SmoothingResult`.
 
     ``initial`` is a (k-1, n) array of waypoints inside the hatches (None: the method's default, see
-    each class); ``seed`` an int or numpy Generator (same seed, same result; None draws fresh entropy from the
-    operating system, numpy's convention, so two runs differ, where a planner's ``plan`` refuses None). Implementations
-    are frozen dataclasses of their parameters, validated on construction.
+    each class); ``seed`` an integer in [0, 2**63 - 1] or a numpy Generator (same seed, same result), or None: a seed
+    drawn from the operating system's entropy, so two runs differ (where a planner's ``plan`` refuses None). The methods
+    that draw random numbers (hs, ga, optimal, mgoa, mopso) record the integer seed of their run in ``info["seed"]``
+    (None for a Generator; a one-bubble rosary draws nothing): ``seed=result.info["seed"]`` repeats a run.
+    Implementations are frozen dataclasses of their parameters, validated on construction.
     """
 
     name: ClassVar[str]

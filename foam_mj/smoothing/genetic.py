@@ -59,10 +59,10 @@ from foam_mj.smoothing.base import (
     _check_int,
     _check_unit,
     _is_real,
-    as_generator,
     check_initial,
     check_rosary,
     coordinate_major_objective,
+    seeded,
     trivial_result,
 )
 
@@ -117,7 +117,7 @@ class GeneticAlgorithm(Smoother):
                progress: ProgressFn | None = None) -> SmoothingResult:
         """Run the GA; ``progress`` (optional) hears the generations done and the best f about twice a second."""
         t_start = time.perf_counter()
-        rng = as_generator(seed)
+        rng, used = seeded(seed)
         init = check_initial(rosary, initial)
         if rosary.n_hatches == 0:
             return trivial_result(self.name, rosary, t_start)
@@ -243,7 +243,7 @@ class GeneticAlgorithm(Smoother):
             info={"pop_size": P, "cross_prob": self.cross_prob, "mut_prob": self.mut_prob,
                   "beta": "uniform[0,1]" if self.beta is None else self.beta,
                   "alpha_range": list(self.alpha_range), "selection": f"roulette ({self.selection})",
-                  "infeasible_crossover": "revert waypoint to parent 1", "infeasible_mutation": "revert"},
+                  "infeasible_crossover": "revert waypoint to parent 1", "infeasible_mutation": "revert", "seed": used},
         )
 
     def _draw(self, rng: np.random.Generator, P: int, m: int):

@@ -51,7 +51,7 @@ from typing import Any, Callable, ClassVar
 
 import numpy as np
 
-from foam_mj.smoothing.base import SeedLike, _check_int, _check_positive, as_generator
+from foam_mj.smoothing.base import SeedLike, _check_int, _check_positive, as_generator, seeded
 from foam_mj.smoothing.multiobjective import ParetoRun, ParetoSmoother, Problem, RunRecorder, check_schedule_params, finish_run
 from foam_mj.smoothing.pareto import Archive
 
@@ -327,7 +327,7 @@ class MGOA(GOAParams):
 
     def run(self, problem: Problem, seed: SeedLike = 0, initial: np.ndarray | None = None) -> ParetoRun:
         t_start = time.perf_counter()
-        rng = as_generator(seed)
+        rng, used = seeded(seed)
         lb, ub = _check_box(problem.lb, problem.ub, initial)
         N = int(self.swarm_size)
         X = problem.sample(rng, N)
@@ -345,7 +345,7 @@ class MGOA(GOAParams):
             archive.update(X, F, V)
             rec.record(archive, F, V)
         info = self._goa_info() | {"archive_size": self.archive_size, "niche_radius": self.niche_radius,
-                                   "target": "roulette on 1/niche count", "pruning": "crowding distance"}
+                                   "target": "roulette on 1/niche count", "pruning": "crowding distance", "seed": used}
         return finish_run(self.name, archive, rec, int(self.iterations), N * (int(self.iterations) + 1),
                           t_start, info)
 

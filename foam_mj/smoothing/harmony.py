@@ -63,10 +63,10 @@ from foam_mj.smoothing.base import (
     _check_int,
     _check_unit,
     _is_real,
-    as_generator,
     check_initial,
     check_rosary,
     coordinate_major_objective,
+    seeded,
     trivial_result,
 )
 from foam_mj.smoothing.genetic import _OutsideHatches, _PopulationObjective
@@ -107,7 +107,7 @@ class HarmonySearch(Smoother):
                progress: ProgressFn | None = None) -> SmoothingResult:
         """Run HS; ``progress`` (optional) hears the improvisations done and the best f about twice a second."""
         t_start = time.perf_counter()
-        rng = as_generator(seed)
+        rng, used = seeded(seed)
         init = check_initial(rosary, initial)
         if rosary.n_hatches == 0:
             return trivial_result(self.name, rosary, t_start)
@@ -225,7 +225,7 @@ class HarmonySearch(Smoother):
             wall_time=time.perf_counter() - t_start,
             stop_reason=reason,
             info={"HMS": hms, "HMCR": self.HMCR, "PAR": self.PAR, "BW": self.BW,
-                  "speculative_evaluations": spec_evals, "infeasible_adjustment": "revert"},
+                  "speculative_evaluations": spec_evals, "infeasible_adjustment": "revert", "seed": used},
         )
 
     def _draw(self, rng: np.random.Generator, h: Hatches, pool: np.ndarray, hms: int, m: int, n: int):

@@ -37,10 +37,10 @@ from foam_mj.smoothing.base import (
     Smoother,
     SmoothingResult,
     _check_positive,
-    as_generator,
     check_initial,
     check_rosary,
     check_rosary_type,
+    seeded,
     trivial_result,
 )
 from foam_mj.smoothing.certificate import KKT_TOL, Certificate, kkt_certificate
@@ -136,7 +136,7 @@ class OptimalSmoother(Smoother):
         check_rosary(rosary)
         h = Hatches.of(rosary)
         inset = h.fitting_inset(self.inset)
-        rng = as_generator(seed)
+        rng, used = seeded(seed)
         starts: list[tuple[str, np.ndarray]] = []
         if given is not None:
             starts += [("initial" if len(given) == 1 else f"initial {j}", h.project(w, inset)) for j, w in enumerate(given)]
@@ -220,5 +220,6 @@ class OptimalSmoother(Smoother):
                 "best_start": label,
                 "starts": [o.as_dict() for o in outcomes],
                 "inset": inset,
+                "seed": used,
             },
         )

@@ -31,7 +31,7 @@ from typing import Any, Callable, ClassVar
 
 import numpy as np
 
-from foam_mj.smoothing.base import SeedLike, _check_int, _check_positive, as_generator
+from foam_mj.smoothing.base import SeedLike, _check_int, _check_positive, as_generator, seeded
 from foam_mj.smoothing.goa import OptimizeResult, _check_box
 from foam_mj.smoothing.multiobjective import ParetoRun, ParetoSmoother, Problem, RunRecorder, finish_run
 from foam_mj.smoothing.pareto import Archive, dominates
@@ -164,7 +164,7 @@ class MOPSO(PSOParams):
 
     def run(self, problem: Problem, seed: SeedLike = 0, initial: np.ndarray | None = None) -> ParetoRun:
         t_start = time.perf_counter()
-        rng = as_generator(seed)
+        rng, used = seeded(seed)
         lb, ub = _check_box(problem.lb, problem.ub, initial)
         N = int(self.swarm_size)
         X = problem.sample(rng, N)
@@ -190,7 +190,7 @@ class MOPSO(PSOParams):
             rec.record(archive, F, V)
         info = self._pso_info() | {"archive_size": self.archive_size, "niche_radius": self.niche_radius,
                                    "leader": "roulette on 1/niche count, per particle",
-                                   "pruning": "crowding distance"}
+                                   "pruning": "crowding distance", "seed": used}
         return finish_run(self.name, archive, rec, int(self.iterations), N * (int(self.iterations) + 1),
                           t_start, info)
 
