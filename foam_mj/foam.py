@@ -225,8 +225,8 @@ def time_hint(outcome: str, time_limit: float | None = None, max_bubbles: int | 
 
 def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str, time_limit: float | None = None,
                  max_bubbles: int | None = None) -> str:
-    """Where a foam that did not reach q_goal came nearest to it: the bubble whose surface is nearest q_goal, the gap,
-    and what blocks the way there (the clearance and closest pair at that bubble's surface point toward q_goal); when a
+    """Where a foam that did not reach q_goal came nearest to it: the bubble whose surface is nearest q_goal (its centre),
+    the gap, and what blocks the way there (that surface point toward q_goal, the clearance and closest pair at it); when a
     budget stopped it (``outcome``), that more lets it grow on (:func:`time_hint`); unless the bubble budget stopped it,
     that every bubble has radius >= r_min, so a way that only smaller bubbles fit through stays closed to the foam."""
     if len(foam.radii) == 0:
@@ -235,11 +235,13 @@ def nearest_hint(oracle: BubbleOracle, foam: "Foam", r_min: float, outcome: str,
     dist = np.linalg.norm(to_goal, axis=1)
     i = int(np.argmin(dist - foam.radii))
     c, r = foam.centers[i], float(foam.radii[i])
-    p = np.clip(c + r * to_goal[i] / dist[i], oracle.robot.lower, oracle.robot.upper)
-    report = oracle.explain(p)
+    surface = c + r * to_goal[i] / dist[i]
+    p = np.clip(surface, oracle.robot.lower, oracle.robot.upper)
+    report = oracle.explain(p)  # at the surface, not the centre: the message names both points
     near = (f": it came nearest with the bubble at q = {np.round(c, 4).tolist()} (radius {r:.3g}, its surface {dist[i] - r:.3g} "
-            f"from q_goal; clearance {clearance_text(report.clearance, oracle.delta)} between "
-            f"{oracle.robot.pair_label(int(np.argmin(report.pair_distances)))} there)")
+            f"from q_goal); at its surface point toward q_goal, q = {np.round(p, 4).tolist()}"
+            f"{'' if np.array_equal(p, surface) else ' (in the joint bounds)'}, the clearance is "
+            f"{clearance_text(report.clearance, oracle.delta)} between {oracle.robot.pair_label(int(np.argmin(report.pair_distances)))}")
     if outcome == "bubble budget":
         return f"{near}{time_hint(outcome, time_limit, max_bubbles)}"
     if outcome == "time budget":

@@ -174,22 +174,30 @@ PLATE = """<mujoco><compiler angle="radian"/><worldbody>
 def test_a_foam_that_cannot_pass_a_narrow_way_says_where_it_stopped_and_why(tmp_path, variant):
     """The way past the plate is narrower than bubbles of r_min = 0.07 (bubbletree plans it): the failure named only
     the outcome ("queue empty after 157 bubbles"); it now names the bubble that came nearest q_goal, what blocks the
-    way there, and that r_min keeps every bubble larger than the way. Its queue emptied with room left (each bubble
-    draws its candidates once): the failure also says where a bubble of r_min still fits, and that point is checked
-    here (on a bubble's surface, in the joint box, in no other bubble, a certified radius >= r_min)."""
+    way there, and that r_min keeps every bubble larger than the way. The clearance it prints is at the bubble's surface
+    point toward q_goal, and so is the q it names beside it (it named the bubble's centre, 0.104 m clear, beside the
+    surface's 0.0116 m "there"). Its queue emptied with room left (each bubble draws its candidates once): the failure
+    also says where a bubble of r_min still fits, and that point is checked here (on a bubble's surface, in the joint
+    box, in no other bubble, a certified radius >= r_min)."""
     from foam_mj.planners import PlanningProblem, get_planner
 
     (tmp_path / "plate.xml").write_text(PLATE)
     oracle = BubbleOracle(RobotModel.from_xml(tmp_path / "plate.xml"))
     problem = PlanningProblem(oracle, np.array([-0.2, 0.3]), np.array([1.2, 0.3]), delta=oracle.delta, time_limit=20.0)
     with pytest.raises(PlanningFailed, match=r"did not reach q_goal \(queue empty\) after \d+ bubbles in [0-9.]+ s: it came "
-                       r"nearest with the bubble at q = \[.*\] \(radius [0-9.]+, its surface [0-9.]+ from q_goal; clearance "
-                       r"0\.0\d+ m between c2 and plate there\); every bubble has radius >= r_min = 0.07, so a way narrower than "
+                       r"nearest with the bubble at q = \[.*\] \(radius [0-9.]+, its surface [0-9.]+ from q_goal\); at its surface "
+                       r"point toward q_goal, q = \[.*\], the clearance is 0\.0\d+ m between c2 and plate; every bubble has radius >= r_min = 0.07, so a way narrower than "
                        r"that stays closed to it: lower r_min, or plan with bubbletree; but the foam is not closed: its random "
                        r"candidates missed room for a bubble of radius [0-9.]+ >= r_min at q = \[.*\], on the surface of the bubble "
                        r"at q = \[.*\] \(each bubble is expanded once, with K floor\(r / r_min\)\^\(n-1\) = 10 floor\(r / 0.07\)\^1 "
                        r"random candidates\): raise K, or plan with bubbletree$") as err:
         get_planner(variant).plan(problem, seed=0)
+    m = re.search(r"nearest with the bubble at q = \[([^]]+)\] \(radius ([0-9.]+), .* toward q_goal, q = \[([^]]+)\], the "
+                  r"clearance is ([0-9.]+) m", str(err.value))
+    centre, surface = (np.array([float(v) for v in m.group(k).split(",")]) for k in (1, 3))
+    assert abs(np.linalg.norm(surface - centre) - float(m.group(2))) < 2e-4  # printed to 4 decimals and 3 digits
+    assert oracle.explain(surface).clearance == pytest.approx(float(m.group(4)), abs=3e-4)  # q to 4 decimals, links < 1.5 m
+    assert oracle.explain(centre).clearance > float(m.group(4)) + 0.05  # the centre is far clearer: not what is printed
     x, c = (np.array([float(v) for v in g.split(",")]) for g in re.search(
         r"missed room for a bubble of radius [0-9.]+ >= r_min at q = \[([^]]+)\], on the surface of the bubble at q = \[([^]]+)\]",
         str(err.value)).groups())
