@@ -1451,9 +1451,12 @@ def test_a_channel_between_a_joint_limit_and_a_wall_is_threaded_after_a_stall(tm
 def test_bubbletree_reports_how_its_search_stands(tmp_path):
     """A search that cannot succeed (a puck behind a wall) ran for seconds reporting only its bubble count and time; its
     progress now says how far apart the trees are, when they last came closer and, once refined, the resolution."""
-    _, _, problem = _puck_behind_a_wall(tmp_path, None)
+    _, oracle, problem = _puck_behind_a_wall(tmp_path, None)
     notes = []
-    with pytest.raises(PlanningFailed):
-        get_planner("bubbletree", stall=1500).plan(problem, seed=0, progress=lambda p: notes.append(p.note))
-    assert notes and all(re.fullmatch(r"trees 0\.1\d* apart, last closer at iteration \d+ of [\d,]+(, r_min refined to [0-9.e-]+)?", n)
+    # Progress is reported every 0.5 s of wall time, so the search must last longer than that on any machine: with
+    # stall = 0 it runs until its 1.2 s time limit (a stalling search ended in under 0.5 s on a fast machine: no notes).
+    timed = PlanningProblem(oracle, problem.q_init, problem.q_goal, time_limit=1.2)
+    with pytest.raises(PlanningFailed, match="time budget"):
+        get_planner("bubbletree", stall=0).plan(timed, seed=0, progress=lambda p: notes.append(p.note))
+    assert len(notes) >= 2 and all(re.fullmatch(r"trees 0\.1\d* apart, last closer at iteration \d+ of [\d,]+(, r_min refined to [0-9.e-]+)?", n)
                          for n in notes), notes
