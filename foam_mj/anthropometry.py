@@ -106,7 +106,7 @@ def _custom(spec: mujoco.MjSpec, scene: Path) -> tuple[float, float, list[tuple[
     words = segments.data.split()
     if not words or len(words) % 3:
         raise ModelError(f"{scene}: '{SEGMENTS_FIELD}' must hold triples 'body segment length'")
-    rows = []
+    rows: list[tuple[str, str, float]] = []
     for i in range(0, len(words), 3):
         body, seg, word = words[i], words[i + 1], words[i + 2]
         if seg not in SEGMENTS:

@@ -154,7 +154,7 @@ class Parser(argparse.ArgumentParser):
                     self.error(f"unrecognized arguments: {arg}")
         parsed, extras = self.parse_known_args(args, namespace)
         if extras:
-            command = commands[0].choices.get(getattr(parsed, commands[0].dest, None)) if commands else None
+            command = commands[0].choices.get(getattr(parsed, commands[0].dest, "")) if commands else None
             (command or self).error(f"unrecognized arguments: {' '.join(extras)}")
         return parsed
 

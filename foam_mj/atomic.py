@@ -26,7 +26,7 @@ import contextlib
 import os
 import secrets
 from pathlib import Path
-from typing import Iterator
+from typing import Iterator, overload
 
 from foam_mj.errors import FoamError
 from foam_mj.interrupts import SIGNALLED
@@ -65,6 +65,13 @@ def _tmp_name(target: Path) -> str:
     return f".{target.name[:60]}.{secrets.token_hex(4)}.tmp{suffix}"
 
 
+@overload
+def check_output(path: str | os.PathLike, what: str, *, suffix: str | None = None, min_free: int | None = None) -> Path: ...
+@overload
+def check_output(path: None, what: str, *, suffix: str | None = None, min_free: int | None = None) -> None: ...
+@overload
+def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | None = None,
+                 min_free: int | None = None) -> Path | None: ...
 def check_output(path: str | os.PathLike | None, what: str, *, suffix: str | None = None,
                  min_free: int | None = None) -> Path | None:
     """Check, before any work, that ``path`` can be written; return it as a Path (None passes through).
@@ -147,7 +154,7 @@ def _same_file(a: Path, b: Path) -> bool:
         return False
 
 
-def check_distinct(outputs: "dict[str, Path | None]", inputs: "dict[str, str | os.PathLike | None]" = None) -> None:
+def check_distinct(outputs: "dict[str, Path | None]", inputs: "dict[str, str | os.PathLike | None] | None" = None) -> None:
     """Refuse, before any work, an output that is the same file as an input or as another output
     (``foam-mj export r.json --out r.json`` would replace the result with its table; ``plan --json x.rrd
     --rrd x.rrd`` would keep only one of the two). Keys name the flag or the input, e.g. "--json", "the
@@ -163,6 +170,12 @@ def check_distinct(outputs: "dict[str, Path | None]", inputs: "dict[str, str | o
                 raise OutputError(f"{what} and {other} name the same file {out}; choose two names")
 
 
+@overload
+def check_output_dir(path: str | os.PathLike, what: str) -> Path: ...
+@overload
+def check_output_dir(path: None, what: str) -> None: ...
+@overload
+def check_output_dir(path: str | os.PathLike | None, what: str) -> Path | None: ...
 def check_output_dir(path: str | os.PathLike | None, what: str) -> Path | None:
     """Check, before any work, that a folder for outputs exists and is writable, or can be created
     (its parent exists and is writable); return it as a Path (None passes through)."""

@@ -31,7 +31,7 @@ import time
 from dataclasses import replace
 from foam_mj.data import model_path
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Callable, cast
 
 from foam_mj.atomic import OutputError, atomic_write_text, check_output
 
@@ -153,17 +153,22 @@ def run_benchmark(runs: int, quick: bool, progress: bool = True) -> dict:
 
     adjustment = RosaryAdjustment(r_min=foam.r_min)
     grad = GradientSmoothing()
-    adjusted = None
+    adjusted: SmoothingResult | None = None  # T_RA's first result (T_RA runs before the methods on its rosary)
+
+    def adjusted_rosary() -> Rosary:
+        assert adjusted is not None
+        return adjusted.rosary
+
     det_fns: dict[str, Callable[[], SmoothingResult]] = {
         "T": lambda: center_path_result(rosary, "T"),
         "T_CA": lambda: replace(grad.smooth(rosary), method="T_CA"),
         "T_RA": lambda: adjustment.adjust(rosary, oracle).path,
-        "T_RCA": lambda: replace(grad.smooth(adjusted.rosary), method="T_RCA"),
+        "T_RCA": lambda: replace(grad.smooth(adjusted_rosary()), method="T_RCA"),
         "convex": lambda: ConvexShortestPath().smooth(rosary),
         "convex-smooth": lambda: ConvexShortestPath(smoothness=10.0).smooth(rosary),
-        "convex (adjusted rosary)": lambda: ConvexShortestPath().smooth(adjusted.rosary),
+        "convex (adjusted rosary)": lambda: ConvexShortestPath().smooth(adjusted_rosary()),
         "optimal": lambda: OptimalSmoother().smooth(rosary),
-        "optimal (adjusted rosary)": lambda: OptimalSmoother().smooth(adjusted.rosary),
+        "optimal (adjusted rosary)": lambda: OptimalSmoother().smooth(adjusted_rosary()),
     }
     for name in deterministic:
         reps = []
@@ -205,7 +210,7 @@ def run_benchmark(runs: int, quick: bool, progress: bool = True) -> dict:
         its = [r.iterations for r in rs]
         tm = times[name]
         per_it = [t / max(i, 1) for t, i in zip(tm, its)]
-        entry = {
+        entry: dict = {
             "n": len(rs),
             "time": stats(tm),
             "f": stats([r.f for r in rs]),
@@ -254,10 +259,10 @@ def run_scene_gaps(runs: int, quick: bool, progress: bool = True) -> dict:
         sc = load_scenario(scene)
         oracle = sc.oracle()
         try:
-            rosary = plan(oracle, sc.q_init, sc.q_goal, sc.params, seed=sc.seed).rosary
+            rosary = plan(oracle, sc.q_init, sc.q_goal, cast("FoamParams", sc.params), seed=sc.seed).rosary  # (pfm's options)
         finally:
             oracle.close()
-        fns: dict[str, Callable[[int], SmoothingResult]] = {
+        fns: dict[str, Callable[..., SmoothingResult]] = {  # (each called with the seed)
             "HS": lambda s, r=rosary: HarmonySearch(stop=stop).smooth(r, seed=s),
             "GA": lambda s, r=rosary: GeneticAlgorithm(stop=stop).smooth(r, seed=s),
             "T": lambda s, r=rosary: center_path_result(r, "T"),

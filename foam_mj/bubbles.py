@@ -113,8 +113,8 @@ class DisplacementBound:
         """||rho||_2: the radius of the largest ball inside the diamond is d / ball_factor."""
         return float(np.sqrt(np.sum(self.weights**2)))
 
-    def __call__(self, dq: np.ndarray) -> np.ndarray:
-        """The bound D for moves dq of shape (n,) or (N, n)."""
+    def __call__(self, dq: np.ndarray) -> np.ndarray | float:
+        """The bound D for moves dq of shape (n,) (a float) or (N, n) (an array)."""
         dq = np.asarray(dq, dtype=float)
         total = 0.0
         for w, g in zip(self.weights, self.groups):
@@ -186,7 +186,7 @@ def _config_chain(m: mujoco.MjModel, cfg, g: int) -> list[int]:
     """Configuration coordinates (indices into q) whose joints move geom g, root first; joints of one
     body in their MJCF order (the order MuJoCo applies them)."""
     index = {int(j): i for i, j in enumerate(cfg.joint_ids)}
-    out = []
+    out: list[int] = []
     for b in reversed(_ancestors(m, int(m.geom_bodyid[g]))):
         adr, num = int(m.body_jntadr[b]), int(m.body_jntnum[b])
         out.extend(index[j] for j in range(adr, adr + num) if j in index)
@@ -231,13 +231,13 @@ def _hinge_reach(m: mujoco.MjModel, d: mujoco.MjData, cfg, chain: list[int], g: 
     jid = [int(cfg.joint_ids[i]) for i in chain]
     axis = d.xaxis[jid[0]] / np.linalg.norm(d.xaxis[jid[0]])
 
-    def length(v: np.ndarray, flat: bool) -> np.ndarray:
+    def length(v: np.ndarray, flat: bool | np.bool_) -> np.ndarray:
         if flat:
             v = v - np.outer(v @ axis, axis) if v.ndim == 2 else v - (v @ axis) * axis
         return np.linalg.norm(v, axis=-1)
 
     total = 0.0
-    flat = True  # every hinge so far (h_0 .. h_i) parallel to the axis: segment i is measured normal to it
+    flat: bool | np.bool_ = True  # every hinge so far (h_0 .. h_i) parallel to the axis: segment i is measured normal to it
     last = jid[0]  # h_i
     for i, j in zip(chain[1:], jid[1:]):
         if int(m.jnt_type[j]) == _SLIDE:
@@ -319,6 +319,7 @@ class BubbleOracle:
         for name, value in (("delta", delta), ("distmax", distmax)):
             if not is_number(value):
                 raise TypeError(f"`{name}` must be a number (metres), got {value!r}")
+        assert distmax is not None  # (a number: checked above)
         if not (is_finite_number(delta) and delta >= 0):
             raise ValueError(f"`delta` (safety margin, metres) must be >= 0, got {delta}")
         if not distmax > delta:  # every distance would read distmax <= delta: "too close" wherever the robot is
@@ -533,6 +534,7 @@ def pair_rho(robot: RobotModel, bound: DisplacementBound) -> np.ndarray:
     distance to a plane (``foam_mj.geom_pairs.pair_coordinates``; module docstring)."""
     a, b = robot.pairs[:, 0], robot.pairs[:, 1]
     ma, mb = robot.moves[a], robot.moves[b]
+    assert bound.rho is not None  # (DisplacementBound.from_model sets it)
     return (bound.rho[a] * (ma & ~mb) + bound.rho[b] * (mb & ~ma)) * robot.pair_active
 
 

@@ -246,13 +246,13 @@ class Clearance:
             s.type = getattr(mujoco.mjtSensor, f"mjSENS_{kind}")
             s.objtype = mujoco.mjtObj.mjOBJ_GEOM
             s.objname = self.robot.geom_name(g)
-        for g, o in names:
+        for g_name, o_name in names:
             s = spec.add_sensor()
             s.type = mujoco.mjtSensor.mjSENS_GEOMDIST
             s.objtype = mujoco.mjtObj.mjOBJ_GEOM
-            s.objname = g
+            s.objname = g_name
             s.reftype = mujoco.mjtObj.mjOBJ_GEOM
-            s.refname = o
+            s.refname = o_name
             s.cutoff = self.distmax
         return spec.compile()
 
@@ -405,6 +405,7 @@ class Clearance:
         pair, row), so that every numpy call works on contiguous blocks: their count, not the rows, sets the cost (the
         products' operands gathered with one ``take`` each instead of two fancy indexings and a 5-D broadcast: 212,500
         -> 199,800 instructions a call of 70 rows, the same values; with the screen below 139,000)."""
+        assert self._capsule_box is not None  # (called only then)
         _, cols, left, right, faces, half, radius, (size_w, half_w) = self._capsule_box
         k = len(cols)
         F = frames.T

@@ -192,6 +192,7 @@ def _configuration_map(
     for name in names:
         j = check_configuration_joint(m, path, name)
         jlo, jhi = (float(v) for v in m.jnt_range[j])
+        norm: np.ndarray | None
         if name in normalize:
             norm, where = np.asarray(normalize[name], dtype=float).ravel(), f"normalize.{name}"
         else:

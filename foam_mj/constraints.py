@@ -4,6 +4,8 @@ that couple a configuration joint to other motion, and tendon limits that bind w
 
 from __future__ import annotations
 
+import os
+
 import mujoco
 import numpy as np
 
@@ -91,7 +93,7 @@ def describe_equality(m: mujoco.MjModel, key: str) -> str:
     return f"'{key}' ({what})"
 
 
-def coupling_refusal(m: mujoco.MjModel, path: str, coupled: dict[str, list[str]], config: ConfigurationMap) -> str:
+def coupling_refusal(m: mujoco.MjModel, path: str | os.PathLike, coupled: dict[str, list[str]], config: ConfigurationMap) -> str:
     """The one-line refusal of a configuration that equality constraints tie to other motion: each constraint with
     its kind and what it joins, and the configuration joints they tie (only those: a joint it does not touch is no
     reason to refuse, and naming every configuration joint sent users to the wrong one)."""

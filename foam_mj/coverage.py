@@ -42,7 +42,7 @@ class CoverageIndex:
         self._n_tree = 0
         self._R = 0.0
 
-    def add(self, centers: np.ndarray, radii: np.ndarray) -> None:
+    def add(self, centers: np.ndarray, radii: np.ndarray | float) -> None:
         """Store balls (k, n) with radii (k,) (one ball: (n,) and a float)."""
         centers = np.asarray(centers, dtype=float).reshape(-1, self._c.shape[1])
         k = len(centers)
@@ -83,17 +83,19 @@ class CoverageIndex:
         if self.n - self._n_tree > max(REBUILD_MIN, self._n_tree // REBUILD_FRACTION):
             self._rebuild()
         if self._n_tree:
+            tree = self._tree
+            assert tree is not None  # built with _n_tree (_rebuild)
             R = self._R
             lifted = np.empty((m, points.shape[1] + 1))
             lifted[:, :-1] = points
             lifted[:, -1] = 0.0
             # Only balls within lifted distance R can contain a point: the bound prunes the search (a
             # missing neighbour comes back as (inf, n_tree), that is ball -1).
-            dist, idx = self._tree.query(lifted, k=1, distance_upper_bound=R * (1.0 - 1e-12))
+            dist, idx = tree.query(lifted, k=1, distance_upper_bound=R * (1.0 - 1e-12))
             j = self._tree_ids[idx]
             own = np.flatnonzero((j >= 0) & (j == exclude))
             if own.size:  # the nearest is the excluded ball: take the next one
-                d2, i2 = self._tree.query(lifted[own], k=2, distance_upper_bound=R * (1.0 + 1e-9))
+                d2, i2 = tree.query(lifted[own], k=2, distance_upper_bound=R * (1.0 + 1e-9))
                 g = self._tree_ids[i2]
                 second = g[:, 0] == exclude[own]
                 dist[own] = np.where(second, d2[:, 1], d2[:, 0])

@@ -32,7 +32,7 @@ import io
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -223,7 +223,7 @@ def write_table(table: ExportTable, out: str | Path, fmt: str) -> Path:
         text = _csv_text(table)
         _atomic(out, lambda p: p.write_text(text))
     elif fmt == "npz":
-        arrays = dict(table.columns)
+        arrays: dict[str, Any] = dict(table.columns)  # (np.savez's keywords)
         arrays["metadata"] = np.array(json.dumps(table.metadata))
 
         def write_npz(p: Path) -> None:

@@ -28,7 +28,7 @@ _THESIS = {
     "adjusted": (r"$\mathcal{T}_{RA}$ (adjusted rosary)", (0.85, 0.0, 0.85)),
     "adjusted_gradient": (r"$\mathcal{T}_{RCA}$ (adjusted + smoothed)", (0.0, 0.6, 0.0)),
 }
-_ALIASES = {"T": "centre", "center": "centre", "T_CA": "gradient", "T_RA": "adjusted", "T_RCA": "adjusted_gradient"}
+_ALIASES: dict[str, str] = {"T": "centre", "center": "centre", "T_CA": "gradient", "T_RA": "adjusted", "T_RCA": "adjusted_gradient"}
 _OTHERS = {
     "hs": ("HS (harmony search)", (1.0, 0.55, 0.0)),
     "ga": ("GA (genetic algorithm)", (0.0, 0.7, 0.8)),
@@ -65,9 +65,13 @@ def path_style(name: str, index: int = 0) -> tuple[str, tuple[float, float, floa
 
 
 def _order_paths(names: Iterable[str]) -> list[str]:
-    names = list(names)
+    listed = list(names)
     rank = {n: i for i, n in enumerate(_ORDER)}
-    return sorted(names, key=lambda n: (rank.get(_ALIASES.get(n, n), len(rank)), names.index(n)))
+
+    def order(n: str) -> tuple[int, int]:  # (a lambda's overloaded dict.get confused mypy 2.4)
+        return rank.get(_ALIASES.get(n, n), len(rank)), listed.index(n)
+
+    return sorted(listed, key=order)
 
 
 # -- reading the document -------------------------------------------------------------------------------
@@ -138,7 +142,7 @@ def _read_paths(doc: dict, robot: RobotModel, names: Sequence[str] | None) -> li
         label, colour = path_style(name, i)
         if name not in _ALIASES and _ALIASES.get(name, name) not in _THESIS and name not in _OTHERS and e.get("label"):
             label = str(e["label"])
-        smoother = e.get("smoother") if isinstance(e.get("smoother"), dict) else {}
+        smoother = e["smoother"] if isinstance(e.get("smoother"), dict) else {}
         objective = smoother.get("objective") or (conv or {}).get("objective")
         ros = _rosary_arrays(e.get("rosary"), f"path '{name}': field 'rosary'")
         out.append(_Path(name, label, colour, w, qpos, times, conv, dict(e.get("metrics") or {}),

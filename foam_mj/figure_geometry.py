@@ -93,7 +93,8 @@ def _joint_axes(robot: RobotModel) -> tuple[list[int], list[int]]:
     m = robot.model
     d = mujoco.MjData(m)
     mujoco.mj_kinematics(m, d)
-    slides, hinges = [], []
+    slides: list[int] = []
+    hinges: list[int] = []
     for j in robot.config.joint_ids:
         axis = np.abs(np.asarray(d.xaxis[j]))
         (slides if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_SLIDE) else hinges).append(
@@ -129,7 +130,8 @@ def _project_geom(m: mujoco.MjModel, d: mujoco.MjData, g: int, axes: tuple[int, 
     R = np.array(d.geom_xmat[g]).reshape(3, 3)  # columns: the geom's axes in the world frame
     size = np.array(m.geom_size[g])
     name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}"
-    rgba = tuple(float(v) for v in m.geom_rgba[g])
+    red, green, blue, alpha = (float(v) for v in m.geom_rgba[g])
+    rgba = (red, green, blue, alpha)
     i, k = axes
     centre = pos[[i, k]]
     ends = radius = None

@@ -324,12 +324,12 @@ def _fig_strobe(mpl, robot, paths: list[_Path], n_poses: int = N_POSES) -> Any |
         poses.append(shp)
         boxes += [b for b in (_bounds(s) for s in shp) if b is not None]
         dense = _sample_qpos(p, robot, 200)
-        tr = []
+        trace = []
         for row in dense:
             data.qpos[:] = row
             mujoco.mj_kinematics(robot.model, data)
-            tr.append(np.array(data.geom_xpos[tip])[list(_PLANES[plane])])
-        traces.append(np.array(tr))
+            trace.append(np.array(data.geom_xpos[tip])[list(_PLANES[plane])])
+        traces.append(np.array(trace))
     lo, hi = _strobe_limits(plane, boxes, _bounds(obstacles), floors)
     ncol = min(len(paths), 4)
     nrow = int(np.ceil(len(paths) / ncol))
@@ -385,16 +385,16 @@ def _is_metaheuristic(p: _Path) -> bool:
 
 def _fig_convergence(mpl, paths: list[_Path]) -> Any | None:
     _, Figure, _, _, _ = mpl
-    conv = [p for p in paths if p.convergence is not None and _is_metaheuristic(p)]
+    conv = [(p, p.convergence) for p in paths if p.convergence is not None and _is_metaheuristic(p)]
     if not conv:
         return None
     fig = Figure(figsize=(4.2 * len(conv), 3.2), layout="constrained")
     axes = fig.subplots(1, len(conv), squeeze=False)[0]
-    for ax, p in zip(axes, conv):
-        best = np.asarray(p.convergence["best"], dtype=float)
+    for ax, (p, convergence) in zip(axes, conv):
+        best = np.asarray(convergence["best"], dtype=float)
         it = np.arange(1, len(best) + 1)
         ax.plot(it, best, color=p.colour, linewidth=1.4, label="best")
-        mean = p.convergence.get("mean")
+        mean = convergence.get("mean")
         if mean is not None and len(mean) and not np.array_equal(np.asarray(mean, dtype=float), best):  # a population
             mean = np.asarray(mean, dtype=float)
             ax.plot(np.arange(1, len(mean) + 1), mean, color=p.colour, linewidth=1.0, linestyle="--", alpha=0.6, label="population mean")
@@ -408,7 +408,7 @@ def _fig_convergence(mpl, paths: list[_Path]) -> Any | None:
 
 def _fig_joints(mpl, robot: RobotModel, paths: list[_Path]) -> Any | None:
     _, Figure, _, _, _ = mpl
-    timed = [p for p in paths if p.times is not None]
+    timed = [(p, p.times) for p in paths if p.times is not None]
     if not timed:
         return None
     cols = robot.config.qpos_index
@@ -416,10 +416,10 @@ def _fig_joints(mpl, robot: RobotModel, paths: list[_Path]) -> Any | None:
     n = len(cols)
     fig = Figure(figsize=(8.0, 1.9 * n + 0.8), layout="constrained")
     axes = fig.subplots(n, 2, squeeze=False, sharex=True)
-    for p in timed:
-        t = p.times - p.times[0]
+    for p, times in timed:
+        t = times - times[0]
         pos = p.qpos[:, cols]
-        vel = np.gradient(pos, p.times, axis=0) if len(t) > 2 else np.diff(pos, axis=0, prepend=pos[:1]) / max(t[-1], 1e-12)
+        vel = np.gradient(pos, times, axis=0) if len(t) > 2 else np.diff(pos, axis=0, prepend=pos[:1]) / max(t[-1], 1e-12)
         for i in range(n):
             axes[i][0].plot(t, pos[:, i], color=p.colour, linewidth=1.2, label=p.label)
             axes[i][1].plot(t, vel[:, i], color=p.colour, linewidth=1.2, label=p.label)

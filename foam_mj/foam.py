@@ -34,7 +34,7 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass
 from importlib import import_module
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -174,7 +174,7 @@ def seed_rng(seed: int | np.random.Generator) -> np.random.Generator:
     return np.random.default_rng(int(seed))
 
 
-def check_candidate_bound(params: FoamParams, lower, upper) -> None:
+def check_candidate_bound(params: Any, lower, upper) -> None:
     """Refuse (ConfigurationError) settings whose bubbles could get more than MAX_CANDIDATES_PER_BUBBLE candidates."""
     if getattr(params, "K", None) is None or getattr(params, "r_min", None) is None:
         return  # a planner without Eq. 2's expansion (one candidate per sample)

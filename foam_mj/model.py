@@ -34,6 +34,7 @@ import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING
 from pathlib import Path
 
 import mujoco
@@ -66,6 +67,8 @@ from foam_mj.mjcf import (
     uncompiled_twin,
 )
 
+if TYPE_CHECKING:
+    from foam_mj.bubbles import DisplacementBound
 
 #: The cutoff of the fixed pairs' distances (metres): above any margin a plan could ask for.
 FIXED_DISTMAX = 1e6
@@ -95,10 +98,10 @@ class RobotModel:
     pairs: np.ndarray  # (P, 2) geom ids (robot, obstacle)
     spec: mujoco.MjSpec | None = field(repr=False, default=None)  # what ``model`` was compiled from (a private copy)
     xml: str | None = field(repr=False, default=None)  # the edited scene's MJCF when it differs from ``path``
-    self_pair: np.ndarray = field(default=None)  # type: ignore[assignment]  # (P,) bool: both geoms are robot geoms
-    moves: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]  # (ngeom, n) bool: coordinate i moves geom g
-    fixed_pairs: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]  # (F, 2) pairs no coordinate can change
-    pair_active: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]  # (P, n) bool: coordinate i can change d_p
+    self_pair: np.ndarray = field(default=None)  # type: ignore[arg-type,assignment]  # (P,) bool: both geoms are robot geoms
+    moves: np.ndarray = field(default=None, repr=False)  # type: ignore[arg-type,assignment]  # (ngeom, n) bool: coordinate i moves geom g
+    fixed_pairs: np.ndarray = field(default=None, repr=False)  # type: ignore[arg-type,assignment]  # (F, 2) pairs no coordinate can change
+    pair_active: np.ndarray = field(default=None, repr=False)  # type: ignore[arg-type,assignment]  # (P, n) bool: coordinate i can change d_p
     robot_root: str | None = None
     self_collision: bool = True
     held_by_equality: dict[str, list[str]] = field(default_factory=dict)  # equality -> the default joints it held
@@ -387,7 +390,7 @@ class RobotModel:
         return f"{name} (on body {mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, body) or body})"
 
     @cached_property
-    def displacement_bound(self):
+    def displacement_bound(self) -> DisplacementBound:
         """The bubble bound's rho per geom and coordinate (:class:`foam_mj.bubbles.DisplacementBound`), computed once
         (5 ms on the leg): the oracle, the scenario checks' and replays' distance cap share it."""
         from foam_mj.bubbles import DisplacementBound

@@ -50,7 +50,8 @@ def kept_unless_failed() -> Iterator[None]:
     overlapping in several threads restored each other's changes ('always' added to the filters for good) and took
     the other threads' warnings."""
     outer = getattr(_HELD, "texts", None)
-    _HELD.texts = texts = []
+    texts: list[str] = []
+    _HELD.texts = texts
     try:
         yield
     finally:

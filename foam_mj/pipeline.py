@@ -38,7 +38,7 @@ import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -67,6 +67,10 @@ from foam_mj.dynamics import JointLoads, joint_loads
 from foam_mj.limits import Limits, as_limits
 from foam_mj.timing import DEFAULT_METHOD as DEFAULT_TIME_LAW, METHODS as TIME_LAWS, TimingInfeasible, time_path
 from foam_mj.trajectory import JointLimits, Trajectory
+
+if TYPE_CHECKING:
+    from foam_mj.clearance import Clearance
+    from foam_mj.model import RobotModel
 
 @dataclass
 class PathOutcome:
@@ -279,8 +283,8 @@ def run(
     return outcome
 
 
-def time_and_replay(po: PathOutcome, robot, path, limits: Limits, time_law: str, clearance, dynamic: bool,
-                    report: Report | None = None, where: str = "", trajectory=None) -> None:
+def time_and_replay(po: PathOutcome, robot: RobotModel, path: np.ndarray, limits: Limits, time_law: str, clearance: Clearance,
+                    dynamic: bool, report: Report | None = None, where: str = "", trajectory: Trajectory | None = None) -> None:
     """Time ``path`` (po's waypoints with its ends) under ``limits``, then its joint loads (the robot's mass: a scaled
     model's) and its kinematic and, with ``dynamic``, servo replay, into ``po``; a TimingInfeasible is kept in
     ``po.timing_error`` (this path only: the caller times and replays the others). ``where`` ("2 of 5") goes into the

@@ -537,9 +537,9 @@ def _plan(args: argparse.Namespace, recorder) -> int:
         written = write_figures(outcome_dict(outcome), figures_dir, formats=tuple(args.figure_format or ["png"]))
         progress.done()
         print(f"wrote {len(written)} figures to {figures_dir}")
-        note = stale_figures_note(figures_dir, written)
-        if note:
-            print(note)
+        stale = stale_figures_note(figures_dir, written)
+        if stale:
+            print(stale)
     print(f"total {time.perf_counter() - t0:.2f} s")
     below = below_margin(outcome, scenario.params.delta)
     if below:  # every returned path is certified: this is a fault of ours, and it must not pass as a success

@@ -38,13 +38,14 @@ the paper's maps; the same violation bit for bit).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from foam_mj.smoothing.base import SeedLike, _check_int, _check_positive, as_generator
 
 #: Section III's environments (start and target of the MGOA runs; those of the paper's PSO figures too).
-PAPER_ENVIRONMENTS = {
+PAPER_ENVIRONMENTS: dict[int, dict[str, Any]] = {
     1: {"n_obstacles": 80, "start": (70.6, 847.2), "target": (855.57, 152.80),
         "pso_start": (66.71, 758.59), "pso_target": (797.28, 304.70)},
     2: {"n_obstacles": 50, "start": (88.73, 845.39), "target": (681.9948, 179.92),
@@ -118,7 +119,8 @@ class CircleMap:
             raise ValueError(f"radius_range must satisfy 0 < low <= high, got {radius_range!r}")
         rng = as_generator(seed)
         ends = np.array([start, target], dtype=float)
-        cs, rs = [], []
+        cs: list[np.ndarray] = []
+        rs: list[float] = []
         while len(cs) < n_obstacles:
             c = rng.uniform(0.0, size, 2)
             r = rng.uniform(lo, hi)

@@ -216,7 +216,7 @@ class Recording:
         self._rec.set_log_tick_enabled(False)
         # The stream goes to memory and reaches the file only in close(), atomically (foam_mj.atomic):
         # Rerun's own file sink reports no write error (a full disk left a truncated file behind).
-        self._stream = self._rec.binary_stream()
+        self._stream = self._rec.binary_stream()  # type: ignore[misc]  # (rerun-sdk 0.41's annotation of a bound method)
         self._rec.send_blueprint(default_blueprint(), make_active=False, make_default=True)
         self._rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._rec.log("cspace", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)

@@ -51,7 +51,7 @@ def geom_rgba(m: mujoco.MjModel, g: int) -> np.ndarray:
     (Menagerie's meshes are coloured by materials only: every one of them was drawn grey); translucent (alpha at most
     :data:`HIDDEN_ALPHA`) in a group MuJoCo's viewer hides (a Panda's grey collision hulls hid its visual meshes)."""
     mat = int(m.geom_matid[g])
-    rgba = np.array(m.mat_rgba[mat] if mat >= 0 and np.array_equal(m.geom_rgba[g], np.float32(_DEFAULT_GEOM_RGBA)) else m.geom_rgba[g])
+    rgba = np.array(m.mat_rgba[mat] if mat >= 0 and np.array_equal(m.geom_rgba[g], np.array(_DEFAULT_GEOM_RGBA, dtype=np.float32)) else m.geom_rgba[g])
     if m.geom_group[g] >= HIDDEN_GROUP:
         rgba[3] = min(rgba[3], HIDDEN_ALPHA)
     return rgba

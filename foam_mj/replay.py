@@ -250,7 +250,7 @@ def replay_kinematic(robot: RobotModel, trajectory: Trajectory, clearance: Clear
         xpos[i] = d.xpos[ids]
         xquat[i] = d.xquat[ids]
     own = clearance is None
-    clr = Clearance(robot) if own else clearance
+    clr = Clearance(robot) if clearance is None else clearance
     try:
         dist = np.minimum(clr.batch(robot.config.to_q(trajectory.qpos)), robot.fixed_obstacle_clearance)
     finally:
@@ -278,10 +278,8 @@ def _servos(robot: RobotModel, m: mujoco.MjModel | None = None) -> _Servo:
     problem = servo_problem(m, robot)
     if problem is not None:
         raise ValueError(problem)
-    ids = []
-    for j in cfg.joint_ids:
-        ids.append(next(a for a in range(m.nu) if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT) and int(m.actuator_trnid[a, 0]) == int(j)))
-    ids = np.array(ids)
+    ids = np.array([next(a for a in range(m.nu) if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT) and int(m.actuator_trnid[a, 0]) == int(j))
+                    for j in cfg.joint_ids])
     return _Servo(
         ids,
         m.actuator_gear[ids, 0].copy(),
@@ -321,6 +319,7 @@ def servo_controls(robot: RobotModel, trajectory: Trajectory, feedforward: str =
         for i in range(T):
             d.qpos[:] = trajectory.qpos[i]
             if feedforward == "inverse":
+                assert qacc is not None  # (set above for "inverse")
                 d.qvel[:] = qvel[i]
                 d.qacc[:] = qacc[i]
             mujoco.mj_inverse(m, d)  # gravity only when qvel = qacc = 0
@@ -406,7 +405,7 @@ def replay_dynamic(
                 a, b = int(geom[j, 0]), int(geom[j, 1])
                 g_leg, g_obs = (a, b) if is_leg[a] else (b, a)
                 contacts.append(
-                    Contact(i, float(trajectory.times[i]), robot.geom_name(g_leg), robot.geom_name(g_obs), float(-dist[j]), tuple(float(x) for x in con.pos[j]))
+                    Contact(i, float(trajectory.times[i]), robot.geom_name(g_leg), robot.geom_name(g_obs), float(-dist[j]), (float(con.pos[j][0]), float(con.pos[j][1]), float(con.pos[j][2])))
                 )
         d.ctrl[:] = ctrl[i]
         if i + 1 < T:
@@ -439,7 +438,7 @@ def replay_dynamic(
         every = trajectory.qpos[:: max(1, T // 50)]
         shaking = explicit_damping_note(robot, m, servos.actuator, -servos.b2 * servos.gear**2, every)
     own = clearance is None
-    clr = Clearance(robot) if own else clearance
+    clr = Clearance(robot) if clearance is None else clearance
     try:
         dist = np.minimum(clr.batch(cfg.to_q(qpos)), robot.fixed_obstacle_clearance)  # and the pairs no joint moves
     finally:
@@ -504,7 +503,7 @@ def _implicit_damping_notes(robot: RobotModel, m: mujoco.MjModel, trajectory: Tr
 
 
 def _limit_note(m: mujoco.MjModel, clamped: np.ndarray, saturated: np.ndarray, frames: int,
-                joints: np.ndarray = (), joint_saturated: np.ndarray = (), damping: dict[int, str] | None = None) -> str:
+                joints: np.ndarray | tuple = (), joint_saturated: np.ndarray | tuple = (), damping: dict[int, str] | None = None) -> str:
     """One line naming the servos whose ctrl MuJoCo clamped to its ctrlrange, or whose force sat at its force
     range, and the ``joints`` whose actuators' total force sat at the joint's actuatorfrcrange (``joint_saturated``
     frames each), and in how many frames ("" when none): the reason of a large tracking error, never silent.

@@ -292,7 +292,7 @@ def choose_axes(levels: list[Level], names: Sequence[str], out) -> list[Level]:
     FoamError naming the choices when one is not a swept key that varies in the rows, or is named twice."""
     if len(names) > 3:
         raise FoamError(f"--axes takes at most 3 keys (x, y, the panel key), got {len(names)}: {list(names)}")
-    by = {}
+    by: dict[str, Level] = {}
     for lv in levels:
         by.setdefault(lv.name, lv)
         if lv.title:  # a key drawn element-wise: its name alone stands for its first varying element
@@ -416,7 +416,7 @@ def _figure(title, unit, cmap, lims, agg, x, y, panel, mask, invalid):
 
     cm = matplotlib.colormaps[cmap].with_extremes(bad="#d0d0d0")
     im = None
-    hatch = {"facecolor": "#d0d0d0", "edgecolor": "#808080", "hatch": "///", "linewidth": 0}
+    hatch: dict[str, Any] = {"facecolor": "#d0d0d0", "edgecolor": "#808080", "hatch": "///", "linewidth": 0}
     for ax, (lab, _), g, no_problem in zip(axs, panels, grids, blocked):
         im = ax.imshow(np.ma.masked_invalid(g), origin="lower", cmap=cm, vmin=vmin, vmax=vmax, aspect="auto")
         for j, i in zip(*np.nonzero(no_problem)):

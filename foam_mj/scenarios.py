@@ -227,7 +227,7 @@ def _qpos_joint(m, adr: int) -> str:
 
 def _first_keyframe(scene: Path, raw: dict) -> str:
     """The name of the first end point (q_init, then q_goal) that names a keyframe of the scene, or ""."""
-    names = [raw.get(f) for f in ("q_init", "q_goal") if isinstance(raw.get(f), str)]
+    names: list[str] = [raw[f] for f in ("q_init", "q_goal") if isinstance(raw.get(f), str)]
     if not names:
         return ""
     try:
@@ -468,7 +468,7 @@ def scenario_from_dict(doc: dict, base_dir: str | Path, *, source: Path | None =
     return scenario
 
 
-def _limits(table, path: Path) -> tuple[Limits | None, str | None]:
+def _limits(table, path: Path | str) -> tuple[Limits | None, str | None]:
     """The [limits] table: velocity, acceleration, torque (lists of numbers > 0) and time_law."""
     if table is None:
         return None, None
@@ -477,7 +477,7 @@ def _limits(table, path: Path) -> tuple[Limits | None, str | None]:
     unknown = set(table) - _LIMITS_FIELDS
     if unknown:
         raise ScenarioError(f"{path}: unknown [limits] field(s) {unknown_names(unknown, _LIMITS_FIELDS, _TOP_LEVEL)}; expected {sorted(_LIMITS_FIELDS)}")
-    lists = {}
+    lists: dict = {}
     for key in ("velocity", "acceleration", "torque"):
         if key in table:
             vals = _number_list(table[key], f"{path}: [limits] field '{key}'")

@@ -128,7 +128,7 @@ def _exclude_held_contacts(spec: mujoco.MjSpec, m: mujoco.MjModel, robot: RobotM
     but MuJoCo's contact would push them apart by accelerations that no armature resists, and the held base's
     jolts reached the planned leg (34 mrad of tracking error on a Go2's swing leg, 1.1 without those contacts).
     Unnamed bodies are named in the copy for the exclusion."""
-    moved = bodies_moved_by(m, robot.config).any(axis=0)
+    moved = np.asarray(bodies_moved_by(m, robot.config).any(axis=0))
     live = np.zeros(m.nbody, dtype=bool)
     live[m.geom_bodyid[(m.geom_contype != 0) | (m.geom_conaffinity != 0)]] = True
     fixed = [b for b in range(m.nbody) if live[b] and not moved[b]]

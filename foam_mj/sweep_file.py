@@ -7,6 +7,7 @@ import json
 import math
 import tomllib
 from pathlib import Path
+from typing import Any
 
 from foam_mj.arguments import MAX_SEED
 from foam_mj.errors import FoamError, ScenarioError, file_problem_text, text_problem, unknown_names
@@ -125,7 +126,7 @@ def load_sweep(path: str | Path) -> Sweep:
         if not isinstance(values, list) or not values:
             raise SweepError(f"{where}: [random.choice] '{key}' must be a non-empty list of values, got {values!r}")
         random_axes.append(_axis(where, "[random.choice]", key, values, "choice"))
-    samples = rnd.get("samples", 0 if not random_axes else None)
+    samples: Any = rnd.get("samples", 0 if not random_axes else None)  # (checked below)
     if random_axes and not (isinstance(samples, int) and not isinstance(samples, bool) and samples >= 1):
         raise SweepError(f"{where}: [random] 'samples' must be an integer >= 1, got {samples!r}")
     if samples and not random_axes:

@@ -39,7 +39,7 @@ import time
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Any, Callable, Iterator
 
 from foam_mj.errors import FoamError
 from foam_mj.progress import SweepProgress
@@ -127,6 +127,7 @@ def local_engine(tasks: Iterator[Task], workers: int, *, poll: float = 0.5) -> I
             # A worker can die between two waits: the pool is then broken, and submit raises. The task goes back
             # to the front of the queue, and the futures in flight end with BrokenProcessPool below.
             refused = False
+            task: Task | None
             while len(inflight) < limit and (retry or not exhausted):
                 if retry:
                     task = retry.popleft()
@@ -245,7 +246,7 @@ def ray_engine(tasks: Iterator[Task], workers: int, address: str | None, *, poll
     import logging
     import threading
 
-    kwargs = dict(include_dashboard=False, logging_level=logging.ERROR, log_to_driver=False, configure_logging=True)
+    kwargs: dict[str, Any] = dict(include_dashboard=False, logging_level=logging.ERROR, log_to_driver=False, configure_logging=True)
     main_thread = threading.current_thread() is threading.main_thread()
     sigterm = signal.getsignal(signal.SIGTERM) if main_thread else None
     if address:
@@ -388,7 +389,7 @@ def run_sweep(
         source = iter(pending) if pending is not None else todo()
         if pending == [] or (pending is None and already >= total):
             # every row is there: no pool to spawn, no Ray instance to start (15 s on 2 cores) for nothing
-            events = iter(())
+            events: Iterator[Event] = iter(())
         else:
             events = local_engine(source, workers) if engine == "local" else ray_engine(source, workers, ray_address)
         try:
@@ -402,6 +403,7 @@ def run_sweep(
                         bar.tick()
                     continue
                 ran += 1
+                assert rows is not None  # (a finished task's)
                 bad = any(r.get("outcome") != "reached" for r in rows)
                 failed += bad
                 store.add(rows)

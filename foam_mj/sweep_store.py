@@ -11,7 +11,7 @@ import signal
 import sys
 import time
 from pathlib import Path
-from typing import Iterable
+from typing import IO, Iterable
 
 from foam_mj.atomic import OutputError, atomic_write_bytes
 from foam_mj.sweep import FORMAT, VERSION, Sweep, SweepError
@@ -149,7 +149,7 @@ class RowStore:
         self.files_written = 0
         self.rows_written = 0
         self._last_flush = time.monotonic()
-        self._lock = None
+        self._lock: IO[str] | None = None
         self.notes = notes  # a note on stderr when the folder's rows were made by other versions
 
     def open(self, sweep: Sweep) -> None:
@@ -276,7 +276,7 @@ class _interrupts_deferred:
     def __enter__(self):
         import threading
 
-        self.saved = {}
+        self.saved: dict = {}
         self.got: list[int] = []
         if threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGINT, signal.SIGTERM):

@@ -57,6 +57,7 @@ rather than slowed to an absurd duration.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -202,7 +203,8 @@ def _toppra_law(kin: PathKinematics, vmax, amax, tmax, x0: np.ndarray | None = N
     :func:`_grid`'s points) defaults to the square of the path speed at the velocity limits."""
     toppra = import_toppra()
     tc = toppra.constraint
-    AbstractGeometricPath = toppra.interpolator.AbstractGeometricPath
+    AbstractGeometricPath: Any = toppra.interpolator.AbstractGeometricPath
+    LinearConstraint: Any = tc.LinearConstraint
 
     class CurvePath(AbstractGeometricPath):
         def __call__(self, s, order=0):
@@ -220,7 +222,7 @@ def _toppra_law(kin: PathKinematics, vmax, amax, tmax, x0: np.ndarray | None = N
         def path_interval(self):
             return np.array([0.0, kin.curve.length])
 
-    class TorqueConstraint(tc.LinearConstraint):
+    class TorqueConstraint(LinearConstraint):
         """-lim <= a sdd + b sd^2 + g + D sd <= lim, damping bounded by the tangent at x0 (docstring)."""
 
         def __init__(self, lim, x0):
@@ -317,6 +319,7 @@ def _sample(robot: RobotModel, rosary: Rosary, curve: SafeCurve, law, duration: 
 def _peaks(robot: RobotModel, traj: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per configuration joint: peak |qd|, |qdd| (joint units) and |tau| (mj_inverse) over the samples."""
     dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    assert traj.qvel is not None and traj.qacc is not None  # (_sample's)
     tau = inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]
     return np.abs(traj.qvel[:, dof]).max(axis=0), np.abs(traj.qacc[:, dof]).max(axis=0), np.abs(tau).max(axis=0)
 
@@ -326,6 +329,7 @@ def _retime_toppra(robot, rosary, base: Trajectory, vmax, amax, tmax, dt) -> Tra
     tangent at the last solution's speeds (tighter) and limits lowered where a sample overshot (toppra
     meets the limits at its grid points only); the fastest timing meeting every limit is kept."""
     curve = base.curve
+    assert curve is not None  # (retime checked it)
     kin = PathKinematics(robot, curve)
     knots_of_points = np.searchsorted(curve.point_index, np.arange(rosary.k + 1), side="right") - 1
     limited = np.isfinite(tmax)
@@ -430,6 +434,7 @@ def _stretch_to_limits(robot, rosary, curve, law: PathTiming, vmax, amax, tmax, 
     L = np.where(limited, tmax, np.inf)
     traj = _sample(robot, rosary, curve, law, law.duration, dt, law.time_at(curve.knots)[knots_of_points])
     for stretch in range(4):
+        assert traj.qvel is not None and traj.qacc is not None  # (_sample's)
         qd, qdd = np.abs(traj.qvel[:, dof]), np.abs(traj.qacc[:, dof])
         g, tau, damped = _torque_terms(robot, traj)
         if np.all(qd <= vmax * (1 + 1e-9)) and np.all(qdd <= amax * (1 + 1e-9)) and np.all(np.abs(tau) <= L * (1 + 1e-9)):
@@ -454,6 +459,7 @@ def _stretch_to_limits(robot, rosary, curve, law: PathTiming, vmax, amax, tmax, 
 def _retime_own(robot, rosary, base: Trajectory, tmax, dt) -> Trajectory:
     """The min-jerk law stretched to meet the torque limits (exact roots, module docstring)."""
     T0 = base.duration
+    assert base.curve is not None and base.time_law is not None and base.waypoint_times is not None  # (make_trajectory's)
     if not np.any(np.isfinite(tmax)):
         return base
     x_max = 1.0
@@ -482,6 +488,7 @@ def _torque_terms(robot: RobotModel, traj: Trajectory) -> tuple[np.ndarray, np.n
     """At every sample of ``traj`` (N, n, configuration joints): gravity g, the torque tau (``mj_inverse``) and the
     damping torque B qd, so that a uniform stretch to speed factor x gives g + x (B qd) + x^2 (tau - g - B qd)."""
     dof = robot.model.jnt_dofadr[robot.config.joint_ids]
+    assert traj.qvel is not None and traj.qacc is not None  # (_sample's)
     zero = np.zeros_like(traj.qvel)
     g = inverse_dynamics(robot, traj.qpos, zero, zero)[:, dof]
     tau = inverse_dynamics(robot, traj.qpos, traj.qvel, traj.qacc)[:, dof]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any, cast
+
 
 class _LazyScipyName:
     """Stands for ``scipy.interpolate.<name>`` in toppra's modules: imports scipy.interpolate when used."""
@@ -27,7 +29,7 @@ def _lazy_scipy_interpolate_name(name: str) -> _LazyScipyName:
     return _LazyScipyName(name)
 
 
-def import_toppra():
+def import_toppra() -> Any:
     """``toppra`` (with its algorithm, constraint and interpolator modules).
 
     toppra 0.6 imports ``matplotlib.pyplot`` and ``scipy.interpolate`` when it is imported, for plotting
@@ -44,14 +46,14 @@ def import_toppra():
         import toppra
         import toppra.algorithm  # noqa: F401
         return toppra
-    stubs = {}
+    stubs: dict[str, Any] = {}
     if "matplotlib" not in sys.modules:
         stubs["matplotlib"] = types.ModuleType("matplotlib")
         stubs["matplotlib.pyplot"] = types.ModuleType("matplotlib.pyplot")
         stubs["matplotlib"].__path__ = []  # a package, so that "matplotlib.pyplot" resolves to its stand-in
         stubs["matplotlib"].pyplot = stubs["matplotlib.pyplot"]
     if "scipy.interpolate" not in sys.modules:
-        stubs["scipy.interpolate"] = interp = types.ModuleType("scipy.interpolate")
+        stubs["scipy.interpolate"] = interp = cast(Any, types.ModuleType("scipy.interpolate"))
         interp.__getattr__ = _lazy_scipy_interpolate_name  # any name toppra imports from it
     sys.modules.update(stubs)
     try:

@@ -212,6 +212,7 @@ def _scene(doc: dict, source: Path) -> tuple[Path, mujoco.MjModel]:
                                     f"({', '.join(diff)} differ{'s' if len(diff) == 1 else ''}) and no model_hash says which "
                                     "one was planned on: restore the result or plan again")
         chosen = chosen or (path, m)
+    assert chosen is not None  # (existing is not empty)
     return chosen
 
 

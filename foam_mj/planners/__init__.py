@@ -18,6 +18,7 @@ Add a planner: subclass :class:`~foam_mj.planners.base.Planner` (``name``, ``sum
 from __future__ import annotations
 
 import dataclasses
+from typing import Any, TypeVar
 
 from foam_mj.errors import ConfigurationError, PlanningFailed, unknown_names
 from foam_mj.planners.base import (
@@ -40,8 +41,10 @@ PLANNERS: dict[str, type[Planner]] = {}
 #: The planner a scenario uses when its ``[planner]`` table names none (and holds no pfm option).
 DEFAULT_PLANNER = "bubbletree"
 
+_P = TypeVar("_P", bound=Planner)
 
-def register(cls: type[Planner], *, replace: bool = False) -> type[Planner]:
+
+def register(cls: type[_P], *, replace: bool = False) -> type[_P]:
     """Add a planner class to :data:`PLANNERS` under ``cls.name``; TypeError unless it is a :class:`Planner`
     with a non-empty string ``name`` and a frozen dataclass ``Options`` (options are shared, never changed).
     A name another class holds (a built-in's) is refused unless ``replace``: it would change every plan by that name."""
@@ -51,7 +54,7 @@ def register(cls: type[Planner], *, replace: bool = False) -> type[Planner]:
     if not isinstance(name, str) or not name:
         raise TypeError(f"planner class {cls.__name__}: `name` must be a non-empty string, got {name!r}")
     options = cls.Options
-    if not (dataclasses.is_dataclass(options) and options.__dataclass_params__.frozen):
+    if not (dataclasses.is_dataclass(options) and options.__dataclass_params__.frozen):  # type: ignore[attr-defined]
         raise TypeError(f"planner '{name}': `Options` must be a frozen dataclass (@dataclass(frozen=True)), got {options.__name__}")
     held = PLANNERS.get(name)
     if held is not None and held is not cls and not replace:
@@ -69,7 +72,7 @@ def planner_class(name: str) -> type[Planner]:
         raise PlannerError(f"unknown planner {unknown_names([name], PLANNERS)}; known planners: {', '.join(sorted(PLANNERS))}") from None
 
 
-def get_planner(name: str, **options) -> Planner:
+def get_planner(name: str, **options: Any) -> Planner:
     """A planner by name with its options (unknown or invalid options are named in a PlannerError)."""
     cls = planner_class(name)
     return cls(make_options(cls, options))

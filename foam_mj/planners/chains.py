@@ -87,10 +87,10 @@ def certify_chords(oracle, A: np.ndarray, B: np.ndarray, floor: float, spacing: 
         before = np.maximum.accumulate(np.where(coarse, at, -1))
         after = np.minimum.accumulate(np.where(coarse, at, len(cid))[::-1])[::-1]
         upper = np.full(len(cid), np.inf)
-        for near in (before, after):
-            ok = (near >= 0) & (near < len(cid))
-            ok[ok] = cid[near[ok]] == cid[ok]
-            upper[ok] = np.minimum(upper[ok], r[near[ok]] + row_norms(pts[ok] - pts[near[ok]]))
+        for nearest in (before, after):
+            ok = (nearest >= 0) & (nearest < len(cid))
+            ok[ok] = cid[nearest[ok]] == cid[ok]
+            upper[ok] = np.minimum(upper[ok], r[nearest[ok]] + row_norms(pts[ok] - pts[nearest[ok]]))
         r[rest] = oracle.radii_below(pts[rest], upper[rest])
         alive[cid[rest & (r < floor)]] = False
 
@@ -277,9 +277,9 @@ def prune_chain(
                 succ[a_[first]] = nb - 1 - np.maximum.reduceat(key, first) % nb
     start = np.flatnonzero(s_ == 0)
     out = [int(start[np.argmax(e[start])])]
-    e, succ = e.tolist(), succ.tolist()  # the walk on Python ints
-    while e[out[-1]] < T - 1:
-        nxt = succ[out[-1]]
+    reach, succs = e.tolist(), succ.tolist()  # the walk on Python ints
+    while reach[out[-1]] < T - 1:
+        nxt = succs[out[-1]]
         if nxt < 0:
             return np.arange(k)  # no overlapping bubble makes progress: keep the chain as it is
         out.append(nxt)
@@ -342,7 +342,7 @@ def press_bubbles(oracle, C, R, w, floor):
     cands = wp[:, None, :] + (PUSH[None, :, None] * rp[:, None, None]) * nrm[:, None, :]
     flat = cands.reshape(-1, wp.shape[1])
     okb = np.all((flat >= oracle.robot.lower) & (flat <= oracle.robot.upper), axis=1)
-    rc = np.zeros(len(flat))
+    rc: np.ndarray = np.zeros(len(flat))
     if okb.any():  # each PUSH x rp from w: a radius at most (1 + PUSH) x rp
         rc[okb] = oracle.radii_below(flat[okb], ((1.0 + PUSH)[None, :] * rp[:, None]).reshape(-1)[okb])
     rc = rc.reshape(len(press), len(PUSH))
@@ -379,7 +379,12 @@ def splice_chain(C: np.ndarray, R: np.ndarray, ids: np.ndarray, P: np.ndarray, s
         removed[a_ + 1] += 1
         removed[b_] -= 1
     inside_span = np.cumsum(removed)[:k] > 0  # bubbles a_+1 .. b_-1 of a chord
-    parts_c, parts_r, parts_i, verts, new_c, new_r = [], [], [], [P[:1]], [], []
+    parts_c: list[np.ndarray] = []
+    parts_r: list[np.ndarray] = []
+    parts_i: list[np.ndarray] = []
+    verts: list[np.ndarray] = [P[:1]]
+    new_c: list[np.ndarray] = []
+    new_r: list[np.ndarray] = []
     for j in range(k):
         if inside_span[j]:
             continue
@@ -388,7 +393,7 @@ def splice_chain(C: np.ndarray, R: np.ndarray, ids: np.ndarray, P: np.ndarray, s
         parts_i.append(ids[j : j + 1])
         extra = splices[j][1:] if j in splices else (press[j][0][None, :], np.array([press[j][1]])) if j in press else None
         if j in splices:
-            pc_, pr_ = extra
+            pc_, pr_ = splices[j][1:]
             a0 = pc_[0]
             dv = pc_[-1] - a0
             uv = dv / max(float(np.linalg.norm(dv)), 1e-300)

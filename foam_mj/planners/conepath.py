@@ -91,7 +91,7 @@ def shortest_path(
     m = k - 1
     if m == 0:
         return np.empty((0, n)), float(np.linalg.norm((q_goal - q_init) * sw))
-    P, q, A, cones, first, last, bbase, brow, row_w = _socp_template(m, n, None if metric is None else tuple(sw.tolist()))
+    P, q, A, cones, first, last, bbase, brow, row_w = _socp_template(m, n, None if metric is None else tuple(np.asarray(sw).tolist()))
     b = np.zeros(A.shape[0])
     b[first] = -q_init
     b[last] = q_goal

@@ -345,7 +345,7 @@ class CorridorBuild:
         self.statuses: list[str] = []
         self.w, self.length = shortest_path(self.C, self.R, q0, q1, M, status=self.statuses)
         clock.lap("socp")
-        self.stats = {"chain_first": int(len(ids)), "length_first": self.length, "refine_rounds": 0, "refine_added": 0, "shortcuts": 0}
+        self.stats: dict = {"chain_first": int(len(ids)), "length_first": self.length, "refine_rounds": 0, "refine_added": 0, "shortcuts": 0}
         self.max_chain = max(options.max_chain, int(options.max_chain_first * len(ids)))
         self.done = False  # no further round would run (a round ended them, or none can start)
         if not held(self.C, self.R, self.w):  # the first program stopped short with a waypoint outside its balls (see held): no rounds
@@ -510,6 +510,7 @@ class CorridorBuild:
             if len(keep_pos) < len(R) or np.any(keep_pos >= len(R)):
                 new = keep_pos >= len(R)
                 if new.any():
+                    assert extra is not None  # (only the re-cover's samples add bubbles)
                     j = keep_pos[new] - len(R)
                     ids = np.concatenate([ids, np.full(len(extra[1]), -1)])
                     ids[keep_pos[new]] = new_ids(int(new.sum()))

@@ -37,6 +37,15 @@ class Tree:
     bubble ``gap``, the smallest |c - c'| - r - r' over bubbles c' of the other tree, ``mate`` that bubble's
     index, and ``tries``, the times the bubble was extended toward the other tree."""
 
+    idx: np.ndarray
+    r: np.ndarray
+    pw: np.ndarray
+    d2: np.ndarray
+    lift: np.ndarray
+    gap: np.ndarray
+    mate: np.ndarray
+    tries: np.ndarray
+
     def __init__(self, dim: int, cap: int = 512) -> None:
         self.dim = dim
         for name, blank in self._blank(cap).items():
@@ -114,6 +123,7 @@ class Bubbles:
             if b > a:
                 T = self.trees[t]
                 self.pos[self.n + a : self.n + b] = rows[T.n : T.n + b - a]
+                assert lift is not None  # (made above when a tree gets bubbles)
                 T.add(out[t], lift[a:b], r[a:b])
         self.n += m
         return out

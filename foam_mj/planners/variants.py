@@ -62,7 +62,7 @@ from __future__ import annotations
 import heapq
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Callable, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -507,7 +507,7 @@ def _seam_stats(name: str, st: FoamStats, reached: bool) -> PlanStats:
 
 
 class _VariantPlanner(Planner):
-    Options = FoamOptions
+    Options: ClassVar[type] = FoamOptions
 
     def _run(self, problem: PlanningProblem, params: FoamParams, seed, progress: ProgressFn | None, **kw) -> SeamResult:
         report = None if progress is None else (lambda st: progress(Progress(st.bubbles, st.elapsed)))

@@ -15,6 +15,8 @@ One module per method, one interface (:class:`Smoother`: ``smooth(rosary, initia
   ``info["front"]``).
 """
 
+from typing import Any
+
 from foam_mj.smoothing.adjust import AdjustmentResult, RosaryAdjustment, thesis_paths
 from foam_mj.smoothing.base import (
     PAPER_F_THRESHOLD,
@@ -53,7 +55,7 @@ SMOOTHER_CLASSES: dict[str, type[Smoother]] = {
 }
 
 
-def get_smoother(name: str, **params) -> Smoother:
+def get_smoother(name: str, **params: Any) -> Smoother:
     """A smoother by its ``--smoother`` name with its parameters (the class's fields, validated by the class): a
     ValueError lists the names for an unknown one ("adjust" moves the bubbles and needs the oracle:
     :class:`RosaryAdjustment`), a TypeError lists the parameters for an unknown parameter."""
@@ -67,7 +69,7 @@ def get_smoother(name: str, **params) -> Smoother:
                              ".adjust(rosary, oracle), then a smoother on its .rosary")
         raise ValueError(f"unknown smoother {unknown_names([name], SMOOTHER_CLASSES)}; known smoothers: {', '.join(SMOOTHER_CLASSES)}")
     cls = SMOOTHER_CLASSES[name]
-    fields = [f.name for f in dataclasses.fields(cls) if f.init]
+    fields = [f.name for f in dataclasses.fields(cls) if f.init]  # type: ignore[arg-type]  # (each one a dataclass)
     unknown = [k for k in params if k not in fields]
     if unknown:
         raise TypeError(f"smoother '{name}' ({cls.__name__}) has no parameter {unknown_names(unknown, fields)}; "

@@ -14,7 +14,7 @@ import secrets
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar, Mapping
+from typing import Any, Callable, ClassVar, Mapping, overload
 
 import numpy as np
 
@@ -445,6 +445,12 @@ def _any_normal(u: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
+@overload
+def check_initial(rosary: Rosary, initial: np.ndarray | None, default: np.ndarray) -> np.ndarray: ...
+@overload
+def check_initial(rosary: Rosary, initial: np.ndarray, default: None = None) -> np.ndarray: ...
+@overload
+def check_initial(rosary: Rosary, initial: np.ndarray | None, default: None = None) -> np.ndarray | None: ...
 def check_initial(rosary: Rosary, initial: np.ndarray | None, default: np.ndarray | None = None) -> np.ndarray | None:
     """Validate ``rosary`` (a :class:`Rosary`) and ``initial`` waypoints: shape (k-1, n), finite, every waypoint in its
     hatch. Every smoother's ``smooth`` calls this first."""

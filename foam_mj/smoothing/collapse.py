@@ -128,7 +128,7 @@ def subproblem(cp: Collapse, st: _Structure, p: np.ndarray, weights, y_pt: np.nd
     nx = nz + nt + Mc
     dd = np.arange(n)
     fixed = var < 0
-    rows, cols, vals, b = [], [], [], []
+    rows, cols, vals, b_parts = [], [], [], []
     # Segment cones (t_j, Qc_(j+1) - Qc_j).
     j = np.arange(nt)
     rows.append(j * cd)
@@ -142,7 +142,7 @@ def subproblem(cp: Collapse, st: _Structure, p: np.ndarray, weights, y_pt: np.nd
         cols.append((var[c[f], None] * n + dd).ravel())
         vals.append(np.full(int(f.sum()) * n, sign))
         bs[~f, 1:] -= sign * Qc[c[~f]]
-    b.append(bs.ravel())
+    b_parts.append(bs.ravel())
     off = nt * cd
     # Ball cones (R, W_k - c) with W_k = sum_c T[k, c] Qc_c.
     b0 = st.b0.reshape(-1, cd)[st.nt:].reshape(m, 2, cd)
@@ -156,7 +156,7 @@ def subproblem(cp: Collapse, st: _Structure, p: np.ndarray, weights, y_pt: np.nd
     cols.append((var[ci[fc], None] * n + dd).ravel())
     vals.append(np.repeat(-Tk[bi[fc], ci[fc]], n))
     np.add.at(bb[:, 1:], bi[~fc], Tk[bi[~fc], ci[~fc], None] * Qc[ci[~fc]])
-    b.append(bb.ravel())
+    b_parts.append(bb.ravel())
     ball_row = off
     off += nb * cd
     # Vertex cones (s_i, v_i + sum_j J_ij (Qc_(i+j) - Qc0_(i+j))) of the chord polyline.
@@ -176,9 +176,9 @@ def subproblem(cp: Collapse, st: _Structure, p: np.ndarray, weights, y_pt: np.nd
         cols.append(((var[c[f]] * n)[:, None, None] + dd + zero.reshape(1, n, 1)).ravel())
         vals.append(-vc.J[fi, jj].ravel())
         bv[fi, 1:] -= np.einsum("ide,ie->id", vc.J[fi, jj], Qc[c[f]])
-    b.append(bv.ravel())
+    b_parts.append(bv.ravel())
     off += Mc * cd
-    b = np.concatenate(b)
+    b = np.concatenate(b_parts)
     A = to_csc(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), (len(b), nx))
     cones = [clarabel.SecondOrderConeT(cd)] * (nt + nb + Mc)
     # Objective: w_len sum t + (w_angle / M) sum h'(s0) s, the curvature (with y), and (prox / 2) sum_k |W_k - p_k|^2.
@@ -250,7 +250,7 @@ def model_value(x: np.ndarray, cp: Collapse, weights, M: int, info) -> float:
     return value
 
 
-def expand(x: np.ndarray, cp: Collapse) -> np.ndarray:
+def expand(x: np.ndarray, cp: Collapse) -> tuple[np.ndarray, np.ndarray]:
     """The chord points of the solution x, and the waypoints (m, n) they stand for."""
     n = cp.Qc.shape[1]
     Qn = cp.Qc.copy()

@@ -167,6 +167,7 @@ class _RepeatedCoordSum:
             _add(out, odd[0], out)
             return out
         tmp = self.tmp
+        assert tmp is not None  # n >= 4
         _add(odd[0], odd[1], tmp)
         for x in odd[2:]:
             _add(tmp, x, tmp)
@@ -213,7 +214,7 @@ class _PathSV:
         self._ratio = np.empty(N)
         # g = -2 ratio / m = ratio / (-m / 2) exactly (both are 2 ratio / m correctly rounded); dividing by
         # inf at the ends makes their (junk) a/b terms vanish.
-        self._g_div = np.full((n, L), -(m / 2.0))
+        self._g_div: np.ndarray = np.full((n, L), -(m / 2.0))
         self._g_div[:, [0, -1]] = np.inf
         self._g_div = self._g_div.reshape(-1)
         self._g = np.empty(N)
@@ -240,9 +241,9 @@ class _PathSV:
         _sqrt(q[0], ls)
         _mul(ls, self._ls_next, den)
         if min(self._den_check.tolist()) <= _EPS:  # a zero-length segment: the generic code's masks matter
-            sv, g = sv_and_gradient(P.T)
+            sv_p, g = sv_and_gradient(P.T)
             self._grad[...] = g.T
-            return float(sv), self._grad
+            return float(sv_p), self._grad
         _div(q[1], den, c)
         _minimum(c, self._ones, out=c)
         _maximum(c, self._minus_ones, out=c)
@@ -449,6 +450,7 @@ class GradientSmoothing(Smoother):
                 break
             eta /= 10  # every step raised SV: eta is too long for this rosary's bubbles (see the docstring)
         best_w = best_p[:, 1:-1].T
+        assert reason is not None  # (the loop ends with one)
         return SmoothingResult.build(
             self.name,
             rosary,

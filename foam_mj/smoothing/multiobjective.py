@@ -317,7 +317,7 @@ class ParetoResult:
     def summary(self, convex_length: float | None = None) -> dict:
         """Scalars for tables and JSON (with the gaps to ``convex_length`` when given)."""
         F = self.front_objectives
-        out = {
+        out: dict[str, Any] = {
             "method": self.method, "front_size": self.size, "iterations": self.iterations,
             "evaluations": self.evaluations, "wall_time": self.wall_time,
             "shortest": {"length": float(F[self.extremes[0], 0]), "angle_term": float(F[self.extremes[0], 1])},

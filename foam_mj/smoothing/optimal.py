@@ -193,6 +193,7 @@ class OptimalSmoother(Smoother):
 
         for label, w0 in starts:
             run(label, w0)
+        assert best is not None  # (there is a start)
         for j in range(self.restarts):  # only while the best is not certified
             if not best[0][1]:
                 break

@@ -64,7 +64,7 @@ class PSOParams:
         w = self.inertia
         pair = isinstance(w, (tuple, list))
         try:
-            vals = [float(x) for x in w] if pair else [float(w)]
+            vals = [float(x) for x in w] if isinstance(w, (tuple, list)) else [float(w)]
         except (TypeError, ValueError):
             raise ValueError(f"inertia must be a number or a pair (w_start, w_end), got {w!r}") from None
         if (pair and len(vals) != 2) or not all(np.isfinite(v) and v >= 0 for v in vals) or isinstance(w, bool):

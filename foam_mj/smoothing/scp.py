@@ -165,7 +165,7 @@ adjusted obstacle rosary 5 -> 3). F from 0 to +1.9e-7 relative (obstacle <= 3.4e
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Protocol
 
 import numpy as np
 
@@ -245,6 +245,13 @@ class SCPTrace:
     stop_reason: str = ""
 
 
+class _Certify(Protocol):
+    """The KKT check sequential_convex asks (foam_mj.smoothing.optimal): waypoints, a guess of the multipliers,
+    whether to solve the SOCP when the guess does not certify -> the Certificate."""
+
+    def __call__(self, wc: np.ndarray, multipliers: tuple | None = ..., solve: bool = ...) -> Certificate: ...
+
+
 def sequential_convex(
     rosary: Rosary,
     h: Hatches,
@@ -258,7 +265,7 @@ def sequential_convex(
     stall: int = 4,
     tie: float | None = None,
     structure: _Structure | None = None,
-    certify: Callable[[np.ndarray, tuple], "Certificate"] | None = None,
+    certify: _Certify | None = None,
     certify_tol: float = 1e-8,
     kkt_tol: float = 1e-4,
     curvature: bool = True,
@@ -373,6 +380,7 @@ def sequential_convex(
                 Qn, Wn = collapse.expand(x, cp)
                 if near is keep:
                     break
+                assert keep is not None and near is not None  # (keep is None makes near keep)
                 out = keep & ~near & (h.centre_distances(Wn) > radii)
                 if not out.any():
                     break
@@ -385,6 +393,7 @@ def sequential_convex(
                 x = np.asarray(sol.x)  # (each sol.x makes a new list: read once)
                 if status not in ("Solved", "AlmostSolved") or near is keep:
                     break
+                assert keep is not None and near is not None
                 out = keep & ~near & (h.centre_distances(x[:st.nw].reshape(w.shape)) > radii)
                 if not out.any():
                     break

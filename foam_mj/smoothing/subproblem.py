@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from types import SimpleNamespace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import clarabel
 import numpy as np
@@ -220,7 +220,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
     m = M
     nx = nw + nt + M
     prox = PROX * max(weights.as_tuple) if weights.sv == 0 else 0.0
-    rows, cols, vals, b, cones = [], [], [], [], []
+    rows, cols, vals, b_parts, cones = [], [], [], [], []
     dd = np.arange(n)
     off = 0
     # Ties: w_k = w_rep(k) (or = the fixed end) for every waypoint that is not its run's representative.
@@ -239,7 +239,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         vals.append(-np.ones(rr.size))
         bt = np.zeros((tied.size, n))
         bt[~free_rep] = p[rp[~free_rep]]
-        b.append(bt.ravel())
+        b_parts.append(bt.ravel())
         cones.append(clarabel.ZeroConeT(tied.size * n))
         off += tied.size * n
     if trust:
@@ -249,7 +249,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         rows += [off + idx, off + nw + idx]
         cols += [idx, idx]
         vals += [np.ones(nw), -np.ones(nw)]
-        b += [w0 + delta, -(w0 - delta)]
+        b_parts += [w0 + delta, -(w0 - delta)]
         off += 2 * nw
         # Relative trust region on the segments: |d(p_(j+1) - p_j)|_inf <= RELATIVE |p_(j+1) - p_j| for the
         # segments shorter than delta / RELATIVE (not tied), so a short segment's direction, to which the angles
@@ -271,7 +271,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
             pw[-1] = 0.0
             dw0 = pw[short + 1] - pw[short]  # D W0 (only the free points)
             rad = np.repeat(rel * lens[short], n)
-            b += [dw0.ravel() + rad, -dw0.ravel() + rad]
+            b_parts += [dw0.ravel() + rad, -dw0.ravel() + rad]
             n_rel = 2 * r.size
             off += n_rel
         cones.append(clarabel.NonnegativeConeT(2 * nw + n_rel))
@@ -284,7 +284,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         rows.append(off + a0_rows)
         cols.append(a0_cols)
         vals.append(a0_vals)
-        b.append(st.b0)
+        b_parts.append(st.b0)
         n_cones = nt + 2 * m
     else:
         cd = n + 1
@@ -295,7 +295,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         rows.append(off + new_cone[cone[e]] * cd + st.a0_within[e])
         cols.append(a0_cols[e])
         vals.append(a0_vals[e])
-        b.append(st.b0.reshape(-1, cd)[cone_keep].ravel())
+        b_parts.append(st.b0.reshape(-1, cd)[cone_keep].ravel())
         n_cones = int(cone_keep.sum())
     cones += [clarabel.SecondOrderConeT(n + 1)] * n_cones
     off += n_cones * (n + 1)
@@ -326,7 +326,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
         bv[:, 1:] = vx.v
         for j in range(3):  # v_i - sum_j J_ij Q0_(i+j) over the waypoints
             bv[:, 1:] -= np.einsum("ide,ie->id", vx.J[:, j], p[point[:, j]] * free[:, j, None])
-        b.append(bv.ravel())
+        b_parts.append(bv.ravel())
         cones += [clarabel.SecondOrderConeT(n + 1)] * Mv
         sc = np.minimum(vx.s0, _S_MAX)
         q[nw + nt:nw + nt + Mv] = weights.angle * _dh(sc) / M
@@ -334,7 +334,7 @@ def _subproblem(st: _Structure, p: np.ndarray, weights: ObjectiveWeights, delta:
             Pdiag[nw + nt:nw + nt + Mv] = 2.0 * weights.sv * _kappa(sc) / M
     else:
         Pdiag[nw + nt:] = 1.0
-    b = np.concatenate(b)
+    b = np.concatenate(b_parts)
     A = to_csc(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), (len(b), nx))
     if y is None:
         # P is diagonal (every diagonal entry stored, zeros too, so that the pattern is the same at every step)
@@ -410,6 +410,7 @@ def _model_value(x: np.ndarray, st: _Structure, weights: ObjectiveWeights, vx: _
         if curv is not None:
             value += 0.5 * float(np.sum(curv[2] * (x[nw + nt:nw + nt + Mv] - sc) ** 2))
     if curv is not None:
+        assert p is not None  # given with curv
         Dblk, Sblk = curv[0], curv[1]
         dW = x[:nw].reshape(p[1:-1].shape) - p[vx.rep[1:-1]]
         value += curv[3] + float(np.sum(curv[4] * dW))  # long segments' lengths to first order
@@ -453,8 +454,8 @@ class _Solver:
 
     def __init__(self, refine: bool) -> None:
         self.refine = refine
-        self._solver = None
-        self._key = None
+        self._solver: Any = None  # a clarabel.DefaultSolver
+        self._key: tuple | None = None
         self.reused = 0
 
     def solve(self, P: CSC, q: np.ndarray, A: CSC, b: np.ndarray, cones: list, tol: float = SOLVER_TOL):
