@@ -18,8 +18,41 @@ They are imported on first use (PEP 562), so that ``import foam_mj`` -- and with
 from __future__ import annotations
 
 from importlib import import_module
+from typing import TYPE_CHECKING
 
 __version__ = "0.1.0"
+
+if TYPE_CHECKING:  # what a type checker sees (the names below are imported on first use at run time)
+    from foam_mj.bubbles import BubbleOracle as BubbleOracle
+    from foam_mj.clearance import Clearance as Clearance
+    from foam_mj.errors import (
+        ConfigurationError as ConfigurationError,
+        FoamError as FoamError,
+        ModelError as ModelError,
+        PlanningFailed as PlanningFailed,
+        ScenarioError as ScenarioError,
+    )
+    from foam_mj.model import RobotModel as RobotModel
+    from foam_mj.pipeline import run as run
+    from foam_mj.planners import (
+        PLANNERS as PLANNERS,
+        Planner as Planner,
+        PlannerError as PlannerError,
+        PlanningProblem as PlanningProblem,
+        PlanResult as PlanResult,
+        PlanStats as PlanStats,
+        get_planner as get_planner,
+        register as register,
+    )
+    from foam_mj.rosary import Rosary as Rosary
+    from foam_mj.scenarios import (
+        Scenario as Scenario,
+        available_scenarios as available_scenarios,
+        load_scenario as load_scenario,
+        scenario_from_dict as scenario_from_dict,
+    )
+    from foam_mj.smoothing import SMOOTHER_CLASSES as SMOOTHER_CLASSES, get_smoother as get_smoother
+    from foam_mj.timing import TimingInfeasible as TimingInfeasible
 
 #: Public name -> the module that defines it.
 _EXPORTS: dict[str, str] = {
@@ -59,13 +92,15 @@ _EXPORTS: dict[str, str] = {
 __all__ = ["__version__", *_EXPORTS]
 
 
-def __getattr__(name: str):
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'foam_mj' has no attribute {name!r}")
-    value = getattr(import_module(module), name)
-    globals()[name] = value  # later lookups skip this function
-    return value
+if not TYPE_CHECKING:  # (seen by a type checker, it would make every misspelt foam_mj.<name> an Any)
+
+    def __getattr__(name: str) -> object:
+        module = _EXPORTS.get(name)
+        if module is None:
+            raise AttributeError(f"module 'foam_mj' has no attribute {name!r}")
+        value = getattr(import_module(module), name)
+        globals()[name] = value  # later lookups skip this function
+        return value
 
 
 def __dir__() -> list[str]:
