@@ -697,6 +697,25 @@ def test_a_path_running_along_the_margin_is_not_called_clean(tmp_path, capsys):
     assert "not proved clear (the clearance touches the margin)" in capsys.readouterr().out.strip().splitlines()[-1]
 
 
+def test_the_proof_along_the_margin_is_bounded_in_distance_calls_whatever_the_pairs(tmp_path, capsys):
+    """32 balls on the cart slide along the table exactly at the margin: every sample added between them costs one
+    distance call per pair, and the budget, counted in samples, let the proof make 2,016,000 calls (5.4 s) to reach
+    the verdict one ball reaches in 63,000. The proof's calls are now within its budget, same verdict (unproved, exit 4)."""
+    from foam_mj.verify_geometry import PROOF_BUDGET
+
+    balls = "".join(f'<geom name="ball{i}" type="sphere" size="0.125" pos="0 {0.3 * i - 4.65:g} 0"/>' for i in range(32))
+    xml = SLIDE.replace('size="2 2 0.5"', 'size="2 5 0.5"').replace('<geom name="ball" type="sphere" size="0.125"/>', balls)
+    result = _hand_made(tmp_path, "slide32", xml, [[-0.5], [0.5]], delta=0.0078125)
+    report = verify_result(result)
+    check = report.paths[0]
+    assert report.pairs == 32 and check.waypoint_samples == 1001
+    assert check.violations == 0 and check.min_clearance == pytest.approx(0.0078125, abs=1e-12)
+    assert check.unproved > 0 and report.unsafe and check.proved_clearance < 0.0078125
+    assert check.exact_calls <= 1001 * 32 + PROOF_BUDGET  # the samples' own calls, then the proof's
+    assert main(["verify", str(result)]) == 4
+    assert "not proved clear (the clearance touches the margin)" in capsys.readouterr().out.strip().splitlines()[-1]
+
+
 BALL_ARM = """<mujoco model="an arm on a ball joint">
   <worldbody>
     <geom name="post" type="box" pos="1 0 0" size="0.05 0.05 0.05"/>
