@@ -448,16 +448,36 @@ def _count(n: int, noun: str) -> str:
     return f"{n:,} {noun}{'' if n == 1 else 's'}"
 
 
+def _mm(v: float, margin: float, margin_text: str) -> str | None:
+    """A clearance ``v`` (m) as the report prints it, in mm: 2 decimals, or more where fewer would not show which side
+    of the margin (printed ``margin_text``) it is on (a minimum 0.4 um below a margin of 12.1862 mm printed 12.19):
+    printed below the margin exactly when it is below it. None when 9 decimals (a picometre) do not tell them apart."""
+    for n in range(2, 10):
+        shown = f"{v * 1000:.{n}f}"
+        if not np.isfinite(v) or (float(shown) < float(margin_text)) == (v < margin):
+            return shown
+    return None
+
+
+def _margin_text(margin: float, values: list[float]) -> str:
+    """The margin (m) as the report prints it, in mm: 6 significant digits, or all its own where those cannot tell it
+    apart from a clearance of ``values`` (one between the margin and its rounding)."""
+    text = f"{margin * 1000:g}"
+    return text if all(_mm(v, margin, text) for v in values) else np.format_float_positional(margin * 1000, trim="-")
+
+
 def format_report(r: VerifyReport) -> str:
     """The table ``foam-mj verify`` prints, and a last summary line."""
+    margin = _margin_text(r.margin, [v for p in r.paths for v in (p.min_clearance, p.proved_clearance)])
+    mm = lambda v: _mm(v, r.margin, margin) or f"{v * 1000:.9f}"  # noqa: E731
     head = (f"{'path':<20}{'waypoint samples':>17}{'trajectory samples':>20}{'min clear':>11}{'proved':>11}{'violations':>11}"
             "  closest pair")
     pairs = _count(r.pairs, "moving/static geom pair") + (f" and {_count(r.self_pairs, 'robot/robot pair')}" if r.self_pairs else "")
-    lines = [f"verify {_shown(str(r.result))} on {_shown(str(r.mjcf))}: {pairs}, step {r.step:g}, margin {r.margin * 1000:g} mm",
+    lines = [f"verify {_shown(str(r.result))} on {_shown(str(r.mjcf))}: {pairs}, step {r.step:g}, margin {margin} mm",
              head, "-" * len(head)]
     for p in r.paths:
-        proved = "none" if np.isnan(p.proved_clearance) else f"{p.proved_clearance * 1000:.2f} mm"
-        lines.append(f"{_shown(p.name):<20}{p.waypoint_samples:>17,}{p.trajectory_samples:>20,}{p.min_clearance * 1000:>8.2f} mm"
+        proved = "none" if np.isnan(p.proved_clearance) else f"{mm(p.proved_clearance)} mm"
+        lines.append(f"{_shown(p.name):<20}{p.waypoint_samples:>17,}{p.trajectory_samples:>20,}{mm(p.min_clearance):>8} mm"
                      f"{proved:>11}{p.violations:>11}  {_shown(p.worst_pair[0])} / {_shown(p.worst_pair[1])}")
     for p in r.paths:
         if p.outside_range:
@@ -469,7 +489,7 @@ def format_report(r: VerifyReport) -> str:
              ([f"{r.unproved:,} stretch(es) between samples not proved clear (the clearance touches the margin)"] if r.unproved else [])
     verdict = "UNSAFE: " + "; ".join(faults) if faults else "clean"
     if not faults and not np.isnan(r.proved_clearance):
-        verdict += f", proved: every point of every path at least {r.proved_clearance * 1000:.2f} mm clear"
-    lines.append(f"paths {len(r.paths)} samples {r.samples} min_clearance_mm {r.min_clearance * 1000:.2f} "
+        verdict += f", proved: every point of every path at least {mm(r.proved_clearance)} mm clear"
+    lines.append(f"paths {len(r.paths)} samples {r.samples} min_clearance_mm {mm(r.min_clearance)} "
                  f"violations {r.violations}: {verdict}")
     return "\n".join(lines)

@@ -427,6 +427,32 @@ def test_a_ball_that_ends_half_a_millimetre_inside_the_margin_is_a_violation(tmp
     assert report.min_clearance == pytest.approx(0.0045, abs=1e-9)
 
 
+@pytest.mark.parametrize("margin_mm, end_mm, shown, margin_shown", [
+    (12.1862, 12.1858, "12.186", "12.1862"), (12.1862, 12.1866, "12.19", "12.1862"), (12.184, 12.1842, "12.184", "12.184"),
+    (12.1862, 12.18619, "12.186", "12.1862"), (12.34564, 12.34562, "12.3456", "12.34564"), (5, 84.85, "84.85", "5")])
+def test_the_minimum_is_printed_with_the_digits_that_show_how_it_compares_with_the_margin(tmp_path, capsys, margin_mm,
+                                                                                          end_mm, shown, margin_shown):
+    """A ball 12.1858 mm from the post, a margin of 12.1862 mm: a violation printed 'min clear 12.19 mm' beside 'margin
+    12.1862 mm' (12.1842 mm beside a margin of 12.184 printed 12.18, clean), a contradiction to the eye. The minimum
+    keeps 2 decimals, and gets more only where fewer would put it on the wrong side of the margin as printed; the
+    margin keeps its 6 significant digits, and gets all its own where those cannot tell them apart (12.34564 mm, printed
+    12.3456, with a violation at 12.34562)."""
+    (tmp_path / "cart.xml").write_text(CART_AND_POST.format(group=1))
+    result = _hand_made(tmp_path, "cart", None, [[0.0], [0.4 - end_mm / 1000]], delta=margin_mm / 1000)
+    unsafe = end_mm < margin_mm
+    assert main(["verify", str(result)]) == (4 if unsafe else 0)
+    out = capsys.readouterr().out.splitlines()
+    margin_text = re.search(r"margin (\S+) mm", out[0]).group(1)
+    assert margin_text == margin_shown
+    row = out[3].split()
+    summary = re.search(r"min_clearance_mm (\S+) ", out[-1]).group(1)
+    assert row[3] == summary == shown
+    assert (float(shown) < float(margin_text)) == unsafe and float(margin_text) == pytest.approx(margin_mm, abs=1e-9)
+    if not unsafe:  # the proved clearance as well (at most the minimum, at least the margin)
+        proved = re.search(r"at least (\S+) mm clear", out[-1]).group(1)
+        assert float(margin_text) <= float(proved) <= float(shown) and proved == row[5]
+
+
 def test_the_readme_shows_what_verify_prints(planned_result, capsys):
     """The README's `foam-mj verify r.json` output (Checking a result) is verify's on the default plan of the
     obstacle scene, but for the result's name and the scene's folder in its first line."""
