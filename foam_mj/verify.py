@@ -232,6 +232,12 @@ def _configuration_map(doc: dict, m: mujoco.MjModel, source: Path):
                             "written by an older foam-mj; plan it again") from None
     if qpos0.shape != (m.nq,) or not (idx.shape == scale.shape == offset.shape) or idx.ndim != 1 or np.any((idx < 0) | (idx >= m.nq)):
         raise _fail(source, f"field 'configuration' does not fit the scene (nq = {m.nq})")
+    values, counts = np.unique(idx, return_counts=True)
+    if np.any(counts > 1):  # qpos[idx] = ... kept the last: the other coordinates' motion went unchecked
+        k = int(values[np.argmax(counts > 1)])
+        at = [str(i) for i in np.flatnonzero(idx == k)]
+        raise _fail(source, f"field 'configuration': qpos_index repeats {k} (at positions {', '.join(at[:-1])} and {at[-1]}): "
+                            "each coordinate maps to a qpos entry of its own; restore it or plan again")
     if not all(np.all(np.isfinite(a)) for a in (scale, offset, qpos0)):
         raise _fail(source, "field 'configuration': scale, offset and qpos0 must be finite numbers (no NaN or infinity)")
     if np.any(scale == 0):

@@ -453,6 +453,25 @@ def test_the_minimum_is_printed_with_the_digits_that_show_how_it_compares_with_t
         assert float(margin_text) <= float(proved) <= float(shown) and proved == row[5]
 
 
+def test_a_configuration_that_maps_two_coordinates_to_one_qpos_entry_is_refused(tmp_path, capsys):
+    """qpos_index [0, 0]: the second coordinate overwrote the first (the last wins), so a path whose first coordinate
+    drives the ball through the post while the second stays at 0 was checked standing still and called clean."""
+    (tmp_path / "cart.xml").write_text(CART_AND_POST.format(group=1))
+    result = _hand_made(tmp_path, "cart", None, [[0.0, 0.0], [0.5, 0.0]])
+    doc = json.loads(result.read_text())
+    doc["configuration"]["qpos0"] = [0.0]
+    doc["configuration"]["qpos_index"] = [0, 0]
+    result.write_text(json.dumps(doc))
+    assert main(["verify", str(result)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "field 'configuration': qpos_index repeats 0 (at positions 0 and 1)" in err and "\n" not in err, err
+    assert "Traceback" not in err
+    doc["configuration"]["qpos_index"], doc["configuration"]["scale"], doc["configuration"]["offset"] = [0], [1.0], [0.0]
+    doc["paths"]["cart"]["waypoints"] = [[0.0], [0.5]]
+    result.write_text(json.dumps(doc))
+    assert main(["verify", str(result)]) == 4  # the same motion, one coordinate: through the post
+
+
 def test_the_readme_shows_what_verify_prints(planned_result, capsys):
     """The README's `foam-mj verify r.json` output (Checking a result) is verify's on the default plan of the
     obstacle scene, but for the result's name and the scene's folder in its first line."""
