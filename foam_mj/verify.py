@@ -152,12 +152,22 @@ def _one_value_per_key(pairs: list) -> dict:
     return dict(pairs)
 
 
+def _integer(text: str) -> int | float:
+    """json's reader of integers, which have no size limit in JSON: one beyond a float's range is infinite (as 1e400
+    is to json), so that the field holding it is refused by name; Python's int() refused 5,000 digits (exit 1)."""
+    if len(text) > 400:  # beyond 1.8e308 whatever its digits
+        return -np.inf if text.startswith("-") else np.inf
+    value = int(text)
+    return value if abs(value) <= float(np.finfo(float).max) else (-np.inf if value < 0 else np.inf)
+
+
 def _load(source: Path) -> dict:
     problem = file_problem_text(source, "result file")  # a named pipe waited for ever, /dev/zero filled the memory
     if problem:
         raise FoamError(problem)
     try:
-        doc = json.loads(source.read_text(encoding="utf-8-sig"), object_pairs_hook=_one_value_per_key)  # an editor's byte-order mark is no part of the JSON (RFC 8259 §8.1)
+        doc = json.loads(source.read_text(encoding="utf-8-sig"), object_pairs_hook=_one_value_per_key,
+                         parse_int=_integer)  # an editor's byte-order mark is no part of the JSON (RFC 8259 §8.1)
     except FileNotFoundError:
         raise FoamError(f"result file not found: {source}") from None
     except _RepeatedKey as exc:
@@ -222,7 +232,9 @@ def _configuration_map(doc: dict, m: mujoco.MjModel, source: Path):
         if not all(only_numbers(cfg[key]) for key in ("qpos_index", "scale", "offset", "qpos0")):
             raise _fail(source, "field 'configuration': qpos_index, scale, offset and qpos0 must be lists of numbers")
         if not all(isinstance(i, int) for i in cfg["qpos_index"]):  # dtype=int truncated 1.7 to 1
-            raise _fail(source, f"field 'configuration': qpos_index must be integers, got {cfg['qpos_index']!r}")
+            raise _fail(source, f"field 'configuration': qpos_index must be integers, got {str(cfg['qpos_index'])[:60]!r}")
+        if not all(0 <= i < m.nq for i in cfg["qpos_index"]):  # (10**30 overflowed numpy's int64)
+            raise _fail(source, f"field 'configuration' does not fit the scene (nq = {m.nq})")
         idx = np.asarray(cfg["qpos_index"], dtype=int)
         scale = np.asarray(cfg["scale"], dtype=float)
         offset = np.asarray(cfg["offset"], dtype=float)

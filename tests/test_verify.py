@@ -252,6 +252,39 @@ def test_a_damaged_field_is_named_as_it_is(tmp_path, planned_result, capsys, edi
     assert words in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("where, value, words", [
+    ("scale", "1" + "0" * 400, "field 'configuration': scale, offset and qpos0 must be finite numbers"),
+    ("qpos0", "-1" + "0" * 400, "field 'configuration': scale, offset and qpos0 must be finite numbers"),
+    ("qpos_index", "1" + "0" * 30, "field 'configuration' does not fit the scene (nq = 3)"),
+    ("waypoints", "1" + "0" * 400, "waypoints of shape (2, 3), expected (N >= 2, 3) finite numbers"),
+    ("qpos", "1" + "0" * 400, "qpos rows of shape"),
+    ("q_init", "1" + "0" * 400, "not at the result's q_init [inf,"),
+    ("delta", "7" * 5000, "field 'planner.delta' must be a margin >= 0 in metres, got inf"),
+    ("version", "-" + "1" * 4400, "unknown format version -inf"),
+])
+def test_an_integer_too_large_for_a_float_is_named_as_a_bad_field(planned_result, capsys, where, value, words):
+    """JSON integers have no size limit: 10**400 as a scale, a waypoint or a qpos row and 10**30 in qpos_index were
+    internal errors (OverflowError, exit 1), and an integer of 5,000 digits anywhere in the file another (Python's
+    4,300-digit limit on reading integers, exit 1). They are read as infinite (any integer beyond a float's range), so
+    the field that holds one is named (exit 2), as for 1e400."""
+    doc = json.loads(planned_result.read_text())
+    name = next(iter(doc["paths"]))
+    path = doc["paths"][name]
+    if where in ("scale", "qpos0", "qpos_index"):
+        doc["configuration"][where][0] = "HUGE"
+    elif where in ("waypoints", "qpos"):
+        path[where] = [path[where][0], ["HUGE"] * 3]
+    elif where == "delta":
+        doc["planner"]["delta"] = "HUGE"
+    else:
+        doc[where] = ["HUGE"] * 3 if where == "q_init" else "HUGE"
+    bad = planned_result.parent / "huge.json"  # beside the result: its mjcf_relative still resolves
+    bad.write_text(json.dumps(doc).replace('"HUGE"', value))  # (Python itself refuses to print a 5,000-digit int)
+    assert main(["verify", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert words in err and "internal error" not in err and len(err.splitlines()) == 1, err[:300]
+
+
 @pytest.mark.parametrize("edit, words", [
     (lambda d: d["planner"].__setitem__("delta", -1.0), "planner.delta"),
     (lambda d: d["planner"].__setitem__("delta", float("nan")), "planner.delta"),
