@@ -293,6 +293,24 @@ def _robot_options(doc: dict, source: Path) -> dict:
     return out
 
 
+def _mocap_in_place(m: mujoco.MjModel, k: int, key: str, source: Path) -> None:
+    """Refuse keyframe ``k`` if it poses a mocap body elsewhere than the scene does: the planner plans with them where
+    the keyframe puts them (and saves that scene with its result), but distances of qpos alone see them where the scene
+    has them (a path through a wall the keyframe placed across it passed as clean)."""
+    for b in np.flatnonzero(m.body_mocapid >= 0):
+        i = int(m.body_mocapid[b])
+        pos, quat = m.key_mpos[k, 3 * i:3 * i + 3], m.key_mquat[k, 4 * i:4 * i + 4]
+        turned = min(np.abs(quat - m.body_quat[b]).max(), np.abs(quat + m.body_quat[b]).max()) > _HELD_TOL
+        if np.any(np.abs(pos - m.body_pos[b]) > _HELD_TOL * (1 + np.abs(m.body_pos[b]))) or turned:
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(b)) or f"body {b}"
+            at = lambda v: "[" + ", ".join(f"{x:.6g}" for x in v) + "]"  # noqa: E731
+            what = f"turns mocap body '{name}' to {at(quat)}" if turned else f"puts mocap body '{name}' at {at(pos)}"
+            has = f"turned to {at(m.body_quat[b])}" if turned else f"at {at(m.body_pos[b])}"
+            raise _fail(source, f"field 'robot.keyframe': keyframe '{key}' {what}, where the scene has it {has}: the "
+                                "planner plans with it where the keyframe puts it, on the scene it saves beside the result; "
+                                "verify that scene (the result's mjcf) or plan again")
+
+
 def _held_pose(doc: dict, m: mujoco.MjModel, source: Path, idx: np.ndarray, qpos0: np.ndarray) -> np.ndarray:
     """The qpos entries that are no coordinate (a loose object, a joint left out of the plan): the planner holds them
     at the scene's qpos0, or at the pose of the result's keyframe, and which geoms verify counts as moving follows from
@@ -304,6 +322,7 @@ def _held_pose(doc: dict, m: mujoco.MjModel, source: Path, idx: np.ndarray, qpos
         if k < 0:
             raise _fail(source, f"field 'robot.keyframe' names {key!r}, which is no keyframe of the scene")
         ref, where = np.asarray(m.key_qpos[k], dtype=float), f"keyframe '{key}'"
+        _mocap_in_place(m, k, str(key), source)
     held = np.setdiff1d(np.arange(m.nq), idx)
     off = held[np.abs(qpos0[held] - ref[held]) > _HELD_TOL * (1 + np.abs(ref[held]))]
     if len(off):

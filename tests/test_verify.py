@@ -505,6 +505,31 @@ def test_a_configuration_that_maps_two_coordinates_to_one_qpos_entry_is_refused(
     assert main(["verify", str(result)]) == 4  # the same motion, one coordinate: through the post
 
 
+MOCAP_WALL = """<mujoco model="a cart whose keyframe puts a mocap wall across its path">
+  <worldbody>
+    <body name="cart"><joint name="x" type="slide" axis="1 0 0" range="-1 1"/><geom name="ball" type="sphere" size="0.05"/></body>
+    <body name="wall" mocap="true" pos="5 0 0"><geom name="slab" type="box" size="0.01 0.5 0.5"/></body>
+  </worldbody>
+  <keyframe><key name="in" qpos="0" mpos="{x} 0 0"/></keyframe>
+</mujoco>"""
+
+
+def test_a_keyframe_that_moves_a_mocap_obstacle_off_the_scene_is_refused(tmp_path, capsys):
+    """The result's keyframe puts the mocap wall across the cart's path (x = 0.3), the scene at x = 5: the planner plans
+    with the wall where the keyframe puts it (and saves that scene beside its result), MuJoCo loads it there, but
+    verify's distances, of qpos alone, saw it at 5 m and called the path through it clean (exit 0). Such a result is
+    not of this scene as written: refused (exit 2, one line); the scene the planner saves (the wall placed) passes."""
+    robot = {"robot_root": None, "self_collision": True, "keyframe": "in"}
+    result = _hand_made(tmp_path, "wall", MOCAP_WALL.format(x=0.3), [[-0.5], [0.5]], robot=robot)
+    assert main(["verify", str(result)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "field 'robot.keyframe': keyframe 'in' puts mocap body 'wall' at [0.3, 0, 0], where the scene has it at [5, 0, 0]" in err
+    assert "\n" not in err and "Traceback" not in err
+    placed = MOCAP_WALL.format(x=0.3).replace('pos="5 0 0"', 'pos="0.3 0 0"')
+    assert main(["verify", str(_hand_made(tmp_path, "placed", placed, [[-0.5], [0.5]], robot=robot))]) == 4  # through it
+    assert main(["verify", str(_hand_made(tmp_path, "far", MOCAP_WALL.format(x=5), [[-0.5], [0.5]], robot=robot))]) == 0
+
+
 def test_the_readme_shows_what_verify_prints(planned_result, capsys):
     """The README's `foam-mj verify r.json` output (Checking a result) is verify's on the default plan of the
     obstacle scene, but for the result's name and the scene's folder in its first line."""
