@@ -11,7 +11,8 @@ import numpy as np
 from foam_mj.errors import FoamError
 
 #: The most samples of one polyline (a path's waypoints or its qpos rows): --step 1e-3, the default, takes a few
-#: thousand; a million keeps the (sample, pair) bounds within a few hundred MB.
+#: thousand. The check keeps about 4 arrays of its (sample, pair) bounds (8 bytes an entry) at its peak: the arm's 44 pairs
+#: at --step 1e-5 (270,000 samples on a path) take 0.75 GB in all (2.8 GB when the sphere bounds were computed at once).
 MAX_SAMPLES = 1_000_000
 
 #: How far (relative) a value may lie beyond a joint's range, or a joint that is no coordinate from where the planner
@@ -37,6 +38,10 @@ ANCHOR = 16
 
 #: How many (sample, pair) candidates with the smallest lower bounds are evaluated first, to bound the minimum.
 _PROBES = 32
+
+#: :meth:`_Checker.measure` computes the poses and sphere bounds of about this many (sample, pair) entries at a time:
+#: their (sample, pair, 3) temporaries took 2.8 GB for the arm's path at --step 1e-5 (270,000 samples, 44 pairs).
+_BLOCK = 1 << 18
 
 
 def _moving_joints(m: mujoco.MjModel, body: int, moved: set[int] | None = None) -> frozenset[int]:
@@ -296,9 +301,12 @@ class _Checker:
             left = np.searchsorted(anchors, np.arange(n), side="right") - 1
             right = np.minimum(left + 1, len(anchors) - 1)
             rate = np.where(np.arange(len(self.pairs)) < self.self_from, 1.0, 2.0)
-            lip = np.fmax(exact[left] - (cum - cum[anchors[left]])[:, None] * rate,
-                          exact[right] - (cum[anchors[right]] - cum)[:, None] * rate)
-        np.fmax(lb, lip, out=lb)
+            block = max(1, _BLOCK // max(1, len(self.pairs)))
+            for i in range(0, n, block):  # (a few (sample, pair) arrays at a time)
+                at = slice(i, i + block)
+                lip = np.fmax(exact[left[at]] - (cum[at] - cum[anchors[left[at]]])[:, None] * rate,
+                              exact[right[at]] - (cum[anchors[right[at]]] - cum[at])[:, None] * rate)
+                np.fmax(lb[at], lip, out=lb[at])
 
     def measure(self, qpos: np.ndarray, margin: float) -> Measured:
         """The samples' smallest distance, violations and closest pair (exact: see :mod:`foam_mj.verify`), and lower bounds
@@ -306,8 +314,10 @@ class _Checker:
         the robot/robot ones (from it on): the exact distance where it was computed, a bound elsewhere (the sphere bound,
         raised from the anchors' exact distances by :meth:`_anchored`). A (sample, pair) left inexact has a bound of at
         least max(margin, the smallest distance found), so the minimum and the violations are exact."""
-        xpos, xnormal = self._poses(qpos)
-        lb = self._lower_bounds(xpos, xnormal)
+        lb = np.empty((len(qpos), len(self.pairs)))
+        block = max(1, _BLOCK // max(1, len(self.pairs)))
+        for i in range(0, len(qpos), block):
+            lb[i:i + block] = self._lower_bounds(*self._poses(qpos[i:i + block]))
         known = np.zeros(lb.shape, dtype=bool)
         self._anchored(qpos, lb, known)
         probe = np.argsort(np.where(known, np.inf, lb).ravel())[:_PROBES]
@@ -325,14 +335,17 @@ class _Checker:
             lb[cand[:, 0], cand[:, 1]] = self._exact(qpos, cand, threshold + 1e-3)
             known[cand[:, 0], cand[:, 1]] = True
             capped[cand[:, 0], cand[:, 1]] = lb[cand[:, 0], cand[:, 1]] >= threshold + 1e-3
+        del cand
         cut = self.self_from
         obs, own = lb[:, :cut].min(axis=1, initial=np.inf), lb[:, cut:].min(axis=1, initial=np.inf)
         if not known.any():
             return Measured(np.inf, 0, -1, obs, own)
         exact = np.where(known, lb, np.inf)
         s, k = np.unravel_index(int(np.argmin(exact)), exact.shape)
-        violating = int(np.sum(np.any(exact < margin, axis=1)))
-        return Measured(float(exact[s, k]), violating, int(k), obs, own, self._breach(qpos, lb, known & ~capped, margin))
+        violating, closest = int(np.sum(np.any(exact < margin, axis=1))), float(exact[s, k])
+        del exact
+        known &= ~capped  # (known no more: the values that are MuJoCo's own, for _breach)
+        return Measured(closest, violating, int(k), obs, own, self._breach(qpos, lb, known, margin))
 
     def _breach(self, qpos: np.ndarray, lb: np.ndarray, exact: np.ndarray, margin: float) -> tuple | None:
         """A self-check of the lever arms: MuJoCo's own distances of a pair at neighbouring samples differ by at most
@@ -341,14 +354,22 @@ class _Checker:
         margin, so that the capsule/box guard's jump does not count), else None: the travel bound, hence the proof and the anchors, does not hold there."""
         if self.lever is None or len(qpos) < 2:
             return None
-        allowed = (np.abs(np.diff(qpos, axis=0)) @ self.lever)[:, None] * np.where(np.arange(lb.shape[1]) < self.self_from, 1.0, 2.0)
-        sure = exact & (lb >= margin)
-        with np.errstate(invalid="ignore"):
-            excess = np.where(sure[:-1] & sure[1:], np.abs(np.diff(lb, axis=0)) - allowed - BREACH_TOL, -np.inf)
-        if not np.any(excess > 0):
+        travel = np.abs(np.diff(qpos, axis=0)) @ self.lever
+        rate = np.where(np.arange(lb.shape[1]) < self.self_from, 1.0, 2.0)
+        best, block = (0.0, -1, -1), max(1, _BLOCK // max(1, lb.shape[1]))
+        for i in range(0, len(travel), block):  # (a few (sample, pair) arrays at a time)
+            rows = slice(i, min(i + block, len(travel)) + 1)  # samples i .. i + block: the steps i .. i + block - 1
+            sure = exact[rows] & (lb[rows] >= margin)
+            with np.errstate(invalid="ignore"):
+                excess = np.where(sure[:-1] & sure[1:], np.abs(np.diff(lb[rows], axis=0)) - travel[i:rows.stop - 1, None] * rate
+                                  - BREACH_TOL, -np.inf)
+            s, k = np.unravel_index(int(np.argmax(np.nan_to_num(excess, nan=-np.inf))), excess.shape)
+            if excess[s, k] > best[0]:
+                best = (float(excess[s, k]), i + int(s), int(k))
+        _, s, k = best
+        if s < 0:
             return None
-        s, k = np.unravel_index(int(np.argmax(excess)), excess.shape)
-        return int(s), int(k), float(abs(lb[s + 1, k] - lb[s, k])), float(allowed[s, k])
+        return s, k, float(abs(lb[s + 1, k] - lb[s, k])), float(travel[s] * rate[k])
 
     def check(self, qpos: np.ndarray, margin: float) -> tuple[float, int, int]:
         """(smallest distance, samples closer than margin, index of the closest pair) over the samples."""
