@@ -63,7 +63,7 @@ from foam_mj.errors import FoamError, file_problem, file_problem_text, foreign_f
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 from foam_mj.verify_geometry import HELD_TOL as _HELD_TOL
 from foam_mj.verify_geometry import (MAX_SAMPLES, _Checker, _beyond_ranges, _densify, _distance, _levers,  # noqa: F401
-                                     _unprovable, collision_pairs, prove)
+                                     _subtree, _unprovable, collision_pairs, prove)
 
 #: How far (per coordinate, rad or m) a path's first and last waypoints may lie from the result's q_init and q_goal.
 END_TOL = 1e-9
@@ -371,6 +371,13 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
         root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, str(root_name))
         if root < 0:
             raise _fail(source, f"field 'robot.robot_root' names {root_name!r}, which is no body of the scene {mjcf}")
+        inside = _subtree(m, root)
+        for k in idx.tolist():  # the planner's robot is that subtree, every coordinate in it (it refuses another root)
+            j = max(j for j in range(m.njnt) if int(m.jnt_qposadr[j]) <= k)
+            if not inside[int(m.jnt_bodyid[j])]:
+                raise _fail(source, f"field 'robot.robot_root' names {root_name!r}, whose subtree holds no {_qpos_name(m, k)}, "
+                                    "a configuration joint: the robot is that subtree, with every configuration joint in it; "
+                                    "restore it or plan again")
     pairs = collision_pairs(m, idx, self_collision, root)
     n_self = len(pairs) - len(collision_pairs(m, idx, root=root))
     if len(pairs) == 0:

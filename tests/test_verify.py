@@ -530,6 +530,23 @@ def test_a_keyframe_that_moves_a_mocap_obstacle_off_the_scene_is_refused(tmp_pat
     assert main(["verify", str(_hand_made(tmp_path, "far", MOCAP_WALL.format(x=5), [[-0.5], [0.5]], robot=robot))]) == 0
 
 
+def test_a_robot_root_that_holds_no_configuration_joint_is_refused(tmp_path, capsys):
+    """robot_root names the post's body, not the cart's: the post became the robot's own, checked against the ball only
+    as MuJoCo's filter allows (another collision group: never), and a path 100 mm through it passed as clean (exit 0),
+    where plan refuses such a root ("configuration joint(s) ['x'] are not in the subtree of robot_root"). Refused."""
+    xml = CART_AND_POST.format(group=2).replace("<worldbody>", '<worldbody><geom name="floor" type="plane" size="3 3 .1" pos="0 0 -1"/>')
+    xml = xml.replace('<geom name="post"', '<body name="mount" pos="0.5 0 0"><geom name="post"').replace('pos="0.5 0 0" contype', 'contype')
+    xml = xml.replace("</worldbody>", "</body></worldbody>")
+    assert mujoco.MjModel.from_xml_string(xml).ngeom == 3
+    robot = {"robot_root": "mount", "self_collision": True, "keyframe": None}
+    result = _hand_made(tmp_path, "post", xml, [[0.0], [0.9]], robot=robot)
+    assert main(["verify", str(result)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "field 'robot.robot_root' names 'mount', whose subtree holds no x (qpos[0])" in err and "\n" not in err, err
+    robot["robot_root"] = None
+    assert main(["verify", str(_hand_made(tmp_path, "post", None, [[0.0], [0.9]], robot=robot))]) == 4  # 100 mm into the post
+
+
 def test_the_readme_shows_what_verify_prints(planned_result, capsys):
     """The README's `foam-mj verify r.json` output (Checking a result) is verify's on the default plan of the
     obstacle scene, but for the result's name and the scene's folder in its first line."""
