@@ -428,7 +428,13 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
             if q is not None and not np.all(np.abs(row - q) <= END_TOL):
                 raise _fail(source, f"path '{name}' {end} at {row.tolist()}, not at the result's {key} {q.tolist()}")
         wp_qpos = np.broadcast_to(qpos0, (len(wp), m.nq)).copy()
-        wp_qpos[:, idx] = offset + scale * wp
+        with np.errstate(over="ignore"):
+            wp_qpos[:, idx] = offset + scale * wp
+        if not np.all(np.isfinite(wp_qpos)):  # inf - inf between two waypoints was numpy's "repeats may not contain negative values"
+            r, c = np.argwhere(~np.isfinite(wp_qpos[:, idx]))[0]
+            raise _fail(source, f"path '{name}': its waypoints map to qpos beyond a float's range (waypoint {r}, "
+                                f"{_qpos_name(m, int(idx[c]))}: offset + scale q = {wp_qpos[r, idx[c]]}): check the configuration's "
+                                "scale and offset, or the waypoints")
         lever = _levers(m, idx, np.max(np.abs(wp_qpos - m.qpos0), axis=0))
         samples_wp = _densify(wp, wp_qpos, step, f"{source}: path '{name}': waypoints", lever)
         if given:
@@ -451,7 +457,13 @@ def verify_result(result: str | Path, step: float = 1e-3) -> VerifyReport:
                 raise _fail(source, f"path '{name}': 'qpos' has {len(rows)} rows but 'times' {len(times)} entries: one row "
                                     "per entry; restore them or plan again")
             lever = np.maximum(lever, _levers(m, idx, np.max(np.abs(rows - m.qpos0), axis=0)))  # (the proof's: both polylines)
-            samples_tr = _densify((rows[:, idx] - offset) / scale, rows, step, f"{source}: path '{name}': qpos rows", lever)
+            with np.errstate(over="ignore"):
+                q_rows = (rows[:, idx] - offset) / scale
+            if not np.all(np.isfinite(q_rows)):
+                r, c = np.argwhere(~np.isfinite(q_rows))[0]
+                raise _fail(source, f"path '{name}': its qpos rows map to q beyond a float's range (row {r}, coordinate {c}: "
+                                    f"(qpos - offset) / scale = {q_rows[r, c]}): check the configuration's scale and offset")
+            samples_tr = _densify(q_rows, rows, step, f"{source}: path '{name}': qpos rows", lever)
         else:
             samples_tr = np.empty((0, m.nq))
         allq = np.vstack([samples_wp, samples_tr])

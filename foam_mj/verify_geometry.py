@@ -200,7 +200,7 @@ def _densify(points: np.ndarray, extra: np.ndarray, step: float, what: str = "a 
             d_ext = np.maximum(d_ext, np.abs(np.diff(extra, axis=0)) @ lever)
         counts_f = np.maximum(1.0, np.ceil(np.maximum(d_pts, d_ext) / step))
         total = counts_f.sum()
-    if total > MAX_SAMPLES:  # --step 1e-12 asked numpy for 33.6 TiB (a MemoryError, exit 1)
+    if not total <= MAX_SAMPLES:  # --step 1e-12 asked numpy for 33.6 TiB (a MemoryError, exit 1); (nan: inf - inf)
         raise FoamError(f"{what}: its longest segment is {np.max(np.maximum(d_pts, d_ext)):.3g} long, {total:.3g} samples at "
                         f"--step {step:g} (at most {MAX_SAMPLES:,} on one path): use a larger step, or check those numbers")
     counts = counts_f.astype(int)

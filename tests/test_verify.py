@@ -285,6 +285,31 @@ def test_an_integer_too_large_for_a_float_is_named_as_a_bad_field(planned_result
     assert words in err and "internal error" not in err and len(err.splitlines()) == 1, err[:300]
 
 
+@pytest.mark.parametrize("scale, offset, waypoints, rows, words", [
+    (1e308, 0.0, [[2.0], [3.0]], None, "its waypoints map to qpos beyond a float's range (waypoint 0, x (qpos[0]): offset + scale q = inf)"),
+    (1e308, -1e308, [[-1.0], [1.0]], None, "its waypoints map to qpos beyond a float's range (waypoint 0, x (qpos[0]): offset + scale q = -inf)"),
+    (1e-308, 0.0, [[-2e307], [-2e307]], [[-0.2], [2.0], [-0.2]],
+     "its qpos rows map to q beyond a float's range (row 1, coordinate 0: (qpos - offset) / scale = inf)"),
+])
+def test_a_scale_that_overflows_the_map_between_q_and_qpos_is_named(tmp_path, capsys, scale, offset, waypoints, rows, words):
+    """A configuration scale of 1e308 took the waypoints to qpos inf (offset + scale q): inf - inf between them, two
+    'overflow'/'invalid value' warnings, then numpy's 'repeats may not contain negative values' (exit 1; found by
+    fuzzing the arm's result); a scale of 1e-308 took a row to q inf ((qpos - offset) / scale), an 'overflow' warning line
+    before the error. One line now names the path, the waypoint or row and the coordinate (exit 2)."""
+    (tmp_path / "cart.xml").write_text(CART_AND_POST.format(group=1))
+    result = _hand_made(tmp_path, "cart", None, waypoints)
+    doc = json.loads(result.read_text())
+    doc["configuration"].update(scale=[scale], offset=[offset])
+    if rows is not None:
+        doc["paths"]["cart"]["qpos"] = rows
+    result.write_text(json.dumps(doc))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # an overflow warning would fail the test
+        assert main(["verify", str(result)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert words in err and "internal error" not in err and len(err.splitlines()) == 1, err
+
+
 @pytest.mark.parametrize("edit, words", [
     (lambda d: d["planner"].__setitem__("delta", -1.0), "planner.delta"),
     (lambda d: d["planner"].__setitem__("delta", float("nan")), "planner.delta"),
