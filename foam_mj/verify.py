@@ -260,9 +260,9 @@ def _configuration_map(doc: dict, m: mujoco.MjModel, source: Path):
             raise _fail(source, f"field 'configuration': joints must be a list of {len(idx)} joint names, got {str(names)[:60]!r}")
         for i, (name, adr) in enumerate(zip(names, idx.tolist())):
             j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
-            at = int(m.jnt_qposadr[j]) if j >= 0 else None
-            if at != adr:
-                whose = f"whose qpos address is {at}" if j >= 0 else "which is no joint of the scene"
+            address = int(m.jnt_qposadr[j]) if j >= 0 else None
+            if address != adr:
+                whose = f"whose qpos address is {address}" if j >= 0 else "which is no joint of the scene"
                 raise _fail(source, f"field 'configuration': joints[{i}] is {name}, {whose}, not qpos_index[{i}] = {adr}")
     return idx, scale, offset, qpos0
 

@@ -363,7 +363,7 @@ class _Checker:
             with np.errstate(invalid="ignore"):
                 excess = np.where(sure[:-1] & sure[1:], np.abs(np.diff(lb[rows], axis=0)) - travel[i:rows.stop - 1, None] * rate
                                   - BREACH_TOL, -np.inf)
-            s, k = np.unravel_index(int(np.argmax(np.nan_to_num(excess, nan=-np.inf))), excess.shape)
+            s, k = (int(v) for v in np.unravel_index(int(np.argmax(np.nan_to_num(excess, nan=-np.inf))), excess.shape))
             if excess[s, k] > best[0]:
                 best = (float(excess[s, k]), i + int(s), int(k))
         _, s, k = best
