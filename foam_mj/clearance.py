@@ -60,6 +60,8 @@ THREADED_BATCH = 256
 #: growth asks up to 128 at a time, its corridor a few hundred (from 64, a UR5e plan made four Batches, now two).
 FIRST_BATCH = 512
 _STAGE_POS = int(mujoco.mjtStage.mjSTAGE_POS)
+#: The most values one of the capsule/box guard's gathered arrays holds (:meth:`Clearance._guard_capsule_box`): 8 MB.
+GUARD_VALUES = 2**20
 
 
 class _ProfilerOff:
@@ -396,6 +398,16 @@ class Clearance:
                 half, capsule[:, 0:1].copy(), screen)
 
     def _guard_capsule_box(self, out: np.ndarray, frames: np.ndarray) -> None:
+        """:meth:`_guard_block` over the rows in blocks of at most :data:`GUARD_VALUES` / (27 k) rows (k capsule/box
+        pairs): its gathers hold 27 values per pair and row, three such arrays at once, 155 MB for 240 pairs (arm6 among
+        60 boxes) and 1,000 rows where the result is 2.5 MB. Each row's values are computed alone, so blocks change
+        none; a batch of the shipped scenes is one block."""
+        assert self._capsule_box is not None  # (called only then)
+        step = max(1, GUARD_VALUES // (27 * len(self._capsule_box[1])))
+        for start in range(0, len(out), step):
+            self._guard_block(out[start : start + step], frames[start : start + step])
+
+    def _guard_block(self, out: np.ndarray, frames: np.ndarray) -> None:
         """In place: each capsule/box pair's distance at most minus the capsule's radius where the capsule's segment
         meets the box, as :func:`foam_mj.capsule_box.geom_distance` does for one configuration; untouched elsewhere.
         ``frames``: the rows' frame sensors (:meth:`_capsule_box_pairs`). The slab test of
