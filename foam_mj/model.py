@@ -54,7 +54,7 @@ from foam_mj.configuration import (
 from foam_mj.constraints import binding_tendon_limits, coupling_equalities, coupling_refusal, describe_equality
 from foam_mj.errors import ConfigurationError, ModelError, clearance_text, unknown_names
 from foam_mj.fingerprint import PARTS
-from foam_mj.geom_pairs import _reference_data, attached, body_subtree, collision_pairs, geom_moved_by, pair_coordinates
+from foam_mj.geom_pairs import attached, body_subtree, collision_pairs, geom_moved_by, pair_coordinates, reference_data
 from foam_mj.mjcf import (
     _custom_text,
     check_mesh_hulls,
@@ -118,9 +118,9 @@ class RobotModel:
         if self.moves is None:
             self.moves = geom_moved_by(self.model, self.config)
         if self.pair_active is None:
-            self.pair_active = np.array(
-                [pair_coordinates(self.model, self.config, self.moves, a, b) for a, b in self.pairs], dtype=bool
-            ).reshape(-1, self.config.dim)
+            d, cfg = reference_data(self.model, self.config), self.config
+            self.pair_active = np.array([pair_coordinates(self.model, cfg, self.moves, a, b, d) for a, b in self.pairs],
+                                        dtype=bool).reshape(-1, cfg.dim)
         if self.fixed_pairs is None:
             self.fixed_pairs = np.empty((0, 2), dtype=int)
         self.pair_table = np.zeros((ng, ng), dtype=bool)
@@ -301,14 +301,14 @@ class RobotModel:
             raise ModelError(f"{p}: no collision geom is attached to the robot (a body moved by a configuration joint)"
                              + (f": its {n} geom{'s' * (n > 1)} {('is', 'are all')[n > 1]} visual only (contype = conaffinity = 0, "
                                 "maybe from a default class): give the collision ones contype=\"1\" conaffinity=\"1\"" if n else ""))
-        pairs, self_pair, fixed = [], [], []
+        pairs, self_pair, fixed, d0 = [], [], [], reference_data(m, config)
         for a, b in all_pairs:
             if not (is_robot[a] or is_robot[b]):
                 continue
             both = bool(is_robot[a] and is_robot[b])
             if both and not self_collision:
                 continue
-            active = pair_coordinates(m, config, moves, a, b)
+            active = pair_coordinates(m, config, moves, a, b, d0)
             if not active.any():
                 fixed.append((a, b))
                 continue
@@ -318,7 +318,7 @@ class RobotModel:
         check_sizes(m, pairs, p)
         if not pairs:
             what = "any obstacle geom" + (" or with itself" if self_collision else "")
-            d0, nm = _reference_data(m, config), lambda g: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}"
+            nm = lambda g: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}"
             left = ", ".join(f"{nm(a)} / {nm(b)} {mujoco.mj_geomDistance(m, d0, a, b, 1.0, None):.4f} m"
                              for a, b in (pr if is_robot[pr[0]] else pr[::-1] for pr in fixed))  # a pan-only arm over its floor or coaxial pedestal: no joint changes these
             raise ModelError(f"{p}: no robot geom can collide with {what} (no obstacles, or contype/conaffinity and "
@@ -327,7 +327,7 @@ class RobotModel:
                              "time a free motion, add a small obstacle beyond the robot's reach (a sphere the links turn about)")
         order = sorted(range(len(pairs)), key=lambda i: pairs[i])
         pairs, self_pair = [pairs[i] for i in order], [self_pair[i] for i in order]
-        active = np.array([pair_coordinates(m, config, moves, a, b) for a, b in pairs], dtype=bool).reshape(-1, config.dim)
+        active = np.array([pair_coordinates(m, config, moves, a, b, d0) for a, b in pairs], dtype=bool).reshape(-1, config.dim)
         checked = sorted({g for pr in pairs for g in pr})
         check_mesh_hulls(spec, m, checked, p)
         hfields = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in checked

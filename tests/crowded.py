@@ -26,11 +26,12 @@ def _quat(rng: np.random.Generator) -> np.ndarray:
 
 
 def crowded_spec(n: int, seed: int, base: str = "bench_arm6.xml", ends: tuple = (ARM6_START, ARM6_GOAL),
-                 kinds: tuple[str, ...] = KINDS, keep: float = 0.03, radius: tuple[float, float] = (0.2, 0.95),
+                 kinds: tuple[str, ...] = KINDS, keep: float | None = 0.03, radius: tuple[float, float] = (0.2, 0.95),
                  height: float = 1.1, bodies: int = 0) -> mujoco.MjSpec:
     """``base`` (a model in models/) with ``n`` obstacles at random places in a ring about the z axis (``radius``,
     heights up to ``height``), random orientation, 1.5-4 cm half-sizes (a ``plate``: a box 1-4 mm thick), none within
-    ``keep`` metres of a robot geom at any configuration of ``ends`` (qpos rows of the first joints). ``bodies``:
+    ``keep`` metres of a robot geom at any configuration of ``ends`` (qpos rows of the first joints; ``keep`` None: no
+    check, for obstacles placed beyond the robot's reach). ``bodies``:
     that many obstacles share each static body (a new body without joints every ``bodies``), else all on the world."""
     rng = np.random.default_rng(seed)
     spec = mujoco.MjSpec.from_file(str(models_dir() / base))
@@ -54,6 +55,9 @@ def crowded_spec(n: int, seed: int, base: str = "bench_arm6.xml", ends: tuple = 
             g.type = getattr(mujoco.mjtGeom, f"mjGEOM_{kind.upper()}")
             g.size = [s[0], 2 * s[1] if kind in ("capsule", "cylinder") else s[1], s[2]]
         g.contype, g.conaffinity, g.margin = 1, 1, 0.0
+        if keep is None:
+            added += 1
+            continue
         m = spec.compile()
         if _clear(m, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, g.name), ends, keep):
             added += 1
