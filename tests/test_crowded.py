@@ -62,3 +62,76 @@ def test_a_robot_among_400_spheres_builds_about_as_fast_as_among_400_boxes():
     for p in range(0, len(robot.pairs), 97):  # each pair's own reference pose gives the same coordinates
         a, b = robot.pairs[p]
         assert np.array_equal(pair_coordinates(robot.model, robot.config, robot.moves, int(a), int(b)), robot.pair_active[p])
+
+
+def _mujoco_min_clearance(result: dict) -> float:
+    """The smallest mj_geomDistance between a geom on a moving body and a static one over every path's qpos rows of a
+    ``plan --json`` result (MuJoCo alone, as shared/tools/verify_result.py)."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(result["mjcf"])
+    d = mujoco.MjData(m)
+
+    def moving(b: int) -> bool:
+        while b:
+            if m.body_jntnum[b]:
+                return True
+            b = int(m.body_parentid[b])
+        return False
+
+    solid = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    robot = [g for g in solid if moving(int(m.geom_bodyid[g]))]
+    static = [g for g in solid if not moving(int(m.geom_bodyid[g]))]
+    low = np.inf
+    for path in result["paths"].values():
+        for row in path["qpos"]:
+            d.qpos[:] = row
+            mujoco.mj_kinematics(m, d)
+            low = min(low, min(mujoco.mj_geomDistance(m, d, g, o, 0.1, None) for g in robot for o in static))
+    return low
+
+
+def test_a_plan_among_30_obstacles_and_thin_plates_on_six_bodies_keeps_the_margin(tmp_path):
+    # bench_arm6 from one side of its box to the other among 30 random boxes, capsules, cylinders, spheres and plates
+    # 1-4 mm thick, five to a static body: plan (bubbletree, optimal smoother), then verify, then MuJoCo alone.
+    import json
+
+    from crowded import KINDS, write_crowded
+
+    from foam_mj.cli import main
+
+    scene = write_crowded(tmp_path / "crowd.xml", 30, 2, kinds=KINDS + ("plate",), bodies=5)
+    out = tmp_path / "crowd.json"
+    start, goal = "-0.7 0.87 1.12 -0.08 0 0", "0.7 0.87 1.12 -0.08 0 0"
+    assert main(["plan", "--mjcf", str(scene), "--start", start, "--goal", goal, "--no-rrd", "--json", str(out), "--quiet",
+                 "--time-limit", "30"]) == 0
+    assert main(["verify", str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert set(result["paths"]) == {"centre", "optimal"}
+    assert _mujoco_min_clearance(result) >= result["planner"]["delta"] - 1e-9
+
+
+def test_the_walker_passes_a_door_5_cm_wider_than_itself_and_its_margins_and_not_one_narrower(tmp_path, capsys):
+    # The CloudWalker (0.64 m wide, delta 5 cm) through a 0.1 m wall: a 0.84 m door leaves 5 cm on each side beyond the
+    # margin, and bubbletree passes it (1.2 s); a 0.73 m door cannot be passed with the margin kept, and the plan fails
+    # (exit 3) within its time limit, saying where the trees came nearest and which geoms block the way.
+    import json
+    import time
+
+    from crowded import write_door
+
+    from foam_mj.cli import main
+
+    args = ["--start", "2 2 0", "--goal", "8 8 0", "--delta", "0.05", "--no-rrd", "--quiet", "--no-replay"]
+    out = tmp_path / "door.json"
+    assert main(["plan", "--mjcf", str(write_door(tmp_path / "wide.xml", 0.84)), *args, "--json", str(out)]) == 0
+    result = json.loads(out.read_text())
+    q = np.array(result["paths"]["optimal"]["waypoints"])
+    assert q[:, 0].min() < 4.5 and q[:, 0].max() > 5.5
+    assert main(["verify", str(out)]) == 0
+    capsys.readouterr()
+    start = time.perf_counter()
+    assert main(["plan", "--mjcf", str(write_door(tmp_path / "narrow.xml", 0.73)), *args, "--time-limit", "2"]) == 3
+    assert time.perf_counter() - start < 2 + 10
+    err = capsys.readouterr().err
+    assert "planning failed: the trees did not meet" in err and "came nearest at q = [" in err and "wall_" in err
