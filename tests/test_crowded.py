@@ -67,28 +67,9 @@ def test_a_robot_among_400_spheres_builds_about_as_fast_as_among_400_boxes():
 def _mujoco_min_clearance(result: dict) -> float:
     """The smallest mj_geomDistance between a geom on a moving body and a static one over every path's qpos rows of a
     ``plan --json`` result (MuJoCo alone, as shared/tools/verify_result.py)."""
-    import mujoco
+    from tests.test_bring_your_own_robot import _independent_clearance
 
-    m = mujoco.MjModel.from_xml_path(result["mjcf"])
-    d = mujoco.MjData(m)
-
-    def moving(b: int) -> bool:
-        while b:
-            if m.body_jntnum[b]:
-                return True
-            b = int(m.body_parentid[b])
-        return False
-
-    solid = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
-    robot = [g for g in solid if moving(int(m.geom_bodyid[g]))]
-    static = [g for g in solid if not moving(int(m.geom_bodyid[g]))]
-    low = np.inf
-    for path in result["paths"].values():
-        for row in path["qpos"]:
-            d.qpos[:] = row
-            mujoco.mj_kinematics(m, d)
-            low = min(low, min(mujoco.mj_geomDistance(m, d, g, o, 0.1, None) for g in robot for o in static))
-    return low
+    return min(_independent_clearance(result["mjcf"], np.asarray(path["qpos"])) for path in result["paths"].values())
 
 
 def test_a_plan_among_30_obstacles_and_thin_plates_on_six_bodies_keeps_the_margin(tmp_path):
