@@ -187,3 +187,12 @@ def text_problem(exc: OSError | UnicodeDecodeError) -> str:
         if head == bom:
             return f"the file is UTF-16 text ({order}); save it as UTF-8"
     return f"not UTF-8 text: byte 0x{exc.object[exc.start]:02x} at offset {exc.start} ({exc.reason}); save it as UTF-8"
+
+
+def json_integer(text: str) -> int | float:
+    """``json.loads``'s ``parse_int``: JSON integers have no size limit, so one beyond a float's range reads as infinite
+    (as 1e400 does), and the field holding it is refused by name; Python's int() refused 5,000 digits (exit 1)."""
+    if len(text) > 400:  # beyond 1.8e308 whatever its digits
+        return float("-inf") if text.startswith("-") else float("inf")
+    value = int(text)
+    return value if abs(value) <= 1.7976931348623157e308 else (float("-inf") if value < 0 else float("inf"))

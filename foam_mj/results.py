@@ -83,7 +83,7 @@ import mujoco
 import numpy as np
 
 from foam_mj.atomic import atomic_write_text
-from foam_mj.errors import FoamError, file_problem_text, foreign_file_hint, only_numbers, text_problem
+from foam_mj.errors import FoamError, file_problem_text, foreign_file_hint, json_integer, only_numbers, text_problem
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 
 FORMAT = "foam-mj/result"
@@ -299,7 +299,9 @@ def read_result(path: str | Path) -> dict:
     if problem:
         raise FoamError(problem)
     try:
-        doc = json.loads(p.read_text(encoding="utf-8-sig"))  # an editor's byte-order mark is no part of the JSON (RFC 8259 §8.1)
+        # An editor's byte-order mark is no part of the JSON (RFC 8259 §8.1); an integer beyond a float's range reads as
+        # infinite, so that the field holding it is refused by name (10**400 in a qpos row was an internal error).
+        doc = json.loads(p.read_text(encoding="utf-8-sig"), parse_int=json_integer)
     except FileNotFoundError:
         raise FoamError(f"result file not found: {p}") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -320,8 +322,8 @@ def read_result(path: str | Path) -> dict:
     if not isinstance(doc["mjcf"], str) or not doc["mjcf"]:  # a number here was a TypeError in `figures` (exit 1)
         raise FoamError(f"{p}: field 'mjcf' must be the path of the MJCF scene (a string), got {doc['mjcf']!r}")
     seed = doc.get("seed", 0)
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:  # "x" was "malformed result: invalid literal for int()"
-        raise FoamError(f"{p}: field 'seed' must be an integer >= 0, got {seed!r}")
+    if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed <= 2**63 - 1:  # "x" was "malformed result: invalid literal for int()"
+        raise FoamError(f"{p}: field 'seed' must be an integer in [0, 2**63 - 1] (as plan's --seed), got {seed!r}")
     for key in ("planner", "limits"):
         if key in doc and not isinstance(doc[key], dict):
             raise FoamError(f"{p}: field '{key}' must be an object, got {type(doc[key]).__name__}")

@@ -59,7 +59,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foam_mj.errors import FoamError, file_problem, file_problem_text, foreign_file_hint, is_number, only_numbers, text_problem
+from foam_mj.errors import (FoamError, file_problem, file_problem_text, foreign_file_hint, is_number, json_integer, only_numbers,
+                             text_problem)
 from foam_mj.fingerprint import fingerprint_differences, model_fingerprint
 from foam_mj.verify_geometry import HELD_TOL as _HELD_TOL
 from foam_mj.verify_geometry import (MAX_SAMPLES, _Checker, _beyond_ranges, _densify, _distance, _levers,  # noqa: F401
@@ -152,22 +153,13 @@ def _one_value_per_key(pairs: list) -> dict:
     return dict(pairs)
 
 
-def _integer(text: str) -> int | float:
-    """json's reader of integers, which have no size limit in JSON: one beyond a float's range is infinite (as 1e400
-    is to json), so that the field holding it is refused by name; Python's int() refused 5,000 digits (exit 1)."""
-    if len(text) > 400:  # beyond 1.8e308 whatever its digits
-        return -np.inf if text.startswith("-") else np.inf
-    value = int(text)
-    return value if abs(value) <= float(np.finfo(float).max) else (-np.inf if value < 0 else np.inf)
-
-
 def _load(source: Path) -> dict:
     problem = file_problem_text(source, "result file")  # a named pipe waited for ever, /dev/zero filled the memory
     if problem:
         raise FoamError(problem)
     try:
         doc = json.loads(source.read_text(encoding="utf-8-sig"), object_pairs_hook=_one_value_per_key,
-                         parse_int=_integer)  # an editor's byte-order mark is no part of the JSON (RFC 8259 §8.1)
+                         parse_int=json_integer)  # an editor's byte-order mark is no part of the JSON (RFC 8259 §8.1)
     except FileNotFoundError:
         raise FoamError(f"result file not found: {source}") from None
     except _RepeatedKey as exc:

@@ -148,11 +148,15 @@ def test_bad_export_input_is_one_line_and_exit_2_with_no_file(planned, tmp_path,
 @pytest.mark.parametrize("edit, message", [
     (lambda d: d["limits"]["velocity"].pop(), "limits `velocity` must have 3 numbers"),
     (lambda d: d.__setitem__("mjcf", 5), "field 'mjcf' must be the path of the MJCF scene (a string), got 5"),
-    (lambda d: d.__setitem__("seed", "x"), "field 'seed' must be an integer >= 0, got 'x'"),
+    (lambda d: d.__setitem__("seed", "x"), "field 'seed' must be an integer in [0, 2**63 - 1] (as plan's --seed), got 'x'"),
+    (lambda d: d.__setitem__("seed", 2**63), "field 'seed' must be an integer in [0, 2**63 - 1] (as plan's --seed), got 9223372036854775808"),
+    (lambda d: d["q_init"].__setitem__(0, 10**400), "field 'q_init'"),
+    (lambda d: d["paths"]["optimal"]["qpos"][3].__setitem__(0, 10**400), "path 'optimal': qpos row 3"),
 ])
 def test_a_damaged_result_is_one_line_and_exit_2_with_no_file(planned, tmp_path, capsys, edit, message):
     """A limits list one short reached the timing (a ValueError: internal error, exit 1); a number for 'mjcf' and a
-    string for 'seed' were a TypeError and an int() message that named no field."""
+    string for 'seed' were a TypeError and an int() message that named no field; an integer beyond a float's range
+    (JSON has no limit) in q_init or a qpos row was an OverflowError (exit 1), and a seed of 2**63 was accepted."""
     doc = json.loads(json.dumps(planned["doc"]))
     edit(doc)
     (tmp_path / "in").mkdir()
