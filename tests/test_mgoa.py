@@ -152,6 +152,22 @@ def test_single_objective_goa_and_pso_minimise_a_sphere():
         GOA(swarm_size=20, iterations=10).minimize(sphere, lb, ub, seed=4).fun
 
 
+
+def test_an_unseeded_goa_or_pso_run_records_the_seed_that_repeats_it():
+    """With seed=None a run draws fresh entropy; it did not say which, so it could not be repeated. Its result now
+    holds the integer seed it used (the given one when seeded, None for a Generator), as the smoothers' info["seed"]."""
+    def sphere(X):
+        return np.sum((X - 0.3) ** 2, axis=1)
+
+    lb, ub = -np.ones(3), np.ones(3)
+    for opt in (GOA(swarm_size=10, iterations=5), PSO(swarm_size=10, iterations=5)):
+        free = opt.minimize(sphere, lb, ub, seed=None)
+        assert isinstance(free.seed, int) and 0 <= free.seed <= 2**63 - 1
+        again = opt.minimize(sphere, lb, ub, seed=free.seed)
+        assert again.seed == free.seed and np.array_equal(again.x, free.x) and np.array_equal(again.history_best, free.history_best)
+        assert opt.minimize(sphere, lb, ub, seed=7).seed == 7
+        assert opt.minimize(sphere, lb, ub, seed=np.random.default_rng(7)).seed is None
+
 def test_pso_inertia_schedule_and_validation():
     np.testing.assert_allclose(PSO(iterations=4, inertia=(0.9, 0.5)).weights(), [0.8, 0.7, 0.6, 0.5])
     np.testing.assert_allclose(PSO(iterations=3, inertia=0.4).weights(), [0.4] * 3)

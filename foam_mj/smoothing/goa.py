@@ -51,7 +51,7 @@ from typing import Any, Callable, ClassVar
 
 import numpy as np
 
-from foam_mj.smoothing.base import SeedLike, _check_int, _check_positive, as_generator, seeded
+from foam_mj.smoothing.base import SeedLike, _check_int, _check_positive, seeded
 from foam_mj.smoothing.multiobjective import ParetoRun, ParetoSmoother, Problem, RunRecorder, check_schedule_params, finish_run
 from foam_mj.smoothing.pareto import Archive
 
@@ -236,7 +236,8 @@ class GOAParams:
 @dataclass(frozen=True)
 class OptimizeResult:
     """A single-objective run: best position and value, per-iteration best and swarm mean (index 0 = the
-    initial swarm), evaluations and wall time."""
+    initial swarm), evaluations, wall time, and the integer seed of the run (drawn when ``seed=None``, so that
+    ``seed=result.seed`` repeats it; None for a given Generator)."""
 
     x: np.ndarray
     fun: float
@@ -245,6 +246,7 @@ class OptimizeResult:
     iterations: int
     evaluations: int
     wall_time: float
+    seed: int | None = None
 
 
 def _check_box(lb, ub, x0=None) -> tuple[np.ndarray, np.ndarray]:
@@ -285,7 +287,7 @@ class GOA(GOAParams):
         replaces one particle of the uniform initial swarm)."""
         t_start = time.perf_counter()
         lb, ub = _check_box(lb, ub, x0)
-        rng = as_generator(seed)
+        rng, used = seeded(seed)
         N = int(self.swarm_size)
         X = lb + (ub - lb) * rng.random((N, lb.size))
         if x0 is not None:
@@ -307,7 +309,7 @@ class GOA(GOAParams):
             hb.append(best)
             hm.append(float(val.mean()))
         return OptimizeResult(best_x, best, np.array(hb), np.array(hm), int(self.iterations),
-                              N * (int(self.iterations) + 1), time.perf_counter() - t_start)
+                              N * (int(self.iterations) + 1), time.perf_counter() - t_start, used)
 
 
 @dataclass(frozen=True)

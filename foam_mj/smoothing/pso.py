@@ -31,7 +31,7 @@ from typing import Any, Callable, ClassVar
 
 import numpy as np
 
-from foam_mj.smoothing.base import SeedLike, _check_int, _check_positive, as_generator, seeded
+from foam_mj.smoothing.base import SeedLike, _check_int, _check_positive, seeded
 from foam_mj.smoothing.goa import OptimizeResult, _check_box
 from foam_mj.smoothing.multiobjective import ParetoRun, ParetoSmoother, Problem, RunRecorder, finish_run
 from foam_mj.smoothing.pareto import Archive, dominates
@@ -122,7 +122,7 @@ class PSO(PSOParams):
     ) -> OptimizeResult:
         t_start = time.perf_counter()
         lb, ub = _check_box(lb, ub, x0)
-        rng = as_generator(seed)
+        rng, used = seeded(seed)
         N = int(self.swarm_size)
         X = lb + (ub - lb) * rng.random((N, lb.size))
         if x0 is not None:
@@ -144,7 +144,7 @@ class PSO(PSOParams):
             hb.append(float(pval[g]))
             hm.append(float(val.mean()))
         return OptimizeResult(pbest[g].copy(), float(pval[g]), np.array(hb), np.array(hm), int(self.iterations),
-                              N * (int(self.iterations) + 1), time.perf_counter() - t_start)
+                              N * (int(self.iterations) + 1), time.perf_counter() - t_start, used)
 
 
 @dataclass(frozen=True)
